@@ -1,0 +1,11 @@
+#pragma once
+// Each `mrd` subcommand registers itself on the CLI11 app; its handler runs the command and
+// throws InputError for bad input (exit 2) or std::exception for other failures (exit 1).
+
+#include <CLI/CLI.hpp>
+
+namespace mrd::host::cli {
+
+void RegisterGenerate(CLI::App& app);
+
+}  // namespace mrd::host::cli

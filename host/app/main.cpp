@@ -1,0 +1,29 @@
+// mrd — host CLI of the MR damper control toolkit.
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include "commands.hpp"
+#include "mrd/host/input_error.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "mrd: identify control-oriented NARX models of magneto-rheological dampers.\n"
+      "Data flow: generate -> identify -> simulate/report -> export (table for mrd-firmware)."};
+  app.require_subcommand(1);
+  mrd::host::cli::RegisterGenerate(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : mrd::host::kExitBadInput;
+  } catch (const mrd::host::InputError& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return mrd::host::kExitBadInput;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 1;
+  }
+  return 0;
+}
