@@ -1,0 +1,142 @@
+#pragma once
+// Polynomial NARX model with non-polynomial elementary regressors (DESIGN.md §4), in a
+// fixed-size form shared by host simulation, the coefficient table and the firmware.
+//
+//   y(k) = sum_i theta_i * prod_j r_{a_ij}(k - d_ij)^{p_ij}
+//
+// where each elementary regressor r_a(k) = T_a(s_c(k)) is a transform T_a of one normalised
+// channel s_c (identity, |s|^e, sign(s)). The output channel enters only at delays >= 1.
+// Normalisation: s = (raw - offset) / scale per channel; the output is denormalised the
+// same way.
+
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "mrd/common/result.hpp"
+
+namespace mrd {
+
+inline constexpr std::size_t kMaxChannels = 8;     // signals a model may read (incl. output)
+inline constexpr std::size_t kMaxRegressors = 16;  // elementary regressors
+inline constexpr std::size_t kMaxDelay = 15;       // largest delay [samples]
+inline constexpr std::size_t kMaxFactors = 4;      // factors per term
+inline constexpr std::size_t kMaxTerms = 64;       // terms per model
+inline constexpr std::uint8_t kMaxPower = 16;      // largest power of one factor
+inline constexpr std::size_t kMaxNameLength = 15;  // channel name, NUL-terminated in 16 bytes
+
+// Elementary transform of a normalised channel value s.
+enum class Transform : std::uint8_t {
+  kIdentity = 0,  // s
+  kAbsPow = 1,    // |s|^exponent (exponent > 0; 0 at s == 0)
+  kSign = 2,      // sign(s) in {-1, 0, 1}
+};
+
+// T(s) for one elementary regressor. Real-time safe.
+double ApplyTransform(Transform t, double exponent, double s);
+
+struct Regressor {
+  std::uint8_t channel = 0;
+  Transform transform = Transform::kIdentity;
+  double exponent = 1.0;  // used by kAbsPow only
+};
+
+struct Factor {
+  std::uint8_t regressor = 0;  // index into Model::regressors
+  std::uint8_t delay = 0;      // [samples]
+  std::uint8_t power = 1;      // 1 ... kMaxPower
+};
+
+struct Term {
+  std::array<Factor, kMaxFactors> factors{};
+  std::uint8_t num_factors = 0;  // 0: the constant term
+
+  std::span<const Factor> active() const { return {factors.data(), num_factors}; }
+};
+
+struct ChannelScale {
+  double offset = 0.0;
+  double scale = 1.0;  // > 0
+};
+
+struct Model {
+  std::uint8_t num_channels = 0;
+  std::uint8_t output_channel = 0;
+  std::array<std::array<char, kMaxNameLength + 1>, kMaxChannels> channel_names{};
+  std::array<ChannelScale, kMaxChannels> scales{};
+  std::uint8_t num_regressors = 0;
+  std::array<Regressor, kMaxRegressors> regressors{};
+  std::uint8_t num_terms = 0;
+  std::array<Term, kMaxTerms> terms{};
+  std::array<double, kMaxTerms> coefficients{};
+
+  // Checks counts against capacities, indices, delays (output at >= 1), powers, finite
+  // positive scales and exponents, finite coefficients, NUL-terminated names.
+  // Returns kOk or the first problem (kCapacityExceeded, kOutOfRange, kNonFinite,
+  // kInvalidArgument).
+  Error Validate() const;
+  // Largest delay used by any factor [samples].
+  std::uint8_t MaxDelay() const;
+  // Channel index by name, or -1. Not for the real-time path (string compare).
+  int ChannelIndex(const char* name) const;
+};
+
+// Delayed values of every elementary regressor of one model: value(r, d) = r(k - d).
+// Fixed size; no allocation.
+class RegressorHistory {
+ public:
+  // Clears all values to T(0).
+  void Reset(const Model& model);
+  // Starts sample k: shifts by one and stores the delay-0 values of the regressors of every
+  // channel except the output, from normalised channel values s[c] (size >= num_channels;
+  // s[output_channel] is ignored).
+  void PushInputs(const Model& model, std::span<const double> normalised);
+  // Completes sample k with the output's normalised value (after evaluation).
+  void SetOutput(const Model& model, double y_normalised);
+  double value(std::size_t regressor, std::size_t delay) const {
+    return values_[regressor][(head_ + delay) % kDepth];
+  }
+
+ private:
+  static constexpr std::size_t kDepth = kMaxDelay + 1;
+  std::array<std::array<double, kDepth>, kMaxRegressors> values_{};
+  std::size_t head_ = 0;  // slot of delay 0
+};
+
+// prod_j value(factor_j)^power_j for one term; 1 for the constant term. Real-time safe.
+double TermValue(const Term& term, const RegressorHistory& h);
+
+// Normalised model output for the current sample: sum_i theta_i * TermValue(term_i).
+double EvaluateNormalised(const Model& model, const RegressorHistory& h);
+
+inline double Normalise(const ChannelScale& s, double raw) { return (raw - s.offset) / s.scale; }
+inline double Denormalise(const ChannelScale& s, double n) { return n * s.scale + s.offset; }
+
+// Free-run (simulation) runner: feeds raw inputs sample by sample, feeds back its own
+// output. Fixed size, real-time safe after construction. Host `mrd simulate` and the firmware
+// runtime both step through this class, so they compute the same numbers.
+class ModelRunner {
+ public:
+  explicit ModelRunner(const Model& model) : model_(&model) { Reset(); }
+  // Zero history (all channels at normalised 0).
+  void Reset();
+  // Seeds one past sample (raw channel values, including the output) into the history, as
+  // when a simulation starts from measured initial conditions.
+  void Seed(std::span<const double> raw);
+  // One sample: raw channel values (output slot ignored) -> raw output estimate. The output
+  // is fed back for the next sample.
+  double Step(std::span<const double> raw);
+  const RegressorHistory& history() const { return history_; }
+  const Model& model() const { return *model_; }
+  // Prepares sample k without evaluating (used by the inverter to evaluate with a candidate
+  // input); Finish completes it with the raw output actually obtained.
+  void Begin(std::span<const double> raw);
+  void Finish(double y_raw);
+
+ private:
+  const Model* model_;
+  RegressorHistory history_;
+  std::array<double, kMaxChannels> normalised_{};
+};
+
+}  // namespace mrd

@@ -1,0 +1,149 @@
+#include "mrd/common/model.hpp"
+
+#include <cmath>
+#include <cstring>
+
+namespace mrd {
+
+double ApplyTransform(Transform t, double exponent, double s) {
+  switch (t) {
+    case Transform::kIdentity:
+      return s;
+    case Transform::kAbsPow:
+      return s == 0.0 ? 0.0 : std::pow(std::fabs(s), exponent);
+    case Transform::kSign:
+      return s > 0.0 ? 1.0 : (s < 0.0 ? -1.0 : 0.0);
+  }
+  return 0.0;
+}
+
+Error Model::Validate() const {
+  if (num_channels == 0 || num_channels > kMaxChannels || num_regressors > kMaxRegressors ||
+      num_terms > kMaxTerms) {
+    return Error::kCapacityExceeded;
+  }
+  if (output_channel >= num_channels) return Error::kOutOfRange;
+  for (std::size_t c = 0; c < num_channels; ++c) {
+    if (std::memchr(channel_names[c].data(), '\0', channel_names[c].size()) == nullptr) {
+      return Error::kInvalidArgument;
+    }
+    if (!std::isfinite(scales[c].offset) || !std::isfinite(scales[c].scale)) {
+      return Error::kNonFinite;
+    }
+    if (!(scales[c].scale > 0.0)) return Error::kOutOfRange;
+  }
+  for (std::size_t r = 0; r < num_regressors; ++r) {
+    const Regressor& reg = regressors[r];
+    if (reg.channel >= num_channels) return Error::kOutOfRange;
+    if (static_cast<std::uint8_t>(reg.transform) > static_cast<std::uint8_t>(Transform::kSign)) {
+      return Error::kOutOfRange;
+    }
+    if (!std::isfinite(reg.exponent)) return Error::kNonFinite;
+    if (reg.transform == Transform::kAbsPow && !(reg.exponent > 0.0)) return Error::kOutOfRange;
+  }
+  for (std::size_t i = 0; i < num_terms; ++i) {
+    const Term& term = terms[i];
+    if (term.num_factors > kMaxFactors) return Error::kCapacityExceeded;
+    for (const Factor& f : term.active()) {
+      if (f.regressor >= num_regressors || f.delay > kMaxDelay || f.power == 0 ||
+          f.power > kMaxPower) {
+        return Error::kOutOfRange;
+      }
+      if (regressors[f.regressor].channel == output_channel && f.delay == 0) {
+        return Error::kOutOfRange;  // the output cannot depend on itself at delay 0
+      }
+    }
+    if (!std::isfinite(coefficients[i])) return Error::kNonFinite;
+  }
+  return Error::kOk;
+}
+
+std::uint8_t Model::MaxDelay() const {
+  std::uint8_t d = 0;
+  for (std::size_t i = 0; i < num_terms; ++i) {
+    for (const Factor& f : terms[i].active()) d = f.delay > d ? f.delay : d;
+  }
+  return d;
+}
+
+int Model::ChannelIndex(const char* name) const {
+  for (std::size_t c = 0; c < num_channels; ++c) {
+    if (std::strcmp(channel_names[c].data(), name) == 0) return static_cast<int>(c);
+  }
+  return -1;
+}
+
+void RegressorHistory::Reset(const Model& model) {
+  for (std::size_t r = 0; r < kMaxRegressors; ++r) {
+    const double zero =
+        r < model.num_regressors
+            ? ApplyTransform(model.regressors[r].transform, model.regressors[r].exponent, 0.0)
+            : 0.0;
+    values_[r].fill(zero);
+  }
+  head_ = 0;
+}
+
+void RegressorHistory::PushInputs(const Model& model, std::span<const double> normalised) {
+  head_ = (head_ + kDepth - 1) % kDepth;
+  for (std::size_t r = 0; r < model.num_regressors; ++r) {
+    const Regressor& reg = model.regressors[r];
+    values_[r][head_] = reg.channel == model.output_channel
+                            ? 0.0
+                            : ApplyTransform(reg.transform, reg.exponent, normalised[reg.channel]);
+  }
+}
+
+void RegressorHistory::SetOutput(const Model& model, double y_normalised) {
+  for (std::size_t r = 0; r < model.num_regressors; ++r) {
+    const Regressor& reg = model.regressors[r];
+    if (reg.channel == model.output_channel) {
+      values_[r][head_] = ApplyTransform(reg.transform, reg.exponent, y_normalised);
+    }
+  }
+}
+
+double TermValue(const Term& term, const RegressorHistory& h) {
+  double v = 1.0;
+  for (const Factor& f : term.active()) {
+    const double base = h.value(f.regressor, f.delay);
+    for (std::uint8_t p = 0; p < f.power; ++p) v *= base;
+  }
+  return v;
+}
+
+double EvaluateNormalised(const Model& model, const RegressorHistory& h) {
+  double y = 0.0;
+  for (std::size_t i = 0; i < model.num_terms; ++i) {
+    y += model.coefficients[i] * TermValue(model.terms[i], h);
+  }
+  return y;
+}
+
+void ModelRunner::Reset() { history_.Reset(*model_); }
+
+void ModelRunner::Begin(std::span<const double> raw) {
+  for (std::size_t c = 0; c < model_->num_channels; ++c) {
+    normalised_[c] = c == model_->output_channel ? 0.0 : Normalise(model_->scales[c], raw[c]);
+  }
+  history_.PushInputs(*model_, normalised_);
+}
+
+void ModelRunner::Finish(double y_raw) {
+  history_.SetOutput(*model_, Normalise(model_->scales[model_->output_channel], y_raw));
+}
+
+void ModelRunner::Seed(std::span<const double> raw) {
+  Begin(raw);
+  Finish(raw[model_->output_channel]);
+}
+
+double ModelRunner::Step(std::span<const double> raw) {
+  Begin(raw);
+  const double y = Denormalise(model_->scales[model_->output_channel],
+                               EvaluateNormalised(*model_, history_));
+  Finish(y);
+  return y;
+}
+
+}  // namespace mrd
