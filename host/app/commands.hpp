@@ -7,5 +7,6 @@
 namespace mrd::host::cli {
 
 void RegisterGenerate(CLI::App& app);
+void RegisterImport(CLI::App& app);
 
 }  // namespace mrd::host::cli

@@ -11,9 +11,11 @@
 int main(int argc, char** argv) {
   CLI::App app{
       "mrd: identify control-oriented NARX models of magneto-rheological dampers.\n"
-      "Data flow: generate -> identify -> simulate/report -> export (table for mrd-firmware)."};
+      "Data flow: generate | import -> identify -> simulate/report -> export (table for "
+      "mrd-firmware)."};
   app.require_subcommand(1);
   mrd::host::cli::RegisterGenerate(app);
+  mrd::host::cli::RegisterImport(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
