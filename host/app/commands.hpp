@@ -8,5 +8,6 @@ namespace mrd::host::cli {
 
 void RegisterGenerate(CLI::App& app);
 void RegisterImport(CLI::App& app);
+void RegisterSlice(CLI::App& app);
 
 }  // namespace mrd::host::cli

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   mrd::host::cli::RegisterGenerate(app);
   mrd::host::cli::RegisterImport(app);
+  mrd::host::cli::RegisterSlice(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
