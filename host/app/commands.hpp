@@ -7,5 +7,7 @@
 namespace mrd::host::cli {
 
 void RegisterGenerate(CLI::App& app);
+void RegisterIdentify(CLI::App& app);
+void RegisterSimulate(CLI::App& app);
 
 }  // namespace mrd::host::cli

@@ -14,6 +14,8 @@ int main(int argc, char** argv) {
       "Data flow: generate -> identify -> simulate/report -> export (table for mrd-firmware)."};
   app.require_subcommand(1);
   mrd::host::cli::RegisterGenerate(app);
+  mrd::host::cli::RegisterIdentify(app);
+  mrd::host::cli::RegisterSimulate(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
