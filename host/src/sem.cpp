@@ -506,7 +506,13 @@ class Search {
   // Tries adding every eligible candidate. Returns the chosen trial (cand < 0: none
   // admissible). first: first-improvement with target j_threshold.
   Trial TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
-               double j_threshold) {
+               double j_threshold, int* rejected) {
+    std::atomic<int> n_rejected{0};
+    struct Report {
+      std::atomic<int>& n;
+      int* out;
+      ~Report() { *out = n.load(); }
+    } report{n_rejected, rejected};
     const std::size_t m = model.size();
     // Cholesky of the model Gram matrix.
     Eigen::MatrixXd g(m, m);
@@ -536,7 +542,10 @@ class Search {
           sigma -= gc.dot(z);
           r -= gc.dot(wv);
         }
-        if (!(sigma > kCollinear * cd.ss) || !std::isfinite(sigma)) continue;
+        if (!(sigma > kCollinear * cd.ss) || !std::isfinite(sigma)) {
+          ++n_rejected;
+          continue;
+        }
         const double th = r / sigma;
         tr.cand = static_cast<int>(c);
         tr.rank = r * r / sigma;
@@ -574,6 +583,7 @@ class Search {
         Trial& tr = trials[order[i]];
         tr.j = job.dead ? kInf : job.cost;
         if (!job.dead) AtomicMin(best, std::max(job.cost, floor));
+        if (job.diverged) ++n_rejected;
       }
     };
     if (!first) {
@@ -618,8 +628,9 @@ class Search {
 };
 
 std::size_t SignalLine(const SemSpec& spec, const std::string& signal) {
+  if (signal == spec.output) return spec.output_line;
   for (const auto& r : spec.regressors) {
-    if (r.signal == signal) return r.line;
+    if (r.signal == signal) return r.signal_line;
   }
   return 0;
 }
@@ -760,9 +771,10 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
   Search search(eng, o.threads);
   std::vector<double> theta;
   double j = search.Cost(model, &theta);
-  auto record = [&](int iteration) {
+  auto record = [&](int iteration, int rejected) {
     SemIteration it;
     it.iteration = iteration;
+    it.rejected = rejected;
     for (int t : model) it.terms.push_back(eng.cand(t).term);
     it.coefficients = theta;
     it.j = j;
@@ -773,13 +785,17 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     if (o.progress) o.progress(it);
     res.iterations.push_back(std::move(it));
   };
-  record(0);
+  record(0, 0);
   for (int iteration = 1; iteration <= max_it; ++iteration) {
     if (j <= target) break;
     const double j_prev = j;
+    int rejected = 0;
     const Trial tr = search.TryAdd(model, theta, strategy == Strategy::kFirst,
-                                   j_prev * (1.0 - threshold / 100.0));
-    if (tr.cand < 0) break;  // nothing admissible
+                                   j_prev * (1.0 - threshold / 100.0), &rejected);
+    if (tr.cand < 0) {  // nothing admissible
+      res.exhausted_rejected = rejected;
+      break;
+    }
     model.push_back(tr.cand);
     j = search.Cost(model, &theta);
     // Pruning.
@@ -804,7 +820,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       theta = best_theta;
       j = best;
     }
-    record(iteration);
+    record(iteration, rejected);
   }
   res.selected = SelectIteration(res.iterations, spec.selection_tolerance_percent);
   return res;

@@ -88,6 +88,7 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
       r.name = GetString(path, node, k);
     } else if (k == "signal") {
       r.signal = GetString(path, node, k);
+      r.signal_line = LineOf(node);
     } else if (k == "transform") {
       const std::string tr = GetString(path, node, k);
       if (tr == "identity") {
@@ -167,6 +168,7 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
     const std::string k(key.str());
     if (k == "output") {
       s.output = GetString(path, node, k);
+      s.output_line = LineOf(node);
     } else if (k == "regressor") {
       const auto* arr = node.as_array();
       if (arr == nullptr || !arr->is_array_of_tables()) {
@@ -393,14 +395,15 @@ std::vector<SemTerm> GenerateCandidates(const SemSpec& spec) {
       by_count[cur.factors.size()].push_back(cur);
       return;
     }
-    self(self, i + 1, degree);
-    if (static_cast<int>(cur.factors.size()) >= spec.max_factors) return;
-    for (int p : spec.regressors[slots[i].regressor].powers) {
-      if (spec.max_degree > 0 && degree + p > spec.max_degree) break;
-      cur.factors.push_back({slots[i].regressor, slots[i].delay, p});
-      self(self, i + 1, degree + p);
-      cur.factors.pop_back();
+    if (static_cast<int>(cur.factors.size()) < spec.max_factors) {
+      for (int p : spec.regressors[slots[i].regressor].powers) {
+        if (spec.max_degree > 0 && degree + p > spec.max_degree) break;
+        cur.factors.push_back({slots[i].regressor, slots[i].delay, p});
+        self(self, i + 1, degree + p);
+        cur.factors.pop_back();
+      }
     }
+    self(self, i + 1, degree);
   };
   rec(rec, 0, 0);
   std::vector<SemTerm> out;

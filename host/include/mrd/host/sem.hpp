@@ -40,6 +40,8 @@ struct SemIteration {
   double j = 0.0;                    // identification cost
   std::vector<double> validation_j;  // one per validation data set
   double elapsed_s = 0.0;            // since the start of Identify
+  int rejected = 0;  // candidates of this iteration's search rejected: diverging free run
+                     // (non-finite or beyond divergence_limit) or linearly dependent column
 };
 
 struct SemOptions {
@@ -59,6 +61,8 @@ struct SemResult {
   int selected = 0;                   // iteration picked by SelectIteration
   std::size_t num_candidates = 0;
   bool fast_path = false;             // free run by the y(k-1) polynomial recursion
+  int exhausted_rejected = -1;        // >= 0: the search stopped because all candidates
+                                      // were rejected (this many)
 };
 
 // Normalisation: offset 0, scale = max |s| over all identification data (1 when all zero).

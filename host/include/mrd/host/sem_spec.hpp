@@ -35,7 +35,8 @@ struct ElementaryRegressor {
   double exponent = 1.0;     // abs_pow only
   std::vector<int> powers;   // sorted, unique, 1 ... kMaxPower
   std::vector<int> delays;   // sorted, unique, 0 ... kMaxDelay [samples]
-  std::size_t line = 0;      // line in the spec file, for messages
+  std::size_t line = 0;         // line of [[regressor]] in the spec file, for messages
+  std::size_t signal_line = 0;  // line of its 'signal' key
 };
 
 enum class CostWeighting { kRelative, kMse };
@@ -44,6 +45,7 @@ enum class Strategy { kBest, kFirst };
 struct SemSpec {
   std::string path;  // source file, for messages ("" when built in code)
   std::string output;
+  std::size_t output_line = 0;  // line of the 'output' key
   std::vector<ElementaryRegressor> regressors;
   // Limits on candidate terms.
   int max_factors = 3;   // most elementary factors (distinct regressor/delay pairs) per term
