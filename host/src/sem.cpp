@@ -18,7 +18,7 @@ namespace mrd::host {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr std::size_t kBlock = 512;      // samples per block of the free-run pass
+constexpr std::size_t kBlock = 256;      // samples per block of the free-run pass
 constexpr std::size_t kChunk = 16;       // candidates per work item
 constexpr double kCollinear = 1e-13;     // relative Schur complement below which a
                                          // candidate is taken as linearly dependent
@@ -319,6 +319,87 @@ class Engine {
     }
   }
 
+  static constexpr std::size_t kLanes = 4;  // free runs advanced in lockstep (hides the
+                                            // latency of the scalar recursion)
+
+  // c_q(k) = sum over terms of y-power q of theta * u(k) for one job and one block;
+  // c[q * kBlock + s]. ub: scratch of kBlock.
+  void Coefficients(const std::vector<const double*>& u,
+                    const std::vector<std::vector<std::size_t>>& by_q, const Job& job,
+                    std::size_t g0, std::size_t len, double* c, double* ub) const {
+    for (std::size_t q = 0; q < by_q.size(); ++q) {
+      double* cq = c + q * kBlock;
+      const auto& idx = by_q[q];
+      std::size_t i = 0;
+      bool first = true;
+      for (; i + 4 <= idx.size(); i += 4) {
+        const double *a0 = u[idx[i]] + g0, *a1 = u[idx[i + 1]] + g0, *a2 = u[idx[i + 2]] + g0,
+                     *a3 = u[idx[i + 3]] + g0;
+        const double t0 = job.theta[idx[i]], t1 = job.theta[idx[i + 1]],
+                     t2 = job.theta[idx[i + 2]], t3 = job.theta[idx[i + 3]];
+        if (first) {
+          for (std::size_t k = 0; k < len; ++k) {
+            cq[k] = (t0 * a0[k] + t1 * a1[k]) + (t2 * a2[k] + t3 * a3[k]);
+          }
+        } else {
+          for (std::size_t k = 0; k < len; ++k) {
+            cq[k] += (t0 * a0[k] + t1 * a1[k]) + (t2 * a2[k] + t3 * a3[k]);
+          }
+        }
+        first = false;
+      }
+      for (; i < idx.size(); ++i) {
+        const double* a0 = u[idx[i]] + g0;
+        const double t0 = job.theta[idx[i]];
+        if (first) {
+          for (std::size_t k = 0; k < len; ++k) cq[k] = t0 * a0[k];
+        } else {
+          for (std::size_t k = 0; k < len; ++k) cq[k] += t0 * a0[k];
+        }
+        first = false;
+      }
+      if (first) std::fill(cq, cq + len, 0.0);
+    }
+    if (job.extra >= 0) {
+      const Cand& ex = cands_[job.extra];
+      Input(ex, g0, len, ub);
+      const double th = job.theta_extra;
+      double* cq = c + static_cast<std::size_t>(ex.ypow) * kBlock;
+      for (std::size_t k = 0; k < len; ++k) cq[k] += th * ub[k];
+    }
+  }
+
+  // Advances kLanes free runs y(k) = sum_q c_q(k) y(k-1)^q over one block (Horner), adding
+  // the weighted squared errors to cost and flagging |y| beyond lim (or NaN) in bad.
+  template <int NQ>
+  static void Recurse(const double* const* c, std::size_t nq_rt, const double* y,
+                      const double* w, std::size_t len, double lim, double* yp, double* cost,
+                      bool* bad) {
+    const int nq = NQ > 0 ? NQ : static_cast<int>(nq_rt);
+    double p[kLanes], acc[kLanes];
+    bool b[kLanes];
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      p[l] = yp[l];
+      acc[l] = 0.0;
+      b[l] = false;
+    }
+    for (std::size_t s = 0; s < len; ++s) {
+      for (std::size_t l = 0; l < kLanes; ++l) {
+        double yk = c[l][static_cast<std::size_t>(nq - 1) * kBlock + s];
+        for (int q = nq - 2; q >= 0; --q) yk = yk * p[l] + c[l][static_cast<std::size_t>(q) * kBlock + s];
+        const double e = y[s] - yk;
+        acc[l] += w[s] * (e * e);
+        b[l] |= !(std::fabs(yk) <= lim);
+        p[l] = yk;
+      }
+    }
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      yp[l] = p[l];
+      cost[l] = acc[l];
+      bad[l] = b[l];
+    }
+  }
+
   void SimulateFast(const std::vector<int>& terms, std::span<Job> jobs,
                     const std::atomic<double>& bound, std::vector<double>& scratch) {
     int q_max = 0;
@@ -327,82 +408,70 @@ class Engine {
       if (j.extra >= 0) q_max = std::max(q_max, cands_[j.extra].ypow);
     }
     const std::size_t nq = static_cast<std::size_t>(q_max) + 1;
-    scratch.resize((nq + 1) * kBlock);
-    double* c = scratch.data();
-    double* ub = scratch.data() + nq * kBlock;
+    std::vector<std::vector<std::size_t>> by_q(nq);
+    for (std::size_t i = 0; i < terms.size(); ++i) {
+      by_q[static_cast<std::size_t>(cands_[terms[i]].ypow)].push_back(i);
+    }
+    // Per lane: nq coefficient blocks; one more block of scratch; one all-zero dummy lane.
+    scratch.assign((kLanes * nq + 1 + nq) * kBlock, 0.0);
+    double* ub = scratch.data() + kLanes * nq * kBlock;
+    const double* dummy = ub + kBlock;
     std::vector<const double*> u(terms.size());
     for (std::size_t i = 0; i < terms.size(); ++i) u[i] = U(terms[i]).data();
     std::vector<double> yprev(jobs.size());
+    std::vector<std::size_t> alive;
     const double lim = spec_.divergence_limit;
     for (const Segment& seg : segs_) {
       for (std::size_t j = 0; j < jobs.size(); ++j) yprev[j] = seg.seed.back();
       for (std::size_t g0 = seg.start; g0 < seg.start + seg.len; g0 += kBlock) {
         const std::size_t len = std::min(kBlock, seg.start + seg.len - g0);
         const double bnd = bound.load(std::memory_order_relaxed);
+        alive.clear();
         for (std::size_t j = 0; j < jobs.size(); ++j) {
-          Job& job = jobs[j];
-          if (job.dead) continue;
-          std::fill(c, c + nq * kBlock, 0.0);
-          for (std::size_t i = 0; i < terms.size(); ++i) {
-            const double th = job.theta[i];
-            double* cq = c + static_cast<std::size_t>(cands_[terms[i]].ypow) * kBlock;
-            const double* ui = u[i] + g0;
-            for (std::size_t s = 0; s < len; ++s) cq[s] += th * ui[s];
-          }
-          if (job.extra >= 0) {
-            Input(cands_[job.extra], g0, len, ub);
-            const double th = job.theta_extra;
-            double* cq = c + static_cast<std::size_t>(cands_[job.extra].ypow) * kBlock;
-            for (std::size_t s = 0; s < len; ++s) cq[s] += th * ub[s];
+          if (!jobs[j].dead) alive.push_back(j);
+        }
+        for (std::size_t a0 = 0; a0 < alive.size(); a0 += kLanes) {
+          const double* c[kLanes];
+          double yp[kLanes], cost[kLanes];
+          bool bad[kLanes];
+          for (std::size_t l = 0; l < kLanes; ++l) {
+            if (a0 + l < alive.size()) {
+              double* cl = scratch.data() + l * nq * kBlock;
+              Coefficients(u, by_q, jobs[alive[a0 + l]], g0, len, cl, ub);
+              c[l] = cl;
+              yp[l] = yprev[alive[a0 + l]];
+            } else {
+              c[l] = dummy;
+              yp[l] = 0.0;
+            }
           }
           const double* y = y_.data() + g0;
           const double* w = wn_.data() + g0;
-          double yp = yprev[j];
-          double cost = 0.0;
-          bool bad = false;
-          if (q_max == 0) {
-            for (std::size_t s = 0; s < len; ++s) {
-              const double e = y[s] - c[s];
-              cost += w[s] * e * e;
-              bad |= !(std::fabs(c[s]) <= lim);
-            }
-            yp = c[len - 1];
-          } else if (q_max == 1) {
-            const double* c1 = c + kBlock;
-            for (std::size_t s = 0; s < len; ++s) {
-              const double yk = c1[s] * yp + c[s];
-              const double e = y[s] - yk;
-              cost += w[s] * e * e;
-              bad |= !(std::fabs(yk) <= lim);
-              yp = yk;
-            }
-          } else if (q_max == 2) {
-            const double* c1 = c + kBlock;
-            const double* c2 = c + 2 * kBlock;
-            for (std::size_t s = 0; s < len; ++s) {
-              const double yk = (c2[s] * yp + c1[s]) * yp + c[s];
-              const double e = y[s] - yk;
-              cost += w[s] * e * e;
-              bad |= !(std::fabs(yk) <= lim);
-              yp = yk;
-            }
-          } else {
-            for (std::size_t s = 0; s < len; ++s) {
-              double yk = c[q_max * kBlock + s];
-              for (int q = q_max - 1; q >= 0; --q) yk = yk * yp + c[q * kBlock + s];
-              const double e = y[s] - yk;
-              cost += w[s] * e * e;
-              bad |= !(std::fabs(yk) <= lim);
-              yp = yk;
-            }
+          switch (nq) {
+            case 1:
+              Recurse<1>(c, nq, y, w, len, lim, yp, cost, bad);
+              break;
+            case 2:
+              Recurse<2>(c, nq, y, w, len, lim, yp, cost, bad);
+              break;
+            case 3:
+              Recurse<3>(c, nq, y, w, len, lim, yp, cost, bad);
+              break;
+            default:
+              Recurse<0>(c, nq, y, w, len, lim, yp, cost, bad);
+              break;
           }
-          yprev[j] = yp;
-          job.cost += cost;
-          if (bad || !std::isfinite(job.cost)) {
-            job.dead = job.diverged = true;
-            job.cost = kInf;
-          } else if (job.cost > bnd) {
-            job.dead = true;
+          for (std::size_t l = 0; l < kLanes && a0 + l < alive.size(); ++l) {
+            const std::size_t j = alive[a0 + l];
+            Job& job = jobs[j];
+            yprev[j] = yp[l];
+            job.cost += cost[l];
+            if (bad[l] || !std::isfinite(job.cost)) {
+              job.dead = job.diverged = true;
+              job.cost = kInf;
+            } else if (job.cost > bnd) {
+              job.dead = true;
+            }
           }
         }
       }
