@@ -201,11 +201,34 @@ TEST(SemEngineTest, RuntimeConversionRefusesOverCapacity) {
   }
 }
 
+const DataSet& FullDamperData() {
+  static const DataSet d = test::DamperData("identification");
+  return d;
+}
+
+// Paper target with first improvement (one-step ranked candidates, 2 % threshold): a model
+// of at most 13 terms with J <= 0.0016 (paper: 0.001596) within 28 iterations.
+TEST(SemEngineTest, PaperThirteenTermTargetFirstImprovement) {
+  const SemSpec spec = PaperSpec();
+  const std::vector<DataSet> id{FullDamperData()};
+  SemOptions o;
+  o.max_iterations = 28;
+  o.strategy = Strategy::kFirst;
+  o.threshold_percent = 2.0;
+  o.threads = 2;
+  const SemResult r = Identify(spec, id, {}, o);
+  double best = 1e9;
+  for (const auto& it : r.iterations) {
+    if (it.terms.size() <= 13) best = std::min(best, it.j);
+  }
+  EXPECT_LE(best, 0.0016);
+}
+
 // Regression on the full reference identification set (seed 1), shortened run: the search
 // must reach the paper's compact-model level within 8 iterations.
 TEST(SemEngineTest, PaperRegressionEightIterations) {
   const SemSpec spec = PaperSpec();
-  const std::vector<DataSet> id{test::DamperData("identification")};
+  const std::vector<DataSet> id{FullDamperData()};
   SemOptions o;
   o.max_iterations = 8;
   o.threads = 2;
