@@ -17,6 +17,8 @@ int main(int argc, char** argv) {
   mrd::host::cli::RegisterGenerate(app);
   mrd::host::cli::RegisterImport(app);
   mrd::host::cli::RegisterSlice(app);
+  mrd::host::cli::RegisterIdentify(app);
+  mrd::host::cli::RegisterSimulate(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

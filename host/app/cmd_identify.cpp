@@ -1,0 +1,100 @@
+// mrd identify: SEM identification (DESIGN.md §5) of a polynomial NARX model from data.
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "commands.hpp"
+#include "mrd/host/csv.hpp"
+#include "mrd/host/input_error.hpp"
+#include "mrd/host/model_file.hpp"
+#include "mrd/host/sem.hpp"
+#include "mrd/host/sem_spec.hpp"
+
+namespace mrd::host::cli {
+namespace {
+
+struct IdentifyOptions {
+  std::vector<std::string> data;
+  std::vector<std::string> validate;
+  std::string spec;
+  std::string out;
+  std::optional<double> threshold;
+  std::optional<int> max_iterations;
+  std::optional<double> target_j;
+  std::optional<std::string> strategy;
+  std::vector<std::string> initial;
+  int threads = 0;
+};
+
+std::vector<DataSet> ReadAll(const std::vector<std::string>& paths,
+                             const std::vector<std::string>& signals) {
+  std::vector<DataSet> out;
+  for (const auto& p : paths) out.push_back(ReadCsv(p, signals));
+  return out;
+}
+
+void RunIdentify(const IdentifyOptions& o) {
+  const SemSpec spec = LoadSemSpec(o.spec);
+  const auto signals = spec.Signals();
+  // Unknown columns are reported against the spec (Identify), so read without requirements.
+  const std::vector<DataSet> data = ReadAll(o.data, {});
+  const std::vector<DataSet> val = ReadAll(o.validate, {});
+  SemOptions so;
+  if (o.strategy) so.strategy = *o.strategy == "first" ? Strategy::kFirst : Strategy::kBest;
+  so.threshold_percent = o.threshold;
+  so.max_iterations = o.max_iterations;
+  so.target_j = o.target_j;
+  if (!o.initial.empty()) so.initial = o.initial;
+  so.threads = o.threads > 0 ? o.threads
+                             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  so.progress = [](const SemIteration& it) {
+    fmt::print("iteration {:3d}: {:2d} terms, J {:.6g}, validation J [{:.6g}], {:.2f} s\n",
+               it.iteration, it.terms.size(), it.j, fmt::join(it.validation_j, ", "),
+               it.elapsed_s);
+    std::fflush(stdout);
+  };
+  const SemResult r = Identify(spec, data, val, so);
+  const ModelFile mf = MakeModelFile(spec, r);
+  SaveModelFile(mf, o.out);
+  const SemIteration& sel = mf.Iteration(mf.selected);
+  fmt::print("{}: {} candidates, {} iterations, selected iteration {} ({} terms, J {:.6g}; {})\n",
+             o.out, r.num_candidates, r.iterations.size() - 1, mf.selected, sel.terms.size(),
+             sel.j, mf.selection_rule);
+}
+
+}  // namespace
+
+void RegisterIdentify(CLI::App& app) {
+  auto o = std::make_shared<IdentifyOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "identify", "SEM identification: structure by simulation error, parameters by LS.");
+  cmd->add_option("--data", o->data, "Identification data file(s), comma separated")
+      ->required()
+      ->delimiter(',');
+  cmd->add_option("--spec", o->spec, "Candidate spec (TOML), e.g. host/specs/paper.toml")
+      ->required();
+  cmd->add_option("--validate", o->validate, "Validation data file(s), comma separated")
+      ->delimiter(',');
+  cmd->add_option("--out", o->out, "Model file to write (JSON)")->required();
+  cmd->add_option("--threshold", o->threshold,
+                  "Least decrease of J to accept a candidate [%] (first improvement)")
+      ->check(CLI::Range(0.0, 99.999));
+  cmd->add_option("--max-iterations", o->max_iterations, "Most major iterations")
+      ->check(CLI::Range(0, 100000));
+  cmd->add_option("--target-j", o->target_j, "Stop once J is at or below this");
+  cmd->add_option("--threads", o->threads, "Worker threads (0: all cores)")
+      ->check(CLI::Range(0, 256))
+      ->capture_default_str();
+  cmd->add_option("--initial", o->initial,
+                  "Initial structure: terms like y(k-1)^2*u1(k), comma separated")
+      ->delimiter(',');
+  cmd->add_option("--strategy", o->strategy, "best (default) | first improvement")
+      ->check(CLI::IsMember({"best", "first"}));
+  cmd->callback([o] { RunIdentify(*o); });
+}
+
+}  // namespace mrd::host::cli

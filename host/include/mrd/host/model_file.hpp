@@ -1,0 +1,70 @@
+#pragma once
+// Model file (JSON) written by `mrd identify`, read by `mrd simulate` and `mrd export`:
+//
+//   { "format": "mrd-sem-model", "version": 1,
+//     "spec": { ...the candidate spec... },
+//     "channels": [{"name": "f", "offset": 0, "scale": 1234.5}, ...],   // output first
+//     "warmup_samples": 1,        // leading samples that seed a simulation (spec max delay)
+//     "iterations": [{"iteration": k, "J": ..., "validation_J": [...], "elapsed_s": ...,
+//                     "terms": [{"coefficient": c,
+//                                "factors": [{"regressor": "u2", "delay": 1, "power": 3}]}]}],
+//     "selected": k, "selection_rule": "..." }
+//
+// Coefficients are in normalised units (signals divided by their channel scale).
+
+#include <string>
+#include <vector>
+
+#include "mrd/common/model.hpp"
+#include "mrd/host/sem.hpp"
+#include "mrd/host/sem_spec.hpp"
+
+namespace mrd::host {
+
+struct ModelFile {
+  std::string path;  // source file, for messages ("" when built in memory)
+  SemSpec spec;
+  std::vector<ChannelInfo> channels;  // channels[0] is the output
+  std::vector<SemIteration> iterations;
+  int selected = 0;
+  std::string selection_rule;
+  std::size_t num_candidates = 0;
+
+  int warmup_samples() const { return spec.MaxDelay(); }
+  // Iteration by its number; throws InputError naming the file when absent.
+  const SemIteration& Iteration(int k) const;
+};
+
+// Builds the model file of an identification run.
+ModelFile MakeModelFile(const SemSpec& spec, const SemResult& result);
+
+// JSON text / file. Save writes atomically. Load throws InputError (file, reason) on
+// unreadable or malformed JSON, a missing or mistyped key, a bad spec, or a term that names
+// an unknown regressor.
+std::string ModelFileToJson(const ModelFile& m);
+void SaveModelFile(const ModelFile& m, const std::string& path);
+ModelFile LoadModelFile(const std::string& path);
+
+// The fixed-size runtime model of one iteration (channels and regressors limited to those
+// the terms use, output first). Throws InputError with the reason when the model exceeds a
+// capacity of common/model.hpp (terms, factors per term, channels, regressors, delay, power,
+// channel-name length) or does not validate; never truncates.
+mrd::Model ToRuntimeModel(const ModelFile& m, int iteration);
+
+// Free-run simulation of one iteration on a data set through mrd::ModelRunner (the same
+// evaluator as the firmware): the first warmup_samples() rows seed the history with measured
+// values; the rest are simulated and scored. Throws InputError for a missing column.
+struct SimMetrics {
+  double j = 0.0;              // cost of the spec's weighting, normalised signals
+  double mse = 0.0;            // normalised
+  double mse_physical = 0.0;   // output units squared
+  double rmse_physical = 0.0;  // output units
+  double rrse = 0.0;           // ||y - ysim|| / ||y - mean(y)||
+  double fit_percent = 0.0;    // 100 (1 - rrse)
+  std::size_t samples = 0;     // scored samples
+  bool diverged = false;       // non-finite or |ysim| beyond the divergence limit
+};
+SimMetrics SimulateModel(const ModelFile& m, int iteration, const DataSet& data,
+                         std::vector<double>* ysim_raw = nullptr);
+
+}  // namespace mrd::host

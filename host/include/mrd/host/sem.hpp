@@ -1,0 +1,88 @@
+#pragma once
+// SEM identification engine (DESIGN.md §5): parameters by least squares on the one-step
+// regression (measured output in the regressors), structure by the free-run simulation cost
+//
+//   J = sum over data sets d of (1/N_d) sum_k w_k (y(k) - ysim(k))^2,
+//   w_k = 1/max(|y(k)|, floor) (relative weighting) or 1 (mse), normalised signals,
+//
+// scored from sample k = spec.MaxDelay() on (earlier samples seed the simulation with
+// measured values). Per major iteration: try adding every candidate (bordered LS update from
+// kept Gram products, free-run simulation with early stop), accept the best (best
+// improvement), or the first in one-step-criterion rank order that lowers J by
+// threshold_percent (first improvement; the best when none does); then prune: repeatedly
+// drop the term whose removal gives the lowest J while that J is still below the previous
+// major iteration's. Stops at target_j, max_iterations, or when no candidate is admissible.
+// A candidate whose simulation is non-finite or leaves |y| <= divergence_limit is rejected.
+// Results do not depend on the thread count (ties broken by candidate index).
+
+#include <cstddef>
+#include <functional>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mrd/host/csv.hpp"
+#include "mrd/host/sem_spec.hpp"
+
+namespace mrd::host {
+
+struct ChannelInfo {
+  std::string name;
+  double offset = 0.0;
+  double scale = 1.0;  // normalised = (raw - offset) / scale
+};
+
+struct SemIteration {
+  int iteration = 0;  // 0: initial structure (possibly empty)
+  std::vector<SemTerm> terms;
+  std::vector<double> coefficients;  // normalised units
+  double j = 0.0;                    // identification cost
+  std::vector<double> validation_j;  // one per validation data set
+  double elapsed_s = 0.0;            // since the start of Identify
+  int rejected = 0;  // candidates of this iteration's search rejected: diverging free run
+                     // (non-finite or beyond divergence_limit) or linearly dependent column
+};
+
+struct SemOptions {
+  // Overrides of the spec's algorithm settings (unset: the spec's value).
+  std::optional<Strategy> strategy;
+  std::optional<double> threshold_percent;
+  std::optional<int> max_iterations;
+  std::optional<double> target_j;
+  std::optional<std::vector<std::string>> initial;  // term strings
+  int threads = 1;                                  // worker threads (>= 1)
+  std::function<void(const SemIteration&)> progress;  // called after every iteration
+};
+
+struct SemResult {
+  std::vector<ChannelInfo> channels;  // spec.Signals() order; channels[0] is the output
+  std::vector<SemIteration> iterations;
+  int selected = 0;                   // iteration picked by SelectIteration
+  std::size_t num_candidates = 0;
+  bool fast_path = false;             // free run by the y(k-1) polynomial recursion
+  int exhausted_rejected = -1;        // >= 0: the search stopped because all candidates
+                                      // were rejected (this many)
+};
+
+// Normalisation: offset 0, scale = max |s| over all identification data (1 when all zero).
+std::vector<ChannelInfo> ComputeScales(const SemSpec& spec, std::span<const DataSet> data);
+
+// Runs the identification. Throws InputError when a data set lacks a spec signal (naming the
+// spec file and the regressor's line) or is too short, or an initial term is bad.
+SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
+                   std::span<const DataSet> validation, const SemOptions& options);
+
+// Automatic pick of the compact model: score = summed validation J (identification J when
+// there is no validation data); among iterations whose score is within tolerance_percent of
+// the lowest score, the one with fewest terms (then lowest score, then lowest iteration).
+int SelectIteration(const std::vector<SemIteration>& iterations, double tolerance_percent);
+
+// Free-run cost of a model on one data set with the reference per-sample evaluation (no fast
+// path): J of that data set alone, +inf when the simulation diverges. ysim (optional)
+// receives the normalised simulated output for every row (measured values in the seed rows).
+double SimulateCost(const SemSpec& spec, const std::vector<ChannelInfo>& channels,
+                    const std::vector<SemTerm>& terms, const std::vector<double>& coefficients,
+                    const DataSet& data, std::vector<double>* ysim = nullptr);
+
+}  // namespace mrd::host

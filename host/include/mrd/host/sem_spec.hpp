@@ -1,0 +1,113 @@
+#pragma once
+// Candidate spec of the SEM identification (DESIGN.md §4, §5): which elementary regressors
+// (a named transform of one signal, at a set of delays, raised to a set of powers) build the
+// candidate terms, the limits on terms, the cost weighting and the algorithm settings.
+// Works for any CSV columns. TOML layout (host/specs/paper.toml is the seed paper's set):
+//
+//   output = "f"                       # signal to model
+//   [[regressor]]                      # one per elementary regressor, in this order
+//   name = "y"                         # unique, used in model files and --initial
+//   signal = "f"                       # CSV column
+//   transform = "identity"             # identity | abs_pow | sign
+//   exponent = 0.2                     # abs_pow only: |s|^exponent (> 0)
+//   powers = [1, 2]                    # integers 1 ... 16
+//   delays = [1]                       # integers 0 ... 15 (>= 1 on the output signal)
+//   [limits]  max_factors = 3, max_degree = 0 (0: none), constant = false
+//   [cost]    weighting = "relative" | "mse", floor = 0.1
+//   [algorithm] strategy = "best" | "first", threshold_percent, max_iterations, target_j,
+//               divergence_limit, selection_tolerance_percent, initial = ["y(k-1)*u1(k)", ...]
+//
+// Errors (unknown key, wrong type, bad power or delay, unknown transform, duplicate name,
+// empty candidate set, malformed TOML) throw InputError naming the file and line.
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "mrd/common/model.hpp"
+
+namespace mrd::host {
+
+struct ElementaryRegressor {
+  std::string name;
+  std::string signal;
+  Transform transform = Transform::kIdentity;
+  double exponent = 1.0;     // abs_pow only
+  std::vector<int> powers;   // sorted, unique, 1 ... kMaxPower
+  std::vector<int> delays;   // sorted, unique, 0 ... kMaxDelay [samples]
+  std::size_t line = 0;         // line of [[regressor]] in the spec file, for messages
+  std::size_t signal_line = 0;  // line of its 'signal' key
+};
+
+enum class CostWeighting { kRelative, kMse };
+enum class Strategy { kBest, kFirst };
+
+struct SemSpec {
+  std::string path;  // source file, for messages ("" when built in code)
+  std::string output;
+  std::size_t output_line = 0;  // line of the 'output' key
+  std::vector<ElementaryRegressor> regressors;
+  // Limits on candidate terms.
+  int max_factors = 3;   // most elementary factors (distinct regressor/delay pairs) per term
+  int max_degree = 0;    // most summed powers per term; 0: no limit
+  bool constant = false; // the constant term is a candidate
+  // Cost J = sum over data sets of (1/N) sum_k w_k (y_k - ysim_k)^2 on normalised signals,
+  // w_k = 1/max(|y_k|, floor) (relative) or 1 (mse).
+  CostWeighting weighting = CostWeighting::kRelative;
+  double floor = 0.1;
+  // Algorithm.
+  Strategy strategy = Strategy::kBest;
+  double threshold_percent = 2.0;  // least relative decrease of J to accept a candidate [%]
+  int max_iterations = 20;
+  double target_j = 0.0;           // stop once J <= target_j
+  double divergence_limit = 1e3;   // |normalised ysim| above this rejects a candidate
+  double selection_tolerance_percent = 5.0;  // automatic model pick, see SelectIteration
+  std::vector<std::string> initial;          // initial structure, term strings
+
+  // Index of a regressor by name, or -1.
+  int RegressorIndex(const std::string& name) const;
+  // Largest delay of any regressor [samples]: the first this-many samples of every data set
+  // seed the simulation with measured values and are not scored.
+  int MaxDelay() const;
+  // Signals used (output first, then regressor signals in first-use order).
+  std::vector<std::string> Signals() const;
+};
+
+// Reads and validates a spec file. Throws InputError (file, line, reason).
+SemSpec LoadSemSpec(const std::string& path);
+// Parses spec text (path is used in messages only).
+SemSpec ParseSemSpec(const std::string& text, const std::string& path);
+
+// One factor of a term: regressor(k - delay)^power.
+struct SemFactor {
+  int regressor = 0;
+  int delay = 0;
+  int power = 1;
+  friend bool operator==(const SemFactor&, const SemFactor&) = default;
+};
+
+// Product of factors, sorted by (regressor, delay), each pair at most once. Empty: constant.
+struct SemTerm {
+  std::vector<SemFactor> factors;
+  friend bool operator==(const SemTerm&, const SemTerm&) = default;
+};
+
+// "y(k-1)^2*u2(k)"; "1" for the constant.
+std::string TermName(const SemSpec& spec, const SemTerm& term);
+// Parses TermName's syntax (spaces allowed; power 1 may be omitted). Throws InputError with
+// `file`/`line` for an unknown regressor, a delay or power not offered by the spec, or bad
+// syntax. The result is canonical (sorted, equal pairs merged).
+SemTerm ParseTerm(const SemSpec& spec, const std::string& text, const std::string& file = "",
+                  std::size_t line = 0);
+
+// Algebraic identity key of a term: per (signal, delay), the sign parity and the exponent of
+// |s|. Two terms with equal keys are the same function (sign^2 = 1, |s|^a|s|^b = |s|^(a+b),
+// s = sign(s)|s|).
+std::string TermKey(const SemSpec& spec, const SemTerm& term);
+
+// Candidate terms in generation order (fewer factors first, then regressor/delay/power order),
+// skipping terms algebraically identical to an earlier one (TermKey) and terms that reduce to
+// the constant when the constant is not offered. Throws InputError when the set is empty.
+std::vector<SemTerm> GenerateCandidates(const SemSpec& spec);
+
+}  // namespace mrd::host

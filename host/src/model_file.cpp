@@ -1,0 +1,384 @@
+#include "mrd/host/model_file.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "mrd/host/csv.hpp"
+#include "mrd/host/input_error.hpp"
+
+namespace mrd::host {
+namespace {
+
+using nlohmann::json;
+
+const char* TransformName(Transform t) {
+  switch (t) {
+    case Transform::kIdentity:
+      return "identity";
+    case Transform::kAbsPow:
+      return "abs_pow";
+    case Transform::kSign:
+      return "sign";
+  }
+  return "identity";
+}
+
+json SpecToJson(const SemSpec& s) {
+  json regs = json::array();
+  for (const auto& r : s.regressors) {
+    json j = {{"name", r.name},     {"signal", r.signal}, {"transform", TransformName(r.transform)},
+              {"powers", r.powers}, {"delays", r.delays}};
+    if (r.transform == Transform::kAbsPow) j["exponent"] = r.exponent;
+    regs.push_back(j);
+  }
+  return {{"output", s.output},
+          {"regressor", regs},
+          {"limits",
+           {{"max_factors", s.max_factors},
+            {"max_degree", s.max_degree},
+            {"constant", s.constant}}},
+          {"cost",
+           {{"weighting", s.weighting == CostWeighting::kRelative ? "relative" : "mse"},
+            {"floor", s.floor}}},
+          {"algorithm",
+           {{"strategy", s.strategy == Strategy::kBest ? "best" : "first"},
+            {"threshold_percent", s.threshold_percent},
+            {"max_iterations", s.max_iterations},
+            {"target_j", s.target_j},
+            {"divergence_limit", s.divergence_limit},
+            {"selection_tolerance_percent", s.selection_tolerance_percent},
+            {"initial", s.initial}}}};
+}
+
+// The spec is stored in the same shape as the TOML; rebuild it through the TOML parser so
+// that both go through one validation. Values are written with full precision.
+std::string JsonValueToToml(const json& v) {
+  if (v.is_string()) return json(v.get<std::string>()).dump();  // JSON escapes are TOML-valid
+  if (v.is_boolean()) return v.get<bool>() ? "true" : "false";
+  if (v.is_number_integer()) return std::to_string(v.get<long long>());
+  if (v.is_number()) return fmt::format("{:.17g}", v.get<double>());
+  if (v.is_array()) {
+    std::string s = "[";
+    for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + JsonValueToToml(v[i]);
+    return s + "]";
+  }
+  throw std::runtime_error("unsupported value");
+}
+
+SemSpec SpecFromJson(const json& j, const std::string& path) {
+  std::string toml;
+  for (const auto& [k, v] : j.items()) {
+    if (!v.is_object() && !(v.is_array() && k == "regressor")) {
+      toml += k + " = " + JsonValueToToml(v) + "\n";
+    }
+  }
+  for (const auto& [k, v] : j.items()) {
+    if (v.is_object()) {
+      toml += "[" + k + "]\n";
+      for (const auto& [kk, vv] : v.items()) toml += kk + " = " + JsonValueToToml(vv) + "\n";
+    }
+  }
+  if (j.contains("regressor")) {
+    for (const auto& r : j.at("regressor")) {
+      toml += "[[regressor]]\n";
+      for (const auto& [kk, vv] : r.items()) toml += kk + " = " + JsonValueToToml(vv) + "\n";
+    }
+  }
+  try {
+    return ParseSemSpec(toml, path);
+  } catch (const InputError& e) {
+    throw InputError(path, 0, fmt::format("bad spec in model file: {}", e.what()));
+  }
+}
+
+}  // namespace
+
+const SemIteration& ModelFile::Iteration(int k) const {
+  for (const auto& it : iterations) {
+    if (it.iteration == k) return it;
+  }
+  throw InputError(path, 0,
+                   fmt::format("no iteration {} (the file has 0 ... {})", k,
+                               iterations.empty() ? 0 : iterations.back().iteration));
+}
+
+ModelFile MakeModelFile(const SemSpec& spec, const SemResult& r) {
+  ModelFile m;
+  m.spec = spec;
+  m.channels = r.channels;
+  m.iterations = r.iterations;
+  m.selected = r.selected;
+  m.num_candidates = r.num_candidates;
+  m.selection_rule = fmt::format(
+      "fewest terms among the iterations whose {} is within {}% of the lowest",
+      r.iterations.empty() || r.iterations.front().validation_j.empty()
+          ? "identification J"
+          : "summed validation J",
+      spec.selection_tolerance_percent);
+  return m;
+}
+
+std::string ModelFileToJson(const ModelFile& m) {
+  json its = json::array();
+  for (const auto& it : m.iterations) {
+    json terms = json::array();
+    for (std::size_t t = 0; t < it.terms.size(); ++t) {
+      json factors = json::array();
+      for (const auto& f : it.terms[t].factors) {
+        factors.push_back({{"regressor", m.spec.regressors[f.regressor].name},
+                           {"delay", f.delay},
+                           {"power", f.power}});
+      }
+      terms.push_back({{"coefficient", it.coefficients[t]},
+                       {"name", TermName(m.spec, it.terms[t])},
+                       {"factors", factors}});
+    }
+    its.push_back({{"iteration", it.iteration},
+                   {"J", it.j},
+                   {"validation_J", it.validation_j},
+                   {"elapsed_s", it.elapsed_s},
+                   {"terms", terms}});
+  }
+  json ch = json::array();
+  for (const auto& c : m.channels) {
+    ch.push_back({{"name", c.name}, {"offset", c.offset}, {"scale", c.scale}});
+  }
+  json j = {{"format", "mrd-sem-model"},
+            {"version", 1},
+            {"spec", SpecToJson(m.spec)},
+            {"channels", ch},
+            {"warmup_samples", m.warmup_samples()},
+            {"num_candidates", m.num_candidates},
+            {"iterations", its},
+            {"selected", m.selected},
+            {"selection_rule", m.selection_rule}};
+  return j.dump(1) + "\n";
+}
+
+void SaveModelFile(const ModelFile& m, const std::string& path) {
+  WriteFileAtomic(path, ModelFileToJson(m));
+}
+
+ModelFile LoadModelFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path, 0, "cannot open model file");
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw InputError(path, 0, fmt::format("malformed JSON: {}", e.what()));
+  }
+  ModelFile m;
+  m.path = path;
+  try {
+    if (j.at("format").get<std::string>() != "mrd-sem-model") {
+      throw InputError(path, 0, "not an mrd model file (format != mrd-sem-model)");
+    }
+    if (j.at("version").get<int>() != 1) {
+      throw InputError(path, 0, fmt::format("unsupported version {}", j.at("version").dump()));
+    }
+    m.spec = SpecFromJson(j.at("spec"), path);
+    for (const auto& c : j.at("channels")) {
+      ChannelInfo ci{c.at("name").get<std::string>(), c.at("offset").get<double>(),
+                     c.at("scale").get<double>()};
+      if (!(ci.scale > 0.0) || !std::isfinite(ci.scale) || !std::isfinite(ci.offset)) {
+        throw InputError(path, 0, fmt::format("channel '{}': bad scale", ci.name));
+      }
+      m.channels.push_back(ci);
+    }
+    const auto signals = m.spec.Signals();
+    if (m.channels.size() != signals.size()) {
+      throw InputError(path, 0, "channels do not match the spec's signals");
+    }
+    for (std::size_t i = 0; i < signals.size(); ++i) {
+      if (m.channels[i].name != signals[i]) {
+        throw InputError(path, 0, fmt::format("channel {} is '{}', expected '{}'", i,
+                                              m.channels[i].name, signals[i]));
+      }
+    }
+    m.num_candidates = j.value("num_candidates", std::size_t{0});
+    for (const auto& ji : j.at("iterations")) {
+      SemIteration it;
+      it.iteration = ji.at("iteration").get<int>();
+      it.j = ji.at("J").is_null() ? std::numeric_limits<double>::infinity()
+                                  : ji.at("J").get<double>();
+      for (const auto& v : ji.at("validation_J")) {
+        it.validation_j.push_back(v.is_null() ? std::numeric_limits<double>::infinity()
+                                              : v.get<double>());
+      }
+      it.elapsed_s = ji.value("elapsed_s", 0.0);
+      for (const auto& jt : ji.at("terms")) {
+        SemTerm term;
+        for (const auto& jf : jt.at("factors")) {
+          const std::string name = jf.at("regressor").get<std::string>();
+          const int r = m.spec.RegressorIndex(name);
+          if (r < 0) {
+            throw InputError(path, 0,
+                             fmt::format("iteration {}: unknown regressor '{}'", it.iteration,
+                                         name));
+          }
+          term.factors.push_back({r, jf.at("delay").get<int>(), jf.at("power").get<int>()});
+        }
+        it.terms.push_back(std::move(term));
+        it.coefficients.push_back(jt.at("coefficient").get<double>());
+      }
+      m.iterations.push_back(std::move(it));
+    }
+    m.selected = j.at("selected").get<int>();
+    m.selection_rule = j.value("selection_rule", std::string());
+  } catch (const json::exception& e) {
+    throw InputError(path, 0, fmt::format("bad model file: {}", e.what()));
+  }
+  m.Iteration(m.selected);  // must exist
+  return m;
+}
+
+mrd::Model ToRuntimeModel(const ModelFile& m, int iteration) {
+  const SemIteration& it = m.Iteration(iteration);
+  auto fail = [&](const std::string& why) {
+    return InputError(m.path, 0,
+                      fmt::format("iteration {} does not fit the runtime model: {}", iteration,
+                                  why));
+  };
+  mrd::Model model;
+  if (it.terms.size() > kMaxTerms) {
+    throw fail(fmt::format("{} terms > capacity {}", it.terms.size(), kMaxTerms));
+  }
+  // Channels: output first, then those the terms read, in spec signal order.
+  std::vector<int> reg_map(m.spec.regressors.size(), -1);
+  std::vector<std::string> chans{m.spec.output};
+  std::vector<int> used_regs;
+  for (const auto& t : it.terms) {
+    for (const auto& f : t.factors) {
+      if (f.regressor < 0 || f.regressor >= static_cast<int>(reg_map.size())) {
+        throw fail("factor names an unknown regressor");
+      }
+      if (reg_map[f.regressor] < 0) {
+        reg_map[f.regressor] = 0;
+        used_regs.push_back(f.regressor);
+      }
+    }
+  }
+  std::sort(used_regs.begin(), used_regs.end());
+  if (used_regs.size() > kMaxRegressors) {
+    throw fail(fmt::format("{} elementary regressors > capacity {}", used_regs.size(),
+                           kMaxRegressors));
+  }
+  for (std::size_t i = 0; i < used_regs.size(); ++i) {
+    const auto& r = m.spec.regressors[used_regs[i]];
+    reg_map[used_regs[i]] = static_cast<int>(i);
+    if (std::find(chans.begin(), chans.end(), r.signal) == chans.end()) chans.push_back(r.signal);
+  }
+  if (chans.size() > kMaxChannels) {
+    throw fail(fmt::format("{} channels > capacity {}", chans.size(), kMaxChannels));
+  }
+  model.num_channels = static_cast<std::uint8_t>(chans.size());
+  model.output_channel = 0;
+  for (std::size_t c = 0; c < chans.size(); ++c) {
+    if (chans[c].size() > kMaxNameLength) {
+      throw fail(fmt::format("channel name '{}' longer than {} characters", chans[c],
+                             kMaxNameLength));
+    }
+    std::memcpy(model.channel_names[c].data(), chans[c].c_str(), chans[c].size() + 1);
+    const auto ch = std::find_if(m.channels.begin(), m.channels.end(),
+                                 [&](const ChannelInfo& ci) { return ci.name == chans[c]; });
+    model.scales[c] = {ch->offset, ch->scale};
+  }
+  model.num_regressors = static_cast<std::uint8_t>(used_regs.size());
+  for (std::size_t i = 0; i < used_regs.size(); ++i) {
+    const auto& r = m.spec.regressors[used_regs[i]];
+    model.regressors[i].channel = static_cast<std::uint8_t>(
+        std::find(chans.begin(), chans.end(), r.signal) - chans.begin());
+    model.regressors[i].transform = r.transform;
+    model.regressors[i].exponent = r.exponent;
+  }
+  model.num_terms = static_cast<std::uint8_t>(it.terms.size());
+  for (std::size_t t = 0; t < it.terms.size(); ++t) {
+    const auto& term = it.terms[t];
+    if (term.factors.size() > kMaxFactors) {
+      throw fail(fmt::format("term '{}' has {} factors > capacity {}", TermName(m.spec, term),
+                             term.factors.size(), kMaxFactors));
+    }
+    model.terms[t].num_factors = static_cast<std::uint8_t>(term.factors.size());
+    for (std::size_t k = 0; k < term.factors.size(); ++k) {
+      const auto& f = term.factors[k];
+      if (f.delay < 0 || f.delay > static_cast<int>(kMaxDelay)) {
+        throw fail(fmt::format("delay {} out of range 0 ... {}", f.delay, kMaxDelay));
+      }
+      if (f.power < 1 || f.power > kMaxPower) {
+        throw fail(fmt::format("power {} out of range 1 ... {}", f.power, kMaxPower));
+      }
+      model.terms[t].factors[k] = {static_cast<std::uint8_t>(reg_map[f.regressor]),
+                                   static_cast<std::uint8_t>(f.delay),
+                                   static_cast<std::uint8_t>(f.power)};
+    }
+    model.coefficients[t] = it.coefficients[t];
+  }
+  const Error e = model.Validate();
+  if (e != Error::kOk) throw fail(fmt::format("invalid model ({})", ErrorName(e)));
+  return model;
+}
+
+SimMetrics SimulateModel(const ModelFile& m, int iteration, const DataSet& data,
+                         std::vector<double>* ysim_raw) {
+  const mrd::Model model = ToRuntimeModel(m, iteration);
+  std::vector<const std::vector<double>*> cols(model.num_channels);
+  for (std::size_t c = 0; c < model.num_channels; ++c) {
+    cols[c] = &data.Column(model.channel_names[c].data());
+  }
+  if (!data.Has(m.spec.output)) {
+    throw InputError(data.path, 1, fmt::format("missing column '{}'", m.spec.output));
+  }
+  const auto& y = data.Column(m.spec.output);
+  const std::size_t n = data.rows();
+  const std::size_t d0 = static_cast<std::size_t>(m.warmup_samples());
+  if (n <= d0) throw InputError(data.path, 0, "too few rows to simulate");
+  mrd::ModelRunner runner(model);
+  std::array<double, kMaxChannels> row{};
+  const double scale = model.scales[0].scale;
+  const double offset = model.scales[0].offset;
+  SimMetrics r;
+  double sse = 0.0, sj = 0.0, sy = 0.0, syy = 0.0;
+  if (ysim_raw != nullptr) ysim_raw->assign(y.begin(), y.end());
+  for (std::size_t k = 0; k < n; ++k) {
+    for (std::size_t c = 0; c < model.num_channels; ++c) row[c] = (*cols[c])[k];
+    if (k < d0) {
+      runner.Seed(std::span<const double>(row.data(), model.num_channels));
+      continue;
+    }
+    const double yh = runner.Step(std::span<const double>(row.data(), model.num_channels));
+    if (ysim_raw != nullptr) (*ysim_raw)[k] = yh;
+    const double yn = (y[k] - offset) / scale;
+    const double yhn = (yh - offset) / scale;
+    if (!(std::fabs(yhn) <= m.spec.divergence_limit)) r.diverged = true;
+    const double e = yn - yhn;
+    const double w = m.spec.weighting == CostWeighting::kRelative
+                         ? 1.0 / std::max(std::fabs(yn), m.spec.floor)
+                         : 1.0;
+    sj += w * e * e;
+    sse += e * e;
+    sy += yn;
+    syy += yn * yn;
+  }
+  r.samples = n - d0;
+  const double nn = static_cast<double>(r.samples);
+  r.j = sj / nn;
+  r.mse = sse / nn;
+  r.mse_physical = r.mse * scale * scale;
+  r.rmse_physical = std::sqrt(r.mse_physical);
+  const double var = syy - sy * sy / nn;  // sum (y - mean)^2
+  r.rrse = var > 0.0 ? std::sqrt(sse / var) : std::numeric_limits<double>::infinity();
+  r.fit_percent = 100.0 * (1.0 - r.rrse);
+  if (!std::isfinite(r.j)) r.diverged = true;
+  return r;
+}
+
+}  // namespace mrd::host

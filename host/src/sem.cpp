@@ -1,0 +1,898 @@
+#include "mrd/host/sem.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <thread>
+#include <unordered_map>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
+
+#include "mrd/host/input_error.hpp"
+
+namespace mrd::host {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr std::size_t kBlock = 256;      // samples per block of the free-run pass
+constexpr std::size_t kChunk = 16;       // candidates per work item
+constexpr double kCollinear = 1e-13;     // relative Schur complement below which a
+                                         // candidate is taken as linearly dependent
+
+// Runs fn(item, worker) for item in [0, n) on `threads` workers (dynamic schedule).
+template <typename F>
+void ParallelFor(std::size_t n, int threads, F&& fn) {
+  const int w = std::max(1, std::min<int>(threads, static_cast<int>(n)));
+  if (w <= 1) {
+    for (std::size_t i = 0; i < n; ++i) fn(i, 0);
+    return;
+  }
+  std::atomic<std::size_t> next{0};
+  auto run = [&](int worker) {
+    for (std::size_t i = next++; i < n; i = next++) fn(i, worker);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < w; ++t) pool.emplace_back(run, t);
+  run(0);
+  for (auto& t : pool) t.join();
+}
+
+// Lowers an atomic double to v if v is smaller.
+void AtomicMin(std::atomic<double>& a, double v) {
+  double cur = a.load();
+  while (v < cur && !a.compare_exchange_weak(cur, v)) {
+  }
+}
+
+double Pow(double b, int p) {
+  double v = 1.0;
+  for (int i = 0; i < p; ++i) v *= b;
+  return v;
+}
+
+struct Segment {
+  std::size_t start = 0;  // stacked index of the first scored sample
+  std::size_t len = 0;
+  std::vector<double> seed;  // measured normalised output before start, oldest first
+};
+
+struct OutFactor {
+  Transform transform;
+  double exponent;
+  int delay;
+  int power;
+};
+
+struct Cand {
+  SemTerm term;
+  std::vector<int> in_cols;   // elementary power columns of the input factors
+  std::vector<int> out_cols;  // ... of the output factors (measured output, one-step)
+  std::vector<OutFactor> out; // output factors, for the general free run
+  int ypow = 0;               // fast path: power of y(k-1)
+  double ss = 0.0;            // phi' phi
+  double sy = 0.0;            // phi' y
+};
+
+// Everything the search needs about the identification data.
+class Engine {
+ public:
+  Engine(const SemSpec& spec, std::span<const DataSet> data, const std::vector<ChannelInfo>& ch,
+         int threads)
+      : spec_(spec), threads_(std::max(1, threads)) {
+    const int dmax = spec.MaxDelay();
+    const auto signals = spec.Signals();
+    fast_ = true;
+    for (const auto& r : spec.regressors) {
+      if (r.signal == spec.output &&
+          (r.transform != Transform::kIdentity || r.delays != std::vector<int>{1})) {
+        fast_ = false;
+      }
+    }
+    // Stacked scored samples.
+    std::vector<std::vector<const std::vector<double>*>> raw(data.size());
+    for (std::size_t d = 0; d < data.size(); ++d) {
+      Segment seg;
+      seg.start = n_;
+      seg.len = data[d].rows() - static_cast<std::size_t>(dmax);
+      const auto& y = data[d].Column(spec.output);
+      for (int k = 0; k < dmax; ++k) seg.seed.push_back(y[k] / ch[0].scale);
+      const double nd = static_cast<double>(seg.len);
+      for (std::size_t k = static_cast<std::size_t>(dmax); k < data[d].rows(); ++k) {
+        const double yn = y[k] / ch[0].scale;
+        y_.push_back(yn);
+        const double w = spec.weighting == CostWeighting::kRelative
+                             ? 1.0 / std::max(std::fabs(yn), spec.floor)
+                             : 1.0;
+        wn_.push_back(w / nd);
+      }
+      n_ += seg.len;
+      segs_.push_back(std::move(seg));
+    }
+    // Elementary power columns.
+    col_index_.assign(spec.regressors.size(), {});
+    base_index_.assign(spec.regressors.size(), {});
+    for (std::size_t r = 0; r < spec.regressors.size(); ++r) {
+      const auto& reg = spec.regressors[r];
+      const std::size_t ci = static_cast<std::size_t>(
+          std::find(signals.begin(), signals.end(), reg.signal) - signals.begin());
+      col_index_[r].assign(kMaxDelay + 1, std::vector<int>(kMaxPower + 1, -1));
+      base_index_[r].assign(kMaxDelay + 1, -1);
+      for (int delay : reg.delays) {
+        std::vector<double> base;
+        base.reserve(n_);
+        for (std::size_t d = 0; d < data.size(); ++d) {
+          const auto& s = data[d].Column(reg.signal);
+          for (std::size_t k = static_cast<std::size_t>(dmax); k < data[d].rows(); ++k) {
+            base.push_back(
+                ApplyTransform(reg.transform, reg.exponent,
+                               s[k - static_cast<std::size_t>(delay)] / ch[ci].scale));
+          }
+        }
+        base_index_[r][delay] = static_cast<int>(base_.size());
+        base_.push_back(base);
+        for (int p : reg.powers) {
+          std::vector<double> col(n_);
+          for (std::size_t g = 0; g < n_; ++g) col[g] = Pow(base[g], p);
+          col_index_[r][delay][p] = static_cast<int>(cols_.size());
+          cols_.push_back(std::move(col));
+        }
+      }
+    }
+  }
+
+  // Registers a candidate term; returns its index.
+  int AddCandidate(const SemTerm& t) {
+    Cand c;
+    c.term = t;
+    for (const auto& f : t.factors) {
+      const auto& reg = spec_.regressors[f.regressor];
+      int col = col_index_[f.regressor][f.delay][f.power];
+      if (col < 0) {  // power not offered (merged initial term): add the column
+        const auto& b = base_[base_index_[f.regressor][f.delay]];
+        std::vector<double> v(n_);
+        for (std::size_t g = 0; g < n_; ++g) v[g] = Pow(b[g], f.power);
+        col = static_cast<int>(cols_.size());
+        col_index_[f.regressor][f.delay][f.power] = col;
+        cols_.push_back(std::move(v));
+      }
+      if (reg.signal == spec_.output) {
+        c.out_cols.push_back(col);
+        c.out.push_back({reg.transform, reg.exponent, f.delay, f.power});
+        c.ypow += f.power;
+      } else {
+        c.in_cols.push_back(col);
+      }
+    }
+    cands_.push_back(std::move(c));
+    return static_cast<int>(cands_.size()) - 1;
+  }
+
+  // phi' phi and phi' y of every candidate.
+  void PrepareCandidates() {
+    ParallelFor((cands_.size() + kChunk - 1) / kChunk, threads_, [&](std::size_t item, int) {
+      std::vector<double> buf(kBlock);
+      for (std::size_t c = item * kChunk; c < std::min(cands_.size(), (item + 1) * kChunk); ++c) {
+        double ss = 0.0, sy = 0.0;
+        for (std::size_t g0 = 0; g0 < n_; g0 += kBlock) {
+          const std::size_t len = std::min(kBlock, n_ - g0);
+          Phi(cands_[c], g0, len, buf.data());
+          for (std::size_t i = 0; i < len; ++i) {
+            ss += buf[i] * buf[i];
+            sy += buf[i] * y_[g0 + i];
+          }
+        }
+        cands_[c].ss = ss;
+        cands_[c].sy = sy;
+      }
+    });
+  }
+
+  std::size_t num_candidates() const { return cands_.size(); }
+  const Cand& cand(int c) const { return cands_[c]; }
+  bool fast() const { return fast_; }
+  double divergence_limit() const { return spec_.divergence_limit; }
+
+  // Cross products phi_t' phi_c for every candidate c (cached).
+  const std::vector<double>& Cross(int t) {
+    auto it = cross_.find(t);
+    if (it != cross_.end()) return it->second;
+    std::vector<double> phit(n_);
+    for (std::size_t g0 = 0; g0 < n_; g0 += kBlock) {
+      Phi(cands_[t], g0, std::min(kBlock, n_ - g0), phit.data() + g0);
+    }
+    std::vector<double> out(cands_.size());
+    ParallelFor((cands_.size() + kChunk - 1) / kChunk, threads_, [&](std::size_t item, int) {
+      std::vector<double> buf(kBlock);
+      for (std::size_t c = item * kChunk; c < std::min(cands_.size(), (item + 1) * kChunk); ++c) {
+        double s = 0.0;
+        for (std::size_t g0 = 0; g0 < n_; g0 += kBlock) {
+          const std::size_t len = std::min(kBlock, n_ - g0);
+          Phi(cands_[c], g0, len, buf.data());
+          const double* p = phit.data() + g0;
+          for (std::size_t i = 0; i < len; ++i) s += buf[i] * p[i];
+        }
+        out[c] = s;
+      }
+    });
+    return cross_.emplace(t, std::move(out)).first->second;
+  }
+
+  // Input part of a candidate, whole stacked length (cached).
+  const std::vector<double>& U(int t) {
+    auto it = u_.find(t);
+    if (it != u_.end()) return it->second;
+    std::vector<double> u(n_);
+    for (std::size_t g0 = 0; g0 < n_; g0 += kBlock) {
+      Input(cands_[t], g0, std::min(kBlock, n_ - g0), u.data() + g0);
+    }
+    return u_.emplace(t, std::move(u)).first->second;
+  }
+
+  // LS on the one-step regression for a set of terms; false when singular.
+  bool Solve(const std::vector<int>& terms, std::vector<double>* theta) {
+    const std::size_t m = terms.size();
+    theta->assign(m, 0.0);
+    if (m == 0) return true;
+    Eigen::MatrixXd g(m, m);
+    Eigen::VectorXd b(m);
+    for (std::size_t i = 0; i < m; ++i) {
+      const auto& ci = Cross(terms[i]);
+      for (std::size_t j = 0; j < m; ++j) g(i, j) = ci[terms[j]];
+      b(i) = cands_[terms[i]].sy;
+    }
+    Eigen::LLT<Eigen::MatrixXd> llt(g);
+    Eigen::VectorXd x;
+    if (llt.info() == Eigen::Success) {
+      x = llt.solve(b);
+    } else {
+      x = g.completeOrthogonalDecomposition().solve(b);
+    }
+    for (std::size_t i = 0; i < m; ++i) {
+      if (!std::isfinite(x(i))) return false;
+      (*theta)[i] = x(i);
+    }
+    return true;
+  }
+
+  // One simulation job: model terms (shared) with own coefficients, plus an optional extra
+  // candidate computed on the fly.
+  struct Job {
+    std::vector<double> theta;  // per shared term
+    int extra = -1;
+    double theta_extra = 0.0;
+    double cost = 0.0;
+    bool dead = false;  // diverged or exceeded the bound
+    bool diverged = false;
+  };
+
+  // Free-run costs of jobs over the shared terms. A job stops (dead) once its partial cost
+  // exceeds bound (costs above the bound are then lower bounds only).
+  void Simulate(const std::vector<int>& terms, std::span<Job> jobs, const std::atomic<double>& bound,
+                std::vector<double>& scratch) {
+    if (fast_) {
+      SimulateFast(terms, jobs, bound, scratch);
+    } else {
+      SimulateGeneral(terms, jobs, bound, scratch);
+    }
+  }
+
+  std::size_t n() const { return n_; }
+  double YtWy() const {
+    double s = 0.0;
+    for (std::size_t g = 0; g < n_; ++g) s += wn_[g] * y_[g] * y_[g];
+    return s;
+  }
+
+ private:
+  void Input(const Cand& c, std::size_t g0, std::size_t len, double* out) const {
+    if (c.in_cols.empty()) {
+      std::fill(out, out + len, 1.0);
+      return;
+    }
+    const double* a = cols_[c.in_cols[0]].data() + g0;
+    if (c.in_cols.size() == 1) {
+      std::copy(a, a + len, out);
+      return;
+    }
+    const double* b = cols_[c.in_cols[1]].data() + g0;
+    if (c.in_cols.size() == 2) {
+      for (std::size_t i = 0; i < len; ++i) out[i] = a[i] * b[i];
+      return;
+    }
+    const double* d = cols_[c.in_cols[2]].data() + g0;
+    for (std::size_t i = 0; i < len; ++i) out[i] = a[i] * b[i] * d[i];
+    for (std::size_t f = 3; f < c.in_cols.size(); ++f) {
+      const double* e = cols_[c.in_cols[f]].data() + g0;
+      for (std::size_t i = 0; i < len; ++i) out[i] *= e[i];
+    }
+  }
+
+  void Phi(const Cand& c, std::size_t g0, std::size_t len, double* out) const {
+    Input(c, g0, len, out);
+    for (int col : c.out_cols) {
+      const double* e = cols_[col].data() + g0;
+      for (std::size_t i = 0; i < len; ++i) out[i] *= e[i];
+    }
+  }
+
+  static constexpr std::size_t kLanes = 4;  // free runs advanced in lockstep (hides the
+                                            // latency of the scalar recursion)
+
+  // c_q(k) = sum over terms of y-power q of theta * u(k) for one job and one block;
+  // c[q * kBlock + s]. ub: scratch of kBlock.
+  void Coefficients(const std::vector<const double*>& u,
+                    const std::vector<std::vector<std::size_t>>& by_q, const Job& job,
+                    std::size_t g0, std::size_t len, double* c, double* ub) const {
+    for (std::size_t q = 0; q < by_q.size(); ++q) {
+      double* cq = c + q * kBlock;
+      const auto& idx = by_q[q];
+      std::size_t i = 0;
+      bool first = true;
+      for (; i + 4 <= idx.size(); i += 4) {
+        const double *a0 = u[idx[i]] + g0, *a1 = u[idx[i + 1]] + g0, *a2 = u[idx[i + 2]] + g0,
+                     *a3 = u[idx[i + 3]] + g0;
+        const double t0 = job.theta[idx[i]], t1 = job.theta[idx[i + 1]],
+                     t2 = job.theta[idx[i + 2]], t3 = job.theta[idx[i + 3]];
+        if (first) {
+          for (std::size_t k = 0; k < len; ++k) {
+            cq[k] = (t0 * a0[k] + t1 * a1[k]) + (t2 * a2[k] + t3 * a3[k]);
+          }
+        } else {
+          for (std::size_t k = 0; k < len; ++k) {
+            cq[k] += (t0 * a0[k] + t1 * a1[k]) + (t2 * a2[k] + t3 * a3[k]);
+          }
+        }
+        first = false;
+      }
+      for (; i < idx.size(); ++i) {
+        const double* a0 = u[idx[i]] + g0;
+        const double t0 = job.theta[idx[i]];
+        if (first) {
+          for (std::size_t k = 0; k < len; ++k) cq[k] = t0 * a0[k];
+        } else {
+          for (std::size_t k = 0; k < len; ++k) cq[k] += t0 * a0[k];
+        }
+        first = false;
+      }
+      if (first) std::fill(cq, cq + len, 0.0);
+    }
+    if (job.extra >= 0) {
+      const Cand& ex = cands_[job.extra];
+      Input(ex, g0, len, ub);
+      const double th = job.theta_extra;
+      double* cq = c + static_cast<std::size_t>(ex.ypow) * kBlock;
+      for (std::size_t k = 0; k < len; ++k) cq[k] += th * ub[k];
+    }
+  }
+
+  // Advances kLanes free runs y(k) = sum_q c_q(k) y(k-1)^q over one block (Horner), adding
+  // the weighted squared errors to cost and flagging |y| beyond lim (or NaN) in bad.
+  template <int NQ>
+  static void Recurse(const double* const* c, std::size_t nq_rt, const double* y,
+                      const double* w, std::size_t len, double lim, double* yp, double* cost,
+                      bool* bad) {
+    const int nq = NQ > 0 ? NQ : static_cast<int>(nq_rt);
+    double p[kLanes], acc[kLanes];
+    bool b[kLanes];
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      p[l] = yp[l];
+      acc[l] = 0.0;
+      b[l] = false;
+    }
+    for (std::size_t s = 0; s < len; ++s) {
+      for (std::size_t l = 0; l < kLanes; ++l) {
+        double yk = c[l][static_cast<std::size_t>(nq - 1) * kBlock + s];
+        for (int q = nq - 2; q >= 0; --q) yk = yk * p[l] + c[l][static_cast<std::size_t>(q) * kBlock + s];
+        const double e = y[s] - yk;
+        acc[l] += w[s] * (e * e);
+        b[l] |= !(std::fabs(yk) <= lim);
+        p[l] = yk;
+      }
+    }
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      yp[l] = p[l];
+      cost[l] = acc[l];
+      bad[l] = b[l];
+    }
+  }
+
+  void SimulateFast(const std::vector<int>& terms, std::span<Job> jobs,
+                    const std::atomic<double>& bound, std::vector<double>& scratch) {
+    int q_max = 0;
+    for (int t : terms) q_max = std::max(q_max, cands_[t].ypow);
+    for (const Job& j : jobs) {
+      if (j.extra >= 0) q_max = std::max(q_max, cands_[j.extra].ypow);
+    }
+    const std::size_t nq = static_cast<std::size_t>(q_max) + 1;
+    std::vector<std::vector<std::size_t>> by_q(nq);
+    for (std::size_t i = 0; i < terms.size(); ++i) {
+      by_q[static_cast<std::size_t>(cands_[terms[i]].ypow)].push_back(i);
+    }
+    // Per lane: nq coefficient blocks; one more block of scratch; one all-zero dummy lane.
+    scratch.assign((kLanes * nq + 1 + nq) * kBlock, 0.0);
+    double* ub = scratch.data() + kLanes * nq * kBlock;
+    const double* dummy = ub + kBlock;
+    std::vector<const double*> u(terms.size());
+    for (std::size_t i = 0; i < terms.size(); ++i) u[i] = U(terms[i]).data();
+    std::vector<double> yprev(jobs.size());
+    std::vector<std::size_t> alive;
+    const double lim = spec_.divergence_limit;
+    for (const Segment& seg : segs_) {
+      for (std::size_t j = 0; j < jobs.size(); ++j) yprev[j] = seg.seed.back();
+      for (std::size_t g0 = seg.start; g0 < seg.start + seg.len; g0 += kBlock) {
+        const std::size_t len = std::min(kBlock, seg.start + seg.len - g0);
+        const double bnd = bound.load(std::memory_order_relaxed);
+        alive.clear();
+        for (std::size_t j = 0; j < jobs.size(); ++j) {
+          if (!jobs[j].dead) alive.push_back(j);
+        }
+        for (std::size_t a0 = 0; a0 < alive.size(); a0 += kLanes) {
+          const double* c[kLanes];
+          double yp[kLanes], cost[kLanes];
+          bool bad[kLanes];
+          for (std::size_t l = 0; l < kLanes; ++l) {
+            if (a0 + l < alive.size()) {
+              double* cl = scratch.data() + l * nq * kBlock;
+              Coefficients(u, by_q, jobs[alive[a0 + l]], g0, len, cl, ub);
+              c[l] = cl;
+              yp[l] = yprev[alive[a0 + l]];
+            } else {
+              c[l] = dummy;
+              yp[l] = 0.0;
+            }
+          }
+          const double* y = y_.data() + g0;
+          const double* w = wn_.data() + g0;
+          switch (nq) {
+            case 1:
+              Recurse<1>(c, nq, y, w, len, lim, yp, cost, bad);
+              break;
+            case 2:
+              Recurse<2>(c, nq, y, w, len, lim, yp, cost, bad);
+              break;
+            case 3:
+              Recurse<3>(c, nq, y, w, len, lim, yp, cost, bad);
+              break;
+            default:
+              Recurse<0>(c, nq, y, w, len, lim, yp, cost, bad);
+              break;
+          }
+          for (std::size_t l = 0; l < kLanes && a0 + l < alive.size(); ++l) {
+            const std::size_t j = alive[a0 + l];
+            Job& job = jobs[j];
+            yprev[j] = yp[l];
+            job.cost += cost[l];
+            if (bad[l] || !std::isfinite(job.cost)) {
+              job.dead = job.diverged = true;
+              job.cost = kInf;
+            } else if (job.cost > bnd) {
+              job.dead = true;
+            }
+          }
+        }
+      }
+    }
+  }
+
+  void SimulateGeneral(const std::vector<int>& terms, std::span<Job> jobs,
+                       const std::atomic<double>& bound, std::vector<double>& scratch) {
+    std::vector<const double*> u(terms.size());
+    for (std::size_t i = 0; i < terms.size(); ++i) u[i] = U(terms[i]).data();
+    const double lim = spec_.divergence_limit;
+    scratch.resize(kBlock);
+    for (Job& job : jobs) {
+      const Cand* ex = job.extra >= 0 ? &cands_[job.extra] : nullptr;
+      for (const Segment& seg : segs_) {
+        if (job.dead) break;
+        std::vector<double> hist(seg.seed);  // simulated output, oldest first
+        hist.reserve(seg.seed.size() + seg.len);
+        const std::size_t off = seg.seed.size();
+        for (std::size_t g0 = seg.start; g0 < seg.start + seg.len && !job.dead; g0 += kBlock) {
+          const std::size_t len = std::min(kBlock, seg.start + seg.len - g0);
+          if (ex != nullptr) Input(*ex, g0, len, scratch.data());
+          double cost = 0.0;
+          bool bad = false;
+          for (std::size_t s = 0; s < len; ++s) {
+            const std::size_t k = off + (g0 - seg.start) + s;  // index into hist
+            auto out_part = [&](const Cand& c) {
+              double v = 1.0;
+              for (const OutFactor& f : c.out) {
+                v *= Pow(ApplyTransform(f.transform, f.exponent,
+                                        hist[k - static_cast<std::size_t>(f.delay)]),
+                         f.power);
+              }
+              return v;
+            };
+            double yk = 0.0;
+            for (std::size_t i = 0; i < terms.size(); ++i) {
+              yk += job.theta[i] * u[i][g0 + s] * out_part(cands_[terms[i]]);
+            }
+            if (ex != nullptr) yk += job.theta_extra * scratch[s] * out_part(*ex);
+            const double e = y_[g0 + s] - yk;
+            cost += wn_[g0 + s] * e * e;
+            bad |= !(std::fabs(yk) <= lim);
+            hist.push_back(yk);
+          }
+          job.cost += cost;
+          if (bad || !std::isfinite(job.cost)) {
+            job.dead = job.diverged = true;
+            job.cost = kInf;
+          } else if (job.cost > bound.load(std::memory_order_relaxed)) {
+            job.dead = true;
+          }
+        }
+      }
+    }
+  }
+
+  const SemSpec& spec_;
+  int threads_;
+  bool fast_ = true;
+  std::size_t n_ = 0;
+  std::vector<double> y_, wn_;
+  std::vector<Segment> segs_;
+  std::vector<std::vector<std::vector<int>>> col_index_;  // [regressor][delay][power]
+  std::vector<std::vector<double>> cols_;
+  std::vector<std::vector<int>> base_index_;  // [regressor][delay] -> base_
+  std::vector<std::vector<double>> base_;     // transformed signal, power 1
+  std::vector<Cand> cands_;
+  std::unordered_map<int, std::vector<double>> cross_;
+  std::unordered_map<int, std::vector<double>> u_;
+};
+
+// Outcome of trying one candidate.
+struct Trial {
+  int cand = -1;
+  double j = kInf;
+  double rank = 0.0;  // one-step SSE reduction
+  std::vector<double> theta;  // model terms then the candidate
+};
+
+class Search {
+ public:
+  Search(Engine& e, int threads) : e_(e), threads_(std::max(1, threads)) {}
+
+  // Full-model free-run cost (no bound), +inf when diverging or singular.
+  double Cost(const std::vector<int>& terms, std::vector<double>* theta) {
+    if (!e_.Solve(terms, theta)) return kInf;
+    if (terms.empty()) return e_.YtWy();
+    return CostWith(terms, *theta, kInf);
+  }
+
+  double CostWith(const std::vector<int>& terms, const std::vector<double>& theta, double bnd) {
+    Engine::Job job;
+    job.theta = theta;
+    std::atomic<double> bound{bnd};
+    std::vector<double> scratch;
+    e_.Simulate(terms, std::span<Engine::Job>(&job, 1), bound, scratch);
+    return job.dead ? (job.diverged ? kInf : job.cost) : job.cost;
+  }
+
+  // Tries adding every eligible candidate. Returns the chosen trial (cand < 0: none
+  // admissible). first: first-improvement with target j_threshold.
+  Trial TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
+               double j_threshold, int* rejected) {
+    std::atomic<int> n_rejected{0};
+    struct Report {
+      std::atomic<int>& n;
+      int* out;
+      ~Report() { *out = n.load(); }
+    } report{n_rejected, rejected};
+    const std::size_t m = model.size();
+    // Cholesky of the model Gram matrix.
+    Eigen::MatrixXd g(m, m);
+    for (std::size_t i = 0; i < m; ++i) {
+      const auto& ci = e_.Cross(model[i]);
+      for (std::size_t j = 0; j < m; ++j) g(i, j) = ci[model[j]];
+    }
+    Eigen::LLT<Eigen::MatrixXd> llt(g);
+    std::vector<const std::vector<double>*> cross(m);
+    for (std::size_t i = 0; i < m; ++i) cross[i] = &e_.Cross(model[i]);
+    // Bordered LS for every candidate, and its one-step SSE reduction for ranking.
+    const std::size_t nc = e_.num_candidates();
+    std::vector<Trial> trials(nc);
+    std::vector<char> in_model(nc, 0);
+    for (int t : model) in_model[t] = 1;
+    ParallelFor((nc + kChunk - 1) / kChunk, threads_, [&](std::size_t item, int) {
+      Eigen::VectorXd gc(m), z(m);
+      Eigen::Map<const Eigen::VectorXd> wv(w.data(), static_cast<Eigen::Index>(m));
+      for (std::size_t c = item * kChunk; c < std::min(nc, (item + 1) * kChunk); ++c) {
+        Trial& tr = trials[c];
+        if (in_model[c]) continue;
+        const Cand& cd = e_.cand(static_cast<int>(c));
+        for (std::size_t i = 0; i < m; ++i) gc(i) = (*cross[i])[c];
+        double sigma = cd.ss, r = cd.sy;
+        if (m > 0) {
+          z = llt.solve(gc);
+          sigma -= gc.dot(z);
+          r -= gc.dot(wv);
+        }
+        if (!(sigma > kCollinear * cd.ss) || !std::isfinite(sigma)) {
+          ++n_rejected;
+          continue;
+        }
+        const double th = r / sigma;
+        tr.cand = static_cast<int>(c);
+        tr.rank = r * r / sigma;
+        tr.theta.resize(m + 1);
+        for (std::size_t i = 0; i < m; ++i) tr.theta[i] = w[i] - z(i) * th;
+        tr.theta[m] = th;
+      }
+    });
+    std::vector<int> order;
+    for (std::size_t c = 0; c < nc; ++c) {
+      if (trials[c].cand >= 0) order.push_back(static_cast<int>(c));
+    }
+    // Rank by one-step criterion (largest SSE reduction first), ties by index.
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+      return trials[a].rank > trials[b].rank;
+    });
+    Trial none;
+    if (order.empty()) return none;
+    // Shared bound for early stopping. First improvement never lowers it below the
+    // threshold, so no candidate that would meet the threshold is cut short.
+    const double floor = first ? j_threshold : -kInf;
+    std::atomic<double> best{kInf};
+    for (int t : model) e_.U(t);  // materialise before the workers read them
+    auto run_chunk = [&](std::size_t begin, std::size_t end, std::vector<double>& scratch) {
+      std::vector<Engine::Job> jobs(end - begin);
+      for (std::size_t i = begin; i < end; ++i) {
+        Trial& tr = trials[order[i]];
+        jobs[i - begin].theta.assign(tr.theta.begin(), tr.theta.end() - 1);
+        jobs[i - begin].extra = tr.cand;
+        jobs[i - begin].theta_extra = tr.theta.back();
+      }
+      e_.Simulate(model, jobs, best, scratch);
+      for (std::size_t i = begin; i < end; ++i) {
+        const Engine::Job& job = jobs[i - begin];
+        Trial& tr = trials[order[i]];
+        tr.j = job.dead ? kInf : job.cost;
+        if (!job.dead) AtomicMin(best, std::max(job.cost, floor));
+        if (job.diverged) ++n_rejected;
+      }
+    };
+    if (!first) {
+      const std::size_t chunks = (order.size() + kChunk - 1) / kChunk;
+      std::vector<std::vector<double>> scratch(static_cast<std::size_t>(threads_));
+      ParallelFor(chunks, threads_, [&](std::size_t item, int worker) {
+        run_chunk(item * kChunk, std::min(order.size(), (item + 1) * kChunk), scratch[worker]);
+      });
+      int pick = -1;
+      for (int c : order) {
+        if (trials[c].j < kInf && (pick < 0 || trials[c].j < trials[pick].j ||
+                                   (trials[c].j == trials[pick].j && c < pick))) {
+          pick = c;
+        }
+      }
+      return pick < 0 ? none : trials[pick];
+    }
+    // First improvement: rank order, in rounds of threads*kChunk candidates.
+    const std::size_t round = static_cast<std::size_t>(threads_) * kChunk;
+    std::vector<std::vector<double>> scratch(static_cast<std::size_t>(threads_));
+    int fallback = -1;
+    for (std::size_t r0 = 0; r0 < order.size(); r0 += round) {
+      const std::size_t r1 = std::min(order.size(), r0 + round);
+      const std::size_t chunks = (r1 - r0 + kChunk - 1) / kChunk;
+      ParallelFor(chunks, threads_, [&](std::size_t item, int worker) {
+        run_chunk(r0 + item * kChunk, std::min(r1, r0 + (item + 1) * kChunk), scratch[worker]);
+      });
+      for (std::size_t i = r0; i < r1; ++i) {
+        const int c = order[i];
+        if (trials[c].j <= j_threshold) return trials[c];
+        if (trials[c].j < kInf && (fallback < 0 || trials[c].j < trials[fallback].j)) {
+          fallback = c;
+        }
+      }
+    }
+    return fallback < 0 ? none : trials[fallback];
+  }
+
+ private:
+  Engine& e_;
+  int threads_;
+};
+
+std::size_t SignalLine(const SemSpec& spec, const std::string& signal) {
+  if (signal == spec.output) return spec.output_line;
+  for (const auto& r : spec.regressors) {
+    if (r.signal == signal) return r.signal_line;
+  }
+  return 0;
+}
+
+void CheckData(const SemSpec& spec, std::span<const DataSet> data) {
+  for (const auto& d : data) {
+    for (const auto& s : spec.Signals()) {
+      if (!d.Has(s)) {
+        throw InputError(spec.path, SignalLine(spec, s),
+                         fmt::format("unknown column '{}': not in data file {}", s, d.path));
+      }
+    }
+    if (d.rows() <= static_cast<std::size_t>(spec.MaxDelay()) + 1) {
+      throw InputError(d.path, 0,
+                       fmt::format("{} rows: too short for the spec's largest delay {}",
+                                   d.rows(), spec.MaxDelay()));
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<ChannelInfo> ComputeScales(const SemSpec& spec, std::span<const DataSet> data) {
+  CheckData(spec, data);
+  std::vector<ChannelInfo> out;
+  for (const auto& s : spec.Signals()) {
+    ChannelInfo c;
+    c.name = s;
+    double mx = 0.0;
+    for (const auto& d : data) {
+      for (double v : d.Column(s)) mx = std::max(mx, std::fabs(v));
+    }
+    c.scale = mx > 0.0 ? mx : 1.0;
+    out.push_back(c);
+  }
+  return out;
+}
+
+double SimulateCost(const SemSpec& spec, const std::vector<ChannelInfo>& channels,
+                    const std::vector<SemTerm>& terms, const std::vector<double>& coefficients,
+                    const DataSet& data, std::vector<double>* ysim) {
+  const auto signals = spec.Signals();
+  std::vector<const std::vector<double>*> col(signals.size());
+  for (std::size_t i = 0; i < signals.size(); ++i) col[i] = &data.Column(signals[i]);
+  std::vector<std::size_t> reg_channel(spec.regressors.size());
+  for (std::size_t r = 0; r < spec.regressors.size(); ++r) {
+    reg_channel[r] = static_cast<std::size_t>(
+        std::find(signals.begin(), signals.end(), spec.regressors[r].signal) - signals.begin());
+  }
+  const std::size_t n = data.rows();
+  const std::size_t d0 = static_cast<std::size_t>(spec.MaxDelay());
+  std::vector<double> y(n);
+  for (std::size_t k = 0; k < n; ++k) y[k] = (*col[0])[k] / channels[0].scale;
+  std::vector<double> yh(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(std::min(d0, n)));
+  yh.resize(n, 0.0);
+  double cost = 0.0;
+  bool bad = false;
+  for (std::size_t k = d0; k < n; ++k) {
+    double v = 0.0;
+    for (std::size_t t = 0; t < terms.size(); ++t) {
+      double tv = 1.0;
+      for (const auto& f : terms[t].factors) {
+        const auto& reg = spec.regressors[f.regressor];
+        const std::size_t ci = reg_channel[f.regressor];
+        const std::size_t kk = k - static_cast<std::size_t>(f.delay);
+        const double s = ci == 0 ? yh[kk] : (*col[ci])[kk] / channels[ci].scale;
+        tv *= Pow(ApplyTransform(reg.transform, reg.exponent, s), f.power);
+      }
+      v += coefficients[t] * tv;
+    }
+    yh[k] = v;
+    bad |= !(std::fabs(v) <= spec.divergence_limit);
+    const double e = y[k] - v;
+    const double w = spec.weighting == CostWeighting::kRelative
+                         ? 1.0 / std::max(std::fabs(y[k]), spec.floor)
+                         : 1.0;
+    cost += w * e * e;
+  }
+  if (ysim != nullptr) *ysim = yh;
+  if (bad || !std::isfinite(cost)) return kInf;
+  return cost / static_cast<double>(n - d0);
+}
+
+int SelectIteration(const std::vector<SemIteration>& its, double tolerance_percent) {
+  if (its.empty()) return 0;
+  auto score = [](const SemIteration& it) {
+    if (it.validation_j.empty()) return it.j;
+    double s = 0.0;
+    for (double v : it.validation_j) s += v;
+    return s;
+  };
+  double best = kInf;
+  for (const auto& it : its) best = std::min(best, score(it));
+  const SemIteration* pick = nullptr;
+  for (const auto& it : its) {
+    const double s = score(it);
+    if (!(s <= best * (1.0 + tolerance_percent / 100.0))) continue;
+    if (pick == nullptr || it.terms.size() < pick->terms.size() ||
+        (it.terms.size() == pick->terms.size() && s < score(*pick))) {
+      pick = &it;
+    }
+  }
+  return pick == nullptr ? its.back().iteration : pick->iteration;
+}
+
+SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
+                   std::span<const DataSet> validation, const SemOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (identification.empty()) throw InputError("", 0, "no identification data");
+  CheckData(spec, identification);
+  CheckData(spec, validation);
+  SemResult res;
+  res.channels = ComputeScales(spec, identification);
+  const Strategy strategy = o.strategy.value_or(spec.strategy);
+  const double threshold = o.threshold_percent.value_or(spec.threshold_percent);
+  const int max_it = o.max_iterations.value_or(spec.max_iterations);
+  const double target = o.target_j.value_or(spec.target_j);
+  const auto& initial = o.initial ? *o.initial : spec.initial;
+
+  Engine eng(spec, identification, res.channels, o.threads);
+  std::map<std::string, int> by_key;
+  for (const SemTerm& t : GenerateCandidates(spec)) {
+    by_key.emplace(TermKey(spec, t), eng.AddCandidate(t));
+  }
+  res.num_candidates = eng.num_candidates();
+  res.fast_path = eng.fast();
+  std::vector<int> model;
+  for (const auto& text : initial) {
+    const SemTerm t = ParseTerm(spec, text, o.initial ? "" : spec.path, 0);
+    const std::string key = TermKey(spec, t);
+    auto it = by_key.find(key);
+    const int idx = it != by_key.end() ? it->second : eng.AddCandidate(t);
+    by_key.emplace(key, idx);
+    if (std::find(model.begin(), model.end(), idx) == model.end()) model.push_back(idx);
+  }
+  eng.PrepareCandidates();
+
+  Search search(eng, o.threads);
+  std::vector<double> theta;
+  double j = search.Cost(model, &theta);
+  auto record = [&](int iteration, int rejected) {
+    SemIteration it;
+    it.iteration = iteration;
+    it.rejected = rejected;
+    for (int t : model) it.terms.push_back(eng.cand(t).term);
+    it.coefficients = theta;
+    it.j = j;
+    for (const auto& v : validation) {
+      it.validation_j.push_back(SimulateCost(spec, res.channels, it.terms, theta, v));
+    }
+    it.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (o.progress) o.progress(it);
+    res.iterations.push_back(std::move(it));
+  };
+  record(0, 0);
+  for (int iteration = 1; iteration <= max_it; ++iteration) {
+    if (j <= target) break;
+    const double j_prev = j;
+    int rejected = 0;
+    const Trial tr = search.TryAdd(model, theta, strategy == Strategy::kFirst,
+                                   j_prev * (1.0 - threshold / 100.0), &rejected);
+    if (tr.cand < 0) {  // nothing admissible
+      res.exhausted_rejected = rejected;
+      break;
+    }
+    model.push_back(tr.cand);
+    j = search.Cost(model, &theta);
+    // Pruning.
+    while (model.size() > 1) {
+      double best = kInf;
+      std::size_t drop = 0;
+      std::vector<double> best_theta;
+      for (std::size_t i = 0; i < model.size(); ++i) {
+        std::vector<int> reduced = model;
+        reduced.erase(reduced.begin() + static_cast<std::ptrdiff_t>(i));
+        std::vector<double> th;
+        if (!eng.Solve(reduced, &th)) continue;
+        const double jr = search.CostWith(reduced, th, std::min(best, j_prev));
+        if (jr < best) {
+          best = jr;
+          drop = i;
+          best_theta = th;
+        }
+      }
+      if (!(best < j_prev)) break;
+      model.erase(model.begin() + static_cast<std::ptrdiff_t>(drop));
+      theta = best_theta;
+      j = best;
+    }
+    record(iteration, rejected);
+  }
+  res.selected = SelectIteration(res.iterations, spec.selection_tolerance_percent);
+  return res;
+}
+
+}  // namespace mrd::host

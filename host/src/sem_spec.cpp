@@ -1,0 +1,426 @@
+#include "mrd/host/sem_spec.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include <toml++/toml.h>
+
+#include "mrd/host/input_error.hpp"
+
+namespace mrd::host {
+namespace {
+
+std::size_t LineOf(const toml::node& n) { return n.source().begin.line; }
+
+[[noreturn]] void Fail(const std::string& path, const toml::node& n, const std::string& reason) {
+  throw InputError(path, LineOf(n), reason);
+}
+
+std::string GetString(const std::string& path, const toml::node& n, const std::string& key) {
+  const auto v = n.value<std::string>();
+  if (!v) Fail(path, n, fmt::format("'{}' must be a string", key));
+  return *v;
+}
+
+double GetNumber(const std::string& path, const toml::node& n, const std::string& key) {
+  const auto v = n.value<double>();
+  if (!v || !std::isfinite(*v)) Fail(path, n, fmt::format("'{}' must be a finite number", key));
+  return *v;
+}
+
+int GetInt(const std::string& path, const toml::node& n, const std::string& key, int lo, int hi) {
+  const auto* i = n.as_integer();
+  if (i == nullptr) Fail(path, n, fmt::format("'{}' must be an integer", key));
+  const auto v = i->get();
+  if (v < lo || v > hi) {
+    Fail(path, n, fmt::format("'{}' = {} out of range {} ... {}", key, v, lo, hi));
+  }
+  return static_cast<int>(v);
+}
+
+bool GetBool(const std::string& path, const toml::node& n, const std::string& key) {
+  const auto v = n.value<bool>();
+  if (!v || !n.is_boolean()) Fail(path, n, fmt::format("'{}' must be true or false", key));
+  return *v;
+}
+
+// Integer list (a single integer is accepted as a list of one).
+std::vector<int> GetIntList(const std::string& path, const toml::node& n, const std::string& key,
+                            int lo, int hi, const std::string& what) {
+  std::vector<int> out;
+  auto one = [&](const toml::node& e) {
+    const auto* i = e.as_integer();
+    if (i == nullptr) {
+      Fail(path, e, fmt::format("bad {} in '{}': must be an integer", what, key));
+    }
+    const auto v = i->get();
+    if (v < lo || v > hi) {
+      Fail(path, e, fmt::format("bad {} {} in '{}': must be {} ... {}", what, v, key, lo, hi));
+    }
+    out.push_back(static_cast<int>(v));
+  };
+  if (const auto* arr = n.as_array()) {
+    for (const auto& e : *arr) one(e);
+  } else {
+    one(n);
+  }
+  if (out.empty()) Fail(path, n, fmt::format("'{}' must not be empty", key));
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t,
+                                   std::size_t line) {
+  ElementaryRegressor r;
+  r.line = line;
+  bool has_exponent = false;
+  for (const auto& [key, node] : t) {
+    const std::string k(key.str());
+    if (k == "name") {
+      r.name = GetString(path, node, k);
+    } else if (k == "signal") {
+      r.signal = GetString(path, node, k);
+      r.signal_line = LineOf(node);
+    } else if (k == "transform") {
+      const std::string tr = GetString(path, node, k);
+      if (tr == "identity") {
+        r.transform = Transform::kIdentity;
+      } else if (tr == "abs_pow") {
+        r.transform = Transform::kAbsPow;
+      } else if (tr == "sign") {
+        r.transform = Transform::kSign;
+      } else {
+        Fail(path, node,
+             fmt::format("unknown transform '{}' (expected identity, abs_pow or sign)", tr));
+      }
+    } else if (k == "exponent") {
+      r.exponent = GetNumber(path, node, k);
+      if (!(r.exponent > 0.0)) Fail(path, node, "'exponent' must be > 0");
+      has_exponent = true;
+    } else if (k == "powers") {
+      r.powers = GetIntList(path, node, k, 1, kMaxPower, "power");
+    } else if (k == "delays") {
+      r.delays = GetIntList(path, node, k, 0, static_cast<int>(kMaxDelay), "delay");
+    } else {
+      Fail(path, node, fmt::format("unknown key '{}' in [[regressor]]", k));
+    }
+  }
+  if (r.name.empty()) throw InputError(path, line, "[[regressor]] needs a non-empty 'name'");
+  for (char c : r.name) {
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) {
+      throw InputError(path, line,
+                       fmt::format("regressor name '{}': use letters, digits and _ only", r.name));
+    }
+  }
+  if (r.signal.empty()) throw InputError(path, line, "[[regressor]] needs a 'signal' column");
+  if (r.powers.empty()) throw InputError(path, line, "[[regressor]] needs 'powers'");
+  if (r.delays.empty()) r.delays = {0};
+  if (has_exponent && r.transform != Transform::kAbsPow) {
+    throw InputError(path, line, "'exponent' is only valid with transform = \"abs_pow\"");
+  }
+  if (r.transform == Transform::kAbsPow && !has_exponent) {
+    throw InputError(path, line, "transform \"abs_pow\" needs an 'exponent'");
+  }
+  return r;
+}
+
+}  // namespace
+
+int SemSpec::RegressorIndex(const std::string& name) const {
+  for (std::size_t i = 0; i < regressors.size(); ++i) {
+    if (regressors[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+int SemSpec::MaxDelay() const {
+  int d = 0;
+  for (const auto& r : regressors) d = std::max(d, r.delays.back());
+  return d;
+}
+
+std::vector<std::string> SemSpec::Signals() const {
+  std::vector<std::string> s{output};
+  for (const auto& r : regressors) {
+    if (std::find(s.begin(), s.end(), r.signal) == s.end()) s.push_back(r.signal);
+  }
+  return s;
+}
+
+SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
+  toml::table tbl;
+  try {
+    tbl = toml::parse(text, path);
+  } catch (const toml::parse_error& e) {
+    throw InputError(path, e.source().begin.line, std::string(e.description()));
+  }
+  SemSpec s;
+  s.path = path;
+  for (const auto& [key, node] : tbl) {
+    const std::string k(key.str());
+    if (k == "output") {
+      s.output = GetString(path, node, k);
+      s.output_line = LineOf(node);
+    } else if (k == "regressor") {
+      const auto* arr = node.as_array();
+      if (arr == nullptr || !arr->is_array_of_tables()) {
+        Fail(path, node, "'regressor' must be an array of tables ([[regressor]])");
+      }
+      for (const auto& e : *arr) {
+        s.regressors.push_back(ParseRegressor(path, *e.as_table(), LineOf(e)));
+      }
+    } else if (k == "limits" || k == "cost" || k == "algorithm") {
+      const auto* t = node.as_table();
+      if (t == nullptr) Fail(path, node, fmt::format("'{}' must be a table", k));
+      for (const auto& [skey, sn] : *t) {
+        const std::string sk(skey.str());
+        if (k == "limits" && sk == "max_factors") {
+          s.max_factors = GetInt(path, sn, sk, 1, static_cast<int>(kMaxFactors) * 4);
+        } else if (k == "limits" && sk == "max_degree") {
+          s.max_degree = GetInt(path, sn, sk, 0, 1000);
+        } else if (k == "limits" && sk == "constant") {
+          s.constant = GetBool(path, sn, sk);
+        } else if (k == "cost" && sk == "weighting") {
+          const std::string w = GetString(path, sn, sk);
+          if (w == "relative") {
+            s.weighting = CostWeighting::kRelative;
+          } else if (w == "mse") {
+            s.weighting = CostWeighting::kMse;
+          } else {
+            Fail(path, sn, fmt::format("unknown weighting '{}' (expected relative or mse)", w));
+          }
+        } else if (k == "cost" && sk == "floor") {
+          s.floor = GetNumber(path, sn, sk);
+          if (!(s.floor > 0.0)) Fail(path, sn, "'floor' must be > 0");
+        } else if (k == "algorithm" && sk == "strategy") {
+          const std::string st = GetString(path, sn, sk);
+          if (st == "best") {
+            s.strategy = Strategy::kBest;
+          } else if (st == "first") {
+            s.strategy = Strategy::kFirst;
+          } else {
+            Fail(path, sn, fmt::format("unknown strategy '{}' (expected best or first)", st));
+          }
+        } else if (k == "algorithm" && sk == "threshold_percent") {
+          s.threshold_percent = GetNumber(path, sn, sk);
+          if (s.threshold_percent < 0.0 || s.threshold_percent >= 100.0) {
+            Fail(path, sn, "'threshold_percent' must be in [0, 100)");
+          }
+        } else if (k == "algorithm" && sk == "max_iterations") {
+          s.max_iterations = GetInt(path, sn, sk, 0, 100000);
+        } else if (k == "algorithm" && sk == "target_j") {
+          s.target_j = GetNumber(path, sn, sk);
+        } else if (k == "algorithm" && sk == "divergence_limit") {
+          s.divergence_limit = GetNumber(path, sn, sk);
+          if (!(s.divergence_limit > 0.0)) Fail(path, sn, "'divergence_limit' must be > 0");
+        } else if (k == "algorithm" && sk == "selection_tolerance_percent") {
+          s.selection_tolerance_percent = GetNumber(path, sn, sk);
+          if (s.selection_tolerance_percent < 0.0) {
+            Fail(path, sn, "'selection_tolerance_percent' must be >= 0");
+          }
+        } else if (k == "algorithm" && sk == "initial") {
+          const auto* arr = sn.as_array();
+          if (arr == nullptr) Fail(path, sn, "'initial' must be an array of term strings");
+          for (const auto& e : *arr) s.initial.push_back(GetString(path, e, sk));
+        } else {
+          Fail(path, sn, fmt::format("unknown key '{}' in [{}]", sk, k));
+        }
+      }
+    } else {
+      Fail(path, node, fmt::format("unknown key '{}'", k));
+    }
+  }
+  if (s.output.empty()) throw InputError(path, 0, "missing 'output' (the signal to model)");
+  if (s.regressors.empty()) throw InputError(path, 0, "no [[regressor]] given");
+  for (std::size_t i = 0; i < s.regressors.size(); ++i) {
+    const auto& r = s.regressors[i];
+    for (std::size_t j = 0; j < i; ++j) {
+      if (s.regressors[j].name == r.name) {
+        throw InputError(path, r.line, fmt::format("duplicate regressor name '{}'", r.name));
+      }
+    }
+    if (r.signal == s.output && r.delays.front() < 1) {
+      throw InputError(path, r.line,
+                       fmt::format("regressor '{}' reads the output '{}' at delay 0: output "
+                                   "regressors need delays >= 1",
+                                   r.name, s.output));
+    }
+  }
+  // Initial terms are checked here so that errors name the spec.
+  for (const auto& t : s.initial) ParseTerm(s, t, path, 0);
+  return s;
+}
+
+SemSpec LoadSemSpec(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path, 0, "cannot open spec file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ParseSemSpec(ss.str(), path);
+}
+
+std::string TermName(const SemSpec& spec, const SemTerm& term) {
+  if (term.factors.empty()) return "1";
+  std::string s;
+  for (const auto& f : term.factors) {
+    if (!s.empty()) s += '*';
+    s += spec.regressors[f.regressor].name;
+    s += f.delay == 0 ? std::string("(k)") : fmt::format("(k-{})", f.delay);
+    if (f.power != 1) s += fmt::format("^{}", f.power);
+  }
+  return s;
+}
+
+SemTerm ParseTerm(const SemSpec& spec, const std::string& text, const std::string& file,
+                  std::size_t line) {
+  std::string t;
+  for (char c : text) {
+    if (c != ' ' && c != '\t') t += c;
+  }
+  auto bad = [&](const std::string& why) -> InputError {
+    return InputError(file, line, fmt::format("bad term '{}': {}", text, why));
+  };
+  SemTerm term;
+  if (t == "1") return term;
+  if (t.empty()) throw bad("empty");
+  std::size_t pos = 0;
+  while (pos <= t.size()) {
+    const std::size_t star = t.find('*', pos);
+    const std::string f = t.substr(pos, star == std::string::npos ? std::string::npos : star - pos);
+    const std::size_t open = f.find('(');
+    const std::size_t close = f.find(')');
+    if (open == std::string::npos || close == std::string::npos || close < open) {
+      throw bad("expected NAME(k-D)^P factors joined by *");
+    }
+    const std::string name = f.substr(0, open);
+    const int r = spec.RegressorIndex(name);
+    if (r < 0) throw bad(fmt::format("unknown regressor '{}'", name));
+    const std::string arg = f.substr(open + 1, close - open - 1);
+    int delay = 0;
+    if (arg != "k") {
+      if (arg.rfind("k-", 0) != 0) throw bad("delay must be written k or k-D");
+      try {
+        std::size_t used = 0;
+        delay = std::stoi(arg.substr(2), &used);
+        if (used != arg.size() - 2) throw bad("bad delay");
+      } catch (const std::logic_error&) {
+        throw bad("bad delay");
+      }
+    }
+    int power = 1;
+    const std::string rest = f.substr(close + 1);
+    if (!rest.empty()) {
+      if (rest[0] != '^') throw bad("expected ^P after the delay");
+      try {
+        std::size_t used = 0;
+        power = std::stoi(rest.substr(1), &used);
+        if (used != rest.size() - 1) throw bad("bad power");
+      } catch (const std::logic_error&) {
+        throw bad("bad power");
+      }
+    }
+    const auto& reg = spec.regressors[r];
+    if (std::find(reg.delays.begin(), reg.delays.end(), delay) == reg.delays.end()) {
+      throw bad(fmt::format("delay {} not offered for '{}'", delay, name));
+    }
+    if (power < 1 || power > kMaxPower) throw bad(fmt::format("power {} out of range", power));
+    bool merged = false;
+    for (auto& g : term.factors) {
+      if (g.regressor == r && g.delay == delay) {
+        g.power += power;
+        merged = true;
+      }
+    }
+    if (!merged) term.factors.push_back({r, delay, power});
+    if (star == std::string::npos) break;
+    pos = star + 1;
+  }
+  std::sort(term.factors.begin(), term.factors.end(), [](const SemFactor& a, const SemFactor& b) {
+    return a.regressor != b.regressor ? a.regressor < b.regressor : a.delay < b.delay;
+  });
+  return term;
+}
+
+std::string TermKey(const SemSpec& spec, const SemTerm& term) {
+  // (signal, delay) -> (parity, exponent of |s|)
+  std::map<std::pair<std::string, int>, std::pair<int, double>> m;
+  for (const auto& f : term.factors) {
+    const auto& r = spec.regressors[f.regressor];
+    auto& e = m[{r.signal, f.delay}];
+    switch (r.transform) {
+      case Transform::kIdentity:
+        e.first += f.power;
+        e.second += f.power;
+        break;
+      case Transform::kAbsPow:
+        e.second += r.exponent * f.power;
+        break;
+      case Transform::kSign:
+        e.first += f.power;
+        break;
+    }
+  }
+  std::string key;
+  for (const auto& [sd, pe] : m) {
+    const int parity = pe.first % 2;
+    const long long ex = std::llround(pe.second * 1e9);
+    if (parity == 0 && ex == 0) continue;  // factor is 1
+    key += fmt::format("{}@{}:{}:{};", sd.first, sd.second, parity, ex);
+  }
+  return key;
+}
+
+std::vector<SemTerm> GenerateCandidates(const SemSpec& spec) {
+  struct Slot {
+    int regressor;
+    int delay;
+  };
+  std::vector<Slot> slots;
+  for (std::size_t r = 0; r < spec.regressors.size(); ++r) {
+    for (int d : spec.regressors[r].delays) slots.push_back({static_cast<int>(r), d});
+  }
+  std::vector<std::vector<SemTerm>> by_count(static_cast<std::size_t>(spec.max_factors) + 1);
+  SemTerm cur;
+  // Depth-first over slots: each slot absent or at one of its powers.
+  auto rec = [&](auto&& self, std::size_t i, int degree) -> void {
+    if (i == slots.size()) {
+      by_count[cur.factors.size()].push_back(cur);
+      return;
+    }
+    if (static_cast<int>(cur.factors.size()) < spec.max_factors) {
+      for (int p : spec.regressors[slots[i].regressor].powers) {
+        if (spec.max_degree > 0 && degree + p > spec.max_degree) break;
+        cur.factors.push_back({slots[i].regressor, slots[i].delay, p});
+        self(self, i + 1, degree + p);
+        cur.factors.pop_back();
+      }
+    }
+    self(self, i + 1, degree);
+  };
+  rec(rec, 0, 0);
+  std::vector<SemTerm> out;
+  std::set<std::string> seen;
+  if (spec.constant) {
+    out.push_back(SemTerm{});
+  }
+  seen.insert(TermKey(spec, SemTerm{}));
+  for (std::size_t n = 1; n < by_count.size(); ++n) {
+    for (auto& t : by_count[n]) {
+      if (seen.insert(TermKey(spec, t)).second) out.push_back(std::move(t));
+    }
+  }
+  if (out.empty()) {
+    throw InputError(spec.path, 0, "empty candidate set: the regressors and limits allow no term");
+  }
+  return out;
+}
+
+}  // namespace mrd::host

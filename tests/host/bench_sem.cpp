@@ -1,0 +1,43 @@
+// Benchmark of the full paper run (DESIGN.md §5): reference identification set (seed 1,
+// 40k samples), host/specs/paper.toml (1551 candidates), 20 major iterations, best
+// improvement, 2 threads. Reports J and terms of the final model as counters.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "mrd/host/sem.hpp"
+#include "mrd/host/sem_spec.hpp"
+#include "sem_test_util.hpp"
+
+namespace {
+
+void BM_SemPaperRun(benchmark::State& state) {
+  const mrd::host::SemSpec spec =
+      mrd::host::LoadSemSpec(std::string(MRD_SOURCE_DIR) + "/host/specs/paper.toml");
+  const std::vector<mrd::host::DataSet> id{mrd::test::DamperData("identification")};
+  mrd::host::SemOptions o;
+  o.max_iterations = 20;
+  o.threads = static_cast<int>(state.range(0));
+  mrd::host::SemResult r;
+  for (auto _ : state) {
+    r = mrd::host::Identify(spec, id, {}, o);
+    benchmark::DoNotOptimize(r);
+  }
+  state.counters["candidates"] = static_cast<double>(r.num_candidates);
+  state.counters["J"] = r.iterations.back().j;
+  state.counters["terms"] = static_cast<double>(r.iterations.back().terms.size());
+  double j6 = 1e9, j13 = 1e9;  // best J among models of at most 6 / 13 terms
+  for (const auto& it : r.iterations) {
+    if (it.terms.size() <= 6) j6 = std::min(j6, it.j);
+    if (it.terms.size() <= 13) j13 = std::min(j13, it.j);
+  }
+  state.counters["J_le6"] = j6;
+  state.counters["J_le13"] = j13;
+}
+BENCHMARK(BM_SemPaperRun)->Arg(2)->Arg(1)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
+
+}  // namespace
+
+BENCHMARK_MAIN();
