@@ -143,15 +143,17 @@ Excitation Identification(std::mt19937_64& rng, double dt) {
   for (const auto& [f, vp] : segs) pieces.push_back(SinePiece(5.0, f, vp));
   Excitation ex;
   SamplePieces(pieces, dt, &ex);
-  // Voltage levels on a 0.25 V grid, one per second; the first two are 0 and 2.25 V in a
-  // seed-dependent order so the whole range is always covered.
+  // Voltage levels on a 0.25 V grid, held 0.5 s each; the first two are 0 and 2.25 V in a
+  // seed-dependent order so the whole range is always covered. (Holding 1 s halves the
+  // voltage transients seen and leaves 6-term models at J ~ 0.006 instead of ~ 0.0035.)
+  constexpr double kHold = 0.5;  // [s]
   std::uniform_int_distribution<int> grid(0, 9);
-  std::vector<double> levels(41);
+  std::vector<double> levels(81);
   for (double& l : levels) l = 0.25 * grid(rng);
   const bool low_first = (rng() & 1U) != 0;
   levels[0] = low_first ? 0.0 : kEMax;
   levels[1] = low_first ? kEMax : 0.0;
-  ex.E = PiecewiseConstant(ex.t.size(), dt, 1.0, [&](std::size_t i) { return levels[i]; });
+  ex.E = PiecewiseConstant(ex.t.size(), dt, kHold, [&](std::size_t i) { return levels[i]; });
   return ex;
 }
 

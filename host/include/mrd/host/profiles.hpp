@@ -21,7 +21,8 @@ struct Excitation {
 const std::vector<std::string>& ProfileNames();
 
 // identification: 40 s, eight 5 s sinusoid segments (0.4-4 Hz, peak velocity 3-15 cm/s,
-//   order shuffled by seed), voltage steps every 1 s over 0 ... 2.25 V (both ends present).
+//   order shuffled by seed), voltage steps every 0.5 s over 0 ... 2.25 V (both ends
+//   present).
 // v1: 20 s composite: filtered random (multisine), saturated and non-saturated ramps, a
 //   chirp; voltage a chirp for 2 s then random piecewise constant.
 // v2: 20 s ramps at 2, 5, 10, 15 cm/s; 0 V in the first half, 2.25 V in the second.
