@@ -103,6 +103,16 @@ void RegressorHistory::SetOutput(const Model& model, double y_normalised) {
   }
 }
 
+void RegressorHistory::SetInput(const Model& model, std::size_t channel, double normalised) {
+  if (channel == model.output_channel) return;
+  for (std::size_t r = 0; r < model.num_regressors; ++r) {
+    const Regressor& reg = model.regressors[r];
+    if (reg.channel == channel) {
+      values_[r][head_] = ApplyTransform(reg.transform, reg.exponent, normalised);
+    }
+  }
+}
+
 double TermValue(const Term& term, const RegressorHistory& h) {
   double v = 1.0;
   for (const Factor& f : term.active()) {
@@ -138,10 +148,20 @@ void ModelRunner::Seed(std::span<const double> raw) {
   Finish(raw[model_->output_channel]);
 }
 
+void ModelRunner::SetInput(std::size_t channel, double raw) {
+  if (channel >= model_->num_channels || channel == model_->output_channel) return;
+  normalised_[channel] = Normalise(model_->scales[channel], raw);
+  history_.SetInput(*model_, channel, normalised_[channel]);
+}
+
+double ModelRunner::Evaluate() const {
+  return Denormalise(model_->scales[model_->output_channel],
+                     EvaluateNormalised(*model_, history_));
+}
+
 double ModelRunner::Step(std::span<const double> raw) {
   Begin(raw);
-  const double y = Denormalise(model_->scales[model_->output_channel],
-                               EvaluateNormalised(*model_, history_));
+  const double y = Evaluate();
   Finish(y);
   return y;
 }

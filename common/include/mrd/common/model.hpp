@@ -93,6 +93,9 @@ class RegressorHistory {
   void PushInputs(const Model& model, std::span<const double> normalised);
   // Completes sample k with the output's normalised value (after evaluation).
   void SetOutput(const Model& model, double y_normalised);
+  // Replaces the delay-0 values of the regressors of one input channel (not the output) of
+  // sample k, e.g. once the inverter has chosen the command. Real-time safe.
+  void SetInput(const Model& model, std::size_t channel, double normalised);
   double value(std::size_t regressor, std::size_t delay) const {
     return values_[regressor][(head_ + delay) % kDepth];
   }
@@ -132,6 +135,13 @@ class ModelRunner {
   // input); Finish completes it with the raw output actually obtained.
   void Begin(std::span<const double> raw);
   void Finish(double y_raw);
+  // Between Begin and Finish: replaces one input channel's raw value of the current sample
+  // (the output channel is ignored). Begin(raw) then SetInput(c, u) computes exactly what
+  // Begin(raw with raw[c] = u) computes. Real-time safe.
+  void SetInput(std::size_t channel, double raw);
+  // Between Begin and Finish: raw model output for the current sample. Step(raw) is
+  // Begin(raw); y = Evaluate(); Finish(y). Real-time safe.
+  double Evaluate() const;
 
  private:
   const Model* model_;

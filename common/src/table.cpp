@@ -1,0 +1,173 @@
+#include "mrd/common/table.hpp"
+
+#include <bit>
+#include <cmath>
+
+#include "mrd/common/crc32.hpp"
+
+namespace mrd {
+namespace {
+
+static_assert(kTableSize == 2088, "format version 1 layout changed: bump kTableVersion");
+
+// Little-endian byte writer over a fixed image.
+class Writer {
+ public:
+  explicit Writer(TableBytes& bytes) : bytes_(bytes) {}
+  void U8(std::size_t at, std::uint8_t v) { bytes_[at] = v; }
+  void U16(std::size_t at, std::uint16_t v) {
+    for (std::size_t i = 0; i < 2; ++i) bytes_[at + i] = static_cast<std::uint8_t>(v >> (8 * i));
+  }
+  void U32(std::size_t at, std::uint32_t v) {
+    for (std::size_t i = 0; i < 4; ++i) bytes_[at + i] = static_cast<std::uint8_t>(v >> (8 * i));
+  }
+  void F64(std::size_t at, double d) {
+    const auto v = std::bit_cast<std::uint64_t>(d);
+    for (std::size_t i = 0; i < 8; ++i) bytes_[at + i] = static_cast<std::uint8_t>(v >> (8 * i));
+  }
+
+ private:
+  TableBytes& bytes_;
+};
+
+// Little-endian byte reader; callers have checked the span size.
+class Reader {
+ public:
+  explicit Reader(std::span<const std::uint8_t> bytes) : bytes_(bytes) {}
+  std::uint8_t U8(std::size_t at) const { return bytes_[at]; }
+  std::uint16_t U16(std::size_t at) const {
+    return static_cast<std::uint16_t>(bytes_[at] | (bytes_[at + 1] << 8));
+  }
+  std::uint32_t U32(std::size_t at) const {
+    std::uint32_t v = 0;
+    for (std::size_t i = 0; i < 4; ++i) v |= static_cast<std::uint32_t>(bytes_[at + i]) << (8 * i);
+    return v;
+  }
+  double F64(std::size_t at) const {
+    std::uint64_t v = 0;
+    for (std::size_t i = 0; i < 8; ++i) v |= static_cast<std::uint64_t>(bytes_[at + i]) << (8 * i);
+    return std::bit_cast<double>(v);
+  }
+
+ private:
+  std::span<const std::uint8_t> bytes_;
+};
+
+}  // namespace
+
+Error CoefficientTable::Validate() const {
+  const Error e = model.Validate();
+  if (e != Error::kOk) return e;
+  if (input_channel >= model.num_channels || input_channel == model.output_channel) {
+    return Error::kOutOfRange;
+  }
+  if (!std::isfinite(e_min) || !std::isfinite(e_max)) return Error::kNonFinite;
+  if (!(e_min < e_max)) return Error::kOutOfRange;
+  return Error::kOk;
+}
+
+Result<TableBytes> EncodeTable(const CoefficientTable& table) {
+  const Error e = table.Validate();
+  if (e != Error::kOk) return e;
+  const Model& m = table.model;
+  TableBytes bytes{};
+  Writer w(bytes);
+  for (std::size_t i = 0; i < kTableMagic.size(); ++i) w.U8(i, kTableMagic[i]);
+  w.U16(4, kTableVersion);
+  w.U16(6, 0);  // flags
+  w.U32(8, static_cast<std::uint32_t>(kTableSize));
+  w.U8(kTableCountsOffset + 0, m.num_channels);
+  w.U8(kTableCountsOffset + 1, m.output_channel);
+  w.U8(kTableCountsOffset + 2, table.input_channel);
+  w.U8(kTableCountsOffset + 3, m.num_regressors);
+  w.U8(kTableCountsOffset + 4, m.num_terms);
+  w.F64(kTableRangeOffset, table.e_min);
+  w.F64(kTableRangeOffset + 8, table.e_max);
+  for (std::size_t c = 0; c < m.num_channels; ++c) {
+    const std::size_t at = kTableChannelsOffset + c * kTableChannelRecord;
+    // Bytes after the terminating NUL are written as zeros (canonical image).
+    bool ended = false;
+    for (std::size_t i = 0; i <= kMaxNameLength; ++i) {
+      ended = ended || m.channel_names[c][i] == '\0';
+      w.U8(at + i, ended ? 0 : static_cast<std::uint8_t>(m.channel_names[c][i]));
+    }
+    w.F64(at + 16, m.scales[c].offset);
+    w.F64(at + 24, m.scales[c].scale);
+  }
+  for (std::size_t r = 0; r < m.num_regressors; ++r) {
+    const std::size_t at = kTableRegressorsOffset + r * kTableRegressorRecord;
+    w.U8(at, m.regressors[r].channel);
+    w.U8(at + 1, static_cast<std::uint8_t>(m.regressors[r].transform));
+    w.F64(at + 8, m.regressors[r].exponent);
+  }
+  for (std::size_t t = 0; t < m.num_terms; ++t) {
+    const std::size_t at = kTableTermsOffset + t * kTableTermRecord;
+    const Term& term = m.terms[t];
+    w.U8(at, term.num_factors);
+    for (std::size_t f = 0; f < term.num_factors; ++f) {
+      w.U8(at + 4 + 3 * f, term.factors[f].regressor);
+      w.U8(at + 5 + 3 * f, term.factors[f].delay);
+      w.U8(at + 6 + 3 * f, term.factors[f].power);
+    }
+    w.F64(kTableCoefficientsOffset + 8 * t, m.coefficients[t]);
+  }
+  w.U32(kTableCrcOffset, Crc32(std::span<const std::uint8_t>(bytes.data(), kTableCrcOffset)));
+  return bytes;
+}
+
+Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes) {
+  if (bytes.size() < kTableHeaderSize) return Error::kBadSize;
+  const Reader r(bytes);
+  for (std::size_t i = 0; i < kTableMagic.size(); ++i) {
+    if (r.U8(i) != kTableMagic[i]) return Error::kBadMagic;
+  }
+  if (r.U16(4) != kTableVersion) return Error::kBadVersion;
+  if (r.U32(8) != kTableSize || bytes.size() != kTableSize) return Error::kBadSize;
+  if (r.U32(kTableCrcOffset) != Crc32(bytes.first(kTableCrcOffset))) return Error::kBadCrc;
+  if (r.U16(6) != 0) return Error::kOutOfRange;  // no flags defined in version 1
+
+  CoefficientTable table;
+  Model& m = table.model;
+  m.num_channels = r.U8(kTableCountsOffset + 0);
+  m.output_channel = r.U8(kTableCountsOffset + 1);
+  table.input_channel = r.U8(kTableCountsOffset + 2);
+  m.num_regressors = r.U8(kTableCountsOffset + 3);
+  m.num_terms = r.U8(kTableCountsOffset + 4);
+  if (m.num_channels == 0 || m.num_channels > kTableChannels ||
+      m.num_regressors > kTableRegressors || m.num_terms > kTableTerms) {
+    return Error::kCapacityExceeded;
+  }
+  table.e_min = r.F64(kTableRangeOffset);
+  table.e_max = r.F64(kTableRangeOffset + 8);
+  for (std::size_t c = 0; c < m.num_channels; ++c) {
+    const std::size_t at = kTableChannelsOffset + c * kTableChannelRecord;
+    for (std::size_t i = 0; i <= kMaxNameLength; ++i) {
+      m.channel_names[c][i] = static_cast<char>(r.U8(at + i));
+    }
+    m.scales[c].offset = r.F64(at + 16);
+    m.scales[c].scale = r.F64(at + 24);
+  }
+  for (std::size_t g = 0; g < m.num_regressors; ++g) {
+    const std::size_t at = kTableRegressorsOffset + g * kTableRegressorRecord;
+    m.regressors[g].channel = r.U8(at);
+    m.regressors[g].transform = static_cast<Transform>(r.U8(at + 1));
+    m.regressors[g].exponent = r.F64(at + 8);
+  }
+  for (std::size_t t = 0; t < m.num_terms; ++t) {
+    const std::size_t at = kTableTermsOffset + t * kTableTermRecord;
+    Term& term = m.terms[t];
+    term.num_factors = r.U8(at);
+    if (term.num_factors > kTableFactors) return Error::kCapacityExceeded;
+    for (std::size_t f = 0; f < term.num_factors; ++f) {
+      term.factors[f].regressor = r.U8(at + 4 + 3 * f);
+      term.factors[f].delay = r.U8(at + 5 + 3 * f);
+      term.factors[f].power = r.U8(at + 6 + 3 * f);
+    }
+    m.coefficients[t] = r.F64(kTableCoefficientsOffset + 8 * t);
+  }
+  const Error e = table.Validate();
+  if (e != Error::kOk) return e;
+  return table;
+}
+
+}  // namespace mrd

@@ -1,0 +1,87 @@
+// Google Benchmark: one control period's computation on the compiled-in table.
+//   BM_ModelStepAndInversion: Begin + Inverter::Solve + Finish (the model/inversion core)
+//   BM_ModelStep:             Begin + Finish (forward model only)
+//   BM_ControllerUpdate:      watchdog + law + inversion + model (Controller::Update)
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <vector>
+
+#include "mrd/firmware/builtin_table.hpp"
+#include "mrd/firmware/controller.hpp"
+#include "mrd/firmware/inverter.hpp"
+#include "mrd/firmware/model_runtime.hpp"
+
+namespace {
+
+using namespace mrd::firmware;  // NOLINT: benchmark file
+
+constexpr int kSamples = 4096;
+
+struct Excitation {
+  Excitation() {
+    for (int k = 0; k < kSamples; ++k) {
+      v.push_back(12.0 * std::sin(2.0 * 3.14159 * 2.0 * k * 1e-3) + 0.3 * std::sin(0.7 * k));
+      f.push_back(800.0 * std::sin(2.0 * 3.14159 * 0.5 * k * 1e-3));
+    }
+  }
+  std::vector<double> v, f;
+};
+
+void BM_ModelStepAndInversion(benchmark::State& state) {
+  const Excitation ex;
+  ModelRuntime rt;
+  Inverter inv;
+  if (rt.Configure(kBuiltinTable) != mrd::Error::kOk || inv.Configure(kBuiltinTable) != mrd::Error::kOk) {
+    state.SkipWithError("table refused");
+    return;
+  }
+  double E = 0.0;
+  int k = 0;
+  for (auto _ : state) {
+    rt.Begin(ex.v[k], 0.0);
+    E = inv.Solve(rt.history(), ex.f[k], E).E;
+    benchmark::DoNotOptimize(rt.Finish(E));
+    k = (k + 1) & (kSamples - 1);
+  }
+}
+BENCHMARK(BM_ModelStepAndInversion);
+
+void BM_ModelStep(benchmark::State& state) {
+  const Excitation ex;
+  ModelRuntime rt;
+  if (rt.Configure(kBuiltinTable) != mrd::Error::kOk) {
+    state.SkipWithError("table refused");
+    return;
+  }
+  int k = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(rt.Step(ex.v[k], 0.0, 1.0));
+    k = (k + 1) & (kSamples - 1);
+  }
+}
+BENCHMARK(BM_ModelStep);
+
+void BM_ControllerUpdate(benchmark::State& state) {
+  const Excitation ex;
+  Controller c;
+  if (c.Configure(kBuiltinTable, ControllerConfig{}) != mrd::Error::kOk) {
+    state.SkipWithError("table refused");
+    return;
+  }
+  SensorFrame frame;
+  std::int64_t now = 0;
+  int k = 0;
+  for (auto _ : state) {
+    now += 1'000'000;
+    frame.velocity = {ex.v[k], now};
+    frame.demand = {ex.f[k], now};
+    benchmark::DoNotOptimize(c.Update(frame, IoStatus::kOk, false, now, 1e-3));
+    k = (k + 1) & (kSamples - 1);
+  }
+}
+BENCHMARK(BM_ControllerUpdate);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,89 @@
+#pragma once
+// The per-period control computation, without I/O: watchdog, velocity, control law, model
+// inversion and model update, in that order. The loop (loop.hpp) feeds it what the sensors
+// delivered and sends its command to the driver.
+//
+//   causes  = stale/non-finite required inputs | bus fault | driver fault | fault line
+//   safe    = watchdog(causes)
+//   E(k)    = safe ? E_safe
+//                  : law gives a voltage ? clamp(voltage, E_min, E_max)
+//                  : inverse of the model at the force demand (inverter.hpp)
+//   f^(k)   = model(v(k), x(k), E(k))   (the model advances with the command actually sent)
+//
+// Invalid inputs never reach the model: it runs on the last valid velocity/displacement.
+
+#include <cstdint>
+
+#include "mrd/common/result.hpp"
+#include "mrd/common/table.hpp"
+#include "mrd/firmware/control_law.hpp"
+#include "mrd/firmware/inverter.hpp"
+#include "mrd/firmware/io.hpp"
+#include "mrd/firmware/model_runtime.hpp"
+#include "mrd/firmware/velocity.hpp"
+#include "mrd/firmware/watchdog.hpp"
+
+namespace mrd::firmware {
+
+enum class VelocitySource : std::uint8_t {
+  kMeasured = 0,  // SensorFrame::velocity
+  kDisplacement,  // filtered derivative of SensorFrame::displacement
+};
+
+struct ControllerConfig {
+  ControlLawConfig law;
+  WatchdogConfig watchdog;
+  VelocitySource velocity_source = VelocitySource::kMeasured;
+  double cutoff_hz = 50.0;      // displacement differentiator cut-off [Hz]
+  double e_max = 2.25;          // highest command [V], within the table's range
+  double safe_voltage = 0.0;    // [V], within the table's range
+};
+
+struct ControllerOutput {
+  double volts = 0.0;        // command [V]
+  bool safe = true;          // send as EnterSafeState(volts)
+  double model_force = 0.0;  // model force at the command [N]
+  double force_demand = 0.0; // force the law asked for [N] (0 for a voltage law)
+  bool force_law = false;    // the law produced a force demand this period
+  bool reachable = true;     // the force demand was reachable (false: saturated)
+  std::uint32_t causes = 0;  // active watchdog causes (Watchdog::Bit)
+};
+
+class Controller {
+ public:
+  Controller() = default;
+  Controller(const Controller&) = delete;
+  Controller& operator=(const Controller&) = delete;
+
+  // Binds a table and a configuration. Errors: the table's (Validate), kInvalidArgument
+  // (channel the firmware does not provide), kNotInvertible, kOutOfRange (e_max or the safe
+  // voltage outside the table's range, a bad law/watchdog/cut-off setting). Not real-time.
+  Error Configure(const CoefficientTable& table, const ControllerConfig& config);
+  // Clears model history, filter and watchdog. Real-time safe.
+  void Reset();
+  // One period. frame: latest sensor values; read_status: what Read returned; driver_fault:
+  // the last driver write failed; now_ns: this period's time (same clock as the stamps);
+  // dt_s: clamped period [s] for the differentiator. Real-time safe.
+  ControllerOutput Update(const SensorFrame& frame, IoStatus read_status, bool driver_fault,
+                          std::int64_t now_ns, double dt_s);
+
+  const Watchdog& watchdog() const { return watchdog_; }
+  const ModelRuntime& runtime() const { return runtime_; }
+  const ControllerConfig& config() const { return config_; }
+  std::uint64_t model_resets() const { return model_resets_; }
+
+ private:
+  ModelRuntime runtime_;
+  Inverter inverter_;
+  ControlLaw law_;
+  Watchdog watchdog_;
+  DisplacementDifferentiator differentiator_;
+  ControllerConfig config_;
+  double e_min_ = 0.0;
+  double v_ = 0.0;  // last valid velocity [cm/s]
+  double x_ = 0.0;  // last valid displacement [cm]
+  double E_prev_ = 0.0;
+  std::uint64_t model_resets_ = 0;
+};
+
+}  // namespace mrd::firmware

@@ -1,0 +1,81 @@
+#pragma once
+// Narrow I/O interfaces between the control loop and the buses (SocketCAN, Modbus and GPIO
+// drivers implement them in later issues; SimulatedDamper implements them for dry runs and
+// tests). Every call is real-time safe in every implementation: no allocation, no
+// exceptions, no blocking beyond a bounded bus transaction; failures come back as IoStatus.
+
+#include <cstdint>
+#include <limits>
+
+namespace mrd::firmware {
+
+enum class IoStatus : std::uint8_t {
+  kOk = 0,
+  kNoData,  // nothing new this period (not an error by itself; ages tell staleness)
+  kFault,   // bus or device fault
+};
+
+// Latest value of one signal and when it was sampled (CLOCK_MONOTONIC [ns]).
+struct Stamped {
+  double value = std::numeric_limits<double>::quiet_NaN();
+  std::int64_t stamp_ns = std::numeric_limits<std::int64_t>::min();  // never sampled
+};
+
+// What the sensors delivered, latest values. A signal the installation does not have keeps
+// stamp_ns == min (the watchdog only checks the signals the configuration needs).
+struct SensorFrame {
+  Stamped velocity;       // relative damper velocity [cm/s]
+  Stamped displacement;   // relative damper displacement [cm]
+  Stamped demand;         // force demand [N]
+  Stamped body_velocity;  // absolute body velocity [cm/s] (skyhook)
+  Stamped force;          // measured damper force [N] (test rigs only; telemetry)
+  bool fault_line = false;  // external fault input asserted
+};
+
+class SensorSource {
+ public:
+  virtual ~SensorSource() = default;
+  // Fills *frame with the latest values. kFault: the frame may be partial. Real-time safe.
+  virtual IoStatus Read(SensorFrame* frame) = 0;
+};
+
+class CurrentDriver {
+ public:
+  virtual ~CurrentDriver() = default;
+  // Commands the coil voltage [V]. Real-time safe.
+  virtual IoStatus Command(double volts) = 0;
+  // Puts the driver in its safe state at safe_volts [V] (e.g. 0 V, or disabled). Must
+  // succeed whenever the hardware can; also used at shutdown. Real-time safe.
+  virtual IoStatus EnterSafeState(double safe_volts) = 0;
+};
+
+// Time source of the loop: CLOCK_MONOTONIC with absolute sleeps on a target, or a lockstep
+// clock that jumps to the deadline (dry runs and tests, no sleeping).
+class Clock {
+ public:
+  virtual ~Clock() = default;
+  virtual std::int64_t Now() = 0;  // [ns]
+  // Sleeps until the absolute time t_ns (returns at once when it has passed). Real-time safe.
+  virtual void SleepUntil(std::int64_t t_ns) = 0;
+};
+
+// CLOCK_MONOTONIC; SleepUntil uses clock_nanosleep(TIMER_ABSTIME) and resumes after signals.
+class MonotonicClock final : public Clock {
+ public:
+  std::int64_t Now() override;
+  void SleepUntil(std::int64_t t_ns) override;
+};
+
+// Simulated time: SleepUntil jumps there. Starts at start_ns.
+class LockstepClock final : public Clock {
+ public:
+  explicit LockstepClock(std::int64_t start_ns = 0) : now_(start_ns) {}
+  std::int64_t Now() override { return now_; }
+  void SleepUntil(std::int64_t t_ns) override { now_ = t_ns > now_ ? t_ns : now_; }
+  void Advance(std::int64_t dt_ns) { now_ += dt_ns; }
+
+ private:
+  std::int64_t now_;
+};
+
+}  // namespace mrd::firmware

@@ -1,0 +1,48 @@
+#pragma once
+// The control loop: wires a SensorSource and a CurrentDriver to the Controller at a fixed
+// period with absolute deadlines. Per period, in order: read inputs, clamp dt, update, write,
+// count time (and publish telemetry). Overruns skip the missed deadlines and are counted.
+// The loop always leaves the driver in the safe state when it returns.
+
+#include <atomic>
+#include <cstdint>
+
+#include "mrd/firmware/controller.hpp"
+#include "mrd/firmware/io.hpp"
+#include "mrd/firmware/telemetry.hpp"
+
+namespace mrd::firmware {
+
+class Loop {
+ public:
+  // All references outlive the loop. period_ns > 0.
+  Loop(Clock& clock, SensorSource& source, CurrentDriver& driver, Controller& controller,
+       Telemetry& telemetry, std::int64_t period_ns);
+  Loop(const Loop&) = delete;
+  Loop& operator=(const Loop&) = delete;
+
+  // Runs periods until stop is set or duration_ns has elapsed (<= 0: until stop), then puts
+  // the driver in the safe state. Real-time safe after entry (no allocation).
+  void Run(const std::atomic<bool>& stop, std::int64_t duration_ns);
+  // One period at time now_ns. Real-time safe.
+  void Tick(std::int64_t now_ns);
+  // Safe state on the driver (shutdown path). Real-time safe.
+  void Shutdown();
+
+  const TelemetrySnapshot& stats() const { return stats_; }
+
+ private:
+  Clock& clock_;
+  SensorSource& source_;
+  CurrentDriver& driver_;
+  Controller& controller_;
+  Telemetry& telemetry_;
+  std::int64_t period_ns_;
+  std::int64_t last_tick_ns_ = 0;
+  bool first_tick_ = true;
+  bool driver_fault_ = false;
+  SensorFrame frame_;
+  TelemetrySnapshot stats_;
+};
+
+}  // namespace mrd::firmware

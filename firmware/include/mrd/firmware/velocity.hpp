@@ -1,0 +1,31 @@
+#pragma once
+// Velocity from a displacement sensor: a first-order filtered differentiator,
+//
+//   H(s) = s * wc / (s + wc),  wc = 2 pi f_c,
+//   v(k) = a v(k-1) + (1 - a) (x(k) - x(k-1)) / dt,  a = exp(-wc dt)   (exact for a ramp)
+//
+// x [cm], v [cm/s], dt [s], f_c [Hz]. The first sample after Reset gives v = 0.
+
+namespace mrd::firmware {
+
+class DisplacementDifferentiator {
+ public:
+  // cutoff_hz > 0 (finite); returns false (unchanged) otherwise. Not real-time.
+  bool Configure(double cutoff_hz);
+  // Forgets the previous displacement. Real-time safe.
+  void Reset() { primed_ = false; v_ = 0.0; }
+  // Advances by dt [s] (> 0) to displacement x [cm]; returns the velocity estimate [cm/s].
+  // A non-positive or non-finite dt, or a non-finite x, leaves the state unchanged.
+  // Real-time safe.
+  double Update(double x, double dt);
+  double velocity() const { return v_; }
+  double cutoff_hz() const { return cutoff_hz_; }
+
+ private:
+  double cutoff_hz_ = 50.0;
+  double x_prev_ = 0.0;
+  double v_ = 0.0;
+  bool primed_ = false;
+};
+
+}  // namespace mrd::firmware

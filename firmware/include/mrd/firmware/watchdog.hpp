@@ -1,0 +1,63 @@
+#pragma once
+// Watchdog: decides each period whether the driver must be in the safe state.
+//
+//   safe(k) = any cause active at k, or fewer than recover_periods clean periods since the
+//             last active cause.
+//
+// Causes: stale sensor data (age > max_age), a non-finite input, a bus fault (read failed),
+// a driver fault (last write failed), the external fault line. Counters per cause: periods
+// in which it was active and trips (inactive -> active transitions).
+
+#include <array>
+#include <cstdint>
+
+namespace mrd::firmware {
+
+enum class FaultCause : std::uint8_t {
+  kStaleSensor = 0,
+  kNonFinite,
+  kBusFault,
+  kDriverFault,
+  kFaultLine,
+};
+inline constexpr std::size_t kNumFaultCauses = 5;
+
+// Static name ("stale_sensor", "non_finite", "bus_fault", "driver_fault", "fault_line").
+const char* FaultCauseName(FaultCause cause);
+
+struct WatchdogConfig {
+  std::int64_t max_age_ns = 5'000'000;  // sensor data older than this is stale [ns], > 0
+  std::uint32_t recover_periods = 1;    // clean periods before leaving the safe state, >= 1
+};
+
+struct WatchdogCounters {
+  std::array<std::uint64_t, kNumFaultCauses> active_periods{};
+  std::array<std::uint64_t, kNumFaultCauses> trips{};
+  std::uint64_t safe_periods = 0;  // periods commanded in the safe state
+  std::uint64_t entries = 0;       // normal -> safe transitions
+};
+
+class Watchdog {
+ public:
+  void Configure(const WatchdogConfig& config) { config_ = config; }
+  // Forgets the history and counters; starts in the safe state until inputs are clean.
+  void Reset();
+  // One period: a bit set per active cause (bit i = FaultCause i). Returns true when the
+  // safe state must be commanded this period. Real-time safe.
+  bool Update(std::uint32_t active_causes);
+  static constexpr std::uint32_t Bit(FaultCause c) { return 1U << static_cast<unsigned>(c); }
+
+  bool safe() const { return safe_; }
+  std::uint32_t active() const { return active_; }
+  const WatchdogCounters& counters() const { return counters_; }
+  const WatchdogConfig& config() const { return config_; }
+
+ private:
+  WatchdogConfig config_;
+  WatchdogCounters counters_;
+  std::uint32_t active_ = 0;
+  std::uint32_t clean_periods_ = 0;
+  bool safe_ = true;
+};
+
+}  // namespace mrd::firmware

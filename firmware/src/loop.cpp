@@ -1,0 +1,98 @@
+#include "mrd/firmware/loop.hpp"
+
+#include <cmath>
+
+namespace mrd::firmware {
+
+Loop::Loop(Clock& clock, SensorSource& source, CurrentDriver& driver, Controller& controller,
+           Telemetry& telemetry, std::int64_t period_ns)
+    : clock_(clock),
+      source_(source),
+      driver_(driver),
+      controller_(controller),
+      telemetry_(telemetry),
+      period_ns_(period_ns) {}
+
+void Loop::Tick(std::int64_t now_ns) {
+  // Read inputs.
+  frame_ = SensorFrame{};
+  const IoStatus read = source_.Read(&frame_);
+  if (read == IoStatus::kFault) ++stats_.read_faults;
+
+  // Clamp dt to [period / 2, 2 period].
+  const std::int64_t dt_ns = first_tick_ ? period_ns_ : now_ns - last_tick_ns_;
+  const std::int64_t clamped =
+      dt_ns < period_ns_ / 2 ? period_ns_ / 2 : (dt_ns > 2 * period_ns_ ? 2 * period_ns_ : dt_ns);
+  first_tick_ = false;
+  last_tick_ns_ = now_ns;
+
+  // Update.
+  const ControllerOutput out =
+      controller_.Update(frame_, read, driver_fault_, now_ns, static_cast<double>(clamped) * 1e-9);
+
+  // Write; a failed command falls back to the safe state at once.
+  IoStatus write = out.safe ? driver_.EnterSafeState(out.volts) : driver_.Command(out.volts);
+  if (write == IoStatus::kFault) {
+    ++stats_.write_faults;
+    if (!out.safe) (void)driver_.EnterSafeState(controller_.config().safe_voltage);
+  }
+  driver_fault_ = write == IoStatus::kFault;
+
+  // Count and publish.
+  ++stats_.ticks;
+  if (out.force_law && !out.reachable) ++stats_.unreachable;
+  stats_.model_resets = controller_.model_resets();
+  stats_.watchdog = controller_.watchdog().counters();
+  stats_.active_causes = out.causes;
+  stats_.safe = out.safe;
+  stats_.last_command_v = out.volts;
+  stats_.model_force_n = out.model_force;
+  stats_.force_demand_n = out.force_demand;
+  stats_.measured_force_n = frame_.force.value;
+  if (!out.safe && std::isfinite(frame_.force.value)) {
+    const double e = out.model_force - frame_.force.value;
+    stats_.sum_sq_model_error += e * e;
+    ++stats_.force_samples;
+    if (out.force_law) {
+      const double t = out.force_demand - frame_.force.value;
+      stats_.sum_sq_tracking_error += t * t;
+      ++stats_.tracking_samples;
+    }
+  }
+  telemetry_.Write(stats_);
+}
+
+void Loop::Shutdown() {
+  if (driver_.EnterSafeState(controller_.config().safe_voltage) == IoStatus::kFault) {
+    ++stats_.write_faults;
+  }
+  stats_.safe = true;
+  stats_.last_command_v = controller_.config().safe_voltage;
+  telemetry_.Write(stats_);
+}
+
+void Loop::Run(const std::atomic<bool>& stop, std::int64_t duration_ns) {
+  const std::int64_t start = clock_.Now();
+  std::int64_t deadline = start + period_ns_;
+  while (!stop.load(std::memory_order_relaxed) &&
+         (duration_ns <= 0 || deadline - start <= duration_ns)) {
+    clock_.SleepUntil(deadline);
+    const std::int64_t wake = clock_.Now();
+    const std::int64_t latency = wake - deadline;
+    if (latency > stats_.worst_latency_ns) stats_.worst_latency_ns = latency;
+    Tick(wake);
+    const std::int64_t end = clock_.Now();
+    stats_.last_exec_ns = end - wake;
+    if (stats_.last_exec_ns > stats_.worst_exec_ns) stats_.worst_exec_ns = stats_.last_exec_ns;
+    deadline += period_ns_;
+    if (end > deadline) {
+      ++stats_.overruns;
+      const std::int64_t missed = (end - deadline) / period_ns_ + 1;
+      stats_.missed_periods += static_cast<std::uint64_t>(missed);
+      deadline += missed * period_ns_;
+    }
+  }
+  Shutdown();
+}
+
+}  // namespace mrd::firmware

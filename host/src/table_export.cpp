@@ -1,0 +1,234 @@
+#include "mrd/host/table_export.hpp"
+
+#include <fmt/format.h>
+
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <stdexcept>
+#include <vector>
+
+#include "mrd/common/crc32.hpp"
+#include "mrd/host/input_error.hpp"
+
+namespace mrd::host {
+namespace {
+
+std::string Fits(const char* what, std::size_t have, std::size_t limit) {
+  if (have <= limit) return "";
+  return fmt::format("model has {} {}; table format v{} holds at most {}", have, what,
+                     kTableVersion, limit);
+}
+
+bool IsIdentifier(std::string_view s) {
+  if (s.empty() || std::isdigit(static_cast<unsigned char>(s[0])) != 0) return false;
+  for (const char c : s) {
+    if (std::isalnum(static_cast<unsigned char>(c)) == 0 && c != '_') return false;
+  }
+  return true;
+}
+
+std::string Num(double d) { return fmt::format("{}", d); }
+
+std::string CharLiteral(char c) {
+  if (std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '-' || c == '.') {
+    return fmt::format("'{}'", c);
+  }
+  return fmt::format("'\\x{:02x}'", static_cast<unsigned char>(c));
+}
+
+const char* TransformName(Transform t) {
+  switch (t) {
+    case Transform::kIdentity: return "mrd::Transform::kIdentity";
+    case Transform::kAbsPow: return "mrd::Transform::kAbsPow";
+    case Transform::kSign: return "mrd::Transform::kSign";
+  }
+  return "mrd::Transform::kIdentity";
+}
+
+}  // namespace
+
+std::string TableFitProblem(const ModelShape& s) {
+  for (std::string p :
+       {s.channels == 0 ? std::string("model has no channels") : std::string(),
+        Fits("channels", s.channels, kTableChannels),
+        Fits("elementary regressors", s.regressors, kTableRegressors),
+        Fits("terms", s.terms, kTableTerms),
+        Fits("factors in one term", s.max_factors, kTableFactors),
+        s.max_delay > kMaxDelay ? fmt::format("model uses delay {}; table format v{} holds at "
+                                              "most {}", s.max_delay, kTableVersion, kMaxDelay)
+                                : std::string(),
+        s.max_power > kMaxPower ? fmt::format("model uses power {}; table format v{} holds at "
+                                              "most {}", s.max_power, kTableVersion, +kMaxPower)
+                                : std::string()}) {
+    if (!p.empty()) return p;
+  }
+  return "";
+}
+
+std::string DescribeTableProblem(const CoefficientTable& table) {
+  const Model& m = table.model;
+  ModelShape shape{m.num_channels, m.num_regressors, m.num_terms, 0, 0, 0};
+  for (std::size_t i = 0; i < std::min<std::size_t>(m.num_terms, kMaxTerms); ++i) {
+    shape.max_factors = std::max<std::size_t>(shape.max_factors, m.terms[i].num_factors);
+  }
+  if (std::string p = TableFitProblem(shape); !p.empty()) return p;
+  for (std::size_t c = 0; c < m.num_channels; ++c) {
+    if (std::memchr(m.channel_names[c].data(), '\0', m.channel_names[c].size()) == nullptr) {
+      return fmt::format("channel {} name is longer than {} characters", c, kMaxNameLength);
+    }
+    const char* name = m.channel_names[c].data();
+    if (!std::isfinite(m.scales[c].offset) || !std::isfinite(m.scales[c].scale) ||
+        !(m.scales[c].scale > 0.0)) {
+      return fmt::format("channel '{}' has an invalid normalisation (offset {}, scale {})", name,
+                         m.scales[c].offset, m.scales[c].scale);
+    }
+  }
+  if (m.output_channel >= m.num_channels) return "output channel index out of range";
+  for (std::size_t r = 0; r < m.num_regressors; ++r) {
+    const Regressor& reg = m.regressors[r];
+    if (reg.channel >= m.num_channels) return fmt::format("regressor {} reads no channel", r);
+    if (static_cast<int>(reg.transform) > static_cast<int>(Transform::kSign)) {
+      return fmt::format("regressor {} has an unknown transform", r);
+    }
+    if (!std::isfinite(reg.exponent) || (reg.transform == Transform::kAbsPow && !(reg.exponent > 0.0))) {
+      return fmt::format("regressor {} has an invalid exponent {}", r, reg.exponent);
+    }
+  }
+  for (std::size_t i = 0; i < m.num_terms; ++i) {
+    for (const Factor& f : m.terms[i].active()) {
+      if (f.regressor >= m.num_regressors) return fmt::format("term {} uses no regressor", i);
+      if (f.delay > kMaxDelay) return fmt::format("term {} uses delay {} > {}", i, +f.delay, kMaxDelay);
+      if (f.power == 0 || f.power > kMaxPower) {
+        return fmt::format("term {} uses power {} (1 ... {})", i, +f.power, +kMaxPower);
+      }
+      if (m.regressors[f.regressor].channel == m.output_channel && f.delay == 0) {
+        return fmt::format("term {} uses the output at delay 0", i);
+      }
+    }
+    if (!std::isfinite(m.coefficients[i])) return fmt::format("coefficient {} is not finite", i);
+  }
+  if (table.input_channel >= m.num_channels || table.input_channel == m.output_channel) {
+    return "input channel is missing or is the output";
+  }
+  if (!std::isfinite(table.e_min) || !std::isfinite(table.e_max) || !(table.e_min < table.e_max)) {
+    return fmt::format("voltage range [{}, {}] is empty or not finite", table.e_min, table.e_max);
+  }
+  const Error e = table.Validate();
+  return e == Error::kOk ? "" : ErrorName(e);
+}
+
+CoefficientTable MakeTable(const Model& model, double e_min, double e_max,
+                           std::string_view input_channel, const std::string& source) {
+  CoefficientTable t;
+  t.model = model;
+  t.e_min = e_min;
+  t.e_max = e_max;
+  const int c = model.num_channels <= kMaxChannels
+                    ? model.ChannelIndex(std::string(input_channel).c_str())
+                    : -1;
+  if (c < 0) {
+    throw InputError(source, 0, fmt::format("model has no input channel '{}'", input_channel));
+  }
+  t.input_channel = static_cast<std::uint8_t>(c);
+  if (std::string p = DescribeTableProblem(t); !p.empty()) throw InputError(source, 0, p);
+  return t;
+}
+
+TableBytes TableImage(const CoefficientTable& table) {
+  const auto r = EncodeTable(table);
+  if (!r.ok()) {
+    std::string p = DescribeTableProblem(table);
+    throw InputError("", 0, p.empty() ? ErrorName(r.error()) : p);
+  }
+  return r.value();
+}
+
+void WriteTableFile(const CoefficientTable& table, const std::string& path) {
+  const TableBytes bytes = TableImage(table);
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  if (!out) throw std::runtime_error(fmt::format("cannot write table file '{}'", path));
+}
+
+std::string TableHeader(const CoefficientTable& table, std::string_view symbol) {
+  std::vector<std::string_view> parts;
+  for (std::size_t at = 0;;) {
+    const std::size_t sep = symbol.find("::", at);
+    parts.push_back(symbol.substr(at, sep == std::string_view::npos ? sep : sep - at));
+    if (sep == std::string_view::npos) break;
+    at = sep + 2;
+  }
+  for (const std::string_view p : parts) {
+    if (!IsIdentifier(p)) {
+      throw std::invalid_argument(fmt::format("'{}' is not a C++ identifier", symbol));
+    }
+  }
+  const TableBytes bytes = TableImage(table);
+  const std::uint32_t crc = Crc32(std::span<const std::uint8_t>(bytes.data(), kTableCrcOffset));
+  const Model& m = table.model;
+  std::string s;
+  auto line = [&s](const std::string& text) { s += text + "\n"; };
+  line("#pragma once");
+  line("// Generated by mrd::host::TableHeader (mrd export) -- do not edit.");
+  line(fmt::format("// Coefficient table format v{}: {} channels, {} regressors, {} terms; input "
+                   "'{}' in [{}, {}] V.",
+                   kTableVersion, m.num_channels, m.num_regressors, m.num_terms,
+                   m.channel_names[table.input_channel].data(), Num(table.e_min),
+                   Num(table.e_max)));
+  line(fmt::format("// Binary image: {} bytes, CRC-32 0x{:08X}.", kTableSize, crc));
+  line("");
+  line("#include \"mrd/common/table.hpp\"");
+  line("");
+  const std::string_view name = parts.back();
+  for (std::size_t i = 0; i + 1 < parts.size(); ++i) line(fmt::format("namespace {} {{", parts[i]));
+  if (parts.size() > 1) line("");
+  line(fmt::format("inline constexpr mrd::CoefficientTable {} = [] {{", name));
+  line("  mrd::CoefficientTable t{};");
+  line(fmt::format("  t.input_channel = {};", table.input_channel));
+  line(fmt::format("  t.e_min = {};", Num(table.e_min)));
+  line(fmt::format("  t.e_max = {};", Num(table.e_max)));
+  line("  mrd::Model& m = t.model;");
+  line(fmt::format("  m.num_channels = {};", m.num_channels));
+  line(fmt::format("  m.output_channel = {};", m.output_channel));
+  for (std::size_t c = 0; c < m.num_channels; ++c) {
+    std::string chars;
+    for (const char* p = m.channel_names[c].data(); *p != '\0'; ++p) {
+      chars += (chars.empty() ? "" : ", ") + CharLiteral(*p);
+    }
+    line(fmt::format("  m.channel_names[{}] = {{{}}};", c, chars));
+    line(fmt::format("  m.scales[{}] = {{{}, {}}};", c, Num(m.scales[c].offset),
+                     Num(m.scales[c].scale)));
+  }
+  line(fmt::format("  m.num_regressors = {};", m.num_regressors));
+  for (std::size_t r = 0; r < m.num_regressors; ++r) {
+    line(fmt::format("  m.regressors[{}] = {{{}, {}, {}}};", r, m.regressors[r].channel,
+                     TransformName(m.regressors[r].transform), Num(m.regressors[r].exponent)));
+  }
+  line(fmt::format("  m.num_terms = {};", m.num_terms));
+  for (std::size_t i = 0; i < m.num_terms; ++i) {
+    const Term& term = m.terms[i];
+    line(fmt::format("  m.terms[{}].num_factors = {};", i, term.num_factors));
+    for (std::size_t f = 0; f < term.num_factors; ++f) {
+      line(fmt::format("  m.terms[{}].factors[{}] = {{{}, {}, {}}};", i, f,
+                       term.factors[f].regressor, term.factors[f].delay, term.factors[f].power));
+    }
+    line(fmt::format("  m.coefficients[{}] = {};", i, Num(m.coefficients[i])));
+  }
+  line("  return t;");
+  line("}();");
+  if (parts.size() > 1) line("");
+  for (std::size_t i = parts.size() - 1; i-- > 0;) line(fmt::format("}}  // namespace {}", parts[i]));
+  return s;
+}
+
+void WriteTableHeader(const CoefficientTable& table, std::string_view symbol,
+                      const std::string& path) {
+  const std::string text = TableHeader(table, symbol);
+  std::ofstream out(path, std::ios::trunc);
+  out << text;
+  if (!out) throw std::runtime_error(fmt::format("cannot write header file '{}'", path));
+}
+
+}  // namespace mrd::host

@@ -1,0 +1,121 @@
+// mrd-firmware through the executable: help, dry runs, refused tables and configs.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include "host/test_util.hpp"
+#include "mrd/common/table.hpp"
+
+namespace mrd::test {
+namespace {
+
+std::string Firmware() { return Bin("mrd-firmware"); }
+
+std::string WriteBuiltinTable(const TempDir& dir) {
+  const std::string path = dir.File("table.bin");
+  EXPECT_EQ(test::Run(Firmware() + " --write-table " + path).status, 0);
+  return path;
+}
+
+void FlipByte(const std::string& path, std::size_t offset) {
+  std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+  f.seekg(static_cast<std::streamoff>(offset));
+  char c = 0;
+  f.get(c);
+  f.seekp(static_cast<std::streamoff>(offset));
+  f.put(static_cast<char>(c ^ 0x5A));
+}
+
+TEST(FirmwareCliTest, HelpDescribesDryRun) {
+  const CommandResult r = test::Run(Firmware() + " --help");
+  EXPECT_EQ(r.status, 0);
+  EXPECT_NE(r.output.find("--dry-run SECONDS"), std::string::npos);
+  EXPECT_NE(r.output.find("--table FILE"), std::string::npos);
+}
+
+TEST(FirmwareCliTest, LockstepDryRunPrintsJsonCounters) {
+  TempDir dir;
+  const std::string table = WriteBuiltinTable(dir);
+  const CommandResult r = test::Run(Firmware() + " --table " + table + " --dry-run 3 --lockstep --json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("\"ticks\": 3000,"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"overruns\": 0,"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"final_safe_state\": true"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"stale_sensor\": {\"trips\": 0"), std::string::npos) << r.output;
+}
+
+TEST(FirmwareCliTest, RealTimeDryRunRunsAndCountsTime) {
+  const CommandResult r = test::Run(Firmware() + " --dry-run 0.3 --json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("\"mode\": \"realtime\""), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"worst_latency_us\""), std::string::npos);
+  EXPECT_NE(r.output.find("\"ticks\": 300,"), std::string::npos) << r.output;
+}
+
+TEST(FirmwareCliTest, CorruptedTableExitsNonZeroNamingCrc) {
+  TempDir dir;
+  const std::string table = WriteBuiltinTable(dir);
+  FlipByte(table, kTableCoefficientsOffset + 2);
+  const CommandResult r = test::Run(Firmware() + " --table " + table + " --dry-run 1 --lockstep");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("refused: CRC mismatch"), std::string::npos) << r.output;
+}
+
+TEST(FirmwareCliTest, WrongMagicAndTruncatedTableNameTheirReasons) {
+  TempDir dir;
+  const std::string table = WriteBuiltinTable(dir);
+  FlipByte(table, 0);
+  CommandResult r = test::Run(Firmware() + " --table " + table + " --dry-run 1 --lockstep");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("wrong magic"), std::string::npos) << r.output;
+  const std::string shortfile = dir.Write("short.bin", "MRDT\x01");
+  r = test::Run(Firmware() + " --table " + shortfile + " --dry-run 1 --lockstep");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("wrong size"), std::string::npos) << r.output;
+  r = test::Run(Firmware() + " --table " + dir.File("missing.bin") + " --dry-run 1 --lockstep");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("cannot read"), std::string::npos) << r.output;
+}
+
+TEST(FirmwareCliTest, ConfigSelectsLawAndPeriod) {
+  TempDir dir;
+  const std::string cfg = dir.Write("fw.toml",
+                                    "[loop]\nperiod_us = 500\n[control]\nlaw = \"skyhook\"\n"
+                                    "skyhook_gain = 40.0\n[safety]\nsafe_voltage = 0.2\n");
+  const CommandResult r = test::Run(Firmware() + " --config " + cfg + " --dry-run 1 --lockstep --json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("\"law\": \"skyhook\""), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"ticks\": 2000,"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"last_command_v\": 0.2,"), std::string::npos) << r.output;
+}
+
+TEST(FirmwareCliTest, BadConfigNamesFileLineAndKey) {
+  TempDir dir;
+  const std::string cfg = dir.Write("bad.toml", "[control]\nlaw = \"force\"\nfoo = 1\n");
+  CommandResult r = test::Run(Firmware() + " --config " + cfg + " --dry-run 1 --lockstep");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("bad.toml:3: unknown key 'foo' in [control]"), std::string::npos)
+      << r.output;
+  const std::string range = dir.Write("range.toml", "[control]\ne_max = 3.0\n");
+  r = test::Run(Firmware() + " --config " + range + " --dry-run 1 --lockstep");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("E_max 3"), std::string::npos) << r.output;
+}
+
+TEST(FirmwareCliTest, WithoutDryRunExplainsMissingBusDriver) {
+  const CommandResult r = test::Run(Firmware());
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--dry-run"), std::string::npos);
+}
+
+TEST(FirmwareCliTest, SigtermStopsTheLoopInTheSafeState) {
+  const CommandResult r =
+      test::Run("timeout --preserve-status -s TERM 0.5 " + Firmware() + " --dry-run 30 --json; echo status=$?");
+  EXPECT_NE(r.output.find("\"final_safe_state\": true"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("status=0"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace mrd::test

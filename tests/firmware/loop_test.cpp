@@ -1,0 +1,206 @@
+// Controller + Loop against the simulated damper in lockstep, with injected faults.
+#include "mrd/firmware/loop.hpp"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <thread>
+
+#include "fakes.hpp"
+#include "mrd/firmware/simulated_damper.hpp"
+#include "support/demo_model.hpp"
+
+namespace mrd::firmware {
+namespace {
+
+constexpr std::int64_t kPeriod = 1'000'000;
+
+struct Rig {
+  explicit Rig(const ControllerConfig& config = {}) {
+    EXPECT_EQ(controller.Configure(test::DemoDamperTable(), config), Error::kOk);
+  }
+  LockstepClock clock;
+  SimulatedDamper plant{SpencerParams::Paper(), SimulationConfig{}, clock, kPeriod};
+  test::FaultySource source{plant};
+  test::FaultyDriver driver{plant};
+  Controller controller;
+  Telemetry telemetry;
+  Loop loop{clock, source, driver, controller, telemetry, kPeriod};
+  std::atomic<bool> stop{false};
+
+  void Run(double seconds) { loop.Run(stop, static_cast<std::int64_t>(seconds * 1e9)); }
+};
+
+std::size_t Idx(FaultCause c) { return static_cast<std::size_t>(c); }
+
+TEST(LoopTest, LockstepRunCountsPeriodsAndEndsSafe) {
+  Rig rig;
+  rig.Run(2.0);
+  const TelemetrySnapshot s = rig.telemetry.Read();
+  EXPECT_EQ(s.ticks, 2000U);
+  EXPECT_EQ(s.overruns, 0U);
+  EXPECT_EQ(s.worst_latency_ns, 0);
+  EXPECT_TRUE(rig.plant.in_safe_state());
+  EXPECT_EQ(rig.plant.held_volts(), 0.0);
+  EXPECT_EQ(s.watchdog.entries, 0U);
+  EXPECT_GT(s.force_samples, 1900U);
+  EXPECT_TRUE(std::isfinite(s.sum_sq_tracking_error));
+}
+
+TEST(LoopTest, ForceTrackingCommandsStayInRange) {
+  Rig rig;
+  for (int k = 1; k <= 3000; ++k) {
+    rig.clock.Advance(kPeriod);
+    rig.loop.Tick(rig.clock.Now());
+    ASSERT_GE(rig.plant.held_volts(), 0.0);
+    ASSERT_LE(rig.plant.held_volts(), 2.25);
+  }
+  EXPECT_GT(rig.loop.stats().ticks, 0U);
+}
+
+TEST(LoopTest, NonFiniteVelocityCommandsSafeStateWithinOnePeriodAndRecovers) {
+  ControllerConfig config;
+  config.safe_voltage = 0.5;
+  Rig rig(config);
+  rig.source.nan_velocity = {500, 510};
+  for (std::uint64_t k = 0; k < 600; ++k) {
+    rig.clock.Advance(kPeriod);
+    rig.loop.Tick(rig.clock.Now());
+    const bool faulty = k >= 500 && k < 510;
+    ASSERT_EQ(rig.plant.in_safe_state(), faulty) << "period " << k;
+    if (faulty) {
+      ASSERT_EQ(rig.plant.held_volts(), 0.5);
+    }
+    ASSERT_TRUE(std::isfinite(rig.loop.stats().model_force_n));
+  }
+  const auto& w = rig.loop.stats().watchdog;
+  EXPECT_EQ(w.trips[Idx(FaultCause::kNonFinite)], 1U);
+  EXPECT_EQ(w.active_periods[Idx(FaultCause::kNonFinite)], 10U);
+}
+
+TEST(LoopTest, StaleSensorTripsAfterMaxAge) {
+  ControllerConfig config;
+  config.watchdog.max_age_ns = 3 * kPeriod;
+  Rig rig(config);
+  rig.source.stall = {100, 120};  // stamps frozen at read 99
+  int safe_periods = 0;
+  for (std::uint64_t k = 0; k < 200; ++k) {
+    rig.clock.Advance(kPeriod);
+    rig.loop.Tick(rig.clock.Now());
+    if (rig.plant.in_safe_state()) {
+      ++safe_periods;
+      EXPECT_GE(k, 103U);  // age 4 periods > 3
+      EXPECT_LT(k, 120U);
+    }
+  }
+  EXPECT_EQ(safe_periods, 17);
+  EXPECT_EQ(rig.loop.stats().watchdog.trips[Idx(FaultCause::kStaleSensor)], 1U);
+}
+
+TEST(LoopTest, BusFaultAndFaultLineAreCountedPerCause) {
+  Rig rig;
+  rig.source.bus_fault = {10, 15};
+  rig.source.fault_line = {30, 32};
+  for (int k = 0; k < 50; ++k) {
+    rig.clock.Advance(kPeriod);
+    rig.loop.Tick(rig.clock.Now());
+  }
+  const auto& s = rig.loop.stats();
+  EXPECT_EQ(s.read_faults, 5U);
+  EXPECT_EQ(s.watchdog.active_periods[Idx(FaultCause::kBusFault)], 5U);
+  EXPECT_EQ(s.watchdog.active_periods[Idx(FaultCause::kFaultLine)], 2U);
+  EXPECT_EQ(s.watchdog.entries, 2U);
+  EXPECT_FALSE(s.safe);
+}
+
+TEST(LoopTest, DriverFaultFallsBackToSafeStateAtOnce) {
+  Rig rig;
+  rig.driver.fail_from = 20;
+  rig.driver.fail_to = 21;
+  for (int k = 0; k < 40; ++k) {
+    rig.clock.Advance(kPeriod);
+    rig.loop.Tick(rig.clock.Now());
+    if (k == 20) {
+      EXPECT_TRUE(rig.plant.in_safe_state());  // same period
+    }
+  }
+  const auto& s = rig.loop.stats();
+  EXPECT_EQ(s.write_faults, 1U);
+  EXPECT_EQ(s.watchdog.trips[Idx(FaultCause::kDriverFault)], 1U);
+  EXPECT_FALSE(s.safe);
+}
+
+TEST(LoopTest, ConstantVoltageAndSkyhookLawsRun) {
+  for (const ControlMode mode : {ControlMode::kConstantVoltage, ControlMode::kSkyhookOnOff,
+                                 ControlMode::kSkyhookContinuous}) {
+    ControllerConfig config;
+    config.law.mode = mode;
+    config.law.constant_voltage = 1.0;
+    Rig rig(config);
+    double lo = 10.0, hi = -10.0;
+    for (int k = 0; k < 2000; ++k) {
+      rig.clock.Advance(kPeriod);
+      rig.loop.Tick(rig.clock.Now());
+      lo = std::min(lo, rig.plant.held_volts());
+      hi = std::max(hi, rig.plant.held_volts());
+    }
+    if (mode == ControlMode::kConstantVoltage) {
+      EXPECT_EQ(lo, 1.0);
+      EXPECT_EQ(hi, 1.0);
+    } else {
+      EXPECT_EQ(lo, 0.0) << ControlModeName(mode);
+      EXPECT_GT(hi, 1.0) << ControlModeName(mode);
+    }
+  }
+}
+
+TEST(LoopTest, DisplacementDifferentiatorFeedsTheModel) {
+  ControllerConfig config;
+  config.velocity_source = VelocitySource::kDisplacement;
+  config.cutoff_hz = 100.0;
+  Rig rig(config);
+  rig.Run(1.0);
+  EXPECT_EQ(rig.telemetry.Read().watchdog.entries, 0U);
+  EXPECT_GT(rig.telemetry.Read().force_samples, 900U);
+}
+
+TEST(ControllerTest, RefusesSafeVoltageOrEmaxOutsideTable) {
+  Controller c;
+  ControllerConfig config;
+  config.safe_voltage = 3.0;
+  EXPECT_EQ(c.Configure(test::DemoDamperTable(), config), Error::kOutOfRange);
+  config = {};
+  config.e_max = 5.0;
+  EXPECT_EQ(c.Configure(test::DemoDamperTable(), config), Error::kOutOfRange);
+}
+
+TEST(TelemetryTest, ReaderSeesConsistentSnapshotsWhileWriterRuns) {
+  Telemetry t;
+  std::atomic<bool> done{false};
+  std::thread writer([&] {
+    TelemetrySnapshot s;
+    for (std::uint64_t i = 1; i <= 200000; ++i) {
+      s.ticks = i;
+      s.overruns = i;
+      s.last_command_v = static_cast<double>(i);
+      t.Write(s);
+    }
+    done = true;
+  });
+  std::uint64_t reads = 0, last = 0;
+  while (!done) {
+    const TelemetrySnapshot s = t.Read();
+    ASSERT_EQ(s.ticks, s.overruns);
+    ASSERT_EQ(static_cast<double>(s.ticks), s.last_command_v);
+    ASSERT_GE(s.ticks, last);
+    last = s.ticks;
+    ++reads;
+  }
+  writer.join();
+  EXPECT_EQ(t.Read().ticks, 200000U);
+  EXPECT_GT(reads, 0U);
+}
+
+}  // namespace
+}  // namespace mrd::firmware

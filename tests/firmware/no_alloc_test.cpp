@@ -1,0 +1,169 @@
+// Proves the loop step allocates nothing: this executable replaces the global operator
+// new/delete (and, outside sanitizer builds, glibc's malloc family) with counting versions;
+// AllocationGuard fails the test on any allocation in its scope. Loop steps cover model,
+// inverter, control law, watchdog (entering and leaving the safe state), simulated I/O and
+// telemetry publishing.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+#include <vector>
+
+#include "fakes.hpp"
+#include "mrd/firmware/loop.hpp"
+#include "mrd/firmware/simulated_damper.hpp"
+#include "support/demo_model.hpp"
+
+namespace {
+std::atomic<std::uint64_t> g_allocations{0};
+}  // namespace
+
+#if defined(__SANITIZE_ADDRESS__)
+#define MRD_HOOK_MALLOC 0
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define MRD_HOOK_MALLOC 0
+#endif
+#endif
+#ifndef MRD_HOOK_MALLOC
+#define MRD_HOOK_MALLOC 1
+#endif
+
+#if MRD_HOOK_MALLOC
+extern "C" {
+void* __libc_malloc(std::size_t);  // NOLINT: glibc
+void* __libc_calloc(std::size_t, std::size_t);
+void* __libc_realloc(void*, std::size_t);
+void* malloc(std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_malloc(n);
+}
+void* calloc(std::size_t n, std::size_t m) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_calloc(n, m);
+}
+void* realloc(void* p, std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_realloc(p, n);
+}
+}
+#endif
+
+void* operator new(std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return std::malloc(n == 0 ? 1 : n);
+}
+void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace mrd::firmware {
+namespace {
+
+// Counts heap allocations (any thread) made while it is alive.
+class AllocationGuard {
+ public:
+  AllocationGuard() : start_(g_allocations.load()) {}
+  std::uint64_t count() const { return g_allocations.load() - start_; }
+
+ private:
+  std::uint64_t start_;
+};
+
+constexpr std::int64_t kPeriod = 1'000'000;
+
+// Keeps the optimiser from eliding a new/delete or malloc/free pair.
+void Escape(void* p) { asm volatile("" : : "g"(p) : "memory"); }
+
+std::uint64_t AllocationsInSteps(const ControllerConfig& config, int steps) {
+  LockstepClock clock;
+  SimulatedDamper plant(SpencerParams::Paper(), SimulationConfig{}, clock, kPeriod);
+  test::FaultySource source(plant);
+  source.nan_velocity = {1000, 1010};
+  source.stall = {2000, 2050};
+  source.bus_fault = {3000, 3005};
+  source.fault_line = {4000, 4002};
+  test::FaultyDriver driver(plant);
+  driver.fail_from = 4500;
+  driver.fail_to = 4501;
+  Controller controller;
+  EXPECT_EQ(controller.Configure(test::DemoDamperTable(), config), Error::kOk);
+  Telemetry telemetry;
+  Loop loop(clock, source, driver, controller, telemetry, kPeriod);
+  AllocationGuard guard;
+  for (int k = 0; k < steps; ++k) {
+    clock.Advance(kPeriod);
+    loop.Tick(clock.Now());
+  }
+  loop.Shutdown();
+  (void)telemetry.Read();
+  const std::uint64_t n = guard.count();
+  EXPECT_GT(loop.stats().watchdog.entries, 3U);  // the faults really happened
+  return n;
+}
+
+TEST(NoAllocationTest, GuardCatchesADeliberateAllocation) {
+  {
+    AllocationGuard guard;
+    auto* p = new int(7);
+    Escape(p);
+    delete p;
+    EXPECT_GE(guard.count(), 1U);
+  }
+  {
+    AllocationGuard guard;
+    std::vector<double> v(16);
+    Escape(v.data());
+    EXPECT_GE(guard.count(), 1U);
+  }
+#if MRD_HOOK_MALLOC
+  {
+    AllocationGuard guard;
+    void* p = std::malloc(32);
+    Escape(p);
+    std::free(p);
+    EXPECT_GE(guard.count(), 1U);
+  }
+#endif
+}
+
+TEST(NoAllocationTest, ForceTrackingLoopStepsAllocateNothing) {
+  EXPECT_EQ(AllocationsInSteps({}, 5000), 0U);
+}
+
+TEST(NoAllocationTest, DisplacementVelocityAndSkyhookStepsAllocateNothing) {
+  ControllerConfig config;
+  config.velocity_source = VelocitySource::kDisplacement;
+  config.law.mode = ControlMode::kSkyhookContinuous;
+  EXPECT_EQ(AllocationsInSteps(config, 5000), 0U);
+  config.law.mode = ControlMode::kSkyhookOnOff;
+  EXPECT_EQ(AllocationsInSteps(config, 5000), 0U);
+  config.law.mode = ControlMode::kConstantVoltage;
+  EXPECT_EQ(AllocationsInSteps(config, 5000), 0U);
+}
+
+TEST(NoAllocationTest, LockstepRunAllocatesNothing) {
+  LockstepClock clock;
+  SimulatedDamper plant(SpencerParams::Paper(), SimulationConfig{}, clock, kPeriod);
+  Controller controller;
+  ASSERT_EQ(controller.Configure(test::DemoDamperTable(), {}), Error::kOk);
+  Telemetry telemetry;
+  Loop loop(clock, plant, plant, controller, telemetry, kPeriod);
+  std::atomic<bool> stop{false};
+  AllocationGuard guard;
+  loop.Run(stop, 3'000'000'000);
+  EXPECT_EQ(guard.count(), 0U);
+  EXPECT_EQ(loop.stats().ticks, 3000U);
+}
+
+}  // namespace
+}  // namespace mrd::firmware
