@@ -35,6 +35,12 @@ void ModelRuntime::Begin(double v, double x) {
   runner_.Begin(raw_);
 }
 
+void ModelRuntime::Seed(double v, double x, double E, double f) {
+  Begin(v, x);
+  runner_.SetInput(table_.input_channel, E);
+  runner_.Finish(f);
+}
+
 double ModelRuntime::ForceAt(double E) {
   runner_.SetInput(table_.input_channel, E);
   return runner_.Evaluate();

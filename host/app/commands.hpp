@@ -6,6 +6,7 @@
 
 namespace mrd::host::cli {
 
+void RegisterExport(CLI::App& app);
 void RegisterGenerate(CLI::App& app);
 void RegisterImport(CLI::App& app);
 void RegisterSlice(CLI::App& app);

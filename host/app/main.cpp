@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
       "mrd-firmware)."};
   app.require_subcommand(1);
   mrd::host::cli::RegisterGenerate(app);
+  mrd::host::cli::RegisterExport(app);
   mrd::host::cli::RegisterImport(app);
   mrd::host::cli::RegisterSlice(app);
   mrd::host::cli::RegisterIdentify(app);

@@ -36,6 +36,10 @@ class ModelRuntime {
   // Completes the current sample with the command actually sent E [V]; returns its force [N],
   // which becomes the output history. Real-time safe.
   double Finish(double E);
+  // Pushes one measured sample (v [cm/s], x [cm], E [V], force f [N]) into the history without
+  // evaluating, e.g. to start from measured initial conditions as `mrd simulate` does.
+  // Real-time safe.
+  void Seed(double v, double x, double E, double f);
   // Begin + Finish. Real-time safe.
   double Step(double v, double x, double E) {
     Begin(v, x);

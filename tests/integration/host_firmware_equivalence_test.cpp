@@ -1,0 +1,72 @@
+// Issue 4: the firmware runtime, loaded from an exported and decoded table, gives the same
+// force as `mrd simulate` (SimulateModel) over the three validation sets.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "mrd/common/table.hpp"
+#include "mrd/firmware/model_runtime.hpp"
+#include "mrd/host/model_file.hpp"
+#include "mrd/host/sem.hpp"
+#include "mrd/host/table_export.hpp"
+#include "sem_test_util.hpp"
+
+namespace mrd {
+namespace {
+
+// A model identified on the reference set (8 iterations of the paper spec).
+const host::ModelFile& IdentifiedModel() {
+  static const host::ModelFile mf = [] {
+    const host::SemSpec spec = host::LoadSemSpec(std::string(MRD_SOURCE_DIR) + "/host/specs/paper.toml");
+    host::SemOptions o;
+    o.max_iterations = 8;
+    o.threads = 2;
+    const std::vector<host::DataSet> id{test::DamperData("identification")};
+    const host::SemResult r = host::Identify(spec, id, {}, o);
+    return host::MakeModelFile(spec, r);
+  }();
+  return mf;
+}
+
+class HostFirmwareEquivalenceTest : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(HostFirmwareEquivalenceTest, FirmwareRuntimeMatchesSimulateTo1e12) {
+  const host::ModelFile& mf = IdentifiedModel();
+  const int k = mf.selected;
+  const host::DataSet data = test::DamperData(GetParam());
+  std::vector<double> host_force;
+  const host::SimMetrics metrics = host::SimulateModel(mf, k, data, &host_force);
+  ASSERT_FALSE(metrics.diverged);
+
+  // Through the binary image, as the firmware loads it.
+  const TableBytes image = host::TableImage(host::MakeTable(host::ToRuntimeModel(mf, k), 0.0, 2.25));
+  const Result<CoefficientTable> table = DecodeTable(image);
+  ASSERT_TRUE(table.ok()) << ErrorName(table.error());
+  firmware::ModelRuntime runtime;
+  ASSERT_EQ(runtime.Configure(table.value()), Error::kOk);
+
+  const auto& v = data.Column("v");
+  const auto& x = data.Column("x");
+  const auto& E = data.Column("E");
+  const auto& f = data.Column("f");
+  const auto warmup = static_cast<std::size_t>(mf.warmup_samples());
+  double worst = 0.0, scale = 0.0;
+  for (std::size_t i = 0; i < data.rows(); ++i) {
+    if (i < warmup) {
+      runtime.Seed(v[i], x[i], E[i], f[i]);
+      continue;
+    }
+    const double fw = runtime.Step(v[i], x[i], E[i]);
+    worst = std::max(worst, std::fabs(fw - host_force[i]));
+    scale = std::max(scale, std::fabs(host_force[i]));
+  }
+  EXPECT_GT(scale, 500.0);  // a real force trace, not zeros
+  EXPECT_LE(worst, 1e-12 * scale) << GetParam();
+}
+
+INSTANTIATE_TEST_SUITE_P(ValidationSets, HostFirmwareEquivalenceTest,
+                         ::testing::Values("v1", "v2", "v3"));
+
+}  // namespace
+}  // namespace mrd
