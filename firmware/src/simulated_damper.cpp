@@ -50,8 +50,10 @@ IoStatus SimulatedDamper::Read(SensorFrame* frame) {
   const double t = static_cast<double>(plant_ns_ - start_ns_) * 1e-9;
   frame->displacement = {X(t), plant_ns_};
   frame->velocity = {V(t), plant_ns_};
-  frame->demand = {config_.demand_amplitude_n * std::sin(kTwoPi * config_.demand_frequency_hz * t),
-                   plant_ns_};
+  // A semi-active damper only dissipates: the demand follows the sign of v (smoothly, over
+  // ~2 cm/s) with a magnitude swinging between 0.3 D and D.
+  const double level = 0.65 + 0.35 * std::sin(kTwoPi * config_.demand_frequency_hz * t);
+  frame->demand = {config_.demand_amplitude_n * level * std::tanh(V(t) / 2.0), plant_ns_};
   frame->body_velocity = {
       config_.body_amplitude *
           std::sin(kTwoPi * config_.body_frequency_hz * t + config_.body_phase_rad),

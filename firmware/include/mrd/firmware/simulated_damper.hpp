@@ -3,7 +3,8 @@
 // CurrentDriver interfaces as the bus drivers, so the loop cannot tell them apart.
 //
 // Excitation: relative displacement x(t) = A sin(2 pi f t) [cm], v = dx/dt [cm/s]; the force
-// demand d(t) = D sin(2 pi f_d t) [N]; body velocity vb(t) = B sin(2 pi f_b t + phi) [cm/s].
+// demand d(t) = D (0.65 + 0.35 sin(2 pi f_d t)) tanh(v / 2 cm/s) [N] (dissipative, as a
+// semi-active damper can deliver); body velocity vb(t) = B sin(2 pi f_b t + phi) [cm/s].
 // The plant advances to the clock's time in whole periods at each Read, with the last
 // commanded voltage held (zero-order hold), and reports samples stamped at its own time.
 
@@ -17,7 +18,7 @@ namespace mrd::firmware {
 struct SimulationConfig {
   double amplitude_cm = 1.0;         // A
   double frequency_hz = 2.0;         // f
-  double demand_amplitude_n = 600.0; // D
+  double demand_amplitude_n = 1200.0; // D
   double demand_frequency_hz = 0.5;  // f_d
   double body_amplitude = 8.0;       // B [cm/s]
   double body_frequency_hz = 1.3;    // f_b
