@@ -13,9 +13,13 @@ double ApplyTransform(Transform t, double exponent, double s) {
       return s == 0.0 ? 0.0 : std::pow(std::fabs(s), exponent);
     case Transform::kSign:
       return s > 0.0 ? 1.0 : (s < 0.0 ? -1.0 : 0.0);
+    case Transform::kLowPass:
+      return s;
   }
   return 0.0;
 }
+
+double LowPassPole(double tau) { return std::exp(-1.0 / tau); }
 
 Error Model::Validate() const {
   if (num_channels == 0 || num_channels > kMaxChannels || num_regressors > kMaxRegressors ||
@@ -35,11 +39,16 @@ Error Model::Validate() const {
   for (std::size_t r = 0; r < num_regressors; ++r) {
     const Regressor& reg = regressors[r];
     if (reg.channel >= num_channels) return Error::kOutOfRange;
-    if (static_cast<std::uint8_t>(reg.transform) > static_cast<std::uint8_t>(Transform::kSign)) {
+    if (static_cast<std::uint8_t>(reg.transform) > static_cast<std::uint8_t>(kLastTransform)) {
       return Error::kOutOfRange;
     }
     if (!std::isfinite(reg.exponent)) return Error::kNonFinite;
     if (reg.transform == Transform::kAbsPow && !(reg.exponent > 0.0)) return Error::kOutOfRange;
+    if (reg.transform == Transform::kLowPass &&
+        (!(reg.exponent > 0.0) || reg.exponent > kMaxLowPassTau ||
+         reg.channel == output_channel)) {
+      return Error::kOutOfRange;
+    }
   }
   for (std::size_t i = 0; i < num_terms; ++i) {
     const Term& term = terms[i];
@@ -84,13 +93,18 @@ void RegressorHistory::Reset(const Model& model) {
   head_ = 0;
 }
 
+double RegressorHistory::Transformed(const Regressor& reg, std::size_t r, double s) const {
+  if (reg.transform != Transform::kLowPass) return ApplyTransform(reg.transform, reg.exponent, s);
+  const double a = LowPassPole(reg.exponent);
+  return a * values_[r][(head_ + 1) % kDepth] + (1.0 - a) * s;  // from r(k-1)
+}
+
 void RegressorHistory::PushInputs(const Model& model, std::span<const double> normalised) {
   head_ = (head_ + kDepth - 1) % kDepth;
   for (std::size_t r = 0; r < model.num_regressors; ++r) {
     const Regressor& reg = model.regressors[r];
-    values_[r][head_] = reg.channel == model.output_channel
-                            ? 0.0
-                            : ApplyTransform(reg.transform, reg.exponent, normalised[reg.channel]);
+    values_[r][head_] =
+        reg.channel == model.output_channel ? 0.0 : Transformed(reg, r, normalised[reg.channel]);
   }
 }
 
@@ -107,9 +121,7 @@ void RegressorHistory::SetInput(const Model& model, std::size_t channel, double 
   if (channel == model.output_channel) return;
   for (std::size_t r = 0; r < model.num_regressors; ++r) {
     const Regressor& reg = model.regressors[r];
-    if (reg.channel == channel) {
-      values_[r][head_] = ApplyTransform(reg.transform, reg.exponent, normalised);
-    }
+    if (reg.channel == channel) values_[r][head_] = Transformed(reg, r, normalised);
   }
 }
 

@@ -98,7 +98,9 @@ Error Inverter::Configure(const CoefficientTable& table) {
       const Factor& fac = m.terms[i].factors[f];
       const Regressor& reg = m.regressors[fac.regressor];
       if (reg.channel != table.input_channel || fac.delay != 0) continue;
-      if (reg.transform != Transform::kIdentity) return Error::kNotInvertible;
+      if (reg.transform != Transform::kIdentity && reg.transform != Transform::kLowPass) {
+        return Error::kNotInvertible;  // not affine in E(k)
+      }
       is_input[i][f] = true;
       d += fac.power;
     }
@@ -108,6 +110,11 @@ Error Inverter::Configure(const CoefficientTable& table) {
   }
   if (max_degree == 0) return Error::kNotInvertible;  // E(k) does not enter the model
   model_ = m;
+  for (std::size_t r = 0; r < m.num_regressors; ++r) {
+    pole_[r] = m.regressors[r].transform == Transform::kLowPass
+                   ? LowPassPole(m.regressors[r].exponent)
+                   : 0.0;
+  }
   term_degree_ = degree;
   is_input_ = is_input;
   input_scale_ = m.scales[table.input_channel];
@@ -130,13 +137,31 @@ std::array<double, kMaxInputDegree + 1> Inverter::Polynomial(const RegressorHist
   Coeffs a{};
   for (std::size_t i = 0; i < model_.num_terms; ++i) {
     const Term& term = model_.terms[i];
-    double v = model_.coefficients[i];
+    Coeffs t{};  // the term as a polynomial in e, degree <= term_degree_[i]
+    t[0] = model_.coefficients[i];
+    std::size_t degree = 0;
     for (std::size_t f = 0; f < term.num_factors; ++f) {
-      if (is_input_[i][f]) continue;
-      const double base = h.value(term.factors[f].regressor, term.factors[f].delay);
-      for (std::uint8_t p = 0; p < term.factors[f].power; ++p) v *= base;
+      const Factor& fac = term.factors[f];
+      if (!is_input_[i][f]) {
+        const double base = h.value(fac.regressor, fac.delay);
+        for (std::uint8_t p = 0; p < fac.power; ++p) {
+          for (std::size_t j = 0; j <= degree; ++j) t[j] *= base;
+        }
+        continue;
+      }
+      // Input regressor at delay 0: alpha + beta * e (identity: 0 + e; low-pass with pole
+      // a: a * r(k-1) + (1 - a) * e).
+      const double pole = pole_[fac.regressor];
+      const double alpha = pole == 0.0 ? 0.0 : pole * h.value(fac.regressor, 1);
+      const double beta = 1.0 - pole;
+      for (std::uint8_t p = 0; p < fac.power; ++p) {
+        ++degree;
+        t[degree] = beta * t[degree - 1];
+        for (std::size_t j = degree - 1; j >= 1; --j) t[j] = alpha * t[j] + beta * t[j - 1];
+        t[0] *= alpha;
+      }
     }
-    a[term_degree_[i]] += v;
+    for (std::size_t j = 0; j <= degree; ++j) a[j] += t[j];
   }
   return a;
 }

@@ -27,6 +27,8 @@ const char* TransformName(Transform t) {
       return "abs_pow";
     case Transform::kSign:
       return "sign";
+    case Transform::kLowPass:
+      return "low_pass";
   }
   return "identity";
 }
@@ -37,6 +39,7 @@ json SpecToJson(const SemSpec& s) {
     json j = {{"name", r.name},     {"signal", r.signal}, {"transform", TransformName(r.transform)},
               {"powers", r.powers}, {"delays", r.delays}};
     if (r.transform == Transform::kAbsPow) j["exponent"] = r.exponent;
+    if (r.transform == Transform::kLowPass) j["tau"] = r.exponent;
     regs.push_back(j);
   }
   return {{"output", s.output},

@@ -54,6 +54,23 @@ double Pow(double b, int p) {
   return v;
 }
 
+// One elementary regressor over a whole record of raw values: T(raw / scale). Low-pass
+// filters start from r(-1) = 0 at the record's first sample, as ModelRunner after Reset.
+std::vector<double> TransformSignal(const ElementaryRegressor& reg, const std::vector<double>& raw,
+                                    double scale) {
+  std::vector<double> out(raw.size());
+  if (reg.transform == Transform::kLowPass) {
+    const double a = LowPassPole(reg.exponent);
+    double r = 0.0;
+    for (std::size_t k = 0; k < raw.size(); ++k) out[k] = r = a * r + (1.0 - a) * (raw[k] / scale);
+    return out;
+  }
+  for (std::size_t k = 0; k < raw.size(); ++k) {
+    out[k] = ApplyTransform(reg.transform, reg.exponent, raw[k] / scale);
+  }
+  return out;
+}
+
 struct Segment {
   std::size_t start = 0;  // stacked index of the first scored sample
   std::size_t len = 0;
@@ -121,15 +138,17 @@ class Engine {
           std::find(signals.begin(), signals.end(), reg.signal) - signals.begin());
       col_index_[r].assign(kMaxDelay + 1, std::vector<int>(kMaxPower + 1, -1));
       base_index_[r].assign(kMaxDelay + 1, -1);
+      std::vector<std::vector<double>> transformed(data.size());
+      for (std::size_t d = 0; d < data.size(); ++d) {
+        transformed[d] = TransformSignal(reg, data[d].Column(reg.signal), ch[ci].scale);
+      }
       for (int delay : reg.delays) {
         std::vector<double> base;
         base.reserve(n_);
         for (std::size_t d = 0; d < data.size(); ++d) {
-          const auto& s = data[d].Column(reg.signal);
+          const auto& s = transformed[d];
           for (std::size_t k = static_cast<std::size_t>(dmax); k < data[d].rows(); ++k) {
-            base.push_back(
-                ApplyTransform(reg.transform, reg.exponent,
-                               s[k - static_cast<std::size_t>(delay)] / ch[ci].scale));
+            base.push_back(s[k - static_cast<std::size_t>(delay)]);
           }
         }
         base_index_[r][delay] = static_cast<int>(base_.size());
@@ -751,6 +770,12 @@ double SimulateCost(const SemSpec& spec, const std::vector<ChannelInfo>& channel
   }
   const std::size_t n = data.rows();
   const std::size_t d0 = static_cast<std::size_t>(spec.MaxDelay());
+  // Input regressors over the whole record (the output's are computed from the simulation).
+  std::vector<std::vector<double>> input(spec.regressors.size());
+  for (std::size_t r = 0; r < spec.regressors.size(); ++r) {
+    const std::size_t ci = reg_channel[r];
+    if (ci != 0) input[r] = TransformSignal(spec.regressors[r], *col[ci], channels[ci].scale);
+  }
   std::vector<double> y(n);
   for (std::size_t k = 0; k < n; ++k) y[k] = (*col[0])[k] / channels[0].scale;
   std::vector<double> yh(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(std::min(d0, n)));
@@ -765,8 +790,8 @@ double SimulateCost(const SemSpec& spec, const std::vector<ChannelInfo>& channel
         const auto& reg = spec.regressors[f.regressor];
         const std::size_t ci = reg_channel[f.regressor];
         const std::size_t kk = k - static_cast<std::size_t>(f.delay);
-        const double s = ci == 0 ? yh[kk] : (*col[ci])[kk] / channels[ci].scale;
-        tv *= Pow(ApplyTransform(reg.transform, reg.exponent, s), f.power);
+        tv *= Pow(ci == 0 ? ApplyTransform(reg.transform, reg.exponent, yh[kk]) : input[f.regressor][kk],
+                  f.power);
       }
       v += coefficients[t] * tv;
     }

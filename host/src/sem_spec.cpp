@@ -82,6 +82,7 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
   ElementaryRegressor r;
   r.line = line;
   bool has_exponent = false;
+  bool has_tau = false;
   for (const auto& [key, node] : t) {
     const std::string k(key.str());
     if (k == "name") {
@@ -97,14 +98,23 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
         r.transform = Transform::kAbsPow;
       } else if (tr == "sign") {
         r.transform = Transform::kSign;
+      } else if (tr == "low_pass") {
+        r.transform = Transform::kLowPass;
       } else {
         Fail(path, node,
-             fmt::format("unknown transform '{}' (expected identity, abs_pow or sign)", tr));
+             fmt::format("unknown transform '{}' (expected identity, abs_pow, sign or low_pass)",
+                         tr));
       }
     } else if (k == "exponent") {
       r.exponent = GetNumber(path, node, k);
       if (!(r.exponent > 0.0)) Fail(path, node, "'exponent' must be > 0");
       has_exponent = true;
+    } else if (k == "tau") {
+      r.exponent = GetNumber(path, node, k);
+      if (!(r.exponent > 0.0) || r.exponent > kMaxLowPassTau) {
+        Fail(path, node, fmt::format("'tau' must be in (0, {:g}] samples", kMaxLowPassTau));
+      }
+      has_tau = true;
     } else if (k == "powers") {
       r.powers = GetIntList(path, node, k, 1, kMaxPower, "power");
     } else if (k == "delays") {
@@ -128,6 +138,12 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
   }
   if (r.transform == Transform::kAbsPow && !has_exponent) {
     throw InputError(path, line, "transform \"abs_pow\" needs an 'exponent'");
+  }
+  if (has_tau && r.transform != Transform::kLowPass) {
+    throw InputError(path, line, "'tau' is only valid with transform = \"low_pass\"");
+  }
+  if (r.transform == Transform::kLowPass && !has_tau) {
+    throw InputError(path, line, "transform \"low_pass\" needs 'tau' (time constant [samples])");
   }
   return r;
 }
@@ -253,6 +269,12 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
                                    "regressors need delays >= 1",
                                    r.name, s.output));
     }
+    if (r.signal == s.output && r.transform == Transform::kLowPass) {
+      throw InputError(path, r.line,
+                       fmt::format("regressor '{}': low_pass is for input signals only, not the "
+                                   "output '{}'",
+                                   r.name, s.output));
+    }
   }
   // Initial terms are checked here so that errors name the spec.
   for (const auto& t : s.initial) ParseTerm(s, t, path, 0);
@@ -354,7 +376,10 @@ std::string TermKey(const SemSpec& spec, const SemTerm& term) {
   std::map<std::pair<std::string, int>, std::pair<int, double>> m;
   for (const auto& f : term.factors) {
     const auto& r = spec.regressors[f.regressor];
-    auto& e = m[{r.signal, f.delay}];
+    // A low-pass regressor is a signal of its own (one per time constant).
+    auto& e = m[{r.transform == Transform::kLowPass ? fmt::format("{}~lp{:.9g}", r.signal, r.exponent)
+                                                    : r.signal,
+                 f.delay}];
     switch (r.transform) {
       case Transform::kIdentity:
         e.first += f.power;
@@ -365,6 +390,10 @@ std::string TermKey(const SemSpec& spec, const SemTerm& term) {
         break;
       case Transform::kSign:
         e.first += f.power;
+        break;
+      case Transform::kLowPass:
+        e.first += f.power;
+        e.second += f.power;
         break;
     }
   }

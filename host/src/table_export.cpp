@@ -43,6 +43,7 @@ const char* TransformName(Transform t) {
     case Transform::kIdentity: return "mrd::Transform::kIdentity";
     case Transform::kAbsPow: return "mrd::Transform::kAbsPow";
     case Transform::kSign: return "mrd::Transform::kSign";
+    case Transform::kLowPass: return "mrd::Transform::kLowPass";
   }
   return "mrd::Transform::kIdentity";
 }
@@ -89,11 +90,18 @@ std::string DescribeTableProblem(const CoefficientTable& table) {
   for (std::size_t r = 0; r < m.num_regressors; ++r) {
     const Regressor& reg = m.regressors[r];
     if (reg.channel >= m.num_channels) return fmt::format("regressor {} reads no channel", r);
-    if (static_cast<int>(reg.transform) > static_cast<int>(Transform::kSign)) {
+    if (static_cast<int>(reg.transform) > static_cast<int>(kLastTransform)) {
       return fmt::format("regressor {} has an unknown transform", r);
     }
     if (!std::isfinite(reg.exponent) || (reg.transform == Transform::kAbsPow && !(reg.exponent > 0.0))) {
       return fmt::format("regressor {} has an invalid exponent {}", r, reg.exponent);
+    }
+    if (reg.transform == Transform::kLowPass &&
+        (!(reg.exponent > 0.0) || reg.exponent > kMaxLowPassTau || reg.channel == m.output_channel)) {
+      return fmt::format("regressor {} is a low-pass with tau {} samples on {} (input channels, "
+                         "0 < tau <= {:g})",
+                         r, reg.exponent, reg.channel == m.output_channel ? "the output" : "an input",
+                         kMaxLowPassTau);
     }
   }
   for (std::size_t i = 0; i < m.num_terms; ++i) {

@@ -105,5 +105,80 @@ TEST(ModelTest, TransformsHandleZero) {
   EXPECT_NEAR(ApplyTransform(Transform::kAbsPow, 0.5, -4.0), 2.0, 1e-15);
 }
 
+// Channels 0 = E, 1 = f (output); regressors 0 = f, 1 = low-pass of E (tau 4 samples).
+Model LowPassModel() {
+  Model m;
+  m.num_channels = 2;
+  m.output_channel = 1;
+  std::strcpy(m.channel_names[0].data(), "E");
+  std::strcpy(m.channel_names[1].data(), "f");
+  m.scales[0] = {0.0, 2.0};
+  m.scales[1] = {0.0, 100.0};
+  m.num_regressors = 2;
+  m.regressors[0] = {1, Transform::kIdentity, 1.0};
+  m.regressors[1] = {0, Transform::kLowPass, 4.0};
+  m.num_terms = 3;
+  m.terms[0].num_factors = 1;
+  m.terms[0].factors[0] = {0, 1, 1};  // f(k-1)
+  m.terms[1].num_factors = 1;
+  m.terms[1].factors[0] = {1, 0, 2};  // lp(E)(k)^2
+  m.terms[2].num_factors = 1;
+  m.terms[2].factors[0] = {1, 3, 1};  // lp(E)(k-3)
+  m.coefficients = {0.5, 0.4, -0.2};
+  return m;
+}
+
+TEST(ModelTest, LowPassRegressorIsARecursiveFilterFromZero) {
+  const Model m = LowPassModel();
+  ASSERT_EQ(m.Validate(), Error::kOk);
+  ModelRunner runner(m);
+  const double a = std::exp(-1.0 / 4.0);
+  std::vector<double> lp;  // reference filter output
+  double r = 0.0, y = 0.0, worst = 0.0;
+  for (int k = 0; k < 300; ++k) {
+    const double e = std::sin(0.07 * k) + (k % 17 == 0 ? 1.0 : 0.0);  // normalised E
+    r = a * r + (1.0 - a) * e;
+    lp.push_back(r);
+    const double lp3 = k >= 3 ? lp[static_cast<std::size_t>(k - 3)] : 0.0;
+    y = 0.5 * y + 0.4 * r * r - 0.2 * lp3;
+    const double raw[2] = {2.0 * e, 0.0};
+    worst = std::max(worst, std::fabs(runner.Step(raw) - 100.0 * y));
+  }
+  EXPECT_LT(worst, 1e-10);
+}
+
+TEST(ModelTest, LowPassSetInputReplacesTheSampleNotTheState) {
+  const Model m = LowPassModel();
+  ModelRunner a(m), b(m);
+  for (int k = 0; k < 50; ++k) {
+    const double raw[2] = {std::cos(0.1 * k), 0.0};
+    a.Step(raw);
+    b.Step(raw);
+  }
+  // Begin with one command then SetInput to another == Begin with the other directly.
+  const double first[2] = {1.7, 0.0}, second[2] = {0.3, 0.0};
+  a.Begin(first);
+  a.SetInput(0, 0.3);
+  b.Begin(second);
+  EXPECT_EQ(a.Evaluate(), b.Evaluate());
+  a.Finish(1.0);
+  b.Finish(1.0);
+  EXPECT_EQ(a.history().value(1, 0), b.history().value(1, 0));
+}
+
+TEST(ModelTest, ValidateRejectsBadLowPass) {
+  Model m = LowPassModel();
+  m.regressors[1].exponent = 0.0;
+  EXPECT_EQ(m.Validate(), Error::kOutOfRange);
+  m.regressors[1].exponent = 2.0 * kMaxLowPassTau;
+  EXPECT_EQ(m.Validate(), Error::kOutOfRange);
+  m = LowPassModel();
+  m.regressors[0].transform = Transform::kLowPass;  // on the output channel
+  EXPECT_EQ(m.Validate(), Error::kOutOfRange);
+  m = LowPassModel();
+  m.regressors[1].transform = static_cast<Transform>(4);
+  EXPECT_EQ(m.Validate(), Error::kOutOfRange);
+}
+
 }  // namespace
 }  // namespace mrd

@@ -73,6 +73,20 @@ TEST(TableTest, RoundTripPreservesEveryField) {
   EXPECT_EQ(Encoded(d), bytes);  // re-encoding gives the same image
 }
 
+TEST(TableTest, LowPassRegressorRoundTripsAndBadTauIsRejected) {
+  CoefficientTable t = test::DemoDamperTable();
+  const std::size_t r = t.model.num_regressors++;
+  t.model.regressors[r] = {1, Transform::kLowPass, 6.5};  // low-pass of E, tau 6.5 samples
+  const auto d = DecodeTable(Encoded(t));
+  ASSERT_TRUE(d.ok()) << ErrorName(d.error());
+  EXPECT_EQ(d.value().model.regressors[r].transform, Transform::kLowPass);
+  EXPECT_EQ(d.value().model.regressors[r].exponent, 6.5);
+  TableBytes b = Encoded(t);
+  PutF64(b, kTableRegressorsOffset + kTableRegressorRecord * r + 8, -1.0);  // tau <= 0
+  FixCrc(b);
+  EXPECT_EQ(DecodeError(b), Error::kOutOfRange);
+}
+
 TEST(TableTest, ImageIsLittleEndianWithMagicVersionAndSize) {
   const TableBytes b = Encoded(test::DemoDamperTable());
   EXPECT_EQ(std::memcmp(b.data(), "MRDT", 4), 0);
@@ -132,7 +146,12 @@ TEST(TableTest, DecoderRejectsOutOfRangeIndices) {
   FixCrc(b);
   EXPECT_EQ(DecodeError(b), Error::kOutOfRange);
   b = Encoded(test::DemoDamperTable());
-  b[kTableRegressorsOffset + 1] = 3;  // unknown transform
+  b[kTableRegressorsOffset + 1] = 4;  // unknown transform
+  FixCrc(b);
+  EXPECT_EQ(DecodeError(b), Error::kOutOfRange);
+  b = Encoded(test::DemoDamperTable());
+  ASSERT_EQ(test::DemoDamperTable().model.regressors[0].channel, 2);  // the output f
+  b[kTableRegressorsOffset + 1] = 3;  // low-pass on the output channel
   FixCrc(b);
   EXPECT_EQ(DecodeError(b), Error::kOutOfRange);
   b = Encoded(test::DemoDamperTable());

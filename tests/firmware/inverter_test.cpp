@@ -52,8 +52,26 @@ TEST(InverterTest, RoundTripOnReachableDemandsDemoModel) { RoundTrip(test::DemoD
 
 TEST(InverterTest, RoundTripOnReachableDemandsQuarticModel) { RoundTrip(test::QuarticTable()); }
 
+TEST(InverterTest, RoundTripOnReachableDemandsLowPassModel) { RoundTrip(test::LowPassTable()); }
+
+TEST(InverterTest, LowPassInputIsExpandedAsAffineInE) {
+  Fixture fx(test::LowPassTable());
+  EXPECT_EQ(fx.inverter.degree(), 4);
+  std::mt19937 rng(11);
+  fx.RandomState(rng);
+  // The polynomial reproduces the model at five commands (it is exact, not a fit).
+  const auto a = fx.inverter.Polynomial(fx.runtime.history());
+  for (double E : {0.0, 0.4, 1.1, 1.9, 2.25}) {
+    const double e = E / 2.25;
+    double y = 0.0;
+    for (int j = 4; j >= 0; --j) y = y * e + a[static_cast<std::size_t>(j)];
+    EXPECT_NEAR(1500.0 * y, fx.runtime.ForceAt(E), 1e-9 * 1500.0) << "E " << E;
+  }
+}
+
 TEST(InverterTest, AgreesWithDenseSearch) {
-  for (const CoefficientTable& table : {test::DemoDamperTable(), test::QuarticTable()}) {
+  for (const CoefficientTable& table :
+       {test::DemoDamperTable(), test::QuarticTable(), test::LowPassTable()}) {
     Fixture fx(table);
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> demand(-2500.0, 2500.0), volt(0.0, 2.25);

@@ -66,4 +66,19 @@ inline CoefficientTable MonotoneTable() {
   return t;
 }
 
+// Degree-4 model in which E(k) enters both directly and through a first-order low-pass
+// (regressor 5, tau 6 samples: affine in E(k) with a state-dependent offset), the form that
+// host/specs/nees.toml produces for measured dampers.
+inline CoefficientTable LowPassTable() {
+  CoefficientTable t = EmptyTable();
+  t.model.regressors[t.model.num_regressors++] = {1, Transform::kLowPass, 6.0};
+  AddTerm(t, {{0, 1, 1}}, 0.7);
+  AddTerm(t, {{5, 0, 1}, {2, 0, 1}, {3, 0, 1}}, 0.9);
+  AddTerm(t, {{5, 0, 2}, {1, 0, 1}, {3, 0, 1}}, -0.3);
+  AddTerm(t, {{5, 0, 1}, {1, 0, 3}}, 0.1);
+  AddTerm(t, {{5, 2, 1}, {0, 1, 1}}, 0.2);  // low-pass at delay 2: history only
+  AddTerm(t, {}, 0.01);
+  return t;
+}
+
 }  // namespace mrd::test

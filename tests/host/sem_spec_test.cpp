@@ -142,6 +142,43 @@ TEST(SemSpecTest, UnknownKeyAndTransformRejected) {
   ExpectError(std::string(kSmall) + "[limits]\nmax_terms = 3\n", 15, "unknown key 'max_terms'");
 }
 
+constexpr const char* kLowPass = R"([[regressor]]
+name = "lp"
+signal = "u"
+transform = "low_pass"
+tau = 6.0
+powers = [1, 2]
+delays = [0, 1]
+)";
+
+TEST(SemSpecTest, LowPassIsItsOwnSignal) {
+  const SemSpec s = ParseSemSpec(std::string(kSmall) + kLowPass, "lp.toml");
+  ASSERT_EQ(s.regressors.size(), 3u);
+  EXPECT_EQ(s.regressors[2].transform, Transform::kLowPass);
+  EXPECT_EQ(s.regressors[2].exponent, 6.0);
+  // lp(k)^2 is not 1 (unlike sign^2) and not u^2: it stays a candidate of its own.
+  const SemTerm lp2 = ParseTerm(s, "lp(k)^2", "", 0);
+  const SemTerm s2 = ParseTerm(s, "s(k)^2", "", 0);
+  EXPECT_NE(TermKey(s, lp2), TermKey(s, s2));
+  EXPECT_NE(TermKey(s, lp2), TermKey(s, SemTerm{}));
+}
+
+TEST(SemSpecTest, BadLowPassRejected) {
+  const std::string base = std::string(kSmall) + kLowPass;
+  std::string t = base;
+  t.replace(t.find("tau = 6.0\n"), 10, "");
+  ExpectError(t, 14, "needs 'tau'");
+  t = base;
+  t.replace(t.find("tau = 6.0"), 9, "tau = -1.0");
+  ExpectError(t, 18, "'tau' must be in");
+  ExpectError(std::string(kSmall).replace(std::string(kSmall).find("delays = [0]"), 12,
+                                          "delays = [0]\ntau = 3.0"),
+              8, "only valid with transform = \"low_pass\"");
+  t = kSmall;
+  t.replace(t.find("transform = \"identity\""), 22, "transform = \"low_pass\"\ntau = 2.0");
+  ExpectError(t, 2, "input signals only");
+}
+
 TEST(SemSpecTest, MissingFileIsInputError) {
   EXPECT_THROW(LoadSemSpec("/nonexistent/spec.toml"), InputError);
 }

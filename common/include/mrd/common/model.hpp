@@ -5,7 +5,9 @@
 //   y(k) = sum_i theta_i * prod_j r_{a_ij}(k - d_ij)^{p_ij}
 //
 // where each elementary regressor r_a(k) = T_a(s_c(k)) is a transform T_a of one normalised
-// channel s_c (identity, |s|^e, sign(s)). The output channel enters only at delays >= 1.
+// channel s_c (identity, |s|^e, sign(s)) or a first-order low-pass of an input channel
+// (noisy or lagging command signals of real rigs). The output channel enters only at
+// delays >= 1 and only through memoryless transforms.
 // Normalisation: s = (raw - offset) / scale per channel; the output is denormalised the
 // same way.
 
@@ -30,15 +32,22 @@ enum class Transform : std::uint8_t {
   kIdentity = 0,  // s
   kAbsPow = 1,    // |s|^exponent (exponent > 0; 0 at s == 0)
   kSign = 2,      // sign(s) in {-1, 0, 1}
+  // r(k) = a r(k-1) + (1 - a) s(k), a = exp(-1/tau), tau = exponent [samples] in
+  // (0, kMaxLowPassTau]; r(-1) = 0 after a reset. Input channels only. Unit DC gain.
+  kLowPass = 3,
 };
+inline constexpr Transform kLastTransform = Transform::kLowPass;
+inline constexpr double kMaxLowPassTau = 1.0e6;  // [samples]
 
-// T(s) for one elementary regressor. Real-time safe.
+// T(s) for one memoryless elementary regressor (kLowPass: s, its input). Real-time safe.
 double ApplyTransform(Transform t, double exponent, double s);
+// Pole a = exp(-1/tau) of the kLowPass transform, tau [samples] > 0.
+double LowPassPole(double tau);
 
 struct Regressor {
   std::uint8_t channel = 0;
   Transform transform = Transform::kIdentity;
-  double exponent = 1.0;  // used by kAbsPow only
+  double exponent = 1.0;  // kAbsPow: the exponent; kLowPass: tau [samples]; else unused
 };
 
 struct Factor {
@@ -89,7 +98,7 @@ class RegressorHistory {
   void Reset(const Model& model);
   // Starts sample k: shifts by one and stores the delay-0 values of the regressors of every
   // channel except the output, from normalised channel values s[c] (size >= num_channels;
-  // s[output_channel] is ignored).
+  // s[output_channel] is ignored). Low-pass regressors advance their filter by one sample.
   void PushInputs(const Model& model, std::span<const double> normalised);
   // Completes sample k with the output's normalised value (after evaluation).
   void SetOutput(const Model& model, double y_normalised);
@@ -102,6 +111,8 @@ class RegressorHistory {
 
  private:
   static constexpr std::size_t kDepth = kMaxDelay + 1;
+  double Transformed(const Regressor& reg, std::size_t r, double s) const;
+
   std::array<std::array<double, kDepth>, kMaxRegressors> values_{};
   std::size_t head_ = 0;  // slot of delay 0
 };

@@ -7,6 +7,9 @@
 //   y(e) = sum_{j=0}^{n} a_j e^j,   a_j = sum over terms with E(k)-degree j of
 //                                          theta_i * (product of the term's other factors)
 //
+// E(k) enters through identity regressors (e) or low-pass ones (a r(k-1) + (1 - a) e, affine
+// in e), so each term is expanded as theta_i * (others) * prod (alpha + beta e)^p.
+//
 // Solve y(e) = y_d on [e_min, e_max]: real roots are isolated between the critical points of
 // y (found recursively from the derivative, degree n-1 ... 1, closed form at degree 1) and
 // polished by a bracketed Newton/bisection iteration of at most kMaxIterations steps, so
@@ -51,8 +54,8 @@ class Inverter {
   };
 
   // Binds the model of a validated table and the range [e_min, e_max] of the table.
-  // kNotInvertible when the input enters at delay 0 through a non-identity transform, with a
-  // total degree above 4 in one term, or not at all. Not real-time (start-up).
+  // kNotInvertible when the input enters at delay 0 through a transform other than identity
+  // or low-pass (not affine in E(k)), with a total degree above 4 in one term, or not at all. Not real-time (start-up).
   Error Configure(const CoefficientTable& table);
   // Narrows the admissible range [V] (e.g. the configured E_max); must lie within the
   // table's range. Returns kOutOfRange otherwise (range unchanged).
@@ -73,8 +76,9 @@ class Inverter {
  private:
   Model model_;
   std::array<std::uint8_t, kMaxTerms> term_degree_{};
-  // Per term and factor: true when the factor is the identity input regressor at delay 0.
+  // Per term and factor: true when the factor is an input regressor at delay 0.
   std::array<std::array<bool, kMaxFactors>, kMaxTerms> is_input_{};
+  std::array<double, kMaxRegressors> pole_{};  // low-pass pole per regressor; 0: identity
   ChannelScale input_scale_;
   ChannelScale output_scale_;
   double table_e_min_ = 0.0;

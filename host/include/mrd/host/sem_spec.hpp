@@ -8,8 +8,10 @@
 //   [[regressor]]                      # one per elementary regressor, in this order
 //   name = "y"                         # unique, used in model files and --initial
 //   signal = "f"                       # CSV column
-//   transform = "identity"             # identity | abs_pow | sign
+//   transform = "identity"             # identity | abs_pow | sign | low_pass
 //   exponent = 0.2                     # abs_pow only: |s|^exponent (> 0)
+//   tau = 6.0                          # low_pass only: time constant [samples]; input
+//                                      # signals only; r(k) = a r(k-1) + (1-a) s(k), a = e^(-1/tau)
 //   powers = [1, 2]                    # integers 1 ... 16
 //   delays = [1]                       # integers 0 ... 15 (>= 1 on the output signal)
 //   [limits]  max_factors = 3, max_degree = 0 (0: none), constant = false
@@ -32,7 +34,7 @@ struct ElementaryRegressor {
   std::string name;
   std::string signal;
   Transform transform = Transform::kIdentity;
-  double exponent = 1.0;     // abs_pow only
+  double exponent = 1.0;     // abs_pow: the exponent; low_pass: tau [samples]
   std::vector<int> powers;   // sorted, unique, 1 ... kMaxPower
   std::vector<int> delays;   // sorted, unique, 0 ... kMaxDelay [samples]
   std::size_t line = 0;         // line of [[regressor]] in the spec file, for messages
