@@ -2,15 +2,20 @@
 //   BM_ModelStepAndInversion: Begin + Inverter::Solve + Finish (the model/inversion core)
 //   BM_ModelStep:             Begin + Finish (forward model only)
 //   BM_ControllerUpdate:      watchdog + law + inversion + model (Controller::Update)
+// MRD_BENCH_TABLE=FILE adds BM_ModelStepAndInversion/file on that exported table (e.g. the
+// NEES model with its low-pass command regressor).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <vector>
 
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/inverter.hpp"
 #include "mrd/firmware/model_runtime.hpp"
+#include "mrd/firmware/table_file.hpp"
 
 namespace {
 
@@ -28,11 +33,11 @@ struct Excitation {
   std::vector<double> v, f;
 };
 
-void BM_ModelStepAndInversion(benchmark::State& state) {
+void StepAndInvert(benchmark::State& state, const mrd::CoefficientTable& table) {
   const Excitation ex;
   ModelRuntime rt;
   Inverter inv;
-  if (rt.Configure(kBuiltinTable) != mrd::Error::kOk || inv.Configure(kBuiltinTable) != mrd::Error::kOk) {
+  if (rt.Configure(table) != mrd::Error::kOk || inv.Configure(table) != mrd::Error::kOk) {
     state.SkipWithError("table refused");
     return;
   }
@@ -45,6 +50,8 @@ void BM_ModelStepAndInversion(benchmark::State& state) {
     k = (k + 1) & (kSamples - 1);
   }
 }
+
+void BM_ModelStepAndInversion(benchmark::State& state) { StepAndInvert(state, kBuiltinTable); }
 BENCHMARK(BM_ModelStepAndInversion);
 
 void BM_ModelStep(benchmark::State& state) {
@@ -84,4 +91,21 @@ BENCHMARK(BM_ControllerUpdate);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  static mrd::CoefficientTable file_table;
+  if (const char* path = std::getenv("MRD_BENCH_TABLE")) {
+    const auto t = LoadTableFile(path);
+    if (!t.ok()) {
+      std::fprintf(stderr, "error: %s: %s\n", path, mrd::ErrorName(t.error()));
+      return 2;
+    }
+    file_table = t.value();
+    benchmark::RegisterBenchmark("BM_ModelStepAndInversion/file",
+                                 [](benchmark::State& s) { StepAndInvert(s, file_table); });
+  }
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -91,6 +91,7 @@ Error Inverter::Configure(const CoefficientTable& table) {
   const Model& m = table.model;
   std::array<std::uint8_t, kMaxTerms> degree{};
   std::array<std::array<bool, kMaxFactors>, kMaxTerms> is_input{};
+  std::array<bool, kMaxTerms> low_pass{};
   int max_degree = 0;
   for (std::size_t i = 0; i < m.num_terms; ++i) {
     int d = 0;
@@ -102,6 +103,7 @@ Error Inverter::Configure(const CoefficientTable& table) {
         return Error::kNotInvertible;  // not affine in E(k)
       }
       is_input[i][f] = true;
+      low_pass[i] = low_pass[i] || reg.transform == Transform::kLowPass;
       d += fac.power;
     }
     if (d > kMaxInputDegree) return Error::kNotInvertible;
@@ -116,6 +118,7 @@ Error Inverter::Configure(const CoefficientTable& table) {
                    : 0.0;
   }
   term_degree_ = degree;
+  has_low_pass_ = low_pass;
   is_input_ = is_input;
   input_scale_ = m.scales[table.input_channel];
   output_scale_ = m.scales[m.output_channel];
@@ -137,22 +140,26 @@ std::array<double, kMaxInputDegree + 1> Inverter::Polynomial(const RegressorHist
   Coeffs a{};
   for (std::size_t i = 0; i < model_.num_terms; ++i) {
     const Term& term = model_.terms[i];
-    Coeffs t{};  // the term as a polynomial in e, degree <= term_degree_[i]
-    t[0] = model_.coefficients[i];
+    double v = model_.coefficients[i];  // theta_i * (the term's other factors)
+    for (std::size_t f = 0; f < term.num_factors; ++f) {
+      if (is_input_[i][f]) continue;
+      const double base = h.value(term.factors[f].regressor, term.factors[f].delay);
+      for (std::uint8_t p = 0; p < term.factors[f].power; ++p) v *= base;
+    }
+    if (!has_low_pass_[i]) {  // only identity E(k) factors: v * e^degree
+      a[term_degree_[i]] += v;
+      continue;
+    }
+    // Expand v * prod (alpha + beta e)^p; identity factors have alpha = 0, beta = 1; a
+    // low-pass with pole q has alpha = q * r(k-1), beta = 1 - q.
+    Coeffs t{};
+    t[0] = v;
     std::size_t degree = 0;
     for (std::size_t f = 0; f < term.num_factors; ++f) {
+      if (!is_input_[i][f]) continue;
       const Factor& fac = term.factors[f];
-      if (!is_input_[i][f]) {
-        const double base = h.value(fac.regressor, fac.delay);
-        for (std::uint8_t p = 0; p < fac.power; ++p) {
-          for (std::size_t j = 0; j <= degree; ++j) t[j] *= base;
-        }
-        continue;
-      }
-      // Input regressor at delay 0: alpha + beta * e (identity: 0 + e; low-pass with pole
-      // a: a * r(k-1) + (1 - a) * e).
       const double pole = pole_[fac.regressor];
-      const double alpha = pole == 0.0 ? 0.0 : pole * h.value(fac.regressor, 1);
+      const double alpha = pole * h.value(fac.regressor, 1);
       const double beta = 1.0 - pole;
       for (std::uint8_t p = 0; p < fac.power; ++p) {
         ++degree;

@@ -78,6 +78,7 @@ class Inverter {
   std::array<std::uint8_t, kMaxTerms> term_degree_{};
   // Per term and factor: true when the factor is an input regressor at delay 0.
   std::array<std::array<bool, kMaxFactors>, kMaxTerms> is_input_{};
+  std::array<bool, kMaxTerms> has_low_pass_{};  // term has a low-pass E(k) factor
   std::array<double, kMaxRegressors> pole_{};  // low-pass pole per regressor; 0: identity
   ChannelScale input_scale_;
   ChannelScale output_scale_;
