@@ -177,8 +177,9 @@ TEST(ControllerTest, RefusesSafeVoltageOrEmaxOutsideTable) {
 
 TEST(TelemetryTest, ReaderSeesConsistentSnapshotsWhileWriterRuns) {
   Telemetry t;
-  std::atomic<bool> done{false};
+  std::atomic<bool> done{false}, reading{false};
   std::thread writer([&] {
+    while (!reading) std::this_thread::yield();  // overlap with the reader even under load
     TelemetrySnapshot s;
     for (std::uint64_t i = 1; i <= 200000; ++i) {
       s.ticks = i;
@@ -189,7 +190,8 @@ TEST(TelemetryTest, ReaderSeesConsistentSnapshotsWhileWriterRuns) {
     done = true;
   });
   std::uint64_t reads = 0, last = 0;
-  while (!done) {
+  reading = true;
+  while (!done || reads == 0) {
     const TelemetrySnapshot s = t.Read();
     ASSERT_EQ(s.ticks, s.overruns);
     ASSERT_EQ(static_cast<double>(s.ticks), s.last_command_v);
