@@ -47,36 +47,7 @@ TEST(SemEngineTest, CostAgreesWithModelRunner) {
 
 // A spec whose command enters through a low-pass filter (host/specs/nees.toml style).
 TEST(SemEngineTest, LowPassCostAgreesWithModelRunner) {
-  const SemSpec spec = ParseSemSpec(R"(output = "f"
-[[regressor]]
-name = "y"
-signal = "f"
-powers = [1, 2]
-delays = [1]
-[[regressor]]
-name = "e"
-signal = "E"
-transform = "low_pass"
-tau = 5.0
-powers = [1, 2]
-delays = [0, 2]
-[[regressor]]
-name = "a"
-signal = "v"
-transform = "abs_pow"
-exponent = 0.2
-powers = [1, 2, 3]
-[[regressor]]
-name = "s"
-signal = "v"
-transform = "sign"
-powers = [1]
-[limits]
-constant = true
-[cost]
-weighting = "mse"
-)",
-                                    "lp.toml");
+  const SemSpec spec = ParseSemSpec(test::kLowPassSpec, "lp.toml");
   // 5 ... 15 s of the identification set: the record starts at a non-zero voltage, so a
   // filter started from anything but r(-1) = 0 in one of the evaluators would show.
   DataSet d = test::DamperData("identification", 15001);

@@ -44,6 +44,38 @@ inline host::DataSet DamperData(const std::string& profile, std::size_t rows = 0
   return d;
 }
 
+// A damper spec whose command enters through a low-pass filter (as host/specs/nees.toml),
+// with a constant and MSE weighting; small enough to identify in well under a second.
+inline constexpr const char* kLowPassSpec = R"(output = "f"
+[[regressor]]
+name = "y"
+signal = "f"
+powers = [1, 2]
+delays = [1]
+[[regressor]]
+name = "e"
+signal = "E"
+transform = "low_pass"
+tau = 5.0
+powers = [1, 2]
+delays = [0, 2]
+[[regressor]]
+name = "a"
+signal = "v"
+transform = "abs_pow"
+exponent = 0.2
+powers = [1, 2, 3]
+[[regressor]]
+name = "s"
+signal = "v"
+transform = "sign"
+powers = [1]
+[limits]
+constant = true
+[cost]
+weighting = "mse"
+)";
+
 // Standard normal deviates by Box-Muller on a fixed engine (portable across libraries).
 class Gauss {
  public:
