@@ -13,6 +13,7 @@
 #include "fakes.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
+#include "reference_models.hpp"
 #include "support/demo_model.hpp"
 
 namespace {
@@ -84,7 +85,8 @@ constexpr std::int64_t kPeriod = 1'000'000;
 // Keeps the optimiser from eliding a new/delete or malloc/free pair.
 void Escape(void* p) { asm volatile("" : : "g"(p) : "memory"); }
 
-std::uint64_t AllocationsInSteps(const ControllerConfig& config, int steps) {
+std::uint64_t AllocationsInSteps(const ControllerConfig& config, int steps,
+                                 const CoefficientTable& table = test::DemoDamperTable()) {
   LockstepClock clock;
   SimulatedDamper plant(SpencerParams::Paper(), SimulationConfig{}, clock, kPeriod);
   test::FaultySource source(plant);
@@ -96,7 +98,7 @@ std::uint64_t AllocationsInSteps(const ControllerConfig& config, int steps) {
   driver.fail_from = 4500;
   driver.fail_to = 4501;
   Controller controller;
-  EXPECT_EQ(controller.Configure(test::DemoDamperTable(), config), Error::kOk);
+  EXPECT_EQ(controller.Configure(table, config), Error::kOk);
   Telemetry telemetry;
   Loop loop(clock, source, driver, controller, telemetry, kPeriod);
   AllocationGuard guard;
@@ -138,6 +140,10 @@ TEST(NoAllocationTest, GuardCatchesADeliberateAllocation) {
 
 TEST(NoAllocationTest, ForceTrackingLoopStepsAllocateNothing) {
   EXPECT_EQ(AllocationsInSteps({}, 5000), 0U);
+}
+
+TEST(NoAllocationTest, LowPassModelStepsAllocateNothing) {
+  EXPECT_EQ(AllocationsInSteps({}, 5000, test::LowPassTable()), 0U);
 }
 
 TEST(NoAllocationTest, DisplacementVelocityAndSkyhookStepsAllocateNothing) {
