@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The main job on built-in data: set-up, build, then generate the reference data sets
-# (and, as later stages land, identify -> export -> HIL run). Outputs go to out/.
+# (and, as later stages land, identify -> report -> export -> HIL run). Outputs go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash toolchain/build.sh release
@@ -19,6 +19,14 @@ for p in v1 v2 v3; do
   printf '%s: ' "$p"
   "$mrd" simulate --model out/model.json --data "out/$p.csv" --json
 done
+echo "== report: plots and summary of the model on V1-V3 (out/report/)"
+if ! "$mrd" report --model out/model.json --data out/v1.csv,out/v2.csv,out/v3.csv \
+    --out out/report 2>out/report.log >out/report.txt; then
+  cat out/report.log >&2
+  exit 1
+fi
+sed -n '1,3p;/^fit of/,/^$/p' out/report.txt
+echo "   (progress: out/report.log; full summary: out/report/summary.txt; plots: out/report/*.png)"
 echo "== export: coefficient table for the firmware"
 "$mrd" export --model out/model.json --table out/table.bin --header out/table.hpp
 echo "== firmware: 2 s dry run (lockstep) of mrd-firmware on the exported table"

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   mrd::host::cli::RegisterSlice(app);
   mrd::host::cli::RegisterIdentify(app);
   mrd::host::cli::RegisterSimulate(app);
+  mrd::host::cli::RegisterReport(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

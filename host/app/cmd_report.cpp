@@ -1,0 +1,48 @@
+// mrd report: PNG plots (gnuplot) and a summary of a model on data files (host/report.hpp).
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "mrd/host/report.hpp"
+
+namespace mrd::host::cli {
+namespace {
+
+void RunReport(ReportOptions o) {
+  o.progress = [](const std::string& line) {
+    fmt::print(stderr, "{}\n", line);
+    std::fflush(stderr);
+  };
+  const ReportResult r = WriteReport(o);
+  fmt::print("{}", r.summary);
+}
+
+}  // namespace
+
+void RegisterReport(CLI::App& app) {
+  auto o = std::make_shared<ReportOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "report",
+      "PNG plots and a summary of a model on data files: force-displacement and "
+      "force-velocity loops, force and error vs time, J per iteration; J, MSE, RRSE, fit %.");
+  cmd->footer(
+      "Writes DIR/<stem>_force_displacement.png (when the data has x), "
+      "DIR/<stem>_force_velocity.png (when it has v), DIR/<stem>_time.png per data file, "
+      "DIR/J_iterations.png and DIR/summary.txt; the summary is also printed on stdout, "
+      "progress on stderr. The files are built in a temporary directory beside DIR, then "
+      "moved into place (the whole directory when DIR is absent or empty, else file by "
+      "file, replacing files of the same name). Needs gnuplot (Debian: gnuplot-nox).");
+  cmd->add_option("--model", o->model, "Model file (JSON) from mrd identify")->required();
+  cmd->add_option("--data", o->data, "Data file(s) (CSV), comma separated or repeated")
+      ->required()
+      ->delimiter(',');
+  cmd->add_option("--out", o->out_dir, "Output directory (its parent must exist)")->required();
+  cmd->add_option("--iteration", o->iteration, "Iteration to report (default: selected)");
+  cmd->callback([o] { RunReport(*o); });
+}
+
+}  // namespace mrd::host::cli
