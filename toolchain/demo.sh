@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The main job on built-in data: set-up, build, then generate the reference data sets
-# (and, as later stages land, identify -> report -> export -> HIL run). Outputs go to out/.
+# -> identify -> simulate -> report -> export -> firmware dry run, then the same on the measured
+# NEES run when ../shared/data holds it (HIL joins as it lands). Outputs go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash toolchain/build.sh release
@@ -31,3 +32,23 @@ echo "== export: coefficient table for the firmware"
 "$mrd" export --model out/model.json --table out/table.bin --header out/table.hpp
 echo "== firmware: 2 s dry run (lockstep) of mrd-firmware on the exported table"
 build/bin/mrd-firmware --table out/table.bin --dry-run 2 --lockstep --json
+
+nees=../shared/data/nees-2012-1158/ransim_u.csv
+if [[ -f "$nees" ]]; then
+  echo "== real bench data: NEES-2012-1158 run -> import -> identify (0-14 s) -> held-out 14-19.5 s"
+  mkdir -p out/nees
+  "$mrd" import --in "$nees" --map t=t,x=D,v=V,E=Y,f=F --rate 1000 --out out/nees/nees.csv \
+    >out/nees/import.log
+  "$mrd" slice --in out/nees/nees.csv --from 0 --to 14 --out out/nees/id.csv
+  "$mrd" slice --in out/nees/nees.csv --from 14 --to 19.5 --out out/nees/held.csv
+  "$mrd" identify --data out/nees/id.csv --spec host/specs/nees.toml --threads 2 \
+    --out out/nees/model.json >out/nees/identify.log
+  tail -n 1 out/nees/identify.log
+  printf 'held out: '
+  "$mrd" simulate --model out/nees/model.json --data out/nees/held.csv --json
+  "$mrd" report --model out/nees/model.json --data out/nees/held.csv,out/nees/id.csv \
+    --out out/nees/report >/dev/null 2>out/nees/report.log
+  echo "   (plots and summary: out/nees/report/)"
+else
+  echo "== real bench data: skipped ($nees not found)"
+fi
