@@ -17,6 +17,9 @@ std::uint32_t Check(const Stamped& s, std::int64_t now_ns, std::int64_t max_age_
   return causes;
 }
 
+// True when a finite value exceeds a limit (limit 0: none).
+bool Implausible(double value, double limit) { return limit > 0.0 && std::fabs(value) > limit; }
+
 }  // namespace
 
 Error Controller::Configure(const CoefficientTable& table, const ControllerConfig& config) {
@@ -26,6 +29,9 @@ Error Controller::Configure(const CoefficientTable& table, const ControllerConfi
   if (e != Error::kOk) return e;
   e = inverter_.SetRange(table.e_min, config.e_max);
   if (e != Error::kOk) return e;
+  if (!(config.velocity_limit >= 0.0) || !(config.displacement_limit >= 0.0)) {
+    return Error::kOutOfRange;  // negative or NaN
+  }
   if (!std::isfinite(config.safe_voltage) || config.safe_voltage < table.e_min ||
       config.safe_voltage > table.e_max) {
     return Error::kOutOfRange;
@@ -64,18 +70,30 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
   // Velocity (and displacement when the model or the differentiator reads it).
   const bool use_x =
       config_.velocity_source == VelocitySource::kDisplacement || runtime_.reads_displacement();
+  constexpr std::uint32_t kImplausibleBit = Watchdog::Bit(FaultCause::kImplausible);
   if (config_.velocity_source == VelocitySource::kMeasured) {
     const std::uint32_t c = Check(frame.velocity, now_ns, max_age);
     causes |= c;
-    if (std::isfinite(frame.velocity.value)) v_ = frame.velocity.value;
+    if (Implausible(frame.velocity.value, config_.velocity_limit)) {
+      causes |= kImplausibleBit;
+    } else if (std::isfinite(frame.velocity.value)) {
+      v_ = frame.velocity.value;
+    }
   }
   if (use_x) {
     const std::uint32_t c = Check(frame.displacement, now_ns, max_age);
     causes |= c;
-    if (std::isfinite(frame.displacement.value)) {
+    if (Implausible(frame.displacement.value, config_.displacement_limit)) {
+      causes |= kImplausibleBit;
+    } else if (std::isfinite(frame.displacement.value)) {
       x_ = frame.displacement.value;
       if (config_.velocity_source == VelocitySource::kDisplacement) {
-        v_ = differentiator_.Update(x_, dt_s);
+        const double v = differentiator_.Update(x_, dt_s);
+        if (Implausible(v, config_.velocity_limit)) {
+          causes |= kImplausibleBit;
+        } else {
+          v_ = v;
+        }
       }
     }
   }

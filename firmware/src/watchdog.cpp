@@ -9,6 +9,7 @@ const char* FaultCauseName(FaultCause cause) {
     case FaultCause::kBusFault: return "bus_fault";
     case FaultCause::kDriverFault: return "driver_fault";
     case FaultCause::kFaultLine: return "fault_line";
+    case FaultCause::kImplausible: return "implausible";
   }
   return "unknown";
 }

@@ -34,6 +34,8 @@ cutoff_hz = 30
 safe_voltage = 0.1
 max_age_ms = 10
 recover_periods = 5
+velocity_limit = 80
+displacement_limit = 4.5
 [simulation]
 amplitude_cm = 0.5
 substeps = 50
@@ -50,6 +52,8 @@ substeps = 50
   EXPECT_EQ(c.controller.safe_voltage, 0.1);
   EXPECT_EQ(c.controller.watchdog.max_age_ns, 10'000'000);
   EXPECT_EQ(c.controller.watchdog.recover_periods, 5U);
+  EXPECT_EQ(c.controller.velocity_limit, 80.0);
+  EXPECT_EQ(c.controller.displacement_limit, 4.5);
   EXPECT_EQ(c.simulation.amplitude_cm, 0.5);
   EXPECT_EQ(c.simulation.substeps, 50);
 }

@@ -15,7 +15,8 @@ using firmware::SensorFrame;
 using firmware::SensorSource;
 
 // Reads through to `inner`, except in read-number windows [from, to) (0-based):
-// NaN velocity, frozen stamps (stale), bus fault, fault line.
+// NaN velocity, frozen stamps (stale), bus fault, fault line, velocity and displacement
+// replaced by a spike value (an implausible reading).
 class FaultySource final : public SensorSource {
  public:
   struct Window {
@@ -23,7 +24,9 @@ class FaultySource final : public SensorSource {
     bool contains(std::uint64_t n) const { return n >= from && n < to; }
   };
   explicit FaultySource(SensorSource& inner) : inner_(inner) {}
-  Window nan_velocity, stall, bus_fault, fault_line;
+  Window nan_velocity, stall, bus_fault, fault_line, spike;
+  double spike_velocity = 500.0;     // [cm/s]
+  double spike_displacement = 50.0;  // [cm]
 
   IoStatus Read(SensorFrame* frame) override {
     const std::uint64_t n = reads_++;
@@ -35,6 +38,10 @@ class FaultySource final : public SensorSource {
     }
     if (nan_velocity.contains(n)) frame->velocity.value = std::numeric_limits<double>::quiet_NaN();
     if (fault_line.contains(n)) frame->fault_line = true;
+    if (spike.contains(n)) {
+      frame->velocity.value = spike_velocity;
+      frame->displacement.value = spike_displacement;
+    }
     if (bus_fault.contains(n)) s = IoStatus::kFault;
     return s;
   }

@@ -79,6 +79,46 @@ TEST(LoopTest, NonFiniteVelocityCommandsSafeStateWithinOnePeriodAndRecovers) {
   EXPECT_EQ(w.active_periods[Idx(FaultCause::kNonFinite)], 10U);
 }
 
+TEST(LoopTest, ImplausibleVelocityCommandsSafeStateAndKeepsItFromTheModel) {
+  ControllerConfig config;
+  config.velocity_limit = 100.0;  // the plant moves at <= ~13 cm/s
+  Rig rig(config);
+  rig.source.spike = {700, 705};
+  for (std::uint64_t k = 0; k < 800; ++k) {
+    rig.clock.Advance(kPeriod);
+    rig.loop.Tick(rig.clock.Now());
+    const bool faulty = k >= 700 && k < 705;
+    ASSERT_EQ(rig.plant.in_safe_state(), faulty) << "period " << k;
+    // The model never saw 500 cm/s: its force stays in the damper's range.
+    ASSERT_LT(std::fabs(rig.loop.stats().model_force_n), 3000.0) << "period " << k;
+  }
+  const auto& w = rig.loop.stats().watchdog;
+  EXPECT_EQ(w.trips[Idx(FaultCause::kImplausible)], 1U);
+  EXPECT_EQ(w.active_periods[Idx(FaultCause::kImplausible)], 5U);
+  EXPECT_STREQ(FaultCauseName(FaultCause::kImplausible), "implausible");
+}
+
+TEST(LoopTest, ImplausibleDisplacementTripsOnlyWithALimit) {
+  ControllerConfig config;
+  config.velocity_source = VelocitySource::kDisplacement;
+  config.velocity_limit = 100.0;
+  config.displacement_limit = 10.0;
+  {
+    Rig rig(config);
+    rig.source.spike = {700, 703};
+    rig.Run(1.0);
+    const auto& w = rig.loop.stats().watchdog;
+    EXPECT_EQ(w.trips[Idx(FaultCause::kImplausible)], 1U);
+    EXPECT_EQ(w.active_periods[Idx(FaultCause::kImplausible)], 3U);
+  }
+  config.velocity_limit = 0.0;  // no limits: the spike reaches the model (as before)
+  config.displacement_limit = 0.0;
+  Rig rig(config);
+  rig.source.spike = {700, 703};
+  rig.Run(1.0);
+  EXPECT_EQ(rig.loop.stats().watchdog.trips[Idx(FaultCause::kImplausible)], 0U);
+}
+
 TEST(LoopTest, StaleSensorTripsAfterMaxAge) {
   ControllerConfig config;
   config.watchdog.max_age_ns = 3 * kPeriod;
@@ -172,6 +212,12 @@ TEST(ControllerTest, RefusesSafeVoltageOrEmaxOutsideTable) {
   EXPECT_EQ(c.Configure(test::DemoDamperTable(), config), Error::kOutOfRange);
   config = {};
   config.e_max = 5.0;
+  EXPECT_EQ(c.Configure(test::DemoDamperTable(), config), Error::kOutOfRange);
+  config = {};
+  config.velocity_limit = -1.0;
+  EXPECT_EQ(c.Configure(test::DemoDamperTable(), config), Error::kOutOfRange);
+  config = {};
+  config.displacement_limit = std::nan("");
   EXPECT_EQ(c.Configure(test::DemoDamperTable(), config), Error::kOutOfRange);
 }
 

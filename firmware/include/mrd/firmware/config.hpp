@@ -22,6 +22,8 @@
 //   safe_voltage = 0.0        # safe-state command [V]
 //   max_age_ms = 5.0          # sensor data older than this is stale [ms]
 //   recover_periods = 1       # clean periods before leaving the safe state
+//   velocity_limit = 0.0      # |v| above this is implausible: safe state [cm/s]; 0 = none
+//   displacement_limit = 0.0  # |x| above this is implausible: safe state [cm]; 0 = none
 //
 //   [simulation]              # the dry-run plant (SimulationConfig)
 //   amplitude_cm = 1.0, frequency_hz = 2.0, demand_amplitude_n = 600.0,

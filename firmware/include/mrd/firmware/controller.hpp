@@ -4,6 +4,7 @@
 // delivered and sends its command to the driver.
 //
 //   causes  = stale/non-finite required inputs | bus fault | driver fault | fault line
+//             | velocity or displacement beyond its plausibility limit
 //   safe    = watchdog(causes)
 //   E(k)    = safe ? E_safe
 //                  : law gives a voltage ? clamp(voltage, E_min, E_max)
@@ -37,6 +38,11 @@ struct ControllerConfig {
   double cutoff_hz = 50.0;      // displacement differentiator cut-off [Hz]
   double e_max = 2.25;          // highest command [V], within the table's range
   double safe_voltage = 0.0;    // [V], within the table's range
+  // Plausibility limits: |v| [cm/s] (measured or derived) and |x| [cm] above them are
+  // implausible (a sensor fault, or far outside the range the model was identified on): safe
+  // state, and the model keeps the last plausible value. 0: no limit.
+  double velocity_limit = 0.0;
+  double displacement_limit = 0.0;
 };
 
 struct ControllerOutput {

@@ -5,7 +5,8 @@
 //             last active cause.
 //
 // Causes: stale sensor data (age > max_age), a non-finite input, a bus fault (read failed),
-// a driver fault (last write failed), the external fault line. Counters per cause: periods
+// a driver fault (last write failed), the external fault line, an implausible sensor value
+// (velocity or displacement beyond its configured limit). Counters per cause: periods
 // in which it was active and trips (inactive -> active transitions).
 
 #include <array>
@@ -19,10 +20,12 @@ enum class FaultCause : std::uint8_t {
   kBusFault,
   kDriverFault,
   kFaultLine,
+  kImplausible,
 };
-inline constexpr std::size_t kNumFaultCauses = 5;
+inline constexpr std::size_t kNumFaultCauses = 6;
 
-// Static name ("stale_sensor", "non_finite", "bus_fault", "driver_fault", "fault_line").
+// Static name ("stale_sensor", "non_finite", "bus_fault", "driver_fault", "fault_line",
+// "implausible").
 const char* FaultCauseName(FaultCause cause);
 
 struct WatchdogConfig {
