@@ -58,7 +58,9 @@ void RunIdentify(const IdentifyOptions& o) {
     std::fflush(stdout);
   };
   const SemResult r = Identify(spec, data, val, so);
-  const ModelFile mf = MakeModelFile(spec, r);
+  ModelFile mf = MakeModelFile(spec, r);
+  mf.identification_data = o.data;
+  mf.validation_data = o.validate;
   SaveModelFile(mf, o.out);
   const SemIteration& sel = mf.Iteration(mf.selected);
   fmt::print("{}: {} candidates, {} iterations, selected iteration {} ({} terms, J {:.6g}; {})\n",

@@ -162,7 +162,9 @@ std::string ModelFileToJson(const ModelFile& m) {
             {"num_candidates", m.num_candidates},
             {"iterations", its},
             {"selected", m.selected},
-            {"selection_rule", m.selection_rule}};
+            {"selection_rule", m.selection_rule},
+            {"identification_data", m.identification_data},
+            {"validation_data", m.validation_data}};
   return j.dump(1) + "\n";
 }
 
@@ -189,6 +191,12 @@ ModelFile LoadModelFile(const std::string& path) {
       throw InputError(path, 0, fmt::format("unsupported version {}", j.at("version").dump()));
     }
     m.spec = SpecFromJson(j.at("spec"), path);
+    if (j.contains("identification_data")) {
+      m.identification_data = j.at("identification_data").get<std::vector<std::string>>();
+    }
+    if (j.contains("validation_data")) {
+      m.validation_data = j.at("validation_data").get<std::vector<std::string>>();
+    }
     for (const auto& c : j.at("channels")) {
       ChannelInfo ci{c.at("name").get<std::string>(), c.at("offset").get<double>(),
                      c.at("scale").get<double>()};

@@ -183,6 +183,14 @@ PlotFigure TimePlot(const ModelFile& mf, int k, const DataReport& r) {
   return f;
 }
 
+// Name of validation set v of the model file: its file name when recorded.
+std::string ValidationName(const ModelFile& mf, std::size_t v) {
+  if (v < mf.validation_data.size()) {
+    return "validation " + fs::path(mf.validation_data[v]).filename().string();
+  }
+  return fmt::format("validation {}", v + 1);
+}
+
 // J per iteration: identification, validation sets of the model file, data files.
 PlotSpec IterationPlot(const ModelFile& mf, int k, const std::vector<DataReport>& reports) {
   PlotSpec p;
@@ -206,7 +214,7 @@ PlotSpec IterationPlot(const ModelFile& mf, int k, const std::vector<DataReport>
     for (const SemIteration& s : mf.iterations) {
       jv.push_back(v < s.validation_j.size() ? s.validation_j[v] : kNaN);
     }
-    p.series.push_back(Series(fmt::format("validation set {} J (model file)", v + 1), it, jv,
+    p.series.push_back(Series(fmt::format("{} J (model file)", ValidationName(mf, v)), it, jv,
                               "linespoints linewidth 1.5 pointtype 5 pointsize 0.7"));
   }
   for (const DataReport& r : reports) {
@@ -230,6 +238,12 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
   const SemIteration& sel = mf.Iteration(mf.selected);
   const SemIteration& it = mf.Iteration(k);
   fmt::format_to(out, "mrd report: model {}\n", mf.path);
+  if (!mf.identification_data.empty()) {
+    fmt::format_to(out, "identified on: {}; validated on: {}\n",
+                   fmt::join(mf.identification_data, ", "),
+                   mf.validation_data.empty() ? std::string("-")
+                                              : fmt::format("{}", fmt::join(mf.validation_data, ", ")));
+  }
   fmt::format_to(out, "selected iteration: {} ({} terms, J {}; {})\n", mf.selected,
                  sel.terms.size(), FormatJ(sel.j), mf.selection_rule);
   fmt::format_to(out, "reported iteration: {} ({} terms, J {}){}\n", k, it.terms.size(),
@@ -259,7 +273,7 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
   std::vector<std::string> heads = {"iteration", "terms", "identification"};
   std::size_t num_val = 0;
   for (const SemIteration& s : mf.iterations) num_val = std::max(num_val, s.validation_j.size());
-  for (std::size_t v = 0; v < num_val; ++v) heads.push_back(fmt::format("validation {}", v + 1));
+  for (std::size_t v = 0; v < num_val; ++v) heads.push_back(ValidationName(mf, v));
   for (const DataReport& r : reports) heads.push_back(r.name);
   std::vector<std::size_t> widths;
   for (const auto& h : heads) widths.push_back(std::max<std::size_t>(h.size(), 12));

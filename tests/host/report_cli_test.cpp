@@ -161,6 +161,9 @@ TEST_F(ReportCliTest, WritesEveryPlotAsPng) {
       << r.output;
   EXPECT_NE(r.output.find("report: simulating iteration 3/4 on id.csv"), std::string::npos)
       << r.output;
+  // The model file's validation set is named by its file in the summary.
+  EXPECT_NE(r.output.find("validated on: " + File("v1.csv")), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("validation v1.csv"), std::string::npos) << r.output;
   EXPECT_EQ(StagingLeftovers(out.File("")), 0);
 }
 

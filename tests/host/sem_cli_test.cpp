@@ -61,6 +61,8 @@ TEST(SemCliTest, IdentifyThenSimulateJson) {
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("iteration   3:  3 terms"), std::string::npos) << r.output;
   const ModelFile mf = LoadModelFile(model);
+  EXPECT_EQ(mf.identification_data, std::vector<std::string>{id});  // provenance
+  EXPECT_EQ(mf.validation_data, std::vector<std::string>{val});
   EXPECT_EQ(mf.Iteration(3).terms.size(), 3u);
   EXPECT_LT(mf.Iteration(3).j, 1e-20);
   const auto s = test::Run(test::Bin("mrd") + " simulate --model " + model + " --data " + val +

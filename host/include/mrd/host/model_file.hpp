@@ -8,7 +8,8 @@
 //     "iterations": [{"iteration": k, "J": ..., "validation_J": [...], "elapsed_s": ...,
 //                     "terms": [{"coefficient": c,
 //                                "factors": [{"regressor": "u2", "delay": 1, "power": 3}]}]}],
-//     "selected": k, "selection_rule": "..." }
+//     "selected": k, "selection_rule": "...",
+//     "identification_data": ["id.csv"], "validation_data": ["v1.csv", ...] }  // optional
 //
 // Coefficients are in normalised units (signals divided by their channel scale).
 
@@ -29,6 +30,9 @@ struct ModelFile {
   int selected = 0;
   std::string selection_rule;
   std::size_t num_candidates = 0;
+  // Data files of the run, as given on the command line (provenance; may be empty).
+  std::vector<std::string> identification_data;
+  std::vector<std::string> validation_data;  // in the order of validation_J
 
   int warmup_samples() const { return spec.MaxDelay(); }
   // Iteration by its number; throws InputError naming the file when absent.
