@@ -89,14 +89,16 @@ void RegressorHistory::Reset(const Model& model) {
             ? ApplyTransform(model.regressors[r].transform, model.regressors[r].exponent, 0.0)
             : 0.0;
     values_[r].fill(zero);
+    pole_[r] = r < model.num_regressors && model.regressors[r].transform == Transform::kLowPass
+                   ? LowPassPole(model.regressors[r].exponent)
+                   : 0.0;
   }
   head_ = 0;
 }
 
 double RegressorHistory::Transformed(const Regressor& reg, std::size_t r, double s) const {
   if (reg.transform != Transform::kLowPass) return ApplyTransform(reg.transform, reg.exponent, s);
-  const double a = LowPassPole(reg.exponent);
-  return a * values_[r][(head_ + 1) % kDepth] + (1.0 - a) * s;  // from r(k-1)
+  return LowPassStep(pole_[r], values_[r][(head_ + 1) % kDepth], s);  // from r(k-1)
 }
 
 void RegressorHistory::PushInputs(const Model& model, std::span<const double> normalised) {

@@ -112,11 +112,6 @@ Error Inverter::Configure(const CoefficientTable& table) {
   }
   if (max_degree == 0) return Error::kNotInvertible;  // E(k) does not enter the model
   model_ = m;
-  for (std::size_t r = 0; r < m.num_regressors; ++r) {
-    pole_[r] = m.regressors[r].transform == Transform::kLowPass
-                   ? LowPassPole(m.regressors[r].exponent)
-                   : 0.0;
-  }
   term_degree_ = degree;
   has_low_pass_ = low_pass;
   is_input_ = is_input;
@@ -150,15 +145,15 @@ std::array<double, kMaxInputDegree + 1> Inverter::Polynomial(const RegressorHist
       a[term_degree_[i]] += v;
       continue;
     }
-    // Expand v * prod (alpha + beta e)^p; identity factors have alpha = 0, beta = 1; a
-    // low-pass with pole q has alpha = q * r(k-1), beta = 1 - q.
+    // Expand v * prod (alpha + beta e)^p with LowPassStep(q, r(k-1), e) = alpha + beta e:
+    // alpha = q * r(k-1), beta = 1 - q; identity factors have q = 0 (alpha 0, beta 1).
     Coeffs t{};
     t[0] = v;
     std::size_t degree = 0;
     for (std::size_t f = 0; f < term.num_factors; ++f) {
       if (!is_input_[i][f]) continue;
       const Factor& fac = term.factors[f];
-      const double pole = pole_[fac.regressor];
+      const double pole = h.low_pass_pole(fac.regressor);
       const double alpha = pole * h.value(fac.regressor, 1);
       const double beta = 1.0 - pole;
       for (std::uint8_t p = 0; p < fac.power; ++p) {

@@ -62,7 +62,7 @@ std::vector<double> TransformSignal(const ElementaryRegressor& reg, const std::v
   if (reg.transform == Transform::kLowPass) {
     const double a = LowPassPole(reg.exponent);
     double r = 0.0;
-    for (std::size_t k = 0; k < raw.size(); ++k) out[k] = r = a * r + (1.0 - a) * (raw[k] / scale);
+    for (std::size_t k = 0; k < raw.size(); ++k) out[k] = r = LowPassStep(a, r, raw[k] / scale);
     return out;
   }
   for (std::size_t k = 0; k < raw.size(); ++k) {
@@ -790,8 +790,9 @@ double SimulateCost(const SemSpec& spec, const std::vector<ChannelInfo>& channel
         const auto& reg = spec.regressors[f.regressor];
         const std::size_t ci = reg_channel[f.regressor];
         const std::size_t kk = k - static_cast<std::size_t>(f.delay);
-        tv *= Pow(ci == 0 ? ApplyTransform(reg.transform, reg.exponent, yh[kk]) : input[f.regressor][kk],
-                  f.power);
+        const double value =
+            ci == 0 ? ApplyTransform(reg.transform, reg.exponent, yh[kk]) : input[f.regressor][kk];
+        tv *= Pow(value, f.power);
       }
       v += coefficients[t] * tv;
     }

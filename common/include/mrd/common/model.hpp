@@ -43,6 +43,11 @@ inline constexpr double kMaxLowPassTau = 1.0e6;  // [samples]
 double ApplyTransform(Transform t, double exponent, double s);
 // Pole a = exp(-1/tau) of the kLowPass transform, tau [samples] > 0.
 double LowPassPole(double tau);
+// One kLowPass update: r(k) = a r(k-1) + (1 - a) s(k), pole a. The one definition used by the
+// history, the host's whole-record columns and (as alpha + beta s) the inverter.
+inline double LowPassStep(double pole, double previous, double s) {
+  return pole * previous + (1.0 - pole) * s;
+}
 
 struct Regressor {
   std::uint8_t channel = 0;
@@ -94,7 +99,8 @@ struct Model {
 // Fixed size; no allocation.
 class RegressorHistory {
  public:
-  // Clears all values to T(0).
+  // Clears all values to T(0) and caches the model's low-pass poles (start-up cost, not per
+  // sample). Call before the first PushInputs and whenever the model changes.
   void Reset(const Model& model);
   // Starts sample k: shifts by one and stores the delay-0 values of the regressors of every
   // channel except the output, from normalised channel values s[c] (size >= num_channels;
@@ -108,12 +114,15 @@ class RegressorHistory {
   double value(std::size_t regressor, std::size_t delay) const {
     return values_[regressor][(head_ + delay) % kDepth];
   }
+  // Pole of a kLowPass regressor (LowPassPole(tau)); 0 for every other transform.
+  double low_pass_pole(std::size_t regressor) const { return pole_[regressor]; }
 
  private:
   static constexpr std::size_t kDepth = kMaxDelay + 1;
   double Transformed(const Regressor& reg, std::size_t r, double s) const;
 
   std::array<std::array<double, kDepth>, kMaxRegressors> values_{};
+  std::array<double, kMaxRegressors> pole_{};  // low-pass poles (Reset)
   std::size_t head_ = 0;  // slot of delay 0
 };
 

@@ -55,15 +55,16 @@ class Inverter {
 
   // Binds the model of a validated table and the range [e_min, e_max] of the table.
   // kNotInvertible when the input enters at delay 0 through a transform other than identity
-  // or low-pass (not affine in E(k)), with a total degree above 4 in one term, or not at all. Not real-time (start-up).
+  // or low-pass (not affine in E(k)), with a total degree above 4 in one term, or not at all.
+  // Not real-time (start-up).
   Error Configure(const CoefficientTable& table);
   // Narrows the admissible range [V] (e.g. the configured E_max); must lie within the
   // table's range. Returns kOutOfRange otherwise (range unchanged).
   Error SetRange(double e_min, double e_max);
 
   // Polynomial coefficients a_0 ... a_4 of the normalised output in the normalised command,
-  // for a history prepared by ModelRuntime::Begin (the command slot is not read). Real-time
-  // safe.
+  // for a history prepared by ModelRuntime::Begin on the same table (the command slot is not
+  // read; low-pass poles come from the history). Real-time safe.
   std::array<double, kMaxInputDegree + 1> Polynomial(const RegressorHistory& h) const;
   // Command whose model force is the demand f_demand [N], given the previous command
   // E_previous [V]. Real-time safe, bounded work.
@@ -79,7 +80,6 @@ class Inverter {
   // Per term and factor: true when the factor is an input regressor at delay 0.
   std::array<std::array<bool, kMaxFactors>, kMaxTerms> is_input_{};
   std::array<bool, kMaxTerms> has_low_pass_{};  // term has a low-pass E(k) factor
-  std::array<double, kMaxRegressors> pole_{};  // low-pass pole per regressor; 0: identity
   ChannelScale input_scale_;
   ChannelScale output_scale_;
   double table_e_min_ = 0.0;
