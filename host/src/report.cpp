@@ -352,7 +352,7 @@ ReportResult WriteReport(const ReportOptions& o) {
     for (DataReport& r : reports) {
       progress(fmt::format("report: simulating iteration {}/{} on {}", n, last, r.name));
       try {
-        const SimMetrics m = SimulateModel(mf, n, r.data);
+        const SimMetrics m = n == k ? r.metrics : SimulateModel(mf, n, r.data);
         if (m.diverged || !std::isfinite(m.j)) {
           notes.push_back(
               fmt::format("{}: iteration {} diverges (gap in J_iterations.png)", r.name, n));
