@@ -66,6 +66,27 @@ Error CoefficientTable::Validate() const {
   return Error::kOk;
 }
 
+InversionCheck CheckInversion(const CoefficientTable& table) {
+  const Model& m = table.model;
+  InversionCheck out;
+  for (std::size_t i = 0; i < m.num_terms; ++i) {
+    int d = 0;
+    for (std::size_t f = 0; f < m.terms[i].num_factors; ++f) {
+      const Factor& fac = m.terms[i].factors[f];
+      const Regressor& reg = m.regressors[fac.regressor];
+      if (reg.channel != table.input_channel || fac.delay != 0) continue;
+      if (reg.transform != Transform::kIdentity && reg.transform != Transform::kLowPass) {
+        return {InversionProblem::kTransform, static_cast<std::uint8_t>(i), 0};
+      }
+      d += fac.power;
+    }
+    if (d > kMaxInputDegree) return {InversionProblem::kDegree, static_cast<std::uint8_t>(i), d};
+    out.degree = d > out.degree ? d : out.degree;
+  }
+  if (out.degree == 0) out.problem = InversionProblem::kAbsent;
+  return out;
+}
+
 Result<TableBytes> EncodeTable(const CoefficientTable& table) {
   const Error e = table.Validate();
   if (e != Error::kOk) return e;

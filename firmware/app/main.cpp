@@ -24,6 +24,7 @@
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
+#include "summary_json.hpp"
 
 namespace {
 
@@ -36,6 +37,47 @@ constexpr int kExitBadInput = 2;
 std::atomic<bool> g_stop{false};
 
 extern "C" void OnSignal(int) { g_stop.store(true); }
+
+// Every terminating signal that can be caught stops the loop through its safe-state shutdown
+// (SIGKILL and SIGSTOP cannot be caught). Installed first thing in main.
+void InstallStopHandlers() {
+  struct sigaction sa {};
+  sa.sa_handler = OnSignal;
+  sigemptyset(&sa.sa_mask);
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM,
+                        SIGVTALRM, SIGPROF, SIGXCPU, SIGXFSZ, SIGPWR, SIGSTKFLT}) {
+    sigaction(sig, &sa, nullptr);
+  }
+}
+
+// Longest dry run [s]: its duration in ns must fit std::int64_t (~292 years).
+constexpr double kMaxDryRunS = 9.0e9;
+
+// A dry run shorter than one period or too long to count in ns never ends (a duration <= 0
+// means "no limit" to the loop): refused.
+bool CheckDryRun(double seconds, std::int64_t period_ns) {
+  if (seconds > kMaxDryRunS) {
+    std::fprintf(stderr, "error: --dry-run %g s: beyond the longest run of %g s\n", seconds,
+                 kMaxDryRunS);
+    return false;
+  }
+  if (seconds * 1e9 < static_cast<double>(period_ns)) {
+    std::fprintf(stderr, "error: --dry-run %g s: shorter than one period (%g us)\n", seconds,
+                 static_cast<double>(period_ns) / 1e3);
+    return false;
+  }
+  return true;
+}
+
+// Output goes to a file or pipe that may fail (e.g. /dev/full): a lost result is an error.
+int FinishOutput(int status) {
+  if (std::fflush(stdout) != 0 || std::ferror(stdout) != 0) {
+    std::fprintf(stderr, "error: cannot write the result to standard output: %s\n",
+                 std::strerror(errno));
+    return status == kExitOk ? kExitFailure : status;
+  }
+  return status;
+}
 
 constexpr const char* kHelp =
     "mrd-firmware: MR damper controller (polynomial NARX model + analytic voltage inversion).\n"
@@ -59,7 +101,8 @@ constexpr const char* kHelp =
     "\n"
     "Real time: SCHED_FIFO and mlockall are requested when the config allows; without the\n"
     "privilege a warning is printed and the loop runs at normal priority.\n"
-    "SIGINT/SIGTERM stop the loop and leave the driver in the safe state.\n"
+    "SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE and the other catchable terminating signals stop\n"
+    "the loop and leave the driver in the safe state.\n"
     "Exit status: 0 ok, 1 failure, 2 bad input (arguments, config, refused table).\n";
 
 struct Options {
@@ -133,39 +176,17 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
           : 0.0;
   const auto cause = [&](FaultCause c) { return static_cast<std::size_t>(c); };
   if (o.json) {
-    std::printf("{\n");
-    std::printf("  \"mode\": \"%s\",\n", o.lockstep ? "lockstep" : "realtime");
-    std::printf("  \"table\": \"%s\",\n", table_name);
-    std::printf("  \"law\": \"%s\",\n", ControlModeName(cfg.controller.law.mode));
-    std::printf("  \"seconds\": %.6g,\n", o.dry_run_s);
-    std::printf("  \"period_us\": %.6g,\n", static_cast<double>(cfg.period_ns) / 1e3);
-    std::printf("  \"sched_fifo\": %s,\n", rt.sched_fifo ? "true" : "false");
-    std::printf("  \"memory_locked\": %s,\n", rt.memory_locked ? "true" : "false");
-    std::printf("  \"ticks\": %llu,\n", static_cast<unsigned long long>(s.ticks));
-    std::printf("  \"overruns\": %llu,\n", static_cast<unsigned long long>(s.overruns));
-    std::printf("  \"missed_periods\": %llu,\n", static_cast<unsigned long long>(s.missed_periods));
-    std::printf("  \"worst_latency_us\": %.3f,\n", static_cast<double>(s.worst_latency_ns) / 1e3);
-    std::printf("  \"worst_exec_us\": %.3f,\n", static_cast<double>(s.worst_exec_ns) / 1e3);
-    std::printf("  \"read_faults\": %llu,\n", static_cast<unsigned long long>(s.read_faults));
-    std::printf("  \"write_faults\": %llu,\n", static_cast<unsigned long long>(s.write_faults));
-    std::printf("  \"unreachable_demands\": %llu,\n", static_cast<unsigned long long>(s.unreachable));
-    std::printf("  \"model_resets\": %llu,\n", static_cast<unsigned long long>(s.model_resets));
-    std::printf("  \"safe_periods\": %llu,\n", static_cast<unsigned long long>(s.watchdog.safe_periods));
-    std::printf("  \"safe_entries\": %llu,\n", static_cast<unsigned long long>(s.watchdog.entries));
-    std::printf("  \"watchdog\": {");
-    for (std::size_t i = 0; i < kNumFaultCauses; ++i) {
-      std::printf("%s\"%s\": {\"trips\": %llu, \"periods\": %llu}", i == 0 ? "" : ", ",
-                  FaultCauseName(static_cast<FaultCause>(i)),
-                  static_cast<unsigned long long>(s.watchdog.trips[i]),
-                  static_cast<unsigned long long>(s.watchdog.active_periods[i]));
-    }
-    std::printf("},\n");
-    std::printf("  \"last_command_v\": %.6g,\n", s.last_command_v);
-    std::printf("  \"model_force_n\": %.6g,\n", s.model_force_n);
-    std::printf("  \"rms_model_error_n\": %.6g,\n", rms_model);
-    std::printf("  \"rms_tracking_error_n\": %.6g,\n", rms_tracking);
-    std::printf("  \"final_safe_state\": %s\n", s.safe ? "true" : "false");
-    std::printf("}\n");
+    SummaryInfo info;
+    info.mode = o.lockstep ? "lockstep" : "realtime";
+    info.table = table_name;
+    info.law = ControlModeName(cfg.controller.law.mode);
+    info.seconds = o.dry_run_s;
+    info.period_us = static_cast<double>(cfg.period_ns) / 1e3;
+    info.sched_fifo = rt.sched_fifo;
+    info.memory_locked = rt.memory_locked;
+    info.rms_model_error_n = rms_model;
+    info.rms_tracking_error_n = rms_tracking;
+    std::fputs(SummaryJson(s, info).c_str(), stdout);
     return;
   }
   std::printf("mrd-firmware dry run (%s, %.6g s, period %.6g us, law %s, table %s)\n",
@@ -262,11 +283,7 @@ int Run(const Options& o) {
     return kExitBadInput;
   }
 
-  struct sigaction sa {};
-  sa.sa_handler = OnSignal;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
+  if (!CheckDryRun(o.dry_run_s, cfg.period_ns)) return kExitBadInput;
 
   Telemetry telemetry;
   RealTime rt;
@@ -322,11 +339,12 @@ int Run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  InstallStopHandlers();
   Options o;
   if (!ParseArgs(argc, argv, &o)) return kExitBadInput;
   if (o.help) {
     std::fputs(kHelp, stdout);
-    return kExitOk;
+    return FinishOutput(kExitOk);
   }
-  return Run(o);
+  return FinishOutput(Run(o));
 }

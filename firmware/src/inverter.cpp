@@ -88,6 +88,7 @@ PolyRoots RealRootsInInterval(const Coeffs& a, int n, double lo, double hi) {
 Error Inverter::Configure(const CoefficientTable& table) {
   const Error e = table.Validate();
   if (e != Error::kOk) return e;
+  if (CheckInversion(table).problem != InversionProblem::kNone) return Error::kNotInvertible;
   const Model& m = table.model;
   std::array<std::uint8_t, kMaxTerms> degree{};
   std::array<std::array<bool, kMaxFactors>, kMaxTerms> is_input{};

@@ -1,11 +1,15 @@
 // mrd export: an identified model as the firmware's coefficient table (binary and/or C++
 // header). Everything is checked and encoded before anything is written.
 #include <memory>
+#include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
 #include "commands.hpp"
+#include "mrd/host/atomic_write.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/table_export.hpp"
@@ -31,11 +35,21 @@ void RunExport(const ExportOptions& o) {
   const SemIteration& it = mf.Iteration(k);
   const CoefficientTable table = MakeTable(ToRuntimeModel(mf, k), o.e_min, o.e_max, o.input,
                                            o.model);
-  // Encode both forms first so a refusal leaves no file behind.
-  const std::string header = o.header.empty() ? "" : TableHeader(table, o.symbol);
-  (void)TableImage(table);
-  if (!o.table.empty()) WriteTableFile(table, o.table);
-  if (!o.header.empty()) WriteTableHeader(table, o.symbol, o.header);
+  // Encode both forms first, then write both or neither (WriteFilesAtomic).
+  std::vector<std::pair<std::string, std::string>> files;
+  if (!o.table.empty()) {
+    const TableBytes bytes = TableImage(table);
+    files.emplace_back(o.table, std::string(reinterpret_cast<const char*>(bytes.data()),
+                                            bytes.size()));
+  }
+  if (!o.header.empty()) {
+    try {
+      files.emplace_back(o.header, TableHeader(table, o.symbol));
+    } catch (const std::invalid_argument& e) {
+      throw InputError("", 0, fmt::format("--symbol: {}", e.what()));
+    }
+  }
+  WriteFilesAtomic(files);
   fmt::print("iteration {} ({} terms, J {:.6g}), input '{}' in [{}, {}] V ->{}{}\n", k,
              it.terms.size(), it.j, o.input, o.e_min, o.e_max,
              o.table.empty() ? "" : " " + o.table, o.header.empty() ? "" : " " + o.header);

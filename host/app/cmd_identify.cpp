@@ -26,6 +26,7 @@ struct IdentifyOptions {
   std::optional<int> max_iterations;
   std::optional<double> target_j;
   std::optional<std::string> strategy;
+  std::optional<std::int64_t> max_candidates;
   std::vector<std::string> initial;
   int threads = 0;
 };
@@ -48,6 +49,7 @@ void RunIdentify(const IdentifyOptions& o) {
   so.threshold_percent = o.threshold;
   so.max_iterations = o.max_iterations;
   so.target_j = o.target_j;
+  so.max_candidates = o.max_candidates;
   if (!o.initial.empty()) so.initial = o.initial;
   so.threads = o.threads > 0 ? o.threads
                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -87,7 +89,11 @@ void RegisterIdentify(CLI::App& app) {
       ->check(CLI::Range(0.0, 99.999));
   cmd->add_option("--max-iterations", o->max_iterations, "Most major iterations")
       ->check(CLI::Range(0, 100000));
-  cmd->add_option("--target-j", o->target_j, "Stop once J is at or below this");
+  cmd->add_option("--target-j", o->target_j, "Stop once J is at or below this (finite)");
+  cmd->add_option("--max-candidates", o->max_candidates,
+                  "Most candidate factor combinations (default: the spec's [limits] "
+                  "max_candidates, else 200000)")
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{2000000000}));
   cmd->add_option("--threads", o->threads, "Worker threads (0: all cores)")
       ->check(CLI::Range(0, 256))
       ->capture_default_str();

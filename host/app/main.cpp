@@ -1,11 +1,14 @@
 // mrd — host CLI of the MR damper control toolkit.
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
 #include "commands.hpp"
+#include "mrd/host/atomic_write.hpp"
 #include "mrd/host/input_error.hpp"
 
 int main(int argc, char** argv) {
@@ -13,6 +16,7 @@ int main(int argc, char** argv) {
       "mrd: identify control-oriented NARX models of magneto-rheological dampers.\n"
       "Data flow: generate | import -> identify -> simulate/report -> export (table for "
       "mrd-firmware)."};
+  mrd::host::InstallCleanupHandlers();
   app.require_subcommand(1);
   mrd::host::cli::RegisterGenerate(app);
   mrd::host::cli::RegisterExport(app);
@@ -30,6 +34,11 @@ int main(int argc, char** argv) {
     return mrd::host::kExitBadInput;
   } catch (const std::exception& e) {
     fmt::print(stderr, "error: {}\n", e.what());
+    return 1;
+  }
+  // The result on stdout (e.g. simulate --json) is output too: a failed write is an error.
+  if (std::fflush(stdout) != 0 || std::ferror(stdout) != 0) {
+    fmt::print(stderr, "error: cannot write to standard output: {}\n", std::strerror(errno));
     return 1;
   }
   return 0;

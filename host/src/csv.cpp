@@ -4,38 +4,14 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
+#include "csv_tokenizer.hpp"
 #include "mrd/host/input_error.hpp"
 
 namespace mrd::host {
-namespace {
-
-std::string_view Trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) {
-    s.remove_suffix(1);
-  }
-  return s;
-}
-
-std::vector<std::string_view> Split(std::string_view line) {
-  std::vector<std::string_view> out;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = line.find(',', start);
-    out.push_back(Trim(line.substr(start, comma - start)));
-    if (comma == std::string_view::npos) break;
-    start = comma + 1;
-  }
-  return out;
-}
-
-}  // namespace
 
 bool DataSet::Has(const std::string& name) const {
   return std::find(names.begin(), names.end(), name) != names.end();
@@ -48,14 +24,15 @@ const std::vector<double>& DataSet::Column(const std::string& name) const {
 }
 
 DataSet ReadCsv(const std::string& path, std::span<const std::string> required) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path, 0, "cannot open file");
+  const std::string content = csv::ReadFile(path);
+  const std::vector<csv::Line> lines = csv::SplitLines(content, path);
   DataSet ds;
   ds.path = path;
 
-  std::string line;
-  if (!std::getline(in, line)) throw InputError(path, 1, "empty file (no header row)");
-  for (std::string_view name : Split(line)) {
+  if (lines.empty()) throw InputError(path, 1, "empty file (no header row)");
+  std::vector<std::string_view> fields;
+  csv::SplitFields(lines[0].text, ',', &fields);
+  for (std::string_view name : fields) {
     if (name.empty()) throw InputError(path, 1, "empty column name in header");
     if (ds.Has(std::string(name))) {
       throw InputError(path, 1, fmt::format("duplicate column '{}'", name));
@@ -73,10 +50,10 @@ DataSet ReadCsv(const std::string& path, std::span<const std::string> required) 
   }
 
   std::size_t lineno = 1;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (Trim(line).empty()) continue;  // blank lines (e.g. trailing newline) are skipped
-    const auto fields = Split(line);
+  for (std::size_t li = 1; li < lines.size(); ++li) {
+    lineno = lines[li].number;
+    if (csv::Trim(lines[li].text).empty()) continue;  // blank lines (e.g. trailing newline)
+    csv::SplitFields(lines[li].text, ',', &fields);
     if (fields.size() != ds.names.size()) {
       throw InputError(path, lineno, fmt::format("expected {} fields, found {}",
                                                  ds.names.size(), fields.size()));
@@ -119,24 +96,6 @@ DataSet ReadCsv(const std::string& path, std::span<const std::string> required) 
   return ds;
 }
 
-void WriteFileAtomic(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error(fmt::format("{}: cannot open for writing", path));
-    out << text;
-    out.flush();
-    if (!out) {
-      std::remove(tmp.c_str());
-      throw std::runtime_error(fmt::format("{}: write failed", path));
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(fmt::format("{}: cannot rename temporary file", path));
-  }
-}
-
 void WriteCsv(const std::string& path, const std::vector<std::string>& names,
               const std::vector<std::vector<double>>& columns) {
   if (names.size() != columns.size() || columns.empty()) {
@@ -147,6 +106,13 @@ void WriteCsv(const std::string& path, const std::vector<std::string>& names,
   fmt::format_to(std::back_inserter(buf), "{}\n", fmt::join(names, ","));
   for (std::size_t r = 0; r < rows; ++r) {
     for (std::size_t c = 0; c < columns.size(); ++c) {
+      if (!std::isfinite(columns[c][r])) {
+        // Data file line r + 2 (after the header); an overflowed scale or a diverging
+        // simulation ends here, before anything is written.
+        throw InputError(path, r + 2,
+                         fmt::format("column '{}': non-finite value {} not written",
+                                     names[c], columns[c][r]));
+      }
       // %.10g keeps 1e-10 relative precision; enough for simulated and measured signals.
       if (c > 0) buf.push_back(',');
       fmt::format_to(std::back_inserter(buf), "{:.10g}", columns[c][r]);

@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "csv_tokenizer.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/resample.hpp"
 
@@ -23,47 +24,9 @@ namespace {
 // Output columns that every toolkit data file has, in header order.
 const std::vector<std::string> kToolkitNames{"t", "x", "v", "E", "f"};
 
-struct Line {
-  std::string_view text;  // without the line end ("\n" or "\r\n")
-  std::size_t number;     // 1-based file line
-};
-
-std::string_view Trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) {
-    s.remove_suffix(1);
-  }
-  return s;
-}
-
-// Lines of the file; the empty string after a final line end is not a line.
-std::vector<Line> SplitLines(std::string_view content) {
-  std::vector<Line> lines;
-  std::size_t start = 0;
-  std::size_t number = 1;
-  while (start < content.size()) {
-    std::size_t end = content.find('\n', start);
-    if (end == std::string_view::npos) end = content.size();
-    std::string_view text = content.substr(start, end - start);
-    if (!text.empty() && text.back() == '\r') text.remove_suffix(1);
-    lines.push_back({text, number++});
-    start = end + 1;
-  }
-  return lines;
-}
-
-// Fields of a line, trimmed. Separators inside quotes are not supported (no such files seen);
-// an unbalanced quote is caught when the header name is unquoted.
-void SplitFields(std::string_view line, char sep, std::vector<std::string_view>* out) {
-  out->clear();
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t pos = line.find(sep, start);
-    out->push_back(Trim(line.substr(start, pos - start)));
-    if (pos == std::string_view::npos) break;
-    start = pos + 1;
-  }
-}
+using csv::Line;
+using csv::SplitFields;
+using csv::Trim;
 
 bool IsValidName(std::string_view s) {
   if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) {
@@ -102,15 +65,6 @@ int CountDecimals(std::string_view f) {
   const std::size_t dot = f.find('.');
   const int after = dot == std::string_view::npos ? 0 : static_cast<int>(f.size() - dot - 1);
   return after - exponent;
-}
-
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, 0, "cannot open file");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw InputError(path, 0, "read failed");
-  return ss.str();
 }
 
 template <typename T>
@@ -222,12 +176,12 @@ ImportResult Import(const ImportOptions& o) {
   rep.in_path = path;
   rep.out_rate_hz = o.out_rate_hz;
 
-  std::string content = ReadAll(path);
+  std::string content = csv::ReadFile(path);
   if (content.starts_with("\xEF\xBB\xBF")) {
     content.erase(0, 3);
     rep.bom = true;
   }
-  const std::vector<Line> lines = SplitLines(content);
+  const std::vector<Line> lines = csv::SplitLines(content, path);
   if (lines.empty() || Trim(lines[0].text).empty()) {
     throw InputError(path, 1, "empty file (no header row)");
   }

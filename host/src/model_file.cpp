@@ -47,7 +47,8 @@ json SpecToJson(const SemSpec& s) {
           {"limits",
            {{"max_factors", s.max_factors},
             {"max_degree", s.max_degree},
-            {"constant", s.constant}}},
+            {"constant", s.constant},
+            {"max_candidates", s.max_candidates}}},
           {"cost",
            {{"weighting", s.weighting == CostWeighting::kRelative ? "relative" : "mse"},
             {"floor", s.floor}}},
@@ -63,36 +64,43 @@ json SpecToJson(const SemSpec& s) {
 
 // The spec is stored in the same shape as the TOML; rebuild it through the TOML parser so
 // that both go through one validation. Values are written with full precision.
-std::string JsonValueToToml(const json& v) {
+std::string JsonValueToToml(const json& v, const std::string& key, const std::string& path) {
   if (v.is_string()) return json(v.get<std::string>()).dump();  // JSON escapes are TOML-valid
   if (v.is_boolean()) return v.get<bool>() ? "true" : "false";
   if (v.is_number_integer()) return std::to_string(v.get<long long>());
   if (v.is_number()) return fmt::format("{:.17g}", v.get<double>());
   if (v.is_array()) {
     std::string s = "[";
-    for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + JsonValueToToml(v[i]);
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      s += (i ? ", " : "") + JsonValueToToml(v[i], key, path);
+    }
     return s + "]";
   }
-  throw std::runtime_error("unsupported value");
+  throw InputError(path, 0, fmt::format("spec: '{}' is {}, expected a number, string, boolean "
+                                       "or array", key, v.type_name()));
 }
 
 SemSpec SpecFromJson(const json& j, const std::string& path) {
   std::string toml;
   for (const auto& [k, v] : j.items()) {
     if (!v.is_object() && !(v.is_array() && k == "regressor")) {
-      toml += k + " = " + JsonValueToToml(v) + "\n";
+      toml += k + " = " + JsonValueToToml(v, k, path) + "\n";
     }
   }
   for (const auto& [k, v] : j.items()) {
     if (v.is_object()) {
       toml += "[" + k + "]\n";
-      for (const auto& [kk, vv] : v.items()) toml += kk + " = " + JsonValueToToml(vv) + "\n";
+      for (const auto& [kk, vv] : v.items()) {
+        toml += kk + " = " + JsonValueToToml(vv, k + "." + kk, path) + "\n";
+      }
     }
   }
   if (j.contains("regressor")) {
     for (const auto& r : j.at("regressor")) {
       toml += "[[regressor]]\n";
-      for (const auto& [kk, vv] : r.items()) toml += kk + " = " + JsonValueToToml(vv) + "\n";
+      for (const auto& [kk, vv] : r.items()) {
+        toml += kk + " = " + JsonValueToToml(vv, "regressor." + kk, path) + "\n";
+      }
     }
   }
   try {
@@ -100,6 +108,36 @@ SemSpec SpecFromJson(const json& j, const std::string& path) {
   } catch (const InputError& e) {
     throw InputError(path, 0, fmt::format("bad spec in model file: {}", e.what()));
   }
+}
+
+// An integer field: a JSON integer (not 1.5, not a string) within [lo, hi]; anything else is
+// refused naming the field, never converted.
+int IntField(const json& obj, const std::string& key, long long lo, long long hi,
+             const std::string& path, const std::string& where) {
+  const json& v = obj.at(key);
+  const std::string name = where.empty() ? key : where + ": " + key;
+  if (!v.is_number_integer()) {
+    throw InputError(path, 0, fmt::format("'{}' must be an integer, found {}", name, v.dump()));
+  }
+  const bool out_of_range =
+      v.is_number_unsigned()
+          ? v.get<unsigned long long>() > static_cast<unsigned long long>(hi) ||
+                static_cast<long long>(v.get<unsigned long long>()) < lo
+          : v.get<long long>() < lo || v.get<long long>() > hi;
+  if (out_of_range) {
+    throw InputError(path, 0,
+                     fmt::format("'{}' = {} out of range {} ... {}", name, v.dump(), lo, hi));
+  }
+  return static_cast<int>(v.get<long long>());
+}
+
+double FiniteField(const json& v, const std::string& name, const std::string& path) {
+  if (!v.is_number()) {
+    throw InputError(path, 0, fmt::format("'{}' must be a number, found {}", name, v.dump()));
+  }
+  const double d = v.get<double>();
+  if (!std::isfinite(d)) throw InputError(path, 0, fmt::format("'{}' is not finite", name));
+  return d;
 }
 
 }  // namespace
@@ -169,6 +207,14 @@ std::string ModelFileToJson(const ModelFile& m) {
 }
 
 void SaveModelFile(const ModelFile& m, const std::string& path) {
+  for (const auto& it : m.iterations) {
+    for (const double c : it.coefficients) {
+      if (!std::isfinite(c)) {
+        throw InputError(path, 0, fmt::format("iteration {}: non-finite coefficient not written",
+                                              it.iteration));
+      }
+    }
+  }
   WriteFileAtomic(path, ModelFileToJson(m));
 }
 
@@ -178,7 +224,7 @@ ModelFile LoadModelFile(const std::string& path) {
   json j;
   try {
     j = json::parse(in);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, out_of_range (1e400), ...
     throw InputError(path, 0, fmt::format("malformed JSON: {}", e.what()));
   }
   ModelFile m;
@@ -218,7 +264,12 @@ ModelFile LoadModelFile(const std::string& path) {
     m.num_candidates = j.value("num_candidates", std::size_t{0});
     for (const auto& ji : j.at("iterations")) {
       SemIteration it;
-      it.iteration = ji.at("iteration").get<int>();
+      it.iteration = IntField(ji, "iteration", 0, 1000000, path, "iterations[]");
+      for (const auto& prev : m.iterations) {
+        if (prev.iteration == it.iteration) {
+          throw InputError(path, 0, fmt::format("iteration {} appears twice", it.iteration));
+        }
+      }
       it.j = ji.at("J").is_null() ? std::numeric_limits<double>::infinity()
                                   : ji.at("J").get<double>();
       for (const auto& v : ji.at("validation_J")) {
@@ -236,14 +287,24 @@ ModelFile LoadModelFile(const std::string& path) {
                              fmt::format("iteration {}: unknown regressor '{}'", it.iteration,
                                          name));
           }
-          term.factors.push_back({r, jf.at("delay").get<int>(), jf.at("power").get<int>()});
+          const std::string where = fmt::format("iteration {}: factor {}", it.iteration, name);
+          const int delay = IntField(jf, "delay", 0, static_cast<long long>(kMaxDelay), path,
+                                     where);
+          const auto& offered = m.spec.regressors[static_cast<std::size_t>(r)].delays;
+          if (std::find(offered.begin(), offered.end(), delay) == offered.end()) {
+            throw InputError(path, 0, fmt::format("'{}: delay' = {} is not offered by the spec",
+                                                  where, delay));
+          }
+          const int power = IntField(jf, "power", 1, kMaxPower, path, where);
+          term.factors.push_back({r, delay, power});
         }
         it.terms.push_back(std::move(term));
-        it.coefficients.push_back(jt.at("coefficient").get<double>());
+        it.coefficients.push_back(FiniteField(
+            jt.at("coefficient"), fmt::format("iteration {}: coefficient", it.iteration), path));
       }
       m.iterations.push_back(std::move(it));
     }
-    m.selected = j.at("selected").get<int>();
+    m.selected = IntField(j, "selected", 0, 1000000, path, "");
     m.selection_rule = j.value("selection_rule", std::string());
   } catch (const json::exception& e) {
     throw InputError(path, 0, fmt::format("bad model file: {}", e.what()));

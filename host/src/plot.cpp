@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <string>
 #include <stdexcept>
 #include <string_view>
 
@@ -14,6 +16,8 @@
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+#include "mrd/host/atomic_write.hpp"
 
 extern char** environ;
 
@@ -124,13 +128,9 @@ void PlotPng(const PlotFigure& figure, const std::string& png_path) {
       figure.panels.size() > static_cast<std::size_t>(figure.rows * figure.columns)) {
     throw std::invalid_argument("more plot panels than the figure's grid holds");
   }
-  char tmpl[] = "/tmp/mrd-plot-XXXXXX";
-  if (mkdtemp(tmpl) == nullptr) throw std::runtime_error("cannot create a temporary directory");
-  const fs::path dir = tmpl;
-  struct Cleanup {
-    fs::path dir;
-    ~Cleanup() { std::error_code ec; fs::remove_all(dir, ec); }
-  } cleanup{dir};
+  const char* tmp_root = std::getenv("TMPDIR");
+  const TempDir work(tmp_root != nullptr && *tmp_root != '\0' ? tmp_root : "/tmp", "mrd-plot");
+  const fs::path dir = work.path();
 
   fmt::memory_buffer script;
   auto out = std::back_inserter(script);
@@ -155,14 +155,9 @@ void PlotPng(const PlotFigure& figure, const std::string& png_path) {
   if (status != 0 || !fs::exists(tmp_png) || fs::file_size(tmp_png) == 0) {
     throw std::runtime_error(fmt::format("gnuplot failed for {}: {}", png_path, err));
   }
-  std::error_code ec;
-  fs::copy_file(tmp_png, png_path + ".tmp", fs::copy_options::overwrite_existing, ec);
-  if (!ec) fs::rename(png_path + ".tmp", png_path, ec);
-  if (ec) {
-    std::error_code ignored;
-    fs::remove(png_path + ".tmp", ignored);
-    throw std::runtime_error(fmt::format("{}: {}", png_path, ec.message()));
-  }
+  std::ifstream png(tmp_png, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(png)), std::istreambuf_iterator<char>());
+  WriteFileAtomic(png_path, bytes);
 }
 
 bool GnuplotAvailable() {

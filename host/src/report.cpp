@@ -8,11 +8,13 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <memory>
 #include <set>
 #include <stdexcept>
 #include <system_error>
 
 #include "mrd/host/csv.hpp"
+#include "mrd/host/atomic_write.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/plot.hpp"
@@ -74,26 +76,25 @@ void CheckOutDir(const std::string& out_dir) {
   }
 }
 
-// The temporary directory beside the output directory; removed unless committed.
+// The staging directory: beside the output directory (so an absent or empty DIR is replaced
+// whole), or inside DIR when its parent is not writable. Removed (also on a terminating
+// signal) unless committed.
 class StagingDir {
  public:
   explicit StagingDir(const std::string& out_dir) {
     fs::path out = fs::absolute(fs::path(out_dir)).lexically_normal();
     if (!out.has_filename()) out = out.parent_path();
     out_ = out;
-    std::string tmpl =
-        (out.parent_path() / ("." + out.filename().string() + ".report-XXXXXX")).string();
-    if (mkdtemp(tmpl.data()) == nullptr) {
-      throw std::runtime_error(
-          fmt::format("cannot create a temporary directory beside {}", out_dir));
-    }
-    path_ = tmpl;
-  }
-  ~StagingDir() {
-    if (!path_.empty()) {
+    const std::string stem = "." + out.filename().string() + ".report";
+    try {
+      dir_ = std::make_unique<TempDir>(out.parent_path().string(), stem);
+    } catch (const std::runtime_error& beside) {
       std::error_code ec;
-      fs::remove_all(path_, ec);
+      if (!fs::is_directory(out_, ec)) throw;
+      inside_ = true;
+      dir_ = std::make_unique<TempDir>(out_.string(), ".report");
     }
+    path_ = dir_->path();
   }
   StagingDir(const StagingDir&) = delete;
   StagingDir& operator=(const StagingDir&) = delete;
@@ -101,11 +102,11 @@ class StagingDir {
   std::string File(const std::string& name) const { return (path_ / name).string(); }
 
   // Moves the files into the output directory: the whole directory when the output
-  // directory is absent or empty, else file by file.
+  // directory is absent or empty (and staging is beside it), else file by file.
   void Commit(const std::vector<std::string>& names) {
     std::error_code ec;
     const bool empty_dir = fs::is_directory(out_, ec) && fs::is_empty(out_, ec);
-    if (!fs::exists(out_, ec) || empty_dir) {
+    if (!inside_ && (!fs::exists(out_, ec) || empty_dir)) {
       if (empty_dir) fs::remove(out_, ec);
       fs::permissions(path_,
                       fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
@@ -113,10 +114,11 @@ class StagingDir {
                       ec);
       fs::rename(path_, out_, ec);
       if (ec) throw std::runtime_error(fmt::format("{}: {}", out_.string(), ec.message()));
-      path_.clear();
+      dir_->Release();
       return;
     }
     for (const std::string& name : names) {
+      CheckOutputPath((out_ / name).string());
       fs::rename(path_ / name, out_ / name, ec);
       if (ec) throw std::runtime_error(fmt::format("{}: {}", (out_ / name).string(), ec.message()));
     }
@@ -125,6 +127,8 @@ class StagingDir {
  private:
   fs::path out_;
   fs::path path_;
+  bool inside_ = false;  // staged inside the output directory
+  std::unique_ptr<TempDir> dir_;
 };
 
 PlotSeries Series(std::string title, std::vector<double> x, std::vector<double> y,

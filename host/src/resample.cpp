@@ -52,6 +52,7 @@ KaiserLowPass::KaiserLowPass(double pass_hz, double stop_hz, double atten_db)
 }
 
 std::size_t KaiserLowPass::Taps(double rate_hz) const {
+  if (!(half_width_s_ * rate_hz < 1e15)) throw std::invalid_argument("filter kernel too long");
   return 2 * static_cast<std::size_t>(std::floor(half_width_s_ * rate_hz)) + 1;
 }
 
@@ -85,6 +86,12 @@ std::vector<double> FilterAt(std::span<const double> x, double rate_hz, const Ka
   }
   const std::size_t n = x.size();
   const double half_width = lp.half_width_s() * rate_hz;  // [samples]
+  // Compared as doubles first: a tiny time step makes the half-width exceed any integer.
+  if (!(std::floor(half_width) + 2.0 <= static_cast<double>(n))) {
+    throw std::invalid_argument(fmt::format(
+        "filter needs at least {:.4g} samples (kernel half-width {:.4g} samples), have {}",
+        std::floor(half_width) + 2.0, std::floor(half_width), n));
+  }
   const auto w = static_cast<std::ptrdiff_t>(std::floor(half_width));
   if (n < static_cast<std::size_t>(w) + 2) {
     throw std::invalid_argument(fmt::format(

@@ -169,6 +169,11 @@ class Engine {
     c.term = t;
     for (const auto& f : t.factors) {
       const auto& reg = spec_.regressors[f.regressor];
+      if (f.power < 1 || f.power > static_cast<int>(kMaxPower) || f.delay < 0 ||
+          f.delay > static_cast<int>(kMaxDelay)) {
+        throw InputError("", 0, fmt::format("bad term '{}': power {} or delay {} out of range",
+                                            TermName(spec_, t), f.power, f.delay));
+      }
       int col = col_index_[f.regressor][f.delay][f.power];
       if (col < 0) {  // power not offered (merged initial term): add the column
         const auto& b = base_[base_index_[f.regressor][f.delay]];
@@ -844,10 +849,49 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
   const int max_it = o.max_iterations.value_or(spec.max_iterations);
   const double target = o.target_j.value_or(spec.target_j);
   const auto& initial = o.initial ? *o.initial : spec.initial;
+  if (!std::isfinite(target)) {
+    throw InputError(o.target_j ? "" : spec.path, 0,
+                     fmt::format("target J {} is not a finite number", target));
+  }
+  if (!std::isfinite(threshold)) {
+    throw InputError("", 0, fmt::format("threshold {} is not a finite number", threshold));
+  }
+  // Enough data for the parameters, and an output that varies.
+  std::size_t samples = 0;
+  for (const auto& d : identification) {
+    samples += d.rows() - static_cast<std::size_t>(spec.MaxDelay());
+  }
+  const std::size_t max_params = samples / kMinSamplesPerParameter;
+  if (max_params == 0) {
+    throw InputError(identification.front().path, 0,
+                     fmt::format("{} scored samples: identification needs at least {} samples "
+                                 "per parameter",
+                                 samples, kMinSamplesPerParameter));
+  }
+  for (const std::string& s : spec.Signals()) {
+    double lo = kInf, hi = -kInf;
+    for (const auto& d : identification) {
+      for (const double v : d.Column(s)) {
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+      }
+    }
+    if (lo < hi) continue;
+    if (s == spec.output) {
+      throw InputError(identification.front().path, 0,
+                       fmt::format("output '{}' is constant ({}) in the identification data: "
+                                   "nothing to identify",
+                                   s, lo));
+    }
+    fmt::print(stderr, "warning: signal '{}' is constant ({}) in the identification data; its "
+                       "terms cannot be told from the constant\n", s, lo);
+  }
+  SemSpec limited = spec;
+  if (o.max_candidates) limited.max_candidates = *o.max_candidates;
 
   Engine eng(spec, identification, res.channels, o.threads);
   std::map<std::string, int> by_key;
-  for (const SemTerm& t : GenerateCandidates(spec)) {
+  for (const SemTerm& t : GenerateCandidates(limited)) {
     by_key.emplace(TermKey(spec, t), eng.AddCandidate(t));
   }
   res.num_candidates = eng.num_candidates();
@@ -860,6 +904,12 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     const int idx = it != by_key.end() ? it->second : eng.AddCandidate(t);
     by_key.emplace(key, idx);
     if (std::find(model.begin(), model.end(), idx) == model.end()) model.push_back(idx);
+  }
+  if (model.size() > max_params) {
+    throw InputError("", 0,
+                     fmt::format("initial structure has {} terms; {} scored samples allow at "
+                                 "most {} ({} per parameter)",
+                                 model.size(), samples, max_params, kMinSamplesPerParameter));
   }
   eng.PrepareCandidates();
 
@@ -883,6 +933,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
   record(0, 0);
   for (int iteration = 1; iteration <= max_it; ++iteration) {
     if (j <= target) break;
+    if (model.size() + 1 > max_params) break;  // kMinSamplesPerParameter
     const double j_prev = j;
     int rejected = 0;
     const Trial tr = search.TryAdd(model, theta, strategy == Strategy::kFirst,

@@ -202,6 +202,8 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
           s.max_factors = GetInt(path, sn, sk, 1, static_cast<int>(kMaxFactors) * 4);
         } else if (k == "limits" && sk == "max_degree") {
           s.max_degree = GetInt(path, sn, sk, 0, 1000);
+        } else if (k == "limits" && sk == "max_candidates") {
+          s.max_candidates = GetInt(path, sn, sk, 1, 2000000000);
         } else if (k == "limits" && sk == "constant") {
           s.constant = GetBool(path, sn, sk);
         } else if (k == "cost" && sk == "weighting") {
@@ -357,7 +359,9 @@ SemTerm ParseTerm(const SemSpec& spec, const std::string& text, const std::strin
     bool merged = false;
     for (auto& g : term.factors) {
       if (g.regressor == r && g.delay == delay) {
+        // A repeated factor multiplies: the total power must stay within the limit.
         g.power += power;
+        if (g.power > kMaxPower) throw bad(fmt::format("power {} out of range", g.power));
         merged = true;
       }
     }
@@ -407,7 +411,48 @@ std::string TermKey(const SemSpec& spec, const SemTerm& term) {
   return key;
 }
 
+std::int64_t CountCandidateCombinations(const SemSpec& spec) {
+  constexpr std::int64_t kCap = std::int64_t{1} << 62;
+  auto add = [](std::int64_t a, std::int64_t b) { return a > kCap - b ? kCap : a + b; };
+  // ways[f][d]: combinations with f factors and summed power d (d capped by max_degree; with
+  // no degree limit all degrees share d = 0).
+  const int dmax = spec.max_degree > 0 ? spec.max_degree : 0;
+  std::vector<std::vector<std::int64_t>> ways(
+      static_cast<std::size_t>(spec.max_factors) + 1,
+      std::vector<std::int64_t>(static_cast<std::size_t>(dmax) + 1, 0));
+  ways[0][0] = 1;
+  for (const auto& r : spec.regressors) {
+    for (std::size_t slot = 0; slot < r.delays.size(); ++slot) {
+      auto next = ways;
+      for (std::size_t f = 0; f + 1 < ways.size(); ++f) {
+        for (std::size_t d = 0; d < ways[f].size(); ++d) {
+          if (ways[f][d] == 0) continue;
+          for (int p : r.powers) {
+            const std::size_t nd = dmax > 0 ? d + static_cast<std::size_t>(p) : 0;
+            if (nd > static_cast<std::size_t>(dmax)) break;
+            next[f + 1][nd] = add(next[f + 1][nd], ways[f][d]);
+          }
+        }
+      }
+      ways = std::move(next);
+    }
+  }
+  std::int64_t total = 0;
+  for (std::size_t f = 1; f < ways.size(); ++f) {
+    for (const std::int64_t w : ways[f]) total = add(total, w);
+  }
+  return spec.constant ? add(total, 1) : total;
+}
+
 std::vector<SemTerm> GenerateCandidates(const SemSpec& spec) {
+  if (const std::int64_t n = CountCandidateCombinations(spec); n > spec.max_candidates) {
+    throw InputError(spec.path, 0,
+                     fmt::format("candidate set too large: {}{} factor combinations > limit {} "
+                                 "(lower max_factors/max_degree, powers or delays, or raise "
+                                 "[limits] max_candidates / --max-candidates)",
+                                 n >= (std::int64_t{1} << 62) ? ">= " : "", n,
+                                 spec.max_candidates));
+  }
   struct Slot {
     int regressor;
     int delay;

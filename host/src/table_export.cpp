@@ -5,11 +5,11 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <stdexcept>
 #include <vector>
 
 #include "mrd/common/crc32.hpp"
+#include "mrd/host/atomic_write.hpp"
 #include "mrd/host/input_error.hpp"
 
 namespace mrd::host {
@@ -124,7 +124,24 @@ std::string DescribeTableProblem(const CoefficientTable& table) {
     return fmt::format("voltage range [{}, {}] is empty or not finite", table.e_min, table.e_max);
   }
   const Error e = table.Validate();
-  return e == Error::kOk ? "" : ErrorName(e);
+  if (e != Error::kOk) return ErrorName(e);
+  const InversionCheck inv = CheckInversion(table);
+  const char* input = m.channel_names[table.input_channel].data();
+  switch (inv.problem) {
+    case InversionProblem::kNone:
+      return "";
+    case InversionProblem::kTransform:
+      return fmt::format("not invertible in '{}': term {} takes {}(k) through abs_pow or sign "
+                         "(the firmware needs a polynomial in {}(k))",
+                         input, inv.term, input, input);
+    case InversionProblem::kDegree:
+      return fmt::format("not invertible in '{}': term {} has degree {} in {}(k) > {}", input,
+                         inv.term, inv.degree, input, kMaxInputDegree);
+    case InversionProblem::kAbsent:
+      return fmt::format("not invertible in '{}': {}(k) does not enter the model at delay 0",
+                         input, input);
+  }
+  return "";
 }
 
 CoefficientTable MakeTable(const Model& model, double e_min, double e_max,
@@ -155,9 +172,7 @@ TableBytes TableImage(const CoefficientTable& table) {
 
 void WriteTableFile(const CoefficientTable& table, const std::string& path) {
   const TableBytes bytes = TableImage(table);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-  if (!out) throw std::runtime_error(fmt::format("cannot write table file '{}'", path));
+  WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 std::string TableHeader(const CoefficientTable& table, std::string_view symbol) {
@@ -233,10 +248,7 @@ std::string TableHeader(const CoefficientTable& table, std::string_view symbol) 
 
 void WriteTableHeader(const CoefficientTable& table, std::string_view symbol,
                       const std::string& path) {
-  const std::string text = TableHeader(table, symbol);
-  std::ofstream out(path, std::ios::trunc);
-  out << text;
-  if (!out) throw std::runtime_error(fmt::format("cannot write header file '{}'", path));
+  WriteFileAtomic(path, TableHeader(table, symbol));
 }
 
 }  // namespace mrd::host

@@ -50,7 +50,11 @@ inline CommandResult Run(const std::string& command) {
   return r;
 }
 
-// Path of an executable in build/bin.
-inline std::string Bin(const std::string& name) { return std::string(MRD_BIN_DIR) + "/" + name; }
+// Path of an executable in build/bin (or in $MRD_TEST_BIN_DIR, e.g. to run the CLI tests
+// against another build).
+inline std::string Bin(const std::string& name) {
+  const char* dir = std::getenv("MRD_TEST_BIN_DIR");
+  return std::string(dir != nullptr && *dir != '\0' ? dir : MRD_BIN_DIR) + "/" + name;
+}
 
 }  // namespace mrd::test

@@ -56,6 +56,26 @@ struct CoefficientTable {
   Error Validate() const;
 };
 
+// Highest total power of the inverted input at delay 0 in one term: the firmware solves a
+// polynomial of at most this degree for the command.
+inline constexpr int kMaxInputDegree = 4;
+
+// Why a valid table cannot be inverted for its input (the one check of invertibility, used by
+// the firmware's inverter and by mrd export).
+enum class InversionProblem : std::uint8_t {
+  kNone = 0,
+  kTransform,  // the input enters at delay 0 through abs_pow or sign (not polynomial in E(k))
+  kDegree,     // a term's total input power at delay 0 exceeds kMaxInputDegree
+  kAbsent,     // the input does not enter at delay 0 at all
+};
+struct InversionCheck {
+  InversionProblem problem = InversionProblem::kNone;
+  std::uint8_t term = 0;  // term index of kTransform / kDegree
+  int degree = 0;         // highest input degree (kNone), or the offending term's (kDegree)
+};
+// Assumes table.Validate() == kOk. Never allocates.
+InversionCheck CheckInversion(const CoefficientTable& table);
+
 // Encodes a table into its fixed-size image. Refuses (never truncates) a table that does not
 // validate: kCapacityExceeded, kOutOfRange, kNonFinite, kInvalidArgument.
 // No allocation; unused slots are written as zeros, so equal tables give equal bytes.

@@ -29,7 +29,7 @@
 
 namespace mrd::firmware {
 
-inline constexpr int kMaxInputDegree = 4;
+using mrd::kMaxInputDegree;  // common/table.hpp
 
 // Real roots of p(x) = sum_{j<=n} a[j] x^j in [lo, hi], ascending, at most n of them, and
 // p's critical points in [lo, hi] (at most n - 1). Exact zero leading coefficients are

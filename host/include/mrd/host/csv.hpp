@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "mrd/host/atomic_write.hpp"
+
 namespace mrd::host {
 
 struct DataSet {
@@ -26,12 +28,10 @@ struct DataSet {
 // required: column names that must be present (besides `t`, always required).
 DataSet ReadCsv(const std::string& path, std::span<const std::string> required = {});
 
-// Writes columns as CSV with a header; writes to a temporary file and renames it, so a
-// failure leaves nothing behind. Throws std::runtime_error on I/O failure.
+// Writes columns as CSV with a header through WriteFileAtomic (atomic_write.hpp), so a
+// failure leaves nothing behind. Throws InputError (output path, data line) on a non-finite
+// value, std::runtime_error on I/O failure.
 void WriteCsv(const std::string& path, const std::vector<std::string>& names,
               const std::vector<std::vector<double>>& columns);
-
-// Writes text to path atomically (temporary file + rename). Throws std::runtime_error.
-void WriteFileAtomic(const std::string& path, const std::string& text);
 
 }  // namespace mrd::host

@@ -44,6 +44,10 @@ struct SemIteration {
                      // (non-finite or beyond divergence_limit) or linearly dependent column
 };
 
+// Fewest scored samples (rows after the largest delay, over all identification files) per
+// model parameter: a term is only added while the model keeps at least this many.
+inline constexpr std::size_t kMinSamplesPerParameter = 10;
+
 struct SemOptions {
   // Overrides of the spec's algorithm settings (unset: the spec's value).
   std::optional<Strategy> strategy;
@@ -51,6 +55,7 @@ struct SemOptions {
   std::optional<int> max_iterations;
   std::optional<double> target_j;
   std::optional<std::vector<std::string>> initial;  // term strings
+  std::optional<std::int64_t> max_candidates;       // overrides [limits] max_candidates
   int threads = 1;                                  // worker threads (>= 1)
   std::function<void(const SemIteration&)> progress;  // called after every iteration
 };

@@ -23,6 +23,7 @@
 // empty candidate set, malformed TOML) throw InputError naming the file and line.
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,9 @@ struct ElementaryRegressor {
 enum class CostWeighting { kRelative, kMse };
 enum class Strategy { kBest, kFirst };
 
+// Default of SemSpec::max_candidates: ~100x the paper spec's 1551, a few hundred MB at most.
+inline constexpr std::int64_t kDefaultMaxCandidates = 200000;
+
 struct SemSpec {
   std::string path;  // source file, for messages ("" when built in code)
   std::string output;
@@ -53,6 +57,9 @@ struct SemSpec {
   int max_factors = 3;   // most elementary factors (distinct regressor/delay pairs) per term
   int max_degree = 0;    // most summed powers per term; 0: no limit
   bool constant = false; // the constant term is a candidate
+  // Most candidate combinations (counted before any is built, duplicates included); a larger
+  // set is refused with its count ([limits] max_candidates, mrd identify --max-candidates).
+  std::int64_t max_candidates = kDefaultMaxCandidates;
   // Cost J = sum over data sets of (1/N) sum_k w_k (y_k - ysim_k)^2 on normalised signals,
   // w_k = 1/max(|y_k|, floor) (relative) or 1 (mse).
   CostWeighting weighting = CostWeighting::kRelative;
@@ -109,7 +116,12 @@ std::string TermKey(const SemSpec& spec, const SemTerm& term);
 
 // Candidate terms in generation order (fewer factors first, then regressor/delay/power order),
 // skipping terms algebraically identical to an earlier one (TermKey) and terms that reduce to
-// the constant when the constant is not offered. Throws InputError when the set is empty.
+// the constant when the constant is not offered. Throws InputError when the set is empty or
+// CountCandidateCombinations exceeds spec.max_candidates (checked before anything is built).
 std::vector<SemTerm> GenerateCandidates(const SemSpec& spec);
+
+// Number of factor combinations the limits allow (before removing algebraic duplicates),
+// counted without building them; saturates at 2^62.
+std::int64_t CountCandidateCombinations(const SemSpec& spec);
 
 }  // namespace mrd::host

@@ -38,7 +38,7 @@ CoefficientTable MakeTable(const Model& model, double e_min, double e_max,
 // The binary image; throws InputError("", 0, reason) for a table that does not encode.
 TableBytes TableImage(const CoefficientTable& table);
 
-// Writes the binary image to path; throws std::runtime_error on I/O failure.
+// Writes the binary image to path (WriteFileAtomic); throws std::runtime_error on I/O failure.
 void WriteTableFile(const CoefficientTable& table, const std::string& path);
 
 // C++ header text defining `inline constexpr mrd::CoefficientTable <name>` where symbol is
@@ -48,7 +48,7 @@ void WriteTableFile(const CoefficientTable& table, const std::string& path);
 // InputError for a table that does not encode.
 std::string TableHeader(const CoefficientTable& table, std::string_view symbol);
 
-// Writes TableHeader(table, symbol) to path; throws std::runtime_error on I/O failure.
+// Writes TableHeader(table, symbol) to path (WriteFileAtomic); throws on I/O failure.
 void WriteTableHeader(const CoefficientTable& table, std::string_view symbol,
                       const std::string& path);
 

@@ -1,0 +1,26 @@
+#pragma once
+// The dry-run summary of mrd-firmware as one JSON object (nlohmann-json: strings escaped,
+// non-finite numbers written as null). This file alone is compiled with exceptions.
+
+#include <string>
+
+#include "mrd/firmware/telemetry.hpp"
+
+namespace mrd::firmware {
+
+struct SummaryInfo {
+  const char* mode = "";        // "lockstep" | "realtime"
+  const char* table = "";       // table file path or "compiled-in"
+  const char* law = "";
+  double seconds = 0.0;         // dry-run duration [s]
+  double period_us = 0.0;
+  bool sched_fifo = false;
+  bool memory_locked = false;
+  double rms_model_error_n = 0.0;
+  double rms_tracking_error_n = 0.0;
+};
+
+// Pretty-printed JSON text with a final newline; "" if it cannot be built (no memory).
+std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info);
+
+}  // namespace mrd::firmware

@@ -1,0 +1,114 @@
+// Issue 14 (hardening): mrd-firmware's dry-run limits, JSON summary, signals and write errors.
+#include <gtest/gtest.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "firmware/app/summary_json.hpp"
+#include "host/test_util.hpp"
+
+extern char** environ;
+
+namespace mrd::test {
+namespace {
+
+std::string Firmware() { return Bin("mrd-firmware"); }
+
+std::string Slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// Defect 3: durations below one period or beyond the representable range never start.
+TEST(FirmwareHardeningTest, DryRunsThatCouldNeverEndAreRefused) {
+  for (const char* args : {"--dry-run 1e-12 --lockstep", "--dry-run 1e-10", "--dry-run 1e-4",
+                           "--dry-run 1e10 --lockstep", "--dry-run 1e300"}) {
+    const CommandResult r = test::Run("timeout 20 " + Firmware() + " " + args);
+    EXPECT_EQ(r.status, 2) << args << ": " << r.output;
+    EXPECT_NE(r.output.find("error: --dry-run"), std::string::npos) << r.output;
+  }
+  EXPECT_EQ(test::Run(Firmware() + " --dry-run 0.001 --lockstep").status, 0);
+}
+
+// Defect 7: the JSON summary is valid JSON for any table path.
+TEST(FirmwareHardeningTest, JsonSummaryEscapesTheTablePath) {
+  TempDir dir;
+  const std::string table = dir.File("ta\"ble\\x.bin");
+  ASSERT_EQ(test::Run(Firmware() + " --write-table '" + table + "'").status, 0);
+  const std::string out = dir.File("out.json");
+  const CommandResult r = test::Run(Firmware() + " --table '" + table +
+                              "' --dry-run 0.05 --lockstep --json > " + out);
+  ASSERT_EQ(r.status, 0) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(Slurp(out));
+  EXPECT_EQ(j["table"], table);
+  EXPECT_EQ(j["final_safe_state"], true);
+}
+
+// Defect 7: non-finite figures (a diverging plant or table) become null, not 'inf'.
+TEST(FirmwareHardeningTest, JsonSummaryWritesNonFiniteFiguresAsNull) {
+  firmware::TelemetrySnapshot s;
+  s.model_force_n = std::numeric_limits<double>::quiet_NaN();
+  firmware::SummaryInfo info;
+  info.table = "t";
+  info.rms_model_error_n = std::numeric_limits<double>::infinity();
+  const std::string text = firmware::SummaryJson(s, info);
+  const nlohmann::json j = nlohmann::json::parse(text);
+  EXPECT_TRUE(j["rms_model_error_n"].is_null()) << text;
+  EXPECT_TRUE(j["model_force_n"].is_null()) << text;
+  EXPECT_EQ(text.find("inf"), std::string::npos);
+}
+
+// Runs mrd-firmware --dry-run 30 --json, sends sig after 300 ms; returns the wait status.
+int RunAndSignal(int sig, const std::string& out) {
+  const std::string bin = Firmware();
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  char* argv[] = {const_cast<char*>(bin.c_str()), const_cast<char*>("--dry-run"),
+                  const_cast<char*>("30"), const_cast<char*>("--json"), nullptr};
+  pid_t pid = 0;
+  if (posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv, environ) != 0) return -1;
+  posix_spawn_file_actions_destroy(&fa);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  kill(pid, sig);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return status;
+}
+
+// Defect 11: every catchable terminating signal ends in the safe-state shutdown.
+TEST(FirmwareHardeningTest, EveryTerminatingSignalEndsInTheSafeState) {
+  TempDir dir;
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM}) {
+    const std::string out = dir.File("out.json");
+    const int status = RunAndSignal(sig, out);
+    ASSERT_TRUE(WIFEXITED(status)) << "signal " << sig << " killed it (status " << status << ")";
+    EXPECT_EQ(WEXITSTATUS(status), 0) << "signal " << sig;
+    const nlohmann::json j = nlohmann::json::parse(Slurp(out));
+    EXPECT_EQ(j["final_safe_state"], true) << "signal " << sig;
+    EXPECT_LT(j["ticks"].get<long long>(), 30000) << "signal " << sig << " did not stop it";
+  }
+}
+
+// Defect 11: a result that cannot be written is an error.
+TEST(FirmwareHardeningTest, JsonToAFullDeviceFails) {
+  if (access("/dev/full", W_OK) != 0) GTEST_SKIP() << "no /dev/full";
+  const CommandResult r = test::Run(std::string("(") + Firmware() + " --dry-run 0.01 --lockstep --json > /dev/full)");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("error"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace mrd::test
