@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The main job on built-in data: set-up, build, then generate the reference data sets
 # -> identify -> simulate -> report -> export -> firmware dry run, then the same on the measured
-# NEES run when ../shared/data holds it (HIL joins as it lands). Outputs go to out/.
+# NEES run shipped in tests/data/nees-2012-1158 (HIL joins as it lands). Outputs go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash toolchain/build.sh release
@@ -33,7 +33,7 @@ echo "== export: coefficient table for the firmware"
 echo "== firmware: 2 s dry run (lockstep) of mrd-firmware on the exported table"
 build/bin/mrd-firmware --table out/table.bin --dry-run 2 --lockstep --json
 
-nees=../shared/data/nees-2012-1158/ransim_u.csv
+nees=tests/data/nees-2012-1158/ransim_u.csv
 if [[ -f "$nees" ]]; then
   echo "== real bench data: NEES-2012-1158 run -> import -> identify (0-14 s) -> held-out 14-19.5 s"
   mkdir -p out/nees

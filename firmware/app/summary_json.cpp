@@ -1,14 +1,34 @@
 #include "summary_json.hpp"
 
+#include <iterator>
+
 #include <nlohmann/json.hpp>
 
 #include "mrd/firmware/watchdog.hpp"
 
 namespace mrd::firmware {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+// One value on one line, objects as {"k": v, ...}; strings escaped (invalid UTF-8 replaced),
+// non-finite numbers as null.
+std::string Inline(const Json& v) {
+  if (!v.is_object()) return v.dump(-1, ' ', false, Json::error_handler_t::replace);
+  std::string out = "{";
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    if (it != v.begin()) out += ", ";
+    out += Json(it.key()).dump(-1, ' ', false, Json::error_handler_t::replace) + ": " +
+           Inline(it.value());
+  }
+  return out + "}";
+}
+
+}  // namespace
 
 std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
   try {
-    nlohmann::ordered_json j;
+    Json j;
     j["mode"] = info.mode;
     j["table"] = info.table;
     j["law"] = info.law;
@@ -27,7 +47,7 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
     j["model_resets"] = s.model_resets;
     j["safe_periods"] = s.watchdog.safe_periods;
     j["safe_entries"] = s.watchdog.entries;
-    nlohmann::ordered_json wd = nlohmann::ordered_json::object();
+    Json wd = Json::object();
     for (std::size_t i = 0; i < kNumFaultCauses; ++i) {
       wd[FaultCauseName(static_cast<FaultCause>(i))] = {{"trips", s.watchdog.trips[i]},
                                                         {"periods", s.watchdog.active_periods[i]}};
@@ -38,8 +58,13 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
     j["rms_model_error_n"] = info.rms_model_error_n;  // NaN/inf (diverging plant) -> null
     j["rms_tracking_error_n"] = info.rms_tracking_error_n;
     j["final_safe_state"] = s.safe;
-    // Invalid UTF-8 in the table path is replaced, never emitted raw.
-    return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
+    // One key per line (the layout scripts and tests read), nested objects inline.
+    std::string out = "{\n";
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      out += "  " + Inline(Json(it.key())) + ": " + Inline(it.value()) +
+             (std::next(it) == j.end() ? "\n" : ",\n");
+    }
+    return out + "}\n";
   } catch (...) {
     return "";
   }

@@ -22,7 +22,7 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 const std::string kNeesFile =
-    std::string(MRD_SOURCE_DIR) + "/../shared/data/nees-2012-1158/ransim_u.csv";
+    std::string(MRD_SOURCE_DIR) + "/tests/data/nees-2012-1158/ransim_u.csv";
 const std::string kNeesMap = "t=t,x=D,v=V,E=Y,f=F";
 
 ImportOptions Options(const std::string& path, const std::string& map = kNeesMap) {

@@ -14,7 +14,7 @@ namespace mrd::test {
 namespace {
 
 const std::string kNeesFile =
-    std::string(MRD_SOURCE_DIR) + "/../shared/data/nees-2012-1158/ransim_u.csv";
+    std::string(MRD_SOURCE_DIR) + "/tests/data/nees-2012-1158/ransim_u.csv";
 
 nlohmann::json SimulateJson(const std::string& model, const std::string& data) {
   const auto r = Run(Bin("mrd") + " simulate --model " + model + " --data " + data + " --json");
