@@ -85,18 +85,20 @@ constexpr const char* kHelp =
     "Usage:\n"
     "  mrd-firmware [--table FILE] [--config FILE.toml] --dry-run SECONDS [--lockstep] [--json]\n"
     "  mrd-firmware [--table FILE] --write-table OUT.bin\n"
+    "  mrd-firmware --print-config-reference\n"
     "  mrd-firmware --help\n"
     "\n"
     "Options:\n"
     "  --table FILE        coefficient table (docs/table_format.md); default: the compiled-in\n"
     "                      table (firmware/include/mrd/firmware/builtin_table.hpp)\n"
     "  --config FILE       TOML configuration: period, E_max, safe state, control law, limits\n"
-    "                      (keys: firmware/include/mrd/firmware/config.hpp)\n"
+    "                      (keys: docs/firmware_config.md, or --print-config-reference)\n"
     "  --dry-run SECONDS   run the control loop that long against the built-in simulated\n"
     "                      Spencer damper, then print the counters\n"
     "  --lockstep          dry run in simulated time (no sleeping; deterministic, fast)\n"
     "  --json              print the counters as JSON\n"
     "  --write-table OUT   write the table image (e.g. the compiled-in one) and exit\n"
+    "  --print-config-reference  every config key with default, unit, range (Markdown)\n"
     "  --help              this text\n"
     "\n"
     "Real time: SCHED_FIFO and mlockall are requested when the config allows; without the\n"
@@ -113,6 +115,7 @@ struct Options {
   bool lockstep = false;
   bool json = false;
   bool help = false;
+  bool print_config_reference = false;
 };
 
 bool ParseArgs(int argc, char** argv, Options* o) {
@@ -128,6 +131,8 @@ bool ParseArgs(int argc, char** argv, Options* o) {
     };
     if (a == "--help" || a == "-h") {
       o->help = true;
+    } else if (a == "--print-config-reference") {
+      o->print_config_reference = true;
     } else if (a == "--table") {
       if (!value(&o->table)) return false;
     } else if (a == "--config") {
@@ -344,6 +349,10 @@ int main(int argc, char** argv) {
   if (!ParseArgs(argc, argv, &o)) return kExitBadInput;
   if (o.help) {
     std::fputs(kHelp, stdout);
+    return FinishOutput(kExitOk);
+  }
+  if (o.print_config_reference) {
+    std::fputs(ConfigReference().c_str(), stdout);
     return FinishOutput(kExitOk);
   }
   return FinishOutput(Run(o));

@@ -1,4 +1,4 @@
-// mrd generate: reference data sets from the Spencer damper (DESIGN.md §4).
+// mrd generate: reference data sets from the Spencer damper (docs/design.md §4).
 #include <algorithm>
 #include <memory>
 #include <string>

@@ -1,4 +1,4 @@
-// mrd identify: SEM identification (DESIGN.md §5) of a polynomial NARX model from data.
+// mrd identify: SEM identification (docs/design.md §5) of a polynomial NARX model from data.
 #include <memory>
 #include <string>
 #include <thread>

@@ -11,12 +11,14 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <thread>
 
 #include <nlohmann/json.hpp>
 
 #include "firmware/app/summary_json.hpp"
+#include "mrd/firmware/config.hpp"
 #include "host/test_util.hpp"
 
 extern char** environ;
@@ -108,6 +110,46 @@ TEST(FirmwareHardeningTest, JsonToAFullDeviceFails) {
   const CommandResult r = test::Run(std::string("(") + Firmware() + " --dry-run 0.01 --lockstep --json > /dev/full)");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("error"), std::string::npos) << r.output;
+}
+
+// Consistency: the committed reference is the generated one, so the two cannot drift.
+TEST(FirmwareHardeningTest, CommittedConfigReferenceEqualsTheGeneratedOne) {
+  const std::string generated = firmware::ConfigReference();
+  ASSERT_FALSE(generated.empty());
+  EXPECT_EQ(Slurp(std::string(MRD_SOURCE_DIR) + "/docs/firmware_config.md"), generated)
+      << "regenerate: build/bin/mrd-firmware --print-config-reference > docs/firmware_config.md";
+  const CommandResult r = test::Run(Firmware() + " --print-config-reference");
+  EXPECT_EQ(r.status, 0);
+  EXPECT_EQ(r.output, generated);
+}
+
+// Consistency: every default the reference states parses back to the built-in default.
+TEST(FirmwareHardeningTest, ConfigReferenceDefaultsAreTheBuiltInDefaults) {
+  const std::string ref = firmware::ConfigReference();
+  std::string toml, line;
+  std::istringstream in(ref);
+  int keys = 0;
+  while (std::getline(in, line)) {
+    if (line.rfind("## [", 0) == 0) toml += line.substr(3) + "\n";
+    if (line.rfind("| `", 0) != 0) continue;
+    const auto k0 = line.find('`') + 1, k1 = line.find('`', k0);
+    const auto d0 = line.find("| ", k1) + 2, d1 = line.find(" |", d0);
+    const std::string def = line.substr(d0, d1 - d0);
+    if (def.front() != '`') continue;  // "table's": no fixed default
+    toml += line.substr(k0, k1 - k0) + " = " + def.substr(1, def.size() - 2) + "\n";
+    ++keys;
+  }
+  EXPECT_GE(keys, 20) << ref;
+  firmware::FirmwareConfig parsed, defaults;
+  std::string error;
+  ASSERT_TRUE(firmware::ParseConfig(toml, "reference", &parsed, &error)) << error << "\n" << toml;
+  EXPECT_EQ(parsed.period_ns, defaults.period_ns);
+  EXPECT_EQ(parsed.priority, defaults.priority);
+  EXPECT_EQ(parsed.controller.law.force_limit, defaults.controller.law.force_limit);
+  EXPECT_EQ(parsed.controller.watchdog.max_age_ns, defaults.controller.watchdog.max_age_ns);
+  EXPECT_EQ(parsed.simulation.demand_amplitude_n, defaults.simulation.demand_amplitude_n);
+  EXPECT_EQ(parsed.simulation.body_phase_rad, defaults.simulation.body_phase_rad);
+  EXPECT_EQ(parsed.simulation.substeps, defaults.simulation.substeps);
 }
 
 }  // namespace

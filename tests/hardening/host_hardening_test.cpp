@@ -1,5 +1,5 @@
 // Issue 14 (hardening): bad input and faults through the `mrd` executable. Each test names the
-// behaviour; each failed on the main of the campaign (see docs/design.md, "Bad input").
+// behaviour; each failed on the main of the campaign (docs/design.md §8).
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>

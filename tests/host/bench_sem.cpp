@@ -1,4 +1,4 @@
-// Benchmark of the full paper run (DESIGN.md §5): reference identification set (seed 1,
+// Benchmark of the full paper run (docs/design.md §5): reference identification set (seed 1,
 // 40k samples), host/specs/paper.toml (1551 candidates), 20 major iterations, best
 // improvement, 2 threads. Reports J and terms of the final model as counters.
 #include <benchmark/benchmark.h>

@@ -1,5 +1,5 @@
 #pragma once
-// Polynomial NARX model with non-polynomial elementary regressors (DESIGN.md §4), in a
+// Polynomial NARX model with non-polynomial elementary regressors (docs/design.md §4), in a
 // fixed-size form shared by host simulation, the coefficient table and the firmware.
 //
 //   y(k) = sum_i theta_i * prod_j r_{a_ij}(k - d_ij)^{p_ij}

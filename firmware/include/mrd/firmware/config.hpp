@@ -1,33 +1,13 @@
 #pragma once
-// mrd-firmware configuration (TOML, read once at start-up). Example with every key and its
-// default (all optional):
+// mrd-firmware configuration (TOML, read once at start-up). Sections [loop], [control],
+// [velocity], [safety], [simulation]; every key with its default, unit and range is in
+// docs/firmware_config.md, generated from the key table in firmware/src/config.cpp
+// (ConfigReference). Example:
 //
 //   [loop]
-//   period_us = 1000          # control period [us]
-//   priority = 80             # SCHED_FIFO priority (1-99); 0 = do not ask for real time
-//   lock_memory = true        # mlockall(MCL_CURRENT | MCL_FUTURE)
-//
+//   period_us = 1000
 //   [control]
-//   law = "force"             # force | constant | skyhook-on-off | skyhook
-//   e_max = 2.25              # highest command [V]; default: the table's E_max
-//   constant_voltage = 0.0    # [V], law = "constant" (passive-off 0, passive-on E_max)
-//   skyhook_gain = 100.0      # [N s/cm], law = "skyhook"
-//   force_limit = 5000.0      # |force demand| limit [N]
-//
-//   [velocity]
-//   source = "measured"       # measured | displacement (filtered differentiator)
-//   cutoff_hz = 50.0          # differentiator cut-off [Hz]
-//
-//   [safety]
-//   safe_voltage = 0.0        # safe-state command [V]
-//   max_age_ms = 5.0          # sensor data older than this is stale [ms]
-//   recover_periods = 1       # clean periods before leaving the safe state
-//   velocity_limit = 0.0      # |v| above this is implausible: safe state [cm/s]; 0 = none
-//   displacement_limit = 0.0  # |x| above this is implausible: safe state [cm]; 0 = none
-//
-//   [simulation]              # the dry-run plant (SimulationConfig)
-//   amplitude_cm = 1.0, frequency_hz = 2.0, demand_amplitude_n = 600.0,
-//   demand_frequency_hz = 0.5, body_amplitude = 8.0, body_frequency_hz = 1.3, substeps = 20
+//   law = "force"
 
 #include <cstdint>
 #include <optional>
@@ -53,6 +33,10 @@ struct FirmwareConfig {
 // (allocates; toml++ exceptions are caught inside).
 bool ParseConfig(std::string_view text, const std::string& source, FirmwareConfig* config,
                  std::string* error);
+// The configuration reference (Markdown) generated from the key table: every section and key
+// with its default, unit, accepted values and meaning. "" if it cannot be built (no memory).
+std::string ConfigReference();
+
 // Reads and parses a file; false with *error on a missing file or bad content.
 bool LoadConfigFile(const std::string& path, FirmwareConfig* config, std::string* error);
 

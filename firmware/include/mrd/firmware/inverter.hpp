@@ -1,5 +1,5 @@
 #pragma once
-// Analytic inversion of the model in its command input (DESIGN.md §7).
+// Analytic inversion of the model in its command input (docs/design.md §7).
 //
 // With the history of sample k known (ModelRuntime::Begin), the normalised model output is a
 // polynomial of degree n <= 4 in the normalised command e = (E - offset_E) / scale_E:

@@ -1,5 +1,5 @@
 #pragma once
-// Reference experiments (DESIGN.md §4): excitation profiles and the data sets they produce
+// Reference experiments (docs/design.md §4): excitation profiles and the data sets they produce
 // when they drive the Spencer reference damper. Deterministic for a given seed.
 
 #include <cstdint>

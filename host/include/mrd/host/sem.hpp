@@ -1,5 +1,5 @@
 #pragma once
-// SEM identification engine (DESIGN.md §5): parameters by least squares on the one-step
+// SEM identification engine (docs/design.md §5): parameters by least squares on the one-step
 // regression (measured output in the regressors), structure by the free-run simulation cost
 //
 //   J = sum over data sets d of (1/N_d) sum_k w_k (y(k) - ysim(k))^2,

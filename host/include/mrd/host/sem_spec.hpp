@@ -1,5 +1,5 @@
 #pragma once
-// Candidate spec of the SEM identification (DESIGN.md §4, §5): which elementary regressors
+// Candidate spec of the SEM identification (docs/design.md §4, §5): which elementary regressors
 // (a named transform of one signal, at a set of delays, raised to a set of powers) build the
 // candidate terms, the limits on terms, the cost weighting and the algorithm settings.
 // Works for any CSV columns. TOML layout (host/specs/paper.toml is the seed paper's set):
