@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "mrd/common/model_check.hpp"
+
 namespace mrd {
 
 double ApplyTransform(Transform t, double exponent, double s) {
@@ -21,51 +23,7 @@ double ApplyTransform(Transform t, double exponent, double s) {
 
 double LowPassPole(double tau) { return std::exp(-1.0 / tau); }
 
-Error Model::Validate() const {
-  if (num_channels == 0 || num_channels > kMaxChannels || num_regressors > kMaxRegressors ||
-      num_terms > kMaxTerms) {
-    return Error::kCapacityExceeded;
-  }
-  if (output_channel >= num_channels) return Error::kOutOfRange;
-  for (std::size_t c = 0; c < num_channels; ++c) {
-    if (std::memchr(channel_names[c].data(), '\0', channel_names[c].size()) == nullptr) {
-      return Error::kInvalidArgument;
-    }
-    if (!std::isfinite(scales[c].offset) || !std::isfinite(scales[c].scale)) {
-      return Error::kNonFinite;
-    }
-    if (!(scales[c].scale > 0.0)) return Error::kOutOfRange;
-  }
-  for (std::size_t r = 0; r < num_regressors; ++r) {
-    const Regressor& reg = regressors[r];
-    if (reg.channel >= num_channels) return Error::kOutOfRange;
-    if (static_cast<std::uint8_t>(reg.transform) > static_cast<std::uint8_t>(kLastTransform)) {
-      return Error::kOutOfRange;
-    }
-    if (!std::isfinite(reg.exponent)) return Error::kNonFinite;
-    if (reg.transform == Transform::kAbsPow && !(reg.exponent > 0.0)) return Error::kOutOfRange;
-    if (reg.transform == Transform::kLowPass &&
-        (!(reg.exponent > 0.0) || reg.exponent > kMaxLowPassTau ||
-         reg.channel == output_channel)) {
-      return Error::kOutOfRange;
-    }
-  }
-  for (std::size_t i = 0; i < num_terms; ++i) {
-    const Term& term = terms[i];
-    if (term.num_factors > kMaxFactors) return Error::kCapacityExceeded;
-    for (const Factor& f : term.active()) {
-      if (f.regressor >= num_regressors || f.delay > kMaxDelay || f.power == 0 ||
-          f.power > kMaxPower) {
-        return Error::kOutOfRange;
-      }
-      if (regressors[f.regressor].channel == output_channel && f.delay == 0) {
-        return Error::kOutOfRange;  // the output cannot depend on itself at delay 0
-      }
-    }
-    if (!std::isfinite(coefficients[i])) return Error::kNonFinite;
-  }
-  return Error::kOk;
-}
+Error Model::Validate() const { return CheckModel(*this).error(); }
 
 std::uint8_t Model::MaxDelay() const {
   std::uint8_t d = 0;

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "mrd/common/crc32.hpp"
+#include "mrd/common/model_check.hpp"
 
 namespace mrd {
 namespace {
@@ -55,16 +56,7 @@ class Reader {
 
 }  // namespace
 
-Error CoefficientTable::Validate() const {
-  const Error e = model.Validate();
-  if (e != Error::kOk) return e;
-  if (input_channel >= model.num_channels || input_channel == model.output_channel) {
-    return Error::kOutOfRange;
-  }
-  if (!std::isfinite(e_min) || !std::isfinite(e_max)) return Error::kNonFinite;
-  if (!(e_min < e_max)) return Error::kOutOfRange;
-  return Error::kOk;
-}
+Error CoefficientTable::Validate() const { return CheckTable(*this).error(); }
 
 InversionCheck CheckInversion(const CoefficientTable& table) {
   const Model& m = table.model;

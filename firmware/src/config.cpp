@@ -235,8 +235,10 @@ std::string ConfigReference() {
       out += "| key | default | unit | accepts | meaning |\n|---|---|---|---|---|\n";
       for (const Key& key : keys) {
         const std::string def = key.show();
+        std::string accepts;  // '|' would end the Markdown cell
+        for (const char ch : key.accepts) accepts += ch == '|' ? std::string("or") : std::string(1, ch);
         out += std::string("| `") + key.name + "` | " + (def.empty() ? "table's" : "`" + def + "`") +
-               " | " + key.unit + " | " + key.accepts + " | " + key.description + " |\n";
+               " | " + key.unit + " | " + accepts + " | " + key.description + " |\n";
       }
     }
     return out;

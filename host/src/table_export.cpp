@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "mrd/common/crc32.hpp"
+#include "mrd/common/model_check.hpp"
 #include "mrd/host/atomic_write.hpp"
 #include "mrd/host/input_error.hpp"
 
@@ -68,63 +69,72 @@ std::string TableFitProblem(const ModelShape& s) {
   return "";
 }
 
-std::string DescribeTableProblem(const CoefficientTable& table) {
+namespace {
+
+// Words for common's reason codes (CheckTable); the checking itself lives in common/.
+std::string FormatModelCheck(const CoefficientTable& table, const ModelCheck& c) {
   const Model& m = table.model;
-  ModelShape shape{m.num_channels, m.num_regressors, m.num_terms, 0, 0, 0};
-  for (std::size_t i = 0; i < std::min<std::size_t>(m.num_terms, kMaxTerms); ++i) {
-    shape.max_factors = std::max<std::size_t>(shape.max_factors, m.terms[i].num_factors);
-  }
-  if (std::string p = TableFitProblem(shape); !p.empty()) return p;
-  for (std::size_t c = 0; c < m.num_channels; ++c) {
-    if (std::memchr(m.channel_names[c].data(), '\0', m.channel_names[c].size()) == nullptr) {
-      return fmt::format("channel {} name is longer than {} characters", c, kMaxNameLength);
-    }
-    const char* name = m.channel_names[c].data();
-    if (!std::isfinite(m.scales[c].offset) || !std::isfinite(m.scales[c].scale) ||
-        !(m.scales[c].scale > 0.0)) {
-      return fmt::format("channel '{}' has an invalid normalisation (offset {}, scale {})", name,
-                         m.scales[c].offset, m.scales[c].scale);
-    }
-  }
-  if (m.output_channel >= m.num_channels) return "output channel index out of range";
-  for (std::size_t r = 0; r < m.num_regressors; ++r) {
-    const Regressor& reg = m.regressors[r];
-    if (reg.channel >= m.num_channels) return fmt::format("regressor {} reads no channel", r);
-    if (static_cast<int>(reg.transform) > static_cast<int>(kLastTransform)) {
-      return fmt::format("regressor {} has an unknown transform", r);
-    }
-    if (!std::isfinite(reg.exponent) || (reg.transform == Transform::kAbsPow && !(reg.exponent > 0.0))) {
-      return fmt::format("regressor {} has an invalid exponent {}", r, reg.exponent);
-    }
-    if (reg.transform == Transform::kLowPass &&
-        (!(reg.exponent > 0.0) || reg.exponent > kMaxLowPassTau || reg.channel == m.output_channel)) {
+  const std::size_t i = c.index;
+  const auto count = static_cast<std::size_t>(c.count);
+  switch (c.problem) {
+    case ModelProblem::kNone:
+      return "";
+    case ModelProblem::kNoChannels:
+      return "model has no channels";
+    case ModelProblem::kTooManyChannels:
+      return Fits("channels", count, kTableChannels);
+    case ModelProblem::kTooManyRegressors:
+      return Fits("elementary regressors", count, kTableRegressors);
+    case ModelProblem::kTooManyTerms:
+      return Fits("terms", count, kTableTerms);
+    case ModelProblem::kTooManyFactors:
+      return Fits("factors in one term", count, kTableFactors);
+    case ModelProblem::kOutputChannel:
+      return "output channel index out of range";
+    case ModelProblem::kChannelName:
+      return fmt::format("channel {} name is longer than {} characters", i, kMaxNameLength);
+    case ModelProblem::kChannelScaleNonFinite:
+    case ModelProblem::kChannelScale:
+      return fmt::format("channel '{}' has an invalid normalisation (offset {}, scale {})",
+                         m.channel_names[i].data(), m.scales[i].offset, m.scales[i].scale);
+    case ModelProblem::kRegressorChannel:
+      return fmt::format("regressor {} reads no channel", i);
+    case ModelProblem::kRegressorTransform:
+      return fmt::format("regressor {} has an unknown transform", i);
+    case ModelProblem::kRegressorExponent:
+    case ModelProblem::kAbsPowExponent:
+      return fmt::format("regressor {} has an invalid exponent {}", i, m.regressors[i].exponent);
+    case ModelProblem::kLowPass:
       return fmt::format("regressor {} is a low-pass with tau {} samples on {} (input channels, "
                          "0 < tau <= {:g})",
-                         r, reg.exponent, reg.channel == m.output_channel ? "the output" : "an input",
+                         i, m.regressors[i].exponent,
+                         m.regressors[i].channel == m.output_channel ? "the output" : "an input",
                          kMaxLowPassTau);
-    }
+    case ModelProblem::kFactorRegressor:
+      return fmt::format("term {} uses no regressor", i);
+    case ModelProblem::kFactorDelay:
+      return fmt::format("term {} uses delay {} > {}", i, c.count, kMaxDelay);
+    case ModelProblem::kFactorPower:
+      return fmt::format("term {} uses power {} (1 ... {})", i, c.count, +kMaxPower);
+    case ModelProblem::kOutputAtDelayZero:
+      return fmt::format("term {} uses the output at delay 0", i);
+    case ModelProblem::kCoefficient:
+      return fmt::format("coefficient {} is not finite", i);
+    case ModelProblem::kInputChannel:
+      return "input channel is missing or is the output";
+    case ModelProblem::kVoltageNonFinite:
+    case ModelProblem::kVoltageRange:
+      return fmt::format("voltage range [{}, {}] is empty or not finite", table.e_min,
+                         table.e_max);
   }
-  for (std::size_t i = 0; i < m.num_terms; ++i) {
-    for (const Factor& f : m.terms[i].active()) {
-      if (f.regressor >= m.num_regressors) return fmt::format("term {} uses no regressor", i);
-      if (f.delay > kMaxDelay) return fmt::format("term {} uses delay {} > {}", i, +f.delay, kMaxDelay);
-      if (f.power == 0 || f.power > kMaxPower) {
-        return fmt::format("term {} uses power {} (1 ... {})", i, +f.power, +kMaxPower);
-      }
-      if (m.regressors[f.regressor].channel == m.output_channel && f.delay == 0) {
-        return fmt::format("term {} uses the output at delay 0", i);
-      }
-    }
-    if (!std::isfinite(m.coefficients[i])) return fmt::format("coefficient {} is not finite", i);
-  }
-  if (table.input_channel >= m.num_channels || table.input_channel == m.output_channel) {
-    return "input channel is missing or is the output";
-  }
-  if (!std::isfinite(table.e_min) || !std::isfinite(table.e_max) || !(table.e_min < table.e_max)) {
-    return fmt::format("voltage range [{}, {}] is empty or not finite", table.e_min, table.e_max);
-  }
-  const Error e = table.Validate();
-  if (e != Error::kOk) return ErrorName(e);
+  return ErrorName(c.error());
+}
+
+}  // namespace
+
+std::string DescribeTableProblem(const CoefficientTable& table) {
+  const Model& m = table.model;
+  if (const ModelCheck c = CheckTable(table); !c.ok()) return FormatModelCheck(table, c);
   const InversionCheck inv = CheckInversion(table);
   const char* input = m.channel_names[table.input_channel].data();
   switch (inv.problem) {

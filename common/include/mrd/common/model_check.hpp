@@ -1,0 +1,55 @@
+#pragma once
+// The one validation of models and coefficient tables, with the reason as a code: the decoder,
+// Model::Validate, CoefficientTable::Validate and the firmware map it to an Error; mrd export
+// formats it in words (host/src/table_export.cpp). No allocation.
+
+#include <cstdint>
+
+#include "mrd/common/model.hpp"
+#include "mrd/common/result.hpp"
+#include "mrd/common/table.hpp"
+
+namespace mrd {
+
+enum class ModelProblem : std::uint8_t {
+  kNone = 0,
+  kNoChannels,           // num_channels == 0
+  kTooManyChannels,      // num_channels > kMaxChannels (count)
+  kTooManyRegressors,    // num_regressors > kMaxRegressors (count)
+  kTooManyTerms,         // num_terms > kMaxTerms (count)
+  kOutputChannel,        // output_channel >= num_channels
+  kChannelName,          // channel (index) name without NUL
+  kChannelScaleNonFinite,  // channel (index) offset or scale not finite
+  kChannelScale,         // channel (index) scale <= 0
+  kRegressorChannel,     // regressor (index) reads no channel
+  kRegressorTransform,   // regressor (index) has an unknown transform
+  kRegressorExponent,    // regressor (index) exponent not finite
+  kAbsPowExponent,       // regressor (index) abs_pow exponent <= 0
+  kLowPass,              // regressor (index) low-pass tau out of (0, kMaxLowPassTau] or on the output
+  kTooManyFactors,       // term (index) has count > kMaxFactors factors
+  kFactorRegressor,      // term (index) uses no regressor
+  kFactorDelay,          // term (index) uses delay (count) > kMaxDelay
+  kFactorPower,          // term (index) uses power (count) outside 1 ... kMaxPower
+  kOutputAtDelayZero,    // term (index) reads the output at delay 0
+  kCoefficient,          // coefficient (index) not finite
+  kInputChannel,         // table input channel missing or the output
+  kVoltageNonFinite,     // table e_min or e_max not finite
+  kVoltageRange,         // table e_min >= e_max
+};
+
+struct ModelCheck {
+  ModelProblem problem = ModelProblem::kNone;
+  std::uint8_t index = 0;  // channel, regressor or term the problem is in
+  int count = 0;           // the offending count, delay or power
+  bool ok() const { return problem == ModelProblem::kNone; }
+  // The Error the shared and firmware code report for it (kOk for kNone).
+  Error error() const;
+};
+
+// First problem of a model, in a fixed order (capacities, output, channels, regressors,
+// terms).
+ModelCheck CheckModel(const Model& model);
+// CheckModel, then the input channel and the voltage range.
+ModelCheck CheckTable(const CoefficientTable& table);
+
+}  // namespace mrd

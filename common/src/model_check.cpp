@@ -1,0 +1,107 @@
+#include "mrd/common/model_check.hpp"
+
+#include <cmath>
+#include <cstring>
+
+namespace mrd {
+
+Error ModelCheck::error() const {
+  switch (problem) {
+    case ModelProblem::kNone:
+      return Error::kOk;
+    case ModelProblem::kNoChannels:
+    case ModelProblem::kTooManyChannels:
+    case ModelProblem::kTooManyRegressors:
+    case ModelProblem::kTooManyTerms:
+    case ModelProblem::kTooManyFactors:
+      return Error::kCapacityExceeded;
+    case ModelProblem::kChannelName:
+      return Error::kInvalidArgument;
+    case ModelProblem::kChannelScaleNonFinite:
+    case ModelProblem::kRegressorExponent:
+    case ModelProblem::kCoefficient:
+    case ModelProblem::kVoltageNonFinite:
+      return Error::kNonFinite;
+    case ModelProblem::kOutputChannel:
+    case ModelProblem::kChannelScale:
+    case ModelProblem::kRegressorChannel:
+    case ModelProblem::kRegressorTransform:
+    case ModelProblem::kAbsPowExponent:
+    case ModelProblem::kLowPass:
+    case ModelProblem::kFactorRegressor:
+    case ModelProblem::kFactorDelay:
+    case ModelProblem::kFactorPower:
+    case ModelProblem::kOutputAtDelayZero:
+    case ModelProblem::kInputChannel:
+    case ModelProblem::kVoltageRange:
+      return Error::kOutOfRange;
+  }
+  return Error::kInvalidArgument;
+}
+
+ModelCheck CheckModel(const Model& m) {
+  auto at = [](ModelProblem p, std::size_t index, int count = 0) {
+    return ModelCheck{p, static_cast<std::uint8_t>(index), count};
+  };
+  if (m.num_channels == 0) return at(ModelProblem::kNoChannels, 0);
+  if (m.num_channels > kMaxChannels) return at(ModelProblem::kTooManyChannels, 0, m.num_channels);
+  if (m.num_regressors > kMaxRegressors) {
+    return at(ModelProblem::kTooManyRegressors, 0, m.num_regressors);
+  }
+  if (m.num_terms > kMaxTerms) return at(ModelProblem::kTooManyTerms, 0, m.num_terms);
+  if (m.output_channel >= m.num_channels) return at(ModelProblem::kOutputChannel, 0);
+  for (std::size_t c = 0; c < m.num_channels; ++c) {
+    if (std::memchr(m.channel_names[c].data(), '\0', m.channel_names[c].size()) == nullptr) {
+      return at(ModelProblem::kChannelName, c);
+    }
+    if (!std::isfinite(m.scales[c].offset) || !std::isfinite(m.scales[c].scale)) {
+      return at(ModelProblem::kChannelScaleNonFinite, c);
+    }
+    if (!(m.scales[c].scale > 0.0)) return at(ModelProblem::kChannelScale, c);
+  }
+  for (std::size_t r = 0; r < m.num_regressors; ++r) {
+    const Regressor& reg = m.regressors[r];
+    if (reg.channel >= m.num_channels) return at(ModelProblem::kRegressorChannel, r);
+    if (static_cast<std::uint8_t>(reg.transform) > static_cast<std::uint8_t>(kLastTransform)) {
+      return at(ModelProblem::kRegressorTransform, r);
+    }
+    if (!std::isfinite(reg.exponent)) return at(ModelProblem::kRegressorExponent, r);
+    if (reg.transform == Transform::kAbsPow && !(reg.exponent > 0.0)) {
+      return at(ModelProblem::kAbsPowExponent, r);
+    }
+    if (reg.transform == Transform::kLowPass &&
+        (!(reg.exponent > 0.0) || reg.exponent > kMaxLowPassTau ||
+         reg.channel == m.output_channel)) {
+      return at(ModelProblem::kLowPass, r);
+    }
+  }
+  for (std::size_t i = 0; i < m.num_terms; ++i) {
+    const Term& term = m.terms[i];
+    if (term.num_factors > kMaxFactors) return at(ModelProblem::kTooManyFactors, i, term.num_factors);
+    for (const Factor& f : term.active()) {
+      if (f.regressor >= m.num_regressors) return at(ModelProblem::kFactorRegressor, i);
+      if (f.delay > kMaxDelay) return at(ModelProblem::kFactorDelay, i, f.delay);
+      if (f.power == 0 || f.power > kMaxPower) return at(ModelProblem::kFactorPower, i, f.power);
+      if (m.regressors[f.regressor].channel == m.output_channel && f.delay == 0) {
+        return at(ModelProblem::kOutputAtDelayZero, i);
+      }
+    }
+    if (!std::isfinite(m.coefficients[i])) return at(ModelProblem::kCoefficient, i);
+  }
+  return {};
+}
+
+ModelCheck CheckTable(const CoefficientTable& t) {
+  const ModelCheck m = CheckModel(t.model);
+  if (!m.ok()) return m;
+  if (t.input_channel >= t.model.num_channels || t.input_channel == t.model.output_channel) {
+    return {ModelProblem::kInputChannel, t.input_channel, 0};
+  }
+  if (!std::isfinite(t.e_min) || !std::isfinite(t.e_max)) {
+    return {ModelProblem::kVoltageNonFinite, 0, 0};
+  }
+  if (!(t.e_min < t.e_max)) return {ModelProblem::kVoltageRange, 0, 0};
+  return {};
+}
+
+}  // namespace mrd
