@@ -34,7 +34,16 @@ log=$scratch/log
 mkdir -p "$src" "$build" "$log"
 
 # Scratch copy of the working tree (tracked and untracked sources, no build trees, no .git).
-rsync -a --delete --exclude '/build*' --exclude '/.git' --exclude '/.cache' "$root/" "$src/"
+# Only files that differ are copied (new mtime), so the scratch build stays incremental and an
+# interrupted run's mutated file is replaced and rebuilt.
+(cd "$root" && find . \( -path ./.git -o -path './build*' -o -path ./.cache \) -prune -o \
+   -type f -print0) |
+  while IFS= read -r -d '' f; do
+    if ! cmp -s "$root/$f" "$src/$f"; then
+      mkdir -p "$(dirname "$src/$f")"
+      cp "$root/$f" "$src/$f"
+    fi
+  done
 
 # The list: "group<TAB>name<TAB>targets<TAB>ctest regex" and
 # "mutant<TAB>id<TAB>file<TAB>original<TAB>replacement<TAB>group<TAB>description".

@@ -1,11 +1,11 @@
 // The reference damper tied to exact values of its equations (spencer_damper.hpp), for both
 // presets: forces after Reset worked out by hand, and one RK4 step against an independent
 // implementation of the classical scheme.
-#include "mrd/common/spencer_damper.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
+
+#include "mrd/common/spencer_damper.hpp"
 
 namespace mrd {
 namespace {

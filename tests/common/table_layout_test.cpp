@@ -157,9 +157,8 @@ TEST(TableLayoutTest, DecodesNonZeroRangeAndOffsetsFromTheirBytes) {
 }
 
 TEST(TableLayoutTest, DecoderRejectsAnyNonZeroFlagWithValidCrc) {
-  for (const auto& [at, value] : {std::pair<std::size_t, std::uint8_t>{6, 0x01},
-                                  {6, 0x80},
-                                  {7, 0x01}}) {
+  for (const auto& [at, value] :
+       {std::pair<std::size_t, std::uint8_t>{6, 0x01}, {6, 0x80}, {7, 0x01}}) {
     TableBytes b = Encoded(test::DemoDamperTable());
     b[at] = value;
     FixCrc(b);

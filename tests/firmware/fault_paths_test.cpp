@@ -168,8 +168,7 @@ SineRun RunSine(VelocitySource source) {
     const double f = plant.Step(kDt, std::sin(w * t0), w * std::cos(w * t0), std::sin(w * t1),
                                 w * std::cos(w * t1), 1.0);
     const std::int64_t now = k * kMs;
-    const ControllerOutput out =
-        Update(c, Fresh(now, w * std::cos(w * t1), std::sin(w * t1)), now);
+    const ControllerOutput out = Update(c, Fresh(now, w * std::cos(w * t1), std::sin(w * t1)), now);
     EXPECT_FALSE(out.safe) << k;
     if (k > 500) {  // after the start-up transient
       r.model.push_back(out.model_force);

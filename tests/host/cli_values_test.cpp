@@ -7,9 +7,8 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
-#include <regex>
-
 #include <nlohmann/json.hpp>
+#include <regex>
 
 #include "mrd/common/table.hpp"
 #include "mrd/host/csv.hpp"
@@ -151,8 +150,8 @@ TEST(CliValuesTest, ExportDefaultsToZeroTo2Point25VoltsAndRoundTripsCoefficients
   test::TempDir dir;
   const auto model = IdentifyToy(dir, WriteToyData(dir));
   const auto bin = dir.File("t.bin");
-  const auto r = test::Run(test::Bin("mrd") + " export --model " + model + " --input u --table " +
-                           bin);
+  const auto r =
+      test::Run(test::Bin("mrd") + " export --model " + model + " --input u --table " + bin);
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("in [0, 2.25] V"), std::string::npos) << r.output;
   const auto t = DecodeTable(ReadBytes(bin));
@@ -190,9 +189,9 @@ TEST(CliValuesTest, ExportWritesTheGivenVoltageRange) {
 TEST(CliValuesTest, CsvTimeStepThatShrinksIsNonUniform) {
   test::TempDir dir;
   // Rows and the file line of the shrunken step.
-  for (const auto& [rows, line] : {std::pair<const char*, std::size_t>{
-                                       "0,1\n0.001,1\n0.002,1\n0.0025,1\n", 5},
-                                   {"0,1\n0.001,1\n0.0015,1\n", 4}}) {
+  for (const auto& [rows, line] :
+       {std::pair<const char*, std::size_t>{"0,1\n0.001,1\n0.002,1\n0.0025,1\n", 5},
+        {"0,1\n0.001,1\n0.0015,1\n", 4}}) {
     const auto p = dir.Write("s.csv", std::string("t,y\n") + rows);
     try {
       ReadCsv(p, std::vector<std::string>{"y"});

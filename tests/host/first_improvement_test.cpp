@@ -67,7 +67,8 @@ std::vector<Candidate> SingleTermCosts(const SemSpec& spec, const std::vector<Da
   for (const SemTerm& t : GenerateCandidates(spec)) {
     o.initial = std::vector<std::string>{TermName(spec, t)};
     const double j = Identify(spec, data, {}, o).iterations[0].j;
-    out.push_back({TermName(spec, t), std::isfinite(j) ? j : std::numeric_limits<double>::infinity()});
+    out.push_back(
+        {TermName(spec, t), std::isfinite(j) ? j : std::numeric_limits<double>::infinity()});
   }
   return out;
 }
@@ -88,7 +89,8 @@ TEST(SemAcceptanceTest, BestImprovementTakesTheLowestSingleTermCost) {
   const std::vector<DataSet> data{ToyData()};
   double j0 = 0.0;
   const auto c = SingleTermCosts(spec, data, &j0);
-  const auto best = std::min_element(c.begin(), c.end(), [](auto& a, auto& b) { return a.j < b.j; });
+  const auto best =
+      std::min_element(c.begin(), c.end(), [](auto& a, auto& b) { return a.j < b.j; });
   const SemIteration it = FirstIteration(spec, data, Strategy::kBest, 2.0);
   ASSERT_EQ(it.terms.size(), 1U);
   EXPECT_EQ(TermName(spec, it.terms[0]), best->name);
@@ -100,7 +102,8 @@ TEST(SemAcceptanceTest, FirstImprovementTakesACandidateMeetingTheThresholdNotThe
   const std::vector<DataSet> data{ToyData()};
   double j0 = 0.0;
   const auto c = SingleTermCosts(spec, data, &j0);
-  const auto best = std::min_element(c.begin(), c.end(), [](auto& a, auto& b) { return a.j < b.j; });
+  const auto best =
+      std::min_element(c.begin(), c.end(), [](auto& a, auto& b) { return a.j < b.j; });
   constexpr double kThreshold = 5.0;  // [%]
   const double bar = j0 * (1.0 - kThreshold / 100.0);
   int meeting = 0;
@@ -144,7 +147,8 @@ TEST(SemAcceptanceTest, FirstImprovementFallsBackToTheBestWhenNoneMeetsTheThresh
   const std::vector<DataSet> data{ToyData()};
   double j0 = 0.0;
   const auto c = SingleTermCosts(spec, data, &j0);
-  const auto best = std::min_element(c.begin(), c.end(), [](auto& a, auto& b) { return a.j < b.j; });
+  const auto best =
+      std::min_element(c.begin(), c.end(), [](auto& a, auto& b) { return a.j < b.j; });
   // 99.999 %: no single term removes that much of the cost.
   ASSERT_GT(best->j, j0 * 1e-5);
   const SemIteration it = FirstIteration(spec, data, Strategy::kFirst, 99.999);
