@@ -67,6 +67,17 @@ TEST(TableLayoutTest, OneBeyondMaximumPowerOrDelayIsRefusedEverywhere) {
   EXPECT_EQ(EncodeTable(t).error(), Error::kOutOfRange);
 }
 
+TEST(TableLayoutTest, OutputChannelMustBeBelowTheChannelCount) {
+  CoefficientTable t = test::DemoDamperTable();
+  t.model.output_channel = t.model.num_channels;  // one past the last channel
+  EXPECT_EQ(t.model.Validate(), Error::kOutOfRange);
+  EXPECT_EQ(EncodeTable(t).error(), Error::kOutOfRange);
+  TableBytes b = Encoded(test::DemoDamperTable());
+  b[kTableCountsOffset + 1] = 3;  // output channel 3 of 3
+  FixCrc(b);
+  EXPECT_EQ(DecodeTable(b).error(), Error::kOutOfRange);
+}
+
 TEST(TableLayoutTest, FullCapacityModelValidatesAndRoundTrips) {
   // 8 channels, 16 regressors, 64 terms of 4 factors: every count at its capacity.
   CoefficientTable t = test::DemoDamperTable();
