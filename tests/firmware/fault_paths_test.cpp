@@ -104,6 +104,19 @@ TEST(ControllerFaultTest, ForceTrackingIgnoresBodyVelocityButNotDemand) {
   EXPECT_EQ(Update(c, f, t).causes, kStale);
 }
 
+TEST(ControllerFaultTest, ConstantVoltageAcceptsTheRangeEndsAndNothingBeyond) {
+  ControlLawConfig law;
+  law.mode = ControlMode::kConstantVoltage;
+  for (const double volts : {0.0, 2.25}) {  // passive-off and passive-on
+    law.constant_voltage = volts;
+    EXPECT_TRUE(law.IsValid(0.0, 2.25)) << volts;
+  }
+  law.constant_voltage = 2.2500001;
+  EXPECT_FALSE(law.IsValid(0.0, 2.25));
+  law.constant_voltage = -1e-9;
+  EXPECT_FALSE(law.IsValid(0.0, 2.25));
+}
+
 TEST(ControllerFaultTest, NegativeVelocityBeyondLimitIsImplausible) {
   ControllerConfig config;
   config.velocity_limit = 100.0;
