@@ -1,6 +1,7 @@
 // End-to-end tests of `mrd identify` and `mrd simulate` through the executable.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -85,9 +86,30 @@ TEST(SemCliTest, SimulatePrintsMetrics) {
                       " --out " + model + " --max-iterations 1")
                 .status,
             0);
-  const auto s = test::Run(test::Bin("mrd") + " simulate --model " + model + " --data " + id);
+  const auto s = test::Run(test::Bin("mrd") + " simulate --model " + model + " --data " + id +
+                           " --out " + dir.File("sim.csv"));
   ASSERT_EQ(s.status, 0) << s.output;
-  for (const char* word : {"J ", "MSE", "RMSE", "RRSE", "fit"}) {
+  // The printed numbers are those of the written simulation (rows from the warm-up of 2 on).
+  const DataSet sim = ReadCsv(dir.File("sim.csv"), std::vector<std::string>{"y", "y_sim"});
+  double sse = 0.0, scale = 0.0;
+  for (std::size_t k = 0; k < sim.rows(); ++k) {
+    const double e = sim.Column("y")[k] - sim.Column("y_sim")[k];
+    sse += e * e;
+    scale = std::max(scale, std::fabs(sim.Column("y")[k]));
+  }
+  const double mse = sse / static_cast<double>(sim.rows() - 2);
+  ASSERT_GT(mse, 1e-6);  // one iteration: an imperfect model
+  const auto number_after = [&](const std::string& label) {
+    const std::size_t at = s.output.find(label);
+    EXPECT_NE(at, std::string::npos) << label << " in " << s.output;
+    return at == std::string::npos ? std::nan("") : std::stod(s.output.substr(at + label.size()));
+  };
+  EXPECT_NEAR(number_after("physical:   MSE "), mse, 1e-5 * mse) << s.output;
+  EXPECT_NEAR(number_after("RMSE "), std::sqrt(mse), 1e-5 * std::sqrt(mse)) << s.output;
+  const double j = mse / (scale * scale);  // normalised by max |y|, MSE weighting
+  EXPECT_NEAR(number_after("normalised: J "), j, 1e-5 * j) << s.output;
+  EXPECT_NE(s.output.find(std::to_string(sim.rows() - 2) + " samples"), std::string::npos);
+  for (const char* word : {"RRSE", "fit"}) {
     EXPECT_NE(s.output.find(word), std::string::npos) << s.output;
   }
 }
