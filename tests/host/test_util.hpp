@@ -50,7 +50,14 @@ inline CommandResult Run(const std::string& command) {
   return r;
 }
 
-// Path of an executable in build/bin.
-inline std::string Bin(const std::string& name) { return std::string(MRD_BIN_DIR) + "/" + name; }
+// Command line of an executable in build/bin: its path, behind the emulator in a cross build
+// (MRD_TEST_EMULATOR, e.g. "qemu-arm -L /usr/arm-linux-gnueabihf").
+inline std::string Bin(const std::string& name) {
+#ifdef MRD_TEST_EMULATOR
+  const std::string emulator = MRD_TEST_EMULATOR;
+  if (!emulator.empty()) return emulator + " " + MRD_BIN_DIR + "/" + name;
+#endif
+  return std::string(MRD_BIN_DIR) + "/" + name;
+}
 
 }  // namespace mrd::test
