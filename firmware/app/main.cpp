@@ -17,6 +17,7 @@
 #include <string>
 #include <thread>
 
+#include "check.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/config.hpp"
@@ -43,6 +44,8 @@ constexpr const char* kHelp =
     "Usage:\n"
     "  mrd-firmware [--table FILE] [--config FILE.toml] --dry-run SECONDS [--lockstep] [--json]\n"
     "  mrd-firmware [--table FILE] --write-table OUT.bin\n"
+    "  mrd-firmware --check-config FILE.toml | --check-table FILE [--config F] [--rollback]\n"
+    "  mrd-firmware --install-table NEW --to DEST [--config FILE.toml]\n"
     "  mrd-firmware --help\n"
     "\n"
     "Options:\n"
@@ -322,6 +325,7 @@ int Run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (const int status = RunMaintenance(argc, argv); status >= 0) return status;
   Options o;
   if (!ParseArgs(argc, argv, &o)) return kExitBadInput;
   if (o.help) {
