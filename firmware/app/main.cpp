@@ -23,6 +23,7 @@
 #include "mrd/firmware/config.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/loop.hpp"
+#include "mrd/firmware/sd_notify.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
 
@@ -310,11 +311,17 @@ int Run(const Options& o) {
       loop.Run(g_stop, duration_ns);
       done = true;
     });
-    // The telemetry is read here while the loop runs (no locks, no stopping it).
+    // The telemetry is read here while the loop runs (no locks, no stopping it); systemd's
+    // watchdog is pinged from here while the tick counter advances.
+    SystemdNotifier notifier;
+    notifier.Send("READY=1");
     while (!done.load()) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      (void)telemetry.Read();
+      notifier.Ping(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                        std::chrono::steady_clock::now().time_since_epoch()).count(),
+                    telemetry.Read().ticks);
     }
+    notifier.Send("STOPPING=1");
     worker.join();
   }
   const TelemetrySnapshot s = telemetry.Read();
