@@ -83,7 +83,8 @@ std::string InstallTable(const char* source, const char* dest, const FirmwareCon
     const std::string prev = d + ".prev";
     const std::string prev_staged = prev + ".new";
     ::unlink(prev_staged.c_str());
-    if (::link(dest, prev_staged.c_str()) != 0 || ::rename(prev_staged.c_str(), prev.c_str()) != 0) {
+    if (::link(dest, prev_staged.c_str()) != 0 ||
+        ::rename(prev_staged.c_str(), prev.c_str()) != 0) {
       why = Errno("cannot keep the previous table as " + prev);
       ::unlink(staged.c_str());
       return why;
@@ -113,7 +114,8 @@ std::string CheckTableOrRollBack(const char* dest, const FirmwareConfig& config,
   if (::access(dest, F_OK) == 0 && ::link(dest, kept.c_str()) != 0) {
     return refused + "; " + Errno("cannot keep it as " + kept);
   }
-  if (::rename(prev.c_str(), dest) != 0) return refused + "; " + Errno("cannot roll back to " + prev);
+  if (::rename(prev.c_str(), dest) != 0)
+    return refused + "; " + Errno("cannot roll back to " + prev);
   if (!SyncFolder(d)) return Errno("rolled back " + d + " but cannot fsync its folder");
   *rolled_back = true;
   return "";

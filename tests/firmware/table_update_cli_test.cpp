@@ -80,7 +80,9 @@ TEST(TableUpdateTest, RefusedTableInstallsNothing) {
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("refused by this firmware and config"), std::string::npos) << r.output;
   // Missing source, missing --to.
-  EXPECT_EQ(test::Run(Firmware() + " --install-table " + dir.File("none.bin") + " --to " + dest).status, 2);
+  EXPECT_EQ(
+      test::Run(Firmware() + " --install-table " + dir.File("none.bin") + " --to " + dest).status,
+      2);
   EXPECT_EQ(test::Run(Firmware() + " --install-table " + t.b).status, 2);
   EXPECT_EQ(Bytes(dest), Bytes(t.a));
   EXPECT_FALSE(Exists(dest + ".prev"));
@@ -92,7 +94,9 @@ TEST(TableUpdateTest, TableRefusedAtStartRollsBackToThePreviousOne) {
   const Tables t(dir);
   const std::string dest = dir.File("table.bin");
   const std::string cfg = dir.Write("fw.toml", "[control]\ne_max = 2.25\n");
-  ASSERT_EQ(test::Run(Firmware() + " --install-table " + t.a + " --to " + dest + " --config " + cfg).status, 0);
+  ASSERT_EQ(test::Run(Firmware() + " --install-table " + t.a + " --to " + dest + " --config " + cfg)
+                .status,
+            0);
   // Installed without the board's config: accepted then, refused at start with it.
   ASSERT_EQ(test::Run(Firmware() + " --install-table " + t.b + " --to " + dest).status, 0);
   CommandResult r = test::Run(Firmware() + " --check-table " + dest + " --config " + cfg);

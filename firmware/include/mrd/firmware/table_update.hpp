@@ -24,7 +24,6 @@ std::string InstallTable(const char* source, const char* dest, const FirmwareCon
 // When DEST is refused (CheckTable) and DEST.prev is accepted: DEST -> DEST.refused,
 // DEST.prev -> DEST (atomic rename). Returns "" when DEST is accepted (nothing done) or was
 // rolled back (*rolled_back set), else the reason why neither table can be used.
-std::string CheckTableOrRollBack(const char* dest, const FirmwareConfig& config,
-                                 bool* rolled_back);
+std::string CheckTableOrRollBack(const char* dest, const FirmwareConfig& config, bool* rolled_back);
 
 }  // namespace mrd::firmware
