@@ -17,11 +17,13 @@
 #include <string>
 #include <thread>
 
+#include "check.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/config.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/loop.hpp"
+#include "mrd/firmware/sd_notify.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
 #include "summary_json.hpp"
@@ -86,6 +88,8 @@ constexpr const char* kHelp =
     "  mrd-firmware [--table FILE] [--config FILE.toml] --dry-run SECONDS [--lockstep] [--json]\n"
     "  mrd-firmware [--table FILE] --write-table OUT.bin\n"
     "  mrd-firmware --print-config-reference\n"
+    "  mrd-firmware --check-config FILE.toml | --check-table FILE [--config F] [--rollback]\n"
+    "  mrd-firmware --install-table NEW --to DEST [--config FILE.toml]\n"
     "  mrd-firmware --help\n"
     "\n"
     "Options:\n"
@@ -329,11 +333,17 @@ int Run(const Options& o) {
       loop.Run(g_stop, duration_ns);
       done = true;
     });
-    // The telemetry is read here while the loop runs (no locks, no stopping it).
+    // The telemetry is read here while the loop runs (no locks, no stopping it); systemd's
+    // watchdog is pinged from here while the tick counter advances.
+    SystemdNotifier notifier;
+    notifier.Send("READY=1");
     while (!done.load()) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      (void)telemetry.Read();
+      notifier.Ping(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                        std::chrono::steady_clock::now().time_since_epoch()).count(),
+                    telemetry.Read().ticks);
     }
+    notifier.Send("STOPPING=1");
     worker.join();
   }
   const TelemetrySnapshot s = telemetry.Read();
@@ -344,6 +354,7 @@ int Run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (const int status = RunMaintenance(argc, argv); status >= 0) return status;
   InstallStopHandlers();
   Options o;
   if (!ParseArgs(argc, argv, &o)) return kExitBadInput;

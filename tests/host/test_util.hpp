@@ -50,11 +50,18 @@ inline CommandResult Run(const std::string& command) {
   return r;
 }
 
-// Path of an executable in build/bin (or in $MRD_TEST_BIN_DIR, e.g. to run the CLI tests
-// against another build).
+// Command line of an executable in build/bin (or in $MRD_TEST_BIN_DIR, e.g. to run the CLI
+// tests against another build), behind the emulator in a cross build (MRD_TEST_EMULATOR, e.g.
+// "qemu-arm -L /usr/arm-linux-gnueabihf").
 inline std::string Bin(const std::string& name) {
   const char* dir = std::getenv("MRD_TEST_BIN_DIR");
-  return std::string(dir != nullptr && *dir != '\0' ? dir : MRD_BIN_DIR) + "/" + name;
+  const std::string path =
+      std::string(dir != nullptr && *dir != '\0' ? dir : MRD_BIN_DIR) + "/" + name;
+#ifdef MRD_TEST_EMULATOR
+  const std::string emulator = MRD_TEST_EMULATOR;
+  if (!emulator.empty()) return emulator + " " + path;
+#endif
+  return path;
 }
 
 }  // namespace mrd::test

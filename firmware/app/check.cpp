@@ -1,0 +1,86 @@
+#include "check.hpp"
+
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/table_update.hpp"
+
+namespace mrd::firmware {
+namespace {
+
+constexpr int kOk = 0;
+constexpr int kBadInput = 2;
+
+constexpr const char* kUsage =
+    "usage: mrd-firmware --check-config FILE.toml\n"
+    "       mrd-firmware --check-table FILE [--config FILE.toml] [--rollback]\n"
+    "       mrd-firmware --install-table NEW --to DEST [--config FILE.toml]\n";
+
+int Refuse(const std::string& reason) {
+  std::fprintf(stderr, "error: %s\n", reason.c_str());
+  return kBadInput;
+}
+
+}  // namespace
+
+int RunMaintenance(int argc, char** argv) {
+  if (argc < 2) return -1;
+  const std::string command = argv[1];
+  if (command != "--check-config" && command != "--check-table" && command != "--install-table") {
+    return -1;
+  }
+  if (argc < 3) return Refuse(command + " needs a file\n" + kUsage);
+  const char* file = argv[2];
+  const char* config_path = command == "--check-config" ? file : nullptr;
+  const char* to = nullptr;
+  bool rollback = false;
+  for (int i = 3; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--config" && command != "--check-config" && i + 1 < argc) {
+      config_path = argv[++i];
+    } else if (a == "--to" && command == "--install-table" && i + 1 < argc) {
+      to = argv[++i];
+    } else if (a == "--rollback" && command == "--check-table") {
+      rollback = true;
+    } else {
+      return Refuse("unexpected argument '" + a + "' for " + command + "\n" + kUsage);
+    }
+  }
+  FirmwareConfig config;
+  if (config_path != nullptr) {
+    std::string error;
+    if (!LoadConfigFile(config_path, &config, &error)) return Refuse(error);
+  }
+  if (command == "--check-config") {
+    std::printf("config %s: ok\n", file);
+    return kOk;
+  }
+  if (command == "--install-table") {
+    if (to == nullptr) return Refuse(std::string("--install-table needs --to DEST\n") + kUsage);
+    const std::string why = InstallTable(file, to, config);
+    if (!why.empty()) return Refuse(why + " (nothing installed)");
+    std::printf("table %s installed as %s (previous kept as %s.prev)\n", file, to, to);
+    return kOk;
+  }
+  if (!rollback) {
+    const std::string why = CheckTable(file, config);
+    if (!why.empty()) return Refuse(why);
+    std::printf("table %s: ok\n", file);
+    return kOk;
+  }
+  bool rolled_back = false;
+  const std::string why = CheckTableOrRollBack(file, config, &rolled_back);
+  if (!why.empty()) return Refuse(why);
+  if (rolled_back) {
+    std::fprintf(stderr,
+                 "warning: table %s was refused; rolled back to the previous table (refused one "
+                 "kept as %s.refused)\n",
+                 file, file);
+  }
+  std::printf("table %s: ok%s\n", file, rolled_back ? " (rolled back)" : "");
+  return kOk;
+}
+
+}  // namespace mrd::firmware

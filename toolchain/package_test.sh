@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# Package test (issue 11): builds the firmware's Debian package in BUILD_DIR, installs it into a
+# temporary root directory with toolchain/deploy, runs the installed firmware (under qemu-user
+# for Arm): config and table checks, a dry run, a table update, a refused table (nothing
+# changed) and a forced rollback when the installed table is refused at start.
+# Usage: toolchain/package_test.sh BUILD_DIR   (build/, build-aarch64/ or build-armhf/)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build="${1:?usage: package_test.sh BUILD_DIR}"
+fail() { echo "package_test: FAIL: $*" >&2; exit 1; }
+
+cmake --build "$build" --target mrd-firmware mrd_default_table >/dev/null
+rm -f "$build"/mrd-firmware_*.deb
+(cd "$build" && cpack -G DEB >/dev/null)
+deb="$(ls "$build"/mrd-firmware_*.deb)"
+echo "package: $deb ($(dpkg-deb -f "$deb" Architecture), depends: $(dpkg-deb -f "$deb" Depends))"
+contents="$(dpkg-deb -c "$deb")"
+for f in ./usr/bin/mrd-firmware ./etc/mrd/firmware.toml ./var/lib/mrd/table.bin \
+         ./lib/systemd/system/mrd-firmware.service; do
+  grep -q " $f\$" <<<"$contents" || fail "package lacks $f"
+done
+
+root="$(mktemp -d)"
+trap 'rm -rf "$root"' EXIT
+bash toolchain/deploy --root "$root" --package "$deb"
+unit="$root/lib/systemd/system/mrd-firmware.service"
+for key in Type=notify CPUSchedulingPolicy=fifo CPUSchedulingPriority= LimitMEMLOCK=infinity \
+           Restart=on-failure WatchdogSec= "ExecStartPre=/usr/bin/mrd-firmware --check-config" \
+           "--check-table /var/lib/mrd/table.bin --config /etc/mrd/firmware.toml --rollback"; do
+  grep -q -- "$key" "$unit" || fail "unit lacks $key"
+done
+
+fw=("$root/usr/bin/mrd-firmware")
+case "$(od -An -tx1 -j18 -N1 "${fw[0]}" | tr -d ' ')" in
+  b7) [ "$(uname -m)" = aarch64 ] || fw=(qemu-aarch64 -L /usr/aarch64-linux-gnu "${fw[@]}") ;;
+  28) [ "$(uname -m)" = armv7l ] || fw=(qemu-arm -L /usr/arm-linux-gnueabihf "${fw[@]}") ;;
+esac
+cfg="$root/etc/mrd/firmware.toml"
+dest="$root/var/lib/mrd/table.bin"
+"${fw[@]}" --check-config "$cfg" >/dev/null || fail "installed config refused"
+"${fw[@]}" --check-table "$dest" --config "$cfg" >/dev/null || fail "installed table refused"
+out="$("${fw[@]}" --table "$dest" --config "$cfg" --dry-run 1 --lockstep --json)" ||
+  fail "dry run failed: $out"
+grep -q '"ticks": 1000,' <<<"$out" || fail "dry run did not run 1000 ticks: $out"
+grep -q "\"safe_entries\": 0," <<<"$out" || fail "dry run entered the safe state: $out"
+grep -q "\"final_safe_state\": true" <<<"$out" || fail "driver not left in the safe state: $out"
+echo "dry run: 1000 ticks at 1 kHz, installed table and config"
+
+# Table update: a table written by the installed firmware, installed with deploy.
+"${fw[@]}" --write-table "$root/new.bin"
+before="$(sha256sum <"$dest")"
+bash toolchain/deploy --root "$root" --table "$root/new.bin" >/dev/null
+cmp -s "$dest" "$root/new.bin" || fail "table not installed"
+[ "$(sha256sum <"$dest.prev")" = "$before" ] || fail "previous table not kept"
+[ ! -e "$dest.new" ] || fail "staging file left behind"
+echo "table update: installed, previous kept as table.bin.prev"
+
+# A corrupt table is refused by deploy and changes nothing.
+cp "$root/new.bin" "$root/bad.bin"
+printf '\x5a' | dd of="$root/bad.bin" bs=1 seek=100 conv=notrunc status=none
+if bash toolchain/deploy --root "$root" --table "$root/bad.bin" 2>"$root/err"; then
+  fail "corrupt table accepted"
+fi
+grep -q "error: table .* refused" "$root/err" || fail "no reason given: $(cat "$root/err")"
+cmp -s "$dest" "$root/new.bin" || fail "refused table changed the installed one"
+echo "corrupt table: refused ($(head -c 120 "$root/err"))"
+
+# Forced rollback: the installed table is damaged, the unit's ExecStartPre refuses it at start
+# and rolls back to table.bin.prev; the firmware then runs on the previous table.
+printf '\x5a' | dd of="$dest" bs=1 seek=64 conv=notrunc status=none
+"${fw[@]}" --check-table "$dest" --config "$cfg" >/dev/null 2>&1 && fail "damaged table accepted"
+"${fw[@]}" --check-table "$dest" --config "$cfg" --rollback >/dev/null 2>"$root/err" ||
+  fail "rollback failed: $(cat "$root/err")"
+grep -q "rolled back" "$root/err" || fail "rollback not reported"
+[ "$(sha256sum <"$dest")" = "$before" ] || fail "rollback did not restore the previous table"
+[ -e "$dest.refused" ] || fail "refused table not kept"
+"${fw[@]}" --table "$dest" --config "$cfg" --dry-run 0.2 --lockstep >/dev/null ||
+  fail "dry run after rollback failed"
+echo "forced rollback: damaged table refused at start, previous table restored, dry run ok"
+echo "package_test: ok"
