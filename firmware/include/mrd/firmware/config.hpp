@@ -28,6 +28,8 @@
 //   [simulation]              # the dry-run plant (SimulationConfig)
 //   amplitude_cm = 1.0, frequency_hz = 2.0, demand_amplitude_n = 600.0,
 //   demand_frequency_hz = 0.5, body_amplitude = 8.0, body_frequency_hz = 1.3, substeps = 20
+//
+//   [can] / [modbus] / [gpio]  # bus sections (io_config.hpp): inputs, outputs, connection
 
 #include <cstdint>
 #include <optional>
@@ -35,6 +37,7 @@
 #include <string_view>
 
 #include "mrd/firmware/controller.hpp"
+#include "mrd/firmware/io_config.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 
 namespace mrd::firmware {
@@ -46,6 +49,7 @@ struct FirmwareConfig {
   std::optional<double> e_max;  // [V]; unset: the table's
   ControllerConfig controller;
   SimulationConfig simulation;
+  IoConfig io;  // [can], [modbus], [gpio]; none: dry run on the simulated damper
 };
 
 // Parses TOML text (source names it in messages). Unknown keys, wrong types and out-of-range
