@@ -315,16 +315,20 @@ void ModbusDevice::Work() {
 }
 
 IoStatus ModbusDevice::Read(SensorFrame* frame, IoError* why) {
-  Sample s;
   bool got = false;
-  for (int i = 0; i < kReadAttempts && !got; ++i) got = sample_.TryRead(&s);
-  if (!got) return IoStatus::kNoData;  // the worker is publishing right now
+  for (int i = 0; i < kReadAttempts && !got; ++i) got = sample_.TryRead(&cached_);
+  const Sample& s = cached_;  // the worker is publishing right now: the previous copy
   last_write_failed_ = s.write_failed;
   last_why_ = s.why;
   IoStatus status = IoStatus::kNoData;
   if (s.accepted != seen_accepted_) {
     seen_accepted_ = s.accepted;
     last_seq_ = s.seq;
+    status = IoStatus::kOk;
+  }
+  if (s.accepted > 0) {
+    // The loop starts every period from an empty frame: the latest values always go in,
+    // with the stamps of when they arrived (so old data ages into the stale cause).
     const std::uint32_t in = config_.inputs;
     if ((in & Bit(Input::kVelocity)) != 0) frame->velocity = {s.velocity, s.stamp_ns};
     if ((in & Bit(Input::kDisplacement)) != 0) frame->displacement = {s.displacement, s.stamp_ns};
@@ -332,7 +336,6 @@ IoStatus ModbusDevice::Read(SensorFrame* frame, IoError* why) {
     if ((in & Bit(Input::kBodyVelocity)) != 0) frame->body_velocity = {s.body_velocity, s.stamp_ns};
     if ((in & Bit(Input::kForce)) != 0) frame->force = {s.force, s.stamp_ns};
     if ((in & Bit(Input::kFaultLine)) != 0) frame->fault_line = s.fault_line;
-    status = IoStatus::kOk;
   }
   if (s.read_failed) {
     *why = s.why;

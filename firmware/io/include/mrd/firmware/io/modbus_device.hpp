@@ -100,6 +100,7 @@ class ModbusDevice final : public BusDevice {
   std::atomic<std::uint32_t> status_ticks_{0};
 
   // Loop side (tick thread only).
+  Sample cached_;  // latest sample copied out of sample_
   std::uint64_t seen_accepted_ = 0;
   std::uint32_t last_seq_ = 0;
   bool last_write_failed_ = false;
