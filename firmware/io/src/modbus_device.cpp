@@ -252,11 +252,12 @@ void ModbusDevice::Work() {
     if (writes) {
       Command c;
       if (command_.TryRead(&c) && command_.version() > 0 && (!any_written || c.tick != written_tick)) {
+        // Sent or failed (after retries), a command is not sent again: the loop's next
+        // one supersedes it.
         s.write_failed = !WriteCommand(c, &why);
-        if (!s.write_failed) {
-          written_tick = c.tick;
-          any_written = true;
-        } else {
+        written_tick = c.tick;
+        any_written = true;
+        if (s.write_failed) {
           cycle_failed = true;
           s.why = why;
         }
@@ -352,6 +353,11 @@ IoStatus ModbusDevice::Write(const DriverCommand& cmd, IoError* why) {
   c.safe = cmd.safe;
   c.echo = last_seq_;
   command_.Write(c);
+  Sample s;
+  if (sample_.TryRead(&s)) {  // the worker's latest word on writes (else: as of Read)
+    last_write_failed_ = s.write_failed;
+    last_why_ = s.why;
+  }
   if (last_write_failed_) {
     *why = last_why_;
     return IoStatus::kFault;
