@@ -9,6 +9,8 @@ packages=(
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libtomlplusplus-dev libfmt-dev libspdlog-dev
   gnuplot-nox
+  # Modbus interop tests: an independent implementation (pymodbus, with its serial deps)
+  python3-pymodbus python3-serial python3-serial-asyncio
 )
 
 missing=()
