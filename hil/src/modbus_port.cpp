@@ -256,9 +256,8 @@ class ModbusPort final : public PlantPort {
       count = function == MODBUS_FC_WRITE_MULTIPLE_REGISTERS ? (query[h + 3] << 8) | query[h + 4]
                                                              : (query[h + 7] << 8) | query[h + 8];
     }
-    const int write_addr = function == MODBUS_FC_WRITE_AND_READ_REGISTERS
-                               ? (query[h + 5] << 8) | query[h + 6]
-                               : addr;
+    const int write_addr =
+        function == MODBUS_FC_WRITE_AND_READ_REGISTERS ? (query[h + 5] << 8) | query[h + 6] : addr;
     if (write && write_addr < map::kCommandBase) {  // the sensor block is read-only
       modbus_reply_exception(ctx_, query, MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS);
       std::lock_guard<std::mutex> lock(mu_);
@@ -275,11 +274,9 @@ class ModbusPort final : public PlantPort {
       return true;
     }
     map::CommandBlock c;
-    if (map::DecodeCommand(mapping_->tab_registers + map::kCommandBase, &c) !=
-        map::MapError::kOk) {
+    if (map::DecodeCommand(mapping_->tab_registers + map::kCommandBase, &c) != map::MapError::kOk) {
       // Undefined codes: keep the last valid block.
-      std::copy(before, before + map::kCommandCount,
-                mapping_->tab_registers + map::kCommandBase);
+      std::copy(before, before + map::kCommandCount, mapping_->tab_registers + map::kCommandBase);
       ++counters_.rejected;
       return true;
     }

@@ -37,8 +37,8 @@ ModbusConfig TcpConfig(int port) {
   c.port = port;
   c.inputs = Bit(Input::kVelocity) | Bit(Input::kDisplacement) | Bit(Input::kDemand) |
              Bit(Input::kBodyVelocity) | Bit(Input::kForce) | Bit(Input::kFaultLine);
-  c.outputs = Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) |
-              Bit(Output::kStatus);
+  c.outputs =
+      Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) | Bit(Output::kStatus);
   c.response_timeout_ns = 20'000'000;
   c.retries = 1;
   return c;
@@ -198,7 +198,8 @@ TEST(ModbusDeviceTest, RtuCrcErrorIsRejectedAndCounted) {
   ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
   SensorFrame f;
   IoError why = IoError::kNone;
-  ASSERT_TRUE(WaitFor([&] { return device.Read(&f, &why) == IoStatus::kFault && why == IoError::kCrc; }));
+  ASSERT_TRUE(
+      WaitFor([&] { return device.Read(&f, &why) == IoStatus::kFault && why == IoError::kCrc; }));
   EXPECT_GT(peer.answers(), 0);
   const DeviceCounters c = device.counters();
   EXPECT_GT(c.errors[static_cast<int>(IoError::kCrc)], 0U);
@@ -252,10 +253,13 @@ TEST(ModbusDeviceTest, SetPointOutsideTheRegisterIsNotSent) {
   EXPECT_EQ(device.counters().errors[static_cast<int>(IoError::kBadValue)], 1U);
   EXPECT_EQ(server.Register(map::kCommandBase + map::kSetPoint), 0U);  // never written
   // The loop hears of it (same tick: nothing new to send).
-  EXPECT_TRUE(WaitFor([&] { return device.Write({100.0, true, false, 1}, &why) == IoStatus::kFault; }));
+  EXPECT_TRUE(WaitFor([&] {
+    return device.Write({100.0, true, false, 1}, &why) == IoStatus::kFault;
+  }));
   EXPECT_EQ(why, IoError::kBadValue);
   (void)device.Write({1.0, true, false, 2}, &why);
-  ASSERT_TRUE(WaitFor([&] { return server.Register(map::kCommandBase + map::kSetPoint) == 1000U; }));
+  ASSERT_TRUE(
+      WaitFor([&] { return server.Register(map::kCommandBase + map::kSetPoint) == 1000U; }));
 }
 
 TEST(ModbusDeviceTest, PeerGoneIsDisconnectedAndReconnectsWhenItComesBack) {
@@ -279,7 +283,9 @@ TEST(ModbusDeviceTest, PeerGoneIsDisconnectedAndReconnectsWhenItComesBack) {
   }));
   EXPECT_EQ(why, IoError::kDisconnected);
   EXPECT_EQ(f.velocity.stamp_ns, stamp);  // stale: the old stamp ages
-  EXPECT_TRUE(WaitFor([&] { return device.Write({1.0, true, false, 3}, &why) == IoStatus::kFault; }));
+  EXPECT_TRUE(WaitFor([&] {
+    return device.Write({1.0, true, false, 3}, &why) == IoStatus::kFault;
+  }));
 
   auto again = hil::MakeModbusTcpPort("127.0.0.1:" + std::to_string(p));
   ASSERT_TRUE(again->Open(&error)) << error;

@@ -67,21 +67,20 @@ class ModbusIntegrationTest : public ::testing::TestWithParam<Transport> {
   void TearDown() override { (void)system(("rm -rf " + dir_).c_str()); }
 
   std::unique_ptr<ChildProcess> StartHil(double duration_s) {
-    const std::string endpoint = GetParam().rtu
-                                     ? "modbus-rtu=" + link_
-                                     : "modbus-tcp=127.0.0.1:" + std::to_string(port_);
+    const std::string endpoint =
+        GetParam().rtu ? "modbus-rtu=" + link_ : "modbus-tcp=127.0.0.1:" + std::to_string(port_);
     if (GetParam().rtu) unlink(link_.c_str());
-    auto hil = std::make_unique<ChildProcess>(std::vector<std::string>{
-        kBin + "/mrd-hil", "serve", "--port", endpoint, "--duration", std::to_string(duration_s),
-        "--json"});
+    auto hil = std::make_unique<ChildProcess>(
+        std::vector<std::string>{kBin + "/mrd-hil", "serve", "--port", endpoint, "--duration",
+                                 std::to_string(duration_s), "--json"});
     const bool ready = GetParam().rtu ? WaitForPath(link_, 5.0) : TcpReady(port_, 5.0);
     EXPECT_TRUE(ready) << hil->Stderr();
     return hil;
   }
   std::unique_ptr<ChildProcess> StartFirmware(double duration_s) {
-    return std::make_unique<ChildProcess>(std::vector<std::string>{
-        kBin + "/mrd-firmware", "--config", dir_ + "/fw.toml", "--duration",
-        std::to_string(duration_s), "--json"});
+    return std::make_unique<ChildProcess>(
+        std::vector<std::string>{kBin + "/mrd-firmware", "--config", dir_ + "/fw.toml",
+                                 "--duration", std::to_string(duration_s), "--json"});
   }
   static json Parse(ChildProcess& p) {
     const std::string out = p.Stdout();
@@ -117,8 +116,9 @@ TEST_P(ModbusIntegrationTest, FirmwareClosesTheLoopOverModbus) {
   EXPECT_GT(h["commands"].get<std::uint64_t>(), 2000U) << h.dump(2);
   EXPECT_GT(h["enabled_steps"].get<std::uint64_t>(), 2000U) << h.dump(2);
   EXPECT_GT(h["latency_us"]["count"].get<std::uint64_t>(), 1000U) << h.dump(2);
-  EXPECT_EQ(h["ports"][GetParam().rtu ? "modbus-rtu" : "modbus-tcp"]["rejected"].get<std::uint64_t>(),
-            0U);
+  EXPECT_EQ(
+      h["ports"][GetParam().rtu ? "modbus-rtu" : "modbus-tcp"]["rejected"].get<std::uint64_t>(),
+      0U);
   // The plant followed the demand while the firmware drove it.
   EXPECT_LT(h["normalised_tracking_error"].get<double>(), 1.0) << h.dump(2);
 }

@@ -1,12 +1,12 @@
 // The Modbus register map (docs/modbus_registers.md): addresses, word order, scaling, the
 // sentinels and the refusals of out-of-range values and reserved codes.
+#include "mrd/protocol/modbus_map.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
 #include <limits>
-
-#include "mrd/protocol/modbus_map.hpp"
 
 namespace mrd::protocol::modbus {
 namespace {

@@ -39,8 +39,8 @@ void LoopPeriodsAllocateNothing(bool rtu) {
   cfg.port = tcp_port;
   cfg.device = link;
   cfg.inputs = Bit(Input::kVelocity) | Bit(Input::kDisplacement) | Bit(Input::kDemand);
-  cfg.outputs = Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) |
-                Bit(Output::kStatus);
+  cfg.outputs =
+      Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) | Bit(Output::kStatus);
   ModbusDevice device(cfg);
   ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
   FieldbusIo io;

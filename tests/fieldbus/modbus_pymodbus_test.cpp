@@ -20,8 +20,8 @@
 namespace mrd::test {
 namespace {
 
-using nlohmann::json;
 using firmware::Bit;
+using nlohmann::json;
 
 const std::string kPython = "/usr/bin/python3";
 const std::string kPeer = std::string(MRD_SOURCE_DIR) + "/tests/fieldbus/pymodbus_peer.py";
@@ -112,7 +112,7 @@ TEST_P(PymodbusTest, DeviceReadsAndWritesThePymodbusServer) {
   EXPECT_NEAR(c["set_point"].get<double>(), 1.234, 1e-9);
   EXPECT_EQ(c["enable"].get<int>(), 1);
   EXPECT_EQ(c["echo"].get<std::uint32_t>(), 7U);  // the seq of the block the loop read
-  EXPECT_EQ(c["state"].get<int>(), 2);  // not safe, status carried
+  EXPECT_EQ(c["state"].get<int>(), 2);            // not safe, status carried
   // Nothing refused; writes after the server left (Deactivate's safe block) fail, so count
   // refusals rather than failures.
   const firmware::DeviceCounters n = device.counters();
@@ -125,8 +125,8 @@ TEST_P(PymodbusTest, DeviceReadsAndWritesThePymodbusServer) {
 }
 
 TEST_P(PymodbusTest, PymodbusClientReadsAndWritesTheHarness) {
-  const std::string endpoint = GetParam() ? "modbus-rtu=" + link_
-                                          : "modbus-tcp=127.0.0.1:" + std::to_string(port_);
+  const std::string endpoint =
+      GetParam() ? "modbus-rtu=" + link_ : "modbus-tcp=127.0.0.1:" + std::to_string(port_);
   ChildProcess hil({std::string(MRD_BIN_DIR) + "/mrd-hil", "serve", "--port", endpoint,
                     "--duration", "3", "--json"});
   ASSERT_TRUE(Ready()) << hil.Stderr();
@@ -150,7 +150,7 @@ TEST_P(PymodbusTest, PymodbusClientReadsAndWritesTheHarness) {
   EXPECT_TRUE(c["sensor_write_refused"].get<bool>());
   EXPECT_EQ(c["sensor_write_exception"].get<int>(), 2);  // ILLEGAL DATA ADDRESS
   EXPECT_GT(h["commands"].get<std::uint64_t>(), 20U) << h.dump(2);
-  EXPECT_GT(h["enabled_steps"].get<std::uint64_t>(), 20U) << h.dump(2);  // enable + heartbeat
+  EXPECT_GT(h["enabled_steps"].get<std::uint64_t>(), 20U) << h.dump(2);       // enable + heartbeat
   EXPECT_GT(h["latency_us"]["count"].get<std::uint64_t>(), 0U) << h.dump(2);  // echo matched
   EXPECT_EQ(h["invariant_violations"].get<std::uint64_t>(), 0U);
   const json& port = h["ports"][GetParam() ? "modbus-rtu" : "modbus-tcp"];

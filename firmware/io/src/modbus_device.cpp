@@ -17,11 +17,11 @@ namespace {
 
 namespace map = mrd::protocol::modbus;
 
-constexpr int kMaxFailedCycles = 3;              // then close and reconnect
+constexpr int kMaxFailedCycles = 3;  // then close and reconnect
 constexpr std::int64_t kBackoffMinNs = 5'000'000;
 constexpr std::int64_t kBackoffMaxNs = 200'000'000;
 constexpr std::int64_t kSleepSliceNs = 5'000'000;  // Deactivate waits at most this long
-constexpr int kReadAttempts = 4;                 // seqlock attempts per Read on the tick
+constexpr int kReadAttempts = 4;                   // seqlock attempts per Read on the tick
 
 std::int64_t NowNs() {
   timespec ts{};
@@ -46,9 +46,9 @@ IoError Classify(int err) {
       err == EMBBADSLAVE) {
     return IoError::kRejectedFrame;
   }
-  if (err == ECONNRESET || err == EPIPE || err == ECONNREFUSED || err == ENOTCONN ||
-      err == EBADF || err == EIO || err == ENXIO || err == ENOENT || err == EHOSTUNREACH ||
-      err == ENETUNREACH || err == ECONNABORTED) {
+  if (err == ECONNRESET || err == EPIPE || err == ECONNREFUSED || err == ENOTCONN || err == EBADF ||
+      err == EIO || err == ENXIO || err == ENOENT || err == EHOSTUNREACH || err == ENETUNREACH ||
+      err == ECONNABORTED) {
     return IoError::kDisconnected;
   }
   return IoError::kSystem;
@@ -78,13 +78,13 @@ bool ModbusDevice::Configure(std::string* error) {
     const std::string port = std::to_string(config_.port);
     ctx_ = modbus_new_tcp_pi(config_.host.c_str(), port.c_str());
   } else {
-    ctx_ = modbus_new_rtu(config_.device.c_str(), config_.baud, config_.parity,
-                          config_.data_bits, config_.stop_bits);
+    ctx_ = modbus_new_rtu(config_.device.c_str(), config_.baud, config_.parity, config_.data_bits,
+                          config_.stop_bits);
   }
   if (ctx_ == nullptr) {
     *error = std::string("modbus: cannot create the ") +
-             (config_.mode == ModbusMode::kTcp ? "TCP" : "RTU") + " context: " +
-             modbus_strerror(errno);
+             (config_.mode == ModbusMode::kTcp ? "TCP" : "RTU") +
+             " context: " + modbus_strerror(errno);
     return false;
   }
   if (modbus_set_slave(ctx_, config_.slave) != 0) {
@@ -97,7 +97,8 @@ bool ModbusDevice::Configure(std::string* error) {
     const std::string where = config_.mode == ModbusMode::kTcp
                                   ? config_.host + ":" + std::to_string(config_.port)
                                   : config_.device;
-    std::fprintf(stderr, "warning: modbus: cannot connect to %s yet (%s); retrying in the "
+    std::fprintf(stderr,
+                 "warning: modbus: cannot connect to %s yet (%s); retrying in the "
                  "background, the loop stays in the safe state until data arrives\n",
                  where.c_str(), modbus_strerror(errno));
   }
@@ -251,7 +252,8 @@ void ModbusDevice::Work() {
     IoError why = IoError::kNone;
     if (writes) {
       Command c;
-      if (command_.TryRead(&c) && command_.version() > 0 && (!any_written || c.tick != written_tick)) {
+      if (command_.TryRead(&c) && command_.version() > 0 &&
+          (!any_written || c.tick != written_tick)) {
         // Sent or failed (after retries), a command is not sent again: the loop's next
         // one supersedes it.
         s.write_failed = !WriteCommand(c, &why);

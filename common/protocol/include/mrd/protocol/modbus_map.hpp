@@ -78,7 +78,7 @@ struct SensorBlock {
 struct CommandBlock {
   std::uint32_t echo = 0;
   bool has_set_point = false;
-  double set_point = 0.0;      // [V]
+  double set_point = 0.0;  // [V]
   bool enable_driven = false;
   bool enable = false;
   std::uint16_t heartbeat = 0;

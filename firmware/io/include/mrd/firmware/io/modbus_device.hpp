@@ -107,8 +107,7 @@ class ModbusDevice final : public BusDevice {
   IoError last_why_ = IoError::kNone;
 
   // Counters, written by the worker, read by anyone.
-  std::atomic<std::uint64_t> rx_ok_{0}, rx_rejected_{0}, tx_ok_{0}, tx_failed_{0},
-      reconnects_{0};
+  std::atomic<std::uint64_t> rx_ok_{0}, rx_rejected_{0}, tx_ok_{0}, tx_failed_{0}, reconnects_{0};
   std::atomic<std::uint64_t> errors_[kNumIoErrors] = {};
   std::atomic<std::uint8_t> last_error_{0};
 };
