@@ -13,6 +13,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "modbus_test_peers.hpp"
 #include "support/process.hpp"
@@ -152,9 +154,39 @@ TEST_P(ModbusIntegrationTest, PeerKilledAndRestartedTripsTheWatchdogAndRecovers)
   EXPECT_EQ(h["invariant_violations"].get<std::uint64_t>(), 0U);
 }
 
+TEST_P(ModbusIntegrationTest, NoPeerKeepsTheSafeStateAndSaysSo) {
+  auto fw = StartFirmware(1.0);  // nobody serves the port / the pty link does not exist
+  ASSERT_EQ(fw->Wait(20.0), 0) << fw->Stdout() << fw->Stderr();
+  EXPECT_NE(fw->Stderr().find("warning: modbus: cannot connect to"), std::string::npos)
+      << fw->Stderr();
+  const json f = Parse(*fw);
+  const json& d = f["devices"]["modbus"];
+  EXPECT_GT(f["ticks"].get<std::uint64_t>(), 750U);  // the loop ran regardless
+  EXPECT_EQ(f["safe_periods"].get<std::uint64_t>(), f["ticks"].get<std::uint64_t>());
+  EXPECT_GE(f["watchdog"]["modbus_bus"]["trips"].get<std::uint64_t>(), 1U);
+  EXPECT_EQ(d["rx_ok"].get<std::uint64_t>(), 0U);
+  EXPECT_GT(d["errors"]["disconnected"].get<std::uint64_t>(), 1U) << d.dump();  // retried
+  EXPECT_EQ(d["last_error"].get<std::string>(), "disconnected");
+  EXPECT_TRUE(f["final_safe_state"].get<bool>());
+}
+
 INSTANTIATE_TEST_SUITE_P(Transports, ModbusIntegrationTest,
                          ::testing::Values(Transport{"tcp", false}, Transport{"rtu", true}),
                          [](const auto& p) { return std::string(p.param.name); });
+
+TEST(ModbusHilEndpointTest, MalformedEndpointsAreRefusedWithAReason) {
+  for (const auto& [spec, reason] : std::vector<std::pair<std::string, std::string>>{
+           {"modbus-tcp=localhost", "expected HOST:PORT"},
+           {"modbus-tcp=127.0.0.1:99999", "port must be 1-65535"},
+           {"modbus-tcp=not-an-ip:1502", "host must be an IPv4 address"},
+           {"modbus-rtu=/nonexistent-dir/pty", "cannot create the link"}}) {
+    ChildProcess hil({kBin + "/mrd-hil", "serve", "--port", spec, "--duration", "1"});
+    EXPECT_NE(hil.Wait(10.0), 0) << spec;
+    EXPECT_NE(hil.Stderr().find("error: "), std::string::npos) << spec << hil.Stderr();
+    EXPECT_NE(hil.Stderr().find(reason), std::string::npos) << spec << hil.Stderr();
+    EXPECT_EQ(hil.Stdout(), "") << spec;
+  }
+}
 
 }  // namespace
 }  // namespace mrd::test
