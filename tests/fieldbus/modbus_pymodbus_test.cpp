@@ -117,7 +117,9 @@ TEST_P(PymodbusTest, DeviceReadsAndWritesThePymodbusServer) {
   // refusals rather than failures.
   const firmware::DeviceCounters n = device.counters();
   EXPECT_EQ(n.rx_rejected, 0U);
-  EXPECT_GE(n.tx_ok, 2U);
+  // pymodbus exits once its store holds the second heartbeat, possibly before it answered
+  // that write: at least the first was acknowledged.
+  EXPECT_GE(n.tx_ok, 1U);
   for (auto e : {firmware::IoError::kException, firmware::IoError::kCrc,
                  firmware::IoError::kRejectedFrame, firmware::IoError::kBadValue}) {
     EXPECT_EQ(n.errors[static_cast<int>(e)], 0U) << firmware::IoErrorName(e);
