@@ -99,12 +99,15 @@ std::function<bool(const toml::node&, std::string*)> Names(std::uint32_t* mask,
   return [=](const toml::node& n, std::string* why) {
     const toml::array* a = n.as_array();
     std::string names;
-    for (const auto& name : allowed) names += (names.empty() ? "" : ", ") + name;
+    for (const auto& name : allowed) {
+      if (!name.empty()) names += (names.empty() ? "" : ", ") + name;
+    }
     if (a == nullptr) return *why = "must be a list of names from: " + names, false;
     std::uint32_t m = 0;
     for (const toml::node& e : *a) {
       const auto v = e.value_exact<std::string>();
-      const auto it = v ? std::find(allowed.begin(), allowed.end(), *v) : allowed.end();
+      const auto it = v && !v->empty() ? std::find(allowed.begin(), allowed.end(), *v)
+                                       : allowed.end();
       if (it == allowed.end()) {
         return *why = "has '" + (v ? *v : std::string("?")) + "'; allowed: " + names, false;
       }
