@@ -1,6 +1,6 @@
 // The loop's periods on the CAN device allocate nothing: reads (good frames, rejected frames,
 // silence), command/heartbeat/status writes, the peer disappearing and the rate-limited
-// reconnection from the tick. This executable replaces the allocator (alloc_counter.hpp).
+// reconnection from the tick; every command stays within [0, E_max]. This executable replaces the allocator (alloc_counter.hpp).
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -67,7 +67,7 @@ TEST(CanNoAllocation, LoopPeriodsOnTheCanDeviceAllocateNothing) {
 
   constexpr int kPeriods = 1500;
   std::uint8_t counter = 0;
-  int commands = 0;
+  int commands = 0, out_of_range = 0;
   bool left_safe_after_reconnect = false;
   test::AllocationGuard guard;
   std::int64_t deadline = clock.Now();
@@ -107,6 +107,7 @@ TEST(CanNoAllocation, LoopPeriodsOnTheCanDeviceAllocateNothing) {
         pc::DriverCommand m;
         if (pc::Decode(f, &m) == pc::Reject::kNone) {
           ++commands;
+          if (!(m.volts >= 0.0 && m.volts <= ControllerConfig{}.e_max)) ++out_of_range;
           if (k > 800 && !m.safe) left_safe_after_reconnect = true;
         }
       }
@@ -122,6 +123,7 @@ TEST(CanNoAllocation, LoopPeriodsOnTheCanDeviceAllocateNothing) {
   EXPECT_GE(c.rx_rejected, 3U);
   EXPECT_GT(c.rx_ok, 1000U);
   EXPECT_GT(commands, 1000);
+  EXPECT_EQ(out_of_range, 0);  // never outside [0, E_max], faults or not
   EXPECT_GE(loop.stats().watchdog.entries, 2U);
   EXPECT_GE(loop.stats().watchdog.trips[static_cast<std::size_t>(FaultCause::kCanBus)], 1U);
   EXPECT_TRUE(left_safe_after_reconnect);
