@@ -138,3 +138,49 @@ TEST(CanIntegration, FirmwareSurvivesTheHarnessLeavingAndComingBack) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(CanbusCli, BadArgumentsAreRefusedWithExit2) {
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{}, {"--socket"}, {"--frobnicate"},
+        {"--socket", "/tmp/x.sock", "--duration", "soon"},
+        {"--socket", "/tmp/x.sock", "--duration", "-1"}}) {
+    std::vector<std::string> argv{kBin + "/mrd-canbus"};
+    argv.insert(argv.end(), args.begin(), args.end());
+    ChildProcess p(argv);
+    EXPECT_EQ(p.Wait(10.0), 2) << p.Stderr();
+    EXPECT_EQ(p.Stderr().rfind("error: ", 0), 0U) << p.Stderr();
+  }
+  ChildProcess p({kBin + "/mrd-canbus", "--socket", "/nonexistent-dir/bus.sock", "--duration", "1"});
+  EXPECT_EQ(p.Wait(10.0), 1);
+  EXPECT_NE(p.Stderr().find("cannot listen on /nonexistent-dir/bus.sock"), std::string::npos)
+      << p.Stderr();
+}
+
+// The stand-alone relay carries the firmware and the harness (the harness then joins the
+// bus instead of owning it).
+TEST(CanbusCli, StandAloneRelayCarriesTheLoop) {
+  const RunFiles s = MakeRunFiles("relay");
+  ChildProcess relay({kBin + "/mrd-canbus", "--socket", s.socket, "--duration", "4"});
+  ASSERT_TRUE(mrd::test::WaitForPath(s.socket, 10.0)) << relay.Stderr();
+  ChildProcess hil = Hil(s, 2.5);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  ChildProcess fw = Firmware(s, 2.0);
+  ASSERT_EQ(fw.Wait(30.0), 0) << fw.Stderr();
+  ASSERT_EQ(hil.Wait(30.0), 0) << hil.Stderr();
+  ASSERT_EQ(relay.Wait(30.0), 0) << relay.Stderr();
+  const json r = Parse(relay, "mrd-canbus");
+  const json h = Parse(hil, "mrd-hil");
+  const json f = Parse(fw, "mrd-firmware");
+  ASSERT_TRUE(r.contains("frames_in") && h.contains("ports") && f.contains("devices"));
+  EXPECT_EQ(r["nodes_joined"].get<int>(), 2);
+  EXPECT_EQ(r["bad_packets"].get<int>(), 0);
+  EXPECT_GT(r["frames_in"].get<int>(), 4000);
+  EXPECT_GT(f["devices"]["can"]["rx_ok"].get<int>(), 1500);
+  EXPECT_EQ(f["devices"]["can"]["rx_rejected"].get<int>(), 0);
+  EXPECT_EQ(h["invariant_violations"].get<int>(), 0);
+  EXPECT_GT(h["enabled_steps"].get<int>(), 500);
+}
+
+}  // namespace
