@@ -22,7 +22,7 @@ namespace {
 namespace pc = protocol::can;
 
 constexpr int kMaxFramesPerPoll = 64;
-constexpr std::int64_t kTxDeadlineNs = 1'000'000;      // one plant period
+constexpr std::int64_t kTxDeadlineNs = 1'000'000;  // one plant period
 constexpr std::int64_t kReconnectNs = 100'000'000;
 
 constexpr can_filter kFilters[] = {
@@ -74,10 +74,9 @@ class CanPort final : public PlantPort {
         pc::Encode(pc::SensorMotion{out.sample.v, out.sample.x,
                                     static_cast<std::uint16_t>(out.seq & 0xFFFFU), motion_counter_},
                    &motion) == pc::Reject::kNone;
-    const bool force_ok =
-        pc::Encode(pc::SensorForce{out.sample.demand, out.sample.body_velocity, out.sample.force,
-                                   force_counter_},
-                   &force) == pc::Reject::kNone;
+    const bool force_ok = pc::Encode(pc::SensorForce{out.sample.demand, out.sample.body_velocity,
+                                                     out.sample.force, force_counter_},
+                                     &force) == pc::Reject::kNone;
     if (motion_ok) {
       motion_counter_ = static_cast<std::uint8_t>((motion_counter_ + 1) & 0x0F);
       if (iface_.Send(motion, now + kTxDeadlineNs, now) == canbus::CanResult::kOk) ++published_;
@@ -112,9 +111,7 @@ class CanPort final : public PlantPort {
     relay_.Close();
   }
 
-  PortCounters counters() const override {
-    return {published_, received_, rejected_};
-  }
+  PortCounters counters() const override { return {published_, received_, rejected_}; }
 
  private:
   void Reconnect(std::int64_t now) {

@@ -58,8 +58,8 @@ TEST(CanCodec, ChecksumIsCrc8SaeJ1850OverIdAndData) {
   f.can_id = kSensorForceId;  // 0x101: ID bytes 0x01, 0x01
   f.len = 8;
   for (int i = 0; i < 8; ++i) f.data[i] = static_cast<std::uint8_t>(0x10 * i + 3);
-  const std::uint8_t covered[9] = {0x01, 0x01, f.data[0], f.data[1], f.data[2], f.data[3],
-                                   f.data[4], f.data[5], f.data[6]};
+  const std::uint8_t covered[9] = {0x01,      0x01,      f.data[0], f.data[1], f.data[2],
+                                   f.data[3], f.data[4], f.data[5], f.data[6]};
   EXPECT_EQ(Checksum(f), ReferenceCrc(covered, sizeof covered));
   // Same data under another ID: another checksum (the ID is covered).
   can_frame g = f;
@@ -94,7 +94,8 @@ TEST(CanCodec, SensorForceDriverCommandHeartbeatStatusRoundTrip) {
   EXPECT_TRUE(hb.safe);
   EXPECT_EQ(hb.counter, 11);
 
-  ASSERT_EQ(Encode(DriverStatus{1.5, kFaultOvertemperature | kFaultCoilOpen, 2}, &f), Reject::kNone);
+  ASSERT_EQ(Encode(DriverStatus{1.5, kFaultOvertemperature | kFaultCoilOpen, 2}, &f),
+            Reject::kNone);
   DriverStatus ds;
   ASSERT_EQ(Decode(f, &ds), Reject::kNone);
   EXPECT_DOUBLE_EQ(ds.current, 1.5);
@@ -216,12 +217,12 @@ TEST(CanCodec, CounterCheckRejectsRepeatedAndStaleAndResynchronises) {
   EXPECT_EQ(c.Check(5), Reject::kNone);  // first frame after reset
   EXPECT_EQ(c.Check(5), Reject::kRepeatedCounter);
   EXPECT_EQ(c.Check(6), Reject::kNone);
-  EXPECT_EQ(c.Check(8), Reject::kNone);   // one frame lost: still accepted
-  EXPECT_EQ(c.Check(15), Reject::kNone);  // 7 ahead: the largest gap accepted
-  EXPECT_EQ(c.Check(0), Reject::kNone);   // wraps 15 -> 0
+  EXPECT_EQ(c.Check(8), Reject::kNone);           // one frame lost: still accepted
+  EXPECT_EQ(c.Check(15), Reject::kNone);          // 7 ahead: the largest gap accepted
+  EXPECT_EQ(c.Check(0), Reject::kNone);           // wraps 15 -> 0
   EXPECT_EQ(c.Check(14), Reject::kStaleCounter);  // behind (an old frame)
   EXPECT_EQ(c.Check(15), Reject::kNone);  // resynchronised to 14: the sender's next frame passes
-  EXPECT_EQ(c.Check(7), Reject::kStaleCounter);   // 8 ahead counts as behind
+  EXPECT_EQ(c.Check(7), Reject::kStaleCounter);  // 8 ahead counts as behind
   c.Reset();
   EXPECT_EQ(c.Check(3), Reject::kNone);
 }

@@ -102,19 +102,23 @@ class DbcTest : public ::testing::Test {
 };
 std::map<std::string, DbcMessage> DbcTest::dbc_;
 
-TEST_F(DbcTest, TheDbcHoldsExactlyTheCodecsMessages) {
-  EXPECT_EQ(dbc_.size(), 6U);
-}
+TEST_F(DbcTest, TheDbcHoldsExactlyTheCodecsMessages) { EXPECT_EQ(dbc_.size(), 6U); }
 
 TEST_F(DbcTest, SensorFramesMatch) {
   can_frame f{};
   ASSERT_EQ(Encode(SensorMotion{-123.45, 17.891, 65000, 13}, &f), Reject::kNone);
   Check("SensorMotion", kSensorMotionId, f,
-        {{"Velocity", -123.45}, {"Displacement", 17.891}, {"SensorSeq", 65000},
-         {"MotionCounter", 13}, {"MotionChecksum", Checksum(f)}});
+        {{"Velocity", -123.45},
+         {"Displacement", 17.891},
+         {"SensorSeq", 65000},
+         {"MotionCounter", 13},
+         {"MotionChecksum", Checksum(f)}});
   ASSERT_EQ(Encode(SensorForce{-14999.5, 299.99, 1234.5, 1}, &f), Reject::kNone);
   Check("SensorForce", kSensorForceId, f,
-        {{"Demand", -14999.5}, {"BodyVelocity", 299.99}, {"Force", 1234.5}, {"ForceCounter", 1},
+        {{"Demand", -14999.5},
+         {"BodyVelocity", 299.99},
+         {"Force", 1234.5},
+         {"ForceCounter", 1},
          {"ForceChecksum", Checksum(f)}});
   EXPECT_DOUBLE_EQ(Signal("SensorMotion", "Velocity").max, kMaxVelocity);
   EXPECT_DOUBLE_EQ(Signal("SensorMotion", "Velocity").min, -kMaxVelocity);
@@ -127,8 +131,13 @@ TEST_F(DbcTest, DriverFramesMatch) {
   can_frame f{};
   ASSERT_EQ(Encode(DriverCommand{2.345, true, false, true, 513, 9}, &f), Reject::kNone);
   Check("DriverCommand", kDriverCommandId, f,
-        {{"VoltageSetpoint", 2.345}, {"Enable", 1}, {"EnableValid", 0}, {"SafeState", 1},
-         {"EchoSeq", 513}, {"CommandCounter", 9}, {"CommandChecksum", Checksum(f)}});
+        {{"VoltageSetpoint", 2.345},
+         {"Enable", 1},
+         {"EnableValid", 0},
+         {"SafeState", 1},
+         {"EchoSeq", 513},
+         {"CommandCounter", 9},
+         {"CommandChecksum", Checksum(f)}});
   EXPECT_DOUBLE_EQ(Signal("DriverCommand", "VoltageSetpoint").max, kMaxVoltage);
   ASSERT_EQ(Encode(Heartbeat{true, 14}, &f), Reject::kNone);
   Check("Heartbeat", kHeartbeatId, f,
@@ -136,8 +145,10 @@ TEST_F(DbcTest, DriverFramesMatch) {
   ASSERT_EQ(Encode(DriverStatus{9.876, kFaultUndervoltage | kFaultHeartbeatLost, 5}, &f),
             Reject::kNone);
   Check("DriverStatus", kDriverStatusId, f,
-        {{"MeasuredCurrent", 9.876}, {"DriverFaults", kFaultUndervoltage | kFaultHeartbeatLost},
-         {"StatusCounter", 5}, {"StatusChecksum", Checksum(f)}});
+        {{"MeasuredCurrent", 9.876},
+         {"DriverFaults", kFaultUndervoltage | kFaultHeartbeatLost},
+         {"StatusCounter", 5},
+         {"StatusChecksum", Checksum(f)}});
   EXPECT_DOUBLE_EQ(Signal("DriverStatus", "MeasuredCurrent").max, kMaxCurrent);
 }
 
@@ -145,7 +156,10 @@ TEST_F(DbcTest, FirmwareStatusMatches) {
   can_frame f{};
   ASSERT_EQ(Encode(FirmwareStatus{true, 0x1C1, 1234, 56, 78}, &f), Reject::kNone);
   Check("FirmwareStatus", kFirmwareStatusId, f,
-        {{"FirmwareSafe", 1}, {"ActiveCauses", 0x1C1}, {"Overruns", 1234}, {"SafeEntries", 56},
+        {{"FirmwareSafe", 1},
+         {"ActiveCauses", 0x1C1},
+         {"Overruns", 1234},
+         {"SafeEntries", 56},
          {"StatusSequence", 78}});
 }
 

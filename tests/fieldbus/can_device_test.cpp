@@ -4,10 +4,9 @@
 // status rates, a peer that disappears, and reconnection through a relay.
 #include "mrd/firmware/io/can_device.hpp"
 
+#include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <unistd.h>
-
-#include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>
@@ -33,8 +32,8 @@ CanConfig AllRouted() {
   c.enabled = true;
   c.inputs = Bit(Input::kVelocity) | Bit(Input::kDisplacement) | Bit(Input::kDemand) |
              Bit(Input::kBodyVelocity) | Bit(Input::kForce);
-  c.outputs = Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) |
-              Bit(Output::kStatus);
+  c.outputs =
+      Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) | Bit(Output::kStatus);
   return c;
 }
 
@@ -162,7 +161,7 @@ TEST_F(CanDeviceTest, BadFramesAreRejectedCountedAndChangeNothing) {
   out_of_range.data[1] = 0x75;
   out_of_range.data[7] = pc::Checksum(out_of_range);
   PeerSend(out_of_range);
-  SendMotion(9.0, 0.9, 2, 3);   // repeated counter
+  SendMotion(9.0, 0.9, 2, 3);  // repeated counter
   const char runt[3] = {1, 2, 3};
   ASSERT_EQ(write(peer_, runt, sizeof runt), 3);  // not a can_frame at all
 

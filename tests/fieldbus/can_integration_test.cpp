@@ -2,15 +2,14 @@
 // closes on the simulated damper for a few seconds (counters checked), and survives the
 // harness going away and coming back (watchdog on the CAN cause and stale data, recovery).
 // Count-based checks with wide margins: the machine may be loaded.
-#include <unistd.h>
-
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 
@@ -47,7 +46,8 @@ json Parse(const ChildProcess& p, const char* who) {
   try {
     return json::parse(p.Stdout());
   } catch (const std::exception& e) {
-    ADD_FAILURE() << who << ": " << e.what() << "\nstdout:\n" << p.Stdout() << "\nstderr:\n"
+    ADD_FAILURE() << who << ": " << e.what() << "\nstdout:\n"
+                  << p.Stdout() << "\nstderr:\n"
                   << p.Stderr();
     return json::object();
   }
@@ -142,17 +142,19 @@ TEST(CanIntegration, FirmwareSurvivesTheHarnessLeavingAndComingBack) {
 namespace {
 
 TEST(CanbusCli, BadArgumentsAreRefusedWithExit2) {
-  for (const std::vector<std::string>& args :
-       {std::vector<std::string>{}, {"--socket"}, {"--frobnicate"},
-        {"--socket", "/tmp/x.sock", "--duration", "soon"},
-        {"--socket", "/tmp/x.sock", "--duration", "-1"}}) {
+  for (const std::vector<std::string>& args : {std::vector<std::string>{},
+                                               {"--socket"},
+                                               {"--frobnicate"},
+                                               {"--socket", "/tmp/x.sock", "--duration", "soon"},
+                                               {"--socket", "/tmp/x.sock", "--duration", "-1"}}) {
     std::vector<std::string> argv{kBin + "/mrd-canbus"};
     argv.insert(argv.end(), args.begin(), args.end());
     ChildProcess p(argv);
     EXPECT_EQ(p.Wait(10.0), 2) << p.Stderr();
     EXPECT_EQ(p.Stderr().rfind("error: ", 0), 0U) << p.Stderr();
   }
-  ChildProcess p({kBin + "/mrd-canbus", "--socket", "/nonexistent-dir/bus.sock", "--duration", "1"});
+  ChildProcess p(
+      {kBin + "/mrd-canbus", "--socket", "/nonexistent-dir/bus.sock", "--duration", "1"});
   EXPECT_EQ(p.Wait(10.0), 1);
   EXPECT_NE(p.Stderr().find("cannot listen on /nonexistent-dir/bus.sock"), std::string::npos)
       << p.Stderr();

@@ -1,11 +1,11 @@
 // The loop's periods on the CAN device allocate nothing: reads (good frames, rejected frames,
 // silence), command/heartbeat/status writes, the peer disappearing and the rate-limited
-// reconnection from the tick; every command stays within [0, E_max]. This executable replaces the allocator (alloc_counter.hpp).
+// reconnection from the tick; every command stays within [0, E_max]. This executable replaces the
+// allocator (alloc_counter.hpp).
+#include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
-
-#include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
@@ -47,8 +47,8 @@ TEST(CanNoAllocation, LoopPeriodsOnTheCanDeviceAllocateNothing) {
   config.enabled = true;
   config.inputs = Bit(Input::kVelocity) | Bit(Input::kDisplacement) | Bit(Input::kDemand) |
                   Bit(Input::kBodyVelocity) | Bit(Input::kForce);
-  config.outputs = Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) |
-                   Bit(Output::kStatus);
+  config.outputs =
+      Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) | Bit(Output::kStatus);
   config.local_bus = path;
   config.status_period_ns = 20'000'000;
   CanDevice device(config);

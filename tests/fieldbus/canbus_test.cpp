@@ -1,12 +1,11 @@
 // The fd layer of the CAN transport: local frame bus relay, CanIface (stamps, deadlines,
 // overflow, disconnects, bus-off), SocketCAN socket creation errors.
+#include <gtest/gtest.h>
 #include <linux/can.h>
 #include <linux/can/error.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
-
-#include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>

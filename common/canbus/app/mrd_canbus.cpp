@@ -64,17 +64,18 @@ int main(int argc, char** argv) {
   std::signal(SIGPIPE, SIG_IGN);
   std::fprintf(stderr, "mrd-canbus: relaying on %s\n", path.c_str());
   const std::int64_t end_ns =
-      duration_s > 0.0 ? mrd::canbus::MonotonicNs() + static_cast<std::int64_t>(duration_s * 1e9) : 0;
+      duration_s > 0.0 ? mrd::canbus::MonotonicNs() + static_cast<std::int64_t>(duration_s * 1e9)
+                       : 0;
   while (!g_stop.load() && (end_ns == 0 || mrd::canbus::MonotonicNs() < end_ns)) relay.Step(20);
   const mrd::canbus::RelayStats s = relay.stats();
   relay.Close();
-  std::printf("{\"nodes_joined\": %llu, \"nodes_left\": %llu, \"frames_in\": %llu, "
-              "\"frames_out\": %llu, \"frames_dropped\": %llu, \"bad_packets\": %llu}\n",
-              static_cast<unsigned long long>(s.nodes_joined),
-              static_cast<unsigned long long>(s.nodes_left),
-              static_cast<unsigned long long>(s.frames_in),
-              static_cast<unsigned long long>(s.frames_out),
-              static_cast<unsigned long long>(s.frames_dropped),
-              static_cast<unsigned long long>(s.bad_packets));
+  std::printf(
+      "{\"nodes_joined\": %llu, \"nodes_left\": %llu, \"frames_in\": %llu, "
+      "\"frames_out\": %llu, \"frames_dropped\": %llu, \"bad_packets\": %llu}\n",
+      static_cast<unsigned long long>(s.nodes_joined),
+      static_cast<unsigned long long>(s.nodes_left), static_cast<unsigned long long>(s.frames_in),
+      static_cast<unsigned long long>(s.frames_out),
+      static_cast<unsigned long long>(s.frames_dropped),
+      static_cast<unsigned long long>(s.bad_packets));
   return 0;
 }

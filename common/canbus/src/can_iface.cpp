@@ -12,22 +12,30 @@ namespace mrd::canbus {
 namespace {
 
 bool IsDisconnect(int err) {
-  return err == EPIPE || err == ECONNRESET || err == ENOTCONN || err == ENETDOWN ||
-         err == ENODEV || err == ENXIO || err == EBADF;
+  return err == EPIPE || err == ECONNRESET || err == ENOTCONN || err == ENETDOWN || err == ENODEV ||
+         err == ENXIO || err == EBADF;
 }
 
 }  // namespace
 
 const char* CanResultName(CanResult result) {
   switch (result) {
-    case CanResult::kOk: return "ok";
-    case CanResult::kEmpty: return "empty";
-    case CanResult::kDisconnected: return "disconnected";
-    case CanResult::kBusOff: return "bus_off";
-    case CanResult::kBadFrame: return "bad_frame";
-    case CanResult::kOverflow: return "overflow";
-    case CanResult::kTimedOut: return "timed_out";
-    case CanResult::kError: return "error";
+    case CanResult::kOk:
+      return "ok";
+    case CanResult::kEmpty:
+      return "empty";
+    case CanResult::kDisconnected:
+      return "disconnected";
+    case CanResult::kBusOff:
+      return "bus_off";
+    case CanResult::kBadFrame:
+      return "bad_frame";
+    case CanResult::kOverflow:
+      return "overflow";
+    case CanResult::kTimedOut:
+      return "timed_out";
+    case CanResult::kError:
+      return "error";
   }
   return "?";
 }

@@ -49,7 +49,8 @@ bool LocalBusRelay::Open(const std::string& path, std::string* error) {
     unlink(path.c_str());  // left by a relay that died
   }
   listen_fd_ = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (listen_fd_ < 0 || bind(listen_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 ||
+  if (listen_fd_ < 0 ||
+      bind(listen_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 ||
       listen(listen_fd_, kBacklog) != 0) {
     *error = "local bus: cannot listen on " + path + ": " + std::strerror(errno);
     if (listen_fd_ >= 0) close(listen_fd_);

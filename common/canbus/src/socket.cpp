@@ -68,8 +68,6 @@ int OpenLocalBusNode(const char* socket_path, std::string* error) {
   return fd;
 }
 
-bool IsLocalBusPath(const std::string& endpoint) {
-  return endpoint.find('/') != std::string::npos;
-}
+bool IsLocalBusPath(const std::string& endpoint) { return endpoint.find('/') != std::string::npos; }
 
 }  // namespace mrd::canbus

@@ -56,7 +56,8 @@ void Start(canid_t id, std::uint8_t len, can_frame* f) {
   f->len = len;
 }
 void Seal(std::uint8_t counter, int counter_byte, can_frame* f) {
-  f->data[counter_byte] = static_cast<std::uint8_t>((f->data[counter_byte] & 0xF0U) | (counter & 0x0FU));
+  f->data[counter_byte] =
+      static_cast<std::uint8_t>((f->data[counter_byte] & 0xF0U) | (counter & 0x0FU));
   f->data[f->len - 1] = Checksum(*f);
 }
 
@@ -74,14 +75,22 @@ Reject CheckFrame(const can_frame& f, canid_t id, std::uint8_t len, bool sealed)
 
 const char* RejectName(Reject reject) {
   switch (reject) {
-    case Reject::kNone: return "none";
-    case Reject::kUnknownId: return "unknown_id";
-    case Reject::kWrongDlc: return "wrong_dlc";
-    case Reject::kBadChecksum: return "bad_checksum";
-    case Reject::kRepeatedCounter: return "repeated_counter";
-    case Reject::kStaleCounter: return "stale_counter";
-    case Reject::kOutOfRange: return "out_of_range";
-    case Reject::kNonFinite: return "non_finite";
+    case Reject::kNone:
+      return "none";
+    case Reject::kUnknownId:
+      return "unknown_id";
+    case Reject::kWrongDlc:
+      return "wrong_dlc";
+    case Reject::kBadChecksum:
+      return "bad_checksum";
+    case Reject::kRepeatedCounter:
+      return "repeated_counter";
+    case Reject::kStaleCounter:
+      return "stale_counter";
+    case Reject::kOutOfRange:
+      return "out_of_range";
+    case Reject::kNonFinite:
+      return "non_finite";
   }
   return "?";
 }
@@ -89,13 +98,20 @@ const char* RejectName(Reject reject) {
 Message Classify(const can_frame& frame) {
   if ((frame.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG)) != 0) return Message::kUnknown;
   switch (frame.can_id) {
-    case kDriverCommandId: return Message::kDriverCommand;
-    case kHeartbeatId: return Message::kHeartbeat;
-    case kSensorMotionId: return Message::kSensorMotion;
-    case kSensorForceId: return Message::kSensorForce;
-    case kDriverStatusId: return Message::kDriverStatus;
-    case kFirmwareStatusId: return Message::kFirmwareStatus;
-    default: return Message::kUnknown;
+    case kDriverCommandId:
+      return Message::kDriverCommand;
+    case kHeartbeatId:
+      return Message::kHeartbeat;
+    case kSensorMotionId:
+      return Message::kSensorMotion;
+    case kSensorForceId:
+      return Message::kSensorForce;
+    case kDriverStatusId:
+      return Message::kDriverStatus;
+    case kFirmwareStatusId:
+      return Message::kFirmwareStatus;
+    default:
+      return Message::kUnknown;
   }
 }
 

@@ -19,10 +19,13 @@ constexpr std::uint16_t Saturate16(std::uint64_t v) {
 
 IoError ErrorOf(pc::Reject r) {
   switch (r) {
-    case pc::Reject::kBadChecksum: return IoError::kCrc;
+    case pc::Reject::kBadChecksum:
+      return IoError::kCrc;
     case pc::Reject::kOutOfRange:
-    case pc::Reject::kNonFinite: return IoError::kBadValue;
-    default: return IoError::kRejectedFrame;
+    case pc::Reject::kNonFinite:
+      return IoError::kBadValue;
+    default:
+      return IoError::kRejectedFrame;
   }
 }
 
@@ -213,11 +216,20 @@ bool CanDevice::Send(const can_frame& f, std::int64_t now) {
   counters_.tx_ok = iface_.stats().tx_frames;
   IoError e = IoError::kNone;
   switch (r) {
-    case canbus::CanResult::kOk: return true;
-    case canbus::CanResult::kTimedOut: e = IoError::kTimeout; break;
-    case canbus::CanResult::kOverflow: e = IoError::kOverflow; break;
-    case canbus::CanResult::kDisconnected: e = IoError::kDisconnected; break;
-    default: e = IoError::kSystem; break;
+    case canbus::CanResult::kOk:
+      return true;
+    case canbus::CanResult::kTimedOut:
+      e = IoError::kTimeout;
+      break;
+    case canbus::CanResult::kOverflow:
+      e = IoError::kOverflow;
+      break;
+    case canbus::CanResult::kDisconnected:
+      e = IoError::kDisconnected;
+      break;
+    default:
+      e = IoError::kSystem;
+      break;
   }
   ++counters_.tx_failed;
   Count(e);
@@ -237,8 +249,8 @@ IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
   if ((out & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
     const bool enable_routed = (out & Bit(Output::kEnable)) != 0;
     can_frame f{};
-    pc::DriverCommand m{cmd.volts, cmd.enable, enable_routed, cmd.safe, last_seq_,
-                        command_counter_};
+    pc::DriverCommand m{cmd.volts, cmd.enable, enable_routed,
+                        cmd.safe,  last_seq_,  command_counter_};
     if (pc::Encode(m, &f) != pc::Reject::kNone) {
       // Not representable (never from the loop: it commands within [0, E_max]): send the
       // safe state instead and report the write as failed.
@@ -273,10 +285,11 @@ void CanDevice::PublishStatus(const TelemetrySnapshot& stats) {
   next_status_ns_ += config_.status_period_ns;
   if (next_status_ns_ <= now) next_status_ns_ = now + config_.status_period_ns;
   can_frame f{};
-  pc::Encode(pc::FirmwareStatus{stats.safe, static_cast<std::uint16_t>(stats.active_causes & 0xFFFFU),
-                                Saturate16(stats.overruns), Saturate16(stats.watchdog.entries),
-                                status_sequence_++},
-             &f);
+  pc::Encode(
+      pc::FirmwareStatus{stats.safe, static_cast<std::uint16_t>(stats.active_causes & 0xFFFFU),
+                         Saturate16(stats.overruns), Saturate16(stats.watchdog.entries),
+                         status_sequence_++},
+      &f);
   Send(f, now);
   Publish();
 }

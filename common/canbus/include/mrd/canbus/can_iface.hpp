@@ -30,11 +30,11 @@ const char* CanResultName(CanResult result);
 
 struct CanStats {
   std::uint64_t rx_frames = 0;
-  std::uint64_t rx_bad = 0;        // wrong-size packets
-  std::uint64_t rx_errors = 0;     // error frames and failed reads
-  std::uint64_t tx_frames = 0;     // written to the fd
-  std::uint64_t tx_timedout = 0;   // dropped at their deadline
-  std::uint64_t tx_overflow = 0;   // refused: queue full
+  std::uint64_t rx_bad = 0;       // wrong-size packets
+  std::uint64_t rx_errors = 0;    // error frames and failed reads
+  std::uint64_t tx_frames = 0;    // written to the fd
+  std::uint64_t tx_timedout = 0;  // dropped at their deadline
+  std::uint64_t tx_overflow = 0;  // refused: queue full
   std::uint64_t tx_errors = 0;
   std::uint64_t bus_off = 0;
   std::uint64_t disconnects = 0;

@@ -57,11 +57,11 @@ enum class Message : std::uint8_t {
 Message Classify(const can_frame& frame);
 
 // Physical ranges (the DBC's [min|max]).
-inline constexpr double kMaxVelocity = 300.0;       // [cm/s], |v|, 0.01 cm/s per count
-inline constexpr double kMaxDisplacement = 30.0;    // [cm], |x|, 0.001 cm per count
-inline constexpr double kMaxForce = 15000.0;        // [N], |F| and |demand|, 0.5 N per count
-inline constexpr double kMaxVoltage = 24.0;         // [V], set-point in [0, 24], 1 mV per count
-inline constexpr double kMaxCurrent = 10.0;         // [A], measured current in [0, 10], 1 mA
+inline constexpr double kMaxVelocity = 300.0;     // [cm/s], |v|, 0.01 cm/s per count
+inline constexpr double kMaxDisplacement = 30.0;  // [cm], |x|, 0.001 cm per count
+inline constexpr double kMaxForce = 15000.0;      // [N], |F| and |demand|, 0.5 N per count
+inline constexpr double kMaxVoltage = 24.0;       // [V], set-point in [0, 24], 1 mV per count
+inline constexpr double kMaxCurrent = 10.0;       // [A], measured current in [0, 10], 1 mA
 
 struct SensorMotion {
   double velocity = 0.0;      // [cm/s]
@@ -87,8 +87,8 @@ struct DriverCommand {
 };
 
 struct Heartbeat {
-  bool safe = true;            // firmware in its safe state
-  std::uint8_t counter = 0;    // also the heartbeat's toggle
+  bool safe = true;          // firmware in its safe state
+  std::uint8_t counter = 0;  // also the heartbeat's toggle
 };
 
 // Driver fault bits (DriverStatus.faults).
@@ -99,8 +99,8 @@ inline constexpr std::uint8_t kFaultHeartbeatLost = 1U << 3;
 inline constexpr std::uint8_t kFaultCoilOpen = 1U << 4;
 
 struct DriverStatus {
-  double current = 0.0;        // measured coil current [A]
-  std::uint8_t faults = 0;     // kFault* bits
+  double current = 0.0;     // measured coil current [A]
+  std::uint8_t faults = 0;  // kFault* bits
   std::uint8_t counter = 0;
 };
 
