@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 
 namespace mrd::canbus {
@@ -48,13 +49,26 @@ bool LocalBusRelay::Open(const std::string& path, std::string* error) {
     }
     unlink(path.c_str());  // left by a relay that died
   }
+  // Bound and listening under a temporary name first, then renamed into place: a node that
+  // sees the path can connect at once (no window between bind and listen).
+  const std::string staging = path + ".new";
+  sockaddr_un staged{};
+  staged.sun_family = AF_UNIX;
+  if (staging.size() >= sizeof staged.sun_path) {
+    *error = "local bus: socket path '" + path + "' is longer than " +
+             std::to_string(sizeof staged.sun_path - 5) + " characters";
+    return false;
+  }
+  std::memcpy(staged.sun_path, staging.c_str(), staging.size());
+  unlink(staging.c_str());
   listen_fd_ = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (listen_fd_ < 0 ||
-      bind(listen_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 ||
-      listen(listen_fd_, kBacklog) != 0) {
+      bind(listen_fd_, reinterpret_cast<const sockaddr*>(&staged), sizeof staged) != 0 ||
+      listen(listen_fd_, kBacklog) != 0 || rename(staging.c_str(), path.c_str()) != 0) {
     *error = "local bus: cannot listen on " + path + ": " + std::strerror(errno);
     if (listen_fd_ >= 0) close(listen_fd_);
     listen_fd_ = -1;
+    unlink(staging.c_str());
     return false;
   }
   path_ = path;
