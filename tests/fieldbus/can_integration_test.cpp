@@ -82,6 +82,8 @@ TEST(CanIntegration, FirmwareClosesTheLoopOverTheLocalCanBus) {
   EXPECT_EQ(can["reconnects"].get<int>(), 0);
   const auto ticks = f["ticks"].get<long>();
   EXPECT_GT(ticks, 1500);
+  // Overruns happen on a loaded VM; the bus work must not make them the rule.
+  EXPECT_LT(f["overruns"].get<long>(), ticks / 10);
   EXPECT_LT(f["safe_periods"].get<long>(), ticks / 4);  // left the safe state
   EXPECT_EQ(f["watchdog"]["can_bus"]["trips"].get<int>(), 0);
   EXPECT_TRUE(f["final_safe_state"].get<bool>());
