@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
@@ -148,7 +149,16 @@ TEST_P(PymodbusTest, PymodbusClientReadsAndWritesTheHarness) {
     EXPECT_LE(std::abs(c[k]["velocity"].get<double>()), 4.0 * M_PI + 1e-4) << c.dump();
     EXPECT_EQ(c[k]["faults"].get<int>(), 0);
   }
-  EXPECT_NE(c["first"]["displacement"].get<double>(), c["last"]["displacement"].get<double>());
+  // Step `seq` ends at t = seq * 1 ms: the decoded values are the plant's at that instant
+  // (a data check that also fails on stuck registers, unlike comparing two reads, which may
+  // fall a whole number of 0.5 s cycles apart).
+  for (const char* k : {"first", "last"}) {
+    const double t = c[k]["seq"].get<double>() * 1e-3;
+    EXPECT_NEAR(c[k]["displacement"].get<double>(), std::sin(4.0 * M_PI * t), 1e-3) << c.dump();
+    EXPECT_NEAR(c[k]["velocity"].get<double>(), 4.0 * M_PI * std::cos(4.0 * M_PI * t), 1e-2)
+        << c.dump();
+  }
+  EXPECT_GT(c["last"]["seq"].get<double>(), c["first"]["seq"].get<double>());
   EXPECT_TRUE(c["sensor_write_refused"].get<bool>());
   EXPECT_EQ(c["sensor_write_exception"].get<int>(), 2);  // ILLEGAL DATA ADDRESS
   EXPECT_GT(h["commands"].get<std::uint64_t>(), 20U) << h.dump(2);
