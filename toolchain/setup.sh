@@ -14,6 +14,8 @@ packages=(
   g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
   libgtest-dev:arm64 libgmock-dev:arm64 libtomlplusplus-dev:arm64 libgpiod-dev:arm64
   libgtest-dev:armhf libgmock-dev:armhf libtomlplusplus-dev:armhf libgpiod-dev:armhf
+  # Modbus interop tests: an independent implementation (pymodbus, with its serial deps)
+  python3-pymodbus python3-serial python3-serial-asyncio
 )
 # Best effort: libmodbus-dev:ARCH must match the build machine's libmodbus version
 # (Multi-Arch: same); when the mirror's security index for an Arm architecture is missing, the

@@ -1,7 +1,9 @@
 // mrd-firmware — MR damper controller: model + analytic inversion at a fixed period.
-// Start-up (argument parsing, table and config loading, real-time set-up) may allocate; the
-// loop (Loop::Run) does not. Bus drivers (SocketCAN, Modbus, GPIO) arrive in later issues;
-// today the loop runs against the simulated Spencer damper (--dry-run).
+// Start-up (argument parsing, table and config loading, device configuration, real-time
+// set-up) may allocate; the loop (Loop::Run) does not. With bus sections in the config the loop
+// runs on the field devices (SocketCAN / local frame bus, Modbus, GPIO); with --dry-run it runs
+// against the simulated Spencer damper. Maintenance commands (--check-*, --install-table) are in
+// check.cpp; the JSON summary in summary_json.cpp.
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
@@ -14,14 +16,18 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "check.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/config.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "mrd/firmware/fieldbus_io.hpp"
+#include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/sd_notify.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
@@ -85,6 +91,7 @@ constexpr const char* kHelp =
     "mrd-firmware: MR damper controller (polynomial NARX model + analytic voltage inversion).\n"
     "\n"
     "Usage:\n"
+    "  mrd-firmware [--table FILE] --config FILE.toml [--duration SECONDS] [--json]\n"
     "  mrd-firmware [--table FILE] [--config FILE.toml] --dry-run SECONDS [--lockstep] [--json]\n"
     "  mrd-firmware [--table FILE] --write-table OUT.bin\n"
     "  mrd-firmware --print-config-reference\n"
@@ -95,8 +102,12 @@ constexpr const char* kHelp =
     "Options:\n"
     "  --table FILE        coefficient table (docs/table_format.md); default: the compiled-in\n"
     "                      table (firmware/include/mrd/firmware/builtin_table.hpp)\n"
-    "  --config FILE       TOML configuration: period, E_max, safe state, control law, limits\n"
-    "                      (keys: docs/firmware_config.md, or --print-config-reference)\n"
+    "  --config FILE       TOML configuration: period, E_max, safe state, control law, limits,\n"
+    "                      and the buses ([can], [modbus], [gpio]: where each signal comes\n"
+    "                      from, where the command goes; keys: docs/firmware_config.md, or\n"
+    "                      --print-config-reference)\n"
+    "  --duration SECONDS  with bus sections: stop after this long (default: run until\n"
+    "                      SIGINT/SIGTERM)\n"
     "  --dry-run SECONDS   run the control loop that long against the built-in simulated\n"
     "                      Spencer damper, then print the counters\n"
     "  --lockstep          dry run in simulated time (no sleeping; deterministic, fast)\n"
@@ -116,6 +127,7 @@ struct Options {
   const char* config = nullptr;
   const char* write_table = nullptr;
   double dry_run_s = -1.0;
+  double duration_s = -1.0;
   bool lockstep = false;
   bool json = false;
   bool help = false;
@@ -152,6 +164,16 @@ bool ParseArgs(int argc, char** argv, Options* o) {
         std::fprintf(stderr, "error: --dry-run needs a positive number of seconds, got '%s'\n", v);
         return false;
       }
+    } else if (a == "--duration") {
+      const char* v = nullptr;
+      if (!value(&v)) return false;
+      char* end = nullptr;
+      o->duration_s = std::strtod(v, &end);
+      if (end == v || *end != '\0' || !std::isfinite(o->duration_s) || o->duration_s <= 0.0 ||
+          o->duration_s > 1e9) {
+        std::fprintf(stderr, "error: --duration needs a number of seconds in (0, 1e9], got '%s'\n", v);
+        return false;
+      }
     } else if (a == "--lockstep") {
       o->lockstep = true;
     } else if (a == "--json") {
@@ -175,8 +197,25 @@ void PrefaultStack() {
   for (std::size_t i = 0; i < sizeof stack; i += 4096) stack[i] = 0;
 }
 
+// Per-device counters, a text line each.
+void PrintDevices(const std::vector<std::unique_ptr<BusDevice>>& devices) {
+  for (const auto& d : devices) {
+    const DeviceCounters c = d->counters();
+    const auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
+    std::printf("  %-8s rx %llu (rejected %llu), tx %llu (failed %llu), reconnects %llu, "
+                "last error %s\n",
+                d->name(), u(c.rx_ok), u(c.rx_rejected), u(c.tx_ok), u(c.tx_failed),
+                u(c.reconnects), IoErrorName(c.last_error));
+  }
+}
+
 void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareConfig& cfg,
-                  const RealTime& rt, const char* table_name) {
+                  const RealTime& rt, const char* table_name,
+                  const std::vector<std::unique_ptr<BusDevice>>& devices) {
+  const bool buses = !devices.empty();
+  const char* mode = buses ? "bus" : (o.lockstep ? "lockstep" : "realtime");
+  const double seconds = buses ? static_cast<double>(s.ticks) * static_cast<double>(cfg.period_ns) * 1e-9
+                               : o.dry_run_s;
   const double rms_model =
       s.force_samples > 0 ? std::sqrt(s.sum_sq_model_error / static_cast<double>(s.force_samples)) : 0.0;
   const double rms_tracking =
@@ -186,20 +225,22 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
   const auto cause = [&](FaultCause c) { return static_cast<std::size_t>(c); };
   if (o.json) {
     SummaryInfo info;
-    info.mode = o.lockstep ? "lockstep" : "realtime";
+    info.mode = mode;
     info.table = table_name;
     info.law = ControlModeName(cfg.controller.law.mode);
-    info.seconds = o.dry_run_s;
+    info.seconds = seconds;
     info.period_us = static_cast<double>(cfg.period_ns) / 1e3;
     info.sched_fifo = rt.sched_fifo;
     info.memory_locked = rt.memory_locked;
     info.rms_model_error_n = rms_model;
     info.rms_tracking_error_n = rms_tracking;
+    for (const auto& d : devices) info.devices.push_back({d->name(), d->counters()});
     std::fputs(SummaryJson(s, info).c_str(), stdout);
     return;
   }
-  std::printf("mrd-firmware dry run (%s, %.6g s, period %.6g us, law %s, table %s)\n",
-              o.lockstep ? "lockstep" : "real time", o.dry_run_s,
+  std::printf("mrd-firmware %s (%s, %.6g s, period %.6g us, law %s, table %s)\n",
+              buses ? "run" : "dry run", buses ? "buses" : (o.lockstep ? "lockstep" : "real time"),
+              seconds,
               static_cast<double>(cfg.period_ns) / 1e3, ControlModeName(cfg.controller.law.mode),
               table_name);
   std::printf("  real time:        SCHED_FIFO %s, memory %s\n", rt.sched_fifo ? "yes" : "no",
@@ -226,7 +267,58 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
   std::printf("  last command:     %.6g V, model force %.6g N\n", s.last_command_v, s.model_force_n);
   std::printf("  RMS errors:       model vs plant %.6g N, demand vs plant %.6g N\n", rms_model,
               rms_tracking);
+  if (buses) std::printf("  devices:\n");
+  PrintDevices(devices);
   std::printf("  final state:      %s\n", s.safe ? "safe" : "NOT SAFE");
+}
+
+// Runs the loop on CLOCK_MONOTONIC in a thread of its own (SCHED_FIFO and locked memory when
+// the config asks and the system allows; warnings otherwise) until g_stop or duration_ns
+// (<= 0: until g_stop). The calling thread reads the telemetry meanwhile.
+void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver& driver,
+                 Controller& controller, Telemetry& telemetry, std::int64_t duration_ns,
+                 RealTime* rt) {
+  if (cfg.lock_memory) {
+    if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
+      rt->memory_locked = true;
+    } else {
+      std::fprintf(stderr, "warning: mlockall failed (%s); memory not locked, page faults may "
+                   "delay the loop (needs CAP_IPC_LOCK or a higher RLIMIT_MEMLOCK)\n",
+                   std::strerror(errno));
+    }
+  }
+  MonotonicClock clock;
+  Loop loop(clock, source, driver, controller, telemetry, cfg.period_ns);
+  std::atomic<bool> done{false};
+  std::thread worker([&] {
+    if (cfg.priority > 0) {
+      sched_param sp{};
+      sp.sched_priority = cfg.priority;
+      const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+      if (err == 0) {
+        rt->sched_fifo = true;
+      } else {
+        std::fprintf(stderr, "warning: SCHED_FIFO priority %d refused (%s); running at normal "
+                     "priority, expect jitter (needs CAP_SYS_NICE or an rtprio limit)\n",
+                     cfg.priority, std::strerror(err));
+      }
+    }
+    PrefaultStack();
+    loop.Run(g_stop, duration_ns);
+    done = true;
+  });
+  // The telemetry is read here while the loop runs (no locks, no stopping it); systemd's
+  // watchdog is pinged from here while the tick counter advances.
+  SystemdNotifier notifier;
+  notifier.Send("READY=1");
+  while (!done.load()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    notifier.Ping(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                      std::chrono::steady_clock::now().time_since_epoch()).count(),
+                  telemetry.Read().ticks);
+  }
+  notifier.Send("STOPPING=1");
+  worker.join();
 }
 
 int Run(const Options& o) {
@@ -285,69 +377,68 @@ int Run(const Options& o) {
     }
     return kExitBadInput;
   }
-  if (o.dry_run_s <= 0.0) {
-    std::fprintf(stderr,
-                 "error: no bus driver in this build yet (SocketCAN/Modbus/GPIO arrive in later "
-                 "issues); use --dry-run SECONDS\n");
+  const bool buses = cfg.io.any();
+  if (buses && o.dry_run_s > 0.0) {
+    std::fprintf(stderr, "error: --dry-run runs the simulated damper; %s has bus sections "
+                 "([can], [modbus], [gpio]): drop --dry-run, or use a config without them\n",
+                 o.config);
+    return kExitBadInput;
+  }
+  if (!buses && o.dry_run_s <= 0.0) {
+    std::fprintf(stderr, "error: nothing to run: give --config FILE with bus sections ([can], "
+                 "[modbus], [gpio]) or --dry-run SECONDS (see --help)\n");
+    return kExitBadInput;
+  }
+  if (buses && o.lockstep) {
+    std::fprintf(stderr, "error: --lockstep is for --dry-run\n");
+    return kExitBadInput;
+  }
+  const std::uint32_t served = cfg.io.can.inputs | cfg.io.modbus.inputs | cfg.io.gpio.inputs;
+  if (buses && controller.runtime().reads_displacement() &&
+      (served & Bit(Input::kDisplacement)) == 0) {
+    std::fprintf(stderr, "error: %s: the model of table %s reads the displacement, but no bus "
+                 "serves input 'displacement'\n", o.config, table_name);
     return kExitBadInput;
   }
 
-  if (!CheckDryRun(o.dry_run_s, cfg.period_ns)) return kExitBadInput;
+  if (!buses && !CheckDryRun(o.dry_run_s, cfg.period_ns)) return kExitBadInput;
 
   Telemetry telemetry;
   RealTime rt;
-  const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
-  if (o.lockstep) {
+  std::vector<std::unique_ptr<BusDevice>> devices;
+  if (buses) {
+    std::string error;
+    if (!MakeDevices(cfg.io, &devices, &error)) {
+      std::fprintf(stderr, "error: %s: %s\n", o.config, error.c_str());
+      return kExitBadInput;
+    }
+    FieldbusIo io;
+    for (auto& d : devices) {
+      if (!d->Configure(&error) || !d->Activate(&error)) {
+        std::fprintf(stderr, "error: %s\n", error.c_str());
+        for (auto& up : devices) up->Deactivate();
+        return kExitFailure;
+      }
+      io.Add(d.get());
+    }
+    const std::int64_t duration_ns =
+        o.duration_s > 0.0 ? static_cast<std::int64_t>(std::llround(o.duration_s * 1e9)) : 0;
+    RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt);
+    for (auto& d : devices) d->Deactivate();
+  } else if (o.lockstep) {
+    const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
     LockstepClock clock;
     SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
     Loop loop(clock, plant, plant, controller, telemetry, cfg.period_ns);
     loop.Run(g_stop, duration_ns);
   } else {
-    if (cfg.lock_memory) {
-      if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
-        rt.memory_locked = true;
-      } else {
-        std::fprintf(stderr, "warning: mlockall failed (%s); memory not locked, page faults may "
-                     "delay the loop (needs CAP_IPC_LOCK or a higher RLIMIT_MEMLOCK)\n",
-                     std::strerror(errno));
-      }
-    }
+    const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
     MonotonicClock clock;
     SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
-    Loop loop(clock, plant, plant, controller, telemetry, cfg.period_ns);
-    std::atomic<bool> done{false};
-    std::thread worker([&] {
-      if (cfg.priority > 0) {
-        sched_param sp{};
-        sp.sched_priority = cfg.priority;
-        const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
-        if (err == 0) {
-          rt.sched_fifo = true;
-        } else {
-          std::fprintf(stderr, "warning: SCHED_FIFO priority %d refused (%s); running at normal "
-                       "priority, expect jitter (needs CAP_SYS_NICE or an rtprio limit)\n",
-                       cfg.priority, std::strerror(err));
-        }
-      }
-      PrefaultStack();
-      loop.Run(g_stop, duration_ns);
-      done = true;
-    });
-    // The telemetry is read here while the loop runs (no locks, no stopping it); systemd's
-    // watchdog is pinged from here while the tick counter advances.
-    SystemdNotifier notifier;
-    notifier.Send("READY=1");
-    while (!done.load()) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      notifier.Ping(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                        std::chrono::steady_clock::now().time_since_epoch()).count(),
-                    telemetry.Read().ticks);
-    }
-    notifier.Send("STOPPING=1");
-    worker.join();
+    RunRealTime(cfg, plant, plant, controller, telemetry, duration_ns, &rt);
   }
   const TelemetrySnapshot s = telemetry.Read();
-  PrintSummary(s, o, cfg, rt, table_name);
+  PrintSummary(s, o, cfg, rt, table_name, devices);
   return s.safe ? kExitOk : kExitFailure;
 }
 

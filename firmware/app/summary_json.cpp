@@ -57,6 +57,19 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
     j["model_force_n"] = s.model_force_n;
     j["rms_model_error_n"] = info.rms_model_error_n;  // NaN/inf (diverging plant) -> null
     j["rms_tracking_error_n"] = info.rms_tracking_error_n;
+    Json devices = Json::object();
+    for (const SummaryInfo::Device& d : info.devices) {
+      const DeviceCounters& c = d.counters;
+      Json errors = Json::object();
+      for (std::size_t i = 0; i < kNumIoErrors; ++i) {
+        errors[IoErrorName(static_cast<IoError>(i))] = c.errors[i];
+      }
+      devices[d.name] = {{"rx_ok", c.rx_ok},           {"rx_rejected", c.rx_rejected},
+                         {"tx_ok", c.tx_ok},           {"tx_failed", c.tx_failed},
+                         {"reconnects", c.reconnects}, {"last_error", IoErrorName(c.last_error)},
+                         {"errors", errors}};
+    }
+    j["devices"] = devices;
     j["final_safe_state"] = s.safe;
     // One key per line (the layout scripts and tests read), nested objects inline.
     std::string out = "{\n";

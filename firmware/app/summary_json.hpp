@@ -3,21 +3,28 @@
 // non-finite numbers written as null). This file alone is compiled with exceptions.
 
 #include <string>
+#include <vector>
 
+#include "mrd/firmware/bus_device.hpp"
 #include "mrd/firmware/telemetry.hpp"
 
 namespace mrd::firmware {
 
 struct SummaryInfo {
-  const char* mode = "";        // "lockstep" | "realtime"
+  const char* mode = "";        // "lockstep" | "realtime" | "bus"
   const char* table = "";       // table file path or "compiled-in"
   const char* law = "";
-  double seconds = 0.0;         // dry-run duration [s]
+  double seconds = 0.0;         // dry-run duration, or ticks x period on the buses [s]
   double period_us = 0.0;
   bool sched_fifo = false;
   bool memory_locked = false;
   double rms_model_error_n = 0.0;
   double rms_tracking_error_n = 0.0;
+  struct Device {
+    const char* name;
+    DeviceCounters counters;
+  };
+  std::vector<Device> devices;  // bus mode: per field device (empty in a dry run)
 };
 
 // Pretty-printed JSON text with a final newline; "" if it cannot be built (no memory).

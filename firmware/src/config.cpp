@@ -98,6 +98,87 @@ Key Bool(const char* name, bool* out, const char* description) {
           description};
 }
 
+Key Text(const char* name, std::string* out, const char* description) {
+  Setter set = [out](const toml::node& n, std::string* why) {
+    const auto v = n.value_exact<std::string>();
+    if (!v) return *why = "must be a string", false;
+    if (v->empty()) return *why = "must not be empty", false;
+    *out = *v;
+    return true;
+  };
+  return {name, set, [out] { return out->empty() ? std::string("(none)") : "\"" + *out + "\""; },
+          "a non-empty string", "", description};
+}
+
+// A duration given in a unit of unit_ns nanoseconds (1e3: us, 1e6: ms), kept in ns.
+Key Duration(const char* name, std::int64_t* out_ns, double unit_ns, double lo, double hi,
+             const char* unit, const char* description) {
+  Setter set = [=](const toml::node& n, std::string* why) {
+    const auto v = n.value<double>();
+    if (!v) return *why = "must be a number", false;
+    if (!std::isfinite(*v) || *v < lo || *v > hi) return *why = "must be in " + Range(lo, hi), false;
+    *out_ns = static_cast<std::int64_t>(std::llround(*v * unit_ns));
+    return true;
+  };
+  return {name, set, [=] { return Show(static_cast<double>(*out_ns) / unit_ns); }, Range(lo, hi),
+          unit, description};
+}
+
+// A GPIO line offset; -1 (the default) is "not wired".
+Key Line(const char* name, int* out, const char* description) {
+  Key key = Integer(name, out, 0, 1023, "", description);
+  key.show = [out] { return *out < 0 ? std::string("(not wired)") : std::to_string(*out); };
+  return key;
+}
+
+// A list of names, each one of `allowed` (bit i = allowed[i]; "" = not allowed here), no
+// repeats, into a bit mask.
+Key Names(const char* name, std::uint32_t* mask, std::vector<std::string> allowed,
+          const char* description) {
+  std::string names;
+  for (const auto& a : allowed) {
+    if (!a.empty()) names += (names.empty() ? "" : ", ") + a;
+  }
+  Setter set = [=](const toml::node& n, std::string* why) {
+    const toml::array* a = n.as_array();
+    if (a == nullptr) return *why = "must be a list of names from: " + names, false;
+    std::uint32_t m = 0;
+    for (const toml::node& e : *a) {
+      const auto v = e.value_exact<std::string>();
+      const auto it = v && !v->empty() ? std::find(allowed.begin(), allowed.end(), *v)
+                                       : allowed.end();
+      if (it == allowed.end()) {
+        return *why = "has '" + (v ? *v : std::string("?")) + "'; allowed: " + names, false;
+      }
+      const std::uint32_t bit = 1U << static_cast<unsigned>(it - allowed.begin());
+      if ((m & bit) != 0) return *why = "names '" + *v + "' twice", false;
+      m |= bit;
+    }
+    *mask = m;
+    return true;
+  };
+  auto show = [=] {
+    std::string list;
+    for (std::size_t i = 0; i < allowed.size(); ++i) {
+      if ((*mask & (1U << i)) != 0) list += (list.empty() ? "\"" : ", \"") + allowed[i] + "\"";
+    }
+    return "[" + list + "]";
+  };
+  return {name, set, show, "a list of: " + names, "", description};
+}
+
+std::vector<std::string> InputNames(std::initializer_list<Input> inputs) {
+  std::vector<std::string> all(kNumInputs, "");
+  for (Input i : inputs) all[static_cast<std::size_t>(i)] = InputName(i);
+  return all;
+}
+
+std::vector<std::string> OutputNames(std::initializer_list<Output> outputs) {
+  std::vector<std::string> all(kNumOutputs, "");
+  for (Output o : outputs) all[static_cast<std::size_t>(o)] = OutputName(o);
+  return all;
+}
+
 // Values kept in other units than the config's while the table is in use.
 struct Scratch {
   double period_us;
@@ -112,6 +193,7 @@ using Sections = std::vector<std::pair<std::string, std::vector<Key>>>;
 Sections KeyTable(FirmwareConfig* c, Scratch* x) {
   ControllerConfig& k = c->controller;
   SimulationConfig& s = c->simulation;
+  IoConfig& io = c->io;
   Key e_max = Number("e_max", &x->e_max, 0.0, 1e3, "V",
                      "Highest command; must lie in the table's range. Default: the table's "
                      "E_max.");
@@ -177,7 +259,179 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                "Dry-run plant: phase of the body velocity."),
         Integer("substeps", &s.substeps, 1, 10000, "",
                 "Dry-run plant: RK4 steps per period.")}},
+      {"can",
+       {Names("inputs", &io.can.inputs,
+              InputNames({Input::kVelocity, Input::kDisplacement, Input::kDemand,
+                          Input::kBodyVelocity, Input::kForce}),
+              "Signals read from CAN (docs/can_bus.md)."),
+        Names("outputs", &io.can.outputs,
+              OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
+              "Signals sent on CAN."),
+        Text("interface", &io.can.interface, "SocketCAN interface (e.g. \"can0\"); or local_bus."),
+        Text("local_bus", &io.can.local_bus,
+             "UNIX socket path of a local frame bus (mrd-canbus; machines without AF_CAN)."),
+        Duration("tx_deadline_us", &io.can.tx_deadline_ns, 1e3, 1.0, 1e6, "us",
+                 "A frame not sent by then is dropped (counted)."),
+        Duration("status_period_ms", &io.can.status_period_ns, 1e6, 1.0, 1e4, "ms",
+                 "Period of the status frame."),
+        Duration("heartbeat_period_ms", &io.can.heartbeat_period_ns, 1e6, 1.0, 1e4, "ms",
+                 "Period of the heartbeat frame.")}},
+      {"modbus",
+       {Names("inputs", &io.modbus.inputs,
+              InputNames({Input::kVelocity, Input::kDisplacement, Input::kDemand,
+                          Input::kBodyVelocity, Input::kForce, Input::kFaultLine}),
+              "Signals read over Modbus (docs/modbus_registers.md)."),
+        Names("outputs", &io.modbus.outputs,
+              OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
+              "Signals written over Modbus."),
+        Choice("mode", &io.modbus.mode, {{"tcp", ModbusMode::kTcp}, {"rtu", ModbusMode::kRtu}},
+               "Modbus TCP or RTU (serial)."),
+        Text("host", &io.modbus.host, "TCP: the server's address."),
+        Integer("port", &io.modbus.port, 1, 65535, "", "TCP: the server's port."),
+        Text("device", &io.modbus.device, "RTU: the serial device (e.g. /dev/ttyS1)."),
+        Integer("baud", &io.modbus.baud, 50, 4'000'000, "bit/s", "RTU: baud rate."),
+        Choice("parity", &io.modbus.parity, {{"N", 'N'}, {"E", 'E'}, {"O", 'O'}},
+               "RTU: parity."),
+        Integer("data_bits", &io.modbus.data_bits, 5, 8, "", "RTU: data bits."),
+        Integer("stop_bits", &io.modbus.stop_bits, 1, 2, "", "RTU: stop bits."),
+        Integer("slave", &io.modbus.slave, 1, 247, "", "Unit / slave id of the current driver."),
+        Duration("response_timeout_ms", &io.modbus.response_timeout_ns, 1e6, 0.1, 1e4, "ms",
+                 "Timeout of one request."),
+        Integer("retries", &io.modbus.retries, 0, 10, "",
+                "Extra attempts per transaction after a timeout or CRC error."),
+        Duration("poll_period_us", &io.modbus.poll_period_ns, 1e3, 100.0, 1e6, "us",
+                 "The I/O thread's read/write cycle.")}},
+      {"gpio",
+       {Names("inputs", &io.gpio.inputs, InputNames({Input::kDisplacement, Input::kFaultLine}),
+              "Signals read from GPIO lines (displacement from a quadrature encoder)."),
+        Names("outputs", &io.gpio.outputs, OutputNames({Output::kEnable, Output::kHeartbeat}),
+              "Signals driven on GPIO lines."),
+        Text("chip", &io.gpio.chip, "GPIO character device (libgpiod), e.g. \"gpiochip0\"."),
+        Text("sim_chip", &io.gpio.sim_chip, "Path of a simulated chip (tests, mrd-hil)."),
+        Line("enable_line", &io.gpio.enable_line, "Driver enable output (low in the safe state)."),
+        Line("heartbeat_line", &io.gpio.heartbeat_line, "Heartbeat output (toggles per period)."),
+        Line("fault_line", &io.gpio.fault_line, "Driver fault input."),
+        Line("encoder_a_line", &io.gpio.encoder_a_line, "Quadrature encoder channel A."),
+        Line("encoder_b_line", &io.gpio.encoder_b_line, "Quadrature encoder channel B."),
+        Bool("fault_active_low", &io.gpio.fault_active_low, "The fault input is active low."),
+        Number("counts_per_cm", &io.gpio.counts_per_cm, 1e-3, 1e9, "1/cm",
+               "Quadrature counts (4 per line cycle) per cm of displacement.")}},
   };
+}
+
+// Line of [section] key (or of the section when the key is absent).
+std::string Where(const toml::table& root, const std::string& source, const char* section,
+                  const char* key) {
+  const toml::node* sec = root.get(section);
+  const toml::node* n = sec != nullptr && sec->is_table() ? sec->as_table()->get(key) : nullptr;
+  const toml::node* at = n != nullptr ? n : sec;
+  const auto line = at != nullptr ? at->source().begin.line : 0U;
+  return source + ":" + std::to_string(line) + ": ";
+}
+
+// Routing and connection checks across the bus sections (io_config.hpp).
+bool CheckIo(const toml::table& root, const std::string& source, const FirmwareConfig& c,
+             std::string* error) {
+  const IoConfig& io = c.io;
+  if (!io.any()) return true;
+  struct Bus {
+    const char* name;
+    bool enabled;
+    std::uint32_t inputs, outputs;
+  };
+  const Bus buses[] = {{"can", io.can.enabled, io.can.inputs, io.can.outputs},
+                       {"modbus", io.modbus.enabled, io.modbus.inputs, io.modbus.outputs},
+                       {"gpio", io.gpio.enabled, io.gpio.inputs, io.gpio.outputs}};
+  std::uint32_t inputs = 0, outputs = 0;
+  for (const Bus& b : buses) {
+    if (!b.enabled) continue;
+    if (b.inputs == 0 && b.outputs == 0) {
+      *error = Where(root, source, b.name, "inputs") + "[" + b.name +
+               "] serves no input and drives no output (give 'inputs' and/or 'outputs')";
+      return false;
+    }
+    for (std::size_t i = 0; i < kNumInputs; ++i) {
+      if ((b.inputs & inputs & (1U << i)) != 0) {
+        *error = Where(root, source, b.name, "inputs") + "input '" +
+                 InputName(static_cast<Input>(i)) + "' has two sources";
+        return false;
+      }
+    }
+    constexpr std::uint32_t kShared = Bit(Output::kHeartbeat) | Bit(Output::kStatus);
+    for (std::size_t i = 0; i < kNumOutputs; ++i) {
+      if ((b.outputs & outputs & ~kShared & (1U << i)) != 0) {
+        *error = Where(root, source, b.name, "outputs") + "output '" +
+                 OutputName(static_cast<Output>(i)) + "' is driven by two buses";
+        return false;
+      }
+    }
+    inputs |= b.inputs;
+    outputs |= b.outputs;
+  }
+  const ControllerConfig& k = c.controller;
+  auto need = [&](Input in, const char* why) {
+    if ((inputs & Bit(in)) != 0) return true;
+    *error = source + ": no bus serves input '" + InputName(in) + "' (" + why + ")";
+    return false;
+  };
+  if (k.velocity_source == VelocitySource::kMeasured) {
+    if (!need(Input::kVelocity, "[velocity] source = \"measured\"")) return false;
+  } else if (!need(Input::kDisplacement, "[velocity] source = \"displacement\"")) {
+    return false;
+  }
+  if (k.law.mode == ControlMode::kForceTracking && !need(Input::kDemand, "law \"force\"")) {
+    return false;
+  }
+  if ((k.law.mode == ControlMode::kSkyhookOnOff || k.law.mode == ControlMode::kSkyhookContinuous) &&
+      !need(Input::kBodyVelocity, "skyhook laws")) {
+    return false;
+  }
+  if ((outputs & Bit(Output::kCommand)) == 0) {
+    *error = source + ": no bus drives the 'command' output (the current driver's set-point)";
+    return false;
+  }
+  if (io.can.enabled && io.can.interface.empty() == io.can.local_bus.empty()) {
+    *error = Where(root, source, "can", "interface") +
+             "[can] needs exactly one of 'interface' (SocketCAN) and 'local_bus' (socket path)";
+    return false;
+  }
+  if (io.modbus.enabled && io.modbus.mode == ModbusMode::kRtu && io.modbus.device.empty()) {
+    *error = Where(root, source, "modbus", "mode") + "[modbus] mode \"rtu\" needs 'device'";
+    return false;
+  }
+  if (io.gpio.enabled) {
+    const GpioConfig& g = io.gpio;
+    if (g.chip.empty() == g.sim_chip.empty()) {
+      *error = Where(root, source, "gpio", "chip") +
+               "[gpio] needs exactly one of 'chip' (libgpiod) and 'sim_chip' (simulated chip)";
+      return false;
+    }
+    struct Line {
+      bool used;
+      int offset;
+      const char* key;
+    };
+    const Line lines[] = {
+        {(g.outputs & Bit(Output::kEnable)) != 0, g.enable_line, "enable_line"},
+        {(g.outputs & Bit(Output::kHeartbeat)) != 0, g.heartbeat_line, "heartbeat_line"},
+        {(g.inputs & Bit(Input::kFaultLine)) != 0, g.fault_line, "fault_line"},
+        {(g.inputs & Bit(Input::kDisplacement)) != 0, g.encoder_a_line, "encoder_a_line"},
+        {(g.inputs & Bit(Input::kDisplacement)) != 0, g.encoder_b_line, "encoder_b_line"}};
+    for (const Line& l : lines) {
+      if (l.used && l.offset < 0) {
+        *error = Where(root, source, "gpio", "inputs") + "[gpio] needs '" + l.key + "'";
+        return false;
+      }
+      for (const Line& o : lines) {
+        if (&o != &l && l.used && o.used && o.offset == l.offset) {
+          *error = Where(root, source, "gpio", l.key) + "[gpio] '" + l.key + "' and '" + o.key +
+                   "' are the same line " + std::to_string(l.offset);
+          return false;
+        }
+      }
+    }
+  }
+  return true;
 }
 
 bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c,
@@ -198,6 +452,9 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
     if (section == sections.end()) return fail(node, "unknown section '" + std::string(name.str()) + "'");
     const toml::table* tbl = node.as_table();
     if (tbl == nullptr) return fail(node, "'" + std::string(name.str()) + "' must be a table");
+    if (name.str() == "can") c->io.can.enabled = true;
+    if (name.str() == "modbus") c->io.modbus.enabled = true;
+    if (name.str() == "gpio") c->io.gpio.enabled = true;
     for (const auto& [key, value] : *tbl) {
       const auto entry = std::find_if(section->second.begin(), section->second.end(),
                                        [&](const Key& e) { return key.str() == e.name; });
@@ -210,6 +467,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
       }
     }
   }
+  if (!CheckIo(root, source, *c, error)) return false;
   c->period_ns = static_cast<std::int64_t>(std::llround(x.period_us * 1e3));
   k.watchdog.max_age_ns = static_cast<std::int64_t>(std::llround(x.max_age_ms * 1e6));
   if (x.e_max_set) c->e_max = x.e_max;
@@ -237,7 +495,9 @@ std::string ConfigReference() {
         const std::string def = key.show();
         std::string accepts;  // '|' would end the Markdown cell
         for (const char ch : key.accepts) accepts += ch == '|' ? std::string("or") : std::string(1, ch);
-        out += std::string("| `") + key.name + "` | " + (def.empty() ? "table's" : "`" + def + "`") +
+        out += std::string("| `") + key.name + "` | " + (def.empty()       ? std::string("table's")
+                                           : def[0] == '(' ? def.substr(1, def.size() - 2)
+                                                           : "`" + def + "`") +
                " | " + key.unit + " | " + accepts + " | " + key.description + " |\n";
       }
     }

@@ -63,7 +63,14 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
                                     bool driver_fault, std::int64_t now_ns, double dt_s) {
   const std::int64_t max_age = config_.watchdog.max_age_ns;
   std::uint32_t causes = 0;
-  if (read_status == IoStatus::kFault) causes |= Watchdog::Bit(FaultCause::kBusFault);
+  constexpr std::uint32_t kBusBits = Watchdog::Bit(FaultCause::kCanBus) |
+                                      Watchdog::Bit(FaultCause::kModbusBus) |
+                                      Watchdog::Bit(FaultCause::kGpioBus);
+  if ((frame.bus_faults & kBusBits) != 0) {
+    causes |= frame.bus_faults & kBusBits;
+  } else if (read_status == IoStatus::kFault) {
+    causes |= Watchdog::Bit(FaultCause::kBusFault);
+  }
   if (driver_fault) causes |= Watchdog::Bit(FaultCause::kDriverFault);
   if (frame.fault_line) causes |= Watchdog::Bit(FaultCause::kFaultLine);
 

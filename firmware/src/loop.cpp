@@ -60,6 +60,7 @@ void Loop::Tick(std::int64_t now_ns) {
     }
   }
   telemetry_.Write(stats_);
+  driver_.PublishStatus(stats_);
 }
 
 void Loop::Shutdown() {

@@ -10,6 +10,9 @@ const char* FaultCauseName(FaultCause cause) {
     case FaultCause::kDriverFault: return "driver_fault";
     case FaultCause::kFaultLine: return "fault_line";
     case FaultCause::kImplausible: return "implausible";
+    case FaultCause::kCanBus: return "can_bus";
+    case FaultCause::kModbusBus: return "modbus_bus";
+    case FaultCause::kGpioBus: return "gpio_bus";
   }
   return "unknown";
 }

@@ -8,6 +8,7 @@
 //   period_us = 1000
 //   [control]
 //   law = "force"
+//   [can] / [modbus] / [gpio]  # bus sections (io_config.hpp): inputs, outputs, connection
 
 #include <cstdint>
 #include <optional>
@@ -15,6 +16,7 @@
 #include <string_view>
 
 #include "mrd/firmware/controller.hpp"
+#include "mrd/firmware/io_config.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 
 namespace mrd::firmware {
@@ -26,6 +28,7 @@ struct FirmwareConfig {
   std::optional<double> e_max;  // [V]; unset: the table's
   ControllerConfig controller;
   SimulationConfig simulation;
+  IoConfig io;  // [can], [modbus], [gpio]; none: dry run on the simulated damper
 };
 
 // Parses TOML text (source names it in messages). Unknown keys, wrong types and out-of-range

@@ -1,6 +1,6 @@
 #pragma once
-// Narrow I/O interfaces between the control loop and the buses (SocketCAN, Modbus and GPIO
-// drivers implement them in later issues; SimulatedDamper implements them for dry runs and
+// Narrow I/O interfaces between the control loop and the buses (FieldbusIo implements them over
+// the SocketCAN, Modbus and GPIO devices of bus_device.hpp; SimulatedDamper for dry runs and
 // tests). Every call is real-time safe in every implementation: no allocation, no
 // exceptions, no blocking beyond a bounded bus transaction; failures come back as IoStatus.
 
@@ -30,7 +30,12 @@ struct SensorFrame {
   Stamped body_velocity;  // absolute body velocity [cm/s] (skyhook)
   Stamped force;          // measured damper force [N] (test rigs only; telemetry)
   bool fault_line = false;  // external fault input asserted
+  // Watchdog::Bit(FaultCause::kCanBus / kModbusBus / kGpioBus) of each bus whose device
+  // faulted this period (0 from sources that name no bus).
+  std::uint32_t bus_faults = 0;
 };
+
+struct TelemetrySnapshot;
 
 class SensorSource {
  public:
@@ -47,6 +52,9 @@ class CurrentDriver {
   // Puts the driver in its safe state at safe_volts [V] (e.g. 0 V, or disabled). Must
   // succeed whenever the hardware can; also used at shutdown. Real-time safe.
   virtual IoStatus EnterSafeState(double safe_volts) = 0;
+  // The loop's counters after each period (status frames, registers). Real-time safe; must
+  // not block (a driver sends at its own lower rate). Default: nothing to publish.
+  virtual void PublishStatus(const TelemetrySnapshot& stats) { (void)stats; }
 };
 
 // Time source of the loop: CLOCK_MONOTONIC with absolute sleeps on a target, or a lockstep

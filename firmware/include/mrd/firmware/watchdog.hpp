@@ -4,9 +4,10 @@
 //   safe(k) = any cause active at k, or fewer than recover_periods clean periods since the
 //             last active cause.
 //
-// Causes: stale sensor data (age > max_age), a non-finite input, a bus fault (read failed),
-// a driver fault (last write failed), the external fault line, an implausible sensor value
-// (velocity or displacement beyond its configured limit). Counters per cause: periods
+// Causes: stale sensor data (age > max_age), a non-finite input, a sensor-source fault that
+// names no bus (simulated sources), a driver fault (last write failed), the external fault
+// line, an implausible sensor value (velocity or displacement beyond its configured limit),
+// and a fault per bus (CAN, Modbus, GPIO: the device reported why in its counters). Counters per cause: periods
 // in which it was active and trips (inactive -> active transitions).
 
 #include <array>
@@ -21,11 +22,14 @@ enum class FaultCause : std::uint8_t {
   kDriverFault,
   kFaultLine,
   kImplausible,
+  kCanBus,
+  kModbusBus,
+  kGpioBus,
 };
-inline constexpr std::size_t kNumFaultCauses = 6;
+inline constexpr std::size_t kNumFaultCauses = 9;
 
 // Static name ("stale_sensor", "non_finite", "bus_fault", "driver_fault", "fault_line",
-// "implausible").
+// "implausible", "can_bus", "modbus_bus", "gpio_bus").
 const char* FaultCauseName(FaultCause cause);
 
 struct WatchdogConfig {

@@ -1,0 +1,161 @@
+#include "mrd/canbus/local_bus.hpp"
+
+#include <linux/can.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+
+namespace mrd::canbus {
+namespace {
+
+constexpr int kBacklog = 16;
+constexpr int kMaxFramesPerNodeRound = 64;  // fairness: bounded work per node per Step
+
+bool Listening(const sockaddr_un& addr) {
+  const int probe = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+  if (probe < 0) return false;
+  const bool live = connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
+  close(probe);
+  return live;
+}
+
+}  // namespace
+
+bool LocalBusRelay::Open(const std::string& path, std::string* error) {
+  Close();
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  if (path.empty() || path.size() >= sizeof addr.sun_path) {
+    *error = "local bus: socket path '" + path + "' is empty or longer than " +
+             std::to_string(sizeof addr.sun_path - 1) + " characters";
+    return false;
+  }
+  std::memcpy(addr.sun_path, path.c_str(), path.size());
+  struct stat st {};
+  if (lstat(path.c_str(), &st) == 0) {
+    if (!S_ISSOCK(st.st_mode)) {
+      *error = "local bus: " + path + " exists and is not a socket";
+      return false;
+    }
+    if (Listening(addr)) {
+      *error = "local bus: " + path + " is already served by another relay";
+      return false;
+    }
+    unlink(path.c_str());  // left by a relay that died
+  }
+  // Bound and listening under a temporary name first, then renamed into place: a node that
+  // sees the path can connect at once (no window between bind and listen).
+  const std::string staging = path + ".new";
+  sockaddr_un staged{};
+  staged.sun_family = AF_UNIX;
+  if (staging.size() >= sizeof staged.sun_path) {
+    *error = "local bus: socket path '" + path + "' is longer than " +
+             std::to_string(sizeof staged.sun_path - 5) + " characters";
+    return false;
+  }
+  std::memcpy(staged.sun_path, staging.c_str(), staging.size());
+  unlink(staging.c_str());
+  listen_fd_ = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (listen_fd_ < 0 ||
+      bind(listen_fd_, reinterpret_cast<const sockaddr*>(&staged), sizeof staged) != 0 ||
+      listen(listen_fd_, kBacklog) != 0 || rename(staging.c_str(), path.c_str()) != 0) {
+    *error = "local bus: cannot listen on " + path + ": " + std::strerror(errno);
+    if (listen_fd_ >= 0) close(listen_fd_);
+    listen_fd_ = -1;
+    unlink(staging.c_str());
+    return false;
+  }
+  path_ = path;
+  return true;
+}
+
+void LocalBusRelay::Close() {
+  for (int fd : nodes_) close(fd);
+  nodes_.clear();
+  if (listen_fd_ >= 0) {
+    close(listen_fd_);
+    listen_fd_ = -1;
+    unlink(path_.c_str());
+  }
+}
+
+void LocalBusRelay::Drop(std::size_t i) {
+  close(nodes_[i]);
+  nodes_.erase(nodes_.begin() + static_cast<std::ptrdiff_t>(i));
+  left_.fetch_add(1, std::memory_order_relaxed);
+}
+
+void LocalBusRelay::Forward(std::size_t from, const void* frame) {
+  for (std::size_t j = 0; j < nodes_.size(); ++j) {
+    if (j == from) continue;
+    if (send(nodes_[j], frame, sizeof(can_frame), MSG_DONTWAIT | MSG_NOSIGNAL) ==
+        static_cast<ssize_t>(sizeof(can_frame))) {
+      out_.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      dropped_.fetch_add(1, std::memory_order_relaxed);  // full (or leaving: seen on its recv)
+    }
+  }
+}
+
+void LocalBusRelay::Step(int timeout_ms) {
+  if (listen_fd_ < 0) return;
+  std::vector<pollfd> fds;
+  fds.reserve(nodes_.size() + 1);
+  fds.push_back({listen_fd_, POLLIN, 0});
+  for (int fd : nodes_) fds.push_back({fd, POLLIN, 0});
+  if (poll(fds.data(), fds.size(), timeout_ms) <= 0) return;
+  // Nodes first (indices match nodes_ as polled), newest last; removals go backwards.
+  std::vector<bool> gone(nodes_.size(), false);
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    if ((fds[i + 1].revents & (POLLIN | POLLHUP | POLLERR)) == 0) continue;
+    for (int k = 0; k < kMaxFramesPerNodeRound; ++k) {
+      alignas(can_frame) unsigned char buf[sizeof(canfd_frame)];
+      const ssize_t n = recv(nodes_[i], buf, sizeof buf, MSG_DONTWAIT);
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) break;
+      if (n <= 0) {
+        gone[i] = true;
+        break;
+      }
+      if (static_cast<std::size_t>(n) != sizeof(can_frame)) {
+        bad_.fetch_add(1, std::memory_order_relaxed);
+        continue;
+      }
+      in_.fetch_add(1, std::memory_order_relaxed);
+      Forward(i, buf);
+    }
+  }
+  for (std::size_t i = gone.size(); i-- > 0;) {
+    if (gone[i]) Drop(i);
+  }
+  if ((fds[0].revents & POLLIN) != 0) {
+    while (true) {
+      const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+      if (fd < 0) break;
+      nodes_.push_back(fd);
+      joined_.fetch_add(1, std::memory_order_relaxed);
+    }
+  }
+}
+
+void LocalBusRelay::Run(const std::atomic<bool>& stop) {
+  while (!stop.load(std::memory_order_relaxed)) Step(20);
+}
+
+RelayStats LocalBusRelay::stats() const {
+  RelayStats s;
+  s.nodes_joined = joined_.load(std::memory_order_relaxed);
+  s.nodes_left = left_.load(std::memory_order_relaxed);
+  s.frames_in = in_.load(std::memory_order_relaxed);
+  s.frames_out = out_.load(std::memory_order_relaxed);
+  s.frames_dropped = dropped_.load(std::memory_order_relaxed);
+  s.bad_packets = bad_.load(std::memory_order_relaxed);
+  return s;
+}
+
+}  // namespace mrd::canbus

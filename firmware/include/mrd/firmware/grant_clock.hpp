@@ -1,0 +1,50 @@
+#pragma once
+// Lockstep with a simulator (in the spirit of ArduPilot SITL): the loop's time only advances
+// when the harness grants it, so a run is deterministic and as fast as both sides allow.
+// The grant travels on the bus that carries the sensors (after the sensor data of that step,
+// so a tick that wakes on grant t has the samples of t): a sync frame on CAN, a time register
+// on Modbus. The same Loop and controller run; only the Clock differs.
+//
+//   Now()          = the latest granted time [ns] (0 before the first grant)
+//   SleepUntil(t)  = returns at once when Now() >= t; else waits for grants until one is >= t.
+//                    A grant that does not come within grant_timeout (wall clock) is a fault,
+//                    not a hang: the clock steps to t by itself and counts a missed grant; the
+//                    sensor stamps then age and the watchdog commands the safe state.
+
+#include <cstdint>
+
+#include "mrd/firmware/io.hpp"
+
+namespace mrd::firmware {
+
+// Where grants come from (a bus device that receives them).
+class TimeGrantSource {
+ public:
+  virtual ~TimeGrantSource() = default;
+  // Waits at most timeout_ns of wall-clock time for the next grant; true with *t_ns (harness
+  // time [ns]). Processes whatever else arrives meanwhile (sensor data). Real-time safe in the
+  // sense of bounded: no allocation, one bounded wait.
+  virtual bool WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) = 0;
+};
+
+class GrantClock final : public Clock {
+ public:
+  // source outlives this; grant_timeout_ns > 0.
+  GrantClock(TimeGrantSource& source, std::int64_t grant_timeout_ns)
+      : source_(source), timeout_ns_(grant_timeout_ns) {}
+
+  std::int64_t Now() override { return now_; }
+  void SleepUntil(std::int64_t t_ns) override;
+
+  std::uint64_t grants() const { return grants_; }
+  std::uint64_t missed_grants() const { return missed_; }
+
+ private:
+  TimeGrantSource& source_;
+  std::int64_t timeout_ns_;
+  std::int64_t now_ = 0;
+  std::uint64_t grants_ = 0;
+  std::uint64_t missed_ = 0;
+};
+
+}  // namespace mrd::firmware

@@ -1,0 +1,106 @@
+#pragma once
+// Where each signal comes from and where each output goes, with the connection settings of
+// each bus (the [can], [modbus] and [gpio] sections of the firmware configuration; reference:
+// docs/firmware_config.md). Plain data; start-up only.
+//
+// Each bus section lists the inputs it serves and the outputs it drives:
+//   [can]     inputs  velocity displacement demand body_velocity force
+//             outputs command enable heartbeat status
+//   [modbus]  inputs  velocity displacement demand body_velocity force fault_line
+//             outputs command enable heartbeat status
+//   [gpio]    inputs  fault_line displacement (quadrature encoder)
+//             outputs enable heartbeat
+// An input served by two buses, an output driven by two (heartbeat and status excepted: they
+// may go out on several), a required input that no bus serves, or no command output: refused.
+// With no bus section the loop runs the built-in simulated damper (dry run).
+
+#include <cstdint>
+#include <string>
+
+namespace mrd::firmware {
+
+// Inputs a device can serve (bit i = 1 << Input i).
+enum class Input : std::uint8_t {
+  kVelocity = 0,
+  kDisplacement,
+  kDemand,
+  kBodyVelocity,
+  kForce,
+  kFaultLine,
+};
+inline constexpr std::size_t kNumInputs = 6;
+// Outputs a device can drive.
+enum class Output : std::uint8_t {
+  kCommand = 0,  // voltage set-point to the current driver
+  kEnable,       // driver enable (low in the safe state)
+  kHeartbeat,    // liveness signal the driver watches (stops when the firmware dies)
+  kStatus,       // firmware status / telemetry
+};
+inline constexpr std::size_t kNumOutputs = 4;
+constexpr std::uint32_t Bit(Input i) { return 1U << static_cast<unsigned>(i); }
+constexpr std::uint32_t Bit(Output o) { return 1U << static_cast<unsigned>(o); }
+// Config names ("velocity", "displacement", "demand", "body_velocity", "force", "fault_line";
+// "command", "enable", "heartbeat", "status").
+const char* InputName(Input input);
+const char* OutputName(Output output);
+
+
+struct CanConfig {
+  bool enabled = false;
+  std::uint32_t inputs = 0;   // Bit(Input)
+  std::uint32_t outputs = 0;  // Bit(Output)
+  // Exactly one of: a SocketCAN interface (CAN_RAW socket with receive filters; a board) or
+  // the UNIX socket path of a local frame bus (mrd-canbus; build machines without AF_CAN).
+  std::string interface;
+  std::string local_bus;
+  std::int64_t tx_deadline_ns = 500'000;   // a frame not sent by then is dropped [ns]
+  std::int64_t status_period_ns = 100'000'000;     // status frame period [ns]
+  std::int64_t heartbeat_period_ns = 10'000'000;   // heartbeat frame period [ns]
+};
+
+enum class ModbusMode : std::uint8_t { kTcp = 0, kRtu };
+
+struct ModbusConfig {
+  bool enabled = false;
+  std::uint32_t inputs = 0;
+  std::uint32_t outputs = 0;
+  ModbusMode mode = ModbusMode::kTcp;
+  std::string host = "127.0.0.1";  // TCP
+  int port = 502;                  // TCP
+  std::string device;              // RTU serial device, e.g. /dev/ttyS1
+  int baud = 115200;               // RTU
+  char parity = 'N';               // RTU: N, E or O
+  int data_bits = 8;               // RTU
+  int stop_bits = 1;               // RTU
+  int slave = 1;                   // unit / slave id (1-247)
+  std::int64_t response_timeout_ns = 20'000'000;  // per request [ns]
+  int retries = 1;                 // extra attempts per transaction after a timeout or CRC error
+  std::int64_t poll_period_ns = 1'000'000;  // worker's read/write cycle [ns]
+};
+
+struct GpioConfig {
+  bool enabled = false;
+  std::uint32_t inputs = 0;
+  std::uint32_t outputs = 0;
+  // Exactly one of: a GPIO character device (libgpiod, e.g. "gpiochip0" or "/dev/gpiochip0")
+  // or the path of a simulated chip shared with a test peer or the HIL harness.
+  std::string chip;
+  std::string sim_chip;
+  int enable_line = -1;      // output offsets; -1: not wired
+  int heartbeat_line = -1;
+  int fault_line = -1;       // input offsets
+  int encoder_a_line = -1;
+  int encoder_b_line = -1;
+  bool fault_active_low = false;
+  double counts_per_cm = 400.0;  // quadrature counts (4 per encoder line cycle) per cm
+};
+
+struct IoConfig {
+  CanConfig can;
+  ModbusConfig modbus;
+  GpioConfig gpio;
+  // True when any bus section is present (else: the simulated damper).
+  bool any() const { return can.enabled || modbus.enabled || gpio.enabled; }
+};
+
+}  // namespace mrd::firmware

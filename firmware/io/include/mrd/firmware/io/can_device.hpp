@@ -1,0 +1,89 @@
+#pragma once
+// The CAN field device: sensor frames in, driver command / heartbeat / status frames out
+// (docs/mrd.dbc, codec in mrd/protocol/can_codec.hpp), over a SocketCAN CAN_RAW socket with
+// receive filters or a node of the local frame bus (mrd-canbus); only the fd's creation
+// differs (mrd/canbus/socket.hpp), the receive/transmit code is the same.
+//
+// Why non-blocking fds in the tick, not an I/O thread: a CAN frame is one 16-byte read or
+// write on a socket that never blocks (O_NONBLOCK), a few microseconds each, and the kernel's
+// socket buffers already are the mailbox between the bus and the loop. The tick drains at most
+// kMaxFramesPerRead frames and queues at most a handful, so its work is bounded; a thread would
+// add a hand-over (and its latency and scheduling jitter) without removing any wait. (Modbus is
+// different: libmodbus blocks for a whole request/reply, so it lives on a thread.)
+//
+// Per period:
+//   Read   flushes queued frames, drains up to kMaxFramesPerRead received frames: each is
+//          decoded (ID, DLC, checksum, range) and its rolling counter checked; rejects are
+//          counted (rejected_frame / crc / bad_value) and change nothing. Accepted sensor
+//          values keep their receive stamps; the routed ones are merged into the frame. A
+//          lost bus (EOF, reset, network down, bus-off) is kFault (disconnected / bus_off) —
+//          the loop's can_bus watchdog cause — and the device reopens its fd every
+//          kReconnectInterval from the tick (socket + connect/bind: no allocation, no wait).
+//          Silence (a sender that stopped) is kNoData: the stamps go stale and the watchdog's
+//          stale-sensor cause takes over.
+//   Write  queues the driver command (set-point, enable, safe flag, echo of the latest sensor
+//          seq) with the deadline tx_deadline, and the heartbeat at heartbeat_period; a frame
+//          not written by its deadline is dropped (timeout). A failed or dropped send is kFault.
+//   PublishStatus  the firmware status frame at status_period.
+// Frames of the firmware's own IDs heard from another node are ignored; the driver's status
+// frame is checked and counted (its fault bits are kept in driver_faults()).
+
+#include <cstdint>
+#include <string>
+
+#include "mrd/canbus/can_iface.hpp"
+#include "mrd/firmware/bus_device.hpp"
+#include "mrd/firmware/seqlock.hpp"
+#include "mrd/protocol/can_codec.hpp"
+
+namespace mrd::firmware {
+
+class CanDevice final : public BusDevice {
+ public:
+  static constexpr int kMaxFramesPerRead = 32;
+  static constexpr std::int64_t kReconnectInterval = 100'000'000;  // [ns]
+
+  // Opens from config.interface (SocketCAN) or config.local_bus at Configure.
+  explicit CanDevice(const CanConfig& config);
+  // Runs on an fd already open (e.g. one end of a socketpair); it cannot be reopened.
+  CanDevice(const CanConfig& config, int fd);
+  ~CanDevice() override { Deactivate(); }
+
+  const char* name() const override { return "can"; }
+  FaultCause fault_cause() const override { return FaultCause::kCanBus; }
+  bool Configure(std::string* error) override;
+  bool Activate(std::string* error) override;
+  void Deactivate() override;
+  IoStatus Read(SensorFrame* frame, IoError* why) override;
+  IoStatus Write(const DriverCommand& cmd, IoError* why) override;
+  void PublishStatus(const TelemetrySnapshot& stats) override;
+  DeviceCounters counters() const override { return published_.Read(); }
+
+  const canbus::CanStats& bus_stats() const { return iface_.stats(); }
+  std::uint8_t driver_faults() const { return driver_faults_; }
+
+ private:
+  int Open(std::string* error) const;
+  void TryReconnect(std::int64_t now);
+  void Reject(protocol::can::Reject reason);
+  void Count(IoError error);
+  bool Handle(const can_frame& f, std::int64_t stamp);
+  // Queues one frame; false (and counted) when it failed.
+  bool Send(const can_frame& f, std::int64_t now);
+  void Publish() { published_.Write(counters_); }
+
+  CanConfig config_;
+  bool reopenable_;
+  bool active_ = false;
+  canbus::CanIface iface_;
+  protocol::can::CounterCheck motion_check_, force_check_, status_check_;
+  std::uint8_t command_counter_ = 0, heartbeat_counter_ = 0, status_sequence_ = 0;
+  std::uint16_t last_seq_ = 0;
+  std::uint8_t driver_faults_ = 0;
+  Stamped velocity_, displacement_, demand_, body_velocity_, force_;
+  std::int64_t next_heartbeat_ns_ = 0, next_status_ns_ = 0, next_reconnect_ns_ = 0;
+  DeviceCounters counters_;
+  Seqlock<DeviceCounters> published_;
+};
+
+}  // namespace mrd::firmware

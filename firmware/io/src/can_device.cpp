@@ -1,0 +1,301 @@
+#include "mrd/firmware/io/can_device.hpp"
+
+#include <linux/can.h>
+
+#include <memory>
+
+#include "mrd/canbus/socket.hpp"
+#include "mrd/firmware/io/devices.hpp"
+#include "mrd/firmware/telemetry.hpp"
+
+namespace mrd::firmware {
+namespace {
+
+namespace pc = protocol::can;
+
+constexpr std::uint16_t Saturate16(std::uint64_t v) {
+  return v > 0xFFFFU ? std::uint16_t{0xFFFF} : static_cast<std::uint16_t>(v);
+}
+
+IoError ErrorOf(pc::Reject r) {
+  switch (r) {
+    case pc::Reject::kBadChecksum:
+      return IoError::kCrc;
+    case pc::Reject::kOutOfRange:
+    case pc::Reject::kNonFinite:
+      return IoError::kBadValue;
+    default:
+      return IoError::kRejectedFrame;
+  }
+}
+
+// The IDs the firmware listens to (SocketCAN receive filters; exact standard data frames).
+constexpr can_filter kFilters[] = {
+    {pc::kSensorMotionId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
+    {pc::kSensorForceId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
+    {pc::kDriverStatusId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
+};
+
+}  // namespace
+
+CanDevice::CanDevice(const CanConfig& config) : config_(config), reopenable_(true) { Publish(); }
+
+CanDevice::CanDevice(const CanConfig& config, int fd) : config_(config), reopenable_(false) {
+  iface_.Attach(fd);
+  Publish();
+}
+
+int CanDevice::Open(std::string* error) const {
+  if (!config_.local_bus.empty()) return canbus::OpenLocalBusNode(config_.local_bus.c_str(), error);
+  return canbus::OpenSocketCan(config_.interface.c_str(), kFilters, std::size(kFilters), error);
+}
+
+bool CanDevice::Configure(std::string* error) {
+  if (iface_.is_open()) return true;
+  if (!reopenable_) {
+    *error = "can: no file descriptor";
+    return false;
+  }
+  const int fd = Open(error);
+  if (fd < 0) return false;
+  iface_.Attach(fd);
+  return true;
+}
+
+bool CanDevice::Activate(std::string* error) {
+  (void)error;
+  const std::int64_t now = canbus::MonotonicNs();
+  next_heartbeat_ns_ = now;
+  next_status_ns_ = now;
+  next_reconnect_ns_ = now;
+  active_ = true;
+  return true;
+}
+
+void CanDevice::Deactivate() {
+  if (iface_.is_open()) {
+    // Last word on the bus: 0 V, enable low, safe.
+    can_frame f{};
+    const bool enable_routed = (config_.outputs & Bit(Output::kEnable)) != 0;
+    if ((config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0 &&
+        pc::Encode(pc::DriverCommand{0.0, false, enable_routed, true, last_seq_, command_counter_},
+                   &f) == pc::Reject::kNone) {
+      command_counter_ = static_cast<std::uint8_t>((command_counter_ + 1) & 0x0F);
+      const std::int64_t now = canbus::MonotonicNs();
+      Send(f, now);
+      iface_.Flush(now);
+    }
+    iface_.Close();
+  }
+  active_ = false;
+  Publish();
+}
+
+void CanDevice::Count(IoError error) {
+  ++counters_.errors[static_cast<std::size_t>(error)];
+  counters_.last_error = error;
+}
+
+void CanDevice::Reject(pc::Reject reason) {
+  ++counters_.rx_rejected;
+  Count(ErrorOf(reason));
+}
+
+void CanDevice::TryReconnect(std::int64_t now) {
+  if (!reopenable_ || now < next_reconnect_ns_) return;
+  next_reconnect_ns_ = now + kReconnectInterval;
+  const int fd = Open(nullptr);
+  if (fd < 0) return;
+  iface_.Attach(fd);
+  motion_check_.Reset();
+  force_check_.Reset();
+  status_check_.Reset();
+  ++counters_.reconnects;
+}
+
+bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
+  const std::uint32_t in = config_.inputs;
+  switch (pc::Classify(f)) {
+    case pc::Message::kSensorMotion: {
+      pc::SensorMotion m;
+      pc::Reject r = pc::Decode(f, &m);
+      if (r == pc::Reject::kNone) r = motion_check_.Check(m.counter);
+      if (r != pc::Reject::kNone) {
+        Reject(r);
+        return false;
+      }
+      ++counters_.rx_ok;
+      velocity_ = {m.velocity, stamp};
+      displacement_ = {m.displacement, stamp};
+      last_seq_ = m.seq;
+      return (in & (Bit(Input::kVelocity) | Bit(Input::kDisplacement))) != 0;
+    }
+    case pc::Message::kSensorForce: {
+      pc::SensorForce m;
+      pc::Reject r = pc::Decode(f, &m);
+      if (r == pc::Reject::kNone) r = force_check_.Check(m.counter);
+      if (r != pc::Reject::kNone) {
+        Reject(r);
+        return false;
+      }
+      ++counters_.rx_ok;
+      demand_ = {m.demand, stamp};
+      body_velocity_ = {m.body_velocity, stamp};
+      force_ = {m.force, stamp};
+      return (in & (Bit(Input::kDemand) | Bit(Input::kBodyVelocity) | Bit(Input::kForce))) != 0;
+    }
+    case pc::Message::kDriverStatus: {
+      pc::DriverStatus m;
+      pc::Reject r = pc::Decode(f, &m);
+      if (r == pc::Reject::kNone) r = status_check_.Check(m.counter);
+      if (r != pc::Reject::kNone) {
+        Reject(r);
+        return false;
+      }
+      ++counters_.rx_ok;
+      driver_faults_ = m.faults;
+      return false;
+    }
+    case pc::Message::kDriverCommand:
+    case pc::Message::kHeartbeat:
+    case pc::Message::kFirmwareStatus:
+      return false;  // our own IDs from another node: not for us
+    case pc::Message::kUnknown:
+      break;
+  }
+  Reject(pc::Reject::kUnknownId);
+  return false;
+}
+
+IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
+  const std::int64_t now = canbus::MonotonicNs();
+  if (!iface_.is_open()) TryReconnect(now);
+  IoError fault = IoError::kNone;
+  bool fresh = false;
+  if (!iface_.is_open()) {
+    fault = IoError::kDisconnected;
+  } else {
+    iface_.Flush(now);
+    for (int k = 0; k < kMaxFramesPerRead && iface_.is_open(); ++k) {
+      can_frame f{};
+      std::int64_t stamp = 0;
+      const canbus::CanResult r = iface_.Receive(&f, &stamp);
+      if (r == canbus::CanResult::kEmpty) break;
+      if (r == canbus::CanResult::kOk) {
+        fresh = Handle(f, stamp) || fresh;
+      } else if (r == canbus::CanResult::kBadFrame) {
+        Reject(pc::Reject::kWrongDlc);
+      } else if (r == canbus::CanResult::kDisconnected) {
+        fault = IoError::kDisconnected;
+        Count(fault);
+        next_reconnect_ns_ = now + kReconnectInterval;
+      } else if (r == canbus::CanResult::kBusOff) {
+        fault = IoError::kBusOff;
+        Count(fault);
+      } else {
+        Count(IoError::kSystem);
+      }
+    }
+  }
+  const std::uint32_t in = config_.inputs;
+  if ((in & Bit(Input::kVelocity)) != 0) frame->velocity = velocity_;
+  if ((in & Bit(Input::kDisplacement)) != 0) frame->displacement = displacement_;
+  if ((in & Bit(Input::kDemand)) != 0) frame->demand = demand_;
+  if ((in & Bit(Input::kBodyVelocity)) != 0) frame->body_velocity = body_velocity_;
+  if ((in & Bit(Input::kForce)) != 0) frame->force = force_;
+  Publish();
+  if (fault != IoError::kNone) {
+    *why = fault;
+    return IoStatus::kFault;
+  }
+  return fresh ? IoStatus::kOk : IoStatus::kNoData;
+}
+
+bool CanDevice::Send(const can_frame& f, std::int64_t now) {
+  const canbus::CanResult r = iface_.Send(f, now + config_.tx_deadline_ns, now);
+  counters_.tx_ok = iface_.stats().tx_frames;
+  IoError e = IoError::kNone;
+  switch (r) {
+    case canbus::CanResult::kOk:
+      return true;
+    case canbus::CanResult::kTimedOut:
+      e = IoError::kTimeout;
+      break;
+    case canbus::CanResult::kOverflow:
+      e = IoError::kOverflow;
+      break;
+    case canbus::CanResult::kDisconnected:
+      e = IoError::kDisconnected;
+      break;
+    default:
+      e = IoError::kSystem;
+      break;
+  }
+  ++counters_.tx_failed;
+  Count(e);
+  return false;
+}
+
+IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
+  const std::int64_t now = canbus::MonotonicNs();
+  if (!iface_.is_open()) {
+    ++counters_.tx_failed;
+    Publish();
+    *why = IoError::kDisconnected;
+    return IoStatus::kFault;
+  }
+  bool ok = true;
+  const std::uint32_t out = config_.outputs;
+  if ((out & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
+    const bool enable_routed = (out & Bit(Output::kEnable)) != 0;
+    can_frame f{};
+    pc::DriverCommand m{cmd.volts, cmd.enable, enable_routed,
+                        cmd.safe,  last_seq_,  command_counter_};
+    if (pc::Encode(m, &f) != pc::Reject::kNone) {
+      // Not representable (never from the loop: it commands within [0, E_max]): send the
+      // safe state instead and report the write as failed.
+      Count(IoError::kBadValue);
+      ok = false;
+      m = {0.0, false, enable_routed, true, last_seq_, command_counter_};
+      pc::Encode(m, &f);
+    }
+    command_counter_ = static_cast<std::uint8_t>((command_counter_ + 1) & 0x0F);
+    ok = Send(f, now) && ok;
+  }
+  if ((out & Bit(Output::kHeartbeat)) != 0 && now >= next_heartbeat_ns_) {
+    next_heartbeat_ns_ += config_.heartbeat_period_ns;
+    if (next_heartbeat_ns_ <= now) next_heartbeat_ns_ = now + config_.heartbeat_period_ns;
+    can_frame f{};
+    pc::Encode(pc::Heartbeat{cmd.safe, heartbeat_counter_}, &f);
+    heartbeat_counter_ = static_cast<std::uint8_t>((heartbeat_counter_ + 1) & 0x0F);
+    ok = Send(f, now) && ok;
+  }
+  Publish();
+  if (!ok) {
+    *why = counters_.last_error;
+    return IoStatus::kFault;
+  }
+  return IoStatus::kOk;
+}
+
+void CanDevice::PublishStatus(const TelemetrySnapshot& stats) {
+  if ((config_.outputs & Bit(Output::kStatus)) == 0 || !iface_.is_open()) return;
+  const std::int64_t now = canbus::MonotonicNs();
+  if (now < next_status_ns_) return;
+  next_status_ns_ += config_.status_period_ns;
+  if (next_status_ns_ <= now) next_status_ns_ = now + config_.status_period_ns;
+  can_frame f{};
+  pc::Encode(
+      pc::FirmwareStatus{stats.safe, static_cast<std::uint16_t>(stats.active_causes & 0xFFFFU),
+                         Saturate16(stats.overruns), Saturate16(stats.watchdog.entries),
+                         status_sequence_++},
+      &f);
+  Send(f, now);
+  Publish();
+}
+
+std::unique_ptr<BusDevice> MakeCanDevice(const CanConfig& config) {
+  return std::make_unique<CanDevice>(config);
+}
+
+}  // namespace mrd::firmware

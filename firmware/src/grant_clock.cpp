@@ -1,0 +1,18 @@
+#include "mrd/firmware/grant_clock.hpp"
+
+namespace mrd::firmware {
+
+void GrantClock::SleepUntil(std::int64_t t_ns) {
+  while (now_ < t_ns) {
+    std::int64_t granted = 0;
+    if (!source_.WaitGrant(timeout_ns_, &granted)) {
+      ++missed_;
+      now_ = t_ns;  // a fault, not a hang: step on; stale data trips the watchdog
+      return;
+    }
+    ++grants_;
+    if (granted > now_) now_ = granted;  // grants never move time backwards
+  }
+}
+
+}  // namespace mrd::firmware

@@ -1,0 +1,64 @@
+#pragma once
+// The device side of one transport, as the harness plays it: the plant's sensors publish
+// over it, and the simulated current driver hears the firmware's command, enable and
+// heartbeat through it. One implementation per transport (local CAN bus / SocketCAN, Modbus
+// TCP and RTU servers, simulated GPIO chip); the serve loop (serve.hpp) drives any set of them.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "mrd/common/damper_plant.hpp"
+
+namespace mrd::hil {
+
+// One plant step's sensor values as the transport carries them.
+struct SensorOutput {
+  PlantSample sample;
+  std::uint32_t seq = 0;      // step number (CAN rolling counter / Modbus sequence register)
+  std::int64_t t_ns = 0;      // CLOCK_MONOTONIC when published
+  bool fault_line = false;    // fault input asserted (GPIO / status register)
+};
+
+// What arrived from the firmware since the last Poll; each port sets only what it carries.
+struct DriverInput {
+  bool has_command = false;
+  double volts = 0.0;              // set-point [V] as received (may be anything: the invariant
+                                   // check is the harness's job)
+  std::int64_t command_ns = 0;     // when the latest command arrived
+  bool has_echo = false;
+  std::uint32_t echo = 0;          // sensor seq the command was computed from (latency)
+  bool has_enable = false;
+  bool enable = false;
+  std::int64_t heartbeat_ns = 0;   // latest heartbeat seen (0: none yet)
+};
+
+struct PortCounters {
+  std::uint64_t published = 0;  // sensor messages / register updates
+  std::uint64_t received = 0;   // commands and heartbeats heard
+  std::uint64_t rejected = 0;   // malformed messages from the firmware
+};
+
+class PlantPort {
+ public:
+  virtual ~PlantPort() = default;
+  virtual const char* name() const = 0;
+  // Binds, listens or creates its endpoint; called before the firmware starts. false: *error.
+  virtual bool Open(std::string* error) = 0;
+  // Publishes one step's sensors. Must not block.
+  virtual void Publish(const SensorOutput& out) = 0;
+  // Merges what the firmware sent since the last call into *in. Must not block.
+  virtual void Poll(DriverInput* in) = 0;
+  virtual void Close() = 0;
+  virtual PortCounters counters() const = 0;
+};
+
+// Per transport (can_port.cpp, modbus_port.cpp, gpio_port.cpp). endpoint: the local bus
+// socket path or CAN interface; "HOST:PORT" for Modbus TCP; the pty link path for Modbus
+// RTU; the simulated chip path for GPIO. nullptr when the transport is not in this build.
+std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint);
+std::unique_ptr<PlantPort> MakeModbusTcpPort(const std::string& endpoint);
+std::unique_ptr<PlantPort> MakeModbusRtuPort(const std::string& endpoint);
+std::unique_ptr<PlantPort> MakeGpioPort(const std::string& endpoint);
+
+}  // namespace mrd::hil

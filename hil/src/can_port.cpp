@@ -1,0 +1,201 @@
+// The harness's CAN side (plant_port.hpp): the plant's sensors send SensorMotion and
+// SensorForce every step; the simulated driver hears DriverCommand and Heartbeat
+// (docs/mrd.dbc). Endpoint: a local frame bus socket path (contains '/') or a SocketCAN
+// interface. On a local bus path nobody serves yet (no socket, or one left by a dead relay),
+// the port runs the relay itself on a thread: the harness then owns the bus, and the firmware
+// loses it when the harness exits (the peer-restart test relies on that).
+#include <linux/can.h>
+
+#include <atomic>
+#include <memory>
+#include <thread>
+
+#include "mrd/canbus/can_iface.hpp"
+#include "mrd/canbus/local_bus.hpp"
+#include "mrd/canbus/socket.hpp"
+#include "mrd/hil/plant_port.hpp"
+#include "mrd/protocol/can_codec.hpp"
+
+namespace mrd::hil {
+namespace {
+
+namespace pc = protocol::can;
+
+constexpr int kMaxFramesPerPoll = 64;
+constexpr std::int64_t kTxDeadlineNs = 1'000'000;  // one plant period
+constexpr std::int64_t kReconnectNs = 100'000'000;
+
+constexpr can_filter kFilters[] = {
+    {pc::kDriverCommandId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
+    {pc::kHeartbeatId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
+    {pc::kFirmwareStatusId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
+};
+
+// The 32-bit step number a 16-bit echo stands for: the latest one published with those low
+// bits (the echo never runs ahead of what was published).
+std::uint32_t ExpandEcho(std::uint16_t echo, std::uint32_t last_published) {
+  std::uint32_t s = (last_published & 0xFFFF0000U) | echo;
+  if (s > last_published && s >= 0x10000U) s -= 0x10000U;
+  return s;
+}
+
+class CanPort final : public PlantPort {
+ public:
+  explicit CanPort(std::string endpoint) : endpoint_(std::move(endpoint)) {}
+  ~CanPort() override { Close(); }
+
+  const char* name() const override { return "can"; }
+
+  bool Open(std::string* error) override {
+    if (!canbus::IsLocalBusPath(endpoint_)) {
+      const int fd = canbus::OpenSocketCan(endpoint_.c_str(), kFilters, std::size(kFilters), error);
+      if (fd < 0) return false;
+      iface_.Attach(fd);
+      return true;
+    }
+    int fd = canbus::OpenLocalBusNode(endpoint_.c_str(), nullptr);
+    if (fd < 0) {
+      if (!relay_.Open(endpoint_, error)) return false;
+      relay_stop_.store(false);
+      relay_thread_ = std::thread([this] { relay_.Run(relay_stop_); });
+      fd = canbus::OpenLocalBusNode(endpoint_.c_str(), error);
+      if (fd < 0) return false;
+    }
+    iface_.Attach(fd);
+    return true;
+  }
+
+  void Publish(const SensorOutput& out) override {
+    last_published_ = out.seq;
+    const std::int64_t now = canbus::MonotonicNs();
+    if (!iface_.is_open()) Reconnect(now);
+    can_frame motion{}, force{};
+    const bool motion_ok =
+        pc::Encode(pc::SensorMotion{out.sample.v, out.sample.x,
+                                    static_cast<std::uint16_t>(out.seq & 0xFFFFU), motion_counter_},
+                   &motion) == pc::Reject::kNone;
+    const bool force_ok = pc::Encode(pc::SensorForce{out.sample.demand, out.sample.body_velocity,
+                                                     out.sample.force, force_counter_},
+                                     &force) == pc::Reject::kNone;
+    if (motion_ok) {
+      motion_counter_ = static_cast<std::uint8_t>((motion_counter_ + 1) & 0x0F);
+      if (iface_.Send(motion, now + kTxDeadlineNs, now) == canbus::CanResult::kOk) ++published_;
+    }
+    if (force_ok) {
+      force_counter_ = static_cast<std::uint8_t>((force_counter_ + 1) & 0x0F);
+      iface_.Send(force, now + kTxDeadlineNs, now);
+    }
+  }
+
+  void Poll(DriverInput* in) override {
+    if (!iface_.is_open()) return;
+    for (int k = 0; k < kMaxFramesPerPoll; ++k) {
+      can_frame f{};
+      std::int64_t stamp = 0;
+      const canbus::CanResult r = iface_.Receive(&f, &stamp);
+      if (r == canbus::CanResult::kEmpty || r == canbus::CanResult::kDisconnected) break;
+      if (r != canbus::CanResult::kOk) {
+        ++rejected_;
+        continue;
+      }
+      Handle(f, stamp, in);
+    }
+  }
+
+  void Close() override {
+    iface_.Close();
+    if (relay_thread_.joinable()) {
+      relay_stop_.store(true);
+      relay_thread_.join();
+    }
+    relay_.Close();
+  }
+
+  PortCounters counters() const override { return {published_, received_, rejected_}; }
+
+ private:
+  void Reconnect(std::int64_t now) {
+    if (relay_thread_.joinable() || !canbus::IsLocalBusPath(endpoint_) || now < next_reconnect_) {
+      return;
+    }
+    next_reconnect_ = now + kReconnectNs;
+    const int fd = canbus::OpenLocalBusNode(endpoint_.c_str(), nullptr);
+    if (fd >= 0) {
+      iface_.Attach(fd);
+      command_check_.Reset();
+      heartbeat_check_.Reset();
+    }
+  }
+
+  void Handle(const can_frame& f, std::int64_t stamp, DriverInput* in) {
+    switch (pc::Classify(f)) {
+      case pc::Message::kDriverCommand: {
+        pc::DriverCommand m;
+        pc::Reject r = pc::Decode(f, &m);
+        if (r == pc::Reject::kNone) r = command_check_.Check(m.counter);
+        if (r != pc::Reject::kNone) {
+          ++rejected_;
+          return;
+        }
+        ++received_;
+        in->has_command = true;
+        in->volts = m.volts;
+        in->command_ns = stamp;
+        in->has_echo = true;
+        in->echo = ExpandEcho(m.echo_seq, last_published_);
+        if (m.enable_valid) {
+          in->has_enable = true;
+          in->enable = m.enable;
+        }
+        return;
+      }
+      case pc::Message::kHeartbeat: {
+        pc::Heartbeat m;
+        pc::Reject r = pc::Decode(f, &m);
+        if (r == pc::Reject::kNone) r = heartbeat_check_.Check(m.counter);
+        if (r != pc::Reject::kNone) {
+          ++rejected_;
+          return;
+        }
+        ++received_;
+        in->heartbeat_ns = stamp;
+        return;
+      }
+      case pc::Message::kFirmwareStatus: {
+        pc::FirmwareStatus m;
+        if (pc::Decode(f, &m) != pc::Reject::kNone) {
+          ++rejected_;
+          return;
+        }
+        ++received_;
+        return;
+      }
+      case pc::Message::kSensorMotion:
+      case pc::Message::kSensorForce:
+      case pc::Message::kDriverStatus:
+        return;  // the device side's own IDs from another node
+      case pc::Message::kUnknown:
+        ++rejected_;
+        return;
+    }
+  }
+
+  std::string endpoint_;
+  canbus::LocalBusRelay relay_;
+  std::thread relay_thread_;
+  std::atomic<bool> relay_stop_{false};
+  canbus::CanIface iface_;
+  pc::CounterCheck command_check_, heartbeat_check_;
+  std::uint8_t motion_counter_ = 0, force_counter_ = 0;
+  std::uint32_t last_published_ = 0;
+  std::int64_t next_reconnect_ = 0;
+  std::uint64_t published_ = 0, received_ = 0, rejected_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint) {
+  return std::make_unique<CanPort>(endpoint);
+}
+
+}  // namespace mrd::hil

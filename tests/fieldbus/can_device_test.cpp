@@ -1,0 +1,358 @@
+// The firmware's CAN device against a peer on the other end of a SOCK_SEQPACKET socketpair
+// (the same fd code as the local frame bus and SocketCAN): accepted samples, every kind of
+// bad input rejected and counted, commands within range with the sensor echo, heartbeat and
+// status rates, a peer that disappears, and reconnection through a relay.
+#include "mrd/firmware/io/can_device.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "mrd/canbus/local_bus.hpp"
+#include "mrd/canbus/socket.hpp"
+#include "mrd/firmware/fieldbus_io.hpp"
+#include "mrd/firmware/telemetry.hpp"
+#include "mrd/protocol/can_codec.hpp"
+
+namespace mrd::firmware {
+namespace {
+
+namespace pc = protocol::can;
+
+CanConfig AllRouted() {
+  CanConfig c;
+  c.enabled = true;
+  c.inputs = Bit(Input::kVelocity) | Bit(Input::kDisplacement) | Bit(Input::kDemand) |
+             Bit(Input::kBodyVelocity) | Bit(Input::kForce);
+  c.outputs =
+      Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) | Bit(Output::kStatus);
+  return c;
+}
+
+class CanDeviceTest : public ::testing::Test {
+ protected:
+  void SetUp() override { Make(AllRouted()); }
+  void TearDown() override {
+    device_.reset();
+    if (peer_ >= 0) close(peer_);
+  }
+  void Make(const CanConfig& config) {
+    device_.reset();
+    if (peer_ >= 0) close(peer_);
+    int sv[2];
+    ASSERT_EQ(socketpair(AF_UNIX, SOCK_SEQPACKET, 0, sv), 0);
+    peer_ = sv[1];
+    device_ = std::make_unique<CanDevice>(config, sv[0]);
+    std::string error;
+    ASSERT_TRUE(device_->Configure(&error)) << error;
+    ASSERT_TRUE(device_->Activate(&error)) << error;
+  }
+  void PeerSend(const can_frame& f) {
+    ASSERT_EQ(write(peer_, &f, sizeof f), static_cast<ssize_t>(sizeof f));
+  }
+  void SendMotion(double v, double x, std::uint16_t seq, std::uint8_t counter) {
+    can_frame f{};
+    ASSERT_EQ(pc::Encode(pc::SensorMotion{v, x, seq, counter}, &f), pc::Reject::kNone);
+    PeerSend(f);
+  }
+  // Frames the device sent, in order.
+  std::vector<can_frame> PeerDrain() {
+    std::vector<can_frame> out;
+    can_frame f{};
+    while (recv(peer_, &f, sizeof f, MSG_DONTWAIT) == static_cast<ssize_t>(sizeof f)) {
+      out.push_back(f);
+    }
+    return out;
+  }
+  IoStatus Read(SensorFrame* frame, IoError* why = nullptr) {
+    IoError w = IoError::kNone;
+    const IoStatus s = device_->Read(frame, &w);
+    if (why != nullptr) *why = w;
+    return s;
+  }
+  std::uint64_t Errors(IoError e) const {
+    return device_->counters().errors[static_cast<std::size_t>(e)];
+  }
+
+  // Counts heartbeat and status frames the device sent; keeps the last status.
+  void PeerDrainInto() {
+    for (const can_frame& f : PeerDrain()) {
+      pc::Heartbeat hb;
+      pc::FirmwareStatus st;
+      if (pc::Decode(f, &hb) == pc::Reject::kNone) ++heartbeats_;
+      if (pc::Decode(f, &st) == pc::Reject::kNone) {
+        ++statuses_;
+        last_status_ = st;
+      }
+    }
+  }
+
+  std::unique_ptr<CanDevice> device_;
+  int peer_ = -1;
+  int heartbeats_ = 0, statuses_ = 0;
+  pc::FirmwareStatus last_status_;
+};
+
+TEST_F(CanDeviceTest, AcceptedSensorFramesFillTheRoutedSignalsWithReceiveStamps) {
+  SensorFrame frame;
+  EXPECT_EQ(Read(&frame), IoStatus::kNoData);
+  const std::int64_t before = canbus::MonotonicNs();
+  SendMotion(12.5, -0.75, 100, 0);
+  can_frame f{};
+  ASSERT_EQ(pc::Encode(pc::SensorForce{-800.0, 3.25, 640.5, 0}, &f), pc::Reject::kNone);
+  PeerSend(f);
+  ASSERT_EQ(Read(&frame), IoStatus::kOk);
+  EXPECT_DOUBLE_EQ(frame.velocity.value, 12.5);
+  EXPECT_DOUBLE_EQ(frame.displacement.value, -0.75);
+  EXPECT_DOUBLE_EQ(frame.demand.value, -800.0);
+  EXPECT_DOUBLE_EQ(frame.body_velocity.value, 3.25);
+  EXPECT_DOUBLE_EQ(frame.force.value, 640.5);
+  EXPECT_GE(frame.velocity.stamp_ns, before);
+  EXPECT_LE(frame.velocity.stamp_ns, canbus::MonotonicNs());
+  EXPECT_EQ(device_->counters().rx_ok, 2U);
+  EXPECT_EQ(device_->counters().rx_rejected, 0U);
+  // Nothing new: kNoData, the values and their (now ageing) stamps stay.
+  const std::int64_t stamp = frame.velocity.stamp_ns;
+  EXPECT_EQ(Read(&frame), IoStatus::kNoData);
+  EXPECT_EQ(frame.velocity.stamp_ns, stamp);
+}
+
+TEST_F(CanDeviceTest, OnlyRoutedInputsAreMerged) {
+  CanConfig c = AllRouted();
+  c.inputs = Bit(Input::kVelocity);
+  Make(c);
+  SendMotion(5.0, 1.0, 1, 0);
+  SensorFrame frame;
+  frame.displacement = {42.0, 7};
+  ASSERT_EQ(Read(&frame), IoStatus::kOk);
+  EXPECT_DOUBLE_EQ(frame.velocity.value, 5.0);
+  EXPECT_DOUBLE_EQ(frame.displacement.value, 42.0);  // served by another bus: untouched
+  EXPECT_EQ(frame.displacement.stamp_ns, 7);
+}
+
+// Each kind of bad frame is rejected, counted under its reason, and changes nothing.
+TEST_F(CanDeviceTest, BadFramesAreRejectedCountedAndChangeNothing) {
+  SendMotion(1.0, 0.1, 1, 3);
+  SensorFrame frame;
+  ASSERT_EQ(Read(&frame), IoStatus::kOk);
+  const SensorFrame good = frame;
+
+  can_frame f{};
+  ASSERT_EQ(pc::Encode(pc::SensorMotion{9.0, 0.9, 2, 4}, &f), pc::Reject::kNone);
+  can_frame wrong_dlc = f;
+  wrong_dlc.len = 6;
+  PeerSend(wrong_dlc);
+  can_frame unknown = f;
+  unknown.can_id = 0x123;
+  PeerSend(unknown);
+  can_frame bad_crc = f;
+  bad_crc.data[1] ^= 0x20;
+  PeerSend(bad_crc);
+  can_frame out_of_range = f;
+  out_of_range.data[0] = 0x31;  // 30001 counts: 300.01 cm/s
+  out_of_range.data[1] = 0x75;
+  out_of_range.data[7] = pc::Checksum(out_of_range);
+  PeerSend(out_of_range);
+  SendMotion(9.0, 0.9, 2, 3);  // repeated counter
+  const char runt[3] = {1, 2, 3};
+  ASSERT_EQ(write(peer_, runt, sizeof runt), 3);  // not a can_frame at all
+
+  IoError why = IoError::kNone;
+  EXPECT_EQ(Read(&frame, &why), IoStatus::kNoData);  // rejects alone are not a bus fault
+  EXPECT_DOUBLE_EQ(frame.velocity.value, good.velocity.value);
+  EXPECT_EQ(frame.velocity.stamp_ns, good.velocity.stamp_ns);
+  const DeviceCounters c = device_->counters();
+  EXPECT_EQ(c.rx_ok, 1U);
+  EXPECT_EQ(c.rx_rejected, 6U);
+  EXPECT_EQ(Errors(IoError::kRejectedFrame), 4U);  // wrong DLC, unknown ID, repeated, runt
+  EXPECT_EQ(Errors(IoError::kCrc), 1U);
+  EXPECT_EQ(Errors(IoError::kBadValue), 1U);
+
+  // Stale counter (behind the last accepted 3): rejected; the sender's next one is accepted.
+  SendMotion(9.0, 0.9, 3, 12);
+  EXPECT_EQ(Read(&frame), IoStatus::kNoData);
+  EXPECT_EQ(device_->counters().rx_rejected, 7U);
+  SendMotion(9.0, 0.9, 4, 13);
+  EXPECT_EQ(Read(&frame), IoStatus::kOk);
+  EXPECT_DOUBLE_EQ(frame.velocity.value, 9.0);
+}
+
+TEST_F(CanDeviceTest, AFloodOfFramesIsDrainedInBoundedChunks) {
+  for (int i = 0; i < 2 * CanDevice::kMaxFramesPerRead; ++i) {
+    SendMotion(1.0, 0.0, static_cast<std::uint16_t>(i), static_cast<std::uint8_t>(i & 15));
+  }
+  SensorFrame frame;
+  ASSERT_EQ(Read(&frame), IoStatus::kOk);
+  EXPECT_EQ(device_->counters().rx_ok, static_cast<std::uint64_t>(CanDevice::kMaxFramesPerRead));
+  ASSERT_EQ(Read(&frame), IoStatus::kOk);
+  EXPECT_EQ(device_->counters().rx_ok, 2U * CanDevice::kMaxFramesPerRead);
+}
+
+TEST_F(CanDeviceTest, CommandCarriesSetPointEnableAndTheLatestSensorSeq) {
+  SendMotion(1.0, 0.0, 4242, 0);
+  SensorFrame frame;
+  ASSERT_EQ(Read(&frame), IoStatus::kOk);
+  IoError why = IoError::kNone;
+  ASSERT_EQ(device_->Write({1.75, true, false, 0}, &why), IoStatus::kOk);
+  ASSERT_EQ(device_->Write({0.0, false, true, 1}, &why), IoStatus::kOk);
+  std::vector<pc::DriverCommand> commands;
+  int heartbeats = 0;
+  for (const can_frame& f : PeerDrain()) {
+    pc::DriverCommand m;
+    pc::Heartbeat hb;
+    if (pc::Decode(f, &m) == pc::Reject::kNone) commands.push_back(m);
+    if (pc::Decode(f, &hb) == pc::Reject::kNone) ++heartbeats;
+  }
+  ASSERT_EQ(commands.size(), 2U);
+  EXPECT_DOUBLE_EQ(commands[0].volts, 1.75);
+  EXPECT_TRUE(commands[0].enable);
+  EXPECT_TRUE(commands[0].enable_valid);
+  EXPECT_FALSE(commands[0].safe);
+  EXPECT_EQ(commands[0].echo_seq, 4242);
+  EXPECT_DOUBLE_EQ(commands[1].volts, 0.0);
+  EXPECT_FALSE(commands[1].enable);
+  EXPECT_TRUE(commands[1].safe);
+  EXPECT_EQ(commands[1].counter, (commands[0].counter + 1) & 15);
+  EXPECT_EQ(heartbeats, 1);  // the first write; the next is a heartbeat period later
+  EXPECT_EQ(device_->counters().tx_ok, 3U);
+}
+
+TEST_F(CanDeviceTest, ACommandThatCannotBeRepresentedGoesOutAsTheSafeStateAndFails) {
+  for (double bad : {std::numeric_limits<double>::quiet_NaN(), 30.0, -1.0}) {
+    IoError why = IoError::kNone;
+    EXPECT_EQ(device_->Write({bad, true, false, 0}, &why), IoStatus::kFault);
+    EXPECT_EQ(why, IoError::kBadValue);
+  }
+  int commands = 0;
+  for (const can_frame& f : PeerDrain()) {
+    pc::DriverCommand m;
+    if (pc::Decode(f, &m) != pc::Reject::kNone) continue;
+    ++commands;
+    EXPECT_DOUBLE_EQ(m.volts, 0.0);
+    EXPECT_FALSE(m.enable);
+    EXPECT_TRUE(m.safe);
+  }
+  EXPECT_EQ(commands, 3);
+  EXPECT_EQ(Errors(IoError::kBadValue), 3U);
+}
+
+TEST_F(CanDeviceTest, HeartbeatAndStatusGoOutAtTheirOwnPeriods) {
+  CanConfig c = AllRouted();
+  c.heartbeat_period_ns = 5'000'000;
+  c.status_period_ns = 20'000'000;
+  Make(c);
+  TelemetrySnapshot stats;
+  stats.safe = false;
+  stats.active_causes = 0x41;
+  stats.overruns = 70000;
+  const auto start = std::chrono::steady_clock::now();
+  int writes = 0;
+  while (std::chrono::steady_clock::now() - start < std::chrono::milliseconds(100)) {
+    IoError why = IoError::kNone;
+    device_->Write({1.0, true, false, static_cast<std::uint64_t>(writes)}, &why);
+    device_->PublishStatus(stats);
+    ++writes;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    PeerDrainInto();
+  }
+  const double elapsed_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  // One per period started (the first at once), whatever the number of writes.
+  EXPECT_GE(heartbeats_, 1);
+  EXPECT_LE(heartbeats_, static_cast<int>(elapsed_ms / 5.0) + 1);
+  EXPECT_GE(statuses_, 1);
+  EXPECT_LE(statuses_, static_cast<int>(elapsed_ms / 20.0) + 1);
+  EXPECT_GT(writes, heartbeats_);
+  EXPECT_FALSE(last_status_.safe);
+  EXPECT_EQ(last_status_.active_causes, 0x41);
+  EXPECT_EQ(last_status_.overruns, 65535);  // saturated
+}
+
+TEST_F(CanDeviceTest, APeerThatDisappearsIsAFaultOnReadAndWrite) {
+  close(peer_);
+  peer_ = -1;
+  SensorFrame frame;
+  IoError why = IoError::kNone;
+  EXPECT_EQ(Read(&frame, &why), IoStatus::kFault);
+  EXPECT_EQ(why, IoError::kDisconnected);
+  EXPECT_EQ(device_->Write({0.0, false, true, 0}, &why), IoStatus::kFault);
+  EXPECT_EQ(why, IoError::kDisconnected);
+  EXPECT_EQ(Read(&frame, &why), IoStatus::kFault);  // stays faulted (cannot reopen an fd)
+  EXPECT_EQ(Errors(IoError::kDisconnected), 1U);
+}
+
+// Over the local frame bus: the relay goes away (the HIL exits) and comes back; the device
+// faults meanwhile, reopens rate-limited from the tick, and takes data again.
+TEST(CanDeviceLocalBus, ReconnectsWhenTheBusComesBack) {
+  const std::string path = "/tmp/mrd-can-device-test-" + std::to_string(getpid()) + ".sock";
+  auto relay = std::make_unique<canbus::LocalBusRelay>();
+  std::string error;
+  ASSERT_TRUE(relay->Open(path, &error)) << error;
+  CanConfig c = AllRouted();
+  c.local_bus = path;
+  CanDevice device(c);
+  ASSERT_TRUE(device.Configure(&error)) << error;
+  ASSERT_TRUE(device.Activate(&error)) << error;
+  for (int i = 0; i < 20 && relay->nodes() < 1; ++i) relay->Step(5);
+  ASSERT_EQ(relay->nodes(), 1U);
+
+  relay.reset();  // the bus disappears
+  SensorFrame frame;
+  IoError why = IoError::kNone;
+  EXPECT_EQ(device.Read(&frame, &why), IoStatus::kFault);
+  EXPECT_EQ(why, IoError::kDisconnected);
+  // Nobody serves: still faulted after the reconnect interval, and the tick never waits.
+  std::this_thread::sleep_for(std::chrono::milliseconds(120));
+  const std::int64_t t0 = canbus::MonotonicNs();
+  EXPECT_EQ(device.Read(&frame, &why), IoStatus::kFault);
+  EXPECT_LT(canbus::MonotonicNs() - t0, 50'000'000);
+  EXPECT_EQ(device.counters().reconnects, 0U);
+
+  relay = std::make_unique<canbus::LocalBusRelay>();
+  ASSERT_TRUE(relay->Open(path, &error)) << error;
+  const int peer = canbus::OpenLocalBusNode(path.c_str(), &error);
+  ASSERT_GE(peer, 0) << error;
+  bool ok = false;
+  for (int i = 0; i < 100 && !ok; ++i) {
+    relay->Step(2);
+    if (device.counters().reconnects > 0 && relay->nodes() == 2) {
+      can_frame f{};
+      ASSERT_EQ(pc::Encode(pc::SensorMotion{3.0, 0.3, 9, static_cast<std::uint8_t>(i & 15)}, &f),
+                pc::Reject::kNone);
+      ASSERT_EQ(write(peer, &f, sizeof f), static_cast<ssize_t>(sizeof f));
+      relay->Step(2);
+    }
+    ok = device.Read(&frame, &why) == IoStatus::kOk;
+    std::this_thread::sleep_for(std::chrono::milliseconds(3));
+  }
+  EXPECT_TRUE(ok);
+  EXPECT_EQ(device.counters().reconnects, 1U);
+  EXPECT_DOUBLE_EQ(frame.velocity.value, 3.0);
+  close(peer);
+}
+
+TEST(CanDeviceConfigure, AMissingBusIsAClearStartUpError) {
+  CanConfig c = AllRouted();
+  c.local_bus = "/tmp/mrd-no-such-bus.sock";
+  CanDevice device(c);
+  std::string error;
+  EXPECT_FALSE(device.Configure(&error));
+  EXPECT_NE(error.find("cannot connect to local bus /tmp/mrd-no-such-bus.sock"), std::string::npos)
+      << error;
+  CanConfig s = AllRouted();
+  s.interface = "mrdcan9";
+  CanDevice board(s);
+  EXPECT_FALSE(board.Configure(&error));
+  EXPECT_NE(error.find("mrdcan9"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace mrd::firmware
