@@ -130,6 +130,9 @@ TEST(FirmwareHardeningTest, ConfigReferenceDefaultsAreTheBuiltInDefaults) {
   std::istringstream in(ref);
   int keys = 0;
   while (std::getline(in, line)) {
+    // A bus section's presence enables that bus, which then needs its routing (inputs,
+    // outputs, an endpoint): defaults alone are no valid bus. The bus sections come last.
+    if (line == "## [can]") break;
     if (line.rfind("## [", 0) == 0) toml += line.substr(3) + "\n";
     if (line.rfind("| `", 0) != 0) continue;
     const auto k0 = line.find('`') + 1, k1 = line.find('`', k0);

@@ -29,7 +29,8 @@ std::string WriteToyData(const test::TempDir& dir) {
   for (std::size_t k = 0; k < n; ++k) {
     t[k] = 0.01 * static_cast<double>(k);
     u[k] = 2.0 * g.Uniform() - 1.0;
-    if (k > 0) y[k] = 0.5 * y[k - 1] + u[k - 1] + 0.3 * u[k - 1] * u[k - 1];
+    // u(k) enters directly, so a model of it can be exported (inverted in u).
+    y[k] = (k > 0 ? 0.5 * y[k - 1] : 0.0) + u[k] + 0.3 * u[k] * u[k];
   }
   WriteCsv(dir.File("toy.csv"), {"t", "u", "y"}, {t, u, y});
   return dir.File("toy.csv");
@@ -47,7 +48,7 @@ name = "u"
 signal = "u"
 transform = "identity"
 powers = [1, 2]
-delays = [1]
+delays = [0]
 [limits]
 max_factors = 1
 [cost]
