@@ -99,4 +99,59 @@ double Iso8608Road::Height(double s_m) const {
   return h;
 }
 
+RoadTrack::RoadTrack(const Iso8608Road& road, double ds_m)
+    : omega_(road.omega_), phase_(road.phase_), amp_(road.amp_), amp_omega_(road.amp_), ds_(ds_m) {
+  const std::size_t n = amp_.size();
+  c_.resize(n);
+  s_.resize(n);
+  rc_.resize(n);
+  rs_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    amp_omega_[i] = amp_[i] * omega_[i];
+    rc_[i] = std::cos(omega_[i] * ds_m);
+    rs_[i] = std::sin(omega_[i] * ds_m);
+  }
+  Reset(0.0);
+}
+
+void RoadTrack::Reset(double s0_m) {
+  s0_ = s0_m;
+  k_ = 0;
+  Anchor();
+}
+
+void RoadTrack::Anchor() {
+  const double s = distance_m();
+  for (std::size_t i = 0; i < c_.size(); ++i) {
+    const double arg = omega_[i] * s + phase_[i];
+    c_[i] = std::cos(arg);
+    s_[i] = std::sin(arg);
+  }
+  Sum();
+}
+
+void RoadTrack::Advance() {
+  ++k_;
+  if (k_ % kReanchor == 0) {
+    Anchor();
+    return;
+  }
+  for (std::size_t i = 0; i < c_.size(); ++i) {
+    const double c = c_[i] * rc_[i] - s_[i] * rs_[i];  // cos(a + d)
+    s_[i] = s_[i] * rc_[i] + c_[i] * rs_[i];           // sin(a + d)
+    c_[i] = c;
+  }
+  Sum();
+}
+
+void RoadTrack::Sum() {
+  double h = 0.0, dh = 0.0;
+  for (std::size_t i = 0; i < c_.size(); ++i) {
+    h += amp_[i] * c_[i];
+    dh -= amp_omega_[i] * s_[i];
+  }
+  height_ = h;
+  slope_ = dh;
+}
+
 }  // namespace mrd

@@ -50,6 +50,7 @@ QuarterCarPlant::QuarterCarPlant(const SpencerParams& damper, const QuarterCarPa
     : damper_(damper, 1),
       car_(car),
       road_(road),
+      track_(road_, car.speed_m_s * period_s),
       period_s_(period_s),
       weight_n_((car.sprung_mass_kg + car.unsprung_mass_kg) * kGravity) {
   if (car_.substeps < 1) car_.substeps = 1;
@@ -81,9 +82,9 @@ QuarterCarPlant::State QuarterCarPlant::Rates(const State& s, double zr, double 
 
 void QuarterCarPlant::Reset() {
   steps_ = 0;
-  double slope;
-  road_.Evaluate(0.0, &zr_, &slope);
-  vr_ = car_.speed_m_s * slope;
+  track_.Reset(0.0);
+  zr_ = track_.height_m();
+  vr_ = car_.speed_m_s * track_.slope();
   state_ = State{zr_, 0.0, zr_, 0.0, SpencerState{0.0, 0.0, 0.0}};
   f0_ = 0.0;
   f0_ = damper_.ForceAt(state_.d, 0.0, 0.0);  // -k1 x0: balanced by the static preload
@@ -94,9 +95,9 @@ PlantSample QuarterCarPlant::Step(double volts) {
   const double E = std::isfinite(volts) ? std::fmin(std::fmax(volts, 0.0), car_.max_volts) : 0.0;
   const double T = period_s_;
   const double zr0 = zr_, vr0 = vr_;
-  double zr1, slope1;
-  road_.Evaluate(car_.speed_m_s * static_cast<double>(steps_ + 1) * T, &zr1, &slope1);
-  const double vr1 = car_.speed_m_s * slope1;
+  track_.Advance();
+  const double zr1 = track_.height_m();
+  const double vr1 = car_.speed_m_s * track_.slope();
   // Road height at normalised time a in [0, 1] (cubic Hermite; its rate is not needed: the
   // tyre is a spring).
   const auto road = [&](double a) {

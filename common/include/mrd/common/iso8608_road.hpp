@@ -65,12 +65,42 @@ class Iso8608Road {
   const RoadParams& params() const { return params_; }
 
  private:
+  friend class RoadTrack;
   RoadParams params_;
   std::vector<double> omega_;  // 2 pi n_i [rad/m]
   std::vector<double> amp_;    // a_i [m]
   std::vector<double> phase_;  // phi_i [rad]
   double variance_ = 0.0;
   double slope_variance_ = 0.0;
+};
+
+// The road along equally spaced distances s0 + k ds, as a plant steps it: each component's
+// phasor (cos, sin) is rotated by omega_i ds per Advance (a few multiplications instead of a
+// cosine and a sine), re-anchored exactly every kReanchor steps so rounding cannot drift
+// (agrees with Evaluate to ~1e-13 m). Holds its own copy of the components (no reference to
+// the road). Allocation only in the constructor.
+class RoadTrack {
+ public:
+  static constexpr int kReanchor = 1024;
+  RoadTrack(const Iso8608Road& road, double ds_m);
+  // Exact at distance s0 [m]. Real-time safe.
+  void Reset(double s0_m);
+  // To the next distance. Real-time safe.
+  void Advance();
+  double distance_m() const { return s0_ + static_cast<double>(k_) * ds_; }
+  double height_m() const { return height_; }
+  double slope() const { return slope_; }
+
+ private:
+  void Anchor();
+  void Sum();
+  std::vector<double> omega_, phase_, amp_, amp_omega_;  // copies of the road's components
+  double ds_;
+  double s0_ = 0.0;
+  std::int64_t k_ = 0;
+  std::vector<double> c_, s_;      // cos, sin of each component's phase
+  std::vector<double> rc_, rs_;    // cos, sin of omega_i ds
+  double height_ = 0.0, slope_ = 0.0;
 };
 
 }  // namespace mrd

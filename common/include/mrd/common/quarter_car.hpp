@@ -18,8 +18,8 @@
 // r (damper travel per wheel travel), so it adds r^2 of its damping at the wheel.
 //
 // Coupling: body, wheel and damper (7 states) advance together in one RK4 step, `substeps` per
-// period; the road is the cubic Hermite of (zr, zr') between the period's ends (evaluated once
-// per period). The voltage is held over the period and enters through the damper's own field
+// period; the road is the cubic Hermite of (zr, zr') between the period's ends (a RoadTrack
+// advanced once per period). The voltage is held over the period and enters through the damper's own field
 // filter u' = -eta (u - E). Reset starts at rest on the road height at t = 0, so a run should
 // discard a settling time (~2 s) before scoring.
 
@@ -96,6 +96,7 @@ class QuarterCarPlant {
   SpencerDamper damper_;
   QuarterCarParams car_;
   Iso8608Road road_;
+  RoadTrack track_;  // road_ at speed * period steps
   double period_s_;
   double weight_n_;
   double f0_ = 0.0;
