@@ -6,8 +6,8 @@
 namespace mrd {
 namespace {
 
-constexpr double kN0 = 0.1;            // reference spatial frequency [cycles/m]
-constexpr double kGd0ClassA = 16e-6;   // [m^3]
+constexpr double kN0 = 0.1;           // reference spatial frequency [cycles/m]
+constexpr double kGd0ClassA = 16e-6;  // [m^3]
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // splitmix64: tiny, fully specified, so a seed gives the same road everywhere.

@@ -62,8 +62,8 @@ TEST(QuarterCarTest, SampleFieldsAreTheDamperSideOfTheCar) {
   EXPECT_EQ(q.plant.demand, 0.0);
   EXPECT_NEAR(q.road_m, plant.road().Height(60.0), 1e-12);
   // Body: ms a = -ks d - r (f - f0), with f0 = 0 for the paper preset (x0 = 0).
-  const double expect = (-car.spring_n_per_m * (s.zs - s.zu) - car.motion_ratio * q.plant.force) /
-                        car.sprung_mass_kg;
+  const double expect =
+      (-car.spring_n_per_m * (s.zs - s.zu) - car.motion_ratio * q.plant.force) / car.sprung_mass_kg;
   EXPECT_NEAR(q.body_accel, expect, 1e-9);
   EXPECT_NEAR(q.tyre_load_n, car.tyre_n_per_m * (q.road_m - s.zu), 1e-9);
   EXPECT_EQ(plant.Sample().x, q.plant.x);

@@ -98,8 +98,8 @@ class RoadTrack {
   double ds_;
   double s0_ = 0.0;
   std::int64_t k_ = 0;
-  std::vector<double> c_, s_;      // cos, sin of each component's phase
-  std::vector<double> rc_, rs_;    // cos, sin of omega_i ds
+  std::vector<double> c_, s_;    // cos, sin of each component's phase
+  std::vector<double> rc_, rs_;  // cos, sin of omega_i ds
   double height_ = 0.0, slope_ = 0.0;
 };
 

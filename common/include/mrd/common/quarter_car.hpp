@@ -19,9 +19,9 @@
 //
 // Coupling: body, wheel and damper (7 states) advance together in one RK4 step, `substeps` per
 // period; the road is the cubic Hermite of (zr, zr') between the period's ends (a RoadTrack
-// advanced once per period). The voltage is held over the period and enters through the damper's own field
-// filter u' = -eta (u - E). Reset starts at rest on the road height at t = 0, so a run should
-// discard a settling time (~2 s) before scoring.
+// advanced once per period). The voltage is held over the period and enters through the damper's
+// own field filter u' = -eta (u - E). Reset starts at rest on the road height at t = 0, so a run
+// should discard a settling time (~2 s) before scoring.
 
 #include <cstdint>
 
@@ -33,28 +33,28 @@ namespace mrd {
 
 // Defaults: a light passenger car corner (docs in quarter_car.cpp's header comment).
 struct QuarterCarParams {
-  double sprung_mass_kg = 300.0;     // ms
-  double unsprung_mass_kg = 40.0;    // mu
-  double spring_n_per_m = 20000.0;   // ks, wheel rate
-  double tyre_n_per_m = 180000.0;    // kt
-  double motion_ratio = 0.7;         // r, damper travel / wheel travel, (0, 1]
-  double speed_m_s = 20.0;           // vehicle speed, >= 0
-  double max_volts = 5.0;            // commands are applied clamped to [0, max_volts] [V]
-  int substeps = 10;                 // RK4 steps per period, 1..10000
+  double sprung_mass_kg = 300.0;    // ms
+  double unsprung_mass_kg = 40.0;   // mu
+  double spring_n_per_m = 20000.0;  // ks, wheel rate
+  double tyre_n_per_m = 180000.0;   // kt
+  double motion_ratio = 0.7;        // r, damper travel / wheel travel, (0, 1]
+  double speed_m_s = 20.0;          // vehicle speed, >= 0
+  double max_volts = 5.0;           // commands are applied clamped to [0, max_volts] [V]
+  int substeps = 10;                // RK4 steps per period, 1..10000
 
   bool IsValid(const char** reason) const;
 };
 
 // The quarter car's own outputs at one instant.
 struct QuarterCarSample {
-  PlantSample plant;            // x, v: damper [cm, cm/s]; body_velocity [cm/s]; force:
-                                // damper [N]; demand: 0 (the law makes its own)
-  double body_accel = 0.0;      // zs'' [m/s^2]
-  double travel_cm = 0.0;       // suspension (wheel) travel zs - zu [cm]
-  double tyre_load_n = 0.0;     // tyre load variation Ft [N] (-W: wheel off the ground)
-  double road_m = 0.0;          // road height under the tyre [m]
-  double distance_m = 0.0;      // travelled [m]
-  bool airborne = false;        // tyre force at its floor (lift-off)
+  PlantSample plant;         // x, v: damper [cm, cm/s]; body_velocity [cm/s]; force:
+                             // damper [N]; demand: 0 (the law makes its own)
+  double body_accel = 0.0;   // zs'' [m/s^2]
+  double travel_cm = 0.0;    // suspension (wheel) travel zs - zu [cm]
+  double tyre_load_n = 0.0;  // tyre load variation Ft [N] (-W: wheel off the ground)
+  double road_m = 0.0;       // road height under the tyre [m]
+  double distance_m = 0.0;   // travelled [m]
+  bool airborne = false;     // tyre force at its floor (lift-off)
 };
 
 class QuarterCarPlant {
@@ -111,9 +111,9 @@ class RideMetrics {
  public:
   void Add(const QuarterCarSample& s);
   std::uint64_t count() const { return n_; }
-  double body_accel_rms() const;  // [m/s^2]
-  double travel_rms_cm() const;   // [cm]
-  double tyre_load_rms_n() const; // [N]
+  double body_accel_rms() const;                        // [m/s^2]
+  double travel_rms_cm() const;                         // [cm]
+  double tyre_load_rms_n() const;                       // [N]
   double max_travel_cm() const { return max_travel_; }  // |zs - zu| peak [cm]
   std::uint64_t lift_off() const { return lift_off_; }  // samples with the wheel airborne
 
