@@ -156,6 +156,9 @@ void RideMetrics::Add(const QuarterCarSample& s) {
   travel2_ += s.travel_cm * s.travel_cm;
   tyre2_ += s.tyre_load_n * s.tyre_load_n;
   max_travel_ = std::fmax(max_travel_, std::fabs(s.travel_cm));
+  max_force_ = std::fmax(max_force_, std::fabs(s.plant.force));
+  v2_ += s.plant.v * s.plant.v;
+  max_v_ = std::fmax(max_v_, std::fabs(s.plant.v));
   if (s.airborne) ++lift_off_;
 }
 
@@ -167,6 +170,9 @@ double RideMetrics::travel_rms_cm() const {
 }
 double RideMetrics::tyre_load_rms_n() const {
   return n_ ? std::sqrt(tyre2_ / static_cast<double>(n_)) : 0.0;
+}
+double RideMetrics::damper_velocity_rms() const {
+  return n_ ? std::sqrt(v2_ / static_cast<double>(n_)) : 0.0;
 }
 
 RideMetrics RunConstantVoltage(QuarterCarPlant* plant, double volts, double duration_s,

@@ -69,8 +69,10 @@ LawRun RunLaw(QuarterCarPlant* plant, ControlMode mode, double gain) {
 void Print(const char* name, const RideMetrics& m) {
   std::printf(
       "  %-26s body acc RMS %.4f m/s^2  travel RMS %.3f cm  tyre load RMS %6.1f N"
-      "  (peak travel %.2f cm, lift-off %llu)\n",
-      name, m.body_accel_rms(), m.travel_rms_cm(), m.tyre_load_rms_n(), m.max_travel_cm(),
+      "\n  %-26s peaks: travel %.2f cm, damper force %.0f N; damper velocity RMS %.1f cm/s, "
+      "peak %.0f cm/s; lift-off %llu\n",
+      name, m.body_accel_rms(), m.travel_rms_cm(), m.tyre_load_rms_n(), "", m.max_travel_cm(),
+      m.max_force_n(), m.damper_velocity_rms(), m.max_damper_velocity(),
       static_cast<unsigned long long>(m.lift_off()));
 }
 
@@ -151,10 +153,11 @@ TEST(QuarterCarSkyhookTest, RunsFasterThanRealTime) {
   const auto t2 = Clock::now();
   const double plant_s = std::chrono::duration<double>(t1 - t0).count();
   const double loop_s = std::chrono::duration<double>(t2 - t1).count();
-  std::printf("%.0f s simulated: plant alone %.3f s (%.0fx real time, %.1f us/step), plant + "
-              "controller %.3f s (%.0fx)\n",
-              kDuration, plant_s, kDuration / plant_s, plant_s / kDuration * 1e3, loop_s,
-              kDuration / loop_s);
+  std::printf(
+      "%.0f s simulated: plant alone %.3f s (%.0fx real time, %.1f us/step), plant + "
+      "controller %.3f s (%.0fx)\n",
+      kDuration, plant_s, kDuration / plant_s, plant_s / kDuration * 1e3, loop_s,
+      kDuration / loop_s);
   EXPECT_LT(loop_s, kDuration);
 }
 

@@ -111,15 +111,19 @@ class RideMetrics {
  public:
   void Add(const QuarterCarSample& s);
   std::uint64_t count() const { return n_; }
-  double body_accel_rms() const;                        // [m/s^2]
-  double travel_rms_cm() const;                         // [cm]
-  double tyre_load_rms_n() const;                       // [N]
-  double max_travel_cm() const { return max_travel_; }  // |zs - zu| peak [cm]
-  std::uint64_t lift_off() const { return lift_off_; }  // samples with the wheel airborne
+  double body_accel_rms() const;                         // [m/s^2]
+  double travel_rms_cm() const;                          // [cm]
+  double tyre_load_rms_n() const;                        // [N]
+  double max_travel_cm() const { return max_travel_; }   // |zs - zu| peak [cm]
+  double max_force_n() const { return max_force_; }      // |damper force| peak [N]
+  double damper_velocity_rms() const;                    // damper xdot RMS [cm/s]
+  double max_damper_velocity() const { return max_v_; }  // |damper xdot| peak [cm/s]
+  std::uint64_t lift_off() const { return lift_off_; }   // samples with the wheel airborne
 
  private:
   std::uint64_t n_ = 0;
-  double acc2_ = 0.0, travel2_ = 0.0, tyre2_ = 0.0, max_travel_ = 0.0;
+  double acc2_ = 0.0, travel2_ = 0.0, tyre2_ = 0.0, v2_ = 0.0;
+  double max_travel_ = 0.0, max_force_ = 0.0, max_v_ = 0.0;
   std::uint64_t lift_off_ = 0;
 };
 

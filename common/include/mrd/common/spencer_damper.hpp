@@ -71,7 +71,7 @@ class SpencerDamper {
   // Pure rates of (y, z, u) and force [N] at an arbitrary state: for integrators that couple
   // the damper with other dynamics in one RK4 step (quarter_car.hpp). Real-time safe.
   SpencerState Derivative(const SpencerState& s, double x, double xdot, double E) const;
-  double ForceAt(const SpencerState& s, double x, double xdot) const;
+  double ForceAt(const SpencerState& at, double x, double xdot) const;
 
   const SpencerState& state() const { return state_; }
   const SpencerParams& params() const { return params_; }
