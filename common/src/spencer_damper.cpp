@@ -90,10 +90,12 @@ SpencerState SpencerDamper::Derivative(const SpencerState& s, double x, double x
   return d;
 }
 
-double SpencerDamper::Force(double x, double xdot) const {
+double SpencerDamper::Force(double x, double xdot) const { return ForceAt(state_, x, xdot); }
+
+double SpencerDamper::ForceAt(const SpencerState& at, double x, double xdot) const {
   const SpencerParams& p = params_;
-  const double c1 = p.c1a + p.c1b * state_.u;
-  return c1 * Ydot(state_, x, xdot) + p.k1 * (x - p.x0);
+  const double c1 = p.c1a + p.c1b * at.u;
+  return c1 * Ydot(at, x, xdot) + p.k1 * (x - p.x0);
 }
 
 double SpencerDamper::Step(double dt, double x0, double v0, double x1, double v1, double E) {

@@ -68,12 +68,16 @@ class SpencerDamper {
   // Force [N] for displacement x [cm], velocity xdot [cm/s] at the current state.
   double Force(double x, double xdot) const;
 
+  // Pure rates of (y, z, u) and force [N] at an arbitrary state: for integrators that couple
+  // the damper with other dynamics in one RK4 step (quarter_car.hpp). Real-time safe.
+  SpencerState Derivative(const SpencerState& s, double x, double xdot, double E) const;
+  double ForceAt(const SpencerState& at, double x, double xdot) const;
+
   const SpencerState& state() const { return state_; }
   const SpencerParams& params() const { return params_; }
   int substeps() const { return substeps_; }
 
  private:
-  SpencerState Derivative(const SpencerState& s, double x, double xdot, double E) const;
   double Ydot(const SpencerState& s, double x, double xdot) const;
 
   SpencerParams params_;
