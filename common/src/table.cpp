@@ -65,9 +65,9 @@ InversionCheck CheckInversion(const CoefficientTable& table) {
     int d = 0;
     for (std::size_t f = 0; f < m.terms[i].num_factors; ++f) {
       const Factor& fac = m.terms[i].factors[f];
-      const Regressor& reg = m.regressors[fac.regressor];
-      if (reg.channel != table.input_channel || fac.delay != 0) continue;
-      if (reg.transform != Transform::kIdentity && reg.transform != Transform::kLowPass) {
+      if (!IsDirectInput(table, fac)) continue;
+      const Transform tr = m.regressors[fac.regressor].transform;
+      if (tr != Transform::kIdentity && tr != Transform::kLowPass) {
         return {InversionProblem::kTransform, static_cast<std::uint8_t>(i), 0};
       }
       d += fac.power;

@@ -98,16 +98,11 @@ Error Inverter::Configure(const CoefficientTable& table) {
     int d = 0;
     for (std::size_t f = 0; f < m.terms[i].num_factors; ++f) {
       const Factor& fac = m.terms[i].factors[f];
-      const Regressor& reg = m.regressors[fac.regressor];
-      if (reg.channel != table.input_channel || fac.delay != 0) continue;
-      if (reg.transform != Transform::kIdentity && reg.transform != Transform::kLowPass) {
-        return Error::kNotInvertible;  // not affine in E(k)
-      }
+      if (!IsDirectInput(table, fac)) continue;  // CheckInversion: identity or low-pass
       is_input[i][f] = true;
-      low_pass[i] = low_pass[i] || reg.transform == Transform::kLowPass;
+      low_pass[i] = low_pass[i] || m.regressors[fac.regressor].transform == Transform::kLowPass;
       d += fac.power;
     }
-    if (d > kMaxInputDegree) return Error::kNotInvertible;
     degree[i] = static_cast<std::uint8_t>(d);
     max_degree = d > max_degree ? d : max_degree;
   }

@@ -76,6 +76,11 @@ struct InversionCheck {
 // Assumes table.Validate() == kOk. Never allocates.
 InversionCheck CheckInversion(const CoefficientTable& table);
 
+// True when the factor is the input E(k) itself: the table's input channel at delay 0.
+inline bool IsDirectInput(const CoefficientTable& table, const Factor& factor) {
+  return factor.delay == 0 && table.model.regressors[factor.regressor].channel == table.input_channel;
+}
+
 // Encodes a table into its fixed-size image. Refuses (never truncates) a table that does not
 // validate: kCapacityExceeded, kOutOfRange, kNonFinite, kInvalidArgument.
 // No allocation; unused slots are written as zeros, so equal tables give equal bytes.
