@@ -90,6 +90,7 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
         latency_us.push_back(static_cast<double>(fresh.command_ns - published_ns[slot]) * 1e-3);
       }
     }
+    if (carries_enable && in.enable && fresh.has_enable && !fresh.enable) ++r.enable_falls;
     carries_enable = carries_enable || fresh.has_enable;
     carries_heartbeat = carries_heartbeat || fresh.heartbeat_ns != 0;
     in = fresh;
@@ -102,6 +103,15 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
     double applied = 0.0;
     if (driven && std::isfinite(set_point)) applied = std::clamp(set_point, 0.0, o.e_max);
     r.last_applied_v = applied;
+    const double t_s = static_cast<double>(r.steps) * o.period_s;
+    const bool fault_window = o.fault_start_s >= 0.0 && t_s >= o.fault_start_s;
+    const bool fault_line = fault_window && t_s < o.fault_end_s;
+    if (fault_line) {
+      ++r.fault_steps;
+      if (driven) ++r.fault_driven_steps;
+    } else if (fault_window && driven) {
+      ++r.driven_after_fault_steps;
+    }
 
     // Step the plant and publish.
     sample = plant.Step(applied);
@@ -116,6 +126,7 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
     SensorOutput out;
     out.sample = sample;
     out.seq = seq;
+    out.fault_line = fault_line;
     out.t_ns = NowNs();
     published_seq[seq % kRing] = seq;
     published_ns[seq % kRing] = out.t_ns;
