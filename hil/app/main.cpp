@@ -91,6 +91,7 @@ nlohmann::json ToJson(const mrd::hil::ServeResult& r) {
   j["last_applied_v"] = r.last_applied_v;
   j["fault_steps"] = r.fault_steps;
   j["fault_driven_steps"] = r.fault_driven_steps;
+  j["fault_reaction_steps"] = r.fault_reaction_steps;
   j["driven_after_fault_steps"] = r.driven_after_fault_steps;
   j["enable_falls"] = r.enable_falls;
   j["latency_us"] = {{"count", r.latency.count},

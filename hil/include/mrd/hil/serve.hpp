@@ -48,9 +48,10 @@ struct ServeResult {
   double rms_tracking_error_n = 0.0;       // RMS of force - demand over enabled steps [N]
   double normalised_tracking_error = 0.0;  // ||f - d|| / ||d|| over enabled steps
   double last_applied_v = 0.0;
-  std::uint64_t fault_steps = 0;           // steps with the fault line asserted
-  std::uint64_t fault_driven_steps = 0;    // of those, steps with the coil driven
-  std::uint64_t driven_after_fault_steps = 0;  // steps with the coil driven after the fault
+  std::uint64_t fault_steps = 0;           // steps that published the fault line asserted
+  std::uint64_t fault_driven_steps = 0;    // steps driven after one that published it asserted
+  std::uint64_t fault_reaction_steps = 0;  // from the first assertion to the coil off (0: never)
+  std::uint64_t driven_after_fault_steps = 0;  // steps with the coil driven after the window
   std::uint64_t enable_falls = 0;          // enable high -> low transitions heard
   LatencyStats latency;                    // sensor publish -> command computed from it
   std::vector<std::pair<std::string, PortCounters>> ports;
