@@ -6,9 +6,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "gpio_test_peer.hpp"
 #include "mrd/firmware/io/devices.hpp"
@@ -261,6 +263,31 @@ TEST(GpioDevice, StartUpErrorsSayWhy) {
   SensorFrame f;
   EXPECT_EQ(board.Read(&f, &why), IoStatus::kFault);
   EXPECT_EQ(why, IoError::kDisconnected);
+}
+
+// The device's work per period on the simulated chip (Read with ~5 edges + Write), measured
+// and printed; the bound is loose (a loaded VM), the point is the figure.
+TEST(GpioDevice, WorkPerPeriodIsMicroseconds) {
+  GpioPeer peer("cost");
+  ASSERT_TRUE(peer.ok()) << peer.error();
+  Started s = Start(ConfigFor(peer));
+  ASSERT_NE(s.device, nullptr) << s.error;
+  SensorFrame f;
+  IoError why = IoError::kNone;
+  std::vector<double> us;
+  for (int k = 0; k < 5000; ++k) {
+    peer.MoveTo(peer.count() + (k % 400 < 200 ? 5 : -5));
+    const std::int64_t t0 = sim_gpio::MonotonicNs();
+    ReadOnce(*s.device, &f, &why);
+    s.device->Write({1.0, true, false, static_cast<std::uint64_t>(k)}, &why);
+    us.push_back(static_cast<double>(sim_gpio::MonotonicNs() - t0) * 1e-3);
+  }
+  std::sort(us.begin(), us.end());
+  const double median = us[us.size() / 2], p99 = us[us.size() * 99 / 100], max = us.back();
+  std::printf("gpio device Read+Write per period (5 edges): median %.2f us, p99 %.2f us, "
+              "max %.2f us\n", median, p99, max);
+  EXPECT_EQ(s.device->counters().rx_ok, 25000U);
+  EXPECT_LT(median, 100.0);
 }
 
 TEST(GpioDevice, TheFactoryBuildsIt) {
