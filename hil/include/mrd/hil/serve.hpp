@@ -27,7 +27,8 @@ struct ServeOptions {
   double e_max = 2.25;                 // [V], the invariant's upper bound
   double heartbeat_timeout_s = 0.05;   // no heartbeat for this long: coil to 0 V
   // The fault line is asserted from fault_start_s to fault_end_s (seconds since the start of
-  // serving) on the ports that carry one (GPIO); fault_start_s < 0: never.
+  // serving) on the ports that carry one (GPIO line, Modbus sensor block); fault_start_s < 0:
+  // never.
   double fault_start_s = -1.0;
   double fault_end_s = -1.0;
 };
