@@ -5,13 +5,16 @@
 #include <nlohmann/json.hpp>
 
 #include <atomic>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "mrd/hil/gpio_port.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/hil/serve.hpp"
 
@@ -40,7 +43,9 @@ std::unique_ptr<mrd::hil::PlantPort> MakePort(const std::string& spec, std::stri
   } else if (transport == "modbus-rtu") {
     port = mrd::hil::MakeModbusRtuPort(endpoint);
   } else if (transport == "gpio") {
-    port = mrd::hil::MakeGpioPort(endpoint);
+    mrd::hil::GpioPortConfig gpio;
+    if (!mrd::hil::ParseGpioEndpoint(endpoint, &gpio, error)) return nullptr;
+    port = mrd::hil::MakeGpioPort(gpio);
   } else {
     *error = "--port '" + spec + "': unknown transport '" + transport +
              "' (can, modbus-tcp, modbus-rtu, gpio)";
@@ -48,6 +53,28 @@ std::unique_ptr<mrd::hil::PlantPort> MakePort(const std::string& spec, std::stri
   }
   if (port == nullptr) *error = "--port '" + spec + "': transport not available in this build";
   return port;
+}
+
+// "START:END" seconds, 0 <= START < END -> the fault window; false with *error.
+bool ParseFaultWindow(const std::string& spec, mrd::hil::ServeOptions* o, std::string* error) {
+  const auto colon = spec.find(':');
+  try {
+    std::size_t n1 = 0, n2 = 0;
+    if (colon == std::string::npos) throw std::invalid_argument(spec);
+    const std::string a = spec.substr(0, colon), b = spec.substr(colon + 1);
+    o->fault_start_s = std::stod(a, &n1);
+    o->fault_end_s = std::stod(b, &n2);
+    if (n1 != a.size() || n2 != b.size()) throw std::invalid_argument(spec);
+  } catch (const std::exception&) {
+    *error = "--fault-line '" + spec + "': expected START:END in seconds";
+    return false;
+  }
+  if (!(o->fault_start_s >= 0.0 && o->fault_end_s > o->fault_start_s &&
+        std::isfinite(o->fault_end_s))) {
+    *error = "--fault-line '" + spec + "': needs 0 <= START < END";
+    return false;
+  }
+  return true;
 }
 
 nlohmann::json ToJson(const mrd::hil::ServeResult& r) {
@@ -62,6 +89,11 @@ nlohmann::json ToJson(const mrd::hil::ServeResult& r) {
   j["rms_tracking_error_n"] = r.rms_tracking_error_n;
   j["normalised_tracking_error"] = r.normalised_tracking_error;
   j["last_applied_v"] = r.last_applied_v;
+  j["fault_steps"] = r.fault_steps;
+  j["fault_driven_steps"] = r.fault_driven_steps;
+  j["fault_reaction_steps"] = r.fault_reaction_steps;
+  j["driven_after_fault_steps"] = r.driven_after_fault_steps;
+  j["enable_falls"] = r.enable_falls;
   j["latency_us"] = {{"count", r.latency.count},
                      {"median", r.latency.median_us},
                      {"p99", r.latency.p99_us},
@@ -86,7 +118,9 @@ int main(int argc, char** argv) {
   bool json = false;
   serve->add_option("--port", port_specs,
                     "TRANSPORT=ENDPOINT, repeatable: can=SOCKET_PATH|IFACE, "
-                    "modbus-tcp=HOST:PORT, modbus-rtu=PTY_LINK_PATH, gpio=SIM_CHIP_PATH")
+                    "modbus-tcp=HOST:PORT, modbus-rtu=PTY_LINK_PATH, "
+                    "gpio=SIM_CHIP_PATH[,KEY=VALUE...] (keys encoder_a=4 encoder_b=5 fault=6 "
+                    "enable=17 heartbeat=18 counts_per_cm=400 fault_active_low=0)")
       ->required();
   serve->add_option("--duration", o.duration_s, "seconds to run (<= 0: until SIGINT/SIGTERM)")
       ->capture_default_str();
@@ -101,6 +135,10 @@ int main(int argc, char** argv) {
   serve->add_option("--heartbeat-timeout", o.heartbeat_timeout_s,
                     "driver drops the coil to 0 V without a heartbeat this long [s]")
       ->check(CLI::Range(1e-3, 10.0))->capture_default_str();
+  std::string fault_window;
+  serve->add_option("--fault-line", fault_window,
+                    "START:END: assert the fault line (GPIO line, Modbus sensor block) from "
+                    "START to END seconds");
   serve->add_flag("--json", json, "print the summary as JSON");
   try {
     app.parse(argc, argv);
@@ -108,6 +146,13 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? kExitOk : kExitBadInput;
   }
 
+  if (!fault_window.empty()) {
+    std::string error;
+    if (!ParseFaultWindow(fault_window, &o, &error)) {
+      std::fprintf(stderr, "error: %s\n", error.c_str());
+      return kExitBadInput;
+    }
+  }
   std::vector<std::unique_ptr<mrd::hil::PlantPort>> ports;
   std::vector<mrd::hil::PlantPort*> raw;
   for (const auto& spec : port_specs) {

@@ -58,6 +58,8 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
   double set_point = 0.0;
   double sum_f2 = 0.0, sum_e2 = 0.0, sum_d2 = 0.0;
   std::uint32_t seq = 0;
+  bool fault_published = false;
+  std::uint64_t first_fault_step = 0;
 
   const std::int64_t start = NowNs();
   std::int64_t deadline = start;
@@ -90,6 +92,7 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
         latency_us.push_back(static_cast<double>(fresh.command_ns - published_ns[slot]) * 1e-3);
       }
     }
+    if (carries_enable && in.enable && fresh.has_enable && !fresh.enable) ++r.enable_falls;
     carries_enable = carries_enable || fresh.has_enable;
     carries_heartbeat = carries_heartbeat || fresh.heartbeat_ns != 0;
     in = fresh;
@@ -102,6 +105,24 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
     double applied = 0.0;
     if (driven && std::isfinite(set_point)) applied = std::clamp(set_point, 0.0, o.e_max);
     r.last_applied_v = applied;
+    // The fault line this step publishes; the driver's state while the one published by the
+    // previous step (which the firmware has had a period to see) was asserted.
+    const double t_s = static_cast<double>(r.steps) * o.period_s;
+    const bool fault_line =
+        o.fault_start_s >= 0.0 && t_s >= o.fault_start_s && t_s < o.fault_end_s;
+    if (fault_published) {
+      if (driven) {
+        ++r.fault_driven_steps;
+      } else if (r.fault_reaction_steps == 0) {
+        r.fault_reaction_steps = r.steps - first_fault_step;
+      }
+    }
+    if (fault_line) {
+      if (r.fault_steps++ == 0) first_fault_step = r.steps;
+    } else if (o.fault_start_s >= 0.0 && t_s >= o.fault_end_s && driven) {
+      ++r.driven_after_fault_steps;
+    }
+    fault_published = fault_line;
 
     // Step the plant and publish.
     sample = plant.Step(applied);
@@ -116,6 +137,7 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
     SensorOutput out;
     out.sample = sample;
     out.seq = seq;
+    out.fault_line = fault_line;
     out.t_ns = NowNs();
     published_seq[seq % kRing] = seq;
     published_ns[seq % kRing] = out.t_ns;

@@ -55,7 +55,8 @@ class PlantPort {
 
 // Per transport (can_port.cpp, modbus_port.cpp, gpio_port.cpp). endpoint: the local bus
 // socket path or CAN interface; "HOST:PORT" for Modbus TCP; the pty link path for Modbus
-// RTU; the simulated chip path for GPIO. nullptr when the transport is not in this build.
+// RTU; the simulated chip path (with optional line settings, gpio_port.hpp) for GPIO. nullptr
+// when the transport is not in this build (GPIO: or the endpoint does not parse).
 std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeModbusTcpPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeModbusRtuPort(const std::string& endpoint);

@@ -26,6 +26,11 @@ struct ServeOptions {
   double duration_s = 5.0;             // <= 0: until stop
   double e_max = 2.25;                 // [V], the invariant's upper bound
   double heartbeat_timeout_s = 0.05;   // no heartbeat for this long: coil to 0 V
+  // The fault line is asserted from fault_start_s to fault_end_s (seconds since the start of
+  // serving) on the ports that carry one (GPIO line, Modbus sensor block); fault_start_s < 0:
+  // never.
+  double fault_start_s = -1.0;
+  double fault_end_s = -1.0;
 };
 
 struct LatencyStats {
@@ -44,6 +49,11 @@ struct ServeResult {
   double rms_tracking_error_n = 0.0;       // RMS of force - demand over enabled steps [N]
   double normalised_tracking_error = 0.0;  // ||f - d|| / ||d|| over enabled steps
   double last_applied_v = 0.0;
+  std::uint64_t fault_steps = 0;           // steps that published the fault line asserted
+  std::uint64_t fault_driven_steps = 0;    // steps driven after one that published it asserted
+  std::uint64_t fault_reaction_steps = 0;  // from the first assertion to the coil off (0: never)
+  std::uint64_t driven_after_fault_steps = 0;  // steps with the coil driven after the window
+  std::uint64_t enable_falls = 0;          // enable high -> low transitions heard
   LatencyStats latency;                    // sensor publish -> command computed from it
   std::vector<std::pair<std::string, PortCounters>> ports;
 };
