@@ -312,7 +312,8 @@ TEST(HardeningTest, DegenerateIdentificationsAreRefused) {
   r = test::Run(Mrd() + " identify --data " + WriteToy(dir, "short.csv", 31) + " --spec " + spec +
                 " --out " + dir.File("m.json"));
   ASSERT_EQ(r.status, 0) << r.output;
-  for (const auto& it : nlohmann::json::parse(Slurp(dir.File("m.json")))["iterations"]) {
+  const auto model = nlohmann::json::parse(Slurp(dir.File("m.json")));  // outlives the loop
+  for (const auto& it : model["iterations"]) {
     EXPECT_LE(it["terms"].size(), 3u);
   }
 }
