@@ -111,10 +111,9 @@ BasicModel<T> ModelAs(const Model& model) {
 template <class T>
 void BasicRegressorHistory<T>::Reset(const BasicModel<T>& model) {
   for (std::size_t r = 0; r < kMaxRegressors; ++r) {
-    const T zero =
-        r < model.num_regressors
-            ? ApplyTransform<T>(model.regressors[r].transform, model.regressors[r].exponent, T(0))
-            : T(0);
+    const T zero = r < model.num_regressors ? ApplyTransform<T>(model.regressors[r].transform,
+                                                                model.regressors[r].exponent, T(0))
+                                            : T(0);
     values_[r].fill(zero);
     pole_[r] = r < model.num_regressors && model.regressors[r].transform == Transform::kLowPass
                    ? static_cast<T>(LowPassPole(static_cast<double>(model.regressors[r].exponent)))
@@ -227,12 +226,12 @@ T BasicModelRunner<T>::Step(std::span<const T> raw) {
 }
 
 // The two scalar types: double (host, table, firmware by default) and float (MRD_REAL=float).
-#define MRD_INSTANTIATE_MODEL(T)                                                        \
-  template T ApplyTransform<T>(Transform, T, std::type_identity_t<T>);                  \
-  template struct BasicModel<T>;                                                        \
-  template BasicModel<T> ModelAs<T>(const Model&);                                      \
-  template class BasicRegressorHistory<T>;                                              \
-  template T TermValue<T>(const Term&, const BasicRegressorHistory<T>&);                \
+#define MRD_INSTANTIATE_MODEL(T)                                                           \
+  template T ApplyTransform<T>(Transform, T, std::type_identity_t<T>);                     \
+  template struct BasicModel<T>;                                                           \
+  template BasicModel<T> ModelAs<T>(const Model&);                                         \
+  template class BasicRegressorHistory<T>;                                                 \
+  template T TermValue<T>(const Term&, const BasicRegressorHistory<T>&);                   \
   template T EvaluateNormalised<T>(const BasicModel<T>&, const BasicRegressorHistory<T>&); \
   template class BasicModelRunner<T>;
 MRD_INSTANTIATE_MODEL(double)

@@ -51,9 +51,9 @@ struct Figures {
   double max_local_error = 0.0;  // one step on the same (rounded) history [N]
   double max_e_error = 0.0;      // inversion on the same history, same root [V]
   double max_e_bound_ratio = 0.0;
-  int root_choice_differs = 0;   // non-monotone state, another admissible root chosen
+  int root_choice_differs = 0;  // non-monotone state, another admissible root chosen
   int samples = 0;
-  double loop_max_e_error = 0.0;   // closed loop (each precision on its own state) [V]
+  double loop_max_e_error = 0.0;  // closed loop (each precision on its own state) [V]
   double loop_max_force_error = 0.0;
   std::vector<double> e_errors, loop_e_errors;  // per sample, for percentiles
 };
@@ -109,8 +109,8 @@ Figures Compare(const CoefficientTable& table, const host::DataSet& data) {
   const std::size_t in = table.input_channel, out = m.output_channel;
   const int v_ch = m.ChannelIndex("v");
 
-  BasicModelRuntime<double> ref;    // double, free run
-  BasicModelRuntime<float> run32;   // float, free run on the same commands
+  BasicModelRuntime<double> ref;   // double, free run
+  BasicModelRuntime<float> run32;  // float, free run on the same commands
   BasicInverter<double> inv64;
   BasicInverter<float> inv32;
   // float on the double trajectory, rounded: local errors only.
@@ -162,8 +162,8 @@ Figures Compare(const CoefficientTable& table, const host::DataSet& data) {
     // Demand: the double model's force at the profile's command (reachable); previous command
     // the profile's.
     const auto s64 = inv64.Solve(ref.history(), fd, E_prev);
-    const auto s32 = inv32.Solve(seeded.history(), static_cast<float>(fd),
-                                 static_cast<float>(E_prev));
+    const auto s32 =
+        inv32.Solve(seeded.history(), static_cast<float>(fd), static_cast<float>(E_prev));
     const auto a = inv64.Polynomial(ref.history());
     const double emax = std::fmax(std::fabs(inv64.e_min()), std::fabs(inv64.e_max())) / scale_e;
     double magnitude = std::fabs(fd - m.scales[out].offset) / scale_f, power = 1.0;

@@ -42,8 +42,8 @@ struct ControlInputs {
 };
 
 struct ControlOutput {
-  bool is_force = true;    // true: value is a force demand to invert; false: a voltage
-  Real value = Real(0);    // [N] or [V]
+  bool is_force = true;  // true: value is a force demand to invert; false: a voltage
+  Real value = Real(0);  // [N] or [V]
 };
 
 // Stateless control law. Real-time safe.

@@ -16,7 +16,10 @@ class DisplacementDifferentiator {
   // cutoff_hz > 0 (finite); returns false (unchanged) otherwise. Not real-time.
   bool Configure(double cutoff_hz);
   // Forgets the previous displacement. Real-time safe.
-  void Reset() { primed_ = false; v_ = Real(0); }
+  void Reset() {
+    primed_ = false;
+    v_ = Real(0);
+  }
   // Advances by dt [s] (> 0) to displacement x [cm]; returns the velocity estimate [cm/s].
   // A non-positive or non-finite dt, or a non-finite x, leaves the state unchanged.
   // Real-time safe.
