@@ -7,25 +7,30 @@
 
 namespace mrd {
 
-double ApplyTransform(Transform t, double exponent, double s) {
+template <class T>
+T ApplyTransform(Transform t, T exponent, std::type_identity_t<T> s) {
   switch (t) {
     case Transform::kIdentity:
       return s;
     case Transform::kAbsPow:
-      return s == 0.0 ? 0.0 : std::pow(std::fabs(s), exponent);
+      return s == T(0) ? T(0) : std::pow(std::fabs(s), exponent);
     case Transform::kSign:
-      return s > 0.0 ? 1.0 : (s < 0.0 ? -1.0 : 0.0);
+      return s > T(0) ? T(1) : (s < T(0) ? T(-1) : T(0));
     case Transform::kLowPass:
       return s;
   }
-  return 0.0;
+  return T(0);
 }
 
 double LowPassPole(double tau) { return std::exp(-1.0 / tau); }
 
-Error Model::Validate() const { return CheckModel(*this).error(); }
+template <class T>
+Error BasicModel<T>::Validate() const {
+  return CheckModel(*this).error();
+}
 
-std::uint8_t Model::MaxDelay() const {
+template <class T>
+std::uint8_t BasicModel<T>::MaxDelay() const {
   std::uint8_t d = 0;
   for (std::size_t i = 0; i < num_terms; ++i) {
     for (const Factor& f : terms[i].active()) d = f.delay > d ? f.delay : d;
@@ -33,109 +38,164 @@ std::uint8_t Model::MaxDelay() const {
   return d;
 }
 
-int Model::ChannelIndex(const char* name) const {
+template <class T>
+int BasicModel<T>::ChannelIndex(const char* name) const {
   for (std::size_t c = 0; c < num_channels; ++c) {
     if (std::strcmp(channel_names[c].data(), name) == 0) return static_cast<int>(c);
   }
   return -1;
 }
 
-void RegressorHistory::Reset(const Model& model) {
+template <class T>
+BasicModel<T> ModelAs(const Model& model) {
+  BasicModel<T> out;
+  out.num_channels = model.num_channels;
+  out.output_channel = model.output_channel;
+  out.channel_names = model.channel_names;
+  for (std::size_t c = 0; c < kMaxChannels; ++c) {
+    out.scales[c] = {static_cast<T>(model.scales[c].offset), static_cast<T>(model.scales[c].scale)};
+  }
+  out.num_regressors = model.num_regressors;
   for (std::size_t r = 0; r < kMaxRegressors; ++r) {
-    const double zero =
-        r < model.num_regressors
-            ? ApplyTransform(model.regressors[r].transform, model.regressors[r].exponent, 0.0)
-            : 0.0;
+    const Regressor& reg = model.regressors[r];
+    out.regressors[r] = {reg.channel, reg.transform, static_cast<T>(reg.exponent)};
+  }
+  out.num_terms = model.num_terms;
+  out.terms = model.terms;
+  for (std::size_t i = 0; i < kMaxTerms; ++i) {
+    out.coefficients[i] = static_cast<T>(model.coefficients[i]);
+  }
+  return out;
+}
+
+template <class T>
+void BasicRegressorHistory<T>::Reset(const BasicModel<T>& model) {
+  for (std::size_t r = 0; r < kMaxRegressors; ++r) {
+    const T zero = r < model.num_regressors ? ApplyTransform<T>(model.regressors[r].transform,
+                                                                model.regressors[r].exponent, T(0))
+                                            : T(0);
     values_[r].fill(zero);
     pole_[r] = r < model.num_regressors && model.regressors[r].transform == Transform::kLowPass
-                   ? LowPassPole(model.regressors[r].exponent)
-                   : 0.0;
+                   ? static_cast<T>(LowPassPole(static_cast<double>(model.regressors[r].exponent)))
+                   : T(0);
   }
   head_ = 0;
 }
 
-double RegressorHistory::Transformed(const Regressor& reg, std::size_t r, double s) const {
-  if (reg.transform != Transform::kLowPass) return ApplyTransform(reg.transform, reg.exponent, s);
-  return LowPassStep(pole_[r], values_[r][(head_ + 1) % kDepth], s);  // from r(k-1)
+template <class T>
+T BasicRegressorHistory<T>::Transformed(const BasicRegressor<T>& reg, std::size_t r, T s) const {
+  if (reg.transform != Transform::kLowPass) {
+    return ApplyTransform<T>(reg.transform, reg.exponent, s);
+  }
+  return LowPassStep<T>(pole_[r], values_[r][(head_ + 1) % kDepth], s);  // from r(k-1)
 }
 
-void RegressorHistory::PushInputs(const Model& model, std::span<const double> normalised) {
+template <class T>
+void BasicRegressorHistory<T>::PushInputs(const BasicModel<T>& model,
+                                          std::span<const T> normalised) {
   head_ = (head_ + kDepth - 1) % kDepth;
   for (std::size_t r = 0; r < model.num_regressors; ++r) {
-    const Regressor& reg = model.regressors[r];
+    const BasicRegressor<T>& reg = model.regressors[r];
     values_[r][head_] =
-        reg.channel == model.output_channel ? 0.0 : Transformed(reg, r, normalised[reg.channel]);
+        reg.channel == model.output_channel ? T(0) : Transformed(reg, r, normalised[reg.channel]);
   }
 }
 
-void RegressorHistory::SetOutput(const Model& model, double y_normalised) {
+template <class T>
+void BasicRegressorHistory<T>::SetOutput(const BasicModel<T>& model, T y_normalised) {
   for (std::size_t r = 0; r < model.num_regressors; ++r) {
-    const Regressor& reg = model.regressors[r];
+    const BasicRegressor<T>& reg = model.regressors[r];
     if (reg.channel == model.output_channel) {
-      values_[r][head_] = ApplyTransform(reg.transform, reg.exponent, y_normalised);
+      values_[r][head_] = ApplyTransform<T>(reg.transform, reg.exponent, y_normalised);
     }
   }
 }
 
-void RegressorHistory::SetInput(const Model& model, std::size_t channel, double normalised) {
+template <class T>
+void BasicRegressorHistory<T>::SetInput(const BasicModel<T>& model, std::size_t channel,
+                                        T normalised) {
   if (channel == model.output_channel) return;
   for (std::size_t r = 0; r < model.num_regressors; ++r) {
-    const Regressor& reg = model.regressors[r];
+    const BasicRegressor<T>& reg = model.regressors[r];
     if (reg.channel == channel) values_[r][head_] = Transformed(reg, r, normalised);
   }
 }
 
-double TermValue(const Term& term, const RegressorHistory& h) {
-  double v = 1.0;
+template <class T>
+T TermValue(const Term& term, const BasicRegressorHistory<T>& h) {
+  T v = T(1);
   for (const Factor& f : term.active()) {
-    const double base = h.value(f.regressor, f.delay);
+    const T base = h.value(f.regressor, f.delay);
     for (std::uint8_t p = 0; p < f.power; ++p) v *= base;
   }
   return v;
 }
 
-double EvaluateNormalised(const Model& model, const RegressorHistory& h) {
-  double y = 0.0;
+template <class T>
+T EvaluateNormalised(const BasicModel<T>& model, const BasicRegressorHistory<T>& h) {
+  T y = T(0);
   for (std::size_t i = 0; i < model.num_terms; ++i) {
     y += model.coefficients[i] * TermValue(model.terms[i], h);
   }
   return y;
 }
 
-void ModelRunner::Reset() { history_.Reset(*model_); }
+template <class T>
+void BasicModelRunner<T>::Reset() {
+  history_.Reset(*model_);
+}
 
-void ModelRunner::Begin(std::span<const double> raw) {
+template <class T>
+void BasicModelRunner<T>::Begin(std::span<const T> raw) {
   for (std::size_t c = 0; c < model_->num_channels; ++c) {
-    normalised_[c] = c == model_->output_channel ? 0.0 : Normalise(model_->scales[c], raw[c]);
+    normalised_[c] = c == model_->output_channel ? T(0) : Normalise(model_->scales[c], raw[c]);
   }
   history_.PushInputs(*model_, normalised_);
 }
 
-void ModelRunner::Finish(double y_raw) {
+template <class T>
+void BasicModelRunner<T>::Finish(T y_raw) {
   history_.SetOutput(*model_, Normalise(model_->scales[model_->output_channel], y_raw));
 }
 
-void ModelRunner::Seed(std::span<const double> raw) {
+template <class T>
+void BasicModelRunner<T>::Seed(std::span<const T> raw) {
   Begin(raw);
   Finish(raw[model_->output_channel]);
 }
 
-void ModelRunner::SetInput(std::size_t channel, double raw) {
+template <class T>
+void BasicModelRunner<T>::SetInput(std::size_t channel, T raw) {
   if (channel >= model_->num_channels || channel == model_->output_channel) return;
   normalised_[channel] = Normalise(model_->scales[channel], raw);
   history_.SetInput(*model_, channel, normalised_[channel]);
 }
 
-double ModelRunner::Evaluate() const {
+template <class T>
+T BasicModelRunner<T>::Evaluate() const {
   return Denormalise(model_->scales[model_->output_channel],
                      EvaluateNormalised(*model_, history_));
 }
 
-double ModelRunner::Step(std::span<const double> raw) {
+template <class T>
+T BasicModelRunner<T>::Step(std::span<const T> raw) {
   Begin(raw);
-  const double y = Evaluate();
+  const T y = Evaluate();
   Finish(y);
   return y;
 }
+
+// The two scalar types: double (host, table, firmware by default) and float (MRD_REAL=float).
+#define MRD_INSTANTIATE_MODEL(T)                                                           \
+  template T ApplyTransform<T>(Transform, T, std::type_identity_t<T>);                     \
+  template struct BasicModel<T>;                                                           \
+  template BasicModel<T> ModelAs<T>(const Model&);                                         \
+  template class BasicRegressorHistory<T>;                                                 \
+  template T TermValue<T>(const Term&, const BasicRegressorHistory<T>&);                   \
+  template T EvaluateNormalised<T>(const BasicModel<T>&, const BasicRegressorHistory<T>&); \
+  template class BasicModelRunner<T>;
+MRD_INSTANTIATE_MODEL(double)
+MRD_INSTANTIATE_MODEL(float)
+#undef MRD_INSTANTIATE_MODEL
 
 }  // namespace mrd

@@ -39,7 +39,8 @@ Error ModelCheck::error() const {
   return Error::kInvalidArgument;
 }
 
-ModelCheck CheckModel(const Model& m) {
+template <class T>
+ModelCheck CheckModel(const BasicModel<T>& m) {
   auto at = [](ModelProblem p, std::size_t index, int count = 0) {
     return ModelCheck{p, static_cast<std::uint8_t>(index), count};
   };
@@ -57,20 +58,20 @@ ModelCheck CheckModel(const Model& m) {
     if (!std::isfinite(m.scales[c].offset) || !std::isfinite(m.scales[c].scale)) {
       return at(ModelProblem::kChannelScaleNonFinite, c);
     }
-    if (!(m.scales[c].scale > 0.0)) return at(ModelProblem::kChannelScale, c);
+    if (!(m.scales[c].scale > T(0))) return at(ModelProblem::kChannelScale, c);
   }
   for (std::size_t r = 0; r < m.num_regressors; ++r) {
-    const Regressor& reg = m.regressors[r];
+    const BasicRegressor<T>& reg = m.regressors[r];
     if (reg.channel >= m.num_channels) return at(ModelProblem::kRegressorChannel, r);
     if (static_cast<std::uint8_t>(reg.transform) > static_cast<std::uint8_t>(kLastTransform)) {
       return at(ModelProblem::kRegressorTransform, r);
     }
     if (!std::isfinite(reg.exponent)) return at(ModelProblem::kRegressorExponent, r);
-    if (reg.transform == Transform::kAbsPow && !(reg.exponent > 0.0)) {
+    if (reg.transform == Transform::kAbsPow && !(reg.exponent > T(0))) {
       return at(ModelProblem::kAbsPowExponent, r);
     }
     if (reg.transform == Transform::kLowPass &&
-        (!(reg.exponent > 0.0) || reg.exponent > kMaxLowPassTau ||
+        (!(reg.exponent > T(0)) || reg.exponent > static_cast<T>(kMaxLowPassTau) ||
          reg.channel == m.output_channel)) {
       return at(ModelProblem::kLowPass, r);
     }
@@ -90,6 +91,9 @@ ModelCheck CheckModel(const Model& m) {
   }
   return {};
 }
+
+template ModelCheck CheckModel(const BasicModel<double>&);
+template ModelCheck CheckModel(const BasicModel<float>&);
 
 ModelCheck CheckTable(const CoefficientTable& t) {
   const ModelCheck m = CheckModel(t.model);

@@ -1,4 +1,5 @@
-// Google Benchmark: one control period's computation on the compiled-in table.
+// Google Benchmark: one control period's computation on the compiled-in table, in the
+// firmware's scalar type Real (double; float with MRD_REAL=float: the context line "mrd_real").
 //   BM_ModelStepAndInversion: Begin + Inverter::Solve + Finish (the model/inversion core)
 //   BM_ModelStep:             Begin + Finish (forward model only)
 //   BM_ControllerUpdate:      watchdog + law + inversion + model (Controller::Update)
@@ -23,14 +24,16 @@ using namespace mrd::firmware;  // NOLINT: benchmark file
 
 constexpr int kSamples = 4096;
 
+// Generated in double, then rounded to Real (the firmware's scalar type, real.hpp).
 struct Excitation {
   Excitation() {
     for (int k = 0; k < kSamples; ++k) {
-      v.push_back(12.0 * std::sin(2.0 * 3.14159 * 2.0 * k * 1e-3) + 0.3 * std::sin(0.7 * k));
-      f.push_back(800.0 * std::sin(2.0 * 3.14159 * 0.5 * k * 1e-3));
+      v.push_back(static_cast<Real>(12.0 * std::sin(2.0 * 3.14159 * 2.0 * k * 1e-3) +
+                                    0.3 * std::sin(0.7 * k)));
+      f.push_back(static_cast<Real>(800.0 * std::sin(2.0 * 3.14159 * 0.5 * k * 1e-3)));
     }
   }
-  std::vector<double> v, f;
+  std::vector<Real> v, f;
 };
 
 void StepAndInvert(benchmark::State& state, const mrd::CoefficientTable& table) {
@@ -41,10 +44,10 @@ void StepAndInvert(benchmark::State& state, const mrd::CoefficientTable& table) 
     state.SkipWithError("table refused");
     return;
   }
-  double E = 0.0;
+  Real E = 0;
   int k = 0;
   for (auto _ : state) {
-    rt.Begin(ex.v[k], 0.0);
+    rt.Begin(ex.v[k], 0);
     E = inv.Solve(rt.history(), ex.f[k], E).E;
     benchmark::DoNotOptimize(rt.Finish(E));
     k = (k + 1) & (kSamples - 1);
@@ -63,7 +66,7 @@ void BM_ModelStep(benchmark::State& state) {
   }
   int k = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(rt.Step(ex.v[k], 0.0, 1.0));
+    benchmark::DoNotOptimize(rt.Step(ex.v[k], 0, 1));
     k = (k + 1) & (kSamples - 1);
   }
 }
@@ -81,8 +84,8 @@ void BM_ControllerUpdate(benchmark::State& state) {
   int k = 0;
   for (auto _ : state) {
     now += 1'000'000;
-    frame.velocity = {ex.v[k], now};
-    frame.demand = {ex.f[k], now};
+    frame.velocity = {static_cast<double>(ex.v[k]), now};
+    frame.demand = {static_cast<double>(ex.f[k]), now};
     benchmark::DoNotOptimize(c.Update(frame, IoStatus::kOk, false, now, 1e-3));
     k = (k + 1) & (kSamples - 1);
   }
@@ -103,6 +106,7 @@ int main(int argc, char** argv) {
     benchmark::RegisterBenchmark("BM_ModelStepAndInversion/file",
                                  [](benchmark::State& s) { StepAndInvert(s, file_table); });
   }
+  benchmark::AddCustomContext("mrd_real", sizeof(Real) == sizeof(float) ? "float" : "double");
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();

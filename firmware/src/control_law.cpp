@@ -20,14 +20,14 @@ bool ControlLawConfig::IsValid(double e_min, double e_max) const {
 ControlOutput ControlLaw::Update(const ControlInputs& in) const {
   switch (config_.mode) {
     case ControlMode::kForceTracking:
-      return {true, std::fmin(std::fmax(in.demand, -config_.force_limit), config_.force_limit)};
+      return {true, std::fmin(std::fmax(in.demand, -force_limit_), force_limit_)};
     case ControlMode::kConstantVoltage:
-      return {false, config_.constant_voltage};
+      return {false, constant_voltage_};
     case ControlMode::kSkyhookOnOff:
-      return {false, in.body_velocity * in.v > 0.0 ? e_max_ : e_min_};
+      return {false, in.body_velocity * in.v > Real(0) ? e_max_ : e_min_};
     case ControlMode::kSkyhookContinuous: {
-      const double f = in.body_velocity * in.v > 0.0 ? config_.skyhook_gain * in.body_velocity : 0.0;
-      return {true, std::fmin(std::fmax(f, -config_.force_limit), config_.force_limit)};
+      const Real f = in.body_velocity * in.v > Real(0) ? skyhook_gain_ * in.body_velocity : Real(0);
+      return {true, std::fmin(std::fmax(f, -force_limit_), force_limit_)};
     }
   }
   return {false, e_min_};

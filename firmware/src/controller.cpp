@@ -7,18 +7,18 @@ namespace mrd::firmware {
 namespace {
 
 // Bits of the causes a required signal raises: stale (never sampled or older than max_age),
-// non-finite.
-std::uint32_t Check(const Stamped& s, std::int64_t now_ns, std::int64_t max_age_ns) {
+// non-finite (value: the sample in Real; a double beyond float's range is non-finite there).
+std::uint32_t Check(const Stamped& s, Real value, std::int64_t now_ns, std::int64_t max_age_ns) {
   std::uint32_t causes = 0;
   if (s.stamp_ns == std::numeric_limits<std::int64_t>::min() || now_ns - s.stamp_ns > max_age_ns) {
     causes |= Watchdog::Bit(FaultCause::kStaleSensor);
   }
-  if (!std::isfinite(s.value)) causes |= Watchdog::Bit(FaultCause::kNonFinite);
+  if (!std::isfinite(value)) causes |= Watchdog::Bit(FaultCause::kNonFinite);
   return causes;
 }
 
 // True when a finite value exceeds a limit (limit 0: none).
-bool Implausible(double value, double limit) { return limit > 0.0 && std::fabs(value) > limit; }
+bool Implausible(Real value, Real limit) { return limit > Real(0) && std::fabs(value) > limit; }
 
 }  // namespace
 
@@ -42,7 +42,11 @@ Error Controller::Configure(const CoefficientTable& table, const ControllerConfi
   }
   if (!differentiator_.Configure(config.cutoff_hz)) return Error::kOutOfRange;
   config_ = config;
-  e_min_ = table.e_min;
+  e_min_ = static_cast<Real>(table.e_min);
+  e_max_ = static_cast<Real>(config.e_max);
+  safe_voltage_ = static_cast<Real>(config.safe_voltage);
+  velocity_limit_ = static_cast<Real>(config.velocity_limit);
+  displacement_limit_ = static_cast<Real>(config.displacement_limit);
   law_.Configure(config.law, table.e_min, config.e_max);
   watchdog_.Configure(config.watchdog);
   Reset();
@@ -53,15 +57,19 @@ void Controller::Reset() {
   runtime_.Reset();
   differentiator_.Reset();
   watchdog_.Reset();
-  v_ = 0.0;
-  x_ = 0.0;
-  E_prev_ = config_.safe_voltage;
+  v_ = Real(0);
+  x_ = Real(0);
+  E_prev_ = safe_voltage_;
   model_resets_ = 0;
 }
 
 ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_status,
                                     bool driver_fault, std::int64_t now_ns, double dt_s) {
   const std::int64_t max_age = config_.watchdog.max_age_ns;
+  const Real velocity = static_cast<Real>(frame.velocity.value);
+  const Real displacement = static_cast<Real>(frame.displacement.value);
+  const Real demand = static_cast<Real>(frame.demand.value);
+  const Real body_velocity = static_cast<Real>(frame.body_velocity.value);
   std::uint32_t causes = 0;
   constexpr std::uint32_t kBusBits = Watchdog::Bit(FaultCause::kCanBus) |
                                       Watchdog::Bit(FaultCause::kModbusBus) |
@@ -79,24 +87,24 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
       config_.velocity_source == VelocitySource::kDisplacement || runtime_.reads_displacement();
   constexpr std::uint32_t kImplausibleBit = Watchdog::Bit(FaultCause::kImplausible);
   if (config_.velocity_source == VelocitySource::kMeasured) {
-    const std::uint32_t c = Check(frame.velocity, now_ns, max_age);
+    const std::uint32_t c = Check(frame.velocity, velocity, now_ns, max_age);
     causes |= c;
-    if (Implausible(frame.velocity.value, config_.velocity_limit)) {
+    if (Implausible(velocity, velocity_limit_)) {
       causes |= kImplausibleBit;
-    } else if (std::isfinite(frame.velocity.value)) {
-      v_ = frame.velocity.value;
+    } else if (std::isfinite(velocity)) {
+      v_ = velocity;
     }
   }
   if (use_x) {
-    const std::uint32_t c = Check(frame.displacement, now_ns, max_age);
+    const std::uint32_t c = Check(frame.displacement, displacement, now_ns, max_age);
     causes |= c;
-    if (Implausible(frame.displacement.value, config_.displacement_limit)) {
+    if (Implausible(displacement, displacement_limit_)) {
       causes |= kImplausibleBit;
-    } else if (std::isfinite(frame.displacement.value)) {
-      x_ = frame.displacement.value;
+    } else if (std::isfinite(displacement)) {
+      x_ = displacement;
       if (config_.velocity_source == VelocitySource::kDisplacement) {
-        const double v = differentiator_.Update(x_, dt_s);
-        if (Implausible(v, config_.velocity_limit)) {
+        const Real v = differentiator_.Update(x_, static_cast<Real>(dt_s));
+        if (Implausible(v, velocity_limit_)) {
           causes |= kImplausibleBit;
         } else {
           v_ = v;
@@ -104,33 +112,36 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
       }
     }
   }
-  if (law_.needs_demand()) causes |= Check(frame.demand, now_ns, max_age);
-  if (law_.needs_body_velocity()) causes |= Check(frame.body_velocity, now_ns, max_age);
+  if (law_.needs_demand()) causes |= Check(frame.demand, demand, now_ns, max_age);
+  if (law_.needs_body_velocity()) {
+    causes |= Check(frame.body_velocity, body_velocity, now_ns, max_age);
+  }
 
   ControllerOutput out;
   out.causes = causes;
   out.safe = watchdog_.Update(causes);
   runtime_.Begin(v_, x_);
-  if (out.safe) {
-    out.volts = config_.safe_voltage;
-  } else {
-    const ControlOutput law = law_.Update({v_, frame.demand.value, frame.body_velocity.value});
+  Real volts = safe_voltage_;
+  if (!out.safe) {
+    const ControlOutput law = law_.Update({v_, demand, body_velocity});
     if (law.is_force) {
       const Inverter::Solution s = inverter_.Solve(runtime_.history(), law.value, E_prev_);
-      out.volts = s.E;
-      out.force_demand = law.value;
+      volts = s.E;
+      out.force_demand = static_cast<double>(law.value);
       out.force_law = true;
       out.reachable = s.reachable;
     } else {
-      out.volts = std::fmin(std::fmax(law.value, e_min_), config_.e_max);
+      volts = std::fmin(std::fmax(law.value, e_min_), e_max_);
     }
   }
-  out.model_force = runtime_.Finish(out.volts);
-  if (!std::isfinite(out.model_force)) {  // a diverging model must not poison later periods
+  const Real model_force = runtime_.Finish(volts);
+  out.volts = static_cast<double>(volts);
+  out.model_force = static_cast<double>(model_force);
+  if (!std::isfinite(model_force)) {  // a diverging model must not poison later periods
     runtime_.Reset();
     ++model_resets_;
   }
-  E_prev_ = out.volts;
+  E_prev_ = volts;
   return out;
 }
 

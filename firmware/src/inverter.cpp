@@ -6,37 +6,43 @@
 namespace mrd::firmware {
 namespace {
 
-using Coeffs = std::array<double, kMaxInputDegree + 1>;
+template <class T>
+using Coeffs = std::array<T, kMaxInputDegree + 1>;
 
-double Horner(const Coeffs& a, int n, double x) {
-  double p = a[static_cast<std::size_t>(n)];
+template <class T>
+T Horner(const Coeffs<T>& a, int n, T x) {
+  T p = a[static_cast<std::size_t>(n)];
   for (int j = n - 1; j >= 0; --j) p = p * x + a[static_cast<std::size_t>(j)];
   return p;
 }
 
-double HornerDerivative(const Coeffs& a, int n, double x) {
-  double d = 0.0;
-  for (int j = n; j >= 1; --j) d = d * x + j * a[static_cast<std::size_t>(j)];
+template <class T>
+T HornerDerivative(const Coeffs<T>& a, int n, T x) {
+  T d = T(0);
+  for (int j = n; j >= 1; --j) d = d * x + static_cast<T>(j) * a[static_cast<std::size_t>(j)];
   return d;
 }
 
 // Root of p in [lo, hi] where p(lo) and p(hi) have opposite signs and p is monotone:
 // Newton steps, replaced by bisection when they leave the bracket. At most kMaxIterations.
-double BracketedRoot(const Coeffs& a, int n, double lo, double hi, double p_lo) {
-  double x = 0.5 * (lo + hi);
-  for (int it = 0; it < Inverter::kMaxIterations; ++it) {
-    const double p = Horner(a, n, x);
-    if (p == 0.0) return x;
-    if ((p < 0.0) == (p_lo < 0.0)) {
+template <class T>
+T BracketedRoot(const Coeffs<T>& a, int n, T lo, T hi, T p_lo) {
+  constexpr T kHalf = T(0.5);
+  constexpr T kTol = T(4) * std::numeric_limits<T>::epsilon();
+  T x = kHalf * (lo + hi);
+  for (int it = 0; it < BasicInverter<T>::kMaxIterations; ++it) {
+    const T p = Horner(a, n, x);
+    if (p == T(0)) return x;
+    if ((p < T(0)) == (p_lo < T(0))) {
       lo = x;
     } else {
       hi = x;
     }
-    const double d = HornerDerivative(a, n, x);
-    double next = d != 0.0 ? x - p / d : 0.5 * (lo + hi);
-    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    if (std::fabs(next - x) <= 4.0 * std::numeric_limits<double>::epsilon() * std::fabs(x) ||
-        hi - lo <= 4.0 * std::numeric_limits<double>::epsilon() * (std::fabs(lo) + std::fabs(hi))) {
+    const T d = HornerDerivative(a, n, x);
+    T next = d != T(0) ? x - p / d : kHalf * (lo + hi);
+    if (!(next > lo && next < hi)) next = kHalf * (lo + hi);
+    if (std::fabs(next - x) <= kTol * std::fabs(x) ||
+        hi - lo <= kTol * (std::fabs(lo) + std::fabs(hi))) {
       return next;
     }
     x = next;
@@ -46,35 +52,37 @@ double BracketedRoot(const Coeffs& a, int n, double lo, double hi, double p_lo) 
 
 }  // namespace
 
-PolyRoots RealRootsInInterval(const Coeffs& a, int n, double lo, double hi) {
-  PolyRoots out;
-  while (n > 0 && a[static_cast<std::size_t>(n)] == 0.0) --n;
+template <class T>
+BasicPolyRoots<T> RealRootsInInterval(const Coeffs<T>& a, int n, std::type_identity_t<T> lo,
+                                      std::type_identity_t<T> hi) {
+  BasicPolyRoots<T> out;
+  while (n > 0 && a[static_cast<std::size_t>(n)] == T(0)) --n;
   if (n <= 0 || !(lo <= hi)) return out;
   if (n == 1) {
-    const double x = -a[0] / a[1];
+    const T x = -a[0] / a[1];
     if (x >= lo && x <= hi) out.roots[out.num_roots++] = x;
     return out;
   }
-  Coeffs d{};
+  Coeffs<T> d{};
   for (int j = 1; j <= n; ++j) {
-    d[static_cast<std::size_t>(j - 1)] = j * a[static_cast<std::size_t>(j)];
+    d[static_cast<std::size_t>(j - 1)] = static_cast<T>(j) * a[static_cast<std::size_t>(j)];
   }
-  const PolyRoots dr = RealRootsInInterval(d, n - 1, lo, hi);
+  const BasicPolyRoots<T> dr = RealRootsInInterval<T>(d, n - 1, lo, hi);
   out.critical = dr.roots;
   out.num_critical = dr.num_roots;
   // Monotone segments between lo, the critical points and hi.
-  double x0 = lo;
-  double p0 = Horner(a, n, lo);
-  if (p0 == 0.0) out.roots[out.num_roots++] = lo;
+  T x0 = lo;
+  T p0 = Horner(a, n, lo);
+  if (p0 == T(0)) out.roots[out.num_roots++] = lo;
   for (int s = 0; s <= dr.num_roots; ++s) {
-    const double x1 = s < dr.num_roots ? dr.roots[static_cast<std::size_t>(s)] : hi;
+    const T x1 = s < dr.num_roots ? dr.roots[static_cast<std::size_t>(s)] : hi;
     if (x1 <= x0 && s > 0) continue;  // repeated critical point
-    const double p1 = Horner(a, n, x1);
-    if (p1 == 0.0) {
+    const T p1 = Horner(a, n, x1);
+    if (p1 == T(0)) {
       if (out.num_roots == 0 || out.roots[static_cast<std::size_t>(out.num_roots - 1)] != x1) {
         if (out.num_roots < kMaxInputDegree) out.roots[out.num_roots++] = x1;
       }
-    } else if (p0 != 0.0 && (p0 < 0.0) != (p1 < 0.0)) {
+    } else if (p0 != T(0) && (p0 < T(0)) != (p1 < T(0))) {
       if (out.num_roots < kMaxInputDegree) {
         out.roots[out.num_roots++] = BracketedRoot(a, n, x0, x1, p0);
       }
@@ -85,11 +93,14 @@ PolyRoots RealRootsInInterval(const Coeffs& a, int n, double lo, double hi) {
   return out;
 }
 
-Error Inverter::Configure(const CoefficientTable& table) {
-  const Error e = table.Validate();
+template <class T>
+Error BasicInverter<T>::Configure(const CoefficientTable& table) {
+  Error e = table.Validate();
+  if (e != Error::kOk) return e;
+  const BasicModel<T> m = ModelAs<T>(table.model);
+  e = m.Validate();  // a number beyond T's range
   if (e != Error::kOk) return e;
   if (CheckInversion(table).problem != InversionProblem::kNone) return Error::kNotInvertible;
-  const Model& m = table.model;
   std::array<std::uint8_t, kMaxTerms> degree{};
   std::array<std::array<bool, kMaxFactors>, kMaxTerms> is_input{};
   std::array<bool, kMaxTerms> low_pass{};
@@ -113,28 +124,33 @@ Error Inverter::Configure(const CoefficientTable& table) {
   is_input_ = is_input;
   input_scale_ = m.scales[table.input_channel];
   output_scale_ = m.scales[m.output_channel];
-  table_e_min_ = e_min_ = table.e_min;
-  table_e_max_ = e_max_ = table.e_max;
+  table_e_min_ = table.e_min;
+  table_e_max_ = table.e_max;
+  e_min_ = static_cast<T>(table.e_min);
+  e_max_ = static_cast<T>(table.e_max);
   degree_ = max_degree;
   return Error::kOk;
 }
 
-Error Inverter::SetRange(double e_min, double e_max) {
+template <class T>
+Error BasicInverter<T>::SetRange(double e_min, double e_max) {
   if (!std::isfinite(e_min) || !std::isfinite(e_max)) return Error::kNonFinite;
   if (!(e_min < e_max) || e_min < table_e_min_ || e_max > table_e_max_) return Error::kOutOfRange;
-  e_min_ = e_min;
-  e_max_ = e_max;
+  e_min_ = static_cast<T>(e_min);
+  e_max_ = static_cast<T>(e_max);
   return Error::kOk;
 }
 
-std::array<double, kMaxInputDegree + 1> Inverter::Polynomial(const RegressorHistory& h) const {
-  Coeffs a{};
+template <class T>
+std::array<T, kMaxInputDegree + 1> BasicInverter<T>::Polynomial(
+    const BasicRegressorHistory<T>& h) const {
+  Coeffs<T> a{};
   for (std::size_t i = 0; i < model_.num_terms; ++i) {
     const Term& term = model_.terms[i];
-    double v = model_.coefficients[i];  // theta_i * (the term's other factors)
+    T v = model_.coefficients[i];  // theta_i * (the term's other factors)
     for (std::size_t f = 0; f < term.num_factors; ++f) {
       if (is_input_[i][f]) continue;
-      const double base = h.value(term.factors[f].regressor, term.factors[f].delay);
+      const T base = h.value(term.factors[f].regressor, term.factors[f].delay);
       for (std::uint8_t p = 0; p < term.factors[f].power; ++p) v *= base;
     }
     if (!has_low_pass_[i]) {  // only identity E(k) factors: v * e^degree
@@ -143,15 +159,15 @@ std::array<double, kMaxInputDegree + 1> Inverter::Polynomial(const RegressorHist
     }
     // Expand v * prod (alpha + beta e)^p with LowPassStep(q, r(k-1), e) = alpha + beta e:
     // alpha = q * r(k-1), beta = 1 - q; identity factors have q = 0 (alpha 0, beta 1).
-    Coeffs t{};
+    Coeffs<T> t{};
     t[0] = v;
     std::size_t degree = 0;
     for (std::size_t f = 0; f < term.num_factors; ++f) {
       if (!is_input_[i][f]) continue;
       const Factor& fac = term.factors[f];
-      const double pole = h.low_pass_pole(fac.regressor);
-      const double alpha = pole * h.value(fac.regressor, 1);
-      const double beta = 1.0 - pole;
+      const T pole = h.low_pass_pole(fac.regressor);
+      const T alpha = pole * h.value(fac.regressor, 1);
+      const T beta = T(1) - pole;
       for (std::uint8_t p = 0; p < fac.power; ++p) {
         ++degree;
         t[degree] = beta * t[degree - 1];
@@ -164,36 +180,37 @@ std::array<double, kMaxInputDegree + 1> Inverter::Polynomial(const RegressorHist
   return a;
 }
 
-Inverter::Solution Inverter::Solve(const RegressorHistory& h, double f_demand,
-                                   double E_previous) const {
-  Coeffs a = Polynomial(h);
-  const double y_demand = Normalise(output_scale_, f_demand);
-  const double lo = Normalise(input_scale_, e_min_);
-  const double hi = Normalise(input_scale_, e_max_);
-  const double prev = Normalise(input_scale_, E_previous);
-  const Coeffs y = a;  // y(e) before shifting by the demand
+template <class T>
+typename BasicInverter<T>::Solution BasicInverter<T>::Solve(const BasicRegressorHistory<T>& h,
+                                                            T f_demand, T E_previous) const {
+  Coeffs<T> a = Polynomial(h);
+  const T y_demand = Normalise(output_scale_, f_demand);
+  const T lo = Normalise(input_scale_, e_min_);
+  const T hi = Normalise(input_scale_, e_max_);
+  const T prev = Normalise(input_scale_, E_previous);
+  const Coeffs<T> y = a;  // y(e) before shifting by the demand
   a[0] -= y_demand;
-  const PolyRoots r = RealRootsInInterval(a, degree_, lo, hi);
+  const BasicPolyRoots<T> r = RealRootsInInterval<T>(a, degree_, lo, hi);
 
   // Residual tolerance: a few ulps of the terms' magnitudes at the bounds.
-  double magnitude = std::fabs(y_demand);
-  const double emax = std::fmax(std::fabs(lo), std::fabs(hi));
-  double power = 1.0;
+  T magnitude = std::fabs(y_demand);
+  const T emax = std::fmax(std::fabs(lo), std::fabs(hi));
+  T power = T(1);
   for (std::size_t j = 0; j <= static_cast<std::size_t>(degree_); ++j) {
     magnitude += std::fabs(y[j]) * power;
     power *= emax;
   }
-  const double tol = 64.0 * std::numeric_limits<double>::epsilon() * magnitude;
+  const T tol = T(64) * std::numeric_limits<T>::epsilon() * magnitude;
 
-  double best_e = std::fmin(std::fmax(prev, lo), hi);
-  double best_residual = std::numeric_limits<double>::infinity();
-  double best_distance = std::numeric_limits<double>::infinity();
+  T best_e = std::fmin(std::fmax(prev, lo), hi);
+  T best_residual = std::numeric_limits<T>::infinity();
+  T best_distance = std::numeric_limits<T>::infinity();
   bool reachable = false;
-  auto consider = [&](double e, bool is_root) {
-    const double residual = is_root ? 0.0 : std::fabs(Horner(a, degree_, e));
+  auto consider = [&](T e, bool is_root) {
+    const T residual = is_root ? T(0) : std::fabs(Horner(a, degree_, e));
     const bool root = residual <= tol;
-    const double distance = std::fabs(e - prev);
-    const double score = root ? 0.0 : residual;
+    const T distance = std::fabs(e - prev);
+    const T score = root ? T(0) : residual;
     if (score < best_residual || (score == best_residual && distance < best_distance)) {
       best_e = e;
       best_residual = score;
@@ -214,5 +231,11 @@ Inverter::Solution Inverter::Solve(const RegressorHistory& h, double f_demand,
   s.reachable = reachable;
   return s;
 }
+
+template BasicPolyRoots<double> RealRootsInInterval<double>(const Coeffs<double>&, int, double,
+                                                            double);
+template BasicPolyRoots<float> RealRootsInInterval<float>(const Coeffs<float>&, int, float, float);
+template class BasicInverter<double>;
+template class BasicInverter<float>;
 
 }  // namespace mrd::firmware

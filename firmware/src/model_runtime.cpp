@@ -4,8 +4,12 @@
 
 namespace mrd::firmware {
 
-Error ModelRuntime::Configure(const CoefficientTable& table) {
-  const Error e = table.Validate();
+template <class T>
+Error BasicModelRuntime<T>::Configure(const CoefficientTable& table) {
+  Error e = table.Validate();
+  if (e != Error::kOk) return e;
+  const BasicModel<T> model = ModelAs<T>(table.model);
+  e = model.Validate();  // a number beyond T's range
   if (e != Error::kOk) return e;
   int v = -1;
   int x = -1;
@@ -21,35 +25,43 @@ Error ModelRuntime::Configure(const CoefficientTable& table) {
     }
   }
   table_ = table;
+  model_ = model;
   v_channel_ = v;
   x_channel_ = x;
-  raw_.fill(0.0);
+  raw_.fill(T(0));
   runner_.Reset();
   return Error::kOk;
 }
 
-void ModelRuntime::Begin(double v, double x) {
+template <class T>
+void BasicModelRuntime<T>::Begin(T v, T x) {
   if (v_channel_ >= 0) raw_[static_cast<std::size_t>(v_channel_)] = v;
   if (x_channel_ >= 0) raw_[static_cast<std::size_t>(x_channel_)] = x;
-  raw_[table_.input_channel] = 0.0;
+  raw_[table_.input_channel] = T(0);
   runner_.Begin(raw_);
 }
 
-void ModelRuntime::Seed(double v, double x, double E, double f) {
+template <class T>
+void BasicModelRuntime<T>::Seed(T v, T x, T E, T f) {
   Begin(v, x);
   runner_.SetInput(table_.input_channel, E);
   runner_.Finish(f);
 }
 
-double ModelRuntime::ForceAt(double E) {
+template <class T>
+T BasicModelRuntime<T>::ForceAt(T E) {
   runner_.SetInput(table_.input_channel, E);
   return runner_.Evaluate();
 }
 
-double ModelRuntime::Finish(double E) {
-  const double f = ForceAt(E);
+template <class T>
+T BasicModelRuntime<T>::Finish(T E) {
+  const T f = ForceAt(E);
   runner_.Finish(f);
   return f;
 }
+
+template class BasicModelRuntime<double>;
+template class BasicModelRuntime<float>;
 
 }  // namespace mrd::firmware

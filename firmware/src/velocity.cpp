@@ -8,20 +8,21 @@ namespace mrd::firmware {
 bool DisplacementDifferentiator::Configure(double cutoff_hz) {
   if (!std::isfinite(cutoff_hz) || !(cutoff_hz > 0.0)) return false;
   cutoff_hz_ = cutoff_hz;
+  minus_wc_ = static_cast<Real>(-2.0 * std::numbers::pi * cutoff_hz);
   Reset();
   return true;
 }
 
-double DisplacementDifferentiator::Update(double x, double dt) {
-  if (!std::isfinite(x) || !std::isfinite(dt) || !(dt > 0.0)) return v_;
+Real DisplacementDifferentiator::Update(Real x, Real dt) {
+  if (!std::isfinite(x) || !std::isfinite(dt) || !(dt > Real(0))) return v_;
   if (!primed_) {
     primed_ = true;
     x_prev_ = x;
-    v_ = 0.0;
+    v_ = Real(0);
     return v_;
   }
-  const double a = std::exp(-2.0 * std::numbers::pi * cutoff_hz_ * dt);
-  v_ = a * v_ + (1.0 - a) * (x - x_prev_) / dt;
+  const Real a = std::exp(minus_wc_ * dt);
+  v_ = a * v_ + (Real(1) - a) * (x - x_prev_) / dt;
   x_prev_ = x;
   return v_;
 }

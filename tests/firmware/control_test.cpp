@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "mrd/firmware/control_law.hpp"
@@ -11,13 +12,20 @@
 namespace mrd::firmware {
 namespace {
 
+// The filter computes in Real (float with MRD_REAL=float): inputs are rounded to it.
+Real R(double x) { return static_cast<Real>(x); }
+
 TEST(DisplacementDifferentiatorTest, RampGivesItsSlopeExactly) {
   DisplacementDifferentiator d;
   ASSERT_TRUE(d.Configure(30.0));
-  EXPECT_EQ(d.Update(0.0, 1e-3), 0.0);  // first sample primes the filter
+  EXPECT_EQ(d.Update(0, R(1e-3)), 0);  // first sample primes the filter
   double v = 0.0;
-  for (int k = 1; k <= 2000; ++k) v = d.Update(5.0 * k * 1e-3, 1e-3);  // 5 cm/s
-  EXPECT_NEAR(v, 5.0, 1e-9);
+  for (int k = 1; k <= 2000; ++k) v = d.Update(R(5.0 * k * 1e-3), R(1e-3));  // 5 cm/s
+  // Exact in exact arithmetic; x <= 10 cm and dt rounded to Real put up to about 2 ulp(10) / dt
+  // into each difference quotient (double: 4e-12 cm/s; float: 4e-3 cm/s), plus the rounding of
+  // dt itself (relative eps).
+  const double eps = std::numeric_limits<Real>::epsilon();
+  EXPECT_NEAR(v, 5.0, 1e-9 + 2.0 * 10.0 * eps / 1e-3 + 5.0 * eps);
 }
 
 TEST(DisplacementDifferentiatorTest, SineAtCutoffIsAttenuatedByFirstOrderGain) {
@@ -26,7 +34,7 @@ TEST(DisplacementDifferentiatorTest, SineAtCutoffIsAttenuatedByFirstOrderGain) {
   const double f = 20.0, dt = 1e-4, w = 2.0 * std::numbers::pi * f;
   double peak = 0.0;
   for (int k = 0; k < 20000; ++k) {
-    const double v = d.Update(std::sin(w * k * dt), dt);
+    const double v = d.Update(R(std::sin(w * k * dt)), R(dt));
     if (k > 10000) peak = std::max(peak, std::fabs(v));
   }
   EXPECT_NEAR(peak / w, 1.0 / std::sqrt(2.0), 0.01);  // |H| / w = 1/sqrt(2) at the cut-off
@@ -36,10 +44,10 @@ TEST(DisplacementDifferentiatorTest, IgnoresInvalidSamplesAndSettings) {
   DisplacementDifferentiator d;
   EXPECT_FALSE(d.Configure(0.0));
   EXPECT_FALSE(d.Configure(std::nan("")));
-  d.Update(0.0, 1e-3);
-  const double v = d.Update(0.01, 1e-3);
-  EXPECT_EQ(d.Update(std::nan(""), 1e-3), v);
-  EXPECT_EQ(d.Update(0.02, 0.0), v);
+  d.Update(0, R(1e-3));
+  const Real v = d.Update(R(0.01), R(1e-3));
+  EXPECT_EQ(d.Update(std::numeric_limits<Real>::quiet_NaN(), R(1e-3)), v);
+  EXPECT_EQ(d.Update(R(0.02), 0), v);
 }
 
 TEST(ControlLawTest, ForceTrackingClampsDemand) {

@@ -12,6 +12,12 @@
 namespace mrd::firmware {
 namespace {
 
+// The inversion algorithm at T = double, with exact-arithmetic tolerances, in every build; the
+// float instantiation (MRD_REAL=float) against it: tests/integration/float_accuracy_test.cpp.
+using ModelRuntime = BasicModelRuntime<double>;
+using Inverter = BasicInverter<double>;
+using PolyRoots = BasicPolyRoots<double>;
+
 struct Fixture {
   explicit Fixture(const CoefficientTable& t) {
     EXPECT_EQ(runtime.Configure(t), Error::kOk);
@@ -210,14 +216,14 @@ TEST(InverterTest, PicksRootNearestPreviousCommand) {
 TEST(RealRootsTest, FindsAllFourRootsOfAQuartic) {
   // (x - 0.1)(x - 0.3)(x + 0.5)(x - 0.9) = x^4 - 0.8x^3 - 0.26x^2 + 0.168x - 0.0135
   const std::array<double, 5> a = {-0.0135, 0.168, -0.26, -0.8, 1.0};
-  const PolyRoots r = RealRootsInInterval(a, 4, -1.0, 1.0);
+  const PolyRoots r = RealRootsInInterval<double>(a, 4, -1.0, 1.0);
   ASSERT_EQ(r.num_roots, 4);
   EXPECT_NEAR(r.roots[0], -0.5, 1e-14);
   EXPECT_NEAR(r.roots[1], 0.1, 1e-14);
   EXPECT_NEAR(r.roots[2], 0.3, 1e-14);
   EXPECT_NEAR(r.roots[3], 0.9, 1e-14);
   EXPECT_EQ(r.num_critical, 3);
-  const PolyRoots half = RealRootsInInterval(a, 4, 0.0, 0.5);
+  const PolyRoots half = RealRootsInInterval<double>(a, 4, 0.0, 0.5);
   EXPECT_EQ(half.num_roots, 2);
 }
 

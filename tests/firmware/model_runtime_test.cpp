@@ -12,6 +12,10 @@
 namespace mrd::firmware {
 namespace {
 
+// The runtime at T = double (bit-identical to the host's ModelRunner) in every build; the float
+// instantiation (MRD_REAL=float) against it: tests/integration/float_accuracy_test.cpp.
+using ModelRuntime = BasicModelRuntime<double>;
+
 double Sign(double s) { return s > 0.0 ? 1.0 : (s < 0.0 ? -1.0 : 0.0); }
 
 // The demo model written out term by term, with plain vectors for the history.

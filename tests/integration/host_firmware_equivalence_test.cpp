@@ -72,7 +72,7 @@ void ExpectEquivalent(const host::ModelFile& mf, int k, const host::DataSet& dat
   const TableBytes image = host::TableImage(host::MakeTable(host::ToRuntimeModel(mf, k), 0.0, 2.25));
   const Result<CoefficientTable> table = DecodeTable(image);
   ASSERT_TRUE(table.ok()) << ErrorName(table.error());
-  firmware::ModelRuntime runtime;
+  firmware::BasicModelRuntime<double> runtime;  // the double path, in every build
   ASSERT_EQ(runtime.Configure(table.value()), Error::kOk);
 
   const auto& v = data.Column("v");

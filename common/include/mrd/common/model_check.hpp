@@ -47,8 +47,9 @@ struct ModelCheck {
 };
 
 // First problem of a model, in a fixed order (capacities, output, channels, regressors,
-// terms).
-ModelCheck CheckModel(const Model& model);
+// terms). T: double or float (instantiated for both).
+template <class T>
+ModelCheck CheckModel(const BasicModel<T>& model);
 // CheckModel, then the input channel and the voltage range.
 ModelCheck CheckTable(const CoefficientTable& table);
 

@@ -11,8 +11,11 @@
 //                        the command saturates to the least force the damper can give)
 //
 // vb: absolute body velocity [cm/s]; c_sky: skyhook gain [N s/cm].
+// Per-sample arithmetic in Real (real.hpp); the configuration is double.
 
 #include <cstdint>
+
+#include "mrd/firmware/real.hpp"
 
 namespace mrd::firmware {
 
@@ -33,14 +36,14 @@ struct ControlLawConfig {
 };
 
 struct ControlInputs {
-  double v = 0.0;              // relative (damper) velocity [cm/s]
-  double demand = 0.0;         // force demand [N] (kForceTracking)
-  double body_velocity = 0.0;  // [cm/s] (skyhook)
+  Real v = Real(0);              // relative (damper) velocity [cm/s]
+  Real demand = Real(0);         // force demand [N] (kForceTracking)
+  Real body_velocity = Real(0);  // [cm/s] (skyhook)
 };
 
 struct ControlOutput {
   bool is_force = true;  // true: value is a force demand to invert; false: a voltage
-  double value = 0.0;    // [N] or [V]
+  Real value = Real(0);  // [N] or [V]
 };
 
 // Stateless control law. Real-time safe.
@@ -48,8 +51,11 @@ class ControlLaw {
  public:
   void Configure(const ControlLawConfig& config, double e_min, double e_max) {
     config_ = config;
-    e_min_ = e_min;
-    e_max_ = e_max;
+    constant_voltage_ = static_cast<Real>(config.constant_voltage);
+    skyhook_gain_ = static_cast<Real>(config.skyhook_gain);
+    force_limit_ = static_cast<Real>(config.force_limit);
+    e_min_ = static_cast<Real>(e_min);
+    e_max_ = static_cast<Real>(e_max);
   }
   // Real-time safe.
   ControlOutput Update(const ControlInputs& in) const;
@@ -62,8 +68,11 @@ class ControlLaw {
 
  private:
   ControlLawConfig config_;
-  double e_min_ = 0.0;
-  double e_max_ = 2.25;
+  Real constant_voltage_ = Real(0);  // config_ in Real
+  Real skyhook_gain_ = Real(100);
+  Real force_limit_ = Real(5000);
+  Real e_min_ = Real(0);
+  Real e_max_ = Real(2.25);
 };
 
 // Name for logs and telemetry ("force", "constant", "skyhook-on-off", "skyhook").

@@ -12,6 +12,8 @@
 //   f^(k)   = model(v(k), x(k), E(k))   (the model advances with the command actually sent)
 //
 // Invalid inputs never reach the model: it runs on the last valid velocity/displacement.
+// Per-sample arithmetic in Real (real.hpp): sensor values are converted at the entry of
+// Update, the outputs back to double.
 
 #include <cstdint>
 
@@ -85,10 +87,14 @@ class Controller {
   Watchdog watchdog_;
   DisplacementDifferentiator differentiator_;
   ControllerConfig config_;
-  double e_min_ = 0.0;
-  double v_ = 0.0;  // last valid velocity [cm/s]
-  double x_ = 0.0;  // last valid displacement [cm]
-  double E_prev_ = 0.0;
+  Real e_min_ = Real(0);  // config_ in Real
+  Real e_max_ = Real(0);
+  Real safe_voltage_ = Real(0);
+  Real velocity_limit_ = Real(0);
+  Real displacement_limit_ = Real(0);
+  Real v_ = Real(0);  // last valid velocity [cm/s]
+  Real x_ = Real(0);  // last valid displacement [cm]
+  Real E_prev_ = Real(0);
   std::uint64_t model_resets_ = 0;
 };
 
