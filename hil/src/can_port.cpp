@@ -5,6 +5,9 @@
 // the port runs the relay itself on a thread: the harness then owns the bus, and the firmware
 // loses it when the harness exits (the peer-restart test relies on that).
 #include <linux/can.h>
+#include <poll.h>
+
+#include <ctime>
 
 #include <atomic>
 #include <memory>
@@ -69,22 +72,73 @@ class CanPort final : public PlantPort {
     last_published_ = out.seq;
     const std::int64_t now = canbus::MonotonicNs();
     if (!iface_.is_open()) Reconnect(now);
+    if (out.fault == SensorFault::kDrop) return;
+    if (out.fault == SensorFault::kStall) {
+      // The same frames again: counters repeat, the firmware refuses them.
+      if (have_last_) {
+        iface_.Send(last_motion_, now + kTxDeadlineNs, now);
+        iface_.Send(last_force_, now + kTxDeadlineNs, now);
+      }
+      return;
+    }
     can_frame motion{}, force{};
+    const double v = out.fault == SensorFault::kOutOfRange || out.fault == SensorFault::kNan
+                         ? 0.0
+                         : out.sample.v;
     const bool motion_ok =
-        pc::Encode(pc::SensorMotion{out.sample.v, out.sample.x,
+        pc::Encode(pc::SensorMotion{v, out.sample.x,
                                     static_cast<std::uint16_t>(out.seq & 0xFFFFU), motion_counter_},
                    &motion) == pc::Reject::kNone;
     const bool force_ok = pc::Encode(pc::SensorForce{out.sample.demand, out.sample.body_velocity,
                                                      out.sample.force, force_counter_},
                                      &force) == pc::Reject::kNone;
     if (motion_ok) {
+      if (out.fault == SensorFault::kOutOfRange || out.fault == SensorFault::kNan) {
+        // A raw velocity outside the DBC's [-300, 300] cm/s (0x7FFF = 327.67; 0x8000, the
+        // most negative code, stands for "not a number"), sealed with a valid checksum.
+        const std::uint16_t raw = out.fault == SensorFault::kNan ? 0x8000U : 0x7FFFU;
+        motion.data[0] = static_cast<std::uint8_t>(raw & 0xFFU);
+        motion.data[1] = static_cast<std::uint8_t>(raw >> 8);
+        motion.data[motion.len - 1] = pc::Checksum(motion);
+      } else if (out.fault == SensorFault::kCorrupt) {
+        motion.data[1] ^= 0x10U;  // after sealing: checksum mismatch
+      }
       motion_counter_ = static_cast<std::uint8_t>((motion_counter_ + 1) & 0x0F);
       if (iface_.Send(motion, now + kTxDeadlineNs, now) == canbus::CanResult::kOk) ++published_;
     }
     if (force_ok) {
+      if (out.fault == SensorFault::kCorrupt) force.data[3] ^= 0x01U;
       force_counter_ = static_cast<std::uint8_t>((force_counter_ + 1) & 0x0F);
       iface_.Send(force, now + kTxDeadlineNs, now);
     }
+    if (motion_ok && force_ok) {
+      last_motion_ = motion;
+      last_force_ = force;
+      have_last_ = true;
+    }
+  }
+
+  bool SendGrant(std::int64_t t_ns) override {
+    const std::int64_t now = canbus::MonotonicNs();
+    if (!iface_.is_open()) Reconnect(now);
+    can_frame f{};
+    if (pc::Encode(pc::TimeGrant{static_cast<std::uint64_t>(t_ns / 1000), grant_counter_}, &f) !=
+        pc::Reject::kNone) {
+      return false;
+    }
+    grant_counter_ = static_cast<std::uint8_t>((grant_counter_ + 1) & 0x0F);
+    return iface_.Send(f, now + kTxDeadlineNs, now) == canbus::CanResult::kOk;
+  }
+
+  void Wait(std::int64_t timeout_ns) override {
+    if (!iface_.is_open()) {
+      PlantPort::Wait(timeout_ns);
+      return;
+    }
+    const timespec ts{static_cast<time_t>(timeout_ns / 1'000'000'000),
+                      static_cast<long>(timeout_ns % 1'000'000'000)};
+    pollfd p{iface_.fd(), POLLIN, 0};
+    (void)ppoll(&p, 1, &ts, nullptr);
   }
 
   void Poll(DriverInput* in) override {
@@ -143,6 +197,8 @@ class CanPort final : public PlantPort {
         in->command_ns = stamp;
         in->has_echo = true;
         in->echo = ExpandEcho(m.echo_seq, last_published_);
+        in->has_safe = true;
+        in->safe = m.safe;
         if (m.enable_valid) {
           in->has_enable = true;
           in->enable = m.enable;
@@ -159,6 +215,7 @@ class CanPort final : public PlantPort {
         }
         ++received_;
         in->heartbeat_ns = stamp;
+        ++in->heartbeats;
         return;
       }
       case pc::Message::kFirmwareStatus: {
@@ -168,10 +225,14 @@ class CanPort final : public PlantPort {
           return;
         }
         ++received_;
+        in->has_status = true;
+        in->status_causes = m.active_causes;
+        in->status_safe = m.safe;
         return;
       }
       case pc::Message::kSensorMotion:
       case pc::Message::kSensorForce:
+      case pc::Message::kTimeGrant:
       case pc::Message::kDriverStatus:
         return;  // the device side's own IDs from another node
       case pc::Message::kUnknown:
@@ -186,7 +247,9 @@ class CanPort final : public PlantPort {
   std::atomic<bool> relay_stop_{false};
   canbus::CanIface iface_;
   pc::CounterCheck command_check_, heartbeat_check_;
-  std::uint8_t motion_counter_ = 0, force_counter_ = 0;
+  std::uint8_t motion_counter_ = 0, force_counter_ = 0, grant_counter_ = 0;
+  can_frame last_motion_{}, last_force_{};
+  bool have_last_ = false;
   std::uint32_t last_published_ = 0;
   std::int64_t next_reconnect_ = 0;
   std::uint64_t published_ = 0, received_ = 0, rejected_ = 0;

@@ -12,8 +12,19 @@
 
 namespace mrd::hil {
 
+// A fault the harness injects into one step's sensor messages (scenario fault schedule).
+enum class SensorFault : std::uint8_t {
+  kNone = 0,
+  kDrop,        // not sent
+  kCorrupt,     // one data bit flipped after sealing (checksum / CRC mismatch)
+  kStall,       // the previous step's messages again, unchanged (repeated counter)
+  kOutOfRange,  // velocity beyond the transport's range (receiver refuses it)
+  kNan,         // velocity the transport cannot represent (CAN: raw 0x8000)
+};
+
 // One plant step's sensor values as the transport carries them.
 struct SensorOutput {
+  SensorFault fault = SensorFault::kNone;
   PlantSample sample;
   std::uint32_t seq = 0;      // step number (CAN rolling counter / Modbus sequence register)
   std::int64_t t_ns = 0;      // CLOCK_MONOTONIC when published
@@ -31,6 +42,12 @@ struct DriverInput {
   bool has_enable = false;
   bool enable = false;
   std::int64_t heartbeat_ns = 0;   // latest heartbeat seen (0: none yet)
+  std::uint64_t heartbeats = 0;    // heartbeats heard so far (lockstep: freshness per step)
+  bool has_safe = false;           // the command carried the firmware's safe-state flag
+  bool safe = false;
+  bool has_status = false;         // a firmware status arrived since the last Poll
+  std::uint16_t status_causes = 0; // its active watchdog causes (bit i = cause i)
+  bool status_safe = false;
 };
 
 struct PortCounters {
@@ -51,6 +68,15 @@ class PlantPort {
   virtual void Poll(DriverInput* in) = 0;
   virtual void Close() = 0;
   virtual PortCounters counters() const = 0;
+  // Lockstep: grants the firmware time t_ns, after this step's sensors. false: this
+  // transport carries no grants (the run then uses the real-time clock).
+  virtual bool SendGrant(std::int64_t t_ns) {
+    (void)t_ns;
+    return false;
+  }
+  // Waits up to timeout_ns for something from the firmware (then Poll). Default: sleeps a
+  // little (transports without a pollable fd).
+  virtual void Wait(std::int64_t timeout_ns);
 };
 
 // Per transport (can_port.cpp, modbus_port.cpp, gpio_port.cpp). endpoint: the local bus
