@@ -218,6 +218,9 @@ int main(int argc, char** argv) {
                   "lockstep (CAN: time grants, deterministic) | realtime (1 kHz wall clock); "
                   "default: lockstep on CAN, realtime on Modbus");
   run->add_option("--table", ro.table, "coefficient table for the firmware (mrd export)");
+  run->add_option("--excitation", ro.excitation,
+                  "CSV (header with x, v and the demand column, e.g. an `mrd generate` data "
+                  "set) replacing the scenario's excitation");
   auto* fw_opt = run->add_option("--firmware", ro.firmware,
                                  "mrd-firmware to start (default: the one beside mrd-hil)");
   run->add_flag("--attach", ro.attach,

@@ -209,11 +209,12 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   SpencerParams params;
   SpencerParams::FromPreset(s.preset, &params);
   Trace trace;
-  if (s.excitation == ExcitationKind::kCsv &&
-      !LoadTrace(s.csv_file, s.demand_column, &trace, error)) {
+  const bool csv = s.excitation == ExcitationKind::kCsv || !o.excitation.empty();
+  if (csv && !LoadTrace(o.excitation.empty() ? s.csv_file : o.excitation, s.demand_column, &trace,
+                        error)) {
     return 2;
   }
-  const Trace* tp = s.excitation == ExcitationKind::kCsv ? &trace : nullptr;
+  const Trace* tp = csv ? &trace : nullptr;
   auto plant = MakePlant(s, params, tp);
   auto plant_off = MakePlant(s, params, tp);
   auto plant_on = MakePlant(s, params, tp);

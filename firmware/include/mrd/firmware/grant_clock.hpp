@@ -8,8 +8,12 @@
 //   Now()          = the latest granted time [ns] (0 before the first grant)
 //   SleepUntil(t)  = returns at once when Now() >= t; else waits for grants until one is >= t.
 //                    A grant that does not come within grant_timeout (wall clock) is a fault,
-//                    not a hang: the clock steps to t by itself and counts a missed grant; the
-//                    sensor stamps then age and the watchdog commands the safe state.
+//                    not a hang: SleepUntil returns without one (time stays at the last grant:
+//                    only the harness moves time) and counts a missed grant; the device reports
+//                    the period as a bus timeout, so the loop commands the safe state. The loop
+//                    then re-aligns its next deadline on Now() (loop.hpp), so the next grant
+//                    ticks it again: a lost grant or command costs one safe period, never a
+//                    permanent offset between harness and firmware.
 //                    Before the first grant the wait is first_grant_timeout (start-up: the
 //                    harness may come up after the firmware); a miss there is counted the same.
 

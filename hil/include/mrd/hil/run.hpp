@@ -35,6 +35,7 @@ struct RunOptions {
   std::string transport = "can";    // can | modbus-tcp | modbus-rtu
   std::string clock;                // lockstep | realtime; "": lockstep on CAN, else realtime
   std::string table;                // table file for the firmware; "": its compiled-in table
+  std::string excitation;           // CSV replacing the scenario's excitation ("": keep it)
   std::string firmware;             // mrd-firmware to start
   bool attach = false;              // do not start it: wait for one started by hand
   std::string work_dir;             // config, sockets, firmware output (created if absent)
