@@ -33,6 +33,19 @@ PlantSample TracePlant::Step(double volts) {
   return Sample();
 }
 
+PlantSample TracePlant::Probe(double volts) const {
+  PlantSample s;
+  s.t_s = static_cast<double>(steps_ + 1) * period_s_;
+  if (trace_.x.empty()) return s;
+  SpencerDamper copy = damper_;
+  const std::size_t a = Row(steps_), b = Row(steps_ + 1);
+  s.force = copy.Step(period_s_, trace_.x[a], trace_.v[a], trace_.x[b], trace_.v[b], volts);
+  s.x = trace_.x[b];
+  s.v = trace_.v[b];
+  s.demand = trace_.demand[b];
+  return s;
+}
+
 PlantSample TracePlant::Sample() const {
   PlantSample s;
   s.t_s = static_cast<double>(steps_) * period_s_;

@@ -505,12 +505,14 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
 
     // Step the plant and its passive twins.
     const double v_seen = sample.v;
+    // What the damper can deliver on this step from its present state (0 V .. E_max).
+    const double reach_a = plant->Probe(0.0).force, reach_b = plant->Probe(s.e_max).force;
     sample = plant->Step(applied);
     const double f_off = plant_off->Step(0.0).force;
     const double f_on = plant_on->Step(s.e_max).force;
     ++r->steps;
     if (o.keep_trace) {
-      const double lo = std::min(f_off, f_on), hi = std::max(f_off, f_on);
+      const double lo = std::min(reach_a, reach_b), hi = std::max(reach_a, reach_b);
       r->trace.push_back({sample.t_s, sample.x, v_seen, sample.demand, sample.force, f_off, f_on,
                           set_point, applied, cmd_safe, driven,
                           sample.demand >= lo && sample.demand <= hi, causes});

@@ -61,8 +61,13 @@ void ScoreRun(const Scenario& s, RunResult* r) {
                         ? fr.onset_step + static_cast<std::int64_t>(std::llround(f.duration_s / 1e-3))
                         : n;
     // A delay shorter than the firmware's max_age cannot be seen: the data are late, not stale.
+    // A delay shorter than the firmware's max_age cannot be seen: the data are late, not
+    // stale. A killed plant side cannot watch the firmware detect its absence: the firmware's
+    // missed grants / stale causes show it (its summary), the harness checks that the first
+    // command it hears after the restart is the safe state.
     fr.detection_required =
-        !(f.kind == FaultKind::kDelay && f.delay_periods <= static_cast<int>(s.max_age_ms));
+        !(f.kind == FaultKind::kDelay && f.delay_periods <= static_cast<int>(s.max_age_ms)) &&
+        f.kind != FaultKind::kKillPlant;
     const bool driver_side = f.kind == FaultKind::kKillFirmware;
     for (std::int64_t k = fr.onset_step; k < n; ++k) {
       const StepRecord& rec = r->trace[static_cast<std::size_t>(k)];
@@ -82,7 +87,15 @@ void ScoreRun(const Scenario& s, RunResult* r) {
       }
     }
     const bool clears = fr.clear_step < n;
-    if (fr.detection_required && !fr.detection) {
+    if (f.kind == FaultKind::kKillPlant && clears) {
+      const auto back = static_cast<std::size_t>(fr.clear_step);
+      if (!r->trace[back].safe && r->trace[back].driven) {
+        fr.ok = false;
+        fr.why = "the first command after the plant side came back was not the safe state";
+      }
+    }
+    if (!fr.ok) {
+    } else if (fr.detection_required && !fr.detection) {
       fr.ok = false;
       fr.why = "never detected";
     } else if (fr.detection && !fr.safe) {

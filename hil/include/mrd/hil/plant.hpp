@@ -22,6 +22,9 @@ class Plant {
   // Advances one period with volts [V] held; the sample at the end. Real-time safe.
   virtual PlantSample Step(double volts) = 0;
   virtual PlantSample Sample() const = 0;
+  // The sample Step(volts) would give, without advancing (what the damper can deliver on the
+  // next step from its present state: the harness's reachability test). No allocation.
+  virtual PlantSample Probe(double volts) const = 0;
   // Extra per-step signals of this plant for its scores (name, value); default none.
   virtual void Signals(std::vector<std::pair<const char*, double>>* out) const { (void)out; }
 };
@@ -35,6 +38,10 @@ class DamperPlantAdapter final : public Plant {
   void Reset() override { plant_.Reset(); }
   PlantSample Step(double volts) override { return plant_.Step(volts); }
   PlantSample Sample() const override { return plant_.Sample(); }
+  PlantSample Probe(double volts) const override {
+    DamperPlant copy = plant_;  // value type: the damper state and the excitation
+    return copy.Step(volts);
+  }
 
  private:
   DamperPlant plant_;
@@ -54,6 +61,7 @@ class TracePlant final : public Plant {
   void Reset() override;
   PlantSample Step(double volts) override;
   PlantSample Sample() const override;
+  PlantSample Probe(double volts) const override;
 
  private:
   std::size_t Row(std::size_t k) const;

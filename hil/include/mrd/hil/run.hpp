@@ -12,10 +12,11 @@
 //   realtime             the plant steps at 1 kHz on CLOCK_MONOTONIC (absolute deadlines); the
 //                        firmware runs on its own clock; wake-up jitter and sensor->command
 //                        latency are measured.
-// Scores: force tracking ||f - d|| / ||d|| over the steps the coil is driven by a non-safe
-// command, over all of them and over the reachable ones (d between the forces of two shadow
-// plants on the same excitation held at 0 V and at E_max), next to the same figures for those
-// passive plants; the invariant (every received command finite and within [0, E_max]); per
+// Scores: force tracking ||f - d|| / ||d|| (force and demand at the same plant time) over the
+// steps the coil is driven by a non-safe command, over all of them and over the reachable ones
+// (d within the forces the damper would give on that step from its present state at 0 V and
+// at E_max: Plant::Probe), next to the same figures for two shadow plants on the same
+// excitation held at 0 V (passive-off) and E_max (passive-on); the invariant (every received command finite and within [0, E_max]); per
 // fault, periods to detection (first step whose firmware status names a cause, or the driver's
 // heartbeat loss), to the safe state (first safe command, or coil dropped by the driver) and to
 // recovery after the fault clears (first non-safe, driven command).
