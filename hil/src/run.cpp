@@ -471,7 +471,12 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       if (!std::isfinite(fresh.volts) || fresh.volts < 0.0 || fresh.volts > s.e_max) {
         ++r->invariant_violations;
       }
-      if (fresh.has_safe) cmd_safe = fresh.safe;
+      // The safe flag where the transport carries it (CAN); else the enable (Modbus).
+      if (fresh.has_safe) {
+        cmd_safe = fresh.safe;
+      } else if (fresh.has_enable) {
+        cmd_safe = !fresh.enable;
+      }
       if (cmd_safe) ++r->safe_commands;
       if (fresh.has_echo) {
         const std::size_t slot = fresh.echo % kRing;
