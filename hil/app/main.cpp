@@ -175,6 +175,67 @@ int RunCommand(const std::string& scenario_path, mrd::hil::RunOptions o, const s
   return r.pass ? kExitOk : kExitFailure;
 }
 
+// Lockstep speed over the local CAN bus and real-time wake-up jitter: the closed loop on the
+// periodic excitation, force law, seconds of plant time each.
+int BenchCommand(double seconds, mrd::hil::RunOptions o, bool json) {
+  if (o.firmware.empty()) o.firmware = SelfDir() + "/mrd-firmware";
+  if (access(o.firmware.c_str(), X_OK) != 0) {
+    std::fprintf(stderr, "error: %s: not an executable (give --firmware PATH)\n", o.firmware.c_str());
+    return kExitBadInput;
+  }
+  mrd::hil::Scenario s;
+  s.path = "(bench)";
+  s.name = "bench";
+  s.duration_s = seconds;
+  nlohmann::json j;
+  for (const char* clock : {"lockstep", "realtime"}) {
+    char dir[] = "/tmp/mrd-hil-bench-XXXXXX";
+    if (mkdtemp(dir) == nullptr) return kExitFailure;
+    o.work_dir = dir;
+    o.clock = clock;
+    o.transport = "can";
+    o.keep_trace = false;
+    mrd::hil::RunResult r;
+    std::string error;
+    const int rc = mrd::hil::RunScenario(s, o, &r, &error);
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+    if (rc != 0) {
+      std::fprintf(stderr, "error: %s\n", error.c_str());
+      return rc == 2 ? kExitBadInput : kExitFailure;
+    }
+    const auto stats = [](const mrd::hil::LatencyStats& l) {
+      return nlohmann::json{{"count", l.count}, {"median", l.median_us}, {"p99", l.p99_us},
+                            {"max", l.max_us}};
+    };
+    j[clock] = {{"plant_s", static_cast<double>(r.steps) * 1e-3},
+                {"wall_s", r.wall_s},
+                {"speed_x", r.speed_x},
+                {"steps", r.steps},
+                {"command_timeouts", r.command_timeouts},
+                {"invariant_violations", r.invariant_violations},
+                {"late_steps", r.late_steps},
+                {"latency_us", stats(r.latency)}};
+    if (std::string(clock) == "realtime") j[clock]["wake_jitter_us"] = stats(r.wake_jitter);
+  }
+  if (json) {
+    std::cout << j.dump(2) << std::endl;
+  } else {
+    const auto& l = j["lockstep"];
+    const auto& rt = j["realtime"];
+    std::printf("lockstep over the local CAN bus: %.3g s of plant time in %.3g s wall = %.3gx real "
+                "time (%llu steps, %llu command timeouts)\n",
+                l["plant_s"].get<double>(), l["wall_s"].get<double>(), l["speed_x"].get<double>(),
+                l["steps"].get<unsigned long long>(), l["command_timeouts"].get<unsigned long long>());
+    std::printf("real time (1 kHz) wake-up jitter: median %.1f us, p99 %.1f us, max %.1f us "
+                "(%llu late steps); sensor->command latency median %.1f us, p99 %.1f us\n",
+                rt["wake_jitter_us"]["median"].get<double>(), rt["wake_jitter_us"]["p99"].get<double>(),
+                rt["wake_jitter_us"]["max"].get<double>(), rt["late_steps"].get<unsigned long long>(),
+                rt["latency_us"]["median"].get<double>(), rt["latency_us"]["p99"].get<double>());
+  }
+  return kExitOk;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -232,6 +293,17 @@ int main(int argc, char** argv) {
                   "lockstep: seconds to wait for one tick's command")
       ->check(CLI::Range(0.001, 60.0))->capture_default_str();
   run->add_flag("--json", run_json, "print the summary as JSON");
+  auto* bench = app.add_subcommand(
+      "bench", "Benchmark: lockstep speed over the local CAN bus (x real time) and the real-time "
+               "mode's wake-up jitter (median, p99, max), closed loop with mrd-firmware.");
+  double bench_s = 10.0;
+  mrd::hil::RunOptions bo;
+  bool bench_json = false;
+  bench->add_option("--seconds", bench_s, "plant seconds per mode")
+      ->check(CLI::Range(0.1, 3600.0))->capture_default_str();
+  bench->add_option("--firmware", bo.firmware, "mrd-firmware (default: beside mrd-hil)");
+  bench->add_option("--table", bo.table, "coefficient table for the firmware");
+  bench->add_flag("--json", bench_json, "print the figures as JSON");
   app.footer(ScenarioList() + "\n" + mrd::hil::ScenarioKeysHelp());
   try {
     app.parse(argc, argv);
@@ -240,6 +312,7 @@ int main(int argc, char** argv) {
   }
 
   if (run->parsed()) return RunCommand(scenario_path, ro, out_dir, run_json);
+  if (bench->parsed()) return BenchCommand(bench_s, bo, bench_json);
 
   std::vector<std::unique_ptr<mrd::hil::PlantPort>> ports;
   std::vector<mrd::hil::PlantPort*> raw;
