@@ -42,7 +42,8 @@ struct RunOptions {
   std::string work_dir;             // config, sockets, firmware output (created if absent)
   double command_timeout_s = 0.5;   // lockstep: wait for one tick's command
   double startup_timeout_s = 10.0;  // first sign of life of the firmware
-  bool keep_trace = true;           // record per-step signals (plots)
+  bool keep_trace = true;           // record per-step signals and score (false: benchmark;
+                                    // no probes, no passive twins, no tracking scores)
 };
 
 struct TrackingScores {
