@@ -205,6 +205,17 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
              "firmware (drop --attach)";
     return 2;
   }
+  // Frame-level faults are injected by the CAN port only; the Modbus ports carry the values.
+  for (const Fault& f : s.faults) {
+    const bool frame_level = SensorFaultOf(f.kind) != SensorFault::kNone ||
+                             f.kind == FaultKind::kDelay || f.kind == FaultKind::kKillPlant;
+    if (frame_level && o.transport != "can") {
+      *error = s.path + ":" + std::to_string(f.line) + ": fault '" + FaultKindName(f.kind) +
+               "' is injected on CAN frames only (not over " + o.transport +
+               " yet); implausible, kill_firmware and corrupt_table work on every transport";
+      return 2;
+    }
+  }
   SpencerParams params;
   SpencerParams::FromPreset(s.preset, &params);
   Trace trace;

@@ -140,6 +140,19 @@ TEST(HilRunTest, KillNineOfTheFirmware) {
   ASSERT_FALSE(f["periods_to_recovery"].is_null());
 }
 
+TEST(HilRunTest, KillNineOfTheFirmwareOverModbusTcp) {
+  const HilResult r = Hil({kScn + "fault-kill-firmware.toml", "--table", Table(), "--transport",
+                           "modbus-tcp"});
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_EQ(r.j["clock"], "realtime");
+  EXPECT_EQ(r.j["invariant_violations"], 0);
+  EXPECT_EQ(r.j["firmware"]["starts"], 2);
+  const json& f = r.j["faults"][0];
+  EXPECT_TRUE(f["ok"].get<bool>()) << f.dump();
+  EXPECT_LE(f["periods_to_safe_state"].get<int>(), 60);
+  ASSERT_FALSE(f["periods_to_recovery"].is_null());
+}
+
 TEST(HilRunTest, CorruptTableIsRefused) {
   const HilResult r = Hil({kScn + "fault-corrupt-table.toml", "--table", Table()});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
@@ -197,6 +210,12 @@ TEST(HilRunTest, BadInputExitTwo) {
   EXPECT_NE(r.err.find("--clock lockstep needs --transport can"), std::string::npos) << r.err;
   r = Hil({kScn + "closed-loop-smoke.toml", "--table", dir + "/missing.bin"});
   EXPECT_EQ(r.status, 2);
+  // Frame-level faults are not injected over Modbus: refused, not silently skipped.
+  r = Hil({kScn + "faults-sensor.toml", "--transport", "modbus-rtu"});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("faults-sensor.toml:27: fault 'drop' is injected on CAN frames only"),
+            std::string::npos)
+      << r.err;
 }
 
 }  // namespace
