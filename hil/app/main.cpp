@@ -144,6 +144,7 @@ int RunCommand(const std::string& scenario_path, mrd::hil::RunOptions o, const s
     temp = o.work_dir = dir;
   }
   o.keep_trace = true;
+  if (o.attach) o.startup_timeout_s = 120.0;  // time to start the firmware by hand
   mrd::hil::RunResult r;
   const int rc = mrd::hil::RunScenario(s, o, &r, &error);
   if (rc != 0) {
