@@ -9,7 +9,9 @@
 
 #include <ctime>
 
+#include <array>
 #include <atomic>
+#include <cstring>
 #include <memory>
 #include <thread>
 
@@ -45,11 +47,22 @@ std::uint32_t ExpandEcho(std::uint16_t echo, std::uint32_t last_published) {
 class CanPort final : public PlantPort {
  public:
   explicit CanPort(std::string endpoint) : endpoint_(std::move(endpoint)) {}
-  ~CanPort() override { Close(); }
+  // An in-process node of a relay this process runs (the harness owns the bus).
+  explicit CanPort(canbus::LocalBusRelay& relay) : relay_(&relay) {
+    relay.SetTap(&CanPort::Tap, this);
+  }
+  ~CanPort() override {
+    if (relay_ != nullptr) relay_->SetTap(nullptr, nullptr);
+    Close();
+  }
 
   const char* name() const override { return "can"; }
 
   bool Open(std::string* error) override {
+    if (relay_ != nullptr) {
+      relay_open_ = true;
+      return true;
+    }
     if (!canbus::IsLocalBusPath(endpoint_)) {
       const int fd = canbus::OpenSocketCan(endpoint_.c_str(), kFilters, std::size(kFilters), error);
       if (fd < 0) return false;
@@ -58,9 +71,9 @@ class CanPort final : public PlantPort {
     }
     int fd = canbus::OpenLocalBusNode(endpoint_.c_str(), nullptr);
     if (fd < 0) {
-      if (!relay_.Open(endpoint_, error)) return false;
+      if (!own_relay_.Open(endpoint_, error)) return false;
       relay_stop_.store(false);
-      relay_thread_ = std::thread([this] { relay_.Run(relay_stop_); });
+      relay_thread_ = std::thread([this] { own_relay_.Run(relay_stop_); });
       fd = canbus::OpenLocalBusNode(endpoint_.c_str(), error);
       if (fd < 0) return false;
     }
@@ -71,13 +84,13 @@ class CanPort final : public PlantPort {
   void Publish(const SensorOutput& out) override {
     last_published_ = out.seq;
     const std::int64_t now = canbus::MonotonicNs();
-    if (!iface_.is_open()) Reconnect(now);
-    if (out.fault == SensorFault::kDrop) return;
+    if (!IsOpen()) Reconnect(now);
+    if (!IsOpen() || out.fault == SensorFault::kDrop) return;
     if (out.fault == SensorFault::kStall) {
       // The same frames again: counters repeat, the firmware refuses them.
       if (have_last_) {
-        iface_.Send(last_motion_, now + kTxDeadlineNs, now);
-        iface_.Send(last_force_, now + kTxDeadlineNs, now);
+        SendFrame(last_motion_, now);
+        SendFrame(last_force_, now);
       }
       return;
     }
@@ -104,12 +117,12 @@ class CanPort final : public PlantPort {
         motion.data[1] ^= 0x10U;  // after sealing: checksum mismatch
       }
       motion_counter_ = static_cast<std::uint8_t>((motion_counter_ + 1) & 0x0F);
-      if (iface_.Send(motion, now + kTxDeadlineNs, now) == canbus::CanResult::kOk) ++published_;
+      if (SendFrame(motion, now) == canbus::CanResult::kOk) ++published_;
     }
     if (force_ok) {
       if (out.fault == SensorFault::kCorrupt) force.data[3] ^= 0x01U;
       force_counter_ = static_cast<std::uint8_t>((force_counter_ + 1) & 0x0F);
-      iface_.Send(force, now + kTxDeadlineNs, now);
+      SendFrame(force, now);
     }
     if (motion_ok && force_ok) {
       last_motion_ = motion;
@@ -120,17 +133,22 @@ class CanPort final : public PlantPort {
 
   bool SendGrant(std::int64_t t_ns) override {
     const std::int64_t now = canbus::MonotonicNs();
-    if (!iface_.is_open()) Reconnect(now);
+    if (!IsOpen()) Reconnect(now);
+    if (!IsOpen()) return false;
     can_frame f{};
     if (pc::Encode(pc::TimeGrant{static_cast<std::uint64_t>(t_ns / 1000), grant_counter_}, &f) !=
         pc::Reject::kNone) {
       return false;
     }
     grant_counter_ = static_cast<std::uint8_t>((grant_counter_ + 1) & 0x0F);
-    return iface_.Send(f, now + kTxDeadlineNs, now) == canbus::CanResult::kOk;
+    return SendFrame(f, now) == canbus::CanResult::kOk;
   }
 
   void Wait(std::int64_t timeout_ns) override {
+    if (relay_ != nullptr) {
+      relay_->Step(static_cast<int>((timeout_ns + 999'999) / 1'000'000));
+      return;
+    }
     if (!iface_.is_open()) {
       PlantPort::Wait(timeout_ns);
       return;
@@ -142,11 +160,11 @@ class CanPort final : public PlantPort {
   }
 
   void Poll(DriverInput* in) override {
-    if (!iface_.is_open()) return;
+    if (!IsOpen()) return;
     for (int k = 0; k < kMaxFramesPerPoll; ++k) {
       can_frame f{};
       std::int64_t stamp = 0;
-      const canbus::CanResult r = iface_.Receive(&f, &stamp);
+      const canbus::CanResult r = ReceiveFrame(&f, &stamp);
       if (r == canbus::CanResult::kEmpty || r == canbus::CanResult::kDisconnected) break;
       if (r != canbus::CanResult::kOk) {
         ++rejected_;
@@ -157,18 +175,58 @@ class CanPort final : public PlantPort {
   }
 
   void Close() override {
+    if (relay_ != nullptr) {
+      relay_open_ = false;
+      rx_count_ = 0;
+      return;
+    }
     iface_.Close();
     if (relay_thread_.joinable()) {
       relay_stop_.store(true);
       relay_thread_.join();
     }
-    relay_.Close();
+    own_relay_.Close();
   }
 
   PortCounters counters() const override { return {published_, received_, rejected_}; }
 
  private:
+  bool IsOpen() const { return relay_ != nullptr ? relay_open_ : iface_.is_open(); }
+
+  canbus::CanResult SendFrame(const can_frame& f, std::int64_t now) {
+    if (relay_ != nullptr) {
+      relay_->Broadcast(&f);
+      return canbus::CanResult::kOk;
+    }
+    return iface_.Send(f, now + kTxDeadlineNs, now);
+  }
+
+  canbus::CanResult ReceiveFrame(can_frame* f, std::int64_t* stamp) {
+    if (relay_ == nullptr) return iface_.Receive(f, stamp);
+    if (rx_count_ == 0) return canbus::CanResult::kEmpty;
+    *f = rx_[rx_head_].frame;
+    *stamp = rx_[rx_head_].stamp;
+    rx_head_ = (rx_head_ + 1) % rx_.size();
+    --rx_count_;
+    return canbus::CanResult::kOk;
+  }
+
+  // Frames the relay's socket nodes sent (called from LocalBusRelay::Step).
+  static void Tap(void* context, const void* frame) {
+    auto* self = static_cast<CanPort*>(context);
+    if (!self->relay_open_) return;
+    if (self->rx_count_ == self->rx_.size()) {
+      ++self->rejected_;  // overflow: as a full controller FIFO
+      return;
+    }
+    const std::size_t slot = (self->rx_head_ + self->rx_count_) % self->rx_.size();
+    std::memcpy(&self->rx_[slot].frame, frame, sizeof(can_frame));
+    self->rx_[slot].stamp = canbus::MonotonicNs();
+    ++self->rx_count_;
+  }
+
   void Reconnect(std::int64_t now) {
+    if (relay_ != nullptr) return;
     if (relay_thread_.joinable() || !canbus::IsLocalBusPath(endpoint_) || now < next_reconnect_) {
       return;
     }
@@ -242,7 +300,15 @@ class CanPort final : public PlantPort {
   }
 
   std::string endpoint_;
-  canbus::LocalBusRelay relay_;
+  canbus::LocalBusRelay* relay_ = nullptr;  // in-process node of this relay (else a socket)
+  bool relay_open_ = false;
+  struct Rx {
+    can_frame frame;
+    std::int64_t stamp;
+  };
+  std::array<Rx, 256> rx_{};
+  std::size_t rx_head_ = 0, rx_count_ = 0;
+  canbus::LocalBusRelay own_relay_;
   std::thread relay_thread_;
   std::atomic<bool> relay_stop_{false};
   canbus::CanIface iface_;
@@ -259,6 +325,10 @@ class CanPort final : public PlantPort {
 
 std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint) {
   return std::make_unique<CanPort>(endpoint);
+}
+
+std::unique_ptr<PlantPort> MakeCanPortOnRelay(canbus::LocalBusRelay& relay) {
+  return std::make_unique<CanPort>(relay);
 }
 
 }  // namespace mrd::hil

@@ -233,10 +233,11 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     *error = o.work_dir + ": cannot create (" + std::strerror(errno) + ")";
     return 1;
   }
-  // The transport's endpoint. On CAN the harness owns the local frame bus and runs its relay
+  // The transport's endpoint. On CAN the harness owns the local frame bus, runs its relay
   // inline (pump below: forwarding happens in the harness's own waits, so a lockstep round costs
-  // two wake-ups, harness -> firmware -> harness, instead of four through a relay thread); the
-  // plant's node can go away and come back (kill_plant).
+  // two wake-ups, harness -> firmware -> harness, instead of four through a relay thread) and is
+  // an in-process node of it (no socket round trip of its own); the plant's node can go away
+  // and come back (kill_plant).
   std::string endpoint;
   canbus::LocalBusRelay relay;
   std::unique_ptr<PlantPort> port;
@@ -244,7 +245,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   if (can) {
     endpoint = o.work_dir + "/canbus.sock";
     if (!relay.Open(endpoint, error)) return 1;
-    port = MakeCanPort(endpoint);
+    port = MakeCanPortOnRelay(relay);
   } else if (o.transport == "modbus-rtu") {
     endpoint = o.work_dir + "/modbus-pty";
     port = MakeModbusRtuPort(endpoint);

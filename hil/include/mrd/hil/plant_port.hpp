@@ -10,6 +10,10 @@
 
 #include "mrd/common/damper_plant.hpp"
 
+namespace mrd::canbus {
+class LocalBusRelay;
+}  // namespace mrd::canbus
+
 namespace mrd::hil {
 
 // A fault the harness injects into one step's sensor messages (scenario fault schedule).
@@ -86,5 +90,9 @@ std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeModbusTcpPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeModbusRtuPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeGpioPort(const std::string& endpoint);
+// CAN as an in-process node of a local-bus relay this process runs (mrd-hil run owns the bus):
+// frames go straight to the relay's socket nodes and come back through its tap; Wait steps the
+// relay. The relay outlives the port.
+std::unique_ptr<PlantPort> MakeCanPortOnRelay(canbus::LocalBusRelay& relay);
 
 }  // namespace mrd::hil
