@@ -90,9 +90,11 @@ void Loop::Run(const std::atomic<bool>& stop, std::int64_t duration_ns) {
     // harness's grants) re-aligns on its own time; never with CLOCK_MONOTONIC, where
     // end >= the previous deadline.
     if (end + period_ns_ < deadline) deadline = end + period_ns_;
-    // Reaching the next deadline already is an overrun too: that period's tick would otherwise
-    // run at once on the same time (lockstep: two ticks on one grant).
-    if (end >= deadline) {
+    // A late wake-up that ends exactly on the next deadline skips it too: that period's tick
+    // would otherwise run at once on the same time (lockstep: two ticks on one grant after the
+    // harness's time jumped). Work of exactly one period after an on-time wake-up is not an
+    // overrun.
+    if (end > deadline || (end == deadline && latency > 0)) {
       ++stats_.overruns;
       const std::int64_t missed = (end - deadline) / period_ns_ + 1;
       stats_.missed_periods += static_cast<std::uint64_t>(missed);

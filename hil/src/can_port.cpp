@@ -170,9 +170,18 @@ class CanPort final : public PlantPort {
         ++rejected_;
         continue;
       }
+      const bool command_before = in->has_command;
       Handle(f, stamp, in);
+      // Lockstep: a tick's messages end with its status; what follows belongs to the next
+      // tick (or the firmware's shutdown) and waits for the next Poll.
+      if (lockstep_ && command_before && in->has_status &&
+          pc::Classify(f) == pc::Message::kFirmwareStatus) {
+        break;
+      }
     }
   }
+
+  void SetLockstep(bool on) override { lockstep_ = on; }
 
   void Close() override {
     if (relay_ != nullptr) {
@@ -302,6 +311,7 @@ class CanPort final : public PlantPort {
   std::string endpoint_;
   canbus::LocalBusRelay* relay_ = nullptr;  // in-process node of this relay (else a socket)
   bool relay_open_ = false;
+  bool lockstep_ = false;
   struct Rx {
     can_frame frame;
     std::int64_t stamp;

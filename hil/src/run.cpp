@@ -269,6 +269,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     return 1;
   }
   bool port_open = true;
+  port->SetLockstep(lockstep);
   // Waits up to timeout_ns for the firmware: on CAN by relaying the bus meanwhile (returns when
   // something moved), else on the port.
   const std::function<void(std::int64_t)> pump = [&](std::int64_t timeout_ns) {

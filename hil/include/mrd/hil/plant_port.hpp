@@ -78,6 +78,8 @@ class PlantPort {
     (void)t_ns;
     return false;
   }
+  // Lockstep: Poll hands over one firmware tick at a time (CAN: up to its status frame).
+  virtual void SetLockstep(bool on) { (void)on; }
   // Waits up to timeout_ns for something from the firmware (then Poll). Default: sleeps a
   // little (transports without a pollable fd).
   virtual void Wait(std::int64_t timeout_ns);
