@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job on built-in data: set-up, build, then generate the reference data sets
-# -> identify -> simulate -> report -> export -> firmware dry run, then the same on the measured
-# NEES run shipped in tests/data/nees-2012-1158 (HIL joins as it lands). Outputs go to out/.
+# -> identify -> simulate -> report -> export -> firmware dry run -> HIL closed loop (mrd-hil +
+# mrd-firmware over the local CAN bus), then the same on the measured NEES run shipped in
+# tests/data/nees-2012-1158. Outputs go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash toolchain/build.sh release
@@ -32,6 +33,13 @@ echo "== export: coefficient table for the firmware"
 "$mrd" export --model out/model.json --table out/table.bin --header out/table.hpp
 echo "== firmware: 2 s dry run (lockstep) of mrd-firmware on the exported table"
 build/bin/mrd-firmware --table out/table.bin --dry-run 2 --lockstep --json
+
+echo "== HIL: mrd-hil + mrd-firmware closed loop over the local CAN bus (lockstep), exported table"
+echo "   force tracking on V1's forces (reachable by construction), then every sensor fault"
+build/bin/mrd-hil run hil/scenarios/force-v1.toml --excitation out/v1.csv --table out/table.bin \
+  --out out/hil/force-v1
+build/bin/mrd-hil run hil/scenarios/faults-sensor.toml --table out/table.bin --out out/hil/faults
+echo "   (summaries, traces and plots: out/hil/*/)"
 
 nees=tests/data/nees-2012-1158/ransim_u.csv
 if [[ -f "$nees" ]]; then

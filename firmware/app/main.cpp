@@ -27,6 +27,7 @@
 #include "mrd/firmware/config.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/fieldbus_io.hpp"
+#include "mrd/firmware/grant_clock.hpp"
 #include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/sd_notify.hpp"
@@ -209,9 +210,15 @@ void PrintDevices(const std::vector<std::unique_ptr<BusDevice>>& devices) {
   }
 }
 
+// Lockstep figures of a bus run (clock = "grant").
+struct ClockInfo {
+  const char* mode = "monotonic";
+  std::uint64_t grants = 0, missed = 0;
+};
+
 void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareConfig& cfg,
                   const RealTime& rt, const char* table_name,
-                  const std::vector<std::unique_ptr<BusDevice>>& devices) {
+                  const std::vector<std::unique_ptr<BusDevice>>& devices, const ClockInfo& ci) {
   const bool buses = !devices.empty();
   const char* mode = buses ? "bus" : (o.lockstep ? "lockstep" : "realtime");
   const double seconds = buses ? static_cast<double>(s.ticks) * static_cast<double>(cfg.period_ns) * 1e-9
@@ -235,6 +242,9 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
     info.rms_model_error_n = rms_model;
     info.rms_tracking_error_n = rms_tracking;
     for (const auto& d : devices) info.devices.push_back({d->name(), d->counters()});
+    info.clock = ci.mode;
+    info.grants = ci.grants;
+    info.missed_grants = ci.missed;
     std::fputs(SummaryJson(s, info).c_str(), stdout);
     return;
   }
@@ -267,7 +277,12 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
   std::printf("  last command:     %.6g V, model force %.6g N\n", s.last_command_v, s.model_force_n);
   std::printf("  RMS errors:       model vs plant %.6g N, demand vs plant %.6g N\n", rms_model,
               rms_tracking);
-  if (buses) std::printf("  devices:\n");
+  if (buses) {
+    std::printf("  clock:            %s (grants %llu, missed %llu)\n", ci.mode,
+                static_cast<unsigned long long>(ci.grants),
+                static_cast<unsigned long long>(ci.missed));
+    std::printf("  devices:\n");
+  }
   PrintDevices(devices);
   std::printf("  final state:      %s\n", s.safe ? "safe" : "NOT SAFE");
 }
@@ -277,7 +292,7 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
 // (<= 0: until g_stop). The calling thread reads the telemetry meanwhile.
 void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver& driver,
                  Controller& controller, Telemetry& telemetry, std::int64_t duration_ns,
-                 RealTime* rt) {
+                 RealTime* rt, Clock* lockstep_clock = nullptr) {
   if (cfg.lock_memory) {
     if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
       rt->memory_locked = true;
@@ -287,7 +302,8 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
                    std::strerror(errno));
     }
   }
-  MonotonicClock clock;
+  MonotonicClock monotonic;
+  Clock& clock = lockstep_clock != nullptr ? *lockstep_clock : monotonic;
   Loop loop(clock, source, driver, controller, telemetry, cfg.period_ns);
   std::atomic<bool> done{false};
   std::thread worker([&] {
@@ -406,6 +422,7 @@ int Run(const Options& o) {
   Telemetry telemetry;
   RealTime rt;
   std::vector<std::unique_ptr<BusDevice>> devices;
+  ClockInfo clock_info;
   if (buses) {
     std::string error;
     if (!MakeDevices(cfg.io, &devices, &error)) {
@@ -423,7 +440,24 @@ int Run(const Options& o) {
     }
     const std::int64_t duration_ns =
         o.duration_s > 0.0 ? static_cast<std::int64_t>(std::llround(o.duration_s * 1e9)) : 0;
-    RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt);
+    if (cfg.clock == LoopClock::kGrant) {
+      // Lockstep with the HIL harness: the same loop on the time the CAN bus grants
+      // (duration in granted time).
+      TimeGrantSource* grants = nullptr;
+      for (auto& d : devices) {
+        if (grants == nullptr) grants = d->grant_source();
+      }
+      if (grants == nullptr) {
+        std::fprintf(stderr, "error: %s: clock = \"grant\" needs the [can] device\n", o.config);
+        for (auto& d : devices) d->Deactivate();
+        return kExitBadInput;
+      }
+      GrantClock clock(*grants, cfg.grant_timeout_ns);
+      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt, &clock);
+      clock_info = {"grant", clock.grants(), clock.missed_grants()};
+    } else {
+      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt);
+    }
     for (auto& d : devices) d->Deactivate();
   } else if (o.lockstep) {
     const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
@@ -438,7 +472,7 @@ int Run(const Options& o) {
     RunRealTime(cfg, plant, plant, controller, telemetry, duration_ns, &rt);
   }
   const TelemetrySnapshot s = telemetry.Read();
-  PrintSummary(s, o, cfg, rt, table_name, devices);
+  PrintSummary(s, o, cfg, rt, table_name, devices, clock_info);
   return s.safe ? kExitOk : kExitFailure;
 }
 

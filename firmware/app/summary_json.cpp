@@ -71,6 +71,8 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
     }
     j["devices"] = devices;
     j["final_safe_state"] = s.safe;
+    j["clock"] = {{"mode", info.clock}, {"grants", info.grants},
+                  {"missed_grants", info.missed_grants}};
     // One key per line (the layout scripts and tests read), nested objects inline.
     std::string out = "{\n";
     for (auto it = j.begin(); it != j.end(); ++it) {

@@ -2,6 +2,7 @@
 // The dry-run summary of mrd-firmware as one JSON object (nlohmann-json: strings escaped,
 // non-finite numbers written as null). This file alone is compiled with exceptions.
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,10 @@ struct SummaryInfo {
     const char* name;
     DeviceCounters counters;
   };
-  std::vector<Device> devices;  // bus mode: per field device (empty in a dry run)
+  std::vector<Device> devices;
+  const char* clock = "monotonic";  // bus mode: "monotonic" | "grant" (lockstep)
+  std::uint64_t grants = 0;         // lockstep: time grants received
+  std::uint64_t missed_grants = 0;  // lockstep: grants not received in time (safe periods)  // bus mode: per field device (empty in a dry run)
 };
 
 // Pretty-printed JSON text with a final newline; "" if it cannot be built (no memory).

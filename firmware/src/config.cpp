@@ -207,7 +207,14 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
        {Number("period_us", &x->period_us, 100.0, 1e6, "us", "Control period."),
         Integer("priority", &c->priority, 0, 99, "",
                 "SCHED_FIFO priority of the loop thread; 0 = do not ask for real time."),
-        Bool("lock_memory", &c->lock_memory, "Lock all memory (mlockall) before the loop.")}},
+        Bool("lock_memory", &c->lock_memory, "Lock all memory (mlockall) before the loop."),
+        Choice("clock", &c->clock,
+               {{"monotonic", LoopClock::kMonotonic}, {"grant", LoopClock::kGrant}},
+               "Bus mode: the loop's time from CLOCK_MONOTONIC, or lockstep with the HIL "
+               "harness (time grants on the [can] bus, docs/can_bus.md; needs [can])."),
+        Duration("grant_timeout_ms", &c->grant_timeout_ns, 1e6, 1.0, 1e5, "ms",
+                 "clock = \"grant\": a grant not received within this wall time is missed: "
+                 "the loop steps on by itself in the safe state (counted).")}},
       {"control",
        {Choice("law", &k.law.mode,
                {{"force", ControlMode::kForceTracking},
@@ -333,7 +340,12 @@ std::string Where(const toml::table& root, const std::string& source, const char
 bool CheckIo(const toml::table& root, const std::string& source, const FirmwareConfig& c,
              std::string* error) {
   const IoConfig& io = c.io;
-  if (!io.any()) return true;
+  if (!io.any()) {
+    if (c.clock != LoopClock::kGrant) return true;
+    *error = Where(root, source, "loop", "clock") +
+             "clock = \"grant\" needs a [can] section (the time grants travel on CAN)";
+    return false;
+  }
   struct Bus {
     const char* name;
     bool enabled;
@@ -393,6 +405,11 @@ bool CheckIo(const toml::table& root, const std::string& source, const FirmwareC
   if (io.can.enabled && io.can.interface.empty() == io.can.local_bus.empty()) {
     *error = Where(root, source, "can", "interface") +
              "[can] needs exactly one of 'interface' (SocketCAN) and 'local_bus' (socket path)";
+    return false;
+  }
+  if (c.clock == LoopClock::kGrant && !io.can.enabled) {
+    *error = Where(root, source, "loop", "clock") +
+             "clock = \"grant\" needs a [can] section (the time grants travel on CAN)";
     return false;
   }
   if (io.modbus.enabled && io.modbus.mode == ModbusMode::kRtu && io.modbus.device.empty()) {
@@ -471,6 +488,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   c->period_ns = static_cast<std::int64_t>(std::llround(x.period_us * 1e3));
   k.watchdog.max_age_ns = static_cast<std::int64_t>(std::llround(x.max_age_ms * 1e6));
   if (x.e_max_set) c->e_max = x.e_max;
+  c->io.can.lockstep = c->clock == LoopClock::kGrant;
   return true;
 }
 

@@ -86,7 +86,15 @@ void Loop::Run(const std::atomic<bool>& stop, std::int64_t duration_ns) {
     stats_.last_exec_ns = end - wake;
     if (stats_.last_exec_ns > stats_.worst_exec_ns) stats_.worst_exec_ns = stats_.last_exec_ns;
     deadline += period_ns_;
-    if (end > deadline) {
+    // A clock behind its deadline (lockstep after a missed grant: time only moves with the
+    // harness's grants) re-aligns on its own time; never with CLOCK_MONOTONIC, where
+    // end >= the previous deadline.
+    if (end + period_ns_ < deadline) deadline = end + period_ns_;
+    // A late wake-up that ends exactly on the next deadline skips it too: that period's tick
+    // would otherwise run at once on the same time (lockstep: two ticks on one grant after the
+    // harness's time jumped). Work of exactly one period after an on-time wake-up is not an
+    // overrun.
+    if (end > deadline || (end == deadline && latency > 0)) {
       ++stats_.overruns;
       const std::int64_t missed = (end - deadline) / period_ns_ + 1;
       stats_.missed_periods += static_cast<std::uint64_t>(missed);

@@ -1,6 +1,7 @@
 // mrd-hil — the hardware-in-the-loop harness: serves the reference damper over the same
 // transports as hardware (local CAN bus / SocketCAN, Modbus TCP, Modbus RTU on a pty,
-// simulated GPIO chip) to a firmware started separately.
+// simulated GPIO chip) to a firmware started separately (serve), or runs a scored scenario
+// against a firmware child process (run; run.hpp).
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -14,9 +15,18 @@
 #include <string>
 #include <vector>
 
+#include <dirent.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+
 #include "mrd/hil/gpio_port.hpp"
 #include "mrd/hil/plant_port.hpp"
+#include "mrd/hil/run.hpp"
+#include "mrd/hil/scenario.hpp"
 #include "mrd/hil/serve.hpp"
+#include "report.hpp"
 
 namespace {
 
@@ -105,6 +115,160 @@ nlohmann::json ToJson(const mrd::hil::ServeResult& r) {
   return j;
 }
 
+std::string SelfDir() {
+  char buf[4096];
+  const ssize_t n = readlink("/proc/self/exe", buf, sizeof buf - 1);
+  if (n <= 0) return ".";
+  buf[n] = '\0';
+  std::string p(buf);
+  const auto slash = p.find_last_of('/');
+  return slash == std::string::npos ? "." : p.substr(0, slash);
+}
+
+// The scenarios shipped in hil/scenarios/ with their descriptions (for --help).
+std::string ScenarioList() {
+  std::string out = "Scenarios (" MRD_HIL_SCENARIO_DIR "):\n";
+  std::vector<std::string> files;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(MRD_HIL_SCENARIO_DIR, ec)) {
+    if (e.path().extension() == ".toml") files.push_back(e.path().string());
+  }
+  std::sort(files.begin(), files.end());
+  for (const auto& f : files) {
+    mrd::hil::Scenario s;
+    std::string error;
+    const std::string name = std::filesystem::path(f).filename().string();
+    out += "  " + name;
+    if (mrd::hil::LoadScenario(f, &s, &error)) {
+      out += std::string(name.size() < 30 ? 30 - name.size() : 1, ' ') + s.description;
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+int RunCommand(const std::string& scenario_path, mrd::hil::RunOptions o, const std::string& out,
+               bool json) {
+  mrd::hil::Scenario s;
+  std::string error;
+  if (!mrd::hil::LoadScenario(scenario_path, &s, &error)) {
+    std::fprintf(stderr, "error: %s\n", error.c_str());
+    return kExitBadInput;
+  }
+  if (o.firmware.empty()) o.firmware = SelfDir() + "/mrd-firmware";
+  if (access(o.firmware.c_str(), X_OK) != 0 && !o.attach) {
+    std::fprintf(stderr, "error: %s: not an executable (give --firmware PATH)\n", o.firmware.c_str());
+    return kExitBadInput;
+  }
+  if (!o.table.empty() && access(o.table.c_str(), R_OK) != 0) {
+    std::fprintf(stderr, "error: %s: cannot read the table\n", o.table.c_str());
+    return kExitBadInput;
+  }
+  std::string temp;
+  if (!out.empty()) {
+    o.work_dir = out;
+  } else {
+    char dir[] = "/tmp/mrd-hil-XXXXXX";
+    if (mkdtemp(dir) == nullptr) {
+      std::fprintf(stderr, "error: cannot create a temporary directory\n");
+      return kExitFailure;
+    }
+    temp = o.work_dir = dir;
+  }
+  o.keep_trace = true;
+  if (o.attach) o.startup_timeout_s = 120.0;  // time to start the firmware by hand
+  mrd::hil::RunResult r;
+  const int rc = mrd::hil::RunScenario(s, o, &r, &error);
+  if (rc != 0) {
+    std::fprintf(stderr, "error: %s\n", error.c_str());
+    if (!r.firmware_stderr.empty()) std::fprintf(stderr, "firmware: %s", r.firmware_stderr.c_str());
+    std::error_code ec;
+    if (!temp.empty()) std::filesystem::remove_all(temp, ec);
+    return rc == 2 ? kExitBadInput : kExitFailure;
+  }
+  const nlohmann::json j = mrd::hil::SummaryJson(s, r);
+  if (!out.empty()) {
+    std::string warning;
+    if (!mrd::hil::WriteOutputs(out, j, r, &error, &warning)) {
+      std::fprintf(stderr, "error: %s\n", error.c_str());
+      return kExitFailure;
+    }
+    if (!warning.empty()) std::fprintf(stderr, "warning: %s\n", warning.c_str());
+  } else {
+    std::error_code ec;
+    std::filesystem::remove_all(temp, ec);
+  }
+  if (json) {
+    std::cout << j.dump(2) << std::endl;
+  } else {
+    std::cout << mrd::hil::SummaryText(s, r);
+    if (!out.empty()) std::cout << "  files: " << out << "/summary.json, trace.csv, firmware.toml, tracking.png, command.png\n";
+  }
+  if (!std::cout) return kExitFailure;
+  return r.pass ? kExitOk : kExitFailure;
+}
+
+// Lockstep speed over the local CAN bus and real-time wake-up jitter: the closed loop on the
+// periodic excitation, force law, seconds of plant time each.
+int BenchCommand(double seconds, mrd::hil::RunOptions o, bool json) {
+  if (o.firmware.empty()) o.firmware = SelfDir() + "/mrd-firmware";
+  if (access(o.firmware.c_str(), X_OK) != 0) {
+    std::fprintf(stderr, "error: %s: not an executable (give --firmware PATH)\n", o.firmware.c_str());
+    return kExitBadInput;
+  }
+  mrd::hil::Scenario s;
+  s.path = "(bench)";
+  s.name = "bench";
+  s.duration_s = seconds;
+  nlohmann::json j;
+  for (const char* clock : {"lockstep", "realtime"}) {
+    char dir[] = "/tmp/mrd-hil-bench-XXXXXX";
+    if (mkdtemp(dir) == nullptr) return kExitFailure;
+    o.work_dir = dir;
+    o.clock = clock;
+    o.transport = "can";
+    o.keep_trace = false;
+    mrd::hil::RunResult r;
+    std::string error;
+    const int rc = mrd::hil::RunScenario(s, o, &r, &error);
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+    if (rc != 0) {
+      std::fprintf(stderr, "error: %s\n", error.c_str());
+      return rc == 2 ? kExitBadInput : kExitFailure;
+    }
+    const auto stats = [](const mrd::hil::LatencyStats& l) {
+      return nlohmann::json{{"count", l.count}, {"median", l.median_us}, {"p99", l.p99_us},
+                            {"max", l.max_us}};
+    };
+    j[clock] = {{"plant_s", static_cast<double>(r.steps) * 1e-3},
+                {"wall_s", r.wall_s},
+                {"speed_x", r.speed_x},
+                {"steps", r.steps},
+                {"command_timeouts", r.command_timeouts},
+                {"invariant_violations", r.invariant_violations},
+                {"late_steps", r.late_steps},
+                {"latency_us", stats(r.latency)}};
+    if (std::string(clock) == "realtime") j[clock]["wake_jitter_us"] = stats(r.wake_jitter);
+  }
+  if (json) {
+    std::cout << j.dump(2) << std::endl;
+  } else {
+    const auto& l = j["lockstep"];
+    const auto& rt = j["realtime"];
+    std::printf("lockstep over the local CAN bus: %.3g s of plant time in %.3g s wall = %.3gx real "
+                "time (%llu steps, %llu command timeouts)\n",
+                l["plant_s"].get<double>(), l["wall_s"].get<double>(), l["speed_x"].get<double>(),
+                l["steps"].get<unsigned long long>(), l["command_timeouts"].get<unsigned long long>());
+    std::printf("real time (1 kHz) wake-up jitter: median %.1f us, p99 %.1f us, max %.1f us "
+                "(%llu late steps); sensor->command latency median %.1f us, p99 %.1f us\n",
+                rt["wake_jitter_us"]["median"].get<double>(), rt["wake_jitter_us"]["p99"].get<double>(),
+                rt["wake_jitter_us"]["max"].get<double>(), rt["late_steps"].get<unsigned long long>(),
+                rt["latency_us"]["median"].get<double>(), rt["latency_us"]["p99"].get<double>());
+  }
+  return kExitOk;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -140,11 +304,54 @@ int main(int argc, char** argv) {
                     "START:END: assert the fault line (GPIO line, Modbus sensor block) from "
                     "START to END seconds");
   serve->add_flag("--json", json, "print the summary as JSON");
+
+  auto* run = app.add_subcommand(
+      "run", "Run a scenario against mrd-firmware (started as a child process, or --attach): "
+             "plant, simulated driver, faults, scores. Exit 0 pass, 1 fail, 2 bad input.");
+  std::string scenario_path, out_dir;
+  mrd::hil::RunOptions ro;
+  bool run_json = false;
+  run->add_option("scenario", scenario_path, "scenario TOML (hil/scenarios/)")->required();
+  run->add_option("--transport", ro.transport, "can | modbus-tcp | modbus-rtu")
+      ->capture_default_str();
+  run->add_option("--clock", ro.clock,
+                  "lockstep (CAN: time grants, deterministic) | realtime (1 kHz wall clock); "
+                  "default: lockstep on CAN, realtime on Modbus");
+  run->add_option("--table", ro.table, "coefficient table for the firmware (mrd export)");
+  run->add_option("--excitation", ro.excitation,
+                  "CSV (header with x, v and the demand column, e.g. an `mrd generate` data "
+                  "set) replacing the scenario's excitation");
+  auto* fw_opt = run->add_option("--firmware", ro.firmware,
+                                 "mrd-firmware to start (default: the one beside mrd-hil)");
+  run->add_flag("--attach", ro.attach,
+                "do not start the firmware: print the generated config and wait for one "
+                "started by hand")->excludes(fw_opt);
+  run->add_option("--out", out_dir,
+                  "write summary.json, trace.csv, firmware.toml and plots (gnuplot) here");
+  run->add_option("--command-timeout", ro.command_timeout_s,
+                  "lockstep: seconds to wait for one tick's command")
+      ->check(CLI::Range(0.001, 60.0))->capture_default_str();
+  run->add_flag("--json", run_json, "print the summary as JSON");
+  auto* bench = app.add_subcommand(
+      "bench", "Benchmark: lockstep speed over the local CAN bus (x real time) and the real-time "
+               "mode's wake-up jitter (median, p99, max), closed loop with mrd-firmware.");
+  double bench_s = 10.0;
+  mrd::hil::RunOptions bo;
+  bool bench_json = false;
+  bench->add_option("--seconds", bench_s, "plant seconds per mode")
+      ->check(CLI::Range(0.1, 3600.0))->capture_default_str();
+  bench->add_option("--firmware", bo.firmware, "mrd-firmware (default: beside mrd-hil)");
+  bench->add_option("--table", bo.table, "coefficient table for the firmware");
+  bench->add_flag("--json", bench_json, "print the figures as JSON");
+  app.footer(ScenarioList() + "\n" + mrd::hil::ScenarioKeysHelp());
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? kExitOk : kExitBadInput;
   }
+
+  if (run->parsed()) return RunCommand(scenario_path, ro, out_dir, run_json);
+  if (bench->parsed()) return BenchCommand(bench_s, bo, bench_json);
 
   if (!fault_window.empty()) {
     std::string error;

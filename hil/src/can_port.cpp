@@ -5,8 +5,13 @@
 // the port runs the relay itself on a thread: the harness then owns the bus, and the firmware
 // loses it when the harness exits (the peer-restart test relies on that).
 #include <linux/can.h>
+#include <poll.h>
 
+#include <ctime>
+
+#include <array>
 #include <atomic>
+#include <cstring>
 #include <memory>
 #include <thread>
 
@@ -42,11 +47,22 @@ std::uint32_t ExpandEcho(std::uint16_t echo, std::uint32_t last_published) {
 class CanPort final : public PlantPort {
  public:
   explicit CanPort(std::string endpoint) : endpoint_(std::move(endpoint)) {}
-  ~CanPort() override { Close(); }
+  // An in-process node of a relay this process runs (the harness owns the bus).
+  explicit CanPort(canbus::LocalBusRelay& relay) : relay_(&relay) {
+    relay.SetTap(&CanPort::Tap, this);
+  }
+  ~CanPort() override {
+    if (relay_ != nullptr) relay_->SetTap(nullptr, nullptr);
+    Close();
+  }
 
   const char* name() const override { return "can"; }
 
   bool Open(std::string* error) override {
+    if (relay_ != nullptr) {
+      relay_open_ = true;
+      return true;
+    }
     if (!canbus::IsLocalBusPath(endpoint_)) {
       const int fd = canbus::OpenSocketCan(endpoint_.c_str(), kFilters, std::size(kFilters), error);
       if (fd < 0) return false;
@@ -55,9 +71,9 @@ class CanPort final : public PlantPort {
     }
     int fd = canbus::OpenLocalBusNode(endpoint_.c_str(), nullptr);
     if (fd < 0) {
-      if (!relay_.Open(endpoint_, error)) return false;
+      if (!own_relay_.Open(endpoint_, error)) return false;
       relay_stop_.store(false);
-      relay_thread_ = std::thread([this] { relay_.Run(relay_stop_); });
+      relay_thread_ = std::thread([this] { own_relay_.Run(relay_stop_); });
       fd = canbus::OpenLocalBusNode(endpoint_.c_str(), error);
       if (fd < 0) return false;
     }
@@ -68,53 +84,158 @@ class CanPort final : public PlantPort {
   void Publish(const SensorOutput& out) override {
     last_published_ = out.seq;
     const std::int64_t now = canbus::MonotonicNs();
-    if (!iface_.is_open()) Reconnect(now);
+    if (!IsOpen()) Reconnect(now);
+    if (!IsOpen() || out.fault == SensorFault::kDrop) return;
+    if (out.fault == SensorFault::kStall) {
+      // The same frames again: counters repeat, the firmware refuses them.
+      if (have_last_) {
+        SendFrame(last_motion_, now);
+        SendFrame(last_force_, now);
+      }
+      return;
+    }
     can_frame motion{}, force{};
+    const double v = out.fault == SensorFault::kOutOfRange || out.fault == SensorFault::kNan
+                         ? 0.0
+                         : out.sample.v;
     const bool motion_ok =
-        pc::Encode(pc::SensorMotion{out.sample.v, out.sample.x,
+        pc::Encode(pc::SensorMotion{v, out.sample.x,
                                     static_cast<std::uint16_t>(out.seq & 0xFFFFU), motion_counter_},
                    &motion) == pc::Reject::kNone;
     const bool force_ok = pc::Encode(pc::SensorForce{out.sample.demand, out.sample.body_velocity,
                                                      out.sample.force, force_counter_},
                                      &force) == pc::Reject::kNone;
     if (motion_ok) {
+      if (out.fault == SensorFault::kOutOfRange || out.fault == SensorFault::kNan) {
+        // A raw velocity outside the DBC's [-300, 300] cm/s (0x7FFF = 327.67; 0x8000, the
+        // most negative code, stands for "not a number"), sealed with a valid checksum.
+        const std::uint16_t raw = out.fault == SensorFault::kNan ? 0x8000U : 0x7FFFU;
+        motion.data[0] = static_cast<std::uint8_t>(raw & 0xFFU);
+        motion.data[1] = static_cast<std::uint8_t>(raw >> 8);
+        motion.data[motion.len - 1] = pc::Checksum(motion);
+      } else if (out.fault == SensorFault::kCorrupt) {
+        motion.data[1] ^= 0x10U;  // after sealing: checksum mismatch
+      }
       motion_counter_ = static_cast<std::uint8_t>((motion_counter_ + 1) & 0x0F);
-      if (iface_.Send(motion, now + kTxDeadlineNs, now) == canbus::CanResult::kOk) ++published_;
+      if (SendFrame(motion, now) == canbus::CanResult::kOk) ++published_;
     }
     if (force_ok) {
+      if (out.fault == SensorFault::kCorrupt) force.data[3] ^= 0x01U;
       force_counter_ = static_cast<std::uint8_t>((force_counter_ + 1) & 0x0F);
-      iface_.Send(force, now + kTxDeadlineNs, now);
+      SendFrame(force, now);
+    }
+    if (motion_ok && force_ok) {
+      last_motion_ = motion;
+      last_force_ = force;
+      have_last_ = true;
     }
   }
 
+  bool SendGrant(std::int64_t t_ns) override {
+    const std::int64_t now = canbus::MonotonicNs();
+    if (!IsOpen()) Reconnect(now);
+    if (!IsOpen()) return false;
+    can_frame f{};
+    if (pc::Encode(pc::TimeGrant{static_cast<std::uint64_t>(t_ns / 1000), grant_counter_}, &f) !=
+        pc::Reject::kNone) {
+      return false;
+    }
+    grant_counter_ = static_cast<std::uint8_t>((grant_counter_ + 1) & 0x0F);
+    return SendFrame(f, now) == canbus::CanResult::kOk;
+  }
+
+  void Wait(std::int64_t timeout_ns) override {
+    if (relay_ != nullptr) {
+      relay_->Step(static_cast<int>((timeout_ns + 999'999) / 1'000'000));
+      return;
+    }
+    if (!iface_.is_open()) {
+      PlantPort::Wait(timeout_ns);
+      return;
+    }
+    const timespec ts{static_cast<time_t>(timeout_ns / 1'000'000'000),
+                      static_cast<long>(timeout_ns % 1'000'000'000)};
+    pollfd p{iface_.fd(), POLLIN, 0};
+    (void)ppoll(&p, 1, &ts, nullptr);
+  }
+
   void Poll(DriverInput* in) override {
-    if (!iface_.is_open()) return;
+    if (!IsOpen()) return;
     for (int k = 0; k < kMaxFramesPerPoll; ++k) {
       can_frame f{};
       std::int64_t stamp = 0;
-      const canbus::CanResult r = iface_.Receive(&f, &stamp);
+      const canbus::CanResult r = ReceiveFrame(&f, &stamp);
       if (r == canbus::CanResult::kEmpty || r == canbus::CanResult::kDisconnected) break;
       if (r != canbus::CanResult::kOk) {
         ++rejected_;
         continue;
       }
+      const bool command_before = in->has_command;
       Handle(f, stamp, in);
+      // Lockstep: a tick's messages end with its status; what follows belongs to the next
+      // tick (or the firmware's shutdown) and waits for the next Poll.
+      if (lockstep_ && command_before && in->has_status &&
+          pc::Classify(f) == pc::Message::kFirmwareStatus) {
+        break;
+      }
     }
   }
 
+  void SetLockstep(bool on) override { lockstep_ = on; }
+
   void Close() override {
+    if (relay_ != nullptr) {
+      relay_open_ = false;
+      rx_count_ = 0;
+      return;
+    }
     iface_.Close();
     if (relay_thread_.joinable()) {
       relay_stop_.store(true);
       relay_thread_.join();
     }
-    relay_.Close();
+    own_relay_.Close();
   }
 
   PortCounters counters() const override { return {published_, received_, rejected_}; }
 
  private:
+  bool IsOpen() const { return relay_ != nullptr ? relay_open_ : iface_.is_open(); }
+
+  canbus::CanResult SendFrame(const can_frame& f, std::int64_t now) {
+    if (relay_ != nullptr) {
+      relay_->Broadcast(&f);
+      return canbus::CanResult::kOk;
+    }
+    return iface_.Send(f, now + kTxDeadlineNs, now);
+  }
+
+  canbus::CanResult ReceiveFrame(can_frame* f, std::int64_t* stamp) {
+    if (relay_ == nullptr) return iface_.Receive(f, stamp);
+    if (rx_count_ == 0) return canbus::CanResult::kEmpty;
+    *f = rx_[rx_head_].frame;
+    *stamp = rx_[rx_head_].stamp;
+    rx_head_ = (rx_head_ + 1) % rx_.size();
+    --rx_count_;
+    return canbus::CanResult::kOk;
+  }
+
+  // Frames the relay's socket nodes sent (called from LocalBusRelay::Step).
+  static void Tap(void* context, const void* frame) {
+    auto* self = static_cast<CanPort*>(context);
+    if (!self->relay_open_) return;
+    if (self->rx_count_ == self->rx_.size()) {
+      ++self->rejected_;  // overflow: as a full controller FIFO
+      return;
+    }
+    const std::size_t slot = (self->rx_head_ + self->rx_count_) % self->rx_.size();
+    std::memcpy(&self->rx_[slot].frame, frame, sizeof(can_frame));
+    self->rx_[slot].stamp = canbus::MonotonicNs();
+    ++self->rx_count_;
+  }
+
   void Reconnect(std::int64_t now) {
+    if (relay_ != nullptr) return;
     if (relay_thread_.joinable() || !canbus::IsLocalBusPath(endpoint_) || now < next_reconnect_) {
       return;
     }
@@ -143,6 +264,8 @@ class CanPort final : public PlantPort {
         in->command_ns = stamp;
         in->has_echo = true;
         in->echo = ExpandEcho(m.echo_seq, last_published_);
+        in->has_safe = true;
+        in->safe = m.safe;
         if (m.enable_valid) {
           in->has_enable = true;
           in->enable = m.enable;
@@ -159,6 +282,7 @@ class CanPort final : public PlantPort {
         }
         ++received_;
         in->heartbeat_ns = stamp;
+        ++in->heartbeats;
         return;
       }
       case pc::Message::kFirmwareStatus: {
@@ -168,10 +292,14 @@ class CanPort final : public PlantPort {
           return;
         }
         ++received_;
+        in->has_status = true;
+        in->status_causes = m.active_causes;
+        in->status_safe = m.safe;
         return;
       }
       case pc::Message::kSensorMotion:
       case pc::Message::kSensorForce:
+      case pc::Message::kTimeGrant:
       case pc::Message::kDriverStatus:
         return;  // the device side's own IDs from another node
       case pc::Message::kUnknown:
@@ -181,12 +309,23 @@ class CanPort final : public PlantPort {
   }
 
   std::string endpoint_;
-  canbus::LocalBusRelay relay_;
+  canbus::LocalBusRelay* relay_ = nullptr;  // in-process node of this relay (else a socket)
+  bool relay_open_ = false;
+  bool lockstep_ = false;
+  struct Rx {
+    can_frame frame;
+    std::int64_t stamp;
+  };
+  std::array<Rx, 256> rx_{};
+  std::size_t rx_head_ = 0, rx_count_ = 0;
+  canbus::LocalBusRelay own_relay_;
   std::thread relay_thread_;
   std::atomic<bool> relay_stop_{false};
   canbus::CanIface iface_;
   pc::CounterCheck command_check_, heartbeat_check_;
-  std::uint8_t motion_counter_ = 0, force_counter_ = 0;
+  std::uint8_t motion_counter_ = 0, force_counter_ = 0, grant_counter_ = 0;
+  can_frame last_motion_{}, last_force_{};
+  bool have_last_ = false;
   std::uint32_t last_published_ = 0;
   std::int64_t next_reconnect_ = 0;
   std::uint64_t published_ = 0, received_ = 0, rejected_ = 0;
@@ -196,6 +335,10 @@ class CanPort final : public PlantPort {
 
 std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint) {
   return std::make_unique<CanPort>(endpoint);
+}
+
+std::unique_ptr<PlantPort> MakeCanPortOnRelay(canbus::LocalBusRelay& relay) {
+  return std::make_unique<CanPort>(relay);
 }
 
 }  // namespace mrd::hil

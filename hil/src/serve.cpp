@@ -24,6 +24,12 @@ void SleepUntil(std::int64_t t_ns) {
 
 }  // namespace
 
+void PlantPort::Wait(std::int64_t timeout_ns) {
+  const std::int64_t step = timeout_ns < 200'000 ? timeout_ns : 200'000;
+  const timespec ts{0, static_cast<long>(step > 0 ? step : 0)};
+  nanosleep(&ts, nullptr);
+}
+
 LatencyStats Summarise(std::vector<double> samples_us) {
   LatencyStats s;
   s.count = samples_us.size();

@@ -102,7 +102,25 @@ class DbcTest : public ::testing::Test {
 };
 std::map<std::string, DbcMessage> DbcTest::dbc_;
 
-TEST_F(DbcTest, TheDbcHoldsExactlyTheCodecsMessages) { EXPECT_EQ(dbc_.size(), 6U); }
+TEST_F(DbcTest, TheDbcHoldsExactlyTheCodecsMessages) { EXPECT_EQ(dbc_.size(), 7U); }
+
+// Issue 10: the lockstep time grant (48-bit microseconds).
+TEST_F(DbcTest, TimeGrantMatches) {
+  can_frame f{};
+  const std::uint64_t t = 123'456'789'012ULL;
+  ASSERT_EQ(Encode(TimeGrant{t, 11}, &f), Reject::kNone);
+  Check("TimeGrant", kTimeGrantId, f,
+        {{"GrantTime", static_cast<double>(t)}, {"GrantCounter", 11},
+         {"GrantChecksum", Checksum(f)}});
+  TimeGrant back;
+  ASSERT_EQ(Decode(f, &back), Reject::kNone);
+  EXPECT_EQ(back.time_us, t);
+  EXPECT_EQ(back.counter, 11);
+  EXPECT_EQ(Classify(f), Message::kTimeGrant);
+  f.data[2] ^= 0x40U;
+  EXPECT_EQ(Decode(f, &back), Reject::kBadChecksum);
+  EXPECT_EQ(Encode(TimeGrant{kMaxGrantUs + 1, 0}, &f), Reject::kOutOfRange);
+}
 
 TEST_F(DbcTest, SensorFramesMatch) {
   can_frame f{};

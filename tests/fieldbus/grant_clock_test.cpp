@@ -26,7 +26,7 @@ class QueuedGrants final : public TimeGrantSource {
 
 TEST(GrantClockTest, TimeAdvancesOnlyWithGrants) {
   QueuedGrants src;
-  GrantClock clock(src, 50'000'000);
+  GrantClock clock(src, 50'000'000, 0);  // no longer first wait
   EXPECT_EQ(clock.Now(), 0);
   src.grants = {1'000'000};
   clock.SleepUntil(1'000'000);
@@ -56,11 +56,11 @@ TEST(GrantClockTest, ReturnsAtOnceWhenTheDeadlineHasPassed) {
   EXPECT_EQ(src.waits, waits);
 }
 
-TEST(GrantClockTest, AMissingGrantStepsOnAndIsCounted) {
+TEST(GrantClockTest, AMissingGrantReturnsAtTheLastGrantAndIsCounted) {
   QueuedGrants src;
   GrantClock clock(src, 1);
   clock.SleepUntil(1'000'000);
-  EXPECT_EQ(clock.Now(), 1'000'000);
+  EXPECT_EQ(clock.Now(), 0);  // only grants move time
   EXPECT_EQ(clock.missed_grants(), 1U);
   src.grants = {2'000'000};
   clock.SleepUntil(2'000'000);
@@ -76,6 +76,26 @@ TEST(GrantClockTest, GrantsNeverMoveTimeBackwards) {
   src.grants = {1'000'000, 4'000'000};
   clock.SleepUntil(4'000'000);
   EXPECT_EQ(clock.Now(), 4'000'000);
+}
+
+}  // namespace
+}  // namespace mrd::firmware
+
+namespace mrd::firmware {
+namespace {
+
+// Issue 10: start-up — the first grant is awaited longer (the harness may start later); after
+// it, the normal timeout.
+TEST(GrantClockTest, FirstGrantGetsTheStartUpTimeout) {
+  QueuedGrants src;
+  GrantClock clock(src, 20'000'000, 3'000'000'000);
+  src.grants = {1'000'000};
+  clock.SleepUntil(1'000'000);
+  EXPECT_EQ(src.last_timeout_ns, 3'000'000'000);
+  clock.SleepUntil(2'000'000);  // no grant: missed with the normal timeout
+  EXPECT_EQ(src.last_timeout_ns, 20'000'000);
+  EXPECT_EQ(clock.missed_grants(), 1U);
+  EXPECT_EQ(clock.Now(), 1'000'000);
 }
 
 }  // namespace

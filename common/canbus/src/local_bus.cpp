@@ -91,6 +91,11 @@ void LocalBusRelay::Drop(std::size_t i) {
   left_.fetch_add(1, std::memory_order_relaxed);
 }
 
+void LocalBusRelay::Broadcast(const void* frame) {
+  in_.fetch_add(1, std::memory_order_relaxed);
+  Forward(nodes_.size(), frame);
+}
+
 void LocalBusRelay::Forward(std::size_t from, const void* frame) {
   for (std::size_t j = 0; j < nodes_.size(); ++j) {
     if (j == from) continue;
@@ -128,6 +133,7 @@ void LocalBusRelay::Step(int timeout_ms) {
       }
       in_.fetch_add(1, std::memory_order_relaxed);
       Forward(i, buf);
+      if (tap_ != nullptr) tap_(tap_context_, buf);
     }
   }
   for (std::size_t i = gone.size(); i-- > 0;) {

@@ -106,6 +106,8 @@ Message Classify(const can_frame& frame) {
       return Message::kSensorMotion;
     case kSensorForceId:
       return Message::kSensorForce;
+    case kTimeGrantId:
+      return Message::kTimeGrant;
     case kDriverStatusId:
       return Message::kDriverStatus;
     case kFirmwareStatusId:
@@ -168,6 +170,14 @@ Reject Encode(const DriverCommand& m, can_frame* frame) {
   frame->data[2] = static_cast<std::uint8_t>((m.enable ? 1U : 0U) | (m.enable_valid ? 2U : 0U) |
                                              (m.safe ? 4U : 0U));
   Put16(frame, 4, m.echo_seq);
+  Seal(m.counter, kCounterByte, frame);
+  return Reject::kNone;
+}
+
+Reject Encode(const TimeGrant& m, can_frame* frame) {
+  if (m.time_us > kMaxGrantUs) return Reject::kOutOfRange;
+  Start(kTimeGrantId, kFrameDlc, frame);
+  for (int i = 0; i < 6; ++i) frame->data[i] = static_cast<std::uint8_t>((m.time_us >> (8 * i)) & 0xFFU);
   Seal(m.counter, kCounterByte, frame);
   return Reject::kNone;
 }
@@ -235,6 +245,16 @@ Reject Decode(const can_frame& frame, DriverCommand* m) {
   out.echo_seq = static_cast<std::uint16_t>(Get16(frame, 4));
   out.counter = frame.data[kCounterByte] & 0x0FU;
   *m = out;
+  return Reject::kNone;
+}
+
+Reject Decode(const can_frame& frame, TimeGrant* m) {
+  const Reject r = CheckFrame(frame, kTimeGrantId, kFrameDlc, true);
+  if (r != Reject::kNone) return r;
+  std::uint64_t t = 0;
+  for (int i = 0; i < 6; ++i) t |= static_cast<std::uint64_t>(frame.data[i]) << (8 * i);
+  m->time_us = t;
+  m->counter = frame.data[kCounterByte] & 0x0FU;
   return Reject::kNone;
 }
 

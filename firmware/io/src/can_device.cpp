@@ -1,7 +1,10 @@
 #include "mrd/firmware/io/can_device.hpp"
 
 #include <linux/can.h>
+#include <poll.h>
 
+#include <cerrno>
+#include <ctime>
 #include <memory>
 
 #include "mrd/canbus/socket.hpp"
@@ -33,6 +36,7 @@ IoError ErrorOf(pc::Reject r) {
 constexpr can_filter kFilters[] = {
     {pc::kSensorMotionId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
     {pc::kSensorForceId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
+    {pc::kTimeGrantId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
     {pc::kDriverStatusId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
 };
 
@@ -62,9 +66,13 @@ bool CanDevice::Configure(std::string* error) {
   return true;
 }
 
+std::int64_t CanDevice::Now() const {
+  return config_.lockstep ? granted_ns_ : canbus::MonotonicNs();
+}
+
 bool CanDevice::Activate(std::string* error) {
   (void)error;
-  const std::int64_t now = canbus::MonotonicNs();
+  const std::int64_t now = Now();
   next_heartbeat_ns_ = now;
   next_status_ns_ = now;
   next_reconnect_ns_ = now;
@@ -110,12 +118,38 @@ void CanDevice::TryReconnect(std::int64_t now) {
   motion_check_.Reset();
   force_check_.Reset();
   status_check_.Reset();
+  grant_check_.Reset();
   ++counters_.reconnects;
+}
+
+bool CanDevice::HandleGrant(const can_frame& f) {
+  pc::TimeGrant m;
+  pc::Reject r = pc::Decode(f, &m);
+  if (r == pc::Reject::kNone) r = grant_check_.Check(m.counter);
+  if (r != pc::Reject::kNone) {
+    Reject(r);
+    return false;
+  }
+  ++counters_.rx_ok;
+  const auto t = static_cast<std::int64_t>(m.time_us) * 1000;
+  if (t > granted_ns_) granted_ns_ = t;  // grants never move time backwards
+  // The sensor values that came before this grant are its step's samples.
+  if (unstamped_motion_) velocity_.stamp_ns = displacement_.stamp_ns = granted_ns_;
+  if (unstamped_force_) {
+    demand_.stamp_ns = body_velocity_.stamp_ns = force_.stamp_ns = granted_ns_;
+  }
+  unstamped_motion_ = unstamped_force_ = false;
+  got_grant_ = true;
+  return true;
 }
 
 bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
   const std::uint32_t in = config_.inputs;
+  if (config_.lockstep) stamp = granted_ns_;
   switch (pc::Classify(f)) {
+    case pc::Message::kTimeGrant:
+      if (config_.lockstep) HandleGrant(f);
+      return false;
     case pc::Message::kSensorMotion: {
       pc::SensorMotion m;
       pc::Reject r = pc::Decode(f, &m);
@@ -128,6 +162,7 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
       velocity_ = {m.velocity, stamp};
       displacement_ = {m.displacement, stamp};
       last_seq_ = m.seq;
+      unstamped_motion_ = config_.lockstep;
       return (in & (Bit(Input::kVelocity) | Bit(Input::kDisplacement))) != 0;
     }
     case pc::Message::kSensorForce: {
@@ -142,6 +177,7 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
       demand_ = {m.demand, stamp};
       body_velocity_ = {m.body_velocity, stamp};
       force_ = {m.force, stamp};
+      unstamped_force_ = config_.lockstep;
       return (in & (Bit(Input::kDemand) | Bit(Input::kBodyVelocity) | Bit(Input::kForce))) != 0;
     }
     case pc::Message::kDriverStatus: {
@@ -171,12 +207,19 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
   const std::int64_t now = canbus::MonotonicNs();
   if (!iface_.is_open()) TryReconnect(now);
   IoError fault = IoError::kNone;
-  bool fresh = false;
+  bool fresh = fresh_in_wait_;
+  fresh_in_wait_ = false;
+  if (missed_grant_) {
+    missed_grant_ = false;
+    fault = IoError::kTimeout;
+  }
   if (!iface_.is_open()) {
     fault = IoError::kDisconnected;
   } else {
     iface_.Flush(now);
-    for (int k = 0; k < kMaxFramesPerRead && iface_.is_open(); ++k) {
+    // In lockstep a grant ends the drain: what follows it belongs to the next step (the
+    // grant stays pending for the next WaitGrant).
+    for (int k = 0; k < kMaxFramesPerRead && iface_.is_open() && !got_grant_; ++k) {
       can_frame f{};
       std::int64_t stamp = 0;
       const canbus::CanResult r = iface_.Receive(&f, &stamp);
@@ -262,9 +305,10 @@ IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
     command_counter_ = static_cast<std::uint8_t>((command_counter_ + 1) & 0x0F);
     ok = Send(f, now) && ok;
   }
-  if ((out & Bit(Output::kHeartbeat)) != 0 && now >= next_heartbeat_ns_) {
+  const std::int64_t t = Now();  // schedules run in granted time in lockstep
+  if ((out & Bit(Output::kHeartbeat)) != 0 && t >= next_heartbeat_ns_) {
     next_heartbeat_ns_ += config_.heartbeat_period_ns;
-    if (next_heartbeat_ns_ <= now) next_heartbeat_ns_ = now + config_.heartbeat_period_ns;
+    if (next_heartbeat_ns_ <= t) next_heartbeat_ns_ = t + config_.heartbeat_period_ns;
     can_frame f{};
     pc::Encode(pc::Heartbeat{cmd.safe, heartbeat_counter_}, &f);
     heartbeat_counter_ = static_cast<std::uint8_t>((heartbeat_counter_ + 1) & 0x0F);
@@ -281,9 +325,10 @@ IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
 void CanDevice::PublishStatus(const TelemetrySnapshot& stats) {
   if ((config_.outputs & Bit(Output::kStatus)) == 0 || !iface_.is_open()) return;
   const std::int64_t now = canbus::MonotonicNs();
-  if (now < next_status_ns_) return;
+  const std::int64_t t = Now();
+  if (t < next_status_ns_) return;
   next_status_ns_ += config_.status_period_ns;
-  if (next_status_ns_ <= now) next_status_ns_ = now + config_.status_period_ns;
+  if (next_status_ns_ <= t) next_status_ns_ = t + config_.status_period_ns;
   can_frame f{};
   pc::Encode(
       pc::FirmwareStatus{stats.safe, static_cast<std::uint16_t>(stats.active_causes & 0xFFFFU),
@@ -292,6 +337,56 @@ void CanDevice::PublishStatus(const TelemetrySnapshot& stats) {
       &f);
   Send(f, now);
   Publish();
+}
+
+bool CanDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
+  const std::int64_t until = canbus::MonotonicNs() + timeout_ns;
+  while (true) {
+    if (got_grant_) {
+      got_grant_ = false;
+      *t_ns = granted_ns_;
+      Publish();
+      return true;
+    }
+    const std::int64_t now = canbus::MonotonicNs();
+    if (!iface_.is_open()) TryReconnect(now);
+    bool drained = false;
+    if (iface_.is_open()) {
+      can_frame f{};
+      std::int64_t stamp = 0;
+      const canbus::CanResult r = iface_.Receive(&f, &stamp);
+      if (r == canbus::CanResult::kOk) {
+        fresh_in_wait_ = Handle(f, stamp) || fresh_in_wait_;
+        continue;
+      }
+      if (r == canbus::CanResult::kBadFrame) {
+        Reject(pc::Reject::kWrongDlc);
+        continue;
+      }
+      if (r == canbus::CanResult::kDisconnected) {
+        Count(IoError::kDisconnected);
+        next_reconnect_ns_ = now + kReconnectInterval;
+      }
+      drained = r == canbus::CanResult::kEmpty;
+    }
+    if (now >= until) break;
+    // Nothing waiting: sleep on the fd (or, with the bus gone, until the next reconnect try or
+    // the deadline).
+    std::int64_t wait_ns = until - now;
+    if (!drained && wait_ns > kReconnectInterval / 10) wait_ns = kReconnectInterval / 10;
+    const timespec ts{static_cast<time_t>(wait_ns / 1'000'000'000),
+                      static_cast<long>(wait_ns % 1'000'000'000)};
+    if (drained) {
+      pollfd p{iface_.fd(), POLLIN, 0};
+      (void)ppoll(&p, 1, &ts, nullptr);
+    } else {
+      (void)nanosleep(&ts, nullptr);
+    }
+  }
+  missed_grant_ = true;
+  Count(IoError::kTimeout);
+  Publish();
+  return false;
 }
 
 std::unique_ptr<BusDevice> MakeCanDevice(const CanConfig& config) {

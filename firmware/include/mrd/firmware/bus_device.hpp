@@ -21,6 +21,8 @@
 
 namespace mrd::firmware {
 
+class TimeGrantSource;  // grant_clock.hpp
+
 // Why a read or write failed.
 enum class IoError : std::uint8_t {
   kNone = 0,
@@ -85,6 +87,8 @@ class BusDevice {
   virtual void PublishStatus(const TelemetrySnapshot& stats) { (void)stats; }
 
   virtual DeviceCounters counters() const = 0;
+  // The loop's time grants when this device carries them (lockstep); else nullptr.
+  virtual TimeGrantSource* grant_source() { return nullptr; }
 };
 
 }  // namespace mrd::firmware

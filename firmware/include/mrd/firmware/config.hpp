@@ -21,8 +21,14 @@
 
 namespace mrd::firmware {
 
+// Where the loop's time comes from (bus mode): CLOCK_MONOTONIC, or the HIL harness's time
+// grants on the CAN bus (lockstep, grant_clock.hpp).
+enum class LoopClock : std::uint8_t { kMonotonic = 0, kGrant };
+
 struct FirmwareConfig {
   std::int64_t period_ns = 1'000'000;
+  LoopClock clock = LoopClock::kMonotonic;
+  std::int64_t grant_timeout_ns = 100'000'000;  // wall time to wait for a grant [ns]
   int priority = 80;
   bool lock_memory = true;
   std::optional<double> e_max;  // [V]; unset: the table's

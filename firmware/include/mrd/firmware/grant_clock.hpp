@@ -8,8 +8,14 @@
 //   Now()          = the latest granted time [ns] (0 before the first grant)
 //   SleepUntil(t)  = returns at once when Now() >= t; else waits for grants until one is >= t.
 //                    A grant that does not come within grant_timeout (wall clock) is a fault,
-//                    not a hang: the clock steps to t by itself and counts a missed grant; the
-//                    sensor stamps then age and the watchdog commands the safe state.
+//                    not a hang: SleepUntil returns without one (time stays at the last grant:
+//                    only the harness moves time) and counts a missed grant; the device reports
+//                    the period as a bus timeout, so the loop commands the safe state. The loop
+//                    then re-aligns its next deadline on Now() (loop.hpp), so the next grant
+//                    ticks it again: a lost grant or command costs one safe period, never a
+//                    permanent offset between harness and firmware.
+//                    Before the first grant the wait is first_grant_timeout (start-up: the
+//                    harness may come up after the firmware); a miss there is counted the same.
 
 #include <cstdint>
 
@@ -30,8 +36,13 @@ class TimeGrantSource {
 class GrantClock final : public Clock {
  public:
   // source outlives this; grant_timeout_ns > 0.
-  GrantClock(TimeGrantSource& source, std::int64_t grant_timeout_ns)
-      : source_(source), timeout_ns_(grant_timeout_ns) {}
+  static constexpr std::int64_t kFirstGrantTimeoutNs = 5'000'000'000;
+  GrantClock(TimeGrantSource& source, std::int64_t grant_timeout_ns,
+             std::int64_t first_grant_timeout_ns = kFirstGrantTimeoutNs)
+      : source_(source),
+        timeout_ns_(grant_timeout_ns),
+        first_timeout_ns_(first_grant_timeout_ns > grant_timeout_ns ? first_grant_timeout_ns
+                                                                    : grant_timeout_ns) {}
 
   std::int64_t Now() override { return now_; }
   void SleepUntil(std::int64_t t_ns) override;
@@ -42,6 +53,7 @@ class GrantClock final : public Clock {
  private:
   TimeGrantSource& source_;
   std::int64_t timeout_ns_;
+  std::int64_t first_timeout_ns_;
   std::int64_t now_ = 0;
   std::uint64_t grants_ = 0;
   std::uint64_t missed_ = 0;

@@ -56,6 +56,9 @@ struct CanConfig {
   std::int64_t tx_deadline_ns = 500'000;   // a frame not sent by then is dropped [ns]
   std::int64_t status_period_ns = 100'000'000;     // status frame period [ns]
   std::int64_t heartbeat_period_ns = 10'000'000;   // heartbeat frame period [ns]
+  // Lockstep ([loop] clock = "grant"): the device is the loop's TimeGrantSource, stamps and
+  // schedules in granted time instead of CLOCK_MONOTONIC. Not a [can] key: set from [loop].
+  bool lockstep = false;
 };
 
 enum class ModbusMode : std::uint8_t { kTcp = 0, kRtu };

@@ -10,10 +10,25 @@
 
 #include "mrd/common/damper_plant.hpp"
 
+namespace mrd::canbus {
+class LocalBusRelay;
+}  // namespace mrd::canbus
+
 namespace mrd::hil {
+
+// A fault the harness injects into one step's sensor messages (scenario fault schedule).
+enum class SensorFault : std::uint8_t {
+  kNone = 0,
+  kDrop,        // not sent
+  kCorrupt,     // one data bit flipped after sealing (checksum / CRC mismatch)
+  kStall,       // the previous step's messages again, unchanged (repeated counter)
+  kOutOfRange,  // velocity beyond the transport's range (receiver refuses it)
+  kNan,         // velocity the transport cannot represent (CAN: raw 0x8000)
+};
 
 // One plant step's sensor values as the transport carries them.
 struct SensorOutput {
+  SensorFault fault = SensorFault::kNone;
   PlantSample sample;
   std::uint32_t seq = 0;      // step number (CAN rolling counter / Modbus sequence register)
   std::int64_t t_ns = 0;      // CLOCK_MONOTONIC when published
@@ -31,6 +46,12 @@ struct DriverInput {
   bool has_enable = false;
   bool enable = false;
   std::int64_t heartbeat_ns = 0;   // latest heartbeat seen (0: none yet)
+  std::uint64_t heartbeats = 0;    // heartbeats heard so far (lockstep: freshness per step)
+  bool has_safe = false;           // the command carried the firmware's safe-state flag
+  bool safe = false;
+  bool has_status = false;         // a firmware status arrived since the last Poll
+  std::uint16_t status_causes = 0; // its active watchdog causes (bit i = cause i)
+  bool status_safe = false;
 };
 
 struct PortCounters {
@@ -51,6 +72,17 @@ class PlantPort {
   virtual void Poll(DriverInput* in) = 0;
   virtual void Close() = 0;
   virtual PortCounters counters() const = 0;
+  // Lockstep: grants the firmware time t_ns, after this step's sensors. false: this
+  // transport carries no grants (the run then uses the real-time clock).
+  virtual bool SendGrant(std::int64_t t_ns) {
+    (void)t_ns;
+    return false;
+  }
+  // Lockstep: Poll hands over one firmware tick at a time (CAN: up to its status frame).
+  virtual void SetLockstep(bool on) { (void)on; }
+  // Waits up to timeout_ns for something from the firmware (then Poll). Default: sleeps a
+  // little (transports without a pollable fd).
+  virtual void Wait(std::int64_t timeout_ns);
 };
 
 // Per transport (can_port.cpp, modbus_port.cpp, gpio_port.cpp). endpoint: the local bus
@@ -61,5 +93,9 @@ std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeModbusTcpPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeModbusRtuPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeGpioPort(const std::string& endpoint);
+// CAN as an in-process node of a local-bus relay this process runs (mrd-hil run owns the bus):
+// frames go straight to the relay's socket nodes and come back through its tap; Wait steps the
+// relay. The relay outlives the port.
+std::unique_ptr<PlantPort> MakeCanPortOnRelay(canbus::LocalBusRelay& relay);
 
 }  // namespace mrd::hil

@@ -43,6 +43,16 @@ class LocalBusRelay {
   void Close();
 
   std::size_t nodes() const { return nodes_.size(); }
+
+  // An in-process node (the HIL harness, which owns the relay): Broadcast hands a frame to every
+  // socket node; the tap receives every frame a socket node sends (from Step, on the calling
+  // thread). Saves the harness's own socket round trip per frame.
+  void Broadcast(const void* frame);
+  using Tap = void (*)(void* context, const void* frame);
+  void SetTap(Tap tap, void* context) {
+    tap_ = tap;
+    tap_context_ = context;
+  }
   // Safe to call from another thread while Run is going (each field is read atomically).
   RelayStats stats() const;
 
@@ -51,6 +61,8 @@ class LocalBusRelay {
   void Drop(std::size_t i);
 
   std::string path_;
+  Tap tap_ = nullptr;
+  void* tap_context_ = nullptr;
   int listen_fd_ = -1;
   std::vector<int> nodes_;
   std::atomic<std::uint64_t> joined_{0}, left_{0}, in_{0}, out_{0}, dropped_{0}, bad_{0};

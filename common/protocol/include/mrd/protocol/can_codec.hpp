@@ -4,8 +4,8 @@
 // CAN device and the HIL harness. Pure: no I/O, no allocation, no exceptions.
 //
 // All frames are CAN 2.0A data frames (11-bit IDs), signals little-endian (Intel) at fixed
-// byte positions. Safety-relevant frames (sensor motion, sensor force, driver command,
-// heartbeat, driver status) carry
+// byte positions. Safety-relevant frames (sensor motion, sensor force, time grant, driver
+// command, heartbeat, driver status) carry
 //   counter   4 bits, low nibble of byte len-2 (byte 0 for the 2-byte heartbeat), +1 mod 16
 //             per frame of that ID from the same sender
 //   checksum  CRC-8 SAE J1850 (poly 0x1D, init 0xFF, xor-out 0xFF) over the ID's low byte,
@@ -22,6 +22,7 @@ inline constexpr canid_t kDriverCommandId = 0x080;   // firmware -> driver, ever
 inline constexpr canid_t kHeartbeatId = 0x081;       // firmware -> driver, heartbeat_period
 inline constexpr canid_t kSensorMotionId = 0x100;    // sensors -> firmware, every period
 inline constexpr canid_t kSensorForceId = 0x101;     // sensors -> firmware, every period
+inline constexpr canid_t kTimeGrantId = 0x102;       // harness -> firmware, lockstep only
 inline constexpr canid_t kDriverStatusId = 0x180;    // driver -> firmware
 inline constexpr canid_t kFirmwareStatusId = 0x300;  // firmware -> anyone, status_period
 
@@ -50,6 +51,7 @@ enum class Message : std::uint8_t {
   kHeartbeat,
   kSensorMotion,
   kSensorForce,
+  kTimeGrant,
   kDriverStatus,
   kFirmwareStatus,
 };
@@ -74,6 +76,14 @@ struct SensorForce {
   double demand = 0.0;         // [N]
   double body_velocity = 0.0;  // [cm/s]
   double force = 0.0;          // measured damper force [N]
+  std::uint8_t counter = 0;
+};
+
+// Lockstep (HIL): the harness grants the firmware's clock time up to time_us, after the
+// sensor frames of that step. 48-bit microseconds (8.9 years).
+inline constexpr std::uint64_t kMaxGrantUs = (std::uint64_t{1} << 48) - 1;
+struct TimeGrant {
+  std::uint64_t time_us = 0;  // granted harness time [us]
   std::uint8_t counter = 0;
 };
 
@@ -117,6 +127,7 @@ struct FirmwareStatus {
 Reject Encode(const SensorMotion& m, can_frame* frame);
 Reject Encode(const SensorForce& m, can_frame* frame);
 Reject Encode(const DriverCommand& m, can_frame* frame);
+Reject Encode(const TimeGrant& m, can_frame* frame);
 Reject Encode(const Heartbeat& m, can_frame* frame);
 Reject Encode(const DriverStatus& m, can_frame* frame);
 Reject Encode(const FirmwareStatus& m, can_frame* frame);
@@ -126,6 +137,7 @@ Reject Encode(const FirmwareStatus& m, can_frame* frame);
 Reject Decode(const can_frame& frame, SensorMotion* m);
 Reject Decode(const can_frame& frame, SensorForce* m);
 Reject Decode(const can_frame& frame, DriverCommand* m);
+Reject Decode(const can_frame& frame, TimeGrant* m);
 Reject Decode(const can_frame& frame, Heartbeat* m);
 Reject Decode(const can_frame& frame, DriverStatus* m);
 Reject Decode(const can_frame& frame, FirmwareStatus* m);

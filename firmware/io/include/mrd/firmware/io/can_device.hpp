@@ -27,18 +27,27 @@
 //   PublishStatus  the firmware status frame at status_period.
 // Frames of the firmware's own IDs heard from another node are ignored; the driver's status
 // frame is checked and counted (its fault bits are kept in driver_faults()).
+//
+// Lockstep (config.lockstep, [loop] clock = "grant"): the device is also the loop's
+// TimeGrantSource (grant_clock.hpp). WaitGrant handles frames as they come (one ppoll on the
+// fd with the remaining timeout, then non-blocking reads) and returns at the first valid
+// TimeGrant frame. Time is then the granted time: sensor values are stamped with the grant
+// that follows them (the harness sends a step's sensor frames, then its grant), heartbeat and
+// status are scheduled in granted time. A wait that times out is a missed grant: the next Read
+// is kFault (timeout, the can_bus cause), so the loop commands the safe state for that period.
 
 #include <cstdint>
 #include <string>
 
 #include "mrd/canbus/can_iface.hpp"
 #include "mrd/firmware/bus_device.hpp"
+#include "mrd/firmware/grant_clock.hpp"
 #include "mrd/firmware/seqlock.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
 namespace mrd::firmware {
 
-class CanDevice final : public BusDevice {
+class CanDevice final : public BusDevice, public TimeGrantSource {
  public:
   static constexpr int kMaxFramesPerRead = 32;
   static constexpr std::int64_t kReconnectInterval = 100'000'000;  // [ns]
@@ -58,6 +67,9 @@ class CanDevice final : public BusDevice {
   IoStatus Write(const DriverCommand& cmd, IoError* why) override;
   void PublishStatus(const TelemetrySnapshot& stats) override;
   DeviceCounters counters() const override { return published_.Read(); }
+  // Lockstep only (config.lockstep); bounded wait, no allocation.
+  bool WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) override;
+  TimeGrantSource* grant_source() override { return config_.lockstep ? this : nullptr; }
 
   const canbus::CanStats& bus_stats() const { return iface_.stats(); }
   std::uint8_t driver_faults() const { return driver_faults_; }
@@ -68,6 +80,9 @@ class CanDevice final : public BusDevice {
   void Reject(protocol::can::Reject reason);
   void Count(IoError error);
   bool Handle(const can_frame& f, std::int64_t stamp);
+  bool HandleGrant(const can_frame& f);
+  // The device's time: CLOCK_MONOTONIC, or the latest granted time in lockstep.
+  std::int64_t Now() const;
   // Queues one frame; false (and counted) when it failed.
   bool Send(const can_frame& f, std::int64_t now);
   void Publish() { published_.Write(counters_); }
@@ -81,6 +96,14 @@ class CanDevice final : public BusDevice {
   std::uint16_t last_seq_ = 0;
   std::uint8_t driver_faults_ = 0;
   Stamped velocity_, displacement_, demand_, body_velocity_, force_;
+  // Lockstep: the latest granted time, sensor values waiting for their grant's stamp, a grant
+  // missed since the last Read, fresh values seen by WaitGrant since the last Read.
+  protocol::can::CounterCheck grant_check_;
+  std::int64_t granted_ns_ = 0;
+  bool got_grant_ = false;
+  bool unstamped_motion_ = false, unstamped_force_ = false;
+  bool missed_grant_ = false;
+  bool fresh_in_wait_ = false;
   std::int64_t next_heartbeat_ns_ = 0, next_status_ns_ = 0, next_reconnect_ns_ = 0;
   DeviceCounters counters_;
   Seqlock<DeviceCounters> published_;

@@ -1,0 +1,191 @@
+#include "report.hpp"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+extern char** environ;
+
+namespace mrd::hil {
+namespace {
+
+nlohmann::json Stats(const LatencyStats& l) {
+  return {{"count", l.count}, {"median", l.median_us}, {"p99", l.p99_us}, {"max", l.max_us}};
+}
+
+nlohmann::json Opt(const std::optional<std::int64_t>& v) {
+  return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+}
+
+// Runs gnuplot on script; 0 on success.
+int Gnuplot(const std::string& script, const std::string& log) {
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&fa, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  std::string prog = "gnuplot";
+  char* argv[] = {prog.data(), const_cast<char*>(script.c_str()), nullptr};
+  pid_t pid = 0;
+  const int rc = posix_spawnp(&pid, "gnuplot", &fa, nullptr, argv, environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (rc != 0) return -1;
+  int st = 0;
+  waitpid(pid, &st, 0);
+  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+}  // namespace
+
+nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
+  nlohmann::json j;
+  j["scenario"] = s.name.empty() ? s.path : s.name;
+  j["file"] = s.path;
+  j["transport"] = r.transport;
+  j["clock"] = r.clock;
+  j["law"] = s.law;
+  j["duration_s"] = s.duration_s;
+  j["pass"] = r.pass;
+  j["failures"] = r.failures;
+  j["steps"] = r.steps;
+  j["commands"] = r.commands;
+  j["invariant_violations"] = r.invariant_violations;
+  j["command_timeouts"] = r.command_timeouts;
+  j["heartbeat_timeouts"] = r.heartbeat_timeouts;
+  j["driven_steps"] = r.driven_steps;
+  j["safe_commands"] = r.safe_commands;
+  const TrackingScores& t = r.tracking;
+  j["tracking"] = {
+      {"steps", t.steps},
+      {"reachable_steps", t.reachable_steps},
+      {"error_all", t.error_all},
+      {"error_reachable", t.error_reachable},
+      {"passive_off", {{"error_all", t.off_all}, {"error_reachable", t.off_reachable}}},
+      {"passive_on", {{"error_all", t.on_all}, {"error_reachable", t.on_reachable}}},
+      {"rms_force_n", t.rms_force_n},
+      {"rms_demand_n", t.rms_demand_n}};
+  nlohmann::json faults = nlohmann::json::array();
+  for (const FaultResult& f : r.faults) {
+    faults.push_back({{"kind", FaultKindName(f.fault.kind)},
+                      {"at_s", f.fault.at_s},
+                      {"duration_s", f.fault.duration_s},
+                      {"onset_step", f.onset_step},
+                      {"clear_step", f.clear_step},
+                      {"periods_to_detection", Opt(f.detection)},
+                      {"periods_to_safe_state", Opt(f.safe)},
+                      {"detection_to_safe_periods",
+                       f.detection && f.safe ? nlohmann::json(*f.safe - *f.detection)
+                                             : nlohmann::json(nullptr)},
+                      {"periods_to_recovery", Opt(f.recovery)},
+                      {"detection_required", f.detection_required},
+                      {"ok", f.ok},
+                      {"why", f.why}});
+  }
+  j["faults"] = faults;
+  nlohmann::json fw = {{"exit", r.firmware_exit}, {"starts", r.firmware_starts}};
+  fw["summary"] = nlohmann::json::parse(r.firmware_json, nullptr, false);
+  if (fw["summary"].is_discarded()) fw["summary"] = nullptr;
+  j["firmware"] = fw;
+  for (const auto& [name, c] : r.ports) {
+    j["ports"][name] = {{"published", c.published}, {"received", c.received},
+                        {"rejected", c.rejected}};
+  }
+  // Wall-clock figures: everything outside "timing" is deterministic in lockstep.
+  j["timing"] = {{"wall_s", r.wall_s},
+                 {"speed_x", r.speed_x},
+                 {"late_steps", r.late_steps},
+                 {"latency_us", Stats(r.latency)},
+                 {"wake_jitter_us", Stats(r.wake_jitter)}};
+  return j;
+}
+
+std::string SummaryText(const Scenario& s, const RunResult& r) {
+  std::ostringstream o;
+  o.precision(4);
+  const TrackingScores& t = r.tracking;
+  o << "mrd-hil run " << (s.name.empty() ? s.path : s.name) << " (" << r.transport << ", "
+    << r.clock << ", law " << s.law << ", " << s.duration_s << " s): "
+    << (r.pass ? "PASS" : "FAIL") << "\n";
+  o << "  steps " << r.steps << ", commands " << r.commands << ", invariant violations "
+    << r.invariant_violations << ", command timeouts " << r.command_timeouts
+    << ", heartbeat timeouts " << r.heartbeat_timeouts << "\n";
+  o << "  tracking ||f-d||/||d|| over " << t.steps << " controlled steps (" << t.reachable_steps
+    << " reachable): all " << t.error_all << ", reachable " << t.error_reachable << "\n";
+  o << "    passive-off (0 V): all " << t.off_all << ", reachable " << t.off_reachable
+    << "; passive-on (E_max): all " << t.on_all << ", reachable " << t.on_reachable << "\n";
+  for (const FaultResult& f : r.faults) {
+    const auto p = [](const std::optional<std::int64_t>& v) {
+      return v ? std::to_string(*v) : std::string("-");
+    };
+    o << "  fault " << FaultKindName(f.fault.kind) << " at " << f.fault.at_s
+      << " s: detection " << p(f.detection) << ", safe " << p(f.safe) << ", recovery "
+      << p(f.recovery) << " periods" << (f.ok ? "" : "  FAILED: " + f.why) << "\n";
+  }
+  o << "  firmware exit " << r.firmware_exit << " (" << r.firmware_starts << " start(s))\n";
+  o << "  wall " << r.wall_s << " s (" << r.speed_x << "x real time); latency median "
+    << r.latency.median_us << " us, p99 " << r.latency.p99_us << " us";
+  if (r.clock == "realtime") {
+    o << "; wake-up jitter median " << r.wake_jitter.median_us << " us, p99 "
+      << r.wake_jitter.p99_us << " us, max " << r.wake_jitter.max_us << " us";
+  }
+  o << "\n";
+  for (const std::string& f : r.failures) o << "  failed: " << f << "\n";
+  return o.str();
+}
+
+bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const RunResult& r,
+                  std::string* error, std::string* warning) {
+  {
+    std::ofstream f(dir + "/summary.json");
+    f << summary.dump(2) << "\n";
+    if (!f) {
+      *error = dir + "/summary.json: cannot write";
+      return false;
+    }
+  }
+  {
+    std::ofstream f(dir + "/trace.csv");
+    f << "t,x,v,demand,force,force_off,force_on,command,applied,safe,driven,reachable,causes\n";
+    f.precision(9);
+    for (const StepRecord& k : r.trace) {
+      f << k.t << ',' << k.x << ',' << k.v << ',' << k.demand << ',' << k.force << ','
+        << k.force_off << ',' << k.force_on << ',' << k.command << ',' << k.applied << ','
+        << k.safe << ',' << k.driven << ',' << k.reachable << ',' << k.causes << '\n';
+    }
+    if (!f) {
+      *error = dir + "/trace.csv: cannot write";
+      return false;
+    }
+  }
+  if (r.trace.empty()) return true;
+  const std::string script = dir + "/plots.gp";
+  {
+    std::ofstream g(script);
+    g << "set datafile separator ','\nset terminal pngcairo size 1200,600\nset grid\n"
+         "set key outside below\nset xlabel 't [s]'\n"
+      << "set output '" << dir << "/tracking.png'\nset ylabel 'force [N]'\n"
+      << "set title 'Force tracking: plant force vs demand, passive-off (0 V) and passive-on'\n"
+      << "plot '" << dir << "/trace.csv' every ::1 using 1:4 with lines lw 2 title 'demand', "
+      << "'' every ::1 using 1:5 with lines title 'force (controlled)', "
+      << "'' every ::1 using 1:6 with lines dt 2 title 'passive-off', "
+      << "'' every ::1 using 1:7 with lines dt 3 title 'passive-on'\n"
+      << "set output '" << dir << "/command.png'\nset ylabel 'voltage [V]'\nset y2label 'safe'\n"
+      << "set y2range [-0.1:1.1]\nset y2tics 0,1,1\n"
+      << "set title 'Command received, voltage applied by the simulated driver, safe state'\n"
+      << "plot '" << dir << "/trace.csv' every ::1 using 1:8 with lines title 'command', "
+      << "'' every ::1 using 1:9 with lines title 'applied', "
+      << "'' every ::1 using 1:10 axes x1y2 with steps title 'safe'\n";
+  }
+  const int rc = Gnuplot(script, dir + "/gnuplot.log");
+  if (rc != 0) {
+    *warning = rc < 0 ? "gnuplot not found (install gnuplot-nox): plots skipped"
+                      : "gnuplot failed (see " + dir + "/gnuplot.log): plots incomplete";
+  }
+  return true;
+}
+
+}  // namespace mrd::hil

@@ -1,0 +1,21 @@
+#pragma once
+// The run's summary (JSON; keys in the README) and its files in --out: summary.json,
+// trace.csv, firmware.toml (the generated config) and gnuplot plots (tracking.png,
+// command.png; skipped with a warning without gnuplot).
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+#include "mrd/hil/run.hpp"
+
+namespace mrd::hil {
+
+nlohmann::json SummaryJson(const Scenario& s, const RunResult& r);
+// A short text summary.
+std::string SummaryText(const Scenario& s, const RunResult& r);
+// Writes the files; false with *error. Plot failures are warnings (*warning).
+bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const RunResult& r,
+                  std::string* error, std::string* warning);
+
+}  // namespace mrd::hil

@@ -1,0 +1,82 @@
+#pragma once
+// The plant a scenario drives, as the harness sees it: one Step(volts) per control period
+// (voltage held) -> the sample its sensors read. DamperPlant (common/) fits through an adapter;
+// a trace-driven damper plays a recorded excitation (CSV x, v[, demand]); a vehicle model (the
+// quarter-car of common/, when it lands) plugs in the same way and adds its own scores through
+// Scores() (body acceleration, suspension travel, tyre load).
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "mrd/common/damper_plant.hpp"
+
+namespace mrd::hil {
+
+class Plant {
+ public:
+  virtual ~Plant() = default;
+  // Back to t = 0.
+  virtual void Reset() = 0;
+  // Advances one period with volts [V] held; the sample at the end. Real-time safe.
+  virtual PlantSample Step(double volts) = 0;
+  virtual PlantSample Sample() const = 0;
+  // The sample Step(volts) would give, without advancing (what the damper can deliver on the
+  // next step from its present state: the harness's reachability test). No allocation.
+  virtual PlantSample Probe(double volts) const = 0;
+  // Extra per-step signals of this plant for its scores (name, value); default none.
+  virtual void Signals(std::vector<std::pair<const char*, double>>* out) const { (void)out; }
+};
+
+// The reference damper on its periodic excitation (damper_plant.hpp).
+class DamperPlantAdapter final : public Plant {
+ public:
+  DamperPlantAdapter(const SpencerParams& params, const PlantExcitation& excitation,
+                     double period_s)
+      : plant_(params, excitation, period_s) {}
+  void Reset() override { plant_.Reset(); }
+  PlantSample Step(double volts) override { return plant_.Step(volts); }
+  PlantSample Sample() const override { return plant_.Sample(); }
+  PlantSample Probe(double volts) const override {
+    DamperPlant copy = plant_;  // value type: the damper state and the excitation
+    return copy.Step(volts);
+  }
+
+ private:
+  DamperPlant plant_;
+};
+
+// A recorded excitation, one row per period: displacement [cm], velocity [cm/s], force
+// demand [N] (0 when the file has none). Past the end the last row holds.
+struct Trace {
+  std::vector<double> x, v, demand;
+};
+
+// The reference damper driven by a Trace (same Spencer model and zero-order hold as
+// DamperPlant).
+class TracePlant final : public Plant {
+ public:
+  TracePlant(const SpencerParams& params, Trace trace, double period_s, int substeps);
+  void Reset() override;
+  PlantSample Step(double volts) override;
+  PlantSample Sample() const override;
+  PlantSample Probe(double volts) const override;
+
+ private:
+  std::size_t Row(std::size_t k) const;
+
+  SpencerDamper damper_;
+  Trace trace_;
+  double period_s_;
+  std::size_t steps_ = 0;
+  double force_ = 0.0;
+};
+
+// Reads a CSV trace with a header row naming at least x and v (and optionally the demand
+// column named demand_column, e.g. "f" of an `mrd generate` data set). false: *error =
+// "FILE:LINE: reason".
+bool LoadTrace(const std::string& path, const std::string& demand_column, Trace* trace,
+               std::string* error);
+
+}  // namespace mrd::hil

@@ -1,0 +1,111 @@
+#pragma once
+// `mrd-hil run`: one scenario against a real mrd-firmware process. The harness generates the
+// firmware's configuration for the transport, starts the firmware as a child (or attaches to
+// one started by hand), plays the plant and the current driver over the transport, applies the
+// fault schedule, scores the run and stops the firmware cleanly.
+//
+// Clocks:
+//   lockstep (CAN only)  per step k: sensor frames of the plant at k·T, then a TimeGrant of
+//                        (k+1)·T; the harness waits (command_timeout) for the firmware's command
+//                        and status of that tick, applies it and steps the plant. Deterministic
+//                        and as fast as both processes allow.
+//   realtime             the plant steps at 1 kHz on CLOCK_MONOTONIC (absolute deadlines); the
+//                        firmware runs on its own clock; wake-up jitter and sensor->command
+//                        latency are measured.
+// Scores: force tracking ||f - d|| / ||d|| (force and demand at the same plant time) over the
+// steps the coil is driven by a non-safe command, over all of them and over the reachable ones
+// (d within the forces the damper would give on that step from its present state at 0 V and
+// at E_max: Plant::Probe), next to the same figures for two shadow plants on the same
+// excitation held at 0 V (passive-off) and E_max (passive-on); the invariant (every received command finite and within [0, E_max]); per
+// fault, periods to detection (first step whose firmware status names a cause, or the driver's
+// heartbeat loss), to the safe state (first safe command, or coil dropped by the driver) and to
+// recovery after the fault clears (first non-safe, driven command).
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "mrd/hil/plant_port.hpp"
+#include "mrd/hil/scenario.hpp"
+#include "mrd/hil/serve.hpp"
+
+namespace mrd::hil {
+
+struct RunOptions {
+  std::string transport = "can";    // can | modbus-tcp | modbus-rtu
+  std::string clock;                // lockstep | realtime; "": lockstep on CAN, else realtime
+  std::string table;                // table file for the firmware; "": its compiled-in table
+  std::string excitation;           // CSV replacing the scenario's excitation ("": keep it)
+  std::string firmware;             // mrd-firmware to start
+  bool attach = false;              // do not start it: wait for one started by hand
+  std::string work_dir;             // config, sockets, firmware output (created if absent)
+  double command_timeout_s = 0.5;   // lockstep: wait for one tick's command
+  double startup_timeout_s = 10.0;  // first sign of life of the firmware
+  bool keep_trace = true;           // record per-step signals and score (false: benchmark;
+                                    // no probes, no passive twins, no tracking scores)
+};
+
+struct TrackingScores {
+  std::uint64_t steps = 0;            // controlled steps scored
+  std::uint64_t reachable_steps = 0;
+  double error_all = 0.0, error_reachable = 0.0;              // controlled run
+  double off_all = 0.0, off_reachable = 0.0;                  // passive-off (0 V)
+  double on_all = 0.0, on_reachable = 0.0;                    // passive-on (E_max)
+  double rms_force_n = 0.0, rms_demand_n = 0.0;
+};
+
+struct FaultResult {
+  Fault fault;
+  std::int64_t onset_step = 0, clear_step = 0;  // clear_step: steps when it never clears
+  std::optional<std::int64_t> detection, safe, recovery;  // periods after onset / after clearing
+  bool detection_required = true;
+  bool ok = true;
+  std::string why;  // when !ok
+};
+
+struct StepRecord {
+  double t, x, v, demand, force, force_off, force_on, command, applied;
+  bool safe, driven, reachable;
+  std::uint16_t causes;
+};
+
+struct RunResult {
+  std::string clock;               // lockstep | realtime
+  std::string transport;
+  std::uint64_t steps = 0;
+  std::uint64_t commands = 0;
+  std::uint64_t invariant_violations = 0;
+  std::uint64_t command_timeouts = 0;   // lockstep: ticks whose command did not come in time
+  std::uint64_t heartbeat_timeouts = 0;
+  std::uint64_t driven_steps = 0;
+  std::uint64_t safe_commands = 0;
+  std::uint64_t late_steps = 0;         // realtime: wake-ups after the next deadline
+  TrackingScores tracking;
+  std::vector<FaultResult> faults;
+  int firmware_exit = -1;               // -1: still running / not started by us
+  std::string firmware_json;            // the firmware's --json summary (last instance)
+  std::string firmware_stderr;
+  std::optional<std::uint64_t> missed_grants;  // from the firmware's summary (lockstep)
+  int firmware_starts = 0;
+  double wall_s = 0.0;
+  double speed_x = 0.0;                 // plant time / wall time
+  LatencyStats latency;                 // sensor publish -> command computed from it
+  LatencyStats wake_jitter;             // realtime: wake-up minus deadline
+  std::vector<std::pair<std::string, PortCounters>> ports;
+  std::vector<StepRecord> trace;
+  std::string config_path;
+  bool pass = false;
+  std::vector<std::string> failures;
+};
+
+// 0: ran (result->pass says whether the criteria hold); 2: bad input (*error); 1: could not
+// run (*error: ports, firmware start-up).
+int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* result,
+                std::string* error);
+
+// The generated mrd-firmware configuration for a transport and endpoint.
+std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
+                               const std::string& endpoint);
+
+}  // namespace mrd::hil

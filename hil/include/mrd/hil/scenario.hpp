@@ -1,0 +1,77 @@
+#pragma once
+// A HIL scenario (TOML, hil/scenarios/*.toml): plant and excitation, the firmware's control
+// law, duration, fault schedule and pass criteria. Keys and meanings: ScenarioKeysHelp() (also
+// `mrd-hil --help`). Start-up only (allocates; toml++ exceptions are caught inside).
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "mrd/common/damper_plant.hpp"
+
+namespace mrd::hil {
+
+enum class FaultKind : std::uint8_t {
+  kDrop,          // sensor frames not sent
+  kDelay,         // sensor frames held back by delay_periods (sent late, in a burst)
+  kCorrupt,       // sensor frames with a flipped data bit (checksum mismatch)
+  kStall,         // the sensor repeats its last frames unchanged (repeated rolling counter)
+  kOutOfRange,    // velocity raw value beyond the DBC range (decoder refuses it)
+  kNan,           // velocity the transport cannot represent (CAN: the NaN-like raw 0x8000)
+  kImplausible,   // finite in-range velocity beyond the firmware's velocity_limit
+  kKillPlant,     // the plant side's bus node closes, reopens when the fault clears
+  kKillFirmware,  // SIGKILL to mrd-firmware; restarted when the fault clears (duration > 0)
+  kCorruptTable,  // the firmware is offered a table with a flipped byte: it must refuse (exit 2)
+};
+const char* FaultKindName(FaultKind kind);
+
+struct Fault {
+  FaultKind kind = FaultKind::kDrop;
+  double at_s = 0.0;        // onset (plant time)
+  double duration_s = 0.0;  // 0: until the end (kill_firmware: no restart)
+  int delay_periods = 10;   // kDelay
+  int line = 0;             // in the scenario file
+};
+
+enum class ExcitationKind : std::uint8_t { kPeriodic, kCsv };
+
+struct Scenario {
+  std::string path, name, description;
+  double duration_s = 5.0;
+  double e_max = 2.25;                // [V]
+  double heartbeat_timeout_s = 0.05;  // simulated driver: coil to 0 V without a heartbeat
+  // [plant]
+  std::string preset = "paper";
+  int substeps = 20;
+  // [excitation]
+  ExcitationKind excitation = ExcitationKind::kPeriodic;
+  PlantExcitation periodic;
+  std::string csv_file;               // resolved against the scenario's folder
+  std::string demand_column = "f";
+  // [control]
+  std::string law = "force";          // force | passive-off | passive-on | constant | skyhook
+  double constant_voltage = 0.0;
+  double skyhook_gain = 50.0;
+  // [firmware] settings of the generated configuration
+  double max_age_ms = 5.0;
+  int recover_periods = 5;
+  double velocity_limit = 250.0;
+  double grant_timeout_ms = 20.0;
+  // [pass]
+  std::uint64_t max_invariant_violations = 0;
+  std::optional<double> max_error_reachable;  // ||f - d|| / ||d|| over reachable demands
+  std::optional<double> max_error_all;
+  std::optional<std::uint64_t> max_missed_grants;
+  int max_detection_to_safe_periods = 2;
+  bool require_recovery = true;
+  std::optional<int> expect_firmware_exit;    // e.g. 2 for a refused table
+  std::vector<Fault> faults;
+};
+
+// false: *error = "FILE:LINE: reason".
+bool LoadScenario(const std::string& path, Scenario* scenario, std::string* error);
+// Every key with its meaning (for --help).
+const char* ScenarioKeysHelp();
+
+}  // namespace mrd::hil

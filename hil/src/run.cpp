@@ -1,0 +1,589 @@
+// mrd-hil run: the scenario loop (run.hpp). Scores and fault figures: run_scores.cpp.
+#include "mrd/hil/run.hpp"
+
+#include <sys/prctl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <deque>
+#include <functional>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <sstream>
+
+#include "mrd/canbus/local_bus.hpp"
+#include "mrd/hil/child.hpp"
+#include "mrd/hil/plant.hpp"
+#include "run_internal.hpp"
+
+namespace mrd::hil {
+namespace {
+
+constexpr std::int64_t kPeriodNs = 1'000'000;
+
+std::int64_t NowNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+void SleepUntil(std::int64_t t_ns) {
+  const timespec ts{static_cast<time_t>(t_ns / 1'000'000'000), static_cast<long>(t_ns % 1'000'000'000)};
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) != 0) {
+  }
+}
+
+
+// Output file suffix of the n-th firmware instance ("" for the first).
+std::string Tag(int n) {
+  char buf[16] = "";
+  if (n > 0) std::snprintf(buf, sizeof buf, ".%d", n);
+  return buf;
+}
+
+bool MakeDirs(const std::string& dir) {
+  std::string partial;
+  std::stringstream ss(dir);
+  std::string part;
+  if (!dir.empty() && dir[0] == '/') partial = "/";
+  while (std::getline(ss, part, '/')) {
+    if (part.empty()) continue;
+    partial += part + "/";
+    if (mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST) return false;
+  }
+  return true;
+}
+
+std::unique_ptr<Plant> MakePlant(const Scenario& s, const SpencerParams& p, const Trace* trace) {
+  if (trace != nullptr) return std::make_unique<TracePlant>(p, *trace, 1e-3, s.substeps);
+  PlantExcitation e = s.periodic;
+  e.substeps = s.substeps;
+  return std::make_unique<DamperPlantAdapter>(p, e, 1e-3);
+}
+
+SensorFault SensorFaultOf(FaultKind k) {
+  switch (k) {
+    case FaultKind::kDrop: return SensorFault::kDrop;
+    case FaultKind::kCorrupt: return SensorFault::kCorrupt;
+    case FaultKind::kStall: return SensorFault::kStall;
+    case FaultKind::kOutOfRange: return SensorFault::kOutOfRange;
+    case FaultKind::kNan: return SensorFault::kNan;
+    default: return SensorFault::kNone;
+  }
+}
+
+bool ReadFile(const std::string& path, std::string* out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  std::stringstream s;
+  s << in.rdbuf();
+  *out = s.str();
+  return true;
+}
+
+// The firmware's argv for this run.
+std::vector<std::string> FirmwareArgv(const RunOptions& o, const std::string& config,
+                                      const std::string& table, double duration_s) {
+  std::vector<std::string> argv = {o.firmware, "--config", config, "--json"};
+  if (!table.empty()) {
+    argv.push_back("--table");
+    argv.push_back(table);
+  }
+  if (duration_s > 0.0) {
+    std::ostringstream d;
+    d.precision(17);
+    d << duration_s;
+    argv.push_back("--duration");
+    argv.push_back(d.str());
+  }
+  return argv;
+}
+
+// A corrupt_table scenario: the firmware is offered a table with one flipped byte and must
+// refuse it (exit 2) without ever driving the coil.
+int RunCorruptTable(const Scenario& s, const RunOptions& o, PlantPort& port,
+                    const std::function<void(std::int64_t)>& pump, const std::string& config,
+                    RunResult* r, std::string* error) {
+  std::string image;
+  const std::string good = o.work_dir + "/table.bin";
+  if (!o.table.empty()) {
+    if (!ReadFile(o.table, &image)) {
+      *error = o.table + ": cannot read";
+      return 2;
+    }
+  } else {
+    Child w;
+    if (!w.Spawn({o.firmware, "--write-table", good}, o.work_dir + "/write_table.out",
+                 o.work_dir + "/write_table.err", error)) {
+      return 1;
+    }
+    if (w.Wait(10.0) != 0 || !ReadFile(good, &image)) {
+      *error = "mrd-firmware --write-table failed";
+      return 1;
+    }
+  }
+  if (image.size() < 64) {
+    *error = "table image too short";
+    return 1;
+  }
+  image[image.size() / 2] = static_cast<char>(image[image.size() / 2] ^ 0x5A);
+  const std::string bad = o.work_dir + "/corrupt_table.bin";
+  std::ofstream(bad, std::ios::binary) << image;
+  Child fw;
+  const double dur = s.duration_s;
+  if (!fw.Spawn(FirmwareArgv(o, config, bad, dur), o.work_dir + "/firmware.json",
+                o.work_dir + "/firmware.err", error)) {
+    return 1;
+  }
+  ++r->firmware_starts;
+  // Listen meanwhile: a refusing firmware never sends a driving command.
+  const std::int64_t until = NowNs() + static_cast<std::int64_t>(5e9);
+  DriverInput in;
+  while (fw.Alive() && NowNs() < until) {
+    pump(2'000'000);
+    DriverInput fresh;
+    port.Poll(&fresh);
+    if (fresh.has_command) {
+      ++r->commands;
+      if (!fresh.safe || fresh.volts != 0.0) ++r->driven_steps;
+    }
+  }
+  r->firmware_exit = fw.Alive() ? fw.Stop(2.0) : fw.status();
+  ReadFile(o.work_dir + "/firmware.err", &r->firmware_stderr);
+  FaultResult fr;
+  fr.fault = s.faults.front();
+  fr.detection_required = false;
+  const int expect = s.expect_firmware_exit.value_or(2);
+  if (r->firmware_exit != expect) {
+    fr.ok = false;
+    fr.why = "firmware exit " + std::to_string(r->firmware_exit) + ", expected " +
+             std::to_string(expect);
+  } else if (r->driven_steps != 0) {
+    fr.ok = false;
+    fr.why = "the firmware drove the coil with a corrupt table";
+  }
+  r->faults.push_back(fr);
+  return 0;
+}
+
+}  // namespace
+
+int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::string* error) {
+  r->transport = o.transport;
+  r->clock = !o.clock.empty() ? o.clock : (o.transport == "can" ? "lockstep" : "realtime");
+  const bool lockstep = r->clock == "lockstep";
+  if (o.transport != "can" && o.transport != "modbus-tcp" && o.transport != "modbus-rtu") {
+    *error = "--transport '" + o.transport + "': expected can, modbus-tcp or modbus-rtu";
+    return 2;
+  }
+  if (r->clock != "lockstep" && r->clock != "realtime") {
+    *error = "--clock '" + r->clock + "': expected lockstep or realtime";
+    return 2;
+  }
+  if (lockstep && o.transport != "can") {
+    *error = "--clock lockstep needs --transport can (time grants travel on CAN; Modbus runs "
+             "on --clock realtime)";
+    return 2;
+  }
+  const bool corrupt_table =
+      std::any_of(s.faults.begin(), s.faults.end(),
+                  [](const Fault& f) { return f.kind == FaultKind::kCorruptTable; });
+  if (corrupt_table && s.faults.size() != 1) {
+    *error = s.path + ": a corrupt_table fault runs alone (the firmware never starts)";
+    return 2;
+  }
+  if (o.attach && std::any_of(s.faults.begin(), s.faults.end(), [](const Fault& f) {
+        return f.kind == FaultKind::kKillFirmware || f.kind == FaultKind::kCorruptTable;
+      })) {
+    *error = s.path + ": kill_firmware and corrupt_table faults need the harness to start the "
+             "firmware (drop --attach)";
+    return 2;
+  }
+  // Frame-level faults are injected by the CAN port only; the Modbus ports carry the values.
+  for (const Fault& f : s.faults) {
+    const bool frame_level = SensorFaultOf(f.kind) != SensorFault::kNone ||
+                             f.kind == FaultKind::kDelay || f.kind == FaultKind::kKillPlant;
+    if (frame_level && o.transport != "can") {
+      *error = s.path + ":" + std::to_string(f.line) + ": fault '" + FaultKindName(f.kind) +
+               "' is injected on CAN frames only (not over " + o.transport +
+               " yet); implausible, kill_firmware and corrupt_table work on every transport";
+      return 2;
+    }
+  }
+  SpencerParams params;
+  SpencerParams::FromPreset(s.preset, &params);
+  Trace trace;
+  const bool csv = s.excitation == ExcitationKind::kCsv || !o.excitation.empty();
+  if (csv && !LoadTrace(o.excitation.empty() ? s.csv_file : o.excitation, s.demand_column, &trace,
+                        error)) {
+    return 2;
+  }
+  const Trace* tp = csv ? &trace : nullptr;
+  auto plant = MakePlant(s, params, tp);
+  auto plant_off = MakePlant(s, params, tp);
+  auto plant_on = MakePlant(s, params, tp);
+
+  if (!MakeDirs(o.work_dir)) {
+    *error = o.work_dir + ": cannot create (" + std::strerror(errno) + ")";
+    return 1;
+  }
+  // The transport's endpoint. On CAN the harness owns the local frame bus, runs its relay
+  // inline (pump below: forwarding happens in the harness's own waits, so a lockstep round costs
+  // two wake-ups, harness -> firmware -> harness, instead of four through a relay thread) and is
+  // an in-process node of it (no socket round trip of its own); the plant's node can go away
+  // and come back (kill_plant).
+  std::string endpoint;
+  canbus::LocalBusRelay relay;
+  std::unique_ptr<PlantPort> port;
+  const bool can = o.transport == "can";
+  if (can) {
+    endpoint = o.work_dir + "/canbus.sock";
+    if (!relay.Open(endpoint, error)) return 1;
+    port = MakeCanPortOnRelay(relay);
+  } else if (o.transport == "modbus-rtu") {
+    endpoint = o.work_dir + "/modbus-pty";
+    port = MakeModbusRtuPort(endpoint);
+  }
+  if (o.transport == "modbus-tcp") {
+    // A free port near a per-process base.
+    const int base = 20000 + static_cast<int>(getpid() % 20000);
+    for (int i = 0; i < 50 && port == nullptr; ++i) {
+      endpoint = "127.0.0.1:" + std::to_string(base + i * 7);
+      auto p = MakeModbusTcpPort(endpoint);
+      std::string e;
+      if (p != nullptr && p->Open(&e)) port = std::move(p);
+    }
+    if (port == nullptr) {
+      *error = "modbus-tcp: no free port to listen on";
+      return 1;
+    }
+  } else if (port == nullptr || !port->Open(error)) {
+    if (port == nullptr) *error = o.transport + ": transport not available in this build";
+    return 1;
+  }
+  bool port_open = true;
+  port->SetLockstep(lockstep);
+  // Waits up to timeout_ns for the firmware: on CAN by relaying the bus meanwhile (returns when
+  // something moved), else on the port.
+  const std::function<void(std::int64_t)> pump = [&](std::int64_t timeout_ns) {
+    if (can) {
+      relay.Step(static_cast<int>((timeout_ns + 999'999) / 1'000'000));
+    } else if (timeout_ns > 0) {
+      port->Wait(timeout_ns);
+    }
+  };
+  const auto pump_for = [&](std::int64_t ns) {
+    const std::int64_t until = NowNs() + ns;
+    for (std::int64_t now = NowNs(); now < until; now = NowNs()) pump(until - now);
+  };
+
+  const std::string config = FirmwareConfigText(s, o.transport, lockstep, endpoint);
+  r->config_path = o.work_dir + "/firmware.toml";
+  std::ofstream(r->config_path) << config;
+
+  if (corrupt_table) {
+    const int rc = RunCorruptTable(s, o, *port, pump, r->config_path, r, error);
+    port->Close();
+    r->ports.emplace_back(port->name(), port->counters());
+    if (rc == 0) EvaluatePass(s, r);
+    return rc;
+  }
+
+  const auto steps = static_cast<std::int64_t>(std::llround(s.duration_s / 1e-3));
+  // Lockstep: the firmware stops itself at the run's end (its duration counts granted time).
+  const double fw_duration = lockstep ? static_cast<double>(steps) * 1e-3 : 0.0;
+  Child fw;
+  const auto spawn = [&](std::string* e) {
+    if (o.attach) return true;
+    const std::string tag = Tag(r->firmware_starts);
+    if (!fw.Spawn(FirmwareArgv(o, r->config_path, o.table, fw_duration),
+                  o.work_dir + "/firmware" + tag + ".json", o.work_dir + "/firmware" + tag + ".err",
+                  e)) {
+      return false;
+    }
+    ++r->firmware_starts;
+    return true;
+  };
+  if (!spawn(error)) return 1;
+  if (o.attach) {
+    std::fprintf(stderr, "mrd-hil: waiting for a firmware started by hand:\n  mrd-firmware --config %s%s\n",
+                 r->config_path.c_str(), lockstep ? " (lockstep: add --duration to stop it)" : "");
+  }
+  const auto firmware_alive = [&] { return o.attach || fw.Alive(); };
+
+  // Per-step state.
+  DriverInput in;
+  double set_point = 0.0;
+  bool cmd_safe = true, enable = false, carries_enable = false;
+  std::uint16_t causes = 0;
+  std::uint64_t hb_count = 0;
+  std::int64_t hb_step = std::numeric_limits<std::int64_t>::min() / 2;
+  std::int64_t hb_ns = 0;
+  bool hb_fresh_prev = false;
+  bool awaiting_start = true;
+  std::deque<SensorOutput> delayed;
+  std::vector<double> latency_us, jitter_us;
+  constexpr std::size_t kRing = 4096;
+  std::vector<std::int64_t> published_ns(kRing, 0);
+  std::vector<std::uint32_t> published_seq(kRing, 0);
+  latency_us.reserve(static_cast<std::size_t>(steps) + 16);
+  if (!lockstep) jitter_us.reserve(static_cast<std::size_t>(steps) + 16);
+  if (o.keep_trace) r->trace.reserve(static_cast<std::size_t>(steps));
+  const auto hb_timeout_steps = static_cast<std::int64_t>(std::llround(s.heartbeat_timeout_s / 1e-3));
+  const auto grant_sleep_ns = static_cast<std::int64_t>(s.grant_timeout_ms * 1.2e6);
+
+  PlantSample sample = plant->Sample();
+  const auto publish = [&](SensorOutput out) {
+    const std::int64_t t = NowNs();
+    out.t_ns = t;
+    published_seq[out.seq % kRing] = out.seq;
+    published_ns[out.seq % kRing] = t;
+    port->Publish(out);
+  };
+
+  // Real time: start when the firmware shows a sign of life (a heartbeat or command), with the
+  // first sample on the bus meanwhile.
+  if (!lockstep) {
+    const std::int64_t until = NowNs() + static_cast<std::int64_t>(o.startup_timeout_s * 1e9);
+    std::uint32_t seq = 0;
+    bool failed = false;
+    while (true) {
+      SensorOutput out;
+      out.sample = sample;
+      out.seq = ++seq;
+      publish(out);
+      DriverInput fresh = in;
+      port->Poll(&fresh);
+      in = fresh;
+      if (in.heartbeat_ns != 0 || in.has_command) break;
+      if (!firmware_alive() || NowNs() > until) {
+        *error = firmware_alive() ? "the firmware did not answer within the start-up timeout"
+                                  : "the firmware exited during start-up";
+        failed = true;
+        break;
+      }
+      pump_for(kPeriodNs);
+    }
+    if (failed) {
+      r->firmware_exit = o.attach ? -1 : fw.Stop(2.0);
+      ReadFile(o.work_dir + "/firmware.err", &r->firmware_stderr);
+      return 1;
+    }
+    in.has_command = false;
+    awaiting_start = false;
+  }
+
+  // Real time: 1 ns timer slack instead of the default 50 us (no privilege needed), so the
+  // wake-up jitter measured is the scheduler's, not the slack's.
+  if (!lockstep) prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+  const std::int64_t wall0 = NowNs();
+  std::int64_t deadline = wall0;
+  std::uint32_t seq_base = 1000;  // real time: above the start-up publications
+  for (std::int64_t k = 0; k < steps; ++k) {
+    // The fault schedule at step k.
+    SensorFault sf = SensorFault::kNone;
+    bool delay_active = false, implausible = false, plant_dead = false;
+    int delay_periods = 0;
+    for (const Fault& f : s.faults) {
+      const auto k0 = static_cast<std::int64_t>(std::llround(f.at_s / 1e-3));
+      const auto k1 = f.duration_s > 0.0
+                          ? k0 + static_cast<std::int64_t>(std::llround(f.duration_s / 1e-3))
+                          : steps;
+      const bool active = k >= k0 && k < k1;
+      if (f.kind == FaultKind::kKillFirmware) {
+        if (k == k0 && !o.attach) fw.Kill();
+        if (k == k1 && f.duration_s > 0.0 && !fw.Alive()) {
+          // Restart: the previous instance's summary is kept under its own name.
+          if (!spawn(error)) return 1;
+          awaiting_start = true;
+        }
+      }
+      if (!active) continue;
+      if (SensorFaultOf(f.kind) != SensorFault::kNone && sf == SensorFault::kNone) {
+        sf = SensorFaultOf(f.kind);
+      }
+      if (f.kind == FaultKind::kDelay) {
+        delay_active = true;
+        delay_periods = f.delay_periods;
+      }
+      if (f.kind == FaultKind::kImplausible) implausible = true;
+      if (f.kind == FaultKind::kKillPlant) plant_dead = true;
+    }
+    if (plant_dead && port_open) {
+      port->Close();
+      port_open = false;
+    } else if (!plant_dead && !port_open) {
+      std::string e;
+      port_open = port->Open(&e);
+    }
+
+    // Publish this step's sensors (and grant its tick).
+    SensorOutput out;
+    out.sample = sample;
+    if (implausible) {
+      out.sample.v = std::min(299.0, std::max(s.velocity_limit * 1.2, s.velocity_limit + 10.0));
+    }
+    out.seq = static_cast<std::uint32_t>(k + 1) + (lockstep ? 0 : seq_base);
+    out.fault = sf;
+    if (!lockstep) {
+      SleepUntil(deadline);
+      const std::int64_t now = NowNs();
+      jitter_us.push_back(static_cast<double>(now - deadline) * 1e-3);
+      if (now - deadline > kPeriodNs) ++r->late_steps;
+    }
+    if (port_open) {
+      if (delay_active || !delayed.empty()) {
+        delayed.push_back(out);
+        while (!delayed.empty() &&
+               (!delay_active || static_cast<std::int64_t>(out.seq - delayed.front().seq) >= delay_periods)) {
+          publish(delayed.front());
+          delayed.pop_front();
+        }
+      } else {
+        publish(out);
+      }
+      if (lockstep) port->SendGrant((k + 1) * kPeriodNs);
+    }
+    pump(0);  // on its way to the firmware
+
+    // Hear the firmware.
+    DriverInput fresh = in;
+    fresh.has_command = fresh.has_echo = fresh.has_status = fresh.has_safe = false;
+    if (lockstep) {
+      if (!port_open) {
+        pump_for(grant_sleep_ns);  // the firmware misses this step's grant
+      } else if (firmware_alive()) {
+        const double wait_s = awaiting_start ? o.startup_timeout_s : o.command_timeout_s;
+        const std::int64_t until = NowNs() + static_cast<std::int64_t>(wait_s * 1e9);
+        std::int64_t resend = NowNs() + 50'000'000;
+        std::int64_t status_until = 0;
+        while (true) {
+          port->Poll(&fresh);
+          if (fresh.has_command) {
+            if (fresh.has_status) break;
+            if (status_until == 0) status_until = NowNs() + 5'000'000;
+          }
+          const std::int64_t now = NowNs();
+          if (now >= until || (status_until != 0 && now >= status_until)) break;
+          if (awaiting_start && now >= resend) {
+            // The firmware may not be on the bus yet: offer the step again.
+            if (!firmware_alive()) break;
+            publish(out);
+            port->SendGrant((k + 1) * kPeriodNs);
+            resend = now + 50'000'000;
+          }
+          pump(std::min<std::int64_t>(until - now, 2'000'000));
+        }
+        if (!fresh.has_command) ++r->command_timeouts;
+        else awaiting_start = false;
+      }
+    } else if (port_open) {
+      pump(0);
+      port->Poll(&fresh);
+    }
+    if (fresh.has_command) {
+      ++r->commands;
+      set_point = fresh.volts;
+      if (!std::isfinite(fresh.volts) || fresh.volts < 0.0 || fresh.volts > s.e_max) {
+        ++r->invariant_violations;
+      }
+      // The safe flag where the transport carries it (CAN); else the enable (Modbus).
+      if (fresh.has_safe) {
+        cmd_safe = fresh.safe;
+      } else if (fresh.has_enable) {
+        cmd_safe = !fresh.enable;
+      }
+      if (cmd_safe) ++r->safe_commands;
+      if (fresh.has_echo) {
+        const std::size_t slot = fresh.echo % kRing;
+        if (published_seq[slot] == fresh.echo && published_ns[slot] != 0) {
+          latency_us.push_back(static_cast<double>(fresh.command_ns - published_ns[slot]) * 1e-3);
+        }
+      }
+    }
+    if (fresh.has_enable) {
+      carries_enable = true;
+      enable = fresh.enable;
+    }
+    if (fresh.has_status) causes = fresh.status_causes;
+    if (fresh.heartbeats > hb_count) {
+      hb_count = fresh.heartbeats;
+      hb_step = k;
+    }
+    if (fresh.heartbeat_ns != 0) hb_ns = fresh.heartbeat_ns;
+    in = fresh;
+
+    // The simulated current driver: the set-point while enabled and the heartbeat is fresh
+    // (in plant time under lockstep, wall time in real time); else the coil's safe 0 V.
+    const bool hb_fresh = lockstep ? k - hb_step <= hb_timeout_steps
+                                   : hb_ns != 0 && NowNs() - hb_ns <= static_cast<std::int64_t>(
+                                                                          s.heartbeat_timeout_s * 1e9);
+    if (hb_fresh_prev && !hb_fresh) ++r->heartbeat_timeouts;
+    hb_fresh_prev = hb_fresh;
+    const bool driven = (!carries_enable || enable) && hb_fresh;
+    const double applied = driven && std::isfinite(set_point) ? std::clamp(set_point, 0.0, s.e_max) : 0.0;
+    if (driven) ++r->driven_steps;
+
+    // Step the plant and its passive twins.
+    const double v_seen = sample.v;
+    // What the damper can deliver on this step from its present state (0 V .. E_max).
+    // (Scoring only: without a trace, e.g. the benchmark, neither the probes nor the passive
+    // twins run.)
+    double reach_a = 0.0, reach_b = 0.0, f_off = 0.0, f_on = 0.0;
+    if (o.keep_trace) {
+      reach_a = plant->Probe(0.0).force;
+      reach_b = plant->Probe(s.e_max).force;
+      f_off = plant_off->Step(0.0).force;
+      f_on = plant_on->Step(s.e_max).force;
+    }
+    sample = plant->Step(applied);
+    ++r->steps;
+    if (o.keep_trace) {
+      const double lo = std::min(reach_a, reach_b), hi = std::max(reach_a, reach_b);
+      r->trace.push_back({sample.t_s, sample.x, v_seen, sample.demand, sample.force, f_off, f_on,
+                          set_point, applied, cmd_safe, driven,
+                          sample.demand >= lo && sample.demand <= hi, causes});
+    }
+    deadline += kPeriodNs;
+  }
+  const std::int64_t wall1 = NowNs();
+  r->wall_s = static_cast<double>(wall1 - wall0) * 1e-9;
+  r->speed_x = r->wall_s > 0.0 ? static_cast<double>(r->steps) * 1e-3 / r->wall_s : 0.0;
+  r->latency = Summarise(std::move(latency_us));
+  r->wake_jitter = Summarise(std::move(jitter_us));
+
+  // Stop the firmware: in lockstep it ends by itself after its duration; else SIGTERM.
+  if (!o.attach) {
+    if (fw.Alive()) {
+      if (lockstep) {
+        // Its last tick may still wait for a grant: one more ends it without a timeout.
+        port->SendGrant((steps + 1) * kPeriodNs);
+        if (fw.Wait(std::max(2.0, s.grant_timeout_ms * 3e-3)) < 0) fw.Stop(2.0);
+      } else {
+        fw.Stop(2.0);
+      }
+    }
+    r->firmware_exit = fw.status();
+    const std::string tag = Tag(r->firmware_starts - 1);
+    ReadFile(o.work_dir + "/firmware" + tag + ".json", &r->firmware_json);
+    ReadFile(o.work_dir + "/firmware" + tag + ".err", &r->firmware_stderr);
+    const auto at = r->firmware_json.find("\"missed_grants\":");
+    if (at != std::string::npos) {
+      r->missed_grants = std::strtoull(r->firmware_json.c_str() + at + 16, nullptr, 10);
+    }
+  }
+  if (port_open) port->Close();
+  r->ports.emplace_back(port->name(), port->counters());
+  ScoreRun(s, r);
+  EvaluatePass(s, r);
+  return 0;
+}
+
+}  // namespace mrd::hil

@@ -1,0 +1,277 @@
+#include "mrd/hil/scenario.hpp"
+
+#include <toml++/toml.h>
+
+#include <cmath>
+#include <functional>
+#include <map>
+
+#include "mrd/common/spencer_damper.hpp"
+
+namespace mrd::hil {
+namespace {
+
+constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless marked):
+  name, description        text
+  duration_s               plant time to run [s] (default 5)
+  e_max                    highest admissible command [V] (2.25); the invariant's bound
+  heartbeat_timeout_ms     simulated driver drops the coil to 0 V without a heartbeat (50)
+  [plant]       preset = "paper" | "spencer1997"; substeps (RK4 steps per period, 20)
+  [excitation]  kind = "periodic" | "csv"
+                periodic: amplitude_cm, frequency_hz, demand_amplitude_n, demand_frequency_hz,
+                          body_amplitude, body_frequency_hz, body_phase_rad
+                csv: file (header naming x and v; relative to the scenario file),
+                     demand_column (default "f": an `mrd generate` data set's force, reachable
+                     by construction)
+  [control]     law = "force" | "passive-off" | "passive-on" | "constant" | "skyhook";
+                constant_voltage [V]; skyhook_gain [N s/cm]
+  [firmware]    max_age_ms (5), recover_periods (5), velocity_limit [cm/s] (250),
+                grant_timeout_ms (20): written into the generated mrd-firmware config
+  [pass]        max_invariant_violations (0), max_error_reachable, max_error_all,
+                max_missed_grants, max_detection_to_safe_periods (2), require_recovery (true),
+                expect_firmware_exit (e.g. 2 with a corrupt_table fault)
+  [[fault]]     kind (required) = drop | delay | corrupt | stall | out_of_range | nan |
+                implausible | kill_plant | kill_firmware | corrupt_table;
+                at_s (onset), duration_s (0: to the end), delay_periods (delay, 10)
+)";
+
+struct Ctx {
+  const std::string& path;
+  std::string* error;
+  bool Fail(const toml::node& n, const std::string& why) {
+    *error = path + ":" + std::to_string(n.source().begin.line) + ": " + why;
+    return false;
+  }
+};
+
+using Setter = std::function<bool(const toml::node&, Ctx&)>;
+
+Setter Num(double* out, double lo, double hi, const char* key) {
+  return [=](const toml::node& n, Ctx& c) {
+    const auto v = n.value<double>();
+    if (!v || !std::isfinite(*v) || *v < lo || *v > hi) {
+      return c.Fail(n, std::string("'") + key + "' must be a number in [" + std::to_string(lo) +
+                           ", " + std::to_string(hi) + "]");
+    }
+    *out = *v;
+    return true;
+  };
+}
+template <typename T>
+Setter Int(T* out, std::int64_t lo, std::int64_t hi, const char* key) {
+  return [=](const toml::node& n, Ctx& c) {
+    const auto v = n.value_exact<std::int64_t>();
+    if (!v || *v < lo || *v > hi) {
+      return c.Fail(n, std::string("'") + key + "' must be an integer in [" + std::to_string(lo) +
+                           ", " + std::to_string(hi) + "]");
+    }
+    *out = static_cast<T>(*v);
+    return true;
+  };
+}
+Setter Str(std::string* out, const char* key) {
+  return [=](const toml::node& n, Ctx& c) {
+    const auto v = n.value_exact<std::string>();
+    if (!v || v->empty()) return c.Fail(n, std::string("'") + key + "' must be a non-empty string");
+    *out = *v;
+    return true;
+  };
+}
+Setter Flag(bool* out, const char* key) {
+  return [=](const toml::node& n, Ctx& c) {
+    const auto v = n.value_exact<bool>();
+    if (!v) return c.Fail(n, std::string("'") + key + "' must be true or false");
+    *out = *v;
+    return true;
+  };
+}
+
+bool ApplyTable(const toml::table& t, const std::map<std::string, Setter>& keys,
+                const std::string& where, Ctx& c) {
+  for (const auto& [k, v] : t) {
+    const auto it = keys.find(std::string(k.str()));
+    if (it == keys.end()) return c.Fail(v, "unknown key '" + std::string(k.str()) + "'" + where);
+    if (!it->second(v, c)) return false;
+  }
+  return true;
+}
+
+bool ParseFaultKind(const std::string& s, FaultKind* k) {
+  static const std::map<std::string, FaultKind> kinds = {
+      {"drop", FaultKind::kDrop},           {"delay", FaultKind::kDelay},
+      {"corrupt", FaultKind::kCorrupt},     {"stall", FaultKind::kStall},
+      {"out_of_range", FaultKind::kOutOfRange}, {"nan", FaultKind::kNan},
+      {"implausible", FaultKind::kImplausible}, {"kill_plant", FaultKind::kKillPlant},
+      {"kill_firmware", FaultKind::kKillFirmware}, {"corrupt_table", FaultKind::kCorruptTable}};
+  const auto it = kinds.find(s);
+  if (it == kinds.end()) return false;
+  *k = it->second;
+  return true;
+}
+
+std::string Folder(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
+}
+
+}  // namespace
+
+const char* FaultKindName(FaultKind kind) {
+  switch (kind) {
+    case FaultKind::kDrop: return "drop";
+    case FaultKind::kDelay: return "delay";
+    case FaultKind::kCorrupt: return "corrupt";
+    case FaultKind::kStall: return "stall";
+    case FaultKind::kOutOfRange: return "out_of_range";
+    case FaultKind::kNan: return "nan";
+    case FaultKind::kImplausible: return "implausible";
+    case FaultKind::kKillPlant: return "kill_plant";
+    case FaultKind::kKillFirmware: return "kill_firmware";
+    case FaultKind::kCorruptTable: return "corrupt_table";
+  }
+  return "?";
+}
+
+const char* ScenarioKeysHelp() { return kHelp; }
+
+bool LoadScenario(const std::string& path, Scenario* scenario, std::string* error) {
+  Ctx c{path, error};
+  try {
+    const toml::table root = toml::parse_file(path);
+    Scenario s;
+    s.path = path;
+    double hb_ms = s.heartbeat_timeout_s * 1e3;
+    std::string excitation = "periodic";
+    PlantExcitation& p = s.periodic;
+    int pass_max_viol = 0;
+    double max_missed = -1.0, err_reach = -1.0, err_all = -1.0;
+    int expect_exit = -1;
+    const std::map<std::string, Setter> plant = {
+        {"preset", Str(&s.preset, "preset")}, {"substeps", Int(&s.substeps, 1, 1000, "substeps")}};
+    const std::map<std::string, Setter> exc = {
+        {"kind", Str(&excitation, "kind")},
+        {"amplitude_cm", Num(&p.amplitude_cm, 0.0, 30.0, "amplitude_cm")},
+        {"frequency_hz", Num(&p.frequency_hz, 0.0, 100.0, "frequency_hz")},
+        {"demand_amplitude_n", Num(&p.demand_amplitude_n, 0.0, 15000.0, "demand_amplitude_n")},
+        {"demand_frequency_hz", Num(&p.demand_frequency_hz, 0.0, 100.0, "demand_frequency_hz")},
+        {"body_amplitude", Num(&p.body_amplitude, 0.0, 300.0, "body_amplitude")},
+        {"body_frequency_hz", Num(&p.body_frequency_hz, 0.0, 100.0, "body_frequency_hz")},
+        {"body_phase_rad", Num(&p.body_phase_rad, -10.0, 10.0, "body_phase_rad")},
+        {"file", Str(&s.csv_file, "file")},
+        {"demand_column", Str(&s.demand_column, "demand_column")}};
+    const std::map<std::string, Setter> control = {
+        {"law", Str(&s.law, "law")},
+        {"constant_voltage", Num(&s.constant_voltage, 0.0, 24.0, "constant_voltage")},
+        {"skyhook_gain", Num(&s.skyhook_gain, 0.0, 1e6, "skyhook_gain")}};
+    const std::map<std::string, Setter> firmware = {
+        {"max_age_ms", Num(&s.max_age_ms, 0.01, 1e4, "max_age_ms")},
+        {"recover_periods", Int(&s.recover_periods, 1, 1000000, "recover_periods")},
+        {"velocity_limit", Num(&s.velocity_limit, 0.0, 1e6, "velocity_limit")},
+        {"grant_timeout_ms", Num(&s.grant_timeout_ms, 1.0, 1e5, "grant_timeout_ms")}};
+    const std::map<std::string, Setter> pass = {
+        {"max_invariant_violations", Int(&pass_max_viol, 0, 1000000000, "max_invariant_violations")},
+        {"max_error_reachable", Num(&err_reach, 0.0, 1e6, "max_error_reachable")},
+        {"max_error_all", Num(&err_all, 0.0, 1e6, "max_error_all")},
+        {"max_missed_grants", Num(&max_missed, 0.0, 1e12, "max_missed_grants")},
+        {"max_detection_to_safe_periods",
+         Int(&s.max_detection_to_safe_periods, 0, 1000000, "max_detection_to_safe_periods")},
+        {"require_recovery", Flag(&s.require_recovery, "require_recovery")},
+        {"expect_firmware_exit", Int(&expect_exit, 0, 255, "expect_firmware_exit")}};
+    for (const auto& [k, v] : root) {
+      const std::string key(k.str());
+      bool ok = true;
+      if (key == "name") {
+        ok = Str(&s.name, "name")(v, c);
+      } else if (key == "description") {
+        ok = Str(&s.description, "description")(v, c);
+      } else if (key == "duration_s") {
+        ok = Num(&s.duration_s, 0.001, 1e6, "duration_s")(v, c);
+      } else if (key == "e_max") {
+        ok = Num(&s.e_max, 0.0, 24.0, "e_max")(v, c);
+      } else if (key == "heartbeat_timeout_ms") {
+        ok = Num(&hb_ms, 1.0, 1e4, "heartbeat_timeout_ms")(v, c);
+      } else if (key == "plant" || key == "excitation" || key == "control" || key == "firmware" ||
+                 key == "pass") {
+        const toml::table* t = v.as_table();
+        if (t == nullptr) return c.Fail(v, "[" + key + "] must be a table");
+        const auto& keys = key == "plant" ? plant : key == "excitation" ? exc
+                         : key == "control" ? control : key == "firmware" ? firmware : pass;
+        ok = ApplyTable(*t, keys, " in [" + key + "]", c);
+      } else if (key == "fault") {
+        const toml::array* a = v.as_array();
+        if (a == nullptr) return c.Fail(v, "'fault' must be an array of tables ([[fault]])");
+        for (const toml::node& e : *a) {
+          const toml::table* t = e.as_table();
+          if (t == nullptr) return c.Fail(e, "each [[fault]] must be a table");
+          Fault f;
+          f.line = static_cast<int>(e.source().begin.line);
+          std::string kind;
+          const std::map<std::string, Setter> fk = {
+              {"kind", Str(&kind, "kind")},
+              {"at_s", Num(&f.at_s, 0.0, 1e6, "at_s")},
+              {"duration_s", Num(&f.duration_s, 0.0, 1e6, "duration_s")},
+              {"delay_periods", Int(&f.delay_periods, 1, 100000, "delay_periods")}};
+          if (!ApplyTable(*t, fk, " in [[fault]]", c)) return false;
+          if (kind.empty()) return c.Fail(e, "[[fault]] needs 'kind'");
+          if (!ParseFaultKind(kind, &f.kind)) {
+            return c.Fail(e, "unknown fault kind '" + kind + "' (see mrd-hil --help)");
+          }
+          s.faults.push_back(f);
+        }
+      } else {
+        return c.Fail(v, "unknown key '" + key + "'");
+      }
+      if (!ok) return false;
+    }
+    s.heartbeat_timeout_s = hb_ms * 1e-3;
+    SpencerParams params;
+    if (!SpencerParams::FromPreset(s.preset, &params)) {
+      const toml::node* n = root.at_path("plant.preset").node();
+      return c.Fail(n != nullptr ? *n : static_cast<const toml::node&>(root),
+                    "unknown plant preset '" + s.preset + "' (paper, spencer1997)");
+    }
+    if (excitation == "periodic") {
+      s.excitation = ExcitationKind::kPeriodic;
+    } else if (excitation == "csv") {
+      s.excitation = ExcitationKind::kCsv;
+      if (s.csv_file.empty()) {
+        return c.Fail(*root.at_path("excitation.kind").node(), "kind = \"csv\" needs 'file'");
+      }
+      if (s.csv_file[0] != '/') s.csv_file = Folder(path) + "/" + s.csv_file;
+    } else {
+      return c.Fail(*root.at_path("excitation.kind").node(),
+                    "excitation kind must be \"periodic\" or \"csv\"");
+    }
+    if (s.law != "force" && s.law != "passive-off" && s.law != "passive-on" &&
+        s.law != "constant" && s.law != "skyhook") {
+      return c.Fail(*root.at_path("control.law").node(),
+                    "law must be force | passive-off | passive-on | constant | skyhook");
+    }
+    if (s.law == "constant" && s.constant_voltage > s.e_max) {
+      return c.Fail(*root.at_path("control.constant_voltage").node(),
+                    "constant_voltage above e_max");
+    }
+    s.max_invariant_violations = static_cast<std::uint64_t>(pass_max_viol);
+    if (err_reach >= 0.0) s.max_error_reachable = err_reach;
+    if (err_all >= 0.0) s.max_error_all = err_all;
+    if (max_missed >= 0.0) s.max_missed_grants = static_cast<std::uint64_t>(max_missed);
+    if (expect_exit >= 0) s.expect_firmware_exit = expect_exit;
+    for (const Fault& f : s.faults) {
+      if (f.kind != FaultKind::kCorruptTable && f.at_s >= s.duration_s) {
+        *error = path + ":" + std::to_string(f.line) + ": fault at_s " + std::to_string(f.at_s) +
+                 " is not before the end (duration_s " + std::to_string(s.duration_s) + ")";
+        return false;
+      }
+    }
+    *scenario = std::move(s);
+    return true;
+  } catch (const toml::parse_error& e) {
+    *error = path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
+    return false;
+  } catch (const std::exception& e) {
+    *error = path + ": " + e.what();
+    return false;
+  }
+}
+
+}  // namespace mrd::hil

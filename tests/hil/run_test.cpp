@@ -1,0 +1,221 @@
+// Issue 10: `mrd-hil run` against a real mrd-firmware process, per transport and clock, with
+// the paper run's table (CTest fixture hil_paper_table: mrd generate -> identify -> export).
+// Every test checks the figures in the JSON summary, not only the exit status.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "support/process.hpp"
+
+namespace {
+
+using mrd::test::ChildProcess;
+using nlohmann::json;
+
+const std::string kBin = MRD_BIN_DIR;
+const std::string kScn = std::string(MRD_SOURCE_DIR) + "/hil/scenarios/";
+const std::string kPaper = MRD_PAPER_DIR;
+
+struct HilResult {
+  int status = -1;
+  json j;
+  std::string out, err;
+};
+
+HilResult Hil(std::vector<std::string> args, double timeout_s = 90.0) {
+  args.insert(args.begin(), {kBin + "/mrd-hil", "run"});
+  args.push_back("--json");
+  ChildProcess p(args);
+  HilResult r;
+  r.status = p.Wait(timeout_s);
+  r.out = p.Stdout();
+  r.err = p.Stderr();
+  r.j = json::parse(r.out, nullptr, false);
+  if (r.j.is_discarded()) r.j = json::object();
+  return r;
+}
+
+std::string Table() { return kPaper + "/table.bin"; }
+
+// Force tracking with the paper table, lockstep over the local CAN bus.
+void ExpectTracking(const HilResult& r, double limit) {
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_EQ(r.j["clock"], "lockstep");
+  EXPECT_EQ(r.j["transport"], "can");
+  EXPECT_EQ(r.j["invariant_violations"], 0);
+  EXPECT_EQ(r.j["command_timeouts"], 0);
+  const json& t = r.j["tracking"];
+  EXPECT_LE(t["error_reachable"].get<double>(), limit);
+  EXPECT_GT(t["reachable_steps"].get<int>(), 1000);
+  // Far better than either passive setting on the same excitation.
+  EXPECT_LT(t["error_reachable"].get<double>(),
+            0.2 * t["passive_off"]["error_reachable"].get<double>());
+  EXPECT_EQ(r.j["firmware"]["summary"]["clock"]["missed_grants"], 0);
+  EXPECT_EQ(r.j["firmware"]["exit"], 0);
+}
+
+TEST(HilRunTest, ForceTrackingPeriodicLockstepCan) {
+  ExpectTracking(Hil({kScn + "force-periodic.toml", "--table", Table()}), 0.05);
+}
+
+TEST(HilRunTest, ForceTrackingV1LockstepCan) {
+  ExpectTracking(Hil({kScn + "force-v1.toml", "--table", Table(), "--excitation", kPaper + "/v1.csv"}),
+                 0.05);
+}
+TEST(HilRunTest, ForceTrackingV2LockstepCan) {
+  ExpectTracking(Hil({kScn + "force-v2.toml", "--table", Table(), "--excitation", kPaper + "/v2.csv"}),
+                 0.05);
+}
+TEST(HilRunTest, ForceTrackingV3LockstepCan) {
+  ExpectTracking(Hil({kScn + "force-v3.toml", "--table", Table(), "--excitation", kPaper + "/v3.csv"}),
+                 0.05);
+}
+
+// Two lockstep runs give identical summaries (all but the wall-clock "timing").
+TEST(HilRunTest, LockstepIsDeterministic) {
+  HilResult a = Hil({kScn + "closed-loop-smoke.toml", "--table", Table()});
+  HilResult b = Hil({kScn + "closed-loop-smoke.toml", "--table", Table()});
+  ASSERT_EQ(a.status, 0) << a.out << a.err;
+  ASSERT_EQ(b.status, 0) << b.out << b.err;
+  a.j.erase("timing");
+  b.j.erase("timing");
+  EXPECT_EQ(a.j.dump(1), b.j.dump(1));
+  EXPECT_GT(a.j["commands"].get<int>(), 1900);
+}
+
+// Each sensor fault: detected, safe within 2 periods of detection, recovered; invariant held.
+TEST(HilRunTest, SensorFaultsDetectedSafeAndRecovered) {
+  const HilResult r = Hil({kScn + "faults-sensor.toml", "--table", Table()});
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_EQ(r.j["invariant_violations"], 0);
+  ASSERT_EQ(r.j["faults"].size(), 7U);
+  for (const json& f : r.j["faults"]) {
+    SCOPED_TRACE(f.dump());
+    EXPECT_TRUE(f["ok"].get<bool>());
+    ASSERT_FALSE(f["periods_to_detection"].is_null());
+    ASSERT_FALSE(f["periods_to_safe_state"].is_null());
+    EXPECT_LE(f["detection_to_safe_periods"].get<int>(), 2);
+    EXPECT_GE(f["detection_to_safe_periods"].get<int>(), 0);
+    ASSERT_FALSE(f["periods_to_recovery"].is_null());
+    EXPECT_LE(f["periods_to_recovery"].get<int>(), 50);
+  }
+  // Frames refused by the firmware are counted by the reason (corrupt: crc; out of range: bad
+  // value; stall: repeated counters).
+  const json& errors = r.j["firmware"]["summary"]["devices"]["can"]["errors"];
+  EXPECT_GT(errors["crc"].get<int>(), 0);
+  EXPECT_GT(errors["bad_value"].get<int>(), 0);
+  EXPECT_GT(errors["rejected_frame"].get<int>(), 0);
+}
+
+TEST(HilRunTest, KillPlantSideAndRestart) {
+  const HilResult r = Hil({kScn + "fault-kill-plant.toml", "--table", Table()});
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_EQ(r.j["invariant_violations"], 0);
+  const json& f = r.j["faults"][0];
+  EXPECT_TRUE(f["ok"].get<bool>()) << f.dump();
+  ASSERT_FALSE(f["periods_to_recovery"].is_null());
+  // The firmware saw the grants stop (missed grants) and held the safe state.
+  EXPECT_GT(r.j["firmware"]["summary"]["clock"]["missed_grants"].get<int>(), 0);
+  EXPECT_GT(r.j["firmware"]["summary"]["watchdog"]["can_bus"]["trips"].get<int>(), 0);
+}
+
+// kill -9: the simulated driver's own heartbeat timeout drops the coil; a new firmware takes
+// over.
+TEST(HilRunTest, KillNineOfTheFirmware) {
+  const HilResult r = Hil({kScn + "fault-kill-firmware.toml", "--table", Table()});
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_EQ(r.j["invariant_violations"], 0);
+  EXPECT_EQ(r.j["firmware"]["starts"], 2);
+  const json& f = r.j["faults"][0];
+  EXPECT_TRUE(f["ok"].get<bool>()) << f.dump();
+  // Heartbeat timeout 50 ms, heartbeat every 10 ms: the coil drops within 40..51 periods.
+  EXPECT_GE(f["periods_to_safe_state"].get<int>(), 40);
+  EXPECT_LE(f["periods_to_safe_state"].get<int>(), 51);
+  EXPECT_GE(r.j["heartbeat_timeouts"].get<int>(), 1);
+  ASSERT_FALSE(f["periods_to_recovery"].is_null());
+}
+
+TEST(HilRunTest, KillNineOfTheFirmwareOverModbusTcp) {
+  const HilResult r = Hil({kScn + "fault-kill-firmware.toml", "--table", Table(), "--transport",
+                           "modbus-tcp"});
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_EQ(r.j["clock"], "realtime");
+  EXPECT_EQ(r.j["invariant_violations"], 0);
+  EXPECT_EQ(r.j["firmware"]["starts"], 2);
+  const json& f = r.j["faults"][0];
+  EXPECT_TRUE(f["ok"].get<bool>()) << f.dump();
+  EXPECT_LE(f["periods_to_safe_state"].get<int>(), 60);
+  ASSERT_FALSE(f["periods_to_recovery"].is_null());
+}
+
+TEST(HilRunTest, CorruptTableIsRefused) {
+  const HilResult r = Hil({kScn + "fault-corrupt-table.toml", "--table", Table()});
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_EQ(r.j["firmware"]["exit"], 2);
+  EXPECT_EQ(r.j["driven_steps"], 0);
+}
+
+// Real time over each transport: the loop closes, the invariant holds.
+void ExpectSmoke(const HilResult& r, const char* transport) {
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_EQ(r.j["transport"], transport);
+  EXPECT_EQ(r.j["clock"], "realtime");
+  EXPECT_EQ(r.j["invariant_violations"], 0);
+  EXPECT_GT(r.j["commands"].get<int>(), 500);
+  EXPECT_LT(r.j["tracking"]["error_all"].get<double>(), 0.5);
+  EXPECT_GT(r.j["timing"]["wake_jitter_us"]["count"].get<int>(), 1900);
+}
+
+TEST(HilRunTest, RealTimeOverLocalCan) {
+  ExpectSmoke(Hil({kScn + "closed-loop-smoke.toml", "--table", Table(), "--clock", "realtime"}),
+              "can");
+}
+TEST(HilRunTest, RealTimeOverModbusTcp) {
+  ExpectSmoke(Hil({kScn + "closed-loop-smoke.toml", "--table", Table(), "--transport", "modbus-tcp"}),
+              "modbus-tcp");
+}
+TEST(HilRunTest, RealTimeOverModbusRtuPty) {
+  ExpectSmoke(Hil({kScn + "closed-loop-smoke.toml", "--table", Table(), "--transport", "modbus-rtu"}),
+              "modbus-rtu");
+}
+
+// Criteria that do not hold: exit 1 with the reason.
+TEST(HilRunTest, FailingCriteriaExitOne) {
+  const std::string dir = "/tmp/mrd-hil-fail-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/strict.toml") << "name = \"strict\"\ndescription = \"x\"\nduration_s = 0.5\n"
+                                         "[control]\nlaw = \"passive-off\"\n"
+                                         "[pass]\nmax_error_all = 0.05\n";
+  const HilResult r = Hil({dir + "/strict.toml", "--table", Table()});
+  EXPECT_EQ(r.status, 1) << r.out << r.err;
+  EXPECT_FALSE(r.j["pass"].get<bool>());
+  ASSERT_EQ(r.j["failures"].size(), 1U);
+  EXPECT_NE(r.j["failures"][0].get<std::string>().find("tracking error"), std::string::npos);
+}
+
+TEST(HilRunTest, BadInputExitTwo) {
+  const std::string dir = "/tmp/mrd-hil-bad-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/bad.toml") << "duration_s = 1\n[control]\nlaw = \"force\"\nfoo = 1\n";
+  HilResult r = Hil({dir + "/bad.toml"});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find(dir + "/bad.toml:4: unknown key 'foo'"), std::string::npos) << r.err;
+  r = Hil({kScn + "closed-loop-smoke.toml", "--transport", "modbus-tcp", "--clock", "lockstep"});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--clock lockstep needs --transport can"), std::string::npos) << r.err;
+  r = Hil({kScn + "closed-loop-smoke.toml", "--table", dir + "/missing.bin"});
+  EXPECT_EQ(r.status, 2);
+  // Frame-level faults are not injected over Modbus: refused, not silently skipped.
+  r = Hil({kScn + "faults-sensor.toml", "--transport", "modbus-rtu"});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("faults-sensor.toml:27: fault 'drop' is injected on CAN frames only"),
+            std::string::npos)
+      << r.err;
+}
+
+}  // namespace
