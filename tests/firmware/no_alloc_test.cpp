@@ -1,84 +1,24 @@
 // Proves the loop step allocates nothing: this executable replaces the global operator
-// new/delete (and, outside sanitizer builds, glibc's malloc family) with counting versions;
-// AllocationGuard fails the test on any allocation in its scope. Loop steps cover model,
-// inverter, control law, watchdog (entering and leaving the safe state), simulated I/O and
-// telemetry publishing.
+// new/delete (and, outside sanitizer builds, glibc's malloc family) with counting versions
+// (tests/support/alloc_counter.hpp); AllocationGuard counts any allocation in its scope. Loop
+// steps cover model, inverter, control law, watchdog (entering and leaving the safe state),
+// simulated I/O and telemetry publishing.
 #include <gtest/gtest.h>
 
-#include <atomic>
 #include <cstdlib>
-#include <new>
 #include <vector>
 
 #include "fakes.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "reference_models.hpp"
+#include "support/alloc_counter.hpp"  // replaces the allocator of this executable
 #include "support/demo_model.hpp"
-
-namespace {
-std::atomic<std::uint64_t> g_allocations{0};
-}  // namespace
-
-#if defined(__SANITIZE_ADDRESS__)
-#define MRD_HOOK_MALLOC 0
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define MRD_HOOK_MALLOC 0
-#endif
-#endif
-#ifndef MRD_HOOK_MALLOC
-#define MRD_HOOK_MALLOC 1
-#endif
-
-#if MRD_HOOK_MALLOC
-extern "C" {
-void* __libc_malloc(std::size_t);  // NOLINT: glibc
-void* __libc_calloc(std::size_t, std::size_t);
-void* __libc_realloc(void*, std::size_t);
-void* malloc(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  return __libc_malloc(n);
-}
-void* calloc(std::size_t n, std::size_t m) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  return __libc_calloc(n, m);
-}
-void* realloc(void* p, std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  return __libc_realloc(p, n);
-}
-}
-#endif
-
-void* operator new(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  return std::malloc(n == 0 ? 1 : n);
-}
-void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 
 namespace mrd::firmware {
 namespace {
 
-// Counts heap allocations (any thread) made while it is alive.
-class AllocationGuard {
- public:
-  AllocationGuard() : start_(g_allocations.load()) {}
-  std::uint64_t count() const { return g_allocations.load() - start_; }
-
- private:
-  std::uint64_t start_;
-};
+using test::AllocationGuard;
 
 constexpr std::int64_t kPeriod = 1'000'000;
 
