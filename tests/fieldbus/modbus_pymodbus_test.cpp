@@ -27,22 +27,6 @@ using nlohmann::json;
 const std::string kPython = "/usr/bin/python3";
 const std::string kPeer = std::string(MRD_SOURCE_DIR) + "/tests/fieldbus/pymodbus_peer.py";
 
-bool TcpReady(int port, double timeout_s) {
-  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (std::chrono::steady_clock::now() < until) {
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    a.sin_port = htons(static_cast<std::uint16_t>(port));
-    const bool ok = connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
-    close(fd);
-    if (ok) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return false;
-}
-
 class PymodbusTest : public ::testing::TestWithParam<bool> {  // true: RTU
  protected:
   void SetUp() override {
