@@ -68,6 +68,20 @@ nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
       {"passive_on", {{"error_all", t.on_all}, {"error_reachable", t.on_reachable}}},
       {"rms_force_n", t.rms_force_n},
       {"rms_demand_n", t.rms_demand_n}};
+  if (r.ride) {
+    const auto fig = [](const RideFigures& f) {
+      return nlohmann::json{{"samples", f.samples},
+                            {"body_accel_rms", f.body_accel_rms},
+                            {"travel_rms_cm", f.travel_rms_cm},
+                            {"tyre_load_rms_n", f.tyre_load_rms_n},
+                            {"max_travel_cm", f.max_travel_cm},
+                            {"lift_off", f.lift_off}};
+    };
+    j["ride"] = {{"settle_s", s.ride_settle_s},
+                 {"controlled", fig(r.ride->controlled)},
+                 {"passive_off", fig(r.ride->passive_off)},
+                 {"passive_on", fig(r.ride->passive_on)}};
+  }
   nlohmann::json faults = nlohmann::json::array();
   for (const FaultResult& f : r.faults) {
     faults.push_back({{"kind", FaultKindName(f.fault.kind)},
@@ -113,10 +127,23 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
   o << "  steps " << r.steps << ", commands " << r.commands << ", invariant violations "
     << r.invariant_violations << ", command timeouts " << r.command_timeouts
     << ", heartbeat timeouts " << r.heartbeat_timeouts << "\n";
+  if (!r.ride || s.law == "force") {
   o << "  tracking ||f-d||/||d|| over " << t.steps << " controlled steps (" << t.reachable_steps
     << " reachable): all " << t.error_all << ", reachable " << t.error_reachable << "\n";
   o << "    passive-off (0 V): all " << t.off_all << ", reachable " << t.off_reachable
     << "; passive-on (E_max): all " << t.on_all << ", reachable " << t.on_reachable << "\n";
+  }
+  if (r.ride) {
+    const auto line = [&](const char* name, const RideFigures& f) {
+      o << "    " << name << ": body acceleration RMS " << f.body_accel_rms
+        << " m/s^2, travel RMS " << f.travel_rms_cm << " cm, tyre load RMS " << f.tyre_load_rms_n
+        << " N\n";
+    };
+    o << "  ride after " << s.ride_settle_s << " s:\n";
+    line("controlled ", r.ride->controlled);
+    line("passive-off", r.ride->passive_off);
+    line("passive-on ", r.ride->passive_on);
+  }
   for (const FaultResult& f : r.faults) {
     const auto p = [](const std::optional<std::int64_t>& v) {
       return v ? std::to_string(*v) : std::string("-");

@@ -62,10 +62,16 @@ bool MakeDirs(const std::string& dir) {
 }
 
 std::unique_ptr<Plant> MakePlant(const Scenario& s, const SpencerParams& p, const Trace* trace) {
+  if (s.quarter_car) return std::make_unique<QuarterCarAdapter>(p, s.car, s.road, 1e-3);
   if (trace != nullptr) return std::make_unique<TracePlant>(p, *trace, 1e-3, s.substeps);
   PlantExcitation e = s.periodic;
   e.substeps = s.substeps;
   return std::make_unique<DamperPlantAdapter>(p, e, 1e-3);
+}
+
+RideFigures Figures(const RideMetrics& m) {
+  return {m.count(), m.body_accel_rms(), m.travel_rms_cm(), m.tyre_load_rms_n(),
+          m.max_travel_cm(), m.lift_off()};
 }
 
 SensorFault SensorFaultOf(FaultKind k) {
@@ -217,10 +223,14 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       return 2;
     }
   }
+  if (s.quarter_car && !o.excitation.empty()) {
+    *error = "--excitation: " + s.path + " is a quarter car, excited by its [road]";
+    return 2;
+  }
   SpencerParams params;
   SpencerParams::FromPreset(s.preset, &params);
   Trace trace;
-  const bool csv = s.excitation == ExcitationKind::kCsv || !o.excitation.empty();
+  const bool csv = !s.quarter_car && (s.excitation == ExcitationKind::kCsv || !o.excitation.empty());
   if (csv && !LoadTrace(o.excitation.empty() ? s.csv_file : o.excitation, s.demand_column, &trace,
                         error)) {
     return 2;
@@ -338,6 +348,10 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   if (o.keep_trace) r->trace.reserve(static_cast<std::size_t>(steps));
   const auto hb_timeout_steps = static_cast<std::int64_t>(std::llround(s.heartbeat_timeout_s / 1e-3));
   const auto grant_sleep_ns = static_cast<std::int64_t>(s.grant_timeout_ms * 1.2e6);
+
+  // Quarter car: ride figures of the run and of its passive twins after the settle time.
+  RideMetrics ride, ride_off, ride_on;
+  const bool score_ride = o.keep_trace && plant->Ride() != nullptr;
 
   PlantSample sample = plant->Sample();
   const auto publish = [&](SensorOutput out) {
@@ -545,6 +559,11 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     }
     sample = plant->Step(applied);
     ++r->steps;
+    if (score_ride && sample.t_s > s.ride_settle_s) {
+      ride.Add(*plant->Ride());
+      ride_off.Add(*plant_off->Ride());
+      ride_on.Add(*plant_on->Ride());
+    }
     if (o.keep_trace) {
       const double lo = std::min(reach_a, reach_b), hi = std::max(reach_a, reach_b);
       r->trace.push_back({sample.t_s, sample.x, v_seen, sample.demand, sample.force, f_off, f_on,
@@ -581,6 +600,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   }
   if (port_open) port->Close();
   r->ports.emplace_back(port->name(), port->counters());
+  if (score_ride) r->ride = RideScores{Figures(ride), Figures(ride_off), Figures(ride_on)};
   ScoreRun(s, r);
   EvaluatePass(s, r);
   return 0;

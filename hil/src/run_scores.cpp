@@ -1,4 +1,5 @@
 // Scores and pass criteria of a scenario run (run.hpp).
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -139,6 +140,19 @@ void EvaluatePass(const Scenario& s, RunResult* r) {
       } else if (*r->missed_grants > *s.max_missed_grants) {
         f.push_back("missed grants " + std::to_string(*r->missed_grants) + " > " +
                     std::to_string(*s.max_missed_grants));
+      }
+    }
+  }
+  if (s.body_accel_below_passive && !table_only) {
+    if (!r->ride || r->ride->controlled.samples == 0) {
+      f.push_back("no ride figures to compare (quarter car)");
+    } else {
+      const RideScores& ride = *r->ride;
+      const double best_passive =
+          std::min(ride.passive_off.body_accel_rms, ride.passive_on.body_accel_rms);
+      if (!(ride.controlled.body_accel_rms < best_passive)) {
+        f.push_back("body acceleration RMS " + Fmt(ride.controlled.body_accel_rms) +
+                    " m/s^2 not below the better passive case " + Fmt(best_passive));
       }
     }
   }

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <map>
 
 #include "mrd/common/spencer_damper.hpp"
@@ -16,7 +17,15 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
   duration_s               plant time to run [s] (default 5)
   e_max                    highest admissible command [V] (2.25); the invariant's bound
   heartbeat_timeout_ms     simulated driver drops the coil to 0 V without a heartbeat (50)
-  [plant]       preset = "paper" | "spencer1997"; substeps (RK4 steps per period, 20)
+  [plant]       preset = "paper" | "spencer1997"; substeps (RK4 steps per period, 20);
+                model = "damper" (default: the damper alone on [excitation]) | "quarter-car"
+                (the damper between body and wheel of a quarter car on an ISO 8608 road; the
+                road is the excitation; ride figures scored next to passive-off and -on)
+  [quarter_car] sprung_mass_kg (300), unsprung_mass_kg (40), spring_n_per_m (20000),
+                tyre_n_per_m (180000), motion_ratio (0.7, damper / wheel travel),
+                speed_m_s (20), substeps (10), settle_s (2: ride figures scored after it)
+  [road]        class = "A" .. "H" ("C"), seed (1), n_min (0.011), n_max (2.83) [cycles/m],
+                components (256)
   [excitation]  kind = "periodic" | "csv"
                 periodic: amplitude_cm, frequency_hz, demand_amplitude_n, demand_frequency_hz,
                           body_amplitude, body_frequency_hz, body_phase_rad
@@ -29,7 +38,9 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 grant_timeout_ms (20): written into the generated mrd-firmware config
   [pass]        max_invariant_violations (0), max_error_reachable, max_error_all,
                 max_missed_grants, max_detection_to_safe_periods (2), require_recovery (true),
-                expect_firmware_exit (e.g. 2 with a corrupt_table fault)
+                expect_firmware_exit (e.g. 2 with a corrupt_table fault),
+                body_accel_below_passive (quarter car: the controlled run's body acceleration
+                RMS below both passive-off and passive-on; false)
   [[fault]]     kind (required) = drop | delay | corrupt | stall | out_of_range | nan |
                 implausible | kill_plant | kill_firmware | corrupt_table;
                 at_s (onset), duration_s (0: to the end), delay_periods (delay, 10)
@@ -146,8 +157,28 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
     int pass_max_viol = 0;
     double max_missed = -1.0, err_reach = -1.0, err_all = -1.0;
     int expect_exit = -1;
+    std::string model = "damper", road_class = "C";
     const std::map<std::string, Setter> plant = {
-        {"preset", Str(&s.preset, "preset")}, {"substeps", Int(&s.substeps, 1, 1000, "substeps")}};
+        {"preset", Str(&s.preset, "preset")},
+        {"substeps", Int(&s.substeps, 1, 1000, "substeps")},
+        {"model", Str(&model, "model")}};
+    QuarterCarParams& car = s.car;
+    const std::map<std::string, Setter> quarter_car = {
+        {"sprung_mass_kg", Num(&car.sprung_mass_kg, 1.0, 1e5, "sprung_mass_kg")},
+        {"unsprung_mass_kg", Num(&car.unsprung_mass_kg, 0.1, 1e4, "unsprung_mass_kg")},
+        {"spring_n_per_m", Num(&car.spring_n_per_m, 1.0, 1e8, "spring_n_per_m")},
+        {"tyre_n_per_m", Num(&car.tyre_n_per_m, 1.0, 1e9, "tyre_n_per_m")},
+        {"motion_ratio", Num(&car.motion_ratio, 0.01, 1.0, "motion_ratio")},
+        {"speed_m_s", Num(&car.speed_m_s, 0.0, 100.0, "speed_m_s")},
+        {"substeps", Int(&car.substeps, 1, 10000, "substeps")},
+        {"settle_s", Num(&s.ride_settle_s, 0.0, 1e6, "settle_s")}};
+    RoadParams& road = s.road;
+    const std::map<std::string, Setter> road_keys = {
+        {"class", Str(&road_class, "class")},
+        {"seed", Int(&road.seed, 0, std::numeric_limits<std::int64_t>::max(), "seed")},
+        {"n_min", Num(&road.n_min, 1e-6, 100.0, "n_min")},
+        {"n_max", Num(&road.n_max, 1e-6, 100.0, "n_max")},
+        {"components", Int(&road.components, 1, 65536, "components")}};
     const std::map<std::string, Setter> exc = {
         {"kind", Str(&excitation, "kind")},
         {"amplitude_cm", Num(&p.amplitude_cm, 0.0, 30.0, "amplitude_cm")},
@@ -176,7 +207,9 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
         {"max_detection_to_safe_periods",
          Int(&s.max_detection_to_safe_periods, 0, 1000000, "max_detection_to_safe_periods")},
         {"require_recovery", Flag(&s.require_recovery, "require_recovery")},
-        {"expect_firmware_exit", Int(&expect_exit, 0, 255, "expect_firmware_exit")}};
+        {"expect_firmware_exit", Int(&expect_exit, 0, 255, "expect_firmware_exit")},
+        {"body_accel_below_passive",
+         Flag(&s.body_accel_below_passive, "body_accel_below_passive")}};
     for (const auto& [k, v] : root) {
       const std::string key(k.str());
       bool ok = true;
@@ -191,11 +224,12 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
       } else if (key == "heartbeat_timeout_ms") {
         ok = Num(&hb_ms, 1.0, 1e4, "heartbeat_timeout_ms")(v, c);
       } else if (key == "plant" || key == "excitation" || key == "control" || key == "firmware" ||
-                 key == "pass") {
+                 key == "pass" || key == "quarter_car" || key == "road") {
         const toml::table* t = v.as_table();
         if (t == nullptr) return c.Fail(v, "[" + key + "] must be a table");
         const auto& keys = key == "plant" ? plant : key == "excitation" ? exc
-                         : key == "control" ? control : key == "firmware" ? firmware : pass;
+                         : key == "control" ? control : key == "firmware" ? firmware
+                         : key == "quarter_car" ? quarter_car : key == "road" ? road_keys : pass;
         ok = ApplyTable(*t, keys, " in [" + key + "]", c);
       } else if (key == "fault") {
         const toml::array* a = v.as_array();
@@ -229,6 +263,36 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
       const toml::node* n = root.at_path("plant.preset").node();
       return c.Fail(n != nullptr ? *n : static_cast<const toml::node&>(root),
                     "unknown plant preset '" + s.preset + "' (paper, spencer1997)");
+    }
+    const auto at = [&](const char* key) -> const toml::node& {
+      const toml::node* n = root.at_path(key).node();
+      return n != nullptr ? *n : static_cast<const toml::node&>(root);
+    };
+    if (model != "damper" && model != "quarter-car") {
+      return c.Fail(at("plant.model"), "plant model must be \"damper\" or \"quarter-car\"");
+    }
+    s.quarter_car = model == "quarter-car";
+    if (!s.quarter_car && (root.contains("quarter_car") || root.contains("road"))) {
+      return c.Fail(root.contains("road") ? at("road") : at("quarter_car"),
+                    "[quarter_car] and [road] need [plant] model = \"quarter-car\"");
+    }
+    if (s.quarter_car) {
+      if (road_class.size() != 1 || !RoadClassFromChar(road_class[0], &road.road_class)) {
+        return c.Fail(at("road.class"), "road class must be one of A .. H");
+      }
+      const char* why = nullptr;
+      if (!road.IsValid(&why)) return c.Fail(at("road"), std::string("[road]: ") + why);
+      car.max_volts = s.e_max;
+      if (!car.IsValid(&why)) return c.Fail(at("quarter_car"), std::string("[quarter_car]: ") + why);
+      if (root.contains("excitation")) {
+        return c.Fail(at("excitation"), "a quarter car is excited by its [road], not [excitation]");
+      }
+      if (s.ride_settle_s >= s.duration_s) {
+        return c.Fail(at("quarter_car.settle_s"), "settle_s must be shorter than duration_s");
+      }
+    } else if (s.body_accel_below_passive) {
+      return c.Fail(at("pass.body_accel_below_passive"),
+                    "body_accel_below_passive needs [plant] model = \"quarter-car\"");
     }
     if (excitation == "periodic") {
       s.excitation = ExcitationKind::kPeriodic;

@@ -56,6 +56,28 @@ TEST(ScenarioTest, ReadsKeysAndFaults) {
   EXPECT_EQ(s.faults[0].line, 7);
 }
 
+TEST(ScenarioTest, ReadsAQuarterCarOnARoad) {
+  const auto path = Write("qc.toml",
+                          "duration_s = 10\n[plant]\nmodel = \"quarter-car\"\n"
+                          "[quarter_car]\nspeed_m_s = 15\nmotion_ratio = 0.8\nsettle_s = 1.5\n"
+                          "sprung_mass_kg = 350\n[road]\nclass = \"d\"\nseed = 7\n"
+                          "[control]\nlaw = \"skyhook\"\nskyhook_gain = 40\n"
+                          "[pass]\nbody_accel_below_passive = true\n");
+  Scenario s;
+  std::string error;
+  ASSERT_TRUE(LoadScenario(path, &s, &error)) << error;
+  EXPECT_TRUE(s.quarter_car);
+  EXPECT_DOUBLE_EQ(s.car.speed_m_s, 15.0);
+  EXPECT_DOUBLE_EQ(s.car.motion_ratio, 0.8);
+  EXPECT_DOUBLE_EQ(s.car.sprung_mass_kg, 350.0);
+  EXPECT_DOUBLE_EQ(s.car.max_volts, s.e_max);
+  EXPECT_DOUBLE_EQ(s.ride_settle_s, 1.5);
+  EXPECT_EQ(s.road.road_class, RoadClass::kD);
+  EXPECT_EQ(s.road.seed, 7U);
+  EXPECT_TRUE(s.body_accel_below_passive);
+  EXPECT_DOUBLE_EQ(s.skyhook_gain, 40.0);
+}
+
 TEST(ScenarioTest, BadInputNamesFileAndLine) {
   struct Case {
     const char* text;
@@ -70,6 +92,17 @@ TEST(ScenarioTest, BadInputNamesFileAndLine) {
       {"[excitation]\nkind = \"csv\"\n", ":2: kind = \"csv\" needs 'file'"},
       {"[plant]\npreset = \"acme\"\n", ":2: unknown plant preset 'acme'"},
       {"name = \n", ":1: "},
+      {"[plant]\nmodel = \"bus\"\n", ":2: plant model must be"},
+      {"[road]\nclass = \"C\"\n", ":1: [quarter_car] and [road] need"},
+      {"[plant]\nmodel = \"quarter-car\"\n[road]\nclass = \"Z\"\n", ":4: road class must be"},
+      {"[plant]\nmodel = \"quarter-car\"\n[quarter_car]\nmotion_ratio = 1.5\n",
+       ":4: 'motion_ratio' must be"},
+      {"[plant]\nmodel = \"quarter-car\"\n[road]\nn_min = 3.0\n", ":3: [road]: "},
+      {"[plant]\nmodel = \"quarter-car\"\n[excitation]\namplitude_cm = 1\n",
+       ":3: a quarter car is excited by its [road]"},
+      {"duration_s = 1\n[plant]\nmodel = \"quarter-car\"\n[quarter_car]\nsettle_s = 2\n",
+       ":5: settle_s must be shorter"},
+      {"[pass]\nbody_accel_below_passive = true\n", ":2: body_accel_below_passive needs"},
   };
   for (const Case& c : cases) {
     const auto path = Write("bad.toml", c.text);
@@ -112,6 +145,26 @@ TEST(TracePlantTest, ProbeDoesNotAdvanceAndMatchesStep) {
   const PlantSample s = p.Step(2.25);
   EXPECT_DOUBLE_EQ(s.force, a.force);
   EXPECT_DOUBLE_EQ(s.t_s, a.t_s);
+}
+
+// The quarter car seen as a harness plant: Probe predicts Step without advancing, and the ride
+// outputs are the plant's.
+TEST(QuarterCarAdapterTest, ProbeDoesNotAdvanceAndMatchesStep) {
+  QuarterCarAdapter p(SpencerParams::Paper(), QuarterCarParams{}, RoadParams{}, 1e-3);
+  for (int k = 0; k < 500; ++k) p.Step(1.0);
+  const PlantSample before = p.Sample();
+  const PlantSample a = p.Probe(2.25), b = p.Probe(0.0);
+  EXPECT_DOUBLE_EQ(p.Sample().t_s, before.t_s);
+  EXPECT_DOUBLE_EQ(p.Sample().force, before.force);
+  EXPECT_GT(std::abs(a.force - b.force), 1.0);
+  const PlantSample s = p.Step(2.25);
+  EXPECT_DOUBLE_EQ(s.force, a.force);
+  EXPECT_DOUBLE_EQ(s.body_velocity, a.body_velocity);
+  ASSERT_NE(p.Ride(), nullptr);
+  EXPECT_DOUBLE_EQ(p.Ride()->plant.force, s.force);
+  EXPECT_NE(p.Ride()->body_accel, 0.0);
+  TracePlant t(SpencerParams::Paper(), Trace{}, 1e-3, 1);
+  EXPECT_EQ(t.Ride(), nullptr);
 }
 
 // The generated configuration is accepted by the firmware's own parser, per transport/clock.

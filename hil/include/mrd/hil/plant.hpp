@@ -1,9 +1,9 @@
 #pragma once
 // The plant a scenario drives, as the harness sees it: one Step(volts) per control period
 // (voltage held) -> the sample its sensors read. DamperPlant (common/) fits through an adapter;
-// a trace-driven damper plays a recorded excitation (CSV x, v[, demand]); a vehicle model (the
-// quarter-car of common/, when it lands) plugs in the same way and adds its own scores through
-// Scores() (body acceleration, suspension travel, tyre load).
+// a trace-driven damper plays a recorded excitation (CSV x, v[, demand]); the quarter car of
+// common/ (damper between body and wheel on an ISO 8608 road) plugs in the same way and adds its
+// ride figures through Ride() (body acceleration, suspension travel, tyre load).
 
 #include <memory>
 #include <string>
@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "mrd/common/damper_plant.hpp"
+#include "mrd/common/quarter_car.hpp"
 
 namespace mrd::hil {
 
@@ -25,8 +26,8 @@ class Plant {
   // The sample Step(volts) would give, without advancing (what the damper can deliver on the
   // next step from its present state: the harness's reachability test). No allocation.
   virtual PlantSample Probe(double volts) const = 0;
-  // Extra per-step signals of this plant for its scores (name, value); default none.
-  virtual void Signals(std::vector<std::pair<const char*, double>>* out) const { (void)out; }
+  // A vehicle plant's ride outputs at the present sample; nullptr for a damper alone.
+  virtual const QuarterCarSample* Ride() const { return nullptr; }
 };
 
 // The reference damper on its periodic excitation (damper_plant.hpp).
@@ -45,6 +46,27 @@ class DamperPlantAdapter final : public Plant {
 
  private:
   DamperPlant plant_;
+};
+
+// The quarter car on its road (quarter_car.hpp). Probe steps a copy kept beside the plant
+// (copy-assigned: after the first probe no allocation, the road's vectors keep their size).
+class QuarterCarAdapter final : public Plant {
+ public:
+  QuarterCarAdapter(const SpencerParams& damper, const QuarterCarParams& car,
+                    const RoadParams& road, double period_s)
+      : plant_(damper, car, road, period_s), probe_(plant_) {}
+  void Reset() override { plant_.Reset(); }
+  PlantSample Step(double volts) override { return plant_.Step(volts); }
+  PlantSample Sample() const override { return plant_.Sample(); }
+  PlantSample Probe(double volts) const override {
+    probe_ = plant_;
+    return probe_.Step(volts);
+  }
+  const QuarterCarSample* Ride() const override { return &plant_.Detail(); }
+
+ private:
+  QuarterCarPlant plant_;
+  mutable QuarterCarPlant probe_;
 };
 
 // A recorded excitation, one row per period: displacement [cm], velocity [cm/s], force

@@ -55,6 +55,19 @@ struct TrackingScores {
   double rms_force_n = 0.0, rms_demand_n = 0.0;
 };
 
+// Quarter car: RMS ride figures over the steps after the scenario's settle time.
+struct RideFigures {
+  std::uint64_t samples = 0;
+  double body_accel_rms = 0.0;   // [m/s^2]
+  double travel_rms_cm = 0.0;    // suspension travel [cm]
+  double tyre_load_rms_n = 0.0;  // tyre load variation [N]
+  double max_travel_cm = 0.0;
+  std::uint64_t lift_off = 0;    // samples with the wheel off the ground
+};
+struct RideScores {
+  RideFigures controlled, passive_off, passive_on;  // the run; twins at 0 V and at E_max
+};
+
 struct FaultResult {
   Fault fault;
   std::int64_t onset_step = 0, clear_step = 0;  // clear_step: steps when it never clears
@@ -82,6 +95,7 @@ struct RunResult {
   std::uint64_t safe_commands = 0;
   std::uint64_t late_steps = 0;         // realtime: wake-ups after the next deadline
   TrackingScores tracking;
+  std::optional<RideScores> ride;       // quarter-car scenarios (needs keep_trace)
   std::vector<FaultResult> faults;
   int firmware_exit = -1;               // -1: still running / not started by us
   std::string firmware_json;            // the firmware's --json summary (last instance)

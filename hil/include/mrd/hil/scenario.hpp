@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "mrd/common/damper_plant.hpp"
+#include "mrd/common/iso8608_road.hpp"
+#include "mrd/common/quarter_car.hpp"
 
 namespace mrd::hil {
 
@@ -44,6 +46,12 @@ struct Scenario {
   // [plant]
   std::string preset = "paper";
   int substeps = 20;
+  bool quarter_car = false;           // model = "quarter-car": the damper in a quarter car on
+                                      // an ISO 8608 road ([quarter_car], [road]); else the
+                                      // damper alone on [excitation]
+  QuarterCarParams car;
+  RoadParams road;
+  double ride_settle_s = 2.0;         // quarter car: ride figures scored after this [s]
   // [excitation]
   ExcitationKind excitation = ExcitationKind::kPeriodic;
   PlantExcitation periodic;
@@ -66,6 +74,7 @@ struct Scenario {
   int max_detection_to_safe_periods = 2;
   bool require_recovery = true;
   std::optional<int> expect_firmware_exit;    // e.g. 2 for a refused table
+  bool body_accel_below_passive = false;      // quarter car: controlled < passive-off and -on
   std::vector<Fault> faults;
 };
 
