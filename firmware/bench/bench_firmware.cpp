@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <vector>
 
+#include "mrd/common/quarter_car.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/inverter.hpp"
@@ -91,6 +92,19 @@ void BM_ControllerUpdate(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_ControllerUpdate);
+
+// One HIL plant period of the quarter car on a class C road (10 RK4 substeps; the budget of the
+// harness's lockstep speed): real time is 1 ms per step.
+void BM_QuarterCarStep(benchmark::State& state) {
+  mrd::QuarterCarPlant plant(mrd::SpencerParams::Paper(), mrd::QuarterCarParams{},
+                             mrd::RoadParams{}, 1e-3);
+  double volts = 0.0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(plant.Step(volts));
+    volts = volts > 2.0 ? 0.0 : volts + 0.01;
+  }
+}
+BENCHMARK(BM_QuarterCarStep);
 
 }  // namespace
 
