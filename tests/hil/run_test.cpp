@@ -102,6 +102,39 @@ TEST(HilRunTest, QuarterCarSkyhookBeatsBothPassiveCasesLockstepCan) {
   EXPECT_GT(ride["controlled"]["tyre_load_rms_n"].get<double>(), 0.0);
 }
 
+// --attach: the harness writes the configuration, prints how to start the firmware and waits
+// for one started by hand (here by the test, from that configuration); it never starts or
+// stops a firmware itself.
+TEST(HilRunTest, AttachesToAFirmwareStartedByHand) {
+  const std::string dir = "/tmp/mrd-hil-attach-" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  ChildProcess hil({kBin + "/mrd-hil", "run", kScn + "closed-loop-smoke.toml", "--attach", "--out",
+                    dir, "--json"});
+  const std::string config = dir + "/firmware.toml";
+  // The prompt comes once the configuration is written.
+  for (int i = 0; i < 200 && hil.Stderr().find("started by hand") == std::string::npos; ++i) {
+    usleep(50'000);
+  }
+  ASSERT_TRUE(std::filesystem::exists(config)) << hil.Stderr();
+  ChildProcess fw({kBin + "/mrd-firmware", "--config", config, "--table", Table(), "--duration",
+                   "2", "--json"});
+  EXPECT_EQ(fw.Wait(60.0), 0) << fw.Stderr();
+  ASSERT_EQ(hil.Wait(60.0), 0) << hil.Stdout() << hil.Stderr();
+  EXPECT_NE(hil.Stderr().find("waiting for a firmware started by hand"), std::string::npos);
+  const json j = json::parse(hil.Stdout(), nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << hil.Stdout();
+  EXPECT_TRUE(j["pass"].get<bool>());
+  EXPECT_EQ(j["firmware"]["starts"], 0);  // none of its own
+  EXPECT_EQ(j["firmware"]["exit"], -1);
+  EXPECT_EQ(j["invariant_violations"], 0);
+  EXPECT_EQ(j["command_timeouts"], 0);
+  EXPECT_EQ(j["commands"], 2000);
+  // The firmware ran on the harness's grants: one per step.
+  const json f = json::parse(fw.Stdout(), nullptr, false);
+  ASSERT_FALSE(f.is_discarded()) << fw.Stdout();
+  EXPECT_EQ(f["clock"]["missed_grants"], 0) << fw.Stdout();
+}
+
 // Two lockstep runs give identical summaries (all but the wall-clock "timing").
 TEST(HilRunTest, LockstepIsDeterministic) {
   HilResult a = Hil({kScn + "closed-loop-smoke.toml", "--table", Table()});
