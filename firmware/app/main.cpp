@@ -441,14 +441,14 @@ int Run(const Options& o) {
     const std::int64_t duration_ns =
         o.duration_s > 0.0 ? static_cast<std::int64_t>(std::llround(o.duration_s * 1e9)) : 0;
     if (cfg.clock == LoopClock::kGrant) {
-      // Lockstep with the HIL harness: the same loop on the time the CAN bus grants
-      // (duration in granted time).
+      // Lockstep with the HIL harness: the same loop on the time the CAN bus (or the Modbus
+      // grant register) grants (duration in granted time).
       TimeGrantSource* grants = nullptr;
       for (auto& d : devices) {
         if (grants == nullptr) grants = d->grant_source();
       }
       if (grants == nullptr) {
-        std::fprintf(stderr, "error: %s: clock = \"grant\" needs the [can] device\n", o.config);
+        std::fprintf(stderr, "error: %s: clock = \"grant\" needs a [can] or [modbus] device\n", o.config);
         for (auto& d : devices) d->Deactivate();
         return kExitBadInput;
       }

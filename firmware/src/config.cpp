@@ -211,7 +211,8 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Choice("clock", &c->clock,
                {{"monotonic", LoopClock::kMonotonic}, {"grant", LoopClock::kGrant}},
                "Bus mode: the loop's time from CLOCK_MONOTONIC, or lockstep with the HIL "
-               "harness (time grants on the [can] bus, docs/can_bus.md; needs [can])."),
+               "harness: time grants on the [can] bus (docs/can_bus.md), else on the [modbus] "
+               "grant register (docs/modbus_registers.md)."),
         Duration("grant_timeout_ms", &c->grant_timeout_ns, 1e6, 1.0, 1e5, "ms",
                  "clock = \"grant\": a grant not received within this wall time is missed: "
                  "the loop steps on by itself in the safe state (counted).")}},
@@ -343,7 +344,8 @@ bool CheckIo(const toml::table& root, const std::string& source, const FirmwareC
   if (!io.any()) {
     if (c.clock != LoopClock::kGrant) return true;
     *error = Where(root, source, "loop", "clock") +
-             "clock = \"grant\" needs a [can] section (the time grants travel on CAN)";
+             "clock = \"grant\" needs a [can] or [modbus] section (the bus the time grants "
+             "travel on)";
     return false;
   }
   struct Bus {
@@ -407,9 +409,10 @@ bool CheckIo(const toml::table& root, const std::string& source, const FirmwareC
              "[can] needs exactly one of 'interface' (SocketCAN) and 'local_bus' (socket path)";
     return false;
   }
-  if (c.clock == LoopClock::kGrant && !io.can.enabled) {
+  if (c.clock == LoopClock::kGrant && !io.can.enabled && !io.modbus.enabled) {
     *error = Where(root, source, "loop", "clock") +
-             "clock = \"grant\" needs a [can] section (the time grants travel on CAN)";
+             "clock = \"grant\" needs a [can] or [modbus] section (the bus the time grants "
+             "travel on)";
     return false;
   }
   if (io.modbus.enabled && io.modbus.mode == ModbusMode::kRtu && io.modbus.device.empty()) {
@@ -488,7 +491,9 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   c->period_ns = static_cast<std::int64_t>(std::llround(x.period_us * 1e3));
   k.watchdog.max_age_ns = static_cast<std::int64_t>(std::llround(x.max_age_ms * 1e6));
   if (x.e_max_set) c->e_max = x.e_max;
+  // Grants travel on CAN when there is a CAN bus, else on Modbus.
   c->io.can.lockstep = c->clock == LoopClock::kGrant;
+  c->io.modbus.lockstep = c->clock == LoopClock::kGrant && !c->io.can.enabled;
   return true;
 }
 

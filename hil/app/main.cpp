@@ -314,9 +314,10 @@ int main(int argc, char** argv) {
   run->add_option("scenario", scenario_path, "scenario TOML (hil/scenarios/)")->required();
   run->add_option("--transport", ro.transport, "can | modbus-tcp | modbus-rtu")
       ->capture_default_str();
+  ro.clock = "lockstep";
   run->add_option("--clock", ro.clock,
-                  "lockstep (CAN: time grants, deterministic) | realtime (1 kHz wall clock); "
-                  "default: lockstep on CAN, realtime on Modbus");
+                  "lockstep (time grants on the bus: deterministic, as fast as both sides "
+                  "allow) | realtime (1 kHz wall clock: latency and jitter)");
   run->add_option("--table", ro.table, "coefficient table for the firmware (mrd export)");
   run->add_option("--excitation", ro.excitation,
                   "CSV (header with x, v and the demand column, e.g. an `mrd generate` data "

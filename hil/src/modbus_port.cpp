@@ -5,6 +5,8 @@
 // requests; Publish and Poll exchange the registers with it under a mutex held only for a
 // register copy (the plant loop never waits on the wire). The sensor block is read-only:
 // a write to it gets the exception ILLEGAL DATA ADDRESS and counts as rejected.
+// Lockstep: SendGrant sets the grant register (13-15) after the step's sensor block; the
+// firmware's tick answers with one command block carrying its status, which wakes Wait.
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <modbus/modbus.h>
@@ -15,6 +17,9 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
 #include <cerrno>
 #include <cstring>
 #include <ctime>
@@ -58,10 +63,16 @@ class ModbusPort final : public PlantPort {
     return true;
   }
 
+  // Faults on a register transport: drop and stall leave the block as it was (the firmware
+  // reads the previous seq again: no new data); a NaN cannot be encoded, so the block is not
+  // updated either (the map's rule for unrepresentable values); out_of_range writes a block
+  // with a reserved fault bit set, which the firmware's decoder refuses (bad_value). Corrupt
+  // frames are a CAN fault only (run.cpp refuses them here).
   void Publish(const SensorOutput& out) override {
+    if (out.fault == SensorFault::kDrop || out.fault == SensorFault::kStall) return;
     map::SensorBlock b;
     b.seq = out.seq;
-    b.velocity = out.sample.v;
+    b.velocity = out.fault == SensorFault::kNan ? std::nan("") : out.sample.v;
     b.displacement = out.sample.x;
     b.demand = out.sample.demand;
     b.body_velocity = out.sample.body_velocity;
@@ -69,15 +80,32 @@ class ModbusPort final : public PlantPort {
     b.fault_line = out.fault_line;
     std::uint16_t regs[map::kSensorCount] = {};
     if (map::EncodeSensors(b, regs) != map::MapError::kOk) return;  // not representable
+    if (out.fault == SensorFault::kOutOfRange) regs[map::kFaults] |= 0x8000U;  // reserved bit
     std::lock_guard<std::mutex> lock(mu_);
     if (mapping_ == nullptr) return;
     std::copy(regs, regs + map::kSensorCount, mapping_->tab_registers + map::kSensorBase);
     ++counters_.published;
   }
 
+  bool SendGrant(std::int64_t t_ns) override {
+    std::uint16_t regs[3];
+    map::PutU48(static_cast<std::uint64_t>(t_ns / 1000), regs);
+    std::lock_guard<std::mutex> lock(mu_);
+    if (mapping_ == nullptr) return false;
+    std::copy(regs, regs + 3, mapping_->tab_registers + map::kSensorBase + map::kGrant);
+    return true;
+  }
+
+  void Wait(std::int64_t timeout_ns) override {
+    std::unique_lock<std::mutex> lock(mu_);
+    if (pending_) return;
+    written_.wait_for(lock, std::chrono::nanoseconds(timeout_ns), [this] { return pending_; });
+  }
+
   void Poll(DriverInput* in) override {
     std::lock_guard<std::mutex> lock(mu_);
     if (heartbeat_ns_ != 0) in->heartbeat_ns = heartbeat_ns_;
+    in->heartbeats = heartbeats_;
     if (!pending_) return;
     pending_ = false;
     if (last_.has_set_point) {
@@ -90,6 +118,13 @@ class ModbusPort final : public PlantPort {
     if (last_.enable_driven) {
       in->has_enable = true;
       in->enable = last_.enable;
+    }
+    if (last_.has_status) {
+      in->has_status = true;
+      in->status_causes = last_.causes;
+      in->status_safe = last_.safe;
+      in->has_safe = true;
+      in->safe = last_.safe;
     }
   }
 
@@ -282,10 +317,14 @@ class ModbusPort final : public PlantPort {
     }
     const std::int64_t now = NowNs();
     ++counters_.received;
-    if (c.heartbeat != last_.heartbeat) heartbeat_ns_ = now;
+    if (c.heartbeat != last_.heartbeat) {
+      heartbeat_ns_ = now;
+      ++heartbeats_;
+    }
     last_ = c;
     command_ns_ = now;
     pending_ = true;
+    written_.notify_all();
     return true;
   }
 
@@ -303,6 +342,8 @@ class ModbusPort final : public PlantPort {
   bool pending_ = false;
   std::int64_t command_ns_ = 0;
   std::int64_t heartbeat_ns_ = 0;
+  std::uint64_t heartbeats_ = 0;  // heartbeat changes heard
+  std::condition_variable written_;  // a command block arrived (pending_)
   PortCounters counters_;
 };
 

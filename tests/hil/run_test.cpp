@@ -201,7 +201,7 @@ TEST(HilRunTest, KillNineOfTheFirmware) {
 
 TEST(HilRunTest, KillNineOfTheFirmwareOverModbusTcp) {
   const HilResult r = Hil({kScn + "fault-kill-firmware.toml", "--table", Table(), "--transport",
-                           "modbus-tcp"});
+                           "modbus-tcp", "--clock", "realtime"});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   EXPECT_EQ(r.j["clock"], "realtime");
   EXPECT_EQ(r.j["invariant_violations"], 0);
@@ -217,6 +217,61 @@ TEST(HilRunTest, CorruptTableIsRefused) {
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   EXPECT_EQ(r.j["firmware"]["exit"], 2);
   EXPECT_EQ(r.j["driven_steps"], 0);
+}
+
+// Lockstep over Modbus (the grant register): TCP and RTU give the same run, bit for bit, and
+// the same tracking as CAN up to the transports' quantisation (CAN carries velocity in 0.01
+// cm/s and forces in 1 N steps, the Modbus registers in 1e-4 cm/s and 0.01 N).
+TEST(HilRunTest, LockstepOverModbusTcpAndRtuMatchesCan) {
+  HilResult can = Hil({kScn + "force-periodic.toml", "--table", Table()});
+  HilResult tcp = Hil({kScn + "force-periodic.toml", "--table", Table(), "--transport", "modbus-tcp"});
+  HilResult rtu = Hil({kScn + "force-periodic.toml", "--table", Table(), "--transport", "modbus-rtu"});
+  for (const HilResult* r : {&can, &tcp, &rtu}) {
+    ASSERT_EQ(r->status, 0) << r->out << r->err;
+    EXPECT_EQ(r->j["clock"], "lockstep");
+    EXPECT_EQ(r->j["invariant_violations"], 0);
+    EXPECT_EQ(r->j["command_timeouts"], 0);
+    EXPECT_EQ(r->j["commands"], 3000);
+    EXPECT_EQ(r->j["firmware"]["summary"]["clock"]["grants"], 3000);
+    EXPECT_EQ(r->j["firmware"]["summary"]["clock"]["missed_grants"], 0);
+  }
+  EXPECT_EQ(tcp.j["tracking"].dump(), rtu.j["tracking"].dump());
+  EXPECT_EQ(tcp.j["safe_commands"], rtu.j["safe_commands"]);
+  EXPECT_LE(tcp.j["tracking"]["error_reachable"].get<double>(), 0.05);
+  EXPECT_NEAR(tcp.j["tracking"]["error_reachable"].get<double>(),
+              can.j["tracking"]["error_reachable"].get<double>(), 1e-3);
+}
+
+// The register faults over Modbus in lockstep, TCP and RTU: each detected, safe within 2
+// periods, recovered; invariant held.
+void ExpectRegisterFaults(const HilResult& r) {
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_EQ(r.j["invariant_violations"], 0);
+  ASSERT_EQ(r.j["faults"].size(), 6U);
+  for (const json& f : r.j["faults"]) {
+    SCOPED_TRACE(f.dump());
+    EXPECT_TRUE(f["ok"].get<bool>());
+    ASSERT_FALSE(f["periods_to_detection"].is_null());
+    EXPECT_LE(f["detection_to_safe_periods"].get<int>(), 2);
+    EXPECT_FALSE(f["periods_to_recovery"].is_null());
+  }
+}
+TEST(HilRunTest, RegisterFaultsOverModbusTcpLockstep) {
+  ExpectRegisterFaults(
+      Hil({kScn + "faults-register.toml", "--table", Table(), "--transport", "modbus-tcp"}));
+}
+TEST(HilRunTest, RegisterFaultsOverModbusRtuLockstep) {
+  ExpectRegisterFaults(
+      Hil({kScn + "faults-register.toml", "--table", Table(), "--transport", "modbus-rtu"}));
+}
+TEST(HilRunTest, KillPlantSideOverModbusTcpLockstep) {
+  const HilResult r = Hil({kScn + "fault-kill-plant.toml", "--table", Table(), "--transport",
+                           "modbus-tcp"});
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_EQ(r.j["invariant_violations"], 0);
+  const json& f = r.j["faults"][0];
+  EXPECT_TRUE(f["ok"].get<bool>()) << f.dump();
+  EXPECT_FALSE(f["periods_to_recovery"].is_null());
 }
 
 // Real time over each transport: the loop closes, the invariant holds.
@@ -235,11 +290,13 @@ TEST(HilRunTest, RealTimeOverLocalCan) {
               "can");
 }
 TEST(HilRunTest, RealTimeOverModbusTcp) {
-  ExpectSmoke(Hil({kScn + "closed-loop-smoke.toml", "--table", Table(), "--transport", "modbus-tcp"}),
+  ExpectSmoke(Hil({kScn + "closed-loop-smoke.toml", "--table", Table(), "--transport", "modbus-tcp",
+                   "--clock", "realtime"}),
               "modbus-tcp");
 }
 TEST(HilRunTest, RealTimeOverModbusRtuPty) {
-  ExpectSmoke(Hil({kScn + "closed-loop-smoke.toml", "--table", Table(), "--transport", "modbus-rtu"}),
+  ExpectSmoke(Hil({kScn + "closed-loop-smoke.toml", "--table", Table(), "--transport", "modbus-rtu",
+                   "--clock", "realtime"}),
               "modbus-rtu");
 }
 
@@ -264,15 +321,16 @@ TEST(HilRunTest, BadInputExitTwo) {
   HilResult r = Hil({dir + "/bad.toml"});
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find(dir + "/bad.toml:4: unknown key 'foo'"), std::string::npos) << r.err;
-  r = Hil({kScn + "closed-loop-smoke.toml", "--transport", "modbus-tcp", "--clock", "lockstep"});
+  r = Hil({kScn + "closed-loop-smoke.toml", "--transport", "modbus-tcp", "--clock", "sometimes"});
   EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.err.find("--clock lockstep needs --transport can"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--clock 'sometimes': expected lockstep or realtime"), std::string::npos)
+      << r.err;
   r = Hil({kScn + "closed-loop-smoke.toml", "--table", dir + "/missing.bin"});
   EXPECT_EQ(r.status, 2);
-  // Frame-level faults are not injected over Modbus: refused, not silently skipped.
+  // Corrupt frames are not injected over Modbus: refused, not silently skipped.
   r = Hil({kScn + "faults-sensor.toml", "--transport", "modbus-rtu"});
   EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.err.find("faults-sensor.toml:27: fault 'drop' is injected on CAN frames only"),
+  EXPECT_NE(r.err.find("faults-sensor.toml:32: fault 'corrupt' is injected on CAN frames only"),
             std::string::npos)
       << r.err;
 }

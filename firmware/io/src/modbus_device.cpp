@@ -1,6 +1,9 @@
 #include "mrd/firmware/io/modbus_device.hpp"
 
 #include <modbus/modbus.h>
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cstdio>
@@ -23,6 +26,9 @@ constexpr std::int64_t kBackoffMaxNs = 200'000'000;
 constexpr std::int64_t kSleepSliceNs = 5'000'000;  // Deactivate waits at most this long
 constexpr int kReadAttempts = 4;                   // seqlock attempts per Read on the tick
 
+constexpr std::int64_t kLockstepIdleNs = 20'000;             // between reads without a new grant
+constexpr std::int64_t kLockstepCommandWaitNs = 100'000'000;  // for the tick's command
+
 std::int64_t NowNs() {
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -35,6 +41,28 @@ void SleepUntil(std::int64_t t_ns) {
   ts.tv_nsec = static_cast<long>(t_ns % 1'000'000'000);
   while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
   }
+}
+
+// eventfd wake-ups (lockstep). Signal never blocks (a full counter is already a wake-up).
+void Signal(int fd) {
+  const std::uint64_t one = 1;
+  (void)!write(fd, &one, sizeof one);
+}
+// Waits for fd's signal (consumed) at most timeout_ns, in slices so a stop request is seen.
+bool WaitEvent(int fd, std::int64_t timeout_ns, const std::atomic<bool>& running) {
+  const std::int64_t until = NowNs() + timeout_ns;
+  for (std::int64_t now = NowNs(); now < until && running.load(std::memory_order_relaxed);
+       now = NowNs()) {
+    const std::int64_t wait = until - now < kSleepSliceNs ? until - now : kSleepSliceNs;
+    const timespec ts{static_cast<time_t>(wait / 1'000'000'000), static_cast<long>(wait % 1'000'000'000)};
+    pollfd p{fd, POLLIN, 0};
+    if (ppoll(&p, 1, &ts, nullptr) > 0) {
+      std::uint64_t n = 0;
+      (void)!read(fd, &n, sizeof n);
+      return true;
+    }
+  }
+  return false;
 }
 
 // libmodbus errno -> why.
@@ -70,10 +98,20 @@ ModbusDevice::ModbusDevice(const ModbusConfig& config) : config_(config) {}
 ModbusDevice::~ModbusDevice() {
   Deactivate();
   if (ctx_ != nullptr) modbus_free(ctx_);
+  if (grant_event_ >= 0) close(grant_event_);
+  if (command_event_ >= 0) close(command_event_);
 }
 
 bool ModbusDevice::Configure(std::string* error) {
   if (ctx_ != nullptr) return true;
+  if (config_.lockstep && grant_event_ < 0) {
+    grant_event_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    command_event_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    if (grant_event_ < 0 || command_event_ < 0) {
+      *error = std::string("modbus: eventfd: ") + std::strerror(errno);
+      return false;
+    }
+  }
   if (config_.mode == ModbusMode::kTcp) {
     const std::string port = std::to_string(config_.port);
     ctx_ = modbus_new_tcp_pi(config_.host.c_str(), port.c_str());
@@ -163,10 +201,9 @@ void ModbusDevice::Count(IoError e) {
   last_error_.store(static_cast<std::uint8_t>(e), std::memory_order_relaxed);
 }
 
-bool ModbusDevice::ReadSensors(std::uint16_t* regs, IoError* why) {
+bool ModbusDevice::ReadSensors(std::uint16_t* regs, int count, IoError* why) {
   for (int attempt = 0; attempt <= config_.retries; ++attempt) {
-    if (modbus_read_registers(ctx_, map::kSensorBase, map::kSensorCount, regs) ==
-        map::kSensorCount) {
+    if (modbus_read_registers(ctx_, map::kSensorBase, count, regs) == count) {
       return true;
     }
     *why = Classify(errno);
@@ -265,11 +302,20 @@ void ModbusDevice::Work() {
         }
       }
     }
-    if (reads && connected_ && why != IoError::kDisconnected) {
-      std::uint16_t regs[map::kSensorCount] = {};
+    bool new_grant = false;
+    if ((reads || config_.lockstep) && connected_ && why != IoError::kDisconnected) {
+      std::uint16_t regs[map::kLockstepSensorCount] = {};
       IoError rwhy = IoError::kNone;
-      if (ReadSensors(regs, &rwhy)) {
-        const std::int64_t stamp = NowNs();
+      const int count = config_.lockstep ? map::kLockstepSensorCount : map::kSensorCount;
+      if (ReadSensors(regs, count, &rwhy)) {
+        std::int64_t stamp = NowNs();
+        if (config_.lockstep) {
+          // The grant follows its step's sensor values: they are stamped with it.
+          const auto grant = static_cast<std::int64_t>(map::GetU48(regs + map::kGrant)) * 1000;
+          new_grant = grant > s.grant_ns;
+          if (new_grant) s.grant_ns = grant;
+          stamp = s.grant_ns;
+        }
         map::SensorBlock b;
         if (map::DecodeSensors(regs, &b) != map::MapError::kOk) {
           rwhy = IoError::kBadValue;
@@ -310,6 +356,17 @@ void ModbusDevice::Work() {
       failed_cycles = 0;
       continue;
     }
+    if (config_.lockstep) {
+      // A new grant: wake the loop, wait for its tick's command (written at the top of the
+      // next cycle). Else read again soon: the harness sets the next grant after our command.
+      if (new_grant) {
+        Signal(grant_event_);
+        WaitEvent(command_event_, kLockstepCommandWaitNs, running_);
+      } else {
+        SleepUntil(NowNs() + kLockstepIdleNs);
+      }
+      continue;
+    }
     next += config_.poll_period_ns;
     const std::int64_t now = NowNs();
     if (next < now) next = now;  // behind (slow peer): no catch-up burst
@@ -344,6 +401,11 @@ IoStatus ModbusDevice::Read(SensorFrame* frame, IoError* why) {
     *why = s.why;
     return IoStatus::kFault;
   }
+  if (missed_grant_) {
+    missed_grant_ = false;
+    *why = IoError::kTimeout;
+    return IoStatus::kFault;
+  }
   return status;
 }
 
@@ -372,6 +434,36 @@ void ModbusDevice::PublishStatus(const TelemetrySnapshot& stats) {
                        std::memory_order_relaxed);
   status_ticks_.store(static_cast<std::uint32_t>(stats.ticks & 0xFFFFFFFFU),
                       std::memory_order_relaxed);
+  // Lockstep: the tick's command and status are posted; the worker writes them now.
+  if (config_.lockstep) Signal(command_event_);
+}
+
+bool ModbusDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
+  const std::int64_t until = NowNs() + timeout_ns;
+  while (true) {
+    Sample s;
+    bool got = false;
+    for (int i = 0; i < kReadAttempts && !got; ++i) got = sample_.TryRead(&s);
+    if (got && s.grant_ns > granted_ns_) {
+      granted_ns_ = s.grant_ns;
+      *t_ns = granted_ns_;
+      return true;
+    }
+    const std::int64_t now = NowNs();
+    if (now >= until) break;
+    // The worker signals every new grant; a signal consumed by an earlier call leaves the
+    // sample to be seen on the next pass.
+    const std::int64_t wait = until - now;
+    const timespec ts{static_cast<time_t>(wait / 1'000'000'000), static_cast<long>(wait % 1'000'000'000)};
+    pollfd p{grant_event_, POLLIN, 0};
+    if (ppoll(&p, 1, &ts, nullptr) > 0) {
+      std::uint64_t n = 0;
+      (void)!read(grant_event_, &n, sizeof n);
+    }
+  }
+  missed_grant_ = true;
+  Count(IoError::kTimeout);
+  return false;
 }
 
 DeviceCounters ModbusDevice::counters() const {

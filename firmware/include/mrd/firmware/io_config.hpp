@@ -79,6 +79,9 @@ struct ModbusConfig {
   std::int64_t response_timeout_ns = 20'000'000;  // per request [ns]
   int retries = 1;                 // extra attempts per transaction after a timeout or CRC error
   std::int64_t poll_period_ns = 1'000'000;  // worker's read/write cycle [ns]
+  // Lockstep ([loop] clock = "grant" without a [can] bus): the device is the loop's
+  // TimeGrantSource (the grant register, docs/modbus_registers.md). Set from [loop].
+  bool lockstep = false;
 };
 
 struct GpioConfig {

@@ -5,8 +5,8 @@
 // fault schedule, scores the run and stops the firmware cleanly.
 //
 // Clocks:
-//   lockstep (CAN only)  per step k: sensor frames of the plant at k·T, then a TimeGrant of
-//                        (k+1)·T; the harness waits (command_timeout) for the firmware's command
+//   lockstep             per step k: sensor frames (registers) of the plant at k·T, then a
+//                        TimeGrant frame (the Modbus grant register) of (k+1)·T; the harness waits (command_timeout) for the firmware's command
 //                        and status of that tick, applies it and steps the plant. Deterministic
 //                        and as fast as both processes allow.
 //   realtime             the plant steps at 1 kHz on CLOCK_MONOTONIC (absolute deadlines); the
@@ -34,7 +34,7 @@ namespace mrd::hil {
 
 struct RunOptions {
   std::string transport = "can";    // can | modbus-tcp | modbus-rtu
-  std::string clock;                // lockstep | realtime; "": lockstep on CAN, else realtime
+  std::string clock;                // lockstep | realtime; "": lockstep
   std::string table;                // table file for the firmware; "": its compiled-in table
   std::string excitation;           // CSV replacing the scenario's excitation ("": keep it)
   std::string firmware;             // mrd-firmware to start

@@ -13,6 +13,9 @@
 //   8-9  body_velocity  i32   1e-4 cm/s
 //   10-11 force         i32   1e-2 N
 //   12   faults         u16   bit 0 external fault line, bit 1 driver fault; others 0
+//   13-15 grant         u48   lockstep only: harness time granted [us], high word first; 0 =
+//                             no grant yet. A lockstep client reads kLockstepSensorCount
+//                             registers (sensors and grant in one request)
 // Command block (firmware -> server), written in one request of kCommandCount registers:
 //   32-33 echo          u32   seq of the latest sensor block the loop had read
 //   34   set_point      i16   1e-3 V; kNoSetPoint (0x8000) when the command goes elsewhere
@@ -31,6 +34,7 @@ namespace mrd::protocol::modbus {
 
 inline constexpr int kSensorBase = 0;
 inline constexpr int kSensorCount = 13;
+inline constexpr int kLockstepSensorCount = 16;  // + the grant (13-15)
 inline constexpr int kCommandBase = 32;
 inline constexpr int kCommandCount = 9;
 inline constexpr int kMapSize = 48;  // registers a server holds (0..47); beyond: exception
@@ -43,6 +47,7 @@ inline constexpr int kDemand = 6;
 inline constexpr int kBodyVelocity = 8;
 inline constexpr int kForce = 10;
 inline constexpr int kFaults = 12;
+inline constexpr int kGrant = 13;
 inline constexpr int kEcho = 0;
 inline constexpr int kSetPoint = 2;
 inline constexpr int kEnable = 3;
@@ -109,6 +114,16 @@ inline void PutU32(std::uint32_t v, std::uint16_t* regs) {
 }
 inline std::uint32_t GetU32(const std::uint16_t* regs) {
   return (static_cast<std::uint32_t>(regs[0]) << 16) | regs[1];
+}
+// 48-bit value (the grant [us]) as three registers, high word first; bits above 47 dropped.
+inline void PutU48(std::uint64_t v, std::uint16_t* regs) {
+  regs[0] = static_cast<std::uint16_t>((v >> 32) & 0xFFFFU);
+  regs[1] = static_cast<std::uint16_t>((v >> 16) & 0xFFFFU);
+  regs[2] = static_cast<std::uint16_t>(v & 0xFFFFU);
+}
+inline std::uint64_t GetU48(const std::uint16_t* regs) {
+  return (static_cast<std::uint64_t>(regs[0]) << 32) | (static_cast<std::uint64_t>(regs[1]) << 16) |
+         regs[2];
 }
 
 }  // namespace mrd::protocol::modbus

@@ -22,6 +22,15 @@
 // watchdog cause) and the sample stamps age, so the stale-sensor cause trips as well. A sensor
 // block whose seq did not change since the last accepted one is not new data (a frozen server
 // goes stale).
+//
+// Lockstep (config.lockstep: [loop] clock = "grant" and no [can] bus): the device is the loop's
+// TimeGrantSource. The worker reads the sensor block and the grant register in one request
+// (kLockstepSensorCount registers) back to back; a read that brings a new grant publishes the
+// sample stamped with the granted time and wakes WaitGrant (an eventfd); the worker then waits
+// (eventfd, bounded) for the loop's tick to post its command and status (PublishStatus) and
+// writes them at once, so the harness receives one command block per grant, carrying that
+// tick's status. WaitGrant that times out is a missed grant: the next Read reports kFault
+// (timeout) and the loop commands the safe state, as on CAN.
 
 #include <pthread.h>
 
@@ -30,13 +39,14 @@
 #include <string>
 
 #include "mrd/firmware/bus_device.hpp"
+#include "mrd/firmware/grant_clock.hpp"
 #include "mrd/firmware/seqlock.hpp"
 
 typedef struct _modbus modbus_t;  // NOLINT: libmodbus's own name
 
 namespace mrd::firmware {
 
-class ModbusDevice final : public BusDevice {
+class ModbusDevice final : public BusDevice, public TimeGrantSource {
  public:
   explicit ModbusDevice(const ModbusConfig& config);
   ~ModbusDevice() override;
@@ -55,6 +65,8 @@ class ModbusDevice final : public BusDevice {
   IoStatus Write(const DriverCommand& cmd, IoError* why) override;
   void PublishStatus(const TelemetrySnapshot& stats) override;
   DeviceCounters counters() const override;
+  bool WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) override;
+  TimeGrantSource* grant_source() override { return config_.lockstep ? this : nullptr; }
 
  private:
   // What the worker hands to the loop.
@@ -62,6 +74,7 @@ class ModbusDevice final : public BusDevice {
     std::uint64_t accepted = 0;  // sensor blocks accepted so far (changes: new data)
     std::int64_t stamp_ns = 0;   // CLOCK_MONOTONIC when the latest accepted reply arrived
     std::uint32_t seq = 0;
+    std::int64_t grant_ns = 0;  // lockstep: the latest granted time (0: none yet)
     double velocity = 0.0, displacement = 0.0, demand = 0.0, body_velocity = 0.0, force = 0.0;
     bool fault_line = false;
     bool read_failed = false;   // the latest sensor read (after retries) failed
@@ -82,7 +95,7 @@ class ModbusDevice final : public BusDevice {
   bool Connect();
   void Disconnect();
   // One transaction with retries; true on success, else *why (counted).
-  bool ReadSensors(std::uint16_t* regs, IoError* why);
+  bool ReadSensors(std::uint16_t* regs, int count, IoError* why);
   bool WriteCommand(const Command& c, IoError* why);
   void Count(IoError e);
 
@@ -94,6 +107,10 @@ class ModbusDevice final : public BusDevice {
   bool thread_started_ = false;
   std::atomic<bool> running_{false};
 
+  // Lockstep wake-ups (eventfds, -1 otherwise): worker -> WaitGrant, loop -> worker.
+  int grant_event_ = -1;
+  int command_event_ = -1;
+
   Seqlock<Sample> sample_;
   Seqlock<Command> command_;
   std::atomic<std::uint16_t> status_causes_{0};
@@ -104,6 +121,8 @@ class ModbusDevice final : public BusDevice {
   std::uint64_t seen_accepted_ = 0;
   std::uint32_t last_seq_ = 0;
   bool last_write_failed_ = false;
+  std::int64_t granted_ns_ = 0;   // the latest grant WaitGrant returned
+  bool missed_grant_ = false;     // since the last Read
   IoError last_why_ = IoError::kNone;
 
   // Counters, written by the worker, read by anyone.
