@@ -314,6 +314,25 @@ TEST(HilRunTest, FailingCriteriaExitOne) {
   EXPECT_NE(r.j["failures"][0].get<std::string>().find("tracking error"), std::string::npos);
 }
 
+// A passive-on car cannot beat passive-on: body_accel_below_passive fails with its figures.
+TEST(HilRunTest, QuarterCarCriterionFailsForAPassiveCar) {
+  const std::string dir = "/tmp/mrd-hil-qcfail-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/on.toml") << "name = \"on\"\ndescription = \"x\"\nduration_s = 3\n"
+                                     "[plant]\nmodel = \"quarter-car\"\n"
+                                     "[quarter_car]\nsettle_s = 1\n[control]\nlaw = \"passive-on\"\n"
+                                     "[pass]\nbody_accel_below_passive = true\n";
+  const HilResult r = Hil({dir + "/on.toml"});
+  EXPECT_EQ(r.status, 1) << r.out << r.err;
+  ASSERT_EQ(r.j["failures"].size(), 1U) << r.out;
+  EXPECT_NE(r.j["failures"][0].get<std::string>().find("body acceleration RMS"), std::string::npos);
+  // The controlled car at E_max is the passive-on twin, but for its first safe periods while
+  // the firmware starts.
+  EXPECT_NEAR(r.j["ride"]["controlled"]["body_accel_rms"].get<double>(),
+              r.j["ride"]["passive_on"]["body_accel_rms"].get<double>(), 1e-4);
+  EXPECT_EQ(r.j["ride"]["controlled"]["samples"], 2000);
+}
+
 TEST(HilRunTest, BadInputExitTwo) {
   const std::string dir = "/tmp/mrd-hil-bad-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
