@@ -35,10 +35,13 @@ echo "== firmware: 2 s dry run (lockstep) of mrd-firmware on the exported table"
 build/bin/mrd-firmware --table out/table.bin --dry-run 2 --lockstep --json
 
 echo "== HIL: mrd-hil + mrd-firmware closed loop over the local CAN bus (lockstep), exported table"
-echo "   force tracking on V1's forces (reachable by construction), then every sensor fault"
+echo "   force tracking on V1's forces (reachable by construction), every sensor fault, then"
+echo "   skyhook on a quarter car (ISO 8608 class C road, 20 m/s) against passive-off and -on"
 build/bin/mrd-hil run hil/scenarios/force-v1.toml --excitation out/v1.csv --table out/table.bin \
   --out out/hil/force-v1
 build/bin/mrd-hil run hil/scenarios/faults-sensor.toml --table out/table.bin --out out/hil/faults
+build/bin/mrd-hil run hil/scenarios/quarter-car-skyhook.toml --table out/table.bin \
+  --out out/hil/quarter-car
 echo "   (summaries, traces and plots: out/hil/*/)"
 
 nees=tests/data/nees-2012-1158/ransim_u.csv

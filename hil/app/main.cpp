@@ -202,7 +202,7 @@ int RunCommand(const std::string& scenario_path, mrd::hil::RunOptions o, const s
     std::cout << j.dump(2) << std::endl;
   } else {
     std::cout << mrd::hil::SummaryText(s, r);
-    if (!out.empty()) std::cout << "  files: " << out << "/summary.json, trace.csv, firmware.toml, tracking.png, command.png\n";
+    if (!out.empty()) std::cout << "  files: " << out << "/summary.json, trace.csv, firmware.toml, tracking.png, command.png" << (r.ride ? ", ride.png" : "") << "\n";
   }
   if (!std::cout) return kExitFailure;
   return r.pass ? kExitOk : kExitFailure;

@@ -176,12 +176,16 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
   }
   {
     std::ofstream f(dir + "/trace.csv");
-    f << "t,x,v,demand,force,force_off,force_on,command,applied,safe,driven,reachable,causes\n";
+    const bool ride = r.ride.has_value();
+    f << "t,x,v,demand,force,force_off,force_on,command,applied,safe,driven,reachable,causes"
+      << (ride ? ",body_accel,body_accel_off,body_accel_on\n" : "\n");
     f.precision(9);
     for (const StepRecord& k : r.trace) {
       f << k.t << ',' << k.x << ',' << k.v << ',' << k.demand << ',' << k.force << ','
         << k.force_off << ',' << k.force_on << ',' << k.command << ',' << k.applied << ','
-        << k.safe << ',' << k.driven << ',' << k.reachable << ',' << k.causes << '\n';
+        << k.safe << ',' << k.driven << ',' << k.reachable << ',' << k.causes;
+      if (ride) f << ',' << k.body_accel << ',' << k.body_accel_off << ',' << k.body_accel_on;
+      f << '\n';
     }
     if (!f) {
       *error = dir + "/trace.csv: cannot write";
@@ -206,6 +210,14 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
       << "plot '" << dir << "/trace.csv' every ::1 using 1:8 with lines title 'command', "
       << "'' every ::1 using 1:9 with lines title 'applied', "
       << "'' every ::1 using 1:10 axes x1y2 with steps title 'safe'\n";
+    if (r.ride) {
+      g << "unset y2label\nunset y2tics\nset autoscale y2\n"
+        << "set output '" << dir << "/ride.png'\nset ylabel 'body acceleration [m/s^2]'\n"
+        << "set title 'Quarter car: body acceleration, controlled vs passive-off and passive-on'\n"
+        << "plot '" << dir << "/trace.csv' every ::1 using 1:16 with lines dt 3 title 'passive-on', "
+        << "'' every ::1 using 1:15 with lines dt 2 title 'passive-off', "
+        << "'' every ::1 using 1:14 with lines lw 2 title 'controlled'\n";
+    }
   }
   const int rc = Gnuplot(script, dir + "/gnuplot.log");
   if (rc != 0) {

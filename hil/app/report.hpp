@@ -1,7 +1,7 @@
 #pragma once
 // The run's summary (JSON; keys in the README) and its files in --out: summary.json,
 // trace.csv, firmware.toml (the generated config) and gnuplot plots (tracking.png,
-// command.png; skipped with a warning without gnuplot).
+// command.png, and ride.png for a quarter car; skipped with a warning without gnuplot).
 
 #include <nlohmann/json.hpp>
 

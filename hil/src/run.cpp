@@ -562,6 +562,11 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       r->trace.push_back({sample.t_s, sample.x, v_seen, sample.demand, sample.force, f_off, f_on,
                           set_point, applied, cmd_safe, driven,
                           sample.demand >= lo && sample.demand <= hi, causes});
+      if (score_ride) {
+        r->trace.back().body_accel = plant->Ride()->body_accel;
+        r->trace.back().body_accel_off = plant_off->Ride()->body_accel;
+        r->trace.back().body_accel_on = plant_on->Ride()->body_accel;
+      }
     }
     deadline += kPeriodNs;
   }

@@ -81,6 +81,7 @@ struct StepRecord {
   double t, x, v, demand, force, force_off, force_on, command, applied;
   bool safe, driven, reachable;
   std::uint16_t causes;
+  double body_accel = 0.0, body_accel_off = 0.0, body_accel_on = 0.0;  // quarter car [m/s^2]
 };
 
 struct RunResult {
