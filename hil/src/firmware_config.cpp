@@ -2,12 +2,13 @@
 // (keys: docs/firmware_config.md).
 #include <sstream>
 
+#include "mrd/hil/gpio_port.hpp"
 #include "mrd/hil/run.hpp"
 
 namespace mrd::hil {
 
 std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
-                               const std::string& endpoint) {
+                               const std::string& endpoint, const std::string& gpio_chip) {
   std::ostringstream c;
   const bool modbus = transport != "can";
   // A Modbus transaction takes a few ms on its worker thread: the CAN defaults would be stale.
@@ -31,9 +32,20 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
     << "\nvelocity_limit = " << s.velocity_limit << "\n";
   const char* inputs = "[\"velocity\", \"displacement\", \"demand\", \"body_velocity\", \"force\"]";
   const char* outputs = "[\"command\", \"enable\", \"heartbeat\", \"status\"]";
+  const ScenarioGpio& g = s.gpio;
   if (!modbus) {
-    c << "\n[can]\nlocal_bus = \"" << endpoint << "\"\ninputs = " << inputs
-      << "\noutputs = " << outputs << "\nstatus_period_ms = 1\nheartbeat_period_ms = 10\n";
+    // Signals on GPIO leave CAN: the motion frame's (displacement, velocity) for the encoder,
+    // enable and heartbeat for the lines.
+    const std::string can_inputs =
+        g.displacement ? "[\"demand\", \"body_velocity\", \"force\"]" : inputs;
+    std::string can_outputs = "[\"command\"";
+    if (!g.enable) can_outputs += ", \"enable\"";
+    if (!g.heartbeat) can_outputs += ", \"heartbeat\"";
+    can_outputs += ", \"status\"]";
+    const bool local = endpoint.find('/') != std::string::npos;
+    c << "\n[can]\n" << (local ? "local_bus" : "interface") << " = \"" << endpoint
+      << "\"\ninputs = " << can_inputs << "\noutputs = " << can_outputs
+      << "\nstatus_period_ms = 1\nheartbeat_period_ms = 10\n";
   } else if (transport == "modbus-tcp") {
     const auto colon = endpoint.rfind(':');
     c << "\n[modbus]\nmode = \"tcp\"\nhost = \"" << endpoint.substr(0, colon)
@@ -43,6 +55,25 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
     c << "\n[modbus]\nmode = \"rtu\"\ndevice = \"" << endpoint << "\"\nbaud = 115200\nslave = 1\n"
       << "response_timeout_ms = 10\nretries = 1\ninputs = " << inputs << "\noutputs = "
       << outputs << "\n";
+  }
+  if (g.any()) {
+    if (g.displacement) {
+      c << "\n[velocity]\nsource = \"displacement\"\ncutoff_hz = " << g.velocity_cutoff_hz << "\n";
+    }
+    const GpioPortConfig lines;
+    const bool sim = gpio_chip.find('/') != std::string::npos;
+    c << "\n[gpio]\n" << (sim ? "sim_chip" : "chip") << " = \"" << gpio_chip << "\"\ninputs = [";
+    const char* sep = "";
+    if (g.displacement) { c << sep << "\"displacement\""; sep = ", "; }
+    if (g.fault_line) { c << sep << "\"fault_line\""; sep = ", "; }
+    c << "]\noutputs = [";
+    sep = "";
+    if (g.enable) { c << sep << "\"enable\""; sep = ", "; }
+    if (g.heartbeat) { c << sep << "\"heartbeat\""; sep = ", "; }
+    c << "]\nencoder_a_line = " << lines.encoder_a_line << "\nencoder_b_line = "
+      << lines.encoder_b_line << "\nfault_line = " << lines.fault_line << "\nenable_line = "
+      << lines.enable_line << "\nheartbeat_line = " << lines.heartbeat_line
+      << "\ncounts_per_cm = " << g.counts_per_cm << "\n";
   }
   return c.str();
 }

@@ -21,6 +21,7 @@
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/hil/child.hpp"
 #include "mrd/hil/plant.hpp"
+#include "run_gpio.hpp"
 #include "run_internal.hpp"
 
 namespace mrd::hil {
@@ -192,6 +193,16 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
              "on --clock realtime)";
     return 2;
   }
+  if (!o.can_interface.empty() &&
+      (o.transport != "can" || o.can_interface.find('/') != std::string::npos)) {
+    *error = "--can-interface '" + o.can_interface + "': a SocketCAN interface name (no '/') "
+             "with --transport can";
+    return 2;
+  }
+  if (!o.gpio_sim.empty() && !s.gpio.any()) {
+    *error = "--gpio-sim: scenario " + s.path + " routes nothing over GPIO (no [gpio])";
+    return 2;
+  }
   const bool corrupt_table =
       std::any_of(s.faults.begin(), s.faults.end(),
                   [](const Fault& f) { return f.kind == FaultKind::kCorruptTable; });
@@ -243,7 +254,11 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   canbus::LocalBusRelay relay;
   std::unique_ptr<PlantPort> port;
   const bool can = o.transport == "can";
-  if (can) {
+  const bool relay_bus = can && o.can_interface.empty();  // else SocketCAN (CAN_RAW)
+  if (can && !relay_bus) {
+    endpoint = o.can_interface;
+    port = MakeCanPort(endpoint);
+  } else if (can) {
     endpoint = o.work_dir + "/canbus.sock";
     if (!relay.Open(endpoint, error)) return 1;
     port = MakeCanPortOnRelay(relay);
@@ -273,7 +288,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   // Waits up to timeout_ns for the firmware: on CAN by relaying the bus meanwhile (returns when
   // something moved), else on the port.
   const std::function<void(std::int64_t)> pump = [&](std::int64_t timeout_ns) {
-    if (can) {
+    if (relay_bus) {
       relay.Step(static_cast<int>((timeout_ns + 999'999) / 1'000'000));
     } else if (timeout_ns > 0) {
       port->Wait(timeout_ns);
@@ -284,7 +299,10 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     for (std::int64_t now = NowNs(); now < until; now = NowNs()) pump(until - now);
   };
 
-  const std::string config = FirmwareConfigText(s, o.transport, lockstep, endpoint);
+  RunGpio gpio;  // the scenario's [gpio] lines (none without)
+  std::string gpio_chip;
+  if (!gpio.Open(s, o, &gpio_chip, error)) return 1;
+  const std::string config = FirmwareConfigText(s, o.transport, lockstep, endpoint, gpio_chip);
   r->config_path = o.work_dir + "/firmware.toml";
   std::ofstream(r->config_path) << config;
 
@@ -389,7 +407,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   for (std::int64_t k = 0; k < steps; ++k) {
     // The fault schedule at step k.
     SensorFault sf = SensorFault::kNone;
-    bool delay_active = false, implausible = false, plant_dead = false;
+    bool delay_active = false, implausible = false, plant_dead = false, fault_line = false;
     int delay_periods = 0;
     for (const Fault& f : s.faults) {
       const auto k0 = static_cast<std::int64_t>(std::llround(f.at_s / 1e-3));
@@ -415,6 +433,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       }
       if (f.kind == FaultKind::kImplausible) implausible = true;
       if (f.kind == FaultKind::kKillPlant) plant_dead = true;
+      if (f.kind == FaultKind::kFaultLine) fault_line = true;
     }
     if (plant_dead && port_open) {
       port->Close();
@@ -432,12 +451,14 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     }
     out.seq = static_cast<std::uint32_t>(k + 1) + (lockstep ? 0 : seq_base);
     out.fault = sf;
+    out.fault_line = fault_line;
     if (!lockstep) {
       SleepUntil(deadline);
       const std::int64_t now = NowNs();
       jitter_us.push_back(static_cast<double>(now - deadline) * 1e-3);
       if (now - deadline > kPeriodNs) ++r->late_steps;
     }
+    gpio.Publish(out, lockstep);  // lockstep: settled before the grant below
     if (port_open) {
       if (delay_active || !delayed.empty()) {
         delayed.push_back(out);
@@ -488,6 +509,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       pump(0);
       port->Poll(&fresh);
     }
+    gpio.Poll(&fresh);  // written in the same firmware tick as the command heard above
     if (fresh.has_command) {
       ++r->commands;
       set_point = fresh.volts;
@@ -581,6 +603,10 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   }
   if (port_open) port->Close();
   r->ports.emplace_back(port->name(), port->counters());
+  if (gpio.active()) {
+    gpio.Close();
+    r->ports.emplace_back(gpio.name(), gpio.counters());
+  }
   ScoreRun(s, r);
   EvaluatePass(s, r);
   return 0;
