@@ -6,7 +6,8 @@ order, signed or unsigned, factor and offset) within its DBC range; frames with 
 signal: CRC-8 SAE J1850 (poly 0x1D, init 0xFF, final xor 0xFF) over the ID's low byte, its
 high byte and data bytes 0..DLC-2 equals the last byte; a *Counter signal (4 bit) advances by
 exactly 1 per frame of its ID; FirmwareStatus's StatusSequence (8 bit) by 1; TimeGrant's
-GrantTime strictly increases. Both directions must be present (frames sent by the Firmware
+GrantTime never moves backwards (the harness repeats the first step's grant while the
+firmware starts: counted as repeated_grants). Both directions must be present (frames sent by the Firmware
 node and by the Sensors node, per the DBC's BO_ senders).
 
 Usage: check_candump.py DBC CANDUMP_LOG [--json]
@@ -87,6 +88,7 @@ def main():
     last_counter = {}
     last_seq = None
     last_grant = None
+    repeated_grants = 0
     errors = []
 
     def bad(n, why):
@@ -132,8 +134,10 @@ def main():
             if value < sig["min"] - 1e-9 or value > sig["max"] + 1e-9:
                 bad(n, f"{msg['name']}: {name} = {value} outside [{sig['min']}, {sig['max']}]")
             if name == "GrantTime":
-                if last_grant is not None and raw <= last_grant:
-                    bad(n, f"TimeGrant: {raw} us not after {last_grant} us")
+                if last_grant is not None and raw < last_grant:
+                    bad(n, f"TimeGrant: {raw} us before the previous grant's {last_grant} us")
+                if last_grant is not None and raw == last_grant:
+                    repeated_grants += 1
                 last_grant = raw
     for node in ("Firmware", "Sensors"):
         if senders.get(node, 0) == 0:
@@ -142,13 +146,15 @@ def main():
     if total == 0:
         errors.append(f"{log_path}: no frames")
     summary = {"frames": total, "by_message": counts, "by_sender": senders,
+               "repeated_grants": repeated_grants,
                "errors": len(errors), "first_errors": errors[:20], "ok": not errors}
     if as_json:
         print(json.dumps(summary, indent=1, sort_keys=True))
     else:
         print(f"check_candump: {total} frames, " +
               ", ".join(f"{k} {v}" for k, v in sorted(counts.items())) +
-              f"; {len(errors)} errors")
+              f"; senders " + ", ".join(f"{k} {v}" for k, v in sorted(senders.items())) +
+              f"; repeated grants {repeated_grants}; {len(errors)} errors")
         for e in errors[:20]:
             print(e, file=sys.stderr)
     sys.exit(0 if not errors else 1)

@@ -17,7 +17,7 @@ fail() {
   poweroff -f
 }
 ip link add dev vcan0 type vcan || fail "ip link add vcan0 type vcan"
-ip link set vcan0 up || fail "ip link set vcan0 up"
+link_up vcan0 || fail "link_up vcan0"
 sim=/sys/kernel/config/gpio-sim/vboard
 mkdir "$sim" "$sim/bank0" || fail "gpio-sim configfs"
 echo 32 > "$sim/bank0/num_lines"

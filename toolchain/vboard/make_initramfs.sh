@@ -3,7 +3,7 @@
 # can-utils (candump) for arm64, extracted from the packages (apt-get download, cached in
 # ${MRD_CACHE_DIR:-$HOME/.cache/mrd}/vboard/debs), the aarch64 mrd-firmware and mrd-hil of a
 # cross build with every shared library they need (DT_NEEDED, walked with the cross readelf
-# in the arm64 multiarch directories), the scenario and init.sh as /init.
+# in the arm64 multiarch directories), link_up (link_up.c), the scenario and init.sh as /init.
 # Usage: toolchain/vboard/make_initramfs.sh BUILD_AARCH64_DIR SCENARIO.toml OUT.cpio.gz
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -39,6 +39,8 @@ cp "$pkgs/busybox/bin/busybox" "$root/bin/busybox"
 ln -s busybox "$root/bin/sh"
 cp "$pkgs/can-utils/usr/bin/candump" "$root/bin/candump"
 cp "$build/bin/mrd-firmware" "$build/bin/mrd-hil" "$root/bin/"
+# busybox's `ip link set up` needs INET, which the board's kernel leaves out: link_up.c.
+aarch64-linux-gnu-gcc -O2 -Wall -Wextra -Werror -o "$root/bin/link_up" "$here/link_up.c"
 aarch64-linux-gnu-strip "$root/bin/mrd-firmware" "$root/bin/mrd-hil"
 cp "$scenario" "$root/vboard/scenario.toml"
 cp "$here/init.sh" "$root/init"
@@ -54,7 +56,8 @@ find_lib() {
   return 1
 }
 # Breadth-first over DT_NEEDED; every library lands in /lib under its soname.
-queue=("$root/bin/mrd-firmware" "$root/bin/mrd-hil" "$root/bin/candump" ld-linux-aarch64.so.1)
+queue=("$root/bin/mrd-firmware" "$root/bin/mrd-hil" "$root/bin/candump" "$root/bin/link_up"
+       ld-linux-aarch64.so.1)
 declare -A seen=()
 while [ ${#queue[@]} -gt 0 ]; do
   item="${queue[0]}"

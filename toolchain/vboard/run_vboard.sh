@@ -20,7 +20,7 @@ rm -f "$console" "$out/result.json" "$out/candump.log"
 t0=$(date +%s.%N)
 set +e
 timeout --kill-after=10 "$limit" qemu-system-aarch64 -M virt -cpu cortex-a53 -accel tcg \
-  -smp 1 -m 512M -display none -monitor none -serial "file:$console" -no-reboot \
+  -smp 1 -m 512M -nic none -display none -monitor none -serial "file:$console" -no-reboot \
   -kernel "$image" -initrd "$initrd" -append "console=ttyAMA0 panic=-1 loglevel=4" </dev/null
 rc=$?
 set -e
