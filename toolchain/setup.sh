@@ -16,6 +16,9 @@ packages=(
   libgtest-dev:armhf libgmock-dev:armhf libtomlplusplus-dev:armhf
   # Modbus interop tests: an independent implementation (pymodbus, with its serial deps)
   python3-pymodbus python3-serial python3-serial-asyncio
+  # Issue 12, the virtual board: an arm64 kernel from Debian's source, QEMU, the initramfs
+  # (busybox-static and can-utils for arm64 are fetched with apt-get download, not installed).
+  linux-source qemu-system-arm flex bison bc cpio
 )
 # The libraries the firmware links (libmodbus, libgpiod), for the build machine and both boards:
 # one group per library, the runtime library first. They are Multi-Arch: same, and dpkg installs

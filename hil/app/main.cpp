@@ -332,6 +332,13 @@ int main(int argc, char** argv) {
   run->add_option("--command-timeout", ro.command_timeout_s,
                   "lockstep: seconds to wait for one tick's command")
       ->check(CLI::Range(0.001, 60.0))->capture_default_str();
+  run->add_option("--can-interface", ro.can_interface,
+                  "CAN: a SocketCAN interface (CAN_RAW with filters, e.g. vcan0) for harness and "
+                  "firmware instead of the local frame bus");
+  run->add_option("--gpio-sim", ro.gpio_sim,
+                  "[gpio] scenarios: configfs directory of a live gpio-sim device (plant through "
+                  "its sysfs pull/value, firmware through libgpiod) instead of a simulated chip "
+                  "file");
   run->add_flag("--json", run_json, "print the summary as JSON");
   auto* bench = app.add_subcommand(
       "bench", "Benchmark: lockstep speed over the local CAN bus (x real time) and the real-time "

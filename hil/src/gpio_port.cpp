@@ -87,6 +87,7 @@ class GpioPort final : public PlantPort {
     const std::uint64_t head = chip_.head(Line(c_.heartbeat_line));
     if (head != heartbeat_head_) {
       received_ += head - heartbeat_head_;
+      in->heartbeats += head - heartbeat_head_;  // one toggle per firmware period
       heartbeat_head_ = head;
       in->heartbeat_ns = sim_gpio::MonotonicNs();
     }

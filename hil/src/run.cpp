@@ -21,6 +21,7 @@
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/hil/child.hpp"
 #include "mrd/hil/plant.hpp"
+#include "run_gpio.hpp"
 #include "run_internal.hpp"
 
 namespace mrd::hil {
@@ -193,6 +194,16 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     *error = "--clock '" + r->clock + "': expected lockstep or realtime";
     return 2;
   }
+  if (!o.can_interface.empty() &&
+      (o.transport != "can" || o.can_interface.find('/') != std::string::npos)) {
+    *error = "--can-interface '" + o.can_interface + "': a SocketCAN interface name (no '/') "
+             "with --transport can";
+    return 2;
+  }
+  if (!o.gpio_sim.empty() && !s.gpio.any()) {
+    *error = "--gpio-sim: scenario " + s.path + " routes nothing over GPIO (no [gpio])";
+    return 2;
+  }
   const bool corrupt_table =
       std::any_of(s.faults.begin(), s.faults.end(),
                   [](const Fault& f) { return f.kind == FaultKind::kCorruptTable; });
@@ -246,7 +257,11 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   canbus::LocalBusRelay relay;
   std::unique_ptr<PlantPort> port;
   const bool can = o.transport == "can";
-  if (can) {
+  const bool relay_bus = can && o.can_interface.empty();  // else SocketCAN (CAN_RAW)
+  if (can && !relay_bus) {
+    endpoint = o.can_interface;
+    port = MakeCanPort(endpoint);
+  } else if (can) {
     endpoint = o.work_dir + "/canbus.sock";
     if (!relay.Open(endpoint, error)) return 1;
     port = MakeCanPortOnRelay(relay);
@@ -276,7 +291,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   // Waits up to timeout_ns for the firmware: on CAN by relaying the bus meanwhile (returns when
   // something moved), else on the port.
   const std::function<void(std::int64_t)> pump = [&](std::int64_t timeout_ns) {
-    if (can) {
+    if (relay_bus) {
       relay.Step(static_cast<int>((timeout_ns + 999'999) / 1'000'000));
     } else if (timeout_ns > 0) {
       port->Wait(timeout_ns);
@@ -287,7 +302,10 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     for (std::int64_t now = NowNs(); now < until; now = NowNs()) pump(until - now);
   };
 
-  const std::string config = FirmwareConfigText(s, o.transport, lockstep, endpoint);
+  RunGpio gpio;  // the scenario's [gpio] lines (none without)
+  std::string gpio_chip;
+  if (!gpio.Open(s, o, &gpio_chip, error)) return 1;
+  const std::string config = FirmwareConfigText(s, o.transport, lockstep, endpoint, gpio_chip);
   r->config_path = o.work_dir + "/firmware.toml";
   std::ofstream(r->config_path) << config;
 
@@ -340,7 +358,8 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   if (!lockstep) jitter_us.reserve(static_cast<std::size_t>(steps) + 16);
   if (o.keep_trace) r->trace.reserve(static_cast<std::size_t>(steps));
   const auto hb_timeout_steps = static_cast<std::int64_t>(std::llround(s.heartbeat_timeout_s / 1e-3));
-  const auto grant_sleep_ns = static_cast<std::int64_t>(s.grant_timeout_ms * 1.2e6);
+  const double grant_timeout_ms = GrantTimeoutMs(s, o.transport);
+  const auto grant_sleep_ns = static_cast<std::int64_t>(grant_timeout_ms * 1.2e6);
 
   // Quarter car: ride figures of the run and of its passive twins after the settle time.
   RideMetrics ride, ride_off, ride_on;
@@ -396,7 +415,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   for (std::int64_t k = 0; k < steps; ++k) {
     // The fault schedule at step k.
     SensorFault sf = SensorFault::kNone;
-    bool delay_active = false, implausible = false, plant_dead = false;
+    bool delay_active = false, implausible = false, plant_dead = false, fault_line = false;
     int delay_periods = 0;
     for (const Fault& f : s.faults) {
       const auto k0 = static_cast<std::int64_t>(std::llround(f.at_s / 1e-3));
@@ -422,6 +441,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       }
       if (f.kind == FaultKind::kImplausible) implausible = true;
       if (f.kind == FaultKind::kKillPlant) plant_dead = true;
+      if (f.kind == FaultKind::kFaultLine) fault_line = true;
     }
     if (plant_dead && port_open) {
       port->Close();
@@ -439,12 +459,14 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     }
     out.seq = static_cast<std::uint32_t>(k + 1) + (lockstep ? 0 : seq_base);
     out.fault = sf;
+    out.fault_line = fault_line;
     if (!lockstep) {
       SleepUntil(deadline);
       const std::int64_t now = NowNs();
       jitter_us.push_back(static_cast<double>(now - deadline) * 1e-3);
       if (now - deadline > kPeriodNs) ++r->late_steps;
     }
+    gpio.Publish(out, lockstep);  // lockstep: settled before the grant below
     if (port_open) {
       if (delay_active || !delayed.empty()) {
         delayed.push_back(out);
@@ -495,6 +517,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       pump(0);
       port->Poll(&fresh);
     }
+    gpio.Poll(&fresh);  // written in the same firmware tick as the command heard above
     if (fresh.has_command) {
       ++r->commands;
       set_point = fresh.volts;
@@ -582,7 +605,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       if (lockstep) {
         // Its last tick may still wait for a grant: one more ends it without a timeout.
         port->SendGrant((steps + 1) * kPeriodNs);
-        if (fw.Wait(std::max(2.0, s.grant_timeout_ms * 3e-3)) < 0) fw.Stop(2.0);
+        if (fw.Wait(std::max(2.0, grant_timeout_ms * 3e-3)) < 0) fw.Stop(2.0);
       } else {
         fw.Stop(2.0);
       }
@@ -599,6 +622,10 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   if (port_open) port->Close();
   r->ports.emplace_back(port->name(), port->counters());
   if (score_ride) r->ride = RideScores{Figures(ride), Figures(ride_off), Figures(ride_on)};
+  if (gpio.active()) {
+    gpio.Close();
+    r->ports.emplace_back(gpio.name(), gpio.counters());
+  }
   ScoreRun(s, r);
   EvaluatePass(s, r);
   return 0;

@@ -41,8 +41,12 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 expect_firmware_exit (e.g. 2 with a corrupt_table fault),
                 body_accel_below_passive (quarter car: the controlled run's body acceleration
                 RMS below both passive-off and passive-on; false)
+  [gpio]        inputs = list of displacement | fault_line; outputs = list of enable |
+                heartbeat (routed over GPIO lines instead of CAN; displacement from a
+                quadrature encoder the plant drives, velocity differentiated by the firmware);
+                counts_per_cm (400), velocity_cutoff_hz (50)
   [[fault]]     kind (required) = drop | delay | corrupt | stall | out_of_range | nan |
-                implausible | kill_plant | kill_firmware | corrupt_table;
+                implausible | kill_plant | kill_firmware | corrupt_table | fault_line;
                 at_s (onset), duration_s (0: to the end), delay_periods (delay, 10)
 )";
 
@@ -97,6 +101,25 @@ Setter Flag(bool* out, const char* key) {
   };
 }
 
+// A list of names, each one of `allowed` (name -> flag it sets).
+Setter Names(const std::map<std::string, bool*>& allowed, const char* key) {
+  return [=](const toml::node& n, Ctx& c) {
+    const toml::array* a = n.as_array();
+    std::string names;
+    for (const auto& [name, flag] : allowed) names += (names.empty() ? "" : ", ") + name;
+    if (a == nullptr) return c.Fail(n, std::string("'") + key + "' must be a list of: " + names);
+    for (const toml::node& e : *a) {
+      const auto v = e.value_exact<std::string>();
+      const auto it = v ? allowed.find(*v) : allowed.end();
+      if (it == allowed.end()) {
+        return c.Fail(e, std::string("'") + key + "' accepts: " + names);
+      }
+      *it->second = true;
+    }
+    return true;
+  };
+}
+
 bool ApplyTable(const toml::table& t, const std::map<std::string, Setter>& keys,
                 const std::string& where, Ctx& c) {
   for (const auto& [k, v] : t) {
@@ -113,7 +136,8 @@ bool ParseFaultKind(const std::string& s, FaultKind* k) {
       {"corrupt", FaultKind::kCorrupt},     {"stall", FaultKind::kStall},
       {"out_of_range", FaultKind::kOutOfRange}, {"nan", FaultKind::kNan},
       {"implausible", FaultKind::kImplausible}, {"kill_plant", FaultKind::kKillPlant},
-      {"kill_firmware", FaultKind::kKillFirmware}, {"corrupt_table", FaultKind::kCorruptTable}};
+      {"kill_firmware", FaultKind::kKillFirmware}, {"corrupt_table", FaultKind::kCorruptTable},
+      {"fault_line", FaultKind::kFaultLine}};
   const auto it = kinds.find(s);
   if (it == kinds.end()) return false;
   *k = it->second;
@@ -139,6 +163,7 @@ const char* FaultKindName(FaultKind kind) {
     case FaultKind::kKillPlant: return "kill_plant";
     case FaultKind::kKillFirmware: return "kill_firmware";
     case FaultKind::kCorruptTable: return "corrupt_table";
+    case FaultKind::kFaultLine: return "fault_line";
   }
   return "?";
 }
@@ -210,6 +235,13 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
         {"expect_firmware_exit", Int(&expect_exit, 0, 255, "expect_firmware_exit")},
         {"body_accel_below_passive",
          Flag(&s.body_accel_below_passive, "body_accel_below_passive")}};
+    ScenarioGpio& g = s.gpio;
+    const std::map<std::string, Setter> gpio = {
+        {"inputs", Names({{"displacement", &g.displacement}, {"fault_line", &g.fault_line}},
+                         "inputs")},
+        {"outputs", Names({{"enable", &g.enable}, {"heartbeat", &g.heartbeat}}, "outputs")},
+        {"counts_per_cm", Num(&g.counts_per_cm, 1e-3, 1e9, "counts_per_cm")},
+        {"velocity_cutoff_hz", Num(&g.velocity_cutoff_hz, 1e-3, 1e5, "velocity_cutoff_hz")}};
     for (const auto& [k, v] : root) {
       const std::string key(k.str());
       bool ok = true;
@@ -224,12 +256,13 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
       } else if (key == "heartbeat_timeout_ms") {
         ok = Num(&hb_ms, 1.0, 1e4, "heartbeat_timeout_ms")(v, c);
       } else if (key == "plant" || key == "excitation" || key == "control" || key == "firmware" ||
-                 key == "pass" || key == "quarter_car" || key == "road") {
+                 key == "pass" || key == "quarter_car" || key == "road" || key == "gpio") {
         const toml::table* t = v.as_table();
         if (t == nullptr) return c.Fail(v, "[" + key + "] must be a table");
         const auto& keys = key == "plant" ? plant : key == "excitation" ? exc
                          : key == "control" ? control : key == "firmware" ? firmware
-                         : key == "quarter_car" ? quarter_car : key == "road" ? road_keys : pass;
+                         : key == "quarter_car" ? quarter_car : key == "road" ? road_keys
+                         : key == "gpio" ? gpio : pass;
         ok = ApplyTable(*t, keys, " in [" + key + "]", c);
       } else if (key == "fault") {
         const toml::array* a = v.as_array();
@@ -321,6 +354,11 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
     if (max_missed >= 0.0) s.max_missed_grants = static_cast<std::uint64_t>(max_missed);
     if (expect_exit >= 0) s.expect_firmware_exit = expect_exit;
     for (const Fault& f : s.faults) {
+      if (f.kind == FaultKind::kFaultLine && !s.gpio.fault_line) {
+        *error = path + ":" + std::to_string(f.line) +
+                 ": a fault_line fault needs [gpio] inputs = [..., \"fault_line\"]";
+        return false;
+      }
       if (f.kind != FaultKind::kCorruptTable && f.at_s >= s.duration_s) {
         *error = path + ":" + std::to_string(f.line) + ": fault at_s " + std::to_string(f.at_s) +
                  " is not before the end (duration_s " + std::to_string(s.duration_s) + ")";

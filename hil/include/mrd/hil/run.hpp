@@ -44,6 +44,12 @@ struct RunOptions {
   double startup_timeout_s = 10.0;  // first sign of life of the firmware
   bool keep_trace = true;           // record per-step signals and score (false: benchmark;
                                     // no probes, no passive twins, no tracking scores)
+  // Real devices instead of the build machine's stand-ins (e.g. on the virtual board):
+  std::string can_interface;        // SocketCAN interface (CAN_RAW, e.g. "vcan0"); "": the
+                                    // local frame bus the harness owns
+  std::string gpio_sim;             // configfs directory of a live gpio-sim device (its bank0
+                                    // is the firmware's chip); "": a simulated chip file in
+                                    // work_dir ([gpio] scenarios only)
 };
 
 struct TrackingScores {
@@ -119,8 +125,17 @@ struct RunResult {
 int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* result,
                 std::string* error);
 
-// The generated mrd-firmware configuration for a transport and endpoint.
+// The firmware's grant timeout on a transport [ms]: the scenario's, at least 100 ms on Modbus
+// (a grant there crosses two more threads, the harness's server and the firmware's worker, so
+// a loaded machine must not turn scheduling delays into missed grants).
+double GrantTimeoutMs(const Scenario& s, const std::string& transport);
+
+// The generated mrd-firmware configuration for a transport and endpoint (CAN: a local bus
+// socket path, or a SocketCAN interface name when it has no '/'). gpio_chip: where the
+// firmware finds the scenario's [gpio] lines (unused without them): a simulated chip's path
+// (contains '/') or a GPIO character device for libgpiod (e.g. "gpiochip0"); the line offsets
+// are GpioPortConfig's defaults (gpio_port.hpp).
 std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
-                               const std::string& endpoint);
+                               const std::string& endpoint, const std::string& gpio_chip = "");
 
 }  // namespace mrd::hil

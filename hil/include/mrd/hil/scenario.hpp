@@ -25,6 +25,7 @@ enum class FaultKind : std::uint8_t {
   kKillPlant,     // the plant side's bus node closes, reopens when the fault clears
   kKillFirmware,  // SIGKILL to mrd-firmware; restarted when the fault clears (duration > 0)
   kCorruptTable,  // the firmware is offered a table with a flipped byte: it must refuse (exit 2)
+  kFaultLine,     // the driver's fault line asserted (GPIO; needs [gpio] inputs fault_line)
 };
 const char* FaultKindName(FaultKind kind);
 
@@ -34,6 +35,19 @@ struct Fault {
   double duration_s = 0.0;  // 0: until the end (kill_firmware: no restart)
   int delay_periods = 10;   // kDelay
   int line = 0;             // in the scenario file
+};
+
+// [gpio]: signals routed over GPIO lines next to CAN (docs: ScenarioKeysHelp). Displacement
+// comes from a quadrature encoder the plant side drives; the firmware then differentiates it
+// for velocity (CAN no longer carries the motion frame's signals to it).
+struct ScenarioGpio {
+  bool displacement = false;  // encoder A/B lines
+  bool fault_line = false;    // driver fault input
+  bool enable = false;        // driver enable output
+  bool heartbeat = false;     // heartbeat output (toggles per period)
+  double counts_per_cm = 400.0;
+  double velocity_cutoff_hz = 50.0;  // firmware's displacement differentiator [Hz]
+  bool any() const { return displacement || fault_line || enable || heartbeat; }
 };
 
 enum class ExcitationKind : std::uint8_t { kPeriodic, kCsv };
@@ -76,6 +90,7 @@ struct Scenario {
   std::optional<int> expect_firmware_exit;    // e.g. 2 for a refused table
   bool body_accel_below_passive = false;      // quarter car: controlled < passive-off and -on
   std::vector<Fault> faults;
+  ScenarioGpio gpio;
 };
 
 // false: *error = "FILE:LINE: reason".

@@ -1,0 +1,62 @@
+#include "run_gpio.hpp"
+
+#include <ctime>
+
+#include "mrd/hil/gpio_port.hpp"
+#include "mrd/hil/gpio_sim_port.hpp"
+
+namespace mrd::hil {
+namespace {
+
+std::int64_t NowNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+}  // namespace
+
+bool RunGpio::Open(const Scenario& s, const RunOptions& o, std::string* firmware_chip,
+                   std::string* error) {
+  if (!s.gpio.any()) return true;
+  GpioPortConfig c;
+  c.counts_per_cm = s.gpio.counts_per_cm;
+  if (o.gpio_sim.empty()) {
+    c.path = o.work_dir + "/gpio.chip";
+    port_ = MakeGpioPort(c);
+    settle_ns_ = kEdgeSettleSimChipNs;
+    *firmware_chip = c.path;
+  } else {
+    c.path = o.gpio_sim;
+    if (!GpioSimChipName(o.gpio_sim, firmware_chip, error)) return false;
+    port_ = MakeGpioSimPort(c);
+    settle_ns_ = kEdgeSettleGpioSimNs;
+  }
+  if (!port_->Open(error)) {
+    port_.reset();
+    return false;
+  }
+  return true;
+}
+
+void RunGpio::Publish(const SensorOutput& out, bool lockstep) {
+  if (port_ == nullptr) return;
+  const std::uint64_t before = port_->counters().published;
+  port_->Publish(out);
+  if (!lockstep || port_->counters().published == before) return;
+  const std::int64_t until = NowNs() + settle_ns_;
+  const timespec ts{static_cast<time_t>(until / 1'000'000'000),
+                    static_cast<long>(until % 1'000'000'000)};
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) != 0) {
+  }
+}
+
+void RunGpio::Poll(DriverInput* in) {
+  if (port_ != nullptr) port_->Poll(in);
+}
+
+void RunGpio::Close() {
+  if (port_ != nullptr) port_->Close();
+}
+
+}  // namespace mrd::hil
