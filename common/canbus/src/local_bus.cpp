@@ -110,13 +110,14 @@ void LocalBusRelay::Forward(std::size_t from, const void* frame) {
 
 void LocalBusRelay::Step(int timeout_ms) {
   if (listen_fd_ < 0) return;
-  std::vector<pollfd> fds;
-  fds.reserve(nodes_.size() + 1);
+  std::vector<pollfd>& fds = fds_;
+  fds.clear();
   fds.push_back({listen_fd_, POLLIN, 0});
   for (int fd : nodes_) fds.push_back({fd, POLLIN, 0});
   if (poll(fds.data(), fds.size(), timeout_ms) <= 0) return;
   // Nodes first (indices match nodes_ as polled), newest last; removals go backwards.
-  std::vector<bool> gone(nodes_.size(), false);
+  std::vector<char>& gone = gone_;
+  gone.assign(nodes_.size(), 0);
   for (std::size_t i = 0; i < nodes_.size(); ++i) {
     if ((fds[i + 1].revents & (POLLIN | POLLHUP | POLLERR)) == 0) continue;
     for (int k = 0; k < kMaxFramesPerNodeRound; ++k) {
@@ -124,7 +125,7 @@ void LocalBusRelay::Step(int timeout_ms) {
       const ssize_t n = recv(nodes_[i], buf, sizeof buf, MSG_DONTWAIT);
       if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) break;
       if (n <= 0) {
-        gone[i] = true;
+        gone[i] = 1;
         break;
       }
       if (static_cast<std::size_t>(n) != sizeof(can_frame)) {
@@ -137,7 +138,7 @@ void LocalBusRelay::Step(int timeout_ms) {
     }
   }
   for (std::size_t i = gone.size(); i-- > 0;) {
-    if (gone[i]) Drop(i);
+    if (gone[i] != 0) Drop(i);
   }
   if ((fds[0].revents & POLLIN) != 0) {
     while (true) {

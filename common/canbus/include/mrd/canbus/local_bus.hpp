@@ -9,6 +9,8 @@
 // Run it as its own process (mrd-canbus --socket PATH) or in-process on a thread (the HIL's
 // CAN port does when the socket does not exist yet). Not real-time: it allocates as nodes come.
 
+#include <poll.h>
+
 #include <atomic>
 #include <cstdint>
 #include <string>
@@ -65,6 +67,9 @@ class LocalBusRelay {
   void* tap_context_ = nullptr;
   int listen_fd_ = -1;
   std::vector<int> nodes_;
+  // Step's scratch (kept: no allocation per round once the node count is steady).
+  std::vector<pollfd> fds_;
+  std::vector<char> gone_;
   std::atomic<std::uint64_t> joined_{0}, left_{0}, in_{0}, out_{0}, dropped_{0}, bad_{0};
 };
 
