@@ -70,7 +70,14 @@ void ScoreRun(const Scenario& s, RunResult* r) {
         !(f.kind == FaultKind::kDelay && f.delay_periods <= static_cast<int>(s.max_age_ms)) &&
         f.kind != FaultKind::kKillPlant;
     const bool driver_side = f.kind == FaultKind::kKillFirmware;
-    for (std::int64_t k = fr.onset_step; k < n; ++k) {
+    // Detection belongs to this fault only before the next fault starts (a later fault's
+    // detection must not count for one that went unseen).
+    std::int64_t window_end = n;
+    for (const Fault& g : s.faults) {
+      const auto g0 = static_cast<std::int64_t>(std::llround(g.at_s / 1e-3));
+      if (g0 > fr.onset_step && g0 < window_end) window_end = g0;
+    }
+    for (std::int64_t k = fr.onset_step; k < window_end; ++k) {
       const StepRecord& rec = r->trace[static_cast<std::size_t>(k)];
       const bool detected = driver_side ? !rec.driven : rec.causes != 0;
       const bool safe = driver_side ? !rec.driven : (rec.safe || !rec.driven);

@@ -157,6 +157,7 @@ TEST(HilRunTest, SensorFaultsDetectedSafeAndRecovered) {
     SCOPED_TRACE(f.dump());
     EXPECT_TRUE(f["ok"].get<bool>());
     ASSERT_FALSE(f["periods_to_detection"].is_null());
+    EXPECT_LE(f["periods_to_detection"].get<int>(), 6);  // max_age 5 ms
     ASSERT_FALSE(f["periods_to_safe_state"].is_null());
     EXPECT_LE(f["detection_to_safe_periods"].get<int>(), 2);
     EXPECT_GE(f["detection_to_safe_periods"].get<int>(), 0);
@@ -252,6 +253,7 @@ void ExpectRegisterFaults(const HilResult& r) {
     SCOPED_TRACE(f.dump());
     EXPECT_TRUE(f["ok"].get<bool>());
     ASSERT_FALSE(f["periods_to_detection"].is_null());
+    EXPECT_LE(f["periods_to_detection"].get<int>(), 6);  // max_age 5 ms
     EXPECT_LE(f["detection_to_safe_periods"].get<int>(), 2);
     EXPECT_FALSE(f["periods_to_recovery"].is_null());
   }
