@@ -5,8 +5,9 @@
 // requests; Publish and Poll exchange the registers with it under a mutex held only for a
 // register copy (the plant loop never waits on the wire). The sensor block is read-only:
 // a write to it gets the exception ILLEGAL DATA ADDRESS and counts as rejected.
-// Lockstep: SendGrant sets the grant register (13-15) after the step's sensor block; the
-// firmware's tick answers with one command block carrying its status, which wakes Wait.
+// Lockstep: Publish stages the step's sensor block and SendGrant writes it together with the
+// grant register (13-15) under one lock, so the firmware never reads a step's values without
+// its grant (their stamp is the grant); the firmware's tick answers with one command block carrying its status, which wakes Wait.
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <modbus/modbus.h>
@@ -83,8 +84,18 @@ class ModbusPort final : public PlantPort {
     if (out.fault == SensorFault::kOutOfRange) regs[map::kFaults] |= 0x8000U;  // reserved bit
     std::lock_guard<std::mutex> lock(mu_);
     if (mapping_ == nullptr) return;
-    std::copy(regs, regs + map::kSensorCount, mapping_->tab_registers + map::kSensorBase);
     ++counters_.published;
+    if (lockstep_) {  // written with the grant, so no read sees the block without it
+      std::copy(regs, regs + map::kSensorCount, staged_);
+      staged_valid_ = true;
+      return;
+    }
+    std::copy(regs, regs + map::kSensorCount, mapping_->tab_registers + map::kSensorBase);
+  }
+
+  void SetLockstep(bool on) override {
+    std::lock_guard<std::mutex> lock(mu_);
+    lockstep_ = on;
   }
 
   bool SendGrant(std::int64_t t_ns) override {
@@ -92,6 +103,10 @@ class ModbusPort final : public PlantPort {
     map::PutU48(static_cast<std::uint64_t>(t_ns / 1000), regs);
     std::lock_guard<std::mutex> lock(mu_);
     if (mapping_ == nullptr) return false;
+    if (staged_valid_) {
+      std::copy(staged_, staged_ + map::kSensorCount, mapping_->tab_registers + map::kSensorBase);
+      staged_valid_ = false;
+    }
     std::copy(regs, regs + 3, mapping_->tab_registers + map::kSensorBase + map::kGrant);
     return true;
   }
@@ -343,6 +358,9 @@ class ModbusPort final : public PlantPort {
   std::int64_t command_ns_ = 0;
   std::int64_t heartbeat_ns_ = 0;
   std::uint64_t heartbeats_ = 0;  // heartbeat changes heard
+  bool lockstep_ = false;
+  std::uint16_t staged_[map::kSensorCount] = {};  // lockstep: the step's block, until its grant
+  bool staged_valid_ = false;
   std::condition_variable written_;  // a command block arrived (pending_)
   PortCounters counters_;
 };
