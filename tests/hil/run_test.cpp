@@ -233,7 +233,7 @@ TEST(HilRunTest, LockstepOverModbusTcpAndRtuMatchesCan) {
     EXPECT_EQ(r->j["invariant_violations"], 0);
     EXPECT_EQ(r->j["command_timeouts"], 0);
     EXPECT_EQ(r->j["commands"], 3000);
-    EXPECT_EQ(r->j["firmware"]["summary"]["clock"]["grants"], 3000);
+    EXPECT_EQ(r->j["firmware"]["summary"]["clock"]["grants"], 3001);  // + the closing tick
     EXPECT_EQ(r->j["firmware"]["summary"]["clock"]["missed_grants"], 0);
   }
   EXPECT_EQ(tcp.j["tracking"].dump(), rtu.j["tracking"].dump());
