@@ -47,7 +47,7 @@ CoefficientTable CubicTable(bool envelope) {
 }
 
 // Peak |f| of 2000 steps at velocity amplitude `amp` [cm/s]; counts non-finite forces.
-double Run(BasicModelRuntime<double>& rt, double amp, int* non_finite) {
+double RunModel(BasicModelRuntime<double>& rt, double amp, int* non_finite) {
   double peak = 0.0;
   for (int k = 0; k < 2000; ++k) {
     const double f = rt.Step(amp * std::sin(0.02 * k), 0.0, 1.0);
@@ -62,7 +62,7 @@ TEST(EnvelopeRuntimeTest, HeldInputsKeepAnExplodingModelBounded) {
   ASSERT_EQ(free_run.Configure(CubicTable(true)), Error::kOk);
   ASSERT_EQ(free_run.SetEnvelope(false, 0.1), Error::kOk);
   int bad = 0;
-  Run(free_run, 100.0, &bad);
+  RunModel(free_run, 100.0, &bad);
   EXPECT_GT(bad, 0);  // without the envelope the model leaves the finite numbers
   EXPECT_EQ(free_run.input_excursions(), 0u);
 
@@ -71,7 +71,7 @@ TEST(EnvelopeRuntimeTest, HeldInputsKeepAnExplodingModelBounded) {
   ASSERT_EQ(held.SetEnvelope(true, 0.1), Error::kOk);
   EXPECT_TRUE(held.envelope_active());
   bad = 0;
-  const double peak = Run(held, 100.0, &bad);
+  const double peak = RunModel(held, 100.0, &bad);
   EXPECT_EQ(bad, 0);
   // The force is held to [-900 - 190, 1000 + 190] N.
   EXPECT_LE(peak, 1190.0 + 1e-9);

@@ -292,7 +292,7 @@ TEST(WideProfileTest, DeterministicAndBeyondTheIdentificationSet) {
 }
 
 nlohmann::json SimulateJson(const std::string& model, const std::string& data) {
-  const auto r = Run(Bin("mrd") + " simulate --model " + model + " --data " + data + " --json");
+  const auto r = test::Run(Bin("mrd") + " simulate --model " + model + " --data " + data + " --json");
   EXPECT_EQ(r.status, 0) << r.output;
   return nlohmann::json::parse(r.output.substr(r.output.find('{')));
 }
@@ -303,10 +303,10 @@ nlohmann::json SimulateJson(const std::string& model, const std::string& data) {
 TEST(ExtrapolationTest, SaturatingSpecHoldsOnWide) {
   TempDir dir;
   for (const std::string p : {"identification", "v1", "v2", "v3", "wide"}) {
-    ASSERT_EQ(Run(Bin("mrd") + " generate --profile " + p + " --seed 1 --out " + dir.File(p + ".csv")).status, 0);
+    ASSERT_EQ(test::Run(Bin("mrd") + " generate --profile " + p + " --seed 1 --out " + dir.File(p + ".csv")).status, 0);
   }
   const std::string model = dir.File("sat.json");
-  const auto id = Run(Bin("mrd") + " identify --data " + dir.File("identification.csv") +
+  const auto id = test::Run(Bin("mrd") + " identify --data " + dir.File("identification.csv") +
                       " --validate " + dir.File("v1.csv") + "," + dir.File("v2.csv") + "," +
                       dir.File("v3.csv") + " --spec " + MRD_SOURCE_DIR +
                       "/host/specs/paper-saturating.toml --threads 2 --out " + model);
@@ -320,7 +320,7 @@ TEST(ExtrapolationTest, SaturatingSpecHoldsOnWide) {
     EXPECT_GE(v["fit_percent"].get<double>(), 90.0) << p;
   }
   // mrd report shows the stress verdict per iteration.
-  const auto rep = Run(Bin("mrd") + " report --model " + model + " --data " +
+  const auto rep = test::Run(Bin("mrd") + " report --model " + model + " --data " +
                        dir.File("wide.csv") + " --out " + dir.File("report"));
   if (rep.status == 0) {
     EXPECT_NE(rep.output.find("stress"), std::string::npos) << rep.output;
