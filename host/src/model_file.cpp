@@ -205,7 +205,8 @@ std::string ModelFileToJson(const ModelFile& m) {
     if (it.stress.checked) {
       ji["stress"] = {{"pass", it.stress.pass},
                       {"peak", std::isfinite(it.stress.peak) ? json(it.stress.peak) : json()},
-                      {"reason", it.stress.reason}};
+                      {"reason", it.stress.reason},
+                      {"rejected_candidates", it.stress_rejected}};
     }
     its.push_back(ji);
   }
@@ -319,6 +320,7 @@ ModelFile LoadModelFile(const std::string& path) {
         it.stress.peak = js.at("peak").is_null() ? std::numeric_limits<double>::infinity()
                                                  : js.at("peak").get<double>();
         it.stress.reason = js.value("reason", std::string());
+        it.stress_rejected = js.value("rejected_candidates", 0);
       }
       for (const auto& jt : ji.at("terms")) {
         SemTerm term;

@@ -8,7 +8,8 @@
 //                                                          // identification data (optional)
 //     "warmup_samples": 1,        // leading samples that seed a simulation (spec max delay)
 //     "iterations": [{"iteration": k, "J": ..., "validation_J": [...], "elapsed_s": ...,
-//                     "stress": {"pass": true, "peak": 1.2, "reason": ""},  // spec [stress] only
+//                     "stress": {"pass": true, "peak": 1.2, "reason": "",   // spec [stress] only
+//                                "rejected_candidates": 3},
 //                     "terms": [{"coefficient": c,
 //                                "factors": [{"regressor": "u2", "delay": 1, "power": 3}]}]}],
 //     "selected": k, "selection_rule": "...",
