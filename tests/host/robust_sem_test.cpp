@@ -154,6 +154,15 @@ TEST(StressCheckTest, ExplodingModelFailsBoundedModelPasses) {
       {0.5, 0.9, 0.3}, stress);
   EXPECT_FALSE(bad.pass);
   EXPECT_FALSE(bad.reason.empty());
+  // A finite run above the force bound fails too.
+  host::SemSpec tight = s;
+  tight.stress.force_bound = 0.5;
+  const host::StressVerdict over = host::CheckStress(
+      tight, ch, {host::ParseTerm(s, "y(k-1)"), host::ParseTerm(s, "w(k)")}, {0.5, 0.5}, stress);
+  EXPECT_FALSE(over.pass);
+  EXPECT_TRUE(std::isfinite(over.peak));
+  EXPECT_GT(over.peak, 0.5);
+  EXPECT_NE(over.reason.find("bound 0.5"), std::string::npos) << over.reason;
   // Without [stress]: unchecked.
   EXPECT_FALSE(host::CheckStress(s, ch, {}, {}, {}).checked);
 }
