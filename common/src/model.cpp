@@ -18,6 +18,10 @@ T ApplyTransform(Transform t, T exponent, std::type_identity_t<T> s) {
       return s > T(0) ? T(1) : (s < T(0) ? T(-1) : T(0));
     case Transform::kLowPass:
       return s;
+    case Transform::kTanh:
+      return std::tanh(s / exponent);
+    case Transform::kClip:
+      return s > exponent ? exponent : (s < -exponent ? -exponent : s);
   }
   return T(0);
 }

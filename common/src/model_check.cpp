@@ -21,6 +21,7 @@ Error ModelCheck::error() const {
     case ModelProblem::kRegressorExponent:
     case ModelProblem::kCoefficient:
     case ModelProblem::kVoltageNonFinite:
+    case ModelProblem::kEnvelopeNonFinite:
       return Error::kNonFinite;
     case ModelProblem::kOutputChannel:
     case ModelProblem::kChannelScale:
@@ -28,12 +29,14 @@ Error ModelCheck::error() const {
     case ModelProblem::kRegressorTransform:
     case ModelProblem::kAbsPowExponent:
     case ModelProblem::kLowPass:
+    case ModelProblem::kSaturation:
     case ModelProblem::kFactorRegressor:
     case ModelProblem::kFactorDelay:
     case ModelProblem::kFactorPower:
     case ModelProblem::kOutputAtDelayZero:
     case ModelProblem::kInputChannel:
     case ModelProblem::kVoltageRange:
+    case ModelProblem::kEnvelopeRange:
       return Error::kOutOfRange;
   }
   return Error::kInvalidArgument;
@@ -75,6 +78,10 @@ ModelCheck CheckModel(const BasicModel<T>& m) {
          reg.channel == m.output_channel)) {
       return at(ModelProblem::kLowPass, r);
     }
+    if ((reg.transform == Transform::kTanh || reg.transform == Transform::kClip) &&
+        !(reg.exponent > T(0))) {
+      return at(ModelProblem::kSaturation, r);
+    }
   }
   for (std::size_t i = 0; i < m.num_terms; ++i) {
     const Term& term = m.terms[i];
@@ -105,6 +112,16 @@ ModelCheck CheckTable(const CoefficientTable& t) {
     return {ModelProblem::kVoltageNonFinite, 0, 0};
   }
   if (!(t.e_min < t.e_max)) return {ModelProblem::kVoltageRange, 0, 0};
+  if (t.has_envelope) {
+    for (std::size_t c = 0; c < t.model.num_channels; ++c) {
+      const ChannelRange& r = t.envelope[c];
+      const auto at = static_cast<std::uint8_t>(c);
+      if (!std::isfinite(r.min) || !std::isfinite(r.max)) {
+        return {ModelProblem::kEnvelopeNonFinite, at, 0};
+      }
+      if (!(r.min <= r.max)) return {ModelProblem::kEnvelopeRange, at, 0};
+    }
+  }
   return {};
 }
 

@@ -9,7 +9,8 @@
 namespace mrd {
 namespace {
 
-static_assert(kTableSize == 2088, "format version 1 layout changed: bump kTableVersion");
+static_assert(kTableSize == 2216, "format version 2 layout changed: bump kTableVersion");
+static_assert(kTableSizeV1 == 2088, "format version 1 layout is fixed");
 
 // Little-endian byte writer over a fixed image.
 class Writer {
@@ -87,7 +88,7 @@ Result<TableBytes> EncodeTable(const CoefficientTable& table) {
   Writer w(bytes);
   for (std::size_t i = 0; i < kTableMagic.size(); ++i) w.U8(i, kTableMagic[i]);
   w.U16(4, kTableVersion);
-  w.U16(6, 0);  // flags
+  w.U16(6, table.has_envelope ? kTableFlagEnvelope : 0);
   w.U32(8, static_cast<std::uint32_t>(kTableSize));
   w.U8(kTableCountsOffset + 0, m.num_channels);
   w.U8(kTableCountsOffset + 1, m.output_channel);
@@ -124,6 +125,12 @@ Result<TableBytes> EncodeTable(const CoefficientTable& table) {
     }
     w.F64(kTableCoefficientsOffset + 8 * t, m.coefficients[t]);
   }
+  if (table.has_envelope) {
+    for (std::size_t c = 0; c < m.num_channels; ++c) {
+      w.F64(kTableEnvelopeOffset + c * kTableEnvelopeRecord, table.envelope[c].min);
+      w.F64(kTableEnvelopeOffset + c * kTableEnvelopeRecord + 8, table.envelope[c].max);
+    }
+  }
   w.U32(kTableCrcOffset, Crc32(std::span<const std::uint8_t>(bytes.data(), kTableCrcOffset)));
   return bytes;
 }
@@ -134,10 +141,16 @@ Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes) {
   for (std::size_t i = 0; i < kTableMagic.size(); ++i) {
     if (r.U8(i) != kTableMagic[i]) return Error::kBadMagic;
   }
-  if (r.U16(4) != kTableVersion) return Error::kBadVersion;
-  if (r.U32(8) != kTableSize || bytes.size() != kTableSize) return Error::kBadSize;
-  if (r.U32(kTableCrcOffset) != Crc32(bytes.first(kTableCrcOffset))) return Error::kBadCrc;
-  if (r.U16(6) != 0) return Error::kOutOfRange;  // no flags defined in version 1
+  const std::uint16_t version = r.U16(4);
+  if (version != kTableVersion && version != kTableVersionV1) return Error::kBadVersion;
+  const bool v1 = version == kTableVersionV1;
+  const std::size_t size = v1 ? kTableSizeV1 : kTableSize;
+  const std::size_t crc_at = v1 ? kTableCrcOffsetV1 : kTableCrcOffset;
+  if (r.U32(8) != size || bytes.size() != size) return Error::kBadSize;
+  if (r.U32(crc_at) != Crc32(bytes.first(crc_at))) return Error::kBadCrc;
+  const std::uint16_t flags = r.U16(6);
+  // Version 1 defines no flag; version 2 only the envelope bit.
+  if ((flags & ~(v1 ? 0u : unsigned{kTableFlagEnvelope})) != 0) return Error::kOutOfRange;
 
   CoefficientTable table;
   Model& m = table.model;
@@ -177,6 +190,13 @@ Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes) {
       term.factors[f].power = r.U8(at + 6 + 3 * f);
     }
     m.coefficients[t] = r.F64(kTableCoefficientsOffset + 8 * t);
+  }
+  table.has_envelope = (flags & kTableFlagEnvelope) != 0;
+  if (table.has_envelope) {
+    for (std::size_t c = 0; c < m.num_channels; ++c) {
+      table.envelope[c].min = r.F64(kTableEnvelopeOffset + c * kTableEnvelopeRecord);
+      table.envelope[c].max = r.F64(kTableEnvelopeOffset + c * kTableEnvelopeRecord + 8);
+    }
   }
   const Error e = table.Validate();
   if (e != Error::kOk) return e;

@@ -274,6 +274,9 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
   std::printf("\n  unreachable:      %llu force demands saturated\n",
               static_cast<unsigned long long>(s.unreachable));
   std::printf("  model resets:     %llu\n", static_cast<unsigned long long>(s.model_resets));
+  std::printf("  envelope:         %llu periods with v/x held, %llu with the force held\n",
+              static_cast<unsigned long long>(s.envelope_excursions),
+              static_cast<unsigned long long>(s.force_excursions));
   std::printf("  last command:     %.6g V, model force %.6g N\n", s.last_command_v, s.model_force_n);
   std::printf("  RMS errors:       model vs plant %.6g N, demand vs plant %.6g N\n", rms_model,
               rms_tracking);

@@ -45,6 +45,8 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
     j["write_faults"] = s.write_faults;
     j["unreachable_demands"] = s.unreachable;
     j["model_resets"] = s.model_resets;
+    j["envelope_excursions"] = s.envelope_excursions;
+    j["force_excursions"] = s.force_excursions;
     j["safe_periods"] = s.watchdog.safe_periods;
     j["safe_entries"] = s.watchdog.entries;
     Json wd = Json::object();

@@ -250,6 +250,12 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                "|v| above this is implausible (safe state); 0 = no limit."),
         Number("displacement_limit", &k.displacement_limit, 0.0, 1e6, "cm",
                "|x| above this is implausible (safe state); 0 = no limit.")}},
+      {"envelope",
+       {Bool("hold", &k.envelope,
+             "Hold the model's v, x and fed-back force to the table's operating envelope "
+             "(table v2; counted as excursions); false = evaluate any input."),
+        Number("margin", &k.envelope_margin, 0.0, 100.0, "",
+               "Envelope widened on each side by this fraction of its range.")}},
       {"simulation",
        {Number("amplitude_cm", &s.amplitude_cm, 0.0, 100.0, "cm",
                "Dry-run plant: displacement amplitude."),

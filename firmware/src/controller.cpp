@@ -29,6 +29,8 @@ Error Controller::Configure(const CoefficientTable& table, const ControllerConfi
   if (e != Error::kOk) return e;
   e = inverter_.SetRange(table.e_min, config.e_max);
   if (e != Error::kOk) return e;
+  e = runtime_.SetEnvelope(config.envelope, config.envelope_margin);
+  if (e != Error::kOk) return e;
   if (!(config.velocity_limit >= 0.0) || !(config.displacement_limit >= 0.0)) {
     return Error::kOutOfRange;  // negative or NaN
   }
@@ -61,6 +63,7 @@ void Controller::Reset() {
   x_ = Real(0);
   E_prev_ = safe_voltage_;
   model_resets_ = 0;
+  runtime_.ClearExcursions();
 }
 
 ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_status,

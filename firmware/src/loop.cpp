@@ -42,6 +42,8 @@ void Loop::Tick(std::int64_t now_ns) {
   ++stats_.ticks;
   if (out.force_law && !out.reachable) ++stats_.unreachable;
   stats_.model_resets = controller_.model_resets();
+  stats_.envelope_excursions = controller_.input_excursions();
+  stats_.force_excursions = controller_.force_excursions();
   stats_.watchdog = controller_.watchdog().counters();
   stats_.active_causes = out.causes;
   stats_.safe = out.safe;

@@ -1,8 +1,26 @@
 #include "mrd/firmware/model_runtime.hpp"
 
+#include <cmath>
 #include <cstring>
 
 namespace mrd::firmware {
+namespace {
+
+// value held to [lo, hi]; *held set when it was outside (NaN passes unchanged).
+template <class T>
+T Hold(T value, T lo, T hi, bool* held) {
+  if (value < lo) {
+    *held = true;
+    return lo;
+  }
+  if (value > hi) {
+    *held = true;
+    return hi;
+  }
+  return value;
+}
+
+}  // namespace
 
 template <class T>
 Error BasicModelRuntime<T>::Configure(const CoefficientTable& table) {
@@ -30,11 +48,40 @@ Error BasicModelRuntime<T>::Configure(const CoefficientTable& table) {
   x_channel_ = x;
   raw_.fill(T(0));
   runner_.Reset();
+  envelope_ = false;
+  ClearExcursions();
+  return Error::kOk;
+}
+
+template <class T>
+Error BasicModelRuntime<T>::SetEnvelope(bool use, double margin) {
+  if (!std::isfinite(margin) || margin < 0.0) return Error::kOutOfRange;
+  ClearExcursions();
+  envelope_ = use && table_.has_envelope;
+  if (!envelope_) return Error::kOk;
+  for (std::size_t c = 0; c < table_.model.num_channels; ++c) {
+    const ChannelRange& r = table_.envelope[c];
+    const double m = margin * (r.max - r.min);
+    lo_[c] = static_cast<T>(r.min - m);
+    hi_[c] = static_cast<T>(r.max + m);
+  }
   return Error::kOk;
 }
 
 template <class T>
 void BasicModelRuntime<T>::Begin(T v, T x) {
+  if (envelope_) {
+    bool held = false;
+    if (v_channel_ >= 0) {
+      const auto c = static_cast<std::size_t>(v_channel_);
+      v = Hold(v, lo_[c], hi_[c], &held);
+    }
+    if (x_channel_ >= 0) {
+      const auto c = static_cast<std::size_t>(x_channel_);
+      x = Hold(x, lo_[c], hi_[c], &held);
+    }
+    if (held) ++input_excursions_;
+  }
   if (v_channel_ >= 0) raw_[static_cast<std::size_t>(v_channel_)] = v;
   if (x_channel_ >= 0) raw_[static_cast<std::size_t>(x_channel_)] = x;
   raw_[table_.input_channel] = T(0);
@@ -56,7 +103,13 @@ T BasicModelRuntime<T>::ForceAt(T E) {
 
 template <class T>
 T BasicModelRuntime<T>::Finish(T E) {
-  const T f = ForceAt(E);
+  T f = ForceAt(E);
+  if (envelope_) {
+    bool held = false;
+    const std::size_t c = table_.model.output_channel;
+    f = Hold(f, lo_[c], hi_[c], &held);
+    if (held) ++force_excursions_;
+  }
   runner_.Finish(f);
   return f;
 }

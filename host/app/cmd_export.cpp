@@ -33,8 +33,10 @@ void RunExport(const ExportOptions& o) {
   const ModelFile mf = LoadModelFile(o.model);
   const int k = o.iteration >= 0 ? o.iteration : mf.selected;
   const SemIteration& it = mf.Iteration(k);
-  const CoefficientTable table = MakeTable(ToRuntimeModel(mf, k), o.e_min, o.e_max, o.input,
-                                           o.model);
+  CoefficientTable table = MakeTable(ToRuntimeModel(mf, k), o.e_min, o.e_max, o.input, o.model);
+  // Operating envelope (table v2); model files from before it was recorded export without.
+  const bool envelope = SetTableEnvelope(mf, &table);
+  if (std::string p = DescribeTableProblem(table); !p.empty()) throw InputError(o.model, 0, p);
   // Encode both forms first, then write both or neither (WriteFilesAtomic).
   std::vector<std::pair<std::string, std::string>> files;
   if (!o.table.empty()) {
@@ -50,8 +52,9 @@ void RunExport(const ExportOptions& o) {
     }
   }
   WriteFilesAtomic(files);
-  fmt::print("iteration {} ({} terms, J {:.6g}), input '{}' in [{}, {}] V ->{}{}\n", k,
+  fmt::print("iteration {} ({} terms, J {:.6g}), input '{}' in [{}, {}] V, {} ->{}{}\n", k,
              it.terms.size(), it.j, o.input, o.e_min, o.e_max,
+             envelope ? "operating envelope" : "no envelope (model file predates it)",
              o.table.empty() ? "" : " " + o.table, o.header.empty() ? "" : " " + o.header);
 }
 

@@ -54,9 +54,14 @@ void RunIdentify(const IdentifyOptions& o) {
   so.threads = o.threads > 0 ? o.threads
                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   so.progress = [](const SemIteration& it) {
-    fmt::print("iteration {:3d}: {:2d} terms, J {:.6g}, validation J [{:.6g}], {:.2f} s\n",
+    fmt::print("iteration {:3d}: {:2d} terms, J {:.6g}, validation J [{:.6g}], {:.2f} s",
                it.iteration, it.terms.size(), it.j, fmt::join(it.validation_j, ", "),
                it.elapsed_s);
+    if (it.stress.checked) {  // spec [stress]: verdict, peak |y| / data's, candidates refused
+      fmt::print(", stress {} (peak {:.3g}, {} candidates rejected)",
+                 it.stress.pass ? "pass" : "FAIL", it.stress.peak, it.stress_rejected);
+    }
+    fmt::print("\n");
     std::fflush(stdout);
   };
   const SemResult r = Identify(spec, data, val, so);

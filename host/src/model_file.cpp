@@ -29,6 +29,10 @@ const char* TransformName(Transform t) {
       return "sign";
     case Transform::kLowPass:
       return "low_pass";
+    case Transform::kTanh:
+      return "tanh";
+    case Transform::kClip:
+      return "clip";
   }
   return "identity";
 }
@@ -40,9 +44,11 @@ json SpecToJson(const SemSpec& s) {
               {"powers", r.powers}, {"delays", r.delays}};
     if (r.transform == Transform::kAbsPow) j["exponent"] = r.exponent;
     if (r.transform == Transform::kLowPass) j["tau"] = r.exponent;
+    if (r.transform == Transform::kTanh) j["scale"] = r.exponent;
+    if (r.transform == Transform::kClip) j["limit"] = r.exponent;
     regs.push_back(j);
   }
-  return {{"output", s.output},
+  json out = {{"output", s.output},
           {"regressor", regs},
           {"limits",
            {{"max_factors", s.max_factors},
@@ -60,6 +66,15 @@ json SpecToJson(const SemSpec& s) {
             {"divergence_limit", s.divergence_limit},
             {"selection_tolerance_percent", s.selection_tolerance_percent},
             {"initial", s.initial}}}};
+  if (s.stress.enabled) {
+    out["stress"] = {{"stretch", s.stress.stretch},
+                     {"stretch_signals", s.stress.stretch_signals},
+                     {"sweep_signals", s.stress.sweep_signals},
+                     {"sweep_period", s.stress.sweep_period},
+                     {"hold", s.stress.hold},
+                     {"force_bound", s.stress.force_bound}};
+  }
+  return out;
 }
 
 // The spec is stored in the same shape as the TOML; rebuild it through the TOML parser so
@@ -182,15 +197,27 @@ std::string ModelFileToJson(const ModelFile& m) {
                        {"name", TermName(m.spec, it.terms[t])},
                        {"factors", factors}});
     }
-    its.push_back({{"iteration", it.iteration},
-                   {"J", it.j},
-                   {"validation_J", it.validation_j},
-                   {"elapsed_s", it.elapsed_s},
-                   {"terms", terms}});
+    json ji = {{"iteration", it.iteration},
+               {"J", it.j},
+               {"validation_J", it.validation_j},
+               {"elapsed_s", it.elapsed_s},
+               {"terms", terms}};
+    if (it.stress.checked) {
+      ji["stress"] = {{"pass", it.stress.pass},
+                      {"peak", std::isfinite(it.stress.peak) ? json(it.stress.peak) : json()},
+                      {"reason", it.stress.reason},
+                      {"rejected_candidates", it.stress_rejected}};
+    }
+    its.push_back(ji);
   }
   json ch = json::array();
   for (const auto& c : m.channels) {
-    ch.push_back({{"name", c.name}, {"offset", c.offset}, {"scale", c.scale}});
+    json jc = {{"name", c.name}, {"offset", c.offset}, {"scale", c.scale}};
+    if (c.has_range) {  // operating envelope: range of the identification data [raw units]
+      jc["min"] = c.min;
+      jc["max"] = c.max;
+    }
+    ch.push_back(jc);
   }
   json j = {{"format", "mrd-sem-model"},
             {"version", 1},
@@ -249,6 +276,15 @@ ModelFile LoadModelFile(const std::string& path) {
       if (!(ci.scale > 0.0) || !std::isfinite(ci.scale) || !std::isfinite(ci.offset)) {
         throw InputError(path, 0, fmt::format("channel '{}': bad scale", ci.name));
       }
+      if (c.contains("min") || c.contains("max")) {
+        ci.has_range = true;
+        ci.min = FiniteField(c.at("min"), fmt::format("channel '{}': min", ci.name), path);
+        ci.max = FiniteField(c.at("max"), fmt::format("channel '{}': max", ci.name), path);
+        if (!(ci.min <= ci.max)) {
+          throw InputError(path, 0, fmt::format("channel '{}': envelope min {} > max {}",
+                                                ci.name, ci.min, ci.max));
+        }
+      }
       m.channels.push_back(ci);
     }
     const auto signals = m.spec.Signals();
@@ -277,6 +313,15 @@ ModelFile LoadModelFile(const std::string& path) {
                                               : v.get<double>());
       }
       it.elapsed_s = ji.value("elapsed_s", 0.0);
+      if (ji.contains("stress")) {
+        const json& js = ji.at("stress");
+        it.stress.checked = true;
+        it.stress.pass = js.at("pass").get<bool>();
+        it.stress.peak = js.at("peak").is_null() ? std::numeric_limits<double>::infinity()
+                                                 : js.at("peak").get<double>();
+        it.stress.reason = js.value("reason", std::string());
+        it.stress_rejected = js.value("rejected_candidates", 0);
+      }
       for (const auto& jt : ji.at("terms")) {
         SemTerm term;
         for (const auto& jf : jt.at("factors")) {
@@ -311,6 +356,21 @@ ModelFile LoadModelFile(const std::string& path) {
   }
   m.Iteration(m.selected);  // must exist
   return m;
+}
+
+bool SetTableEnvelope(const ModelFile& m, CoefficientTable* table) {
+  const Model& model = table->model;
+  std::array<ChannelRange, kMaxChannels> env{};
+  for (std::size_t c = 0; c < model.num_channels; ++c) {
+    const auto ch = std::find_if(m.channels.begin(), m.channels.end(), [&](const ChannelInfo& ci) {
+      return ci.name == model.channel_names[c].data();
+    });
+    if (ch == m.channels.end() || !ch->has_range) return false;
+    env[c] = {ch->min, ch->max};
+  }
+  table->envelope = env;
+  table->has_envelope = true;
+  return true;
 }
 
 mrd::Model ToRuntimeModel(const ModelFile& m, int iteration) {

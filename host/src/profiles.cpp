@@ -272,10 +272,41 @@ Excitation V3(std::mt19937_64& rng, double dt) {
   return ex;
 }
 
+// Beyond the identification set (issue 13): 0-8 s sines of 2 cm amplitude at 1, 2, 3, 4 Hz
+// (2 s each; peak velocity 12.6 ... 50 cm/s, the last capped at 50); 8-20 s a windowed random
+// multisine (1-5 Hz, flat displacement spectrum) scaled to 50 cm/s peak velocity; voltage
+// random levels uniform over 0 ... 2.25 V held 0.1 ... 0.5 s.
+Excitation Wide(std::mt19937_64& rng, double dt) {
+  constexpr double kPeakVelocity = 50.0;  // [cm/s]
+  constexpr double kAmplitude = 2.0;      // [cm]
+  std::vector<Piece> pieces;
+  for (const double f : {1.0, 2.0, 3.0, 4.0}) {
+    pieces.push_back(SinePiece(2.0, f, std::min(kPeakVelocity, 2 * kPi * f * kAmplitude)));
+  }
+  // Velocity spectrum ~ f: equal displacement amplitude per component.
+  pieces.push_back(
+      WindowedMultisine(12.0, 0.5, RandomMultisine(rng, 16, 1.0, 5.0, [](double f) { return f; })));
+  Excitation ex;
+  SamplePieces(pieces, dt, &ex);
+  const auto n_sines = static_cast<std::size_t>(std::llround(8.0 / dt));
+  ScaleToPeakVelocity(kPeakVelocity, n_sines, ex.t.size(), &ex);
+  ex.E.resize(ex.t.size());
+  std::uniform_real_distribution<double> ulevel(0.0, kEMax), uhold(0.1, 0.5);
+  double next_change = 0.0, level = 0.0;
+  for (std::size_t i = 0; i < ex.t.size(); ++i) {
+    if (ex.t[i] >= next_change) {
+      level = ulevel(rng);
+      next_change += uhold(rng);
+    }
+    ex.E[i] = level;
+  }
+  return ex;
+}
+
 }  // namespace
 
 const std::vector<std::string>& ProfileNames() {
-  static const std::vector<std::string> names{"identification", "v1", "v2", "v3"};
+  static const std::vector<std::string> names{"identification", "v1", "v2", "v3", "wide"};
   return names;
 }
 
@@ -289,8 +320,9 @@ Excitation MakeExcitation(const std::string& profile, std::uint64_t seed, double
   if (profile == "v1") return V1(rng, dt);
   if (profile == "v2") return V2(dt);
   if (profile == "v3") return V3(rng, dt);
+  if (profile == "wide") return Wide(rng, dt);
   throw std::invalid_argument("unknown profile '" + profile +
-                              "' (expected identification, v1, v2 or v3)");
+                              "' (expected identification, v1, v2, v3 or wide)");
 }
 
 std::vector<double> SimulateDamper(const SpencerParams& params, const Excitation& ex,

@@ -256,6 +256,14 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
   for (const ChannelInfo& c : mf.channels) {
     fmt::format_to(out, " {} offset {:.9g} scale {:.9g};", c.name, c.offset, c.scale);
   }
+  bool has_range = !mf.channels.empty();
+  for (const ChannelInfo& c : mf.channels) has_range = has_range && c.has_range;
+  if (has_range) {
+    fmt::format_to(out, "\noperating envelope (identification data, raw units):");
+    for (const ChannelInfo& c : mf.channels) {
+      fmt::format_to(out, " {} [{:.6g}, {:.6g}];", c.name, c.min, c.max);
+    }
+  }
   fmt::format_to(out, "\nterms of iteration {} (coefficients in normalised units):\n", k);
   for (std::size_t i = 0; i < it.terms.size(); ++i) {
     fmt::format_to(out, "  {:3d}  {:+.12e}  {}\n", i + 1, it.coefficients[i],
@@ -279,6 +287,8 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
   for (const SemIteration& s : mf.iterations) num_val = std::max(num_val, s.validation_j.size());
   for (std::size_t v = 0; v < num_val; ++v) heads.push_back(ValidationName(mf, v));
   for (const DataReport& r : reports) heads.push_back(r.name);
+  const bool stress = mf.spec.stress.enabled;
+  if (stress) heads.push_back("stress");  // verdict of the spec's [stress] check, peak |y|
   std::vector<std::size_t> widths;
   for (const auto& h : heads) widths.push_back(std::max<std::size_t>(h.size(), 12));
   fmt::format_to(out, " ");
@@ -293,6 +303,13 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
       cells.push_back(v < s.validation_j.size() ? FormatJ(s.validation_j[v]) : "-");
     }
     for (const DataReport& r : reports) cells.push_back(FormatJ(r.j_per_iteration[i]));
+    if (stress) {
+      cells.push_back(!s.stress.checked ? std::string("-")
+                      : s.stress.pass   ? fmt::format("pass {:.3g}", s.stress.peak)
+                                        : std::string(std::isfinite(s.stress.peak)
+                                                          ? fmt::format("FAIL {:.3g}", s.stress.peak)
+                                                          : std::string("FAIL diverged")));
+    }
     fmt::format_to(out, " ");
     for (std::size_t c = 0; c < cells.size(); ++c) {
       fmt::format_to(out, " {:>{}}", cells[c], widths[c]);

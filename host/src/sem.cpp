@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "mrd/host/input_error.hpp"
+#include "mrd/host/sem_stress.hpp"
 
 namespace mrd::host {
 namespace {
@@ -598,8 +599,13 @@ class Search {
 
   // Tries adding every eligible candidate. Returns the chosen trial (cand < 0: none
   // admissible). first: first-improvement with target j_threshold.
+  // accept (optional): stress check of model + candidate with the trial's coefficients; a
+  // candidate it refuses is skipped (counted in stress_rejected) for the next best.
+  using Accept = std::function<bool(int cand, const std::vector<double>& theta)>;
   Trial TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
-               double j_threshold, int* rejected) {
+               double j_threshold, int* rejected, const Accept& accept = {},
+               int* stress_rejected = nullptr) {
+
     std::atomic<int> n_rejected{0};
     struct Report {
       std::atomic<int>& n;
@@ -657,6 +663,21 @@ class Search {
     });
     Trial none;
     if (order.empty()) return none;
+    auto accepted = [&](int c) {
+      if (!accept || accept(c, trials[c].theta)) return true;
+      if (stress_rejected != nullptr) ++*stress_rejected;
+      return false;
+    };
+    // Admissible (finite J) candidates by J, ties by index, the first the check accepts.
+    auto best_accepted = [&](std::vector<int> ok) {
+      std::sort(ok.begin(), ok.end(), [&](int a, int b) {
+        return trials[a].j != trials[b].j ? trials[a].j < trials[b].j : a < b;
+      });
+      for (int c : ok) {
+        if (accepted(c)) return trials[c];
+      }
+      return none;
+    };
     // Shared bound for early stopping. First improvement never lowers it below the
     // threshold, so no candidate that would meet the threshold is cut short.
     const double floor = first ? j_threshold : -kInf;
@@ -685,19 +706,16 @@ class Search {
       ParallelFor(chunks, threads_, [&](std::size_t item, int worker) {
         run_chunk(item * kChunk, std::min(order.size(), (item + 1) * kChunk), scratch[worker]);
       });
-      int pick = -1;
+      std::vector<int> ok;
       for (int c : order) {
-        if (trials[c].j < kInf && (pick < 0 || trials[c].j < trials[pick].j ||
-                                   (trials[c].j == trials[pick].j && c < pick))) {
-          pick = c;
-        }
+        if (trials[c].j < kInf) ok.push_back(c);
       }
-      return pick < 0 ? none : trials[pick];
+      return best_accepted(std::move(ok));
     }
     // First improvement: rank order, in rounds of threads*kChunk candidates.
     const std::size_t round = static_cast<std::size_t>(threads_) * kChunk;
     std::vector<std::vector<double>> scratch(static_cast<std::size_t>(threads_));
-    int fallback = -1;
+    std::vector<int> fallback;
     for (std::size_t r0 = 0; r0 < order.size(); r0 += round) {
       const std::size_t r1 = std::min(order.size(), r0 + round);
       const std::size_t chunks = (r1 - r0 + kChunk - 1) / kChunk;
@@ -706,13 +724,11 @@ class Search {
       });
       for (std::size_t i = r0; i < r1; ++i) {
         const int c = order[i];
-        if (trials[c].j <= j_threshold) return trials[c];
-        if (trials[c].j < kInf && (fallback < 0 || trials[c].j < trials[fallback].j)) {
-          fallback = c;
-        }
+        if (trials[c].j <= j_threshold && accepted(c)) return trials[c];
+        if (trials[c].j < kInf && trials[c].j > j_threshold) fallback.push_back(c);
       }
     }
-    return fallback < 0 ? none : trials[fallback];
+    return best_accepted(std::move(fallback));
   }
 
  private:
@@ -822,10 +838,14 @@ int SelectIteration(const std::vector<SemIteration>& its, double tolerance_perce
     for (double v : it.validation_j) s += v;
     return s;
   };
+  auto failed = [](const SemIteration& it) { return it.stress.checked && !it.stress.pass; };
   double best = kInf;
-  for (const auto& it : its) best = std::min(best, score(it));
+  for (const auto& it : its) {
+    if (!failed(it)) best = std::min(best, score(it));
+  }
   const SemIteration* pick = nullptr;
   for (const auto& it : its) {
+    if (failed(it)) continue;
     const double s = score(it);
     if (!(s <= best * (1.0 + tolerance_percent / 100.0))) continue;
     if (pick == nullptr || it.terms.size() < pick->terms.size() ||
@@ -833,7 +853,13 @@ int SelectIteration(const std::vector<SemIteration>& its, double tolerance_perce
       pick = &it;
     }
   }
-  return pick == nullptr ? its.back().iteration : pick->iteration;
+  if (pick == nullptr) {
+    for (auto it = its.rbegin(); it != its.rend(); ++it) {
+      if (!failed(*it)) return it->iteration;  // every passing score is infinite
+    }
+    return -1;
+  }
+  return pick->iteration;
 }
 
 SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
@@ -844,6 +870,8 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
   CheckData(spec, validation);
   SemResult res;
   res.channels = ComputeScales(spec, identification);
+  RecordEnvelope(identification, &res.channels);
+  const std::vector<DataSet> stress = BuildStressData(spec, identification);
   const Strategy strategy = o.strategy.value_or(spec.strategy);
   const double threshold = o.threshold_percent.value_or(spec.threshold_percent);
   const int max_it = o.max_iterations.value_or(spec.max_iterations);
@@ -914,12 +942,27 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
   eng.PrepareCandidates();
 
   Search search(eng, o.threads);
+  auto stress_of = [&](const std::vector<int>& terms, const std::vector<double>& th) {
+    std::vector<SemTerm> t;
+    for (int c : terms) t.push_back(eng.cand(c).term);
+    return CheckStress(spec, res.channels, t, th, stress);
+  };
+  Search::Accept accept;  // none without [stress]
+  if (!stress.empty()) {
+    accept = [&](int cand, const std::vector<double>& th) {
+      std::vector<int> terms = model;
+      terms.push_back(cand);
+      return stress_of(terms, th).pass;
+    };
+  }
   std::vector<double> theta;
   double j = search.Cost(model, &theta);
-  auto record = [&](int iteration, int rejected) {
+  auto record = [&](int iteration, int rejected, int stress_rejected) {
     SemIteration it;
     it.iteration = iteration;
     it.rejected = rejected;
+    it.stress_rejected = stress_rejected;
+    it.stress = stress_of(model, theta);
     for (int t : model) it.terms.push_back(eng.cand(t).term);
     it.coefficients = theta;
     it.j = j;
@@ -930,14 +973,16 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     if (o.progress) o.progress(it);
     res.iterations.push_back(std::move(it));
   };
-  record(0, 0);
+  record(0, 0, 0);
   for (int iteration = 1; iteration <= max_it; ++iteration) {
     if (j <= target) break;
     if (model.size() + 1 > max_params) break;  // kMinSamplesPerParameter
     const double j_prev = j;
     int rejected = 0;
+    int stress_rejected = 0;
     const Trial tr = search.TryAdd(model, theta, strategy == Strategy::kFirst,
-                                   j_prev * (1.0 - threshold / 100.0), &rejected);
+                                   j_prev * (1.0 - threshold / 100.0), &rejected, accept,
+                                   &stress_rejected);
     if (tr.cand < 0) {  // nothing admissible
       res.exhausted_rejected = rejected;
       break;
@@ -962,13 +1007,22 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
         }
       }
       if (!(best < j_prev)) break;
+      if (accept) {  // a pruned model must pass the stress check too
+        std::vector<int> reduced = model;
+        reduced.erase(reduced.begin() + static_cast<std::ptrdiff_t>(drop));
+        if (!stress_of(reduced, best_theta).pass) break;
+      }
       model.erase(model.begin() + static_cast<std::ptrdiff_t>(drop));
       theta = best_theta;
       j = best;
     }
-    record(iteration, rejected);
+    record(iteration, rejected, stress_rejected);
   }
   res.selected = SelectIteration(res.iterations, spec.selection_tolerance_percent);
+  if (res.selected < 0) {
+    throw InputError(spec.path, spec.stress.line,
+                     "no iteration passes the stress check ([stress]): nothing to select");
+  }
   return res;
 }
 

@@ -83,6 +83,8 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
   r.line = line;
   bool has_exponent = false;
   bool has_tau = false;
+  bool has_scale = false;
+  bool has_limit = false;
   for (const auto& [key, node] : t) {
     const std::string k(key.str());
     if (k == "name") {
@@ -100,9 +102,14 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
         r.transform = Transform::kSign;
       } else if (tr == "low_pass") {
         r.transform = Transform::kLowPass;
+      } else if (tr == "tanh") {
+        r.transform = Transform::kTanh;
+      } else if (tr == "clip") {
+        r.transform = Transform::kClip;
       } else {
         Fail(path, node,
-             fmt::format("unknown transform '{}' (expected identity, abs_pow, sign or low_pass)",
+             fmt::format("unknown transform '{}' (expected identity, abs_pow, sign, low_pass, "
+                         "tanh or clip)",
                          tr));
       }
     } else if (k == "exponent") {
@@ -115,6 +122,12 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
         Fail(path, node, fmt::format("'tau' must be in (0, {:g}] samples", kMaxLowPassTau));
       }
       has_tau = true;
+    } else if (k == "scale" || k == "limit") {
+      r.exponent = GetNumber(path, node, k);
+      if (!(r.exponent > 0.0) || !std::isfinite(r.exponent)) {
+        Fail(path, node, fmt::format("'{}' must be a finite number > 0", k));
+      }
+      (k == "scale" ? has_scale : has_limit) = true;
     } else if (k == "powers") {
       r.powers = GetIntList(path, node, k, 1, kMaxPower, "power");
     } else if (k == "delays") {
@@ -145,7 +158,53 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
   if (r.transform == Transform::kLowPass && !has_tau) {
     throw InputError(path, line, "transform \"low_pass\" needs 'tau' (time constant [samples])");
   }
+  if (has_scale != (r.transform == Transform::kTanh)) {
+    throw InputError(path, line, has_scale ? "'scale' is only valid with transform = \"tanh\""
+                                           : "transform \"tanh\" needs 'scale' (> 0)");
+  }
+  if (has_limit != (r.transform == Transform::kClip)) {
+    throw InputError(path, line, has_limit ? "'limit' is only valid with transform = \"clip\""
+                                           : "transform \"clip\" needs 'limit' (> 0)");
+  }
   return r;
+}
+
+StressSpec ParseStress(const std::string& path, const toml::node& node) {
+  const auto* t = node.as_table();
+  if (t == nullptr) Fail(path, node, "'stress' must be a table");
+  StressSpec st;
+  st.enabled = true;
+  st.line = LineOf(node);
+  auto names = [&](const toml::node& n, const std::string& key) {
+    const auto* arr = n.as_array();
+    if (arr == nullptr) Fail(path, n, fmt::format("'{}' must be an array of signal names", key));
+    std::vector<std::string> out;
+    for (const auto& e : *arr) out.push_back(GetString(path, e, key));
+    return out;
+  };
+  for (const auto& [skey, sn] : *t) {
+    const std::string sk(skey.str());
+    if (sk == "stretch") {
+      st.stretch = GetNumber(path, sn, sk);
+      if (!(st.stretch >= 1.0) || st.stretch > 1e6) Fail(path, sn, "'stretch' must be in [1, 1e6]");
+    } else if (sk == "stretch_signals") {
+      st.stretch_signals = names(sn, sk);
+    } else if (sk == "sweep_signals") {
+      st.sweep_signals = names(sn, sk);
+    } else if (sk == "sweep_period") {
+      st.sweep_period = GetInt(path, sn, sk, 2, 100000000);
+    } else if (sk == "hold") {
+      st.hold = GetInt(path, sn, sk, 0, 100000000);
+    } else if (sk == "force_bound") {
+      st.force_bound = GetNumber(path, sn, sk);
+      if (!(st.force_bound > 0.0) || !std::isfinite(st.force_bound)) {
+        Fail(path, sn, "'force_bound' must be a finite number > 0");
+      }
+    } else {
+      Fail(path, sn, fmt::format("unknown key '{}' in [stress]", sk));
+    }
+  }
+  return st;
 }
 
 }  // namespace
@@ -252,6 +311,8 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
           Fail(path, sn, fmt::format("unknown key '{}' in [{}]", sk, k));
         }
       }
+    } else if (k == "stress") {
+      s.stress = ParseStress(path, node);
     } else {
       Fail(path, node, fmt::format("unknown key '{}'", k));
     }
@@ -276,6 +337,15 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
                        fmt::format("regressor '{}': low_pass is for input signals only, not the "
                                    "output '{}'",
                                    r.name, s.output));
+    }
+  }
+  for (const auto* list : {&s.stress.stretch_signals, &s.stress.sweep_signals}) {
+    for (const auto& name : *list) {
+      const auto sig = s.Signals();
+      if (name == s.output || std::find(sig.begin(), sig.end(), name) == sig.end()) {
+        throw InputError(path, s.stress.line,
+                         fmt::format("[stress]: '{}' is not an input signal of the spec", name));
+      }
     }
   }
   // Initial terms are checked here so that errors name the spec.
@@ -381,9 +451,12 @@ std::string TermKey(const SemSpec& spec, const SemTerm& term) {
   for (const auto& f : term.factors) {
     const auto& r = spec.regressors[f.regressor];
     // A low-pass regressor is a signal of its own (one per time constant).
-    auto& e = m[{r.transform == Transform::kLowPass ? fmt::format("{}~lp{:.9g}", r.signal, r.exponent)
-                                                    : r.signal,
-                 f.delay}];
+    // So is a saturating one (one per scale / limit).
+    std::string sig = r.signal;
+    if (r.transform == Transform::kLowPass) sig = fmt::format("{}~lp{:.9g}", r.signal, r.exponent);
+    if (r.transform == Transform::kTanh) sig = fmt::format("{}~tanh{:.9g}", r.signal, r.exponent);
+    if (r.transform == Transform::kClip) sig = fmt::format("{}~clip{:.9g}", r.signal, r.exponent);
+    auto& e = m[{sig, f.delay}];
     switch (r.transform) {
       case Transform::kIdentity:
         e.first += f.power;
@@ -396,6 +469,8 @@ std::string TermKey(const SemSpec& spec, const SemTerm& term) {
         e.first += f.power;
         break;
       case Transform::kLowPass:
+      case Transform::kTanh:
+      case Transform::kClip:
         e.first += f.power;
         e.second += f.power;
         break;

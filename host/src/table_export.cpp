@@ -45,6 +45,8 @@ const char* TransformName(Transform t) {
     case Transform::kAbsPow: return "mrd::Transform::kAbsPow";
     case Transform::kSign: return "mrd::Transform::kSign";
     case Transform::kLowPass: return "mrd::Transform::kLowPass";
+    case Transform::kTanh: return "mrd::Transform::kTanh";
+    case Transform::kClip: return "mrd::Transform::kClip";
   }
   return "mrd::Transform::kIdentity";
 }
@@ -110,6 +112,9 @@ std::string FormatModelCheck(const CoefficientTable& table, const ModelCheck& c)
                          i, m.regressors[i].exponent,
                          m.regressors[i].channel == m.output_channel ? "the output" : "an input",
                          kMaxLowPassTau);
+    case ModelProblem::kSaturation:
+      return fmt::format("regressor {} is a tanh or clip with scale/limit {} (must be > 0)", i,
+                         m.regressors[i].exponent);
     case ModelProblem::kFactorRegressor:
       return fmt::format("term {} uses no regressor", i);
     case ModelProblem::kFactorDelay:
@@ -126,6 +131,10 @@ std::string FormatModelCheck(const CoefficientTable& table, const ModelCheck& c)
     case ModelProblem::kVoltageRange:
       return fmt::format("voltage range [{}, {}] is empty or not finite", table.e_min,
                          table.e_max);
+    case ModelProblem::kEnvelopeNonFinite:
+    case ModelProblem::kEnvelopeRange:
+      return fmt::format("envelope of channel '{}' [{}, {}] is empty or not finite",
+                         m.channel_names[i].data(), table.envelope[i].min, table.envelope[i].max);
   }
   return ErrorName(c.error());
 }
@@ -141,8 +150,8 @@ std::string DescribeTableProblem(const CoefficientTable& table) {
     case InversionProblem::kNone:
       return "";
     case InversionProblem::kTransform:
-      return fmt::format("not invertible in '{}': term {} takes {}(k) through abs_pow or sign "
-                         "(the firmware needs a polynomial in {}(k))",
+      return fmt::format("not invertible in '{}': term {} takes {}(k) through abs_pow, sign, "
+                         "tanh or clip (the firmware needs a polynomial in {}(k))",
                          input, inv.term, input, input);
     case InversionProblem::kDegree:
       return fmt::format("not invertible in '{}': term {} has degree {} in {}(k) > {}", input,
@@ -222,6 +231,13 @@ std::string TableHeader(const CoefficientTable& table, std::string_view symbol) 
   line(fmt::format("  t.input_channel = {};", table.input_channel));
   line(fmt::format("  t.e_min = {};", Num(table.e_min)));
   line(fmt::format("  t.e_max = {};", Num(table.e_max)));
+  if (table.has_envelope) {
+    line("  t.has_envelope = true;");
+    for (std::size_t c = 0; c < table.model.num_channels; ++c) {
+      line(fmt::format("  t.envelope[{}] = {{{}, {}}};", c, Num(table.envelope[c].min),
+                       Num(table.envelope[c].max)));
+    }
+  }
   line("  mrd::Model& m = t.model;");
   line(fmt::format("  m.num_channels = {};", m.num_channels));
   line(fmt::format("  m.output_channel = {};", m.output_channel));

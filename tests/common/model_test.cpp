@@ -176,7 +176,7 @@ TEST(ModelTest, ValidateRejectsBadLowPass) {
   m.regressors[0].transform = Transform::kLowPass;  // on the output channel
   EXPECT_EQ(m.Validate(), Error::kOutOfRange);
   m = LowPassModel();
-  m.regressors[1].transform = static_cast<Transform>(4);
+  m.regressors[1].transform = static_cast<Transform>(6);
   EXPECT_EQ(m.Validate(), Error::kOutOfRange);
 }
 

@@ -137,8 +137,8 @@ TEST(SemSpecTest, MalformedTomlNamesLine) {
 
 TEST(SemSpecTest, UnknownKeyAndTransformRejected) {
   std::string t = kSmall;
-  t.replace(t.find("transform = \"sign\""), 18, "transform = \"tanh\"");
-  ExpectError(t, 11, "unknown transform 'tanh'");
+  t.replace(t.find("transform = \"sign\""), 18, "transform = \"cosh\"");
+  ExpectError(t, 11, "unknown transform 'cosh'");
   ExpectError(std::string(kSmall) + "[limits]\nmax_terms = 3\n", 15, "unknown key 'max_terms'");
 }
 

@@ -5,7 +5,7 @@
 //   y(k) = sum_i theta_i * prod_j r_{a_ij}(k - d_ij)^{p_ij}
 //
 // where each elementary regressor r_a(k) = T_a(s_c(k)) is a transform T_a of one normalised
-// channel s_c (identity, |s|^e, sign(s)) or a first-order low-pass of an input channel
+// channel s_c (identity, |s|^e, sign(s), tanh(s/a), clamp(s,-c,c)) or a first-order low-pass of an input channel
 // (noisy or lagging command signals of real rigs). The output channel enters only at
 // delays >= 1 and only through memoryless transforms.
 // Normalisation: s = (raw - offset) / scale per channel; the output is denormalised the
@@ -41,8 +41,11 @@ enum class Transform : std::uint8_t {
   // r(k) = a r(k-1) + (1 - a) s(k), a = exp(-1/tau), tau = exponent [samples] in
   // (0, kMaxLowPassTau]; r(-1) = 0 after a reset. Input channels only. Unit DC gain.
   kLowPass = 3,
+  // Saturating transforms (flat extrapolation beyond the data, e.g. force vs velocity):
+  kTanh = 4,  // tanh(s / exponent), exponent = scale > 0 [normalised units]
+  kClip = 5,  // clamp(s, -exponent, exponent), exponent = limit c > 0 [normalised units]
 };
-inline constexpr Transform kLastTransform = Transform::kLowPass;
+inline constexpr Transform kLastTransform = Transform::kClip;
 inline constexpr double kMaxLowPassTau = 1.0e6;  // [samples]
 
 // T(s) for one memoryless elementary regressor (kLowPass: s, its input). Real-time safe.
@@ -61,7 +64,8 @@ template <class T>
 struct BasicRegressor {
   std::uint8_t channel = 0;
   Transform transform = Transform::kIdentity;
-  T exponent = T(1);  // kAbsPow: the exponent; kLowPass: tau [samples]; else unused
+  T exponent = T(1);  // kAbsPow: the exponent; kLowPass: tau [samples]; kTanh: scale;
+                      // kClip: limit; else unused
 };
 using Regressor = BasicRegressor<double>;
 

@@ -26,6 +26,7 @@ enum class ModelProblem : std::uint8_t {
   kRegressorExponent,    // regressor (index) exponent not finite
   kAbsPowExponent,       // regressor (index) abs_pow exponent <= 0
   kLowPass,              // regressor (index) low-pass tau out of (0, kMaxLowPassTau] or on the output
+  kSaturation,           // regressor (index) tanh scale or clip limit <= 0
   kTooManyFactors,       // term (index) has count > kMaxFactors factors
   kFactorRegressor,      // term (index) uses no regressor
   kFactorDelay,          // term (index) uses delay (count) > kMaxDelay
@@ -35,6 +36,8 @@ enum class ModelProblem : std::uint8_t {
   kInputChannel,         // table input channel missing or the output
   kVoltageNonFinite,     // table e_min or e_max not finite
   kVoltageRange,         // table e_min >= e_max
+  kEnvelopeNonFinite,    // table envelope of channel (index) not finite
+  kEnvelopeRange,        // table envelope of channel (index) has min > max
 };
 
 struct ModelCheck {
@@ -50,7 +53,7 @@ struct ModelCheck {
 // terms). T: double or float (instantiated for both).
 template <class T>
 ModelCheck CheckModel(const BasicModel<T>& model);
-// CheckModel, then the input channel and the voltage range.
+// CheckModel, then the input channel, the voltage range and the envelope (when present).
 ModelCheck CheckTable(const CoefficientTable& table);
 
 }  // namespace mrd

@@ -15,9 +15,13 @@
 namespace mrd {
 
 inline constexpr std::array<std::uint8_t, 4> kTableMagic = {'M', 'R', 'D', 'T'};
-inline constexpr std::uint16_t kTableVersion = 1;
+// Version 2 adds the operating envelope (flags bit 0, section before the CRC). Version 1
+// images (2088 bytes, no envelope) still decode.
+inline constexpr std::uint16_t kTableVersion = 2;
+inline constexpr std::uint16_t kTableVersionV1 = 1;
+inline constexpr std::uint16_t kTableFlagEnvelope = 1;  // flags bit 0: envelope present
 
-// Capacities of format version 1 (fixed; a model that exceeds one is refused at export).
+// Capacities of format versions 1 and 2 (fixed; a model that exceeds one is refused at export).
 inline constexpr std::size_t kTableChannels = kMaxChannels;      // 8
 inline constexpr std::size_t kTableRegressors = kMaxRegressors;  // 16
 inline constexpr std::size_t kTableTerms = kMaxTerms;            // 64
@@ -37,22 +41,38 @@ inline constexpr std::size_t kTableTermsOffset =
 inline constexpr std::size_t kTableTermRecord = 16;
 inline constexpr std::size_t kTableCoefficientsOffset =
     kTableTermsOffset + kTableTerms * kTableTermRecord;  // 1572
+inline constexpr std::size_t kTableEnvelopeOffset =
+    kTableCoefficientsOffset + kTableTerms * 8;  // 2084 (version 1: the CRC)
+inline constexpr std::size_t kTableEnvelopeRecord = 16;  // min f64, max f64
 inline constexpr std::size_t kTableCrcOffset =
-    kTableCoefficientsOffset + kTableTerms * 8;          // 2084
-inline constexpr std::size_t kTableSize = kTableCrcOffset + 4;  // 2088
+    kTableEnvelopeOffset + kTableChannels * kTableEnvelopeRecord;  // 2212
+inline constexpr std::size_t kTableSize = kTableCrcOffset + 4;    // 2216
+inline constexpr std::size_t kTableCrcOffsetV1 = kTableEnvelopeOffset;  // 2084
+inline constexpr std::size_t kTableSizeV1 = kTableCrcOffsetV1 + 4;      // 2088
 
 using TableBytes = std::array<std::uint8_t, kTableSize>;
 
+// Range one channel covered in the identification data [raw units], min <= max.
+struct ChannelRange {
+  double min = 0.0;
+  double max = 0.0;
+};
+
 // One model plus what the firmware needs to invert it: which channel is the commanded input
-// (normally "E") and its admissible range [e_min, e_max] in raw units [V].
+// (normally "E") and its admissible range [e_min, e_max] in raw units [V]; optionally the
+// operating envelope: per channel (inputs and the output force) the range the identification
+// data covered, which the firmware holds the model's inputs to (with a margin).
 struct CoefficientTable {
   Model model;
   std::uint8_t input_channel = 0;  // index of the inverted input (not the output)
   double e_min = 0.0;              // [V]
   double e_max = 2.25;             // [V], > e_min
+  bool has_envelope = false;       // false: no envelope (version 1 image, or not recorded)
+  std::array<ChannelRange, kMaxChannels> envelope{};  // per model channel; zeros when absent
 
-  // Model::Validate() plus the input channel and the voltage range. kOk or the first problem
-  // (kOutOfRange for a bad index or e_min >= e_max, kNonFinite for a non-finite bound).
+  // Model::Validate() plus the input channel, the voltage range and the envelope. kOk or the
+  // first problem (kOutOfRange for a bad index, e_min >= e_max or an envelope min > max;
+  // kNonFinite for a non-finite bound).
   Error Validate() const;
 };
 
@@ -86,8 +106,9 @@ inline bool IsDirectInput(const CoefficientTable& table, const Factor& factor) {
 // No allocation; unused slots are written as zeros, so equal tables give equal bytes.
 Result<TableBytes> EncodeTable(const CoefficientTable& table);
 
-// Decodes and validates an image. Errors, checked in this order: kBadSize (shorter than the
-// header), kBadMagic, kBadVersion, kBadSize (size field or span size != kTableSize), kBadCrc,
+// Decodes and validates an image of version 2 (or 1: no envelope). Errors, checked in this
+// order: kBadSize (shorter than the header), kBadMagic, kBadVersion (not 1 or 2), kBadSize
+// (size field or span size != the version's size), kBadCrc, kOutOfRange (an unknown flag),
 // kCapacityExceeded (a count over its capacity), kOutOfRange (an index, delay, power,
 // transform, flag or the voltage range), kNonFinite (a coefficient, scale, exponent or bound),
 // kInvalidArgument (a channel name without NUL). No allocation.

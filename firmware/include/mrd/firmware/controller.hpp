@@ -45,6 +45,12 @@ struct ControllerConfig {
   // state, and the model keeps the last plausible value. 0: no limit.
   double velocity_limit = 0.0;
   double displacement_limit = 0.0;
+  // Operating envelope of the table (version 2): the model's v, x and fed-back force are held
+  // to the identification data's range widened by envelope_margin (fraction of the range)
+  // on each side, and the excursions counted (model_runtime.hpp). No effect on a table
+  // without an envelope.
+  bool envelope = true;
+  double envelope_margin = 0.1;
 };
 
 struct ControllerOutput {
@@ -79,6 +85,10 @@ class Controller {
   const ModelRuntime& runtime() const { return runtime_; }
   const ControllerConfig& config() const { return config_; }
   std::uint64_t model_resets() const { return model_resets_; }
+  // Periods whose velocity or displacement was held to the envelope; periods whose model force
+  // was held to the force envelope.
+  std::uint64_t input_excursions() const { return runtime_.input_excursions(); }
+  std::uint64_t force_excursions() const { return runtime_.force_excursions(); }
 
  private:
   ModelRuntime runtime_;

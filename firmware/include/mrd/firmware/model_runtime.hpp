@@ -9,6 +9,14 @@
 //
 // Scalar type T (real.hpp): the table's double model is rounded to T at Configure; the step
 // runs in T. ModelRuntime is the firmware's (T = Real).
+//
+// Operating envelope (table version 2, SetEnvelope): v and x are held to
+// [min - m, max + m], m = margin * (max - min), of the identification data before the model
+// sees them, and the force fed back as output history is held to the force envelope the same
+// way, so the model is evaluated only at its data's edge outside it: bounded, finite. Each
+// sample with a held input (velocity or displacement) counts one input excursion; each held
+// force one force excursion. The command E is not held (the inverter keeps it in
+// [e_min, e_max]).
 
 #include <array>
 #include <cstdint>
@@ -31,6 +39,10 @@ class BasicModelRuntime {
   // firmware does not provide (not v, x, the input or the output); table.Validate() errors;
   // kNonFinite when a number of the model overflows T. Not real-time (start-up).
   Error Configure(const CoefficientTable& table);
+  // Uses the table's envelope with margin (fraction of each channel's range, >= 0) when use is
+  // true and the table has one; otherwise evaluates the inputs as they are. kOutOfRange for a
+  // negative or non-finite margin. Counters are cleared. Not real-time.
+  Error SetEnvelope(bool use, double margin);
   // Clears the history (all channels at normalised 0). Real-time safe.
   void Reset() { runner_.Reset(); }
   // Starts sample k with velocity v [cm/s] and displacement x [cm] (x ignored when the model
@@ -38,8 +50,9 @@ class BasicModelRuntime {
   void Begin(T v, T x);
   // Model force [N] of the current sample if the command were E [V]. Real-time safe.
   T ForceAt(T E);
-  // Completes the current sample with the command actually sent E [V]; returns its force [N],
-  // which becomes the output history. Real-time safe.
+  // Completes the current sample with the command actually sent E [V]; returns its force [N]
+  // (held to the force envelope when it is active), which becomes the output history.
+  // Real-time safe.
   T Finish(T E);
   // Pushes one measured sample (v [cm/s], x [cm], E [V], force f [N]) into the history without
   // evaluating, e.g. to start from measured initial conditions as `mrd simulate` does.
@@ -56,6 +69,13 @@ class BasicModelRuntime {
   const BasicModel<T>& model() const { return model_; }
   bool reads_displacement() const { return x_channel_ >= 0; }
   bool reads_velocity() const { return v_channel_ >= 0; }
+  bool envelope_active() const { return envelope_; }
+  std::uint64_t input_excursions() const { return input_excursions_; }
+  std::uint64_t force_excursions() const { return force_excursions_; }
+  void ClearExcursions() {
+    input_excursions_ = 0;
+    force_excursions_ = 0;
+  }
 
  private:
   CoefficientTable table_;
@@ -64,6 +84,11 @@ class BasicModelRuntime {
   std::array<T, kMaxChannels> raw_{};
   int v_channel_ = -1;
   int x_channel_ = -1;
+  bool envelope_ = false;
+  std::array<T, kMaxChannels> lo_{};  // envelope with margin [raw units]
+  std::array<T, kMaxChannels> hi_{};
+  std::uint64_t input_excursions_ = 0;
+  std::uint64_t force_excursions_ = 0;
 };
 
 using ModelRuntime = BasicModelRuntime<Real>;

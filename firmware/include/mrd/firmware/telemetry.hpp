@@ -20,6 +20,8 @@ struct TelemetrySnapshot {
   std::uint64_t write_faults = 0;
   std::uint64_t unreachable = 0;        // force demands saturated by the inverter
   std::uint64_t model_resets = 0;
+  std::uint64_t envelope_excursions = 0;  // periods with v or x held to the envelope
+  std::uint64_t force_excursions = 0;     // periods with the model force held to its envelope
   WatchdogCounters watchdog;
   std::uint32_t active_causes = 0;
   bool safe = true;

@@ -3,9 +3,13 @@
 //
 //   { "format": "mrd-sem-model", "version": 1,
 //     "spec": { ...the candidate spec... },
-//     "channels": [{"name": "f", "offset": 0, "scale": 1234.5}, ...],   // output first
+//     "channels": [{"name": "f", "offset": 0, "scale": 1234.5,          // output first
+//                   "min": -1200, "max": 1234.5}, ...],   // envelope: range of the
+//                                                          // identification data (optional)
 //     "warmup_samples": 1,        // leading samples that seed a simulation (spec max delay)
 //     "iterations": [{"iteration": k, "J": ..., "validation_J": [...], "elapsed_s": ...,
+//                     "stress": {"pass": true, "peak": 1.2, "reason": "",   // spec [stress] only
+//                                "rejected_candidates": 3},
 //                     "terms": [{"coefficient": c,
 //                                "factors": [{"regressor": "u2", "delay": 1, "power": 3}]}]}],
 //     "selected": k, "selection_rule": "...",
@@ -17,6 +21,7 @@
 #include <vector>
 
 #include "mrd/common/model.hpp"
+#include "mrd/common/table.hpp"
 #include "mrd/host/sem.hpp"
 #include "mrd/host/sem_spec.hpp"
 
@@ -54,6 +59,11 @@ ModelFile LoadModelFile(const std::string& path);
 // capacity of common/model.hpp (terms, factors per term, channels, regressors, delay, power,
 // channel-name length) or does not validate; never truncates.
 mrd::Model ToRuntimeModel(const ModelFile& m, int iteration);
+
+// Copies the operating envelope of the model file's channels (min, max of the identification
+// data) into the table, per table channel by name. False (table unchanged) when a channel has
+// no recorded range (model files written before the envelope existed).
+bool SetTableEnvelope(const ModelFile& m, CoefficientTable* table);
 
 // Free-run simulation of one iteration on a data set through mrd::ModelRunner (the same
 // evaluator as the firmware): the first warmup_samples() rows seed the history with measured

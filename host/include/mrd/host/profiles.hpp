@@ -28,6 +28,9 @@ const std::vector<std::string>& ProfileNames();
 // v2: 20 s ramps at 2, 5, 10, 15 cm/s; 0 V in the first half, 2.25 V in the second.
 // v3: 20 s earthquake-like (Kanai-Tajimi shaped multisine, Shinozuka-Sato envelope,
 //   peak velocity 15 cm/s) at constant 2.25 V.
+// wide: 20 s beyond the identification set: 2 cm sines at 1-4 Hz, then a random multisine;
+//   velocity to about +-50 cm/s, displacement to about +-2 cm; voltage random levels over
+//   0 ... 2.25 V (held 0.1-0.5 s).
 // Throws std::invalid_argument for an unknown name or dt <= 0.
 Excitation MakeExcitation(const std::string& profile, std::uint64_t seed, double dt = 1e-3);
 

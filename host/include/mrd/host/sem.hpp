@@ -31,6 +31,20 @@ struct ChannelInfo {
   std::string name;
   double offset = 0.0;
   double scale = 1.0;  // normalised = (raw - offset) / scale
+  // Operating envelope: range of the identification data [raw units] (has_range false in
+  // model files written before it was recorded).
+  bool has_range = false;
+  double min = 0.0;
+  double max = 0.0;
+};
+
+// Stress check verdict of one model (host/include/mrd/host/sem_stress.hpp).
+struct StressVerdict {
+  bool checked = false;  // the spec has [stress]
+  bool pass = true;
+  double peak = 0.0;     // largest |simulated output| on the stress input / largest |output|
+                         // of the data (+inf: diverged)
+  std::string reason;    // why it failed ("" when it passed)
 };
 
 struct SemIteration {
@@ -42,6 +56,8 @@ struct SemIteration {
   double elapsed_s = 0.0;            // since the start of Identify
   int rejected = 0;  // candidates of this iteration's search rejected: diverging free run
                      // (non-finite or beyond divergence_limit) or linearly dependent column
+  int stress_rejected = 0;  // of them, candidates that failed the stress check
+  StressVerdict stress;     // of this iteration's model
 };
 
 // Fewest scored samples (rows after the largest delay, over all identification files) per
@@ -81,6 +97,8 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
 // Automatic pick of the compact model: score = summed validation J (identification J when
 // there is no validation data); among iterations whose score is within tolerance_percent of
 // the lowest score, the one with fewest terms (then lowest score, then lowest iteration).
+// Iterations that failed the stress check are never picked (nor set the lowest score); -1
+// when every iteration failed it.
 int SelectIteration(const std::vector<SemIteration>& iterations, double tolerance_percent);
 
 // Free-run cost of a model on one data set with the reference per-sample evaluation (no fast

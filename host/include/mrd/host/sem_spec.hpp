@@ -8,8 +8,11 @@
 //   [[regressor]]                      # one per elementary regressor, in this order
 //   name = "y"                         # unique, used in model files and --initial
 //   signal = "f"                       # CSV column
-//   transform = "identity"             # identity | abs_pow | sign | low_pass
+//   transform = "identity"             # identity | abs_pow | sign | low_pass | tanh | clip
 //   exponent = 0.2                     # abs_pow only: |s|^exponent (> 0)
+//   scale = 0.5                        # tanh only: tanh(s / scale), scale > 0 (normalised s:
+//                                      # 1 = the largest |value| in the identification data)
+//   limit = 1.0                        # clip only: clamp(s, -limit, limit), limit > 0 (normalised)
 //   tau = 6.0                          # low_pass only: time constant [samples]; input
 //                                      # signals only; r(k) = a r(k-1) + (1-a) s(k), a = e^(-1/tau)
 //   powers = [1, 2]                    # integers 1 ... 16
@@ -18,6 +21,12 @@
 //   [cost]    weighting = "relative" | "mse", floor = 0.1
 //   [algorithm] strategy = "best" | "first", threshold_percent, max_iterations, target_j,
 //               divergence_limit, selection_tolerance_percent, initial = ["y(k-1)*u1(k)", ...]
+//   [stress]  (optional; present: every accepted model is stress-checked, host/src/sem_stress.cpp)
+//             stretch = 2.0 (>= 1: factor on the stretched signals), stretch_signals = ["v", "x"]
+//             (default: every input signal not swept), sweep_signals = ["E"] (replaced by a
+//             triangle over their data range), sweep_period = 2000 [samples], hold = 1000
+//             [samples, inputs held at their last stretched value], force_bound = 3.0 (|output|
+//             bound as a multiple of the largest |output| of the identification data)
 //
 // Errors (unknown key, wrong type, bad power or delay, unknown transform, duplicate name,
 // empty candidate set, malformed TOML) throw InputError naming the file and line.
@@ -35,7 +44,8 @@ struct ElementaryRegressor {
   std::string name;
   std::string signal;
   Transform transform = Transform::kIdentity;
-  double exponent = 1.0;     // abs_pow: the exponent; low_pass: tau [samples]
+  double exponent = 1.0;     // abs_pow: the exponent; low_pass: tau [samples]; tanh: scale;
+                             // clip: limit (normalised units)
   std::vector<int> powers;   // sorted, unique, 1 ... kMaxPower
   std::vector<int> delays;   // sorted, unique, 0 ... kMaxDelay [samples]
   std::size_t line = 0;         // line of [[regressor]] in the spec file, for messages
@@ -44,6 +54,18 @@ struct ElementaryRegressor {
 
 enum class CostWeighting { kRelative, kMse };
 enum class Strategy { kBest, kFirst };
+
+// Stress check of the search ([stress]; host/include/mrd/host/sem_stress.hpp).
+struct StressSpec {
+  bool enabled = false;                      // a [stress] table is present
+  double stretch = 2.0;                      // factor on stretch_signals (>= 1)
+  std::vector<std::string> stretch_signals;  // empty: every input signal not swept
+  std::vector<std::string> sweep_signals;    // triangle over [min, max] of the data
+  int sweep_period = 2000;                   // [samples]
+  int hold = 1000;                           // [samples] of held inputs after each record
+  double force_bound = 3.0;                  // |output| bound / largest |output| in the data
+  std::size_t line = 0;                      // line of [stress], for messages
+};
 
 // Default of SemSpec::max_candidates: ~100x the paper spec's 1551, a few hundred MB at most.
 inline constexpr std::int64_t kDefaultMaxCandidates = 200000;
@@ -72,6 +94,7 @@ struct SemSpec {
   double divergence_limit = 1e3;   // |normalised ysim| above this rejects a candidate
   double selection_tolerance_percent = 5.0;  // automatic model pick, see SelectIteration
   std::vector<std::string> initial;          // initial structure, term strings
+  StressSpec stress;
 
   // Index of a regressor by name, or -1.
   int RegressorIndex(const std::string& name) const;
