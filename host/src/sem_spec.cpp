@@ -239,6 +239,16 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
         } else if (k == "algorithm" && sk == "divergence_limit") {
           s.divergence_limit = GetNumber(path, sn, sk);
           if (!(s.divergence_limit > 0.0)) Fail(path, sn, "'divergence_limit' must be > 0");
+        } else if (k == "algorithm" && sk == "selection") {
+          const std::string se = GetString(path, sn, sk);
+          if (se == "cross_validation") {
+            s.selection = Selection::kCrossValidation;
+          } else if (se == "tolerance") {
+            s.selection = Selection::kTolerance;
+          } else {
+            Fail(path, sn,
+                 fmt::format("unknown selection '{}' (expected cross_validation or tolerance)", se));
+          }
         } else if (k == "algorithm" && sk == "selection_tolerance_percent") {
           s.selection_tolerance_percent = GetNumber(path, sn, sk);
           if (s.selection_tolerance_percent < 0.0) {

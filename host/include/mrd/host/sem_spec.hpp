@@ -44,6 +44,9 @@ struct ElementaryRegressor {
 
 enum class CostWeighting { kRelative, kMse };
 enum class Strategy { kBest, kFirst };
+// Automatic model pick without validation data (sem.hpp: SelectByCrossValidation,
+// SelectIteration).
+enum class Selection { kCrossValidation, kTolerance };
 
 // Default of SemSpec::max_candidates: ~100x the paper spec's 1551, a few hundred MB at most.
 inline constexpr std::int64_t kDefaultMaxCandidates = 200000;
@@ -70,7 +73,10 @@ struct SemSpec {
   int max_iterations = 20;
   double target_j = 0.0;           // stop once J <= target_j
   double divergence_limit = 1e3;   // |normalised ysim| above this rejects a candidate
-  double selection_tolerance_percent = 5.0;  // automatic model pick, see SelectIteration
+  // Model pick without validation data: cross-validation of the free-run cost inside the
+  // identification data (default) or the tolerance rule on the identification J.
+  Selection selection = Selection::kCrossValidation;
+  double selection_tolerance_percent = 5.0;  // tolerance rule, see SelectIteration
   std::vector<std::string> initial;          // initial structure, term strings
 
   // Index of a regressor by name, or -1.
