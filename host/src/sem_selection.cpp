@@ -156,8 +156,10 @@ std::vector<double> FoldCosts(const std::vector<Evaluator>& ev,
   return out;
 }
 
-// Effective number of independent samples of a residual sequence: n / (1 + 2 sum_l rho_l), the
-// autocorrelations rho_l summed from lag 1 while positive (at most n / 4 lags); in [1, n].
+// Effective number of independent samples of a residual sequence for a cost that sums its
+// squares: n / (1 + 2 sum_l rho_l^2) (for Gaussian e, var(sum e^2) = 2 sigma^4 sum_ij rho_ij^2),
+// over lags 1 ... n/4 whose autocorrelation |rho_l| exceeds 2/sqrt(n) (the others are taken as
+// estimation noise); in [1, n].
 double EffectiveSamples(const std::vector<double>& e) {
   const std::size_t n = e.size();
   if (n < 4) return static_cast<double>(n);
@@ -167,13 +169,13 @@ double EffectiveSamples(const std::vector<double>& e) {
   double c0 = 0.0;
   for (double v : e) c0 += (v - mean) * (v - mean);
   if (!(c0 > 0.0)) return static_cast<double>(n);
+  const double noise = 2.0 / std::sqrt(static_cast<double>(n));
   double tau = 1.0;
   for (std::size_t lag = 1; lag <= n / 4; ++lag) {
     double c = 0.0;
     for (std::size_t k = lag; k < n; ++k) c += (e[k] - mean) * (e[k - lag] - mean);
     const double rho = c / c0;
-    if (!(rho > 0.0)) break;
-    tau += 2.0 * rho;
+    if (std::fabs(rho) > noise) tau += 2.0 * rho * rho;
   }
   return std::clamp(static_cast<double>(n) / tau, 1.0, static_cast<double>(n));
 }
@@ -249,12 +251,6 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   run(0);
   for (auto& t : pool) t.join();
   for (std::size_t i = 0; i < its.size(); ++i) its[i].cv_j = cv[i];
-  if (std::getenv("MRD_CVDEBUG")) {
-    for (std::size_t i = 0; i < its.size(); ++i) {
-      if (i == 0) fmt::print(stderr, "neff\n");
-      fmt::print(stderr, "it {} terms {} J {:.6g} cv {:.6g} [{:.4g}]\n", i, its[i].terms.size(), its[i].j, Sum(cv[i]), fmt::join(cv[i], " "));
-    }
-  }
   // Effective sample size from the free-run residual of the lowest-J iteration.
   std::size_t low = 0;
   for (std::size_t i = 1; i < its.size(); ++i) {
@@ -272,6 +268,12 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
       n_eff += EffectiveSamples(residual);
     } else {
       n_eff += static_cast<double>(e.record().y.size() - e.record().first);
+    }
+  }
+  if (std::getenv("MRD_CVDEBUG")) {
+    for (std::size_t i = 0; i < its.size(); ++i) {
+      if (i == 0) fmt::print(stderr, "neff {}\n", n_eff);
+      fmt::print(stderr, "it {} terms {} J {:.6g} cv {:.6g} [{:.4g}]\n", i, its[i].terms.size(), its[i].j, Sum(cv[i]), fmt::join(cv[i], " "));
     }
   }
   res->selected = SelectByCrossValidation(its, cv, n_eff);
