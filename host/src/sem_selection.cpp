@@ -4,8 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <thread>
-#include <cstdlib>
-#include <fmt/ranges.h>
 
 #include <Eigen/Dense>
 #include <fmt/format.h>
@@ -270,18 +268,12 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
       n_eff += static_cast<double>(e.record().y.size() - e.record().first);
     }
   }
-  if (std::getenv("MRD_CVDEBUG")) {
-    for (std::size_t i = 0; i < its.size(); ++i) {
-      if (i == 0) fmt::print(stderr, "neff {}\n", n_eff);
-      fmt::print(stderr, "it {} terms {} J {:.6g} cv {:.6g} [{:.4g}]\n", i, its[i].terms.size(), its[i].j, Sum(cv[i]), fmt::join(cv[i], " "));
-    }
-  }
   res->selected = SelectByCrossValidation(its, cv, n_eff);
   res->selection_rule = fmt::format(
-      "{}-fold cross-validation of the free-run J inside the identification data: fewest terms "
-      "among the iterations whose summed fold J exceeds the lowest by at most one standard "
-      "error of the paired fold differences",
-      kSelectionFolds);
+      "{}-fold cross-validation of the free-run J inside the identification data: the iteration "
+      "of lowest N ln(CV J) + terms ln(N), N = {:.0f} effective samples of the lowest-J "
+      "iteration's free-run residual",
+      kSelectionFolds, n_eff);
 }
 
 }  // namespace mrd::host

@@ -379,6 +379,13 @@ SemTerm ParseTerm(const SemSpec& spec, const std::string& text, const std::strin
     if (star == std::string::npos) break;
     pos = star + 1;
   }
+  // Powers (after merging repeated factors) must be among the regressor's offered powers.
+  for (const auto& g : term.factors) {
+    const auto& reg = spec.regressors[static_cast<std::size_t>(g.regressor)];
+    if (std::find(reg.powers.begin(), reg.powers.end(), g.power) == reg.powers.end()) {
+      throw bad(fmt::format("power {} not offered for '{}'", g.power, reg.name));
+    }
+  }
   std::sort(term.factors.begin(), term.factors.end(), [](const SemFactor& a, const SemFactor& b) {
     return a.regressor != b.regressor ? a.regressor < b.regressor : a.delay < b.delay;
   });

@@ -103,11 +103,12 @@ std::vector<double> CrossValidatedCost(const SemSpec& spec, const std::vector<Ch
                                        const std::vector<SemTerm>& terms,
                                        std::span<const DataSet> data, int folds);
 
-// Pick by cross-validation (no tolerance to tune): cv[i] = fold costs of iterations[i]
-// (CrossValidatedCost). b = the iteration of lowest summed cost; an iteration i qualifies when
-// D = sum_f (cv[i][f] - cv[b][f]) <= its standard error sqrt(F/(F-1) sum_f (d_f - D/F)^2)
-// (the one-standard-error rule on paired fold differences); among those, the fewest terms,
-// then the lowest summed cost, then the lowest iteration.
+// Pick by cross-validation with no tolerance to tune: cv[i] = fold costs of iterations[i]
+// (CrossValidatedCost), samples = N, the effective number of independent samples (the selection
+// takes n / (1 + 2 sum_l rho_l^2) from the free-run residual of the lowest-J iteration, rho_l its
+// autocorrelations that exceed 2/sqrt(n)); the iteration of lowest N ln(sum_f cv[i][f]) +
+// terms ln(N) (a BIC on the cross-validated simulation error), ties to the lower iteration. An
+// iteration whose cross-validation diverges is never picked (all diverging: the last).
 int SelectByCrossValidation(const std::vector<SemIteration>& iterations,
                             const std::vector<std::vector<double>>& cv, double samples);
 

@@ -2,22 +2,58 @@
 // Candidate spec of the SEM identification (docs/design.md §4, §5): which elementary regressors
 // (a named transform of one signal, at a set of delays, raised to a set of powers) build the
 // candidate terms, the limits on terms, the cost weighting and the algorithm settings.
-// Works for any CSV columns. TOML layout (host/specs/paper.toml is the seed paper's set):
+// Works for any CSV columns. Every key the parser takes, with its default; the block between
+// the BEGIN/END lines is valid TOML (sem_spec_test parses it; host/specs/paper.toml is the seed
+// paper's set):
 //
-//   output = "f"                       # signal to model
-//   [[regressor]]                      # one per elementary regressor, in this order
-//   name = "y"                         # unique, used in model files and --initial
-//   signal = "f"                       # CSV column
-//   transform = "identity"             # identity | abs_pow | sign | low_pass
-//   exponent = 0.2                     # abs_pow only: |s|^exponent (> 0)
-//   tau = 6.0                          # low_pass only: time constant [samples]; input
-//                                      # signals only; r(k) = a r(k-1) + (1-a) s(k), a = e^(-1/tau)
-//   powers = [1, 2]                    # integers 1 ... 16
-//   delays = [1]                       # integers 0 ... 15 (>= 1 on the output signal)
-//   [limits]  max_factors = 3, max_degree = 0 (0: none), constant = false
-//   [cost]    weighting = "relative" | "mse", floor = 0.1
-//   [algorithm] strategy = "best" | "first", threshold_percent, max_iterations, target_j,
-//               divergence_limit, selection_tolerance_percent, initial = ["y(k-1)*u1(k)", ...]
+// BEGIN EXAMPLE
+//   output = "f"               # required: the CSV column to model
+//
+//   [[regressor]]              # at least one, in this order (it names the term columns)
+//   name = "y"                 # required, unique, letters/digits/_; used in terms y(k-1)^2
+//   signal = "f"               # required: CSV column
+//   transform = "identity"     # identity (default) | abs_pow | sign | low_pass
+//   powers = [1, 2]            # required: integers 1 ... 16
+//   delays = [1]               # integers 0 ... 15, default [0]; >= 1 on the output signal
+//
+//   [[regressor]]
+//   name = "a"
+//   signal = "v"
+//   transform = "abs_pow"      # |s|^exponent
+//   exponent = 0.2             # required with abs_pow only (> 0)
+//   powers = [1, 2, 3]
+//   delays = [0, 1]
+//
+//   [[regressor]]
+//   name = "e"
+//   signal = "E"
+//   transform = "low_pass"     # input signals only: r(k) = a r(k-1) + (1-a) s(k), a = e^(-1/tau)
+//   tau = 6.0                  # required with low_pass only: time constant (0, 1e6] [samples]
+//   powers = [1]
+//
+//   [limits]
+//   max_factors = 3            # most factors (regressor/delay pairs) per term, 1 ... 16
+//   max_degree = 0             # most summed powers per term, 0 ... 1000 (0: no limit)
+//   constant = false           # the constant term "1" is a candidate
+//   max_candidates = 200000    # most candidate combinations, 1 ... 2e9
+//
+//   [cost]
+//   weighting = "relative"     # relative: w = 1/max(|y|, floor) | mse: w = 1
+//   floor = 0.1                # > 0, normalised units
+//
+//   [algorithm]
+//   strategy = "first"         # first (default) | best improvement, see sem.hpp
+//   threshold_percent = 2.0    # [0, 100): least relative decrease of J that first
+//                              # improvement accepts; best improvement ignores it
+//   max_iterations = 20        # 0 ... 100000 major iterations
+//   target_j = 0.0             # stop once J <= target_j
+//   divergence_limit = 1000.0  # > 0: |normalised ysim| beyond it rejects a candidate
+//   selection = "cross_validation"    # pick without validation data: cross_validation
+//                                     # (default) | tolerance (sem.hpp)
+//   selection_tolerance_percent = 5.0 # >= 0: tolerance rule (with validation data, or with
+//                                     # selection = "tolerance")
+//   initial = ["y(k-1)", "a(k)^2*y(k-1)"]  # initial structure (terms the spec offers)
+// END EXAMPLE
 //
 // Errors (unknown key, wrong type, bad power or delay, unknown transform, duplicate name,
 // empty candidate set, malformed TOML) throw InputError naming the file and line.
@@ -68,7 +104,7 @@ struct SemSpec {
   CostWeighting weighting = CostWeighting::kRelative;
   double floor = 0.1;
   // Algorithm.
-  Strategy strategy = Strategy::kBest;
+  Strategy strategy = Strategy::kFirst;  // default chosen on the recovery suite (issue 15)
   double threshold_percent = 2.0;  // least relative decrease of J to accept a candidate [%]
   int max_iterations = 20;
   double target_j = 0.0;           // stop once J <= target_j
