@@ -5,6 +5,7 @@
 // build/tests/sem_recovery).
 #include <gtest/gtest.h>
 
+#include <ostream>
 #include <string>
 
 #include "sem_recovery.hpp"
@@ -17,6 +18,10 @@ struct Case {
   Noise noise;
   std::size_t n;
 };
+
+void PrintTo(const Case& c, std::ostream* os) {
+  *os << RecoverySystems()[c.system].name << (c.noise == Noise::kEquation ? " EE " : " OE ") << c.n;
+}
 
 std::string CaseName(const testing::TestParamInfo<Case>& info) {
   const auto& c = info.param;
