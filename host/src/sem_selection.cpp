@@ -110,19 +110,22 @@ std::vector<double> FoldCosts(const std::vector<Evaluator>& ev,
   // Per fold: Gram matrix and right-hand side of the one-step regression on its rows.
   std::vector<Eigen::MatrixXd> g(nf, Eigen::MatrixXd::Zero(m, m));
   std::vector<Eigen::VectorXd> b(nf, Eigen::VectorXd::Zero(m));
-  Eigen::VectorXd phi(m);
   for (const Evaluator& e : ev) {
     if (m == 0) break;
     const Record& r = e.record();
     for (int f = 0; f < folds; ++f) {
       const auto fi = static_cast<std::size_t>(f);
-      for (std::size_t k = Bound(r, f, folds); k < Bound(r, f + 1, folds); ++k) {
-        for (Eigen::Index i = 0; i < m; ++i) {
-          phi(i) = e.Term(terms[static_cast<std::size_t>(i)], r.y, k);
+      const std::size_t a = Bound(r, f, folds), len = Bound(r, f + 1, folds) - a;
+      Eigen::MatrixXd phi(static_cast<Eigen::Index>(len), m);
+      for (Eigen::Index i = 0; i < m; ++i) {
+        for (std::size_t k = 0; k < len; ++k) {
+          phi(static_cast<Eigen::Index>(k), i) =
+              e.Term(terms[static_cast<std::size_t>(i)], r.y, a + k);
         }
-        g[fi].selfadjointView<Eigen::Lower>().rankUpdate(phi);
-        b[fi] += r.y[k] * phi;
       }
+      const Eigen::Map<const Eigen::VectorXd> y(r.y.data() + a, static_cast<Eigen::Index>(len));
+      g[fi].noalias() += phi.transpose() * phi;
+      b[fi].noalias() += phi.transpose() * y;
     }
   }
   Eigen::MatrixXd gt = Eigen::MatrixXd::Zero(m, m);
@@ -136,7 +139,7 @@ std::vector<double> FoldCosts(const std::vector<Evaluator>& ev,
     const auto fi = static_cast<std::size_t>(f);
     Eigen::VectorXd theta = Eigen::VectorXd::Zero(m);
     if (m > 0) {
-      const Eigen::MatrixXd gf = (gt - g[fi]).selfadjointView<Eigen::Lower>();
+      const Eigen::MatrixXd gf = gt - g[fi];
       Eigen::LLT<Eigen::MatrixXd> llt(gf);
       theta = llt.info() == Eigen::Success ? Eigen::VectorXd(llt.solve(bt - b[fi]))
                                             : Eigen::VectorXd(gf.completeOrthogonalDecomposition()
