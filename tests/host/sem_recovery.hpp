@@ -112,8 +112,9 @@ struct RecoveryCount {
 // Identifies every seed 1 ... seeds with the default settings (options: threads only) and no
 // validation data; counts exact recoveries of the selected model.
 inline RecoveryCount CountRecovered(const RecoverySystem& s, Noise noise, std::size_t n,
-                                    int seeds, const host::SemOptions& options = {}) {
-  const host::SemSpec spec = host::ParseSemSpec(kRecoverySpec, "recovery.toml");
+                                    int seeds, const host::SemOptions& options = {},
+                                    const std::string& spec_text = kRecoverySpec) {
+  const host::SemSpec spec = host::ParseSemSpec(spec_text, "recovery.toml");
   RecoveryCount out;
   for (int seed = 1; seed <= seeds; ++seed) {
     const std::vector<host::DataSet> id{

@@ -88,7 +88,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
 int SelectIteration(const std::vector<SemIteration>& iterations, double tolerance_percent);
 
 // Contiguous time folds of every identification record used by the cross-validation.
-inline constexpr int kSelectionFolds = 5;
+inline constexpr int kSelectionFolds = 20;
 // Fewest scored samples per fold and record for cross-validation; shorter records fall back
 // to the tolerance rule on the identification J.
 inline constexpr std::size_t kMinFoldSamples = 20;
