@@ -105,7 +105,7 @@ void RegisterIdentify(CLI::App& app) {
   cmd->add_option("--initial", o->initial,
                   "Initial structure: terms like y(k-1)^2*u1(k), comma separated")
       ->delimiter(',');
-  cmd->add_option("--strategy", o->strategy, "best (default) | first improvement")
+  cmd->add_option("--strategy", o->strategy, "first (built-in default) | best improvement; default: the spec's strategy")
       ->check(CLI::IsMember({"best", "first"}));
   cmd->callback([o] { RunIdentify(*o); });
 }

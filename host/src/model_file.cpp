@@ -64,6 +64,8 @@ json SpecToJson(const SemSpec& s) {
             {"max_iterations", s.max_iterations},
             {"target_j", s.target_j},
             {"divergence_limit", s.divergence_limit},
+            {"selection",
+             s.selection == Selection::kCrossValidation ? "cross_validation" : "tolerance"},
             {"selection_tolerance_percent", s.selection_tolerance_percent},
             {"initial", s.initial}}}};
   if (s.stress.enabled) {
@@ -173,12 +175,7 @@ ModelFile MakeModelFile(const SemSpec& spec, const SemResult& r) {
   m.iterations = r.iterations;
   m.selected = r.selected;
   m.num_candidates = r.num_candidates;
-  m.selection_rule = fmt::format(
-      "fewest terms among the iterations whose {} is within {}% of the lowest",
-      r.iterations.empty() || r.iterations.front().validation_j.empty()
-          ? "identification J"
-          : "summed validation J",
-      spec.selection_tolerance_percent);
+  m.selection_rule = r.selection_rule;
   return m;
 }
 

@@ -14,8 +14,25 @@
 
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/sem_stress.hpp"
+#include "sem_internal.hpp"
 
 namespace mrd::host {
+
+std::vector<double> internal::TransformSignal(const ElementaryRegressor& reg,
+                                              const std::vector<double>& raw, double scale) {
+  std::vector<double> out(raw.size());
+  if (reg.transform == Transform::kLowPass) {
+    const double a = LowPassPole(reg.exponent);
+    double r = 0.0;
+    for (std::size_t k = 0; k < raw.size(); ++k) out[k] = r = LowPassStep(a, r, raw[k] / scale);
+    return out;
+  }
+  for (std::size_t k = 0; k < raw.size(); ++k) {
+    out[k] = ApplyTransform(reg.transform, reg.exponent, raw[k] / scale);
+  }
+  return out;
+}
+
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -53,23 +70,6 @@ double Pow(double b, int p) {
   double v = 1.0;
   for (int i = 0; i < p; ++i) v *= b;
   return v;
-}
-
-// One elementary regressor over a whole record of raw values: T(raw / scale). Low-pass
-// filters start from r(-1) = 0 at the record's first sample, as ModelRunner after Reset.
-std::vector<double> TransformSignal(const ElementaryRegressor& reg, const std::vector<double>& raw,
-                                    double scale) {
-  std::vector<double> out(raw.size());
-  if (reg.transform == Transform::kLowPass) {
-    const double a = LowPassPole(reg.exponent);
-    double r = 0.0;
-    for (std::size_t k = 0; k < raw.size(); ++k) out[k] = r = LowPassStep(a, r, raw[k] / scale);
-    return out;
-  }
-  for (std::size_t k = 0; k < raw.size(); ++k) {
-    out[k] = ApplyTransform(reg.transform, reg.exponent, raw[k] / scale);
-  }
-  return out;
 }
 
 struct Segment {
@@ -141,7 +141,7 @@ class Engine {
       base_index_[r].assign(kMaxDelay + 1, -1);
       std::vector<std::vector<double>> transformed(data.size());
       for (std::size_t d = 0; d < data.size(); ++d) {
-        transformed[d] = TransformSignal(reg, data[d].Column(reg.signal), ch[ci].scale);
+        transformed[d] = internal::TransformSignal(reg, data[d].Column(reg.signal), ch[ci].scale);
       }
       for (int delay : reg.delays) {
         std::vector<double> base;
@@ -795,7 +795,7 @@ double SimulateCost(const SemSpec& spec, const std::vector<ChannelInfo>& channel
   std::vector<std::vector<double>> input(spec.regressors.size());
   for (std::size_t r = 0; r < spec.regressors.size(); ++r) {
     const std::size_t ci = reg_channel[r];
-    if (ci != 0) input[r] = TransformSignal(spec.regressors[r], *col[ci], channels[ci].scale);
+    if (ci != 0) input[r] = internal::TransformSignal(spec.regressors[r], *col[ci], channels[ci].scale);
   }
   std::vector<double> y(n);
   for (std::size_t k = 0; k < n; ++k) y[k] = (*col[0])[k] / channels[0].scale;
@@ -1018,7 +1018,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     }
     record(iteration, rejected, stress_rejected);
   }
-  res.selected = SelectIteration(res.iterations, spec.selection_tolerance_percent);
+  internal::SelectModel(spec, identification, o.threads, &res);
   if (res.selected < 0) {
     throw InputError(spec.path, spec.stress.line,
                      "no iteration passes the stress check ([stress]): nothing to select");

@@ -298,6 +298,16 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
         } else if (k == "algorithm" && sk == "divergence_limit") {
           s.divergence_limit = GetNumber(path, sn, sk);
           if (!(s.divergence_limit > 0.0)) Fail(path, sn, "'divergence_limit' must be > 0");
+        } else if (k == "algorithm" && sk == "selection") {
+          const std::string se = GetString(path, sn, sk);
+          if (se == "cross_validation") {
+            s.selection = Selection::kCrossValidation;
+          } else if (se == "tolerance") {
+            s.selection = Selection::kTolerance;
+          } else {
+            Fail(path, sn,
+                 fmt::format("unknown selection '{}' (expected cross_validation or tolerance)", se));
+          }
         } else if (k == "algorithm" && sk == "selection_tolerance_percent") {
           s.selection_tolerance_percent = GetNumber(path, sn, sk);
           if (s.selection_tolerance_percent < 0.0) {
@@ -438,6 +448,13 @@ SemTerm ParseTerm(const SemSpec& spec, const std::string& text, const std::strin
     if (!merged) term.factors.push_back({r, delay, power});
     if (star == std::string::npos) break;
     pos = star + 1;
+  }
+  // Powers (after merging repeated factors) must be among the regressor's offered powers.
+  for (const auto& g : term.factors) {
+    const auto& reg = spec.regressors[static_cast<std::size_t>(g.regressor)];
+    if (std::find(reg.powers.begin(), reg.powers.end(), g.power) == reg.powers.end()) {
+      throw bad(fmt::format("power {} not offered for '{}'", g.power, reg.name));
+    }
   }
   std::sort(term.factors.begin(), term.factors.end(), [](const SemFactor& a, const SemFactor& b) {
     return a.regressor != b.regressor ? a.regressor < b.regressor : a.delay < b.delay;

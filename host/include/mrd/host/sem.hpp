@@ -53,6 +53,8 @@ struct SemIteration {
   std::vector<double> coefficients;  // normalised units
   double j = 0.0;                    // identification cost
   std::vector<double> validation_j;  // one per validation data set
+  std::vector<double> cv_j;  // per fold: cross-validated J (CrossValidatedCost) when the
+                             // selection used it, else empty
   double elapsed_s = 0.0;            // since the start of Identify
   int rejected = 0;  // candidates of this iteration's search rejected: diverging free run
                      // (non-finite or beyond divergence_limit) or linearly dependent column
@@ -79,7 +81,8 @@ struct SemOptions {
 struct SemResult {
   std::vector<ChannelInfo> channels;  // spec.Signals() order; channels[0] is the output
   std::vector<SemIteration> iterations;
-  int selected = 0;                   // iteration picked by SelectIteration
+  int selected = 0;                   // iteration picked automatically (SelectModel)
+  std::string selection_rule;         // how `selected` was picked, in words
   std::size_t num_candidates = 0;
   bool fast_path = false;             // free run by the y(k-1) polynomial recursion
   int exhausted_rejected = -1;        // >= 0: the search stopped because all candidates
@@ -97,9 +100,36 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
 // Automatic pick of the compact model: score = summed validation J (identification J when
 // there is no validation data); among iterations whose score is within tolerance_percent of
 // the lowest score, the one with fewest terms (then lowest score, then lowest iteration).
+// Used with validation data, and without it when the spec's selection is "tolerance".
 // Iterations that failed the stress check are never picked (nor set the lowest score); -1
 // when every iteration failed it.
 int SelectIteration(const std::vector<SemIteration>& iterations, double tolerance_percent);
+
+// Contiguous time folds of every identification record used by the cross-validation.
+inline constexpr int kSelectionFolds = 20;
+// Fewest scored samples per fold and record for cross-validation; shorter records fall back
+// to the tolerance rule on the identification J.
+inline constexpr std::size_t kMinFoldSamples = 20;
+
+// Cross-validated free-run cost of a structure inside the identification data: each record's
+// scored samples (from spec.MaxDelay() on) are cut into `folds` contiguous parts; for fold f
+// the coefficients are the one-step least squares on every other part of every record, and
+// the model runs free over part f of each record (seeded with the measured output just before
+// it). Returns per fold sum over records of (1/N_d) sum_k w_k (y - ysim)^2 (so the folds add up
+// to a J-like total); +inf for a fold whose fit is singular or whose free run diverges.
+std::vector<double> CrossValidatedCost(const SemSpec& spec, const std::vector<ChannelInfo>& ch,
+                                       const std::vector<SemTerm>& terms,
+                                       std::span<const DataSet> data, int folds);
+
+// Pick by cross-validation with no tolerance to tune: cv[i] = fold costs of iterations[i]
+// (CrossValidatedCost), samples = N, the effective number of independent samples (the selection
+// takes n / (1 + 2 sum_l rho_l^2) from the free-run residual of the lowest-J iteration, rho_l its
+// autocorrelations that exceed 2/sqrt(n)); the iteration of lowest N ln(sum_f cv[i][f]) +
+// terms ln(N) (a BIC on the cross-validated simulation error), ties to the lower iteration. An
+// iteration whose cross-validation diverges, or that failed the stress check, is never picked
+// (all diverging: the last that passed the stress check; -1 when none did).
+int SelectByCrossValidation(const std::vector<SemIteration>& iterations,
+                            const std::vector<std::vector<double>>& cv, double samples);
 
 // Free-run cost of a model on one data set with the reference per-sample evaluation (no fast
 // path): J of that data set alone, +inf when the simulation diverges. ysim (optional)

@@ -2,31 +2,82 @@
 // Candidate spec of the SEM identification (docs/design.md §4, §5): which elementary regressors
 // (a named transform of one signal, at a set of delays, raised to a set of powers) build the
 // candidate terms, the limits on terms, the cost weighting and the algorithm settings.
-// Works for any CSV columns. TOML layout (host/specs/paper.toml is the seed paper's set):
+// Works for any CSV columns. Every key the parser takes, with its default; the block between
+// the BEGIN/END lines is valid TOML (sem_spec_test parses it; host/specs/paper.toml is the seed
+// paper's set):
 //
-//   output = "f"                       # signal to model
-//   [[regressor]]                      # one per elementary regressor, in this order
-//   name = "y"                         # unique, used in model files and --initial
-//   signal = "f"                       # CSV column
-//   transform = "identity"             # identity | abs_pow | sign | low_pass | tanh | clip
-//   exponent = 0.2                     # abs_pow only: |s|^exponent (> 0)
-//   scale = 0.5                        # tanh only: tanh(s / scale), scale > 0 (normalised s:
-//                                      # 1 = the largest |value| in the identification data)
-//   limit = 1.0                        # clip only: clamp(s, -limit, limit), limit > 0 (normalised)
-//   tau = 6.0                          # low_pass only: time constant [samples]; input
-//                                      # signals only; r(k) = a r(k-1) + (1-a) s(k), a = e^(-1/tau)
-//   powers = [1, 2]                    # integers 1 ... 16
-//   delays = [1]                       # integers 0 ... 15 (>= 1 on the output signal)
-//   [limits]  max_factors = 3, max_degree = 0 (0: none), constant = false
-//   [cost]    weighting = "relative" | "mse", floor = 0.1
-//   [algorithm] strategy = "best" | "first", threshold_percent, max_iterations, target_j,
-//               divergence_limit, selection_tolerance_percent, initial = ["y(k-1)*u1(k)", ...]
-//   [stress]  (optional; present: every accepted model is stress-checked, host/src/sem_stress.cpp)
-//             stretch = 2.0 (>= 1: factor on the stretched signals), stretch_signals = ["v", "x"]
-//             (default: every input signal not swept), sweep_signals = ["E"] (replaced by a
-//             triangle over their data range), sweep_period = 2000 [samples], hold = 1000
-//             [samples, inputs held at their last stretched value], force_bound = 3.0 (|output|
-//             bound as a multiple of the largest |output| of the identification data)
+// BEGIN EXAMPLE
+//   output = "f"               # required: the CSV column to model
+//
+//   [[regressor]]              # at least one, in this order (it names the term columns)
+//   name = "y"                 # required, unique, letters/digits/_; used in terms y(k-1)^2
+//   signal = "f"               # required: CSV column
+//   transform = "identity"     # identity (default) | abs_pow | sign | low_pass | tanh | clip
+//   powers = [1, 2]            # required: integers 1 ... 16
+//   delays = [1]               # integers 0 ... 15, default [0]; >= 1 on the output signal
+//
+//   [[regressor]]
+//   name = "a"
+//   signal = "v"
+//   transform = "abs_pow"      # |s|^exponent
+//   exponent = 0.2             # required with abs_pow only (> 0)
+//   powers = [1, 2, 3]
+//   delays = [0, 1]
+//
+//   [[regressor]]
+//   name = "e"
+//   signal = "E"
+//   transform = "low_pass"     # input signals only: r(k) = a r(k-1) + (1-a) s(k), a = e^(-1/tau)
+//   tau = 6.0                  # required with low_pass only: time constant (0, 1e6] [samples]
+//   powers = [1]
+//
+//   [[regressor]]
+//   name = "t"
+//   signal = "v"
+//   transform = "tanh"         # tanh(s / scale): saturates where physics does
+//   scale = 0.5                # required with tanh only (> 0, normalised: 1 = the largest
+//                              # |value| in the identification data)
+//   powers = [1]
+//
+//   [[regressor]]
+//   name = "c"
+//   signal = "x"
+//   transform = "clip"         # clamp(s, -limit, limit)
+//   limit = 1.0                # required with clip only (> 0, normalised)
+//   powers = [1]
+//
+//   [limits]
+//   max_factors = 3            # most factors (regressor/delay pairs) per term, 1 ... 16
+//   max_degree = 0             # most summed powers per term, 0 ... 1000 (0: no limit)
+//   constant = false           # the constant term "1" is a candidate
+//   max_candidates = 200000    # most candidate combinations, 1 ... 2e9
+//
+//   [cost]
+//   weighting = "relative"     # relative: w = 1/max(|y|, floor) | mse: w = 1
+//   floor = 0.1                # > 0, normalised units
+//
+//   [algorithm]
+//   strategy = "first"         # first (default) | best improvement, see sem.hpp
+//   threshold_percent = 2.0    # [0, 100): least relative decrease of J that first
+//                              # improvement accepts; best improvement ignores it
+//   max_iterations = 20        # 0 ... 100000 major iterations
+//   target_j = 0.0             # stop once J <= target_j
+//   divergence_limit = 1000.0  # > 0: |normalised ysim| beyond it rejects a candidate
+//   selection = "cross_validation"    # pick without validation data: cross_validation
+//                                     # (default) | tolerance (sem.hpp)
+//   selection_tolerance_percent = 5.0 # >= 0: tolerance rule (with validation data, or with
+//                                     # selection = "tolerance")
+//   initial = ["y(k-1)", "a(k)^2*y(k-1)"]  # initial structure (terms the spec offers)
+//
+//   [stress]                   # optional; present: every accepted model is stress-checked
+//                              # (host/src/sem_stress.cpp) and one that fails is rejected
+//   stretch = 2.0              # >= 1: factor on the stretched signals
+//   stretch_signals = ["v"]    # default: every input signal not swept
+//   sweep_signals = ["E"]      # replaced by a triangle over their data range
+//   sweep_period = 2000        # [samples]
+//   hold = 1000                # [samples] inputs held at their last stretched value
+//   force_bound = 3.0          # |output| bound, multiple of the largest |output| in the data
+// END EXAMPLE
 //
 // Errors (unknown key, wrong type, bad power or delay, unknown transform, duplicate name,
 // empty candidate set, malformed TOML) throw InputError naming the file and line.
@@ -54,6 +105,9 @@ struct ElementaryRegressor {
 
 enum class CostWeighting { kRelative, kMse };
 enum class Strategy { kBest, kFirst };
+// Automatic model pick without validation data (sem.hpp: SelectByCrossValidation,
+// SelectIteration).
+enum class Selection { kCrossValidation, kTolerance };
 
 // Stress check of the search ([stress]; host/include/mrd/host/sem_stress.hpp).
 struct StressSpec {
@@ -87,12 +141,15 @@ struct SemSpec {
   CostWeighting weighting = CostWeighting::kRelative;
   double floor = 0.1;
   // Algorithm.
-  Strategy strategy = Strategy::kBest;
+  Strategy strategy = Strategy::kFirst;  // default chosen on the recovery suite (issue 15)
   double threshold_percent = 2.0;  // least relative decrease of J to accept a candidate [%]
   int max_iterations = 20;
   double target_j = 0.0;           // stop once J <= target_j
   double divergence_limit = 1e3;   // |normalised ysim| above this rejects a candidate
-  double selection_tolerance_percent = 5.0;  // automatic model pick, see SelectIteration
+  // Model pick without validation data: cross-validation of the free-run cost inside the
+  // identification data (default) or the tolerance rule on the identification J.
+  Selection selection = Selection::kCrossValidation;
+  double selection_tolerance_percent = 5.0;  // tolerance rule, see SelectIteration
   std::vector<std::string> initial;          // initial structure, term strings
   StressSpec stress;
 

@@ -1,0 +1,171 @@
+// Issue 15: model selection without validation data (cross-validated simulation error with a
+// BIC on the effective sample size), the spec header's documented example, and ParseTerm's
+// refusal of powers and delays the spec does not offer.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "mrd/host/input_error.hpp"
+#include "mrd/host/model_file.hpp"
+#include "mrd/host/sem.hpp"
+#include "mrd/host/sem_spec.hpp"
+#include "sem_recovery.hpp"
+
+namespace mrd::host {
+namespace {
+
+// The TOML between "// BEGIN EXAMPLE" and "// END EXAMPLE" of sem_spec.hpp, comment marks off.
+std::string DocumentedExample() {
+  std::ifstream in(std::string(MRD_SOURCE_DIR) + "/host/include/mrd/host/sem_spec.hpp");
+  std::string line, out;
+  bool inside = false;
+  while (std::getline(in, line)) {
+    if (line == "// BEGIN EXAMPLE") {
+      inside = true;
+    } else if (line == "// END EXAMPLE") {
+      break;
+    } else if (inside) {
+      out += (line.size() > 2 ? line.substr(2) : std::string()) + "\n";
+    }
+  }
+  return out;
+}
+
+TEST(SemSpecDocTest, DocumentedExampleParsesAsWritten) {
+  const std::string text = DocumentedExample();
+  ASSERT_NE(text.find("[algorithm]"), std::string::npos) << "example block not found";
+  const SemSpec s = ParseSemSpec(text, "sem_spec.hpp");
+  ASSERT_EQ(s.regressors.size(), 3u);
+  EXPECT_EQ(s.output, "f");
+  EXPECT_EQ(s.regressors[1].transform, Transform::kAbsPow);
+  EXPECT_DOUBLE_EQ(s.regressors[1].exponent, 0.2);
+  EXPECT_EQ(s.regressors[2].transform, Transform::kLowPass);
+  EXPECT_EQ(s.regressors[2].delays, std::vector<int>{0});  // the documented default
+  EXPECT_EQ(s.max_factors, 3);
+  EXPECT_EQ(s.max_candidates, 200000);
+  EXPECT_EQ(s.strategy, Strategy::kFirst);
+  EXPECT_EQ(s.selection, Selection::kCrossValidation);
+  EXPECT_DOUBLE_EQ(s.selection_tolerance_percent, 5.0);
+  EXPECT_EQ(s.initial.size(), 2u);
+  // The documented values are the built-in defaults.
+  const SemSpec d = ParseSemSpec("output = \"f\"\n[[regressor]]\nname = \"y\"\nsignal = \"f\"\n"
+                                 "powers = [1]\ndelays = [1]\n",
+                                 "min.toml");
+  EXPECT_EQ(d.strategy, s.strategy);
+  EXPECT_EQ(d.selection, s.selection);
+  EXPECT_EQ(d.threshold_percent, s.threshold_percent);
+  EXPECT_EQ(d.max_iterations, s.max_iterations);
+  EXPECT_EQ(d.weighting, s.weighting);
+  EXPECT_EQ(d.floor, s.floor);
+  EXPECT_EQ(d.max_degree, s.max_degree);
+  EXPECT_EQ(d.constant, s.constant);
+  EXPECT_EQ(d.divergence_limit, s.divergence_limit);
+}
+
+TEST(SemSpecDocTest, UnknownSelectionIsRefusedWithItsLine) {
+  const std::string text = DocumentedExample() + "";
+  std::string bad = text;
+  bad.replace(bad.find("\"cross_validation\""), 18, "\"aic\"");
+  try {
+    ParseSemSpec(bad, "x.toml");
+    FAIL() << "accepted selection = \"aic\"";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown selection 'aic'"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(ParseTermOfferTest, RefusesPowersAndDelaysNotOffered) {
+  const SemSpec s = ParseSemSpec(DocumentedExample(), "sem_spec.hpp");
+  EXPECT_EQ(TermName(s, ParseTerm(s, "y(k-1)^2*a(k-1)^3")), "y(k-1)^2*a(k-1)^3");
+  auto refuses = [&](const std::string& term, const std::string& why) {
+    try {
+      ParseTerm(s, term, "spec.toml", 7);
+      ADD_FAILURE() << "accepted " << term;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("spec.toml:7"), std::string::npos) << e.what();
+    }
+  };
+  refuses("y(k-1)^3", "power 3 not offered for 'y'");
+  refuses("a(k)^4", "power 4 not offered for 'a'");
+  refuses("y(k-1)*y(k-1)^2", "power 3 not offered for 'y'");  // merged factors
+  refuses("e(k)^2", "power 2 not offered for 'e'");
+  refuses("y(k-2)", "delay 2 not offered for 'y'");
+  refuses("e(k-1)", "delay 1 not offered for 'e'");
+}
+
+SemIteration It(int iteration, std::size_t terms) {
+  SemIteration it;
+  it.iteration = iteration;
+  it.terms.resize(terms);
+  return it;
+}
+
+TEST(SemSelectionTest, BicOnCrossValidatedCostTradesTermsForCost) {
+  const std::vector<SemIteration> its{It(0, 0), It(1, 1), It(2, 2), It(3, 3)};
+  // Fold costs: a large drop with the 2nd term, then 1 % with the 3rd.
+  const std::vector<std::vector<double>> cv{
+      {1.0, 1.0}, {0.5, 0.5}, {0.1, 0.1}, {0.099, 0.099}};
+  // N = 100: one more term must lower CV J by more than ln(100)/100 = 4.6 %.
+  EXPECT_EQ(SelectByCrossValidation(its, cv, 100.0), 2);
+  // N = 2000: the threshold is 0.38 %, so the 1 % drop is taken.
+  EXPECT_EQ(SelectByCrossValidation(its, cv, 2000.0), 3);
+  // A diverging cross-validation is never picked.
+  std::vector<std::vector<double>> div = cv;
+  div[2][1] = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(SelectByCrossValidation(its, div, 100.0), 3);
+}
+
+TEST(SemSelectionTest, CrossValidatedCostOfTheTrueStructureIsNearTheNoiseLevel) {
+  // Output-error data: the free run of the true structure leaves only the measurement noise.
+  const auto sys = test::RecoverySystems()[2];  // wei
+  const std::vector<DataSet> id{test::RecoveryData(sys, test::Noise::kOutput, 3, 2000)};
+  const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
+  const auto ch = ComputeScales(spec, id);
+  std::vector<SemTerm> terms;
+  for (const auto& t : sys.terms) terms.push_back(ParseTerm(spec, t));
+  const std::vector<double> cv = CrossValidatedCost(spec, ch, terms, id, kSelectionFolds);
+  ASSERT_EQ(cv.size(), static_cast<std::size_t>(kSelectionFolds));
+  double total = 0.0;
+  for (double v : cv) total += v;
+  const double noise = sys.sigma * sys.sigma / (ch[0].scale * ch[0].scale);
+  EXPECT_GT(total, 0.8 * noise);
+  EXPECT_LT(total, 1.3 * noise);
+  // Without the y(k-2)^2 term the cost is clearly higher.
+  terms.erase(terms.begin() + 1);
+  double fewer = 0.0;
+  for (double v : CrossValidatedCost(spec, ch, terms, id, kSelectionFolds)) fewer += v;
+  EXPECT_GT(fewer, 1.5 * total);
+}
+
+TEST(SemSelectionTest, ModelFileStatesTheRuleAndValidationStillWins) {
+  const auto sys = test::RecoverySystems()[0];
+  const std::vector<DataSet> id{test::RecoveryData(sys, test::Noise::kOutput, 5, 1000)};
+  const std::vector<DataSet> val{test::RecoveryData(sys, test::Noise::kOutput, 6, 1000)};
+  const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
+  SemOptions o;
+  o.max_iterations = 8;
+  const SemResult a = Identify(spec, id, {}, o);
+  const std::string ja = ModelFileToJson(MakeModelFile(spec, a));
+  EXPECT_NE(ja.find(std::to_string(kSelectionFolds) + "-fold cross-validation of the free-run J"),
+            std::string::npos)
+      << ja;
+  EXPECT_EQ(a.iterations.front().cv_j.size(), static_cast<std::size_t>(kSelectionFolds));
+  const SemResult b = Identify(spec, id, val, o);
+  EXPECT_EQ(b.selected, SelectIteration(b.iterations, spec.selection_tolerance_percent));
+  EXPECT_NE(b.selection_rule.find("summed validation J"), std::string::npos) << b.selection_rule;
+  EXPECT_TRUE(b.iterations.front().cv_j.empty());
+  // selection = "tolerance": the old rule on the identification J.
+  SemSpec tol = spec;
+  tol.selection = Selection::kTolerance;
+  const SemResult c = Identify(tol, id, {}, o);
+  EXPECT_EQ(c.selected, SelectIteration(c.iterations, tol.selection_tolerance_percent));
+  EXPECT_NE(c.selection_rule.find("identification J is within"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mrd::host
