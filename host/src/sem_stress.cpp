@@ -1,10 +1,10 @@
 #include "mrd/host/sem_stress.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <fmt/format.h>
 
 namespace mrd::host {
 namespace {

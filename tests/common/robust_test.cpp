@@ -156,7 +156,8 @@ TEST(TableV2Test, VersionOneImageStillDecodes) {
   std::vector<std::uint8_t> flagged = V1Image(SaturatingTable());
   flagged[6] = 1;
   const std::uint32_t crc = Crc32(std::span<const std::uint8_t>(flagged.data(), kTableCrcOffsetV1));
-  for (int i = 0; i < 4; ++i) flagged[kTableCrcOffsetV1 + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+  for (int i = 0; i < 4; ++i)
+    flagged[kTableCrcOffsetV1 + i] = static_cast<std::uint8_t>(crc >> (8 * i));
   EXPECT_EQ(DecodeTable(flagged).error(), Error::kOutOfRange);
   // Version 1 size with a version 2 header, and the reverse, are refused.
   std::vector<std::uint8_t> wrong = v1;

@@ -126,7 +126,7 @@ TEST(EnvelopeDryRunTest, PlantFarBeyondTheEnvelopeStaysFiniteAndCounted) {
   t.has_envelope = true;
   for (std::size_t c = 0; c < t.model.num_channels; ++c) {
     const std::string name = t.model.channel_names[c].data();
-    t.envelope[c] = name == "v" ? ChannelRange{-15.0, 15.0}
+    t.envelope[c] = name == "v"   ? ChannelRange{-15.0, 15.0}
                     : name == "x" ? ChannelRange{-1.5, 1.5}
                     : name == "E" ? ChannelRange{0.0, 2.25}
                                   : ChannelRange{-1471.1, 1460.6};
@@ -138,8 +138,8 @@ TEST(EnvelopeDryRunTest, PlantFarBeyondTheEnvelopeStaysFiniteAndCounted) {
              static_cast<std::streamsize>(image.value().size()));
   // 8 cm at 3 Hz: peak velocity 151 cm/s, ten times the envelope.
   std::ofstream(config) << "[simulation]\namplitude_cm = 8.0\nfrequency_hz = 3.0\n";
-  const auto r = test::Run(test::Bin("mrd-firmware") + " --table " + table + " --config " +
-                           config + " --dry-run 2 --lockstep --json");
+  const auto r = test::Run(test::Bin("mrd-firmware") + " --table " + table + " --config " + config +
+                           " --dry-run 2 --lockstep --json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_EQ(JsonNumber(r.output, "model_resets"), 0.0) << r.output;
   EXPECT_GT(JsonNumber(r.output, "envelope_excursions"), 500.0) << r.output;

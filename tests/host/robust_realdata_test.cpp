@@ -7,9 +7,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "mrd/host/csv.hpp"
 #include "test_util.hpp"
@@ -33,10 +32,10 @@ TEST(RobustRealDataTest, NeesModelStaysBoundedOnEndStopAndDoubledRun) {
                     twice = dir.File("twice.csv"), model = dir.File("nees.json");
   auto ok = [](const CommandResult& r) { ASSERT_EQ(r.status, 0) << r.output; };
   ok(test::Run(Bin("mrd") + " import --in " + kNeesFile +
-         " --map t=t,x=D,v=V,E=Y,f=F --rate 1000 --out " + all));
+               " --map t=t,x=D,v=V,E=Y,f=F --rate 1000 --out " + all));
   ok(test::Run(Bin("mrd") + " slice --in " + all + " --from 0 --to 19.5 --out " + id));
   ok(test::Run(Bin("mrd") + " identify --data " + id + " --spec " + MRD_SOURCE_DIR +
-         "/host/specs/nees.toml --threads 2 --out " + model));
+               "/host/specs/nees.toml --threads 2 --out " + model));
   // The run with v and x doubled.
   host::DataSet d = host::ReadCsv(all);
   for (std::size_t c = 0; c < d.names.size(); ++c) {
@@ -56,7 +55,8 @@ TEST(RobustRealDataTest, NeesModelStaysBoundedOnEndStopAndDoubledRun) {
   ok(test::Run(Bin("mrd") + " simulate --model " + model + " --data " + twice + " --out " +
                dir.File("twice-sim.csv")));
   double peak_data = 0.0, peak_sim = 0.0;
-  for (const double f : host::ReadCsv(id).Column("f")) peak_data = std::max(peak_data, std::fabs(f));
+  for (const double f : host::ReadCsv(id).Column("f"))
+    peak_data = std::max(peak_data, std::fabs(f));
   for (const double f : host::ReadCsv(dir.File("twice-sim.csv")).Column("f_sim")) {
     peak_sim = std::max(peak_sim, std::fabs(f));
   }

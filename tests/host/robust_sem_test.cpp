@@ -4,9 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
@@ -84,7 +83,9 @@ name = "y"
 signal = "f"
 powers = [1]
 delays = [1]
-)", "plain.toml").stress.enabled);
+)",
+                                  "plain.toml")
+                   .stress.enabled);
 }
 
 TEST(SaturatingSpecTest, BadInputIsRefusedWithFileAndLine) {
@@ -259,9 +260,10 @@ TEST(StressCheckTest, BadEnvelopeInModelFileIsRefused) {
 }
 
 TEST(SaturatingExportTest, TanhOfTheCommandIsRefusedWithTheReason) {
-  const host::SemSpec s = host::ParseSemSpec(Replace(kSatSpec, "signal = \"v\"\ntransform = \"clip\"",
-                                                     "signal = \"E\"\ntransform = \"clip\""),
-                                             "e.toml");
+  const host::SemSpec s =
+      host::ParseSemSpec(Replace(kSatSpec, "signal = \"v\"\ntransform = \"clip\"",
+                                 "signal = \"E\"\ntransform = \"clip\""),
+                         "e.toml");
   const std::vector<host::DataSet> ids{DamperData("identification", 3000)};
   host::SemOptions o;
   o.max_iterations = 0;
@@ -301,7 +303,8 @@ TEST(WideProfileTest, DeterministicAndBeyondTheIdentificationSet) {
 }
 
 nlohmann::json SimulateJson(const std::string& model, const std::string& data) {
-  const auto r = test::Run(Bin("mrd") + " simulate --model " + model + " --data " + data + " --json");
+  const auto r =
+      test::Run(Bin("mrd") + " simulate --model " + model + " --data " + data + " --json");
   EXPECT_EQ(r.status, 0) << r.output;
   return nlohmann::json::parse(r.output.substr(r.output.find('{')));
 }
@@ -312,13 +315,16 @@ nlohmann::json SimulateJson(const std::string& model, const std::string& data) {
 TEST(ExtrapolationTest, SaturatingSpecHoldsOnWide) {
   TempDir dir;
   for (const std::string p : {"identification", "v1", "v2", "v3", "wide"}) {
-    ASSERT_EQ(test::Run(Bin("mrd") + " generate --profile " + p + " --seed 1 --out " + dir.File(p + ".csv")).status, 0);
+    ASSERT_EQ(test::Run(Bin("mrd") + " generate --profile " + p + " --seed 1 --out " +
+                        dir.File(p + ".csv"))
+                  .status,
+              0);
   }
   const std::string model = dir.File("sat.json");
   const auto id = test::Run(Bin("mrd") + " identify --data " + dir.File("identification.csv") +
-                      " --validate " + dir.File("v1.csv") + "," + dir.File("v2.csv") + "," +
-                      dir.File("v3.csv") + " --spec " + MRD_SOURCE_DIR +
-                      "/host/specs/paper-saturating.toml --threads 2 --out " + model);
+                            " --validate " + dir.File("v1.csv") + "," + dir.File("v2.csv") + "," +
+                            dir.File("v3.csv") + " --spec " + MRD_SOURCE_DIR +
+                            "/host/specs/paper-saturating.toml --threads 2 --out " + model);
   ASSERT_EQ(id.status, 0) << id.output;
   const auto w = SimulateJson(model, dir.File("wide.csv"));
   ASSERT_FALSE(w["diverged"].get<bool>());
@@ -330,7 +336,7 @@ TEST(ExtrapolationTest, SaturatingSpecHoldsOnWide) {
   }
   // mrd report shows the stress verdict per iteration.
   const auto rep = test::Run(Bin("mrd") + " report --model " + model + " --data " +
-                       dir.File("wide.csv") + " --out " + dir.File("report"));
+                             dir.File("wide.csv") + " --out " + dir.File("report"));
   if (rep.status == 0) {
     EXPECT_NE(rep.output.find("stress"), std::string::npos) << rep.output;
     EXPECT_NE(rep.output.find("pass "), std::string::npos) << rep.output;

@@ -55,8 +55,8 @@ TEST_P(SaturatingEquivalenceTest, FirmwareRuntimeMatchesSimulateTo1e12) {
   const host::SemSpec spec = host::ParseSemSpec(kSpec, "sat.toml");
   host::SemOptions o;
   o.max_iterations = 0;  // the given structure, LS coefficients
-  o.initial = std::vector<std::string>{"y(k-1)", "t(k-1)", "w(k)", "w(k-1)*u1(k)",
-                                       "c(k)*u1(k)", "c(k-2)^2"};
+  o.initial = std::vector<std::string>{"y(k-1)",       "t(k-1)",     "w(k)",
+                                       "w(k-1)*u1(k)", "c(k)*u1(k)", "c(k-2)^2"};
   const std::vector<host::DataSet> id{test::DamperData("identification")};
   const host::ModelFile mf = host::MakeModelFile(spec, host::Identify(spec, id, {}, o));
   const host::DataSet data = test::DamperData(GetParam());

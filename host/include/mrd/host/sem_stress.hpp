@@ -30,8 +30,7 @@ std::vector<DataSet> BuildStressData(const SemSpec& spec, std::span<const DataSe
 // (checked == false, pass) when stress is empty.
 StressVerdict CheckStress(const SemSpec& spec, const std::vector<ChannelInfo>& channels,
                           const std::vector<SemTerm>& terms,
-                          const std::vector<double>& coefficients,
-                          std::span<const DataSet> stress);
+                          const std::vector<double>& coefficients, std::span<const DataSet> stress);
 
 // Records in channels (spec.Signals() order) the operating envelope: min and max of each
 // signal over the identification data [raw units].
