@@ -38,12 +38,19 @@ TEST(SemSpecDocTest, DocumentedExampleParsesAsWritten) {
   const std::string text = DocumentedExample();
   ASSERT_NE(text.find("[algorithm]"), std::string::npos) << "example block not found";
   const SemSpec s = ParseSemSpec(text, "sem_spec.hpp");
-  ASSERT_EQ(s.regressors.size(), 3u);
+  ASSERT_EQ(s.regressors.size(), 5u);
   EXPECT_EQ(s.output, "f");
   EXPECT_EQ(s.regressors[1].transform, Transform::kAbsPow);
   EXPECT_DOUBLE_EQ(s.regressors[1].exponent, 0.2);
   EXPECT_EQ(s.regressors[2].transform, Transform::kLowPass);
   EXPECT_EQ(s.regressors[2].delays, std::vector<int>{0});  // the documented default
+  EXPECT_EQ(s.regressors[3].transform, Transform::kTanh);
+  EXPECT_DOUBLE_EQ(s.regressors[3].exponent, 0.5);
+  EXPECT_EQ(s.regressors[4].transform, Transform::kClip);
+  EXPECT_DOUBLE_EQ(s.regressors[4].exponent, 1.0);
+  EXPECT_TRUE(s.stress.enabled);
+  EXPECT_DOUBLE_EQ(s.stress.stretch, 2.0);
+  EXPECT_DOUBLE_EQ(s.stress.force_bound, 3.0);
   EXPECT_EQ(s.max_factors, 3);
   EXPECT_EQ(s.max_candidates, 200000);
   EXPECT_EQ(s.strategy, Strategy::kFirst);
