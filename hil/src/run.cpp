@@ -316,7 +316,11 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
 
   const auto steps = static_cast<std::int64_t>(std::llround(s.duration_s / 1e-3));
   // Lockstep: the firmware stops itself at the run's end (its duration counts granted time).
-  const double fw_duration = lockstep ? static_cast<double>(steps) * 1e-3 : 0.0;
+  // With [gpio] outputs one period more: the firmware's shutdown drops the enable line right
+  // after its last tick, which would race the harness reading that tick's enable (the final
+  // grant below gives it the extra tick).
+  const double fw_duration =
+      lockstep ? static_cast<double>(steps + (gpio.active() ? 1 : 0)) * 1e-3 : 0.0;
   Child fw;
   const auto spawn = [&](std::string* e) {
     if (o.attach) return true;
