@@ -368,6 +368,10 @@ int main(int argc, char** argv) {
       return kExitBadInput;
     }
   }
+  // Before the ports open: a peer may signal as soon as it sees an endpoint (a socket file).
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  std::signal(SIGPIPE, SIG_IGN);
   std::vector<std::unique_ptr<mrd::hil::PlantPort>> ports;
   std::vector<mrd::hil::PlantPort*> raw;
   for (const auto& spec : port_specs) {
@@ -384,9 +388,6 @@ int main(int argc, char** argv) {
     raw.push_back(p.get());
     ports.push_back(std::move(p));
   }
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
-  std::signal(SIGPIPE, SIG_IGN);
   std::fprintf(stderr, "mrd-hil: serving on %zu port(s)\n", ports.size());
   const mrd::hil::ServeResult r = mrd::hil::Serve(o, raw, g_stop);
   for (auto& p : ports) p->Close();

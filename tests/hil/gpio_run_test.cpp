@@ -160,7 +160,8 @@ TEST(HilGpioRunTest, BadGpioInputIsRefused) {
   r = Hil({bad_list, "--out", dir + "/o2"});
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("bad-list.toml:2: 'inputs' accepts: displacement, fault_line"),
-            std::string::npos) << r.err;
+            std::string::npos)
+      << r.err;
   const std::string plain = Write(dir, "plain.toml", "duration_s = 0.1\n");
   r = Hil({plain, "--gpio-sim", "/sys/kernel/config/gpio-sim/x", "--out", dir + "/o3"});
   EXPECT_EQ(r.status, 2);
