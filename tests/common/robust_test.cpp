@@ -10,6 +10,7 @@
 #include "mrd/common/model.hpp"
 #include "mrd/common/model_check.hpp"
 #include "mrd/common/table.hpp"
+#include "support/fev_table.hpp"
 
 namespace mrd {
 namespace {
@@ -25,17 +26,8 @@ TEST(SaturatingTransformTest, TanhAndClipValues) {
 
 // f(k) = 0.5 f(k-1) + 0.3 tanh(v(k)/0.2) + 0.2 clip(v(k-1), 0.5) * E(k), normalised.
 CoefficientTable SaturatingTable() {
-  CoefficientTable t;
+  CoefficientTable t = test::FevTableSkeleton();
   Model& m = t.model;
-  m.num_channels = 3;
-  const char* names[] = {"f", "E", "v"};
-  for (std::size_t c = 0; c < 3; ++c) {
-    for (std::size_t i = 0; names[c][i] != '\0'; ++i) m.channel_names[c][i] = names[c][i];
-  }
-  m.scales[0] = {0.0, 1000.0};
-  m.scales[1] = {0.0, 2.25};
-  m.scales[2] = {0.0, 15.0};
-  t.input_channel = 1;
   m.num_regressors = 4;
   m.regressors[0] = {0, Transform::kIdentity, 1.0};
   m.regressors[1] = {2, Transform::kTanh, 0.2};

@@ -8,6 +8,7 @@
 
 #include "host/test_util.hpp"
 #include "mrd/common/table.hpp"
+#include "support/fev_table.hpp"
 #include "mrd/firmware/model_runtime.hpp"
 
 namespace mrd::firmware {
@@ -16,17 +17,8 @@ namespace {
 // f(k) = 0.5 f(k-1) + 0.1 f(k-1)^2 + 0.4 v(k)^3 + 0.1 E(k), normalised (f / 1000 N, E / 2.25 V,
 // v / 15 cm/s): bounded on its data (|v| <= 15 cm/s), explodes for |v| of a few times that.
 CoefficientTable CubicTable(bool envelope) {
-  CoefficientTable t;
+  CoefficientTable t = test::FevTableSkeleton();
   Model& m = t.model;
-  m.num_channels = 3;
-  const char* names[] = {"f", "E", "v"};
-  for (std::size_t c = 0; c < 3; ++c) {
-    for (std::size_t i = 0; names[c][i] != '\0'; ++i) m.channel_names[c][i] = names[c][i];
-  }
-  m.scales[0] = {0.0, 1000.0};
-  m.scales[1] = {0.0, 2.25};
-  m.scales[2] = {0.0, 15.0};
-  t.input_channel = 1;
   m.num_regressors = 3;
   m.regressors[0] = {0, Transform::kIdentity, 1.0};
   m.regressors[1] = {2, Transform::kIdentity, 1.0};
