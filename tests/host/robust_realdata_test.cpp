@@ -11,19 +11,11 @@
 #include <string>
 
 #include "mrd/host/csv.hpp"
+#include "simulate_json.hpp"
 #include "test_util.hpp"
 
 namespace mrd::test {
 namespace {
-
-const std::string kNeesFile =
-    std::string(MRD_SOURCE_DIR) + "/tests/data/nees-2012-1158/ransim_u.csv";
-
-nlohmann::json SimulateJson(const std::string& model, const std::string& data) {
-  const auto r = Run(Bin("mrd") + " simulate --model " + model + " --data " + data + " --json");
-  EXPECT_EQ(r.status, 0) << r.output;
-  return nlohmann::json::parse(r.output.substr(r.output.find('{')));
-}
 
 TEST(RobustRealDataTest, NeesModelStaysBoundedOnEndStopAndDoubledRun) {
   ASSERT_TRUE(std::filesystem::exists(kNeesFile)) << "missing shipped data: " << kNeesFile;

@@ -15,6 +15,7 @@
 #include "mrd/host/sem_stress.hpp"
 #include "mrd/host/table_export.hpp"
 #include "sem_test_util.hpp"
+#include "simulate_json.hpp"
 #include "test_util.hpp"
 
 namespace mrd::test {
@@ -300,13 +301,6 @@ TEST(WideProfileTest, DeterministicAndBeyondTheIdentificationSet) {
     EXPECT_NEAR((a.x[k + 1] - a.x[k - 1]) / 2e-3, a.v[k], 0.02 * 50.0) << k;
   }
   EXPECT_NE(host::MakeExcitation("wide", 2).v, a.v);
-}
-
-nlohmann::json SimulateJson(const std::string& model, const std::string& data) {
-  const auto r =
-      test::Run(Bin("mrd") + " simulate --model " + model + " --data " + data + " --json");
-  EXPECT_EQ(r.status, 0) << r.output;
-  return nlohmann::json::parse(r.output.substr(r.output.find('{')));
 }
 
 // The reference damper identified with the saturating spec on the identification set, run
