@@ -14,6 +14,7 @@
 
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/sem_stress.hpp"
+#include "sem_evaluator.hpp"
 #include "sem_internal.hpp"
 
 namespace mrd::host {
@@ -38,6 +39,9 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::size_t kBlock = 256;      // samples per block of the free-run pass
 constexpr std::size_t kChunk = 16;       // candidates per work item
+constexpr int kMaxExchanges = 8;        // exchange passes per major iteration
+constexpr std::size_t kExchangePool = 64;  // candidates (best one-step rank) tried per term
+constexpr double kExchangeGain = 1e-9;   // relative J decrease an exchange must bring
 constexpr double kCollinear = 1e-13;     // relative Schur complement below which a
                                          // candidate is taken as linearly dependent
 
@@ -601,10 +605,12 @@ class Search {
   // admissible). first: first-improvement with target j_threshold.
   // accept (optional): stress check of model + candidate with the trial's coefficients; a
   // candidate it refuses is skipped (counted in stress_rejected) for the next best.
+  // limit > 0: simulate only the `limit` candidates of best one-step rank. bound0: only
+  // candidates whose J is below it are admissible (early stop from the start).
   using Accept = std::function<bool(int cand, const std::vector<double>& theta)>;
   Trial TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
                double j_threshold, int* rejected, const Accept& accept = {},
-               int* stress_rejected = nullptr) {
+               int* stress_rejected = nullptr, std::size_t limit = 0, double bound0 = kInf) {
 
     std::atomic<int> n_rejected{0};
     struct Report {
@@ -661,6 +667,7 @@ class Search {
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
       return trials[a].rank > trials[b].rank;
     });
+    if (limit > 0 && order.size() > limit) order.resize(limit);
     Trial none;
     if (order.empty()) return none;
     auto accepted = [&](int c) {
@@ -681,7 +688,7 @@ class Search {
     // Shared bound for early stopping. First improvement never lowers it below the
     // threshold, so no candidate that would meet the threshold is cut short.
     const double floor = first ? j_threshold : -kInf;
-    std::atomic<double> best{kInf};
+    std::atomic<double> best{bound0};
     for (int t : model) e_.U(t);  // materialise before the workers read them
     auto run_chunk = [&](std::size_t begin, std::size_t end, std::vector<double>& scratch) {
       std::vector<Engine::Job> jobs(end - begin);
@@ -955,6 +962,19 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       return stress_of(terms, th).pass;
     };
   }
+  // The stress check of base + candidate (none without [stress]).
+  auto accept_for = [&](const std::vector<int>& base) -> Search::Accept {
+    if (stress.empty()) return {};
+    return [&stress_of, base](int cand, const std::vector<double>& th) {
+      std::vector<int> terms = base;
+      terms.push_back(cand);
+      return stress_of(terms, th).pass;
+    };
+  };
+  std::vector<internal::Evaluator> evaluators;  // for the output-error refinement
+  if (spec.refine) {
+    for (const DataSet& d : identification) evaluators.emplace_back(spec, res.channels, d);
+  }
   std::vector<double> theta;
   double j = search.Cost(model, &theta);
   auto record = [&](int iteration, int rejected, int stress_rejected) {
@@ -962,34 +982,40 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     it.iteration = iteration;
     it.rejected = rejected;
     it.stress_rejected = stress_rejected;
-    it.stress = stress_of(model, theta);
     for (int t : model) it.terms.push_back(eng.cand(t).term);
     it.coefficients = theta;
     it.j = j;
-    for (const auto& v : validation) {
-      it.validation_j.push_back(SimulateCost(spec, res.channels, it.terms, theta, v));
+    it.stress = stress_of(model, theta);
+    auto validate = [&](const std::vector<double>& coefficients) {
+      std::vector<double> vj;
+      for (const auto& v : validation) {
+        vj.push_back(SimulateCost(spec, res.channels, it.terms, coefficients, v));
+      }
+      return vj;
+    };
+    it.validation_j = validate(theta);
+    // Output-error refinement, kept when it lowers J, passes the stress check as the least
+    // squares did, and (with validation data) makes no validation set's J worse.
+    if (spec.refine && !model.empty()) {
+      std::vector<double> refined = theta;
+      const double jr = internal::RefineFreeRun(evaluators, it.terms, &refined, o.threads);
+      const StressVerdict sv = jr < j ? stress_of(model, refined) : StressVerdict{};
+      const std::vector<double> vj = jr < j ? validate(refined) : std::vector<double>{};
+      bool no_worse = true;  // on every validation set
+      for (std::size_t i = 0; i < vj.size(); ++i) no_worse &= vj[i] <= it.validation_j[i];
+      if (jr < j && (sv.pass || !it.stress.pass) && no_worse) {
+        it.coefficients = std::move(refined);
+        it.j = jr;
+        it.stress = sv;
+        it.validation_j = vj;
+      }
     }
     it.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o.progress) o.progress(it);
     res.iterations.push_back(std::move(it));
   };
-  record(0, 0, 0);
-  for (int iteration = 1; iteration <= max_it; ++iteration) {
-    if (j <= target) break;
-    if (model.size() + 1 > max_params) break;  // kMinSamplesPerParameter
-    const double j_prev = j;
-    int rejected = 0;
-    int stress_rejected = 0;
-    const Trial tr = search.TryAdd(model, theta, strategy == Strategy::kFirst,
-                                   j_prev * (1.0 - threshold / 100.0), &rejected, accept,
-                                   &stress_rejected);
-    if (tr.cand < 0) {  // nothing admissible
-      res.exhausted_rejected = rejected;
-      break;
-    }
-    model.push_back(tr.cand);
-    j = search.Cost(model, &theta);
-    // Pruning.
+  // Pruning: drop the term whose removal gives the lowest J while that J is below j_prev.
+  auto prune = [&](double j_prev) {
     while (model.size() > 1) {
       double best = kInf;
       std::size_t drop = 0;
@@ -1016,9 +1042,128 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       theta = best_theta;
       j = best;
     }
-    record(iteration, rejected, stress_rejected);
+  };
+  // Best single exchange: for every term, the candidate that best replaces it (among the
+  // exchange_pool best by one-step rank); applied when it lowers J. False when none does.
+  auto exchange = [&](int* rejected, int* stress_rejected) {
+    double best_j = j * (1.0 - kExchangeGain);
+    Trial best;
+    std::vector<int> best_model;
+    for (std::size_t i = 0; i < model.size(); ++i) {
+      std::vector<int> reduced = model;
+      reduced.erase(reduced.begin() + static_cast<std::ptrdiff_t>(i));
+      std::vector<double> th;
+      if (!eng.Solve(reduced, &th)) continue;
+      int rej = 0;
+      const Trial tr = search.TryAdd(reduced, th, false, -kInf, &rej, accept_for(reduced),
+                                     stress_rejected, kExchangePool, best_j);
+      *rejected += rej;
+      if (tr.cand >= 0 && tr.cand != model[i] && tr.j < best_j) {
+        best_j = tr.j;
+        best = tr;
+        best_model = std::move(reduced);
+      }
+    }
+    if (best.cand < 0) return false;
+    model = std::move(best_model);
+    model.push_back(best.cand);
+    theta = best.theta;
+    j = best.j;
+    return true;
+  };
+  // One search path from the current model: iteration 0 is the start, then add (first or
+  // best improvement), prune, exchange, until target_j, max_iterations or no admissible term.
+  const int exchanges = spec.exchange ? kMaxExchanges : 0;
+  auto run_path = [&]() {
+    j = search.Cost(model, &theta);
+    record(0, 0, 0);
+    for (int iteration = 1; iteration <= max_it; ++iteration) {
+      if (j <= target) break;
+      if (model.size() + 1 > max_params) break;  // kMinSamplesPerParameter
+      const double j_prev = j;
+      int rejected = 0;
+      int stress_rejected = 0;
+      const Trial tr = search.TryAdd(model, theta, strategy == Strategy::kFirst,
+                                     j_prev * (1.0 - threshold / 100.0), &rejected, accept,
+                                     &stress_rejected);
+      if (tr.cand < 0) {  // nothing admissible
+        res.exhausted_rejected = rejected;
+        break;
+      }
+      model.push_back(tr.cand);
+      j = search.Cost(model, &theta);
+      prune(j_prev);
+      // Exchange: replace one term by a candidate while that lowers J, then prune again.
+      for (int pass = 0; pass < exchanges && exchange(&rejected, &stress_rejected); ++pass) {
+        prune(j_prev);
+      }
+      record(iteration, rejected, stress_rejected);
+    }
+  };
+  const std::vector<int> initial_model = model;
+  run_path();
+  // Second start: the structure the one-step (prediction-error) criterion selects by forward
+  // regression, stopped by BIC on its one-step SSE, then pruned by J. Escapes the lock-in of
+  // the greedy search when a single added term cannot show the gain of a pair (a lightly
+  // damped resonance needs y(k-1) and y(k-2) together).
+  if (initial.empty() && spec.one_step_start) {
+    std::vector<SemIteration> first_path = std::move(res.iterations);
+    res.iterations.clear();
+    double yty = 0.0;
+    for (const auto& d : identification) {
+      const auto& y = d.Column(spec.output);
+      for (std::size_t k = static_cast<std::size_t>(spec.MaxDelay()); k < y.size(); ++k) {
+        yty += (y[k] / res.channels[0].scale) * (y[k] / res.channels[0].scale);
+      }
+    }
+    const double n = static_cast<double>(samples);
+    model.clear();
+    theta.clear();
+    double sse = yty, bic = n * std::log(std::max(yty, 1e-300) / n);
+    while (model.size() + 1 <= max_params) {
+      int rej = 0;
+      const Trial tr = search.TryAdd(model, theta, false, -kInf, &rej, accept, nullptr, 1);
+      if (tr.cand < 0) break;
+      const double sse_new = sse - tr.rank;
+      const double bic_new = n * std::log(std::max(sse_new, 1e-300) / n) +
+                             static_cast<double>(model.size() + 1) * std::log(n);
+      if (!(bic_new < bic)) break;
+      model.push_back(tr.cand);
+      theta = tr.theta;
+      sse = sse_new;
+      bic = bic_new;
+    }
+    j = search.Cost(model, &theta);
+    for (double before = kInf; j < before;) {
+      before = j;
+      prune(before);
+    }
+    const std::vector<int> start = model;
+    run_path();
+    std::vector<SemIteration> second_path = std::move(res.iterations);
+    // Select over both paths (second path renumbered after the first), keep the picked one.
+    const int offset = static_cast<int>(first_path.size());
+    res.iterations = std::move(first_path);
+    for (SemIteration it : second_path) {
+      it.iteration += offset;
+      res.iterations.push_back(std::move(it));
+    }
+    internal::SelectModel(spec, identification, o.threads, &res);
+    const bool second = res.selected >= offset;  // keep the picked path (with its CV costs)
+    if (second) {
+      res.iterations.erase(res.iterations.begin(), res.iterations.begin() + offset);
+      for (SemIteration& it : res.iterations) it.iteration -= offset;
+      res.selected -= offset;
+    } else {
+      res.iterations.resize(static_cast<std::size_t>(offset));
+    }
+    res.selection_rule += fmt::format(
+        "; over two search starts, kept: {} (the {}-term one-step forward-regression start {})",
+        second ? "the one-step start" : "the initial structure", start.size(),
+        second ? "won" : "lost");
+  } else {
+    internal::SelectModel(spec, identification, o.threads, &res);
   }
-  internal::SelectModel(spec, identification, o.threads, &res);
   if (res.selected < 0) {
     throw InputError(spec.path, spec.stress.line,
                      "no iteration passes the stress check ([stress]): nothing to select");

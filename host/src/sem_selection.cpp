@@ -9,93 +9,16 @@
 #include <fmt/format.h>
 
 #include "mrd/host/sem.hpp"
+#include "sem_evaluator.hpp"
 #include "sem_internal.hpp"
 
 namespace mrd::host {
 namespace {
 
+using internal::Evaluator;
+using internal::Record;
+
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-double Pow(double b, int p) {
-  double v = 1.0;
-  for (int i = 0; i < p; ++i) v *= b;
-  return v;
-}
-
-// One identification record prepared for cross-validation (normalised signals).
-struct Record {
-  std::vector<double> y;                   // measured output, every row
-  std::vector<std::vector<double>> input;  // per regressor: transformed input (empty: output)
-  std::vector<double> w;                   // cost weight per row, divided by the scored count
-  std::size_t first = 0;                   // first scored row (spec.MaxDelay())
-};
-
-class Evaluator {
- public:
-  Evaluator(const SemSpec& spec, const std::vector<ChannelInfo>& ch, const DataSet& d)
-      : spec_(spec) {
-    const auto signals = spec.Signals();
-    const auto& y = d.Column(spec.output);
-    rec_.y.resize(y.size());
-    for (std::size_t k = 0; k < y.size(); ++k) rec_.y[k] = y[k] / ch[0].scale;
-    rec_.input.resize(spec.regressors.size());
-    for (std::size_t r = 0; r < spec.regressors.size(); ++r) {
-      const auto& reg = spec.regressors[r];
-      if (reg.signal == spec.output) continue;
-      const std::size_t ci = static_cast<std::size_t>(
-          std::find(signals.begin(), signals.end(), reg.signal) - signals.begin());
-      rec_.input[r] = internal::TransformSignal(reg, d.Column(reg.signal), ch[ci].scale);
-    }
-    rec_.first = static_cast<std::size_t>(spec.MaxDelay());
-    const double nd = static_cast<double>(y.size() - rec_.first);
-    rec_.w.resize(y.size());
-    for (std::size_t k = 0; k < y.size(); ++k) {
-      const double w = spec.weighting == CostWeighting::kRelative
-                           ? 1.0 / std::max(std::fabs(rec_.y[k]), spec.floor)
-                           : 1.0;
-      rec_.w[k] = w / nd;
-    }
-  }
-
-  const Record& record() const { return rec_; }
-
-  // Value of a term at row k with the output history ys (measured or simulated).
-  double Term(const SemTerm& t, const std::vector<double>& ys, std::size_t k) const {
-    double v = 1.0;
-    for (const auto& f : t.factors) {
-      const auto& reg = spec_.regressors[static_cast<std::size_t>(f.regressor)];
-      const std::size_t kk = k - static_cast<std::size_t>(f.delay);
-      const auto& in = rec_.input[static_cast<std::size_t>(f.regressor)];
-      const double x = in.empty() ? ApplyTransform(reg.transform, reg.exponent, ys[kk]) : in[kk];
-      v *= Pow(x, f.power);
-    }
-    return v;
-  }
-
-  // Weighted squared free-run error over rows [a, b), seeded by the measured output before a;
-  // +inf when the run leaves |y| <= divergence_limit or is not finite.
-  double FreeRun(const std::vector<SemTerm>& terms, const Eigen::VectorXd& theta, std::size_t a,
-                 std::size_t b, std::vector<double>* residual = nullptr) const {
-    std::vector<double> ys(rec_.y.begin(), rec_.y.begin() + static_cast<std::ptrdiff_t>(b));
-    double cost = 0.0;
-    for (std::size_t k = a; k < b; ++k) {
-      double v = 0.0;
-      for (std::size_t i = 0; i < terms.size(); ++i) {
-        v += theta(static_cast<Eigen::Index>(i)) * Term(terms[i], ys, k);
-      }
-      if (!(std::fabs(v) <= spec_.divergence_limit)) return kInf;
-      ys[k] = v;
-      const double e = rec_.y[k] - v;
-      cost += rec_.w[k] * e * e;
-      if (residual != nullptr) residual->push_back(e);
-    }
-    return std::isfinite(cost) ? cost : kInf;
-  }
-
- private:
-  const SemSpec& spec_;
-  Record rec_;
-};
 
 // Fold boundaries of a record's scored rows: part f is [Bound(f), Bound(f + 1)).
 std::size_t Bound(const Record& r, int f, int folds) {
@@ -157,6 +80,49 @@ std::vector<double> FoldCosts(const std::vector<Evaluator>& ev,
   return out;
 }
 
+// Cross-validation of the output-error refined fit: the coefficients refined on all records
+// (RefineFreeRun, written back to *coefficients), then per fold one Gauss-Newton step that
+// removes the fold's rows from the fit (the refined Jacobian restricted to the other folds),
+// and the free run over the fold with those coefficients. Returns per fold costs as FoldCosts,
+// and the refined J in *j_refined.
+std::vector<double> RefinedFoldCosts(const std::vector<Evaluator>& ev,
+                                     const std::vector<SemTerm>& terms, int folds,
+                                     std::vector<double>* coefficients, double* j_refined) {
+  const auto nf = static_cast<std::size_t>(folds);
+  Eigen::MatrixXd jac;
+  Eigen::VectorXd r;
+  *j_refined = internal::RefineFreeRun(ev, terms, coefficients, 1, &jac, &r);
+  if (!std::isfinite(*j_refined)) return std::vector<double>(nf, kInf);
+  const auto m = static_cast<Eigen::Index>(terms.size());
+  Eigen::VectorXd theta(m);
+  for (Eigen::Index i = 0; i < m; ++i) theta(i) = (*coefficients)[static_cast<std::size_t>(i)];
+  const Eigen::MatrixXd gt = jac.transpose() * jac;
+  const Eigen::VectorXd bt = jac.transpose() * r;
+  std::vector<double> out(nf, 0.0);
+  for (int f = 0; f < folds; ++f) {
+    Eigen::MatrixXd g = gt;
+    Eigen::VectorXd b = bt;
+    Eigen::Index row = 0;  // first row of the record in jac
+    for (const Evaluator& e : ev) {
+      const Record& rec = e.record();
+      const auto a = static_cast<Eigen::Index>(Bound(rec, f, folds) - rec.first);
+      const auto len = static_cast<Eigen::Index>(Bound(rec, f + 1, folds) - Bound(rec, f, folds));
+      const auto rows = jac.middleRows(row + a, len);
+      g.noalias() -= rows.transpose() * rows;
+      b.noalias() -= rows.transpose() * r.segment(row + a, len);
+      row += static_cast<Eigen::Index>(rec.y.size() - rec.first);
+    }
+    Eigen::VectorXd tf = theta;
+    if (m > 0) tf -= g.ldlt().solve(b);
+    if (!tf.allFinite()) tf = theta;
+    for (const Evaluator& e : ev) {
+      out[static_cast<std::size_t>(f)] +=
+          e.FreeRun(terms, tf, Bound(e.record(), f, folds), Bound(e.record(), f + 1, folds));
+    }
+  }
+  return out;
+}
+
 // Effective number of independent samples of a residual sequence for a cost that sums its
 // squares: n / (1 + 2 sum_l rho_l^2) (for Gaussian e, var(sum e^2) = 2 sigma^4 sum_ij rho_ij^2),
 // over lags 1 ... n/4 whose autocorrelation |rho_l| exceeds 2/sqrt(n) (the others are taken as
@@ -198,9 +164,11 @@ std::vector<double> CrossValidatedCost(const SemSpec& spec, const std::vector<Ch
 }
 
 int SelectByCrossValidation(const std::vector<SemIteration>& its,
-                            const std::vector<std::vector<double>>& cv, double samples) {
+                            const std::vector<std::vector<double>>& cv, double samples,
+                            double candidates) {
   if (its.empty()) return 0;
   const double n = std::max(samples, 2.0);
+  const double c = std::max(candidates, 1.0);
   const auto failed = [](const SemIteration& it) { return it.stress.checked && !it.stress.pass; };
   int pick = -1;
   double best = kInf;
@@ -208,8 +176,10 @@ int SelectByCrossValidation(const std::vector<SemIteration>& its,
     if (failed(its[i])) continue;
     const double total = Sum(cv[i]);
     if (!(total > 0.0) || !std::isfinite(total)) continue;
-    const double score =
-        n * std::log(total) + static_cast<double>(its[i].terms.size()) * std::log(n);
+    const double m = static_cast<double>(its[i].terms.size());
+    const double k = std::min(m, c);  // an initial term outside the candidates: not chosen
+    const double log_choose = std::lgamma(c + 1.0) - std::lgamma(k + 1.0) - std::lgamma(c - k + 1.0);
+    const double score = n * std::log(total) + m * std::log(n) + 2.0 * log_choose;
     if (pick < 0 || score < best) {
       pick = static_cast<int>(i);
       best = score;
@@ -250,7 +220,17 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   auto run = [&](int worker) {
     for (std::size_t i = static_cast<std::size_t>(worker); i < its.size();
          i += static_cast<std::size_t>(w)) {
-      cv[i] = FoldCosts(ev, its[i].terms, kSelectionFolds);
+      if (spec.refine) {  // coefficients already refined: converges at once, gives the Jacobian
+        double jr = kInf;
+        std::vector<double> th = its[i].coefficients;
+        cv[i] = RefinedFoldCosts(ev, its[i].terms, kSelectionFolds, &th, &jr);
+        if (jr < its[i].j) {
+          its[i].j = jr;
+          its[i].coefficients = th;
+        }
+      } else {
+        cv[i] = FoldCosts(ev, its[i].terms, kSelectionFolds);
+      }
     }
   };
   std::vector<std::thread> pool;
@@ -277,12 +257,14 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
       n_eff += static_cast<double>(e.record().y.size() - e.record().first);
     }
   }
-  res->selected = SelectByCrossValidation(its, cv, n_eff);
+  res->selected =
+      SelectByCrossValidation(its, cv, n_eff, static_cast<double>(res->num_candidates));
   res->selection_rule = fmt::format(
-      "{}-fold cross-validation of the free-run J inside the identification data: the iteration "
-      "of lowest N ln(CV J) + terms ln(N), N = {:.0f} effective samples of the lowest-J "
-      "iteration's free-run residual",
-      kSelectionFolds, n_eff);
+      "{}-fold cross-validation of the {} free-run J inside the identification data: the "
+      "iteration of lowest N ln(CV J) + m ln(N) + 2 ln(C choose m) (extended BIC, m terms of C = "
+      "{} candidates), N = {:.0f} effective samples of the lowest-J iteration's free-run residual",
+      kSelectionFolds, spec.refine ? "output-error refined" : "least-squares",
+      res->num_candidates, n_eff);
 }
 
 }  // namespace mrd::host

@@ -313,6 +313,12 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
           if (s.selection_tolerance_percent < 0.0) {
             Fail(path, sn, "'selection_tolerance_percent' must be >= 0");
           }
+        } else if (k == "algorithm" && sk == "exchange") {
+          s.exchange = GetBool(path, sn, sk);
+        } else if (k == "algorithm" && sk == "one_step_start") {
+          s.one_step_start = GetBool(path, sn, sk);
+        } else if (k == "algorithm" && sk == "refine") {
+          s.refine = GetBool(path, sn, sk);
         } else if (k == "algorithm" && sk == "initial") {
           const auto* arr = sn.as_array();
           if (arr == nullptr) Fail(path, sn, "'initial' must be an array of term strings");

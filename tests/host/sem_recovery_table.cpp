@@ -1,6 +1,7 @@
 // Counts table of the structure-recovery suite (sem_recovery.hpp): exact recoveries of the
 // selected model per system, noise and record length, default settings, no validation data.
 //   build/tests/sem_recovery [--seeds N] [--strategy best|first] [--threads N] [--before] [--misses]
+//   [--trace SYSTEM EE|OE N SEED]   (every iteration of one case, * = selected)
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -27,9 +28,38 @@ int main(int argc, char** argv) {
              "[algorithm]\nstrategy = \"best\"\nselection = \"tolerance\"\n";
     } else if (a == "--misses") {
       misses = true;
+    } else if (a == "--trace" && i + 4 < argc) {  // SYSTEM EE|OE N SEED: every iteration
+      const std::string name = argv[i + 1], nz = argv[i + 2];
+      const auto n = static_cast<std::size_t>(std::atoi(argv[i + 3]));
+      const int seed = std::atoi(argv[i + 4]);
+      for (const auto& s : mrd::test::RecoverySystems()) {
+        if (s.name != name) continue;
+        const auto noise = nz == "OE" ? mrd::test::Noise::kOutput : mrd::test::Noise::kEquation;
+        const mrd::host::SemSpec sp = mrd::host::ParseSemSpec(spec, "recovery.toml");
+        const std::vector<mrd::host::DataSet> id{mrd::test::RecoveryData(
+            s, noise, 7919u * static_cast<std::uint64_t>(seed) + n, n)};
+        const auto r = mrd::host::Identify(sp, id, {}, o);
+        for (const auto& it : r.iterations) {
+          double cv = 0.0;
+          for (double v : it.cv_j) cv += v;
+          std::printf("%s%2d J %.6g CV %.6g:", it.iteration == r.selected ? "*" : " ",
+                      it.iteration, it.j, cv);
+          for (const auto& t : it.terms) std::printf(" %s", mrd::host::TermName(sp, t).c_str());
+          std::printf("\n");
+        }
+        std::printf("%s\n", r.selection_rule.c_str());
+        mrd::host::SemOptions t = o;  // the true structure, least squares, no search
+        t.initial = std::vector<std::string>(s.terms.begin(), s.terms.end());
+        t.max_iterations = 0;
+        const auto truth = mrd::host::Identify(sp, id, {}, t);
+        double tcv = 0.0;
+        for (double v : truth.iterations.front().cv_j) tcv += v;
+        std::printf("true structure: J %.6g CV %.6g\n", truth.iterations.front().j, tcv);
+      }
+      return 0;
     } else {
       std::fprintf(stderr, "usage: sem_recovery [--seeds N] [--strategy best|first] "
-                           "[--threads N] [--before] [--misses]\n");
+                           "[--threads N] [--before] [--misses] [--trace SYSTEM EE|OE N SEED]\n");
       return 2;
     }
   }

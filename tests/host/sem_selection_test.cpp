@@ -117,14 +117,18 @@ TEST(SemSelectionTest, BicOnCrossValidatedCostTradesTermsForCost) {
   // Fold costs: a large drop with the 2nd term, then 1 % with the 3rd.
   const std::vector<std::vector<double>> cv{
       {1.0, 1.0}, {0.5, 0.5}, {0.1, 0.1}, {0.099, 0.099}};
-  // N = 100: one more term must lower CV J by more than ln(100)/100 = 4.6 %.
-  EXPECT_EQ(SelectByCrossValidation(its, cv, 100.0), 2);
-  // N = 2000: the threshold is 0.38 %, so the 1 % drop is taken.
-  EXPECT_EQ(SelectByCrossValidation(its, cv, 2000.0), 3);
+  // 4 candidates, N = 100: the 3rd term must lower CV J by more than about
+  // (ln(100) + 2 ln(4/6)) / 100 = 3.8 %.
+  EXPECT_EQ(SelectByCrossValidation(its, cv, 100.0, 4.0), 2);
+  // N = 2000: the threshold is about 0.34 %, so the 1 % drop is taken.
+  EXPECT_EQ(SelectByCrossValidation(its, cv, 2000.0, 4.0), 3);
+  // Picked among a million candidates, the 3rd term must pay 2 ln((1e6 - 2) / 3) = 25.4 more
+  // than ln(N): the 1 % drop (2000 ln 0.99 = -20.1) no longer is enough.
+  EXPECT_EQ(SelectByCrossValidation(its, cv, 2000.0, 1e6), 2);
   // A diverging cross-validation is never picked.
   std::vector<std::vector<double>> div = cv;
   div[2][1] = std::numeric_limits<double>::infinity();
-  EXPECT_EQ(SelectByCrossValidation(its, div, 100.0), 3);
+  EXPECT_EQ(SelectByCrossValidation(its, div, 100.0, 4.0), 3);
 }
 
 TEST(SemSelectionTest, CrossValidatedCostOfTheTrueStructureIsNearTheNoiseLevel) {

@@ -122,14 +122,19 @@ std::vector<double> CrossValidatedCost(const SemSpec& spec, const std::vector<Ch
                                        std::span<const DataSet> data, int folds);
 
 // Pick by cross-validation with no tolerance to tune: cv[i] = fold costs of iterations[i]
-// (CrossValidatedCost), samples = N, the effective number of independent samples (the selection
-// takes n / (1 + 2 sum_l rho_l^2) from the free-run residual of the lowest-J iteration, rho_l its
-// autocorrelations that exceed 2/sqrt(n)); the iteration of lowest N ln(sum_f cv[i][f]) +
-// terms ln(N) (a BIC on the cross-validated simulation error), ties to the lower iteration. An
-// iteration whose cross-validation diverges, or that failed the stress check, is never picked
-// (all diverging: the last that passed the stress check; -1 when none did).
+// (CrossValidatedCost, or its output-error refined form when spec.refine), samples = N, the
+// effective number of independent samples (the selection takes n / (1 + 2 sum_l rho_l^2) from
+// the free-run residual of the lowest-J iteration, rho_l its autocorrelations that exceed
+// 2/sqrt(n)), candidates = C; the iteration of lowest
+//   N ln(sum_f cv[i][f]) + m ln(N) + 2 ln(C choose m)      (m terms)
+// an extended BIC (Chen & Chen 2008) on the cross-validated simulation error: the last part
+// pays for having picked the m terms among C, which a greedy search over many candidates
+// otherwise over-fits. Ties to the lower iteration. An iteration whose cross-validation
+// diverges, or that failed the stress check, is never picked (all diverging: the last that
+// passed the stress check; -1 when none did).
 int SelectByCrossValidation(const std::vector<SemIteration>& iterations,
-                            const std::vector<std::vector<double>>& cv, double samples);
+                            const std::vector<std::vector<double>>& cv, double samples,
+                            double candidates);
 
 // Free-run cost of a model on one data set with the reference per-sample evaluation (no fast
 // path): J of that data set alone, +inf when the simulation diverges. ysim (optional)

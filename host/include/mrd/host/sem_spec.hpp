@@ -67,6 +67,13 @@
 //                                     # (default) | tolerance (sem.hpp)
 //   selection_tolerance_percent = 5.0 # >= 0: tolerance rule (with validation data, or with
 //                                     # selection = "tolerance")
+//   exchange = true            # after add and prune, replace a term by a candidate while
+//                              # that lowers J (default true)
+//   one_step_start = true      # also search from the structure forward regression on the
+//                              # one-step error picks; keep the better path (default true;
+//                              # only without `initial`)
+//   refine = true              # coefficients of every iteration refined on the free-run J
+//                              # (output-error Levenberg-Marquardt; default true)
 //   initial = ["y(k-1)", "a(k)^2*y(k-1)"]  # initial structure (terms the spec offers)
 //
 //   [stress]                   # optional; present: every accepted model is stress-checked
@@ -150,6 +157,9 @@ struct SemSpec {
   // identification data (default) or the tolerance rule on the identification J.
   Selection selection = Selection::kCrossValidation;
   double selection_tolerance_percent = 5.0;  // tolerance rule, see SelectIteration
+  bool exchange = true;        // exchange moves after add and prune (sem.hpp)
+  bool one_step_start = true;  // second search path from the one-step forward regression
+  bool refine = true;          // output-error refinement of every iteration's coefficients
   std::vector<std::string> initial;          // initial structure, term strings
   StressSpec stress;
 

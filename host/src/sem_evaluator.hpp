@@ -1,0 +1,100 @@
+#pragma once
+// One identification record prepared for free-run evaluation outside the search engine: the
+// cross-validation (sem_selection.cpp) and the output-error refinement (sem_refine.cpp). Not
+// public.
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "mrd/host/sem.hpp"
+#include "sem_internal.hpp"
+
+namespace mrd::host::internal {
+
+inline double IntPow(double b, int p) {
+  double v = 1.0;
+  for (int i = 0; i < p; ++i) v *= b;
+  return v;
+}
+
+// One identification record prepared for cross-validation (normalised signals).
+struct Record {
+  std::vector<double> y;                   // measured output, every row
+  std::vector<std::vector<double>> input;  // per regressor: transformed input (empty: output)
+  std::vector<double> w;                   // cost weight per row, divided by the scored count
+  std::size_t first = 0;                   // first scored row (spec.MaxDelay())
+};
+
+class Evaluator {
+ public:
+  Evaluator(const SemSpec& spec, const std::vector<ChannelInfo>& ch, const DataSet& d)
+      : spec_(spec) {
+    const auto signals = spec.Signals();
+    const auto& y = d.Column(spec.output);
+    rec_.y.resize(y.size());
+    for (std::size_t k = 0; k < y.size(); ++k) rec_.y[k] = y[k] / ch[0].scale;
+    rec_.input.resize(spec.regressors.size());
+    for (std::size_t r = 0; r < spec.regressors.size(); ++r) {
+      const auto& reg = spec.regressors[r];
+      if (reg.signal == spec.output) continue;
+      const std::size_t ci = static_cast<std::size_t>(
+          std::find(signals.begin(), signals.end(), reg.signal) - signals.begin());
+      rec_.input[r] = internal::TransformSignal(reg, d.Column(reg.signal), ch[ci].scale);
+    }
+    rec_.first = static_cast<std::size_t>(spec.MaxDelay());
+    const double nd = static_cast<double>(y.size() - rec_.first);
+    rec_.w.resize(y.size());
+    for (std::size_t k = 0; k < y.size(); ++k) {
+      const double w = spec.weighting == CostWeighting::kRelative
+                           ? 1.0 / std::max(std::fabs(rec_.y[k]), spec.floor)
+                           : 1.0;
+      rec_.w[k] = w / nd;
+    }
+  }
+
+  const Record& record() const { return rec_; }
+
+  // Value of a term at row k with the output history ys (measured or simulated).
+  double Term(const SemTerm& t, const std::vector<double>& ys, std::size_t k) const {
+    double v = 1.0;
+    for (const auto& f : t.factors) {
+      const auto& reg = spec_.regressors[static_cast<std::size_t>(f.regressor)];
+      const std::size_t kk = k - static_cast<std::size_t>(f.delay);
+      const auto& in = rec_.input[static_cast<std::size_t>(f.regressor)];
+      const double x = in.empty() ? ApplyTransform(reg.transform, reg.exponent, ys[kk]) : in[kk];
+      v *= IntPow(x, f.power);
+    }
+    return v;
+  }
+
+  // Weighted squared free-run error over rows [a, b), seeded by the measured output before a;
+  // +inf when the run leaves |y| <= divergence_limit or is not finite.
+  double FreeRun(const std::vector<SemTerm>& terms, const Eigen::VectorXd& theta, std::size_t a,
+                 std::size_t b, std::vector<double>* residual = nullptr) const {
+    std::vector<double> ys(rec_.y.begin(), rec_.y.begin() + static_cast<std::ptrdiff_t>(b));
+    double cost = 0.0;
+    for (std::size_t k = a; k < b; ++k) {
+      double v = 0.0;
+      for (std::size_t i = 0; i < terms.size(); ++i) {
+        v += theta(static_cast<Eigen::Index>(i)) * Term(terms[i], ys, k);
+      }
+      if (!(std::fabs(v) <= spec_.divergence_limit)) return std::numeric_limits<double>::infinity();
+      ys[k] = v;
+      const double e = rec_.y[k] - v;
+      cost += rec_.w[k] * e * e;
+      if (residual != nullptr) residual->push_back(e);
+    }
+    return std::isfinite(cost) ? cost : std::numeric_limits<double>::infinity();
+  }
+
+ private:
+  const SemSpec& spec_;
+  Record rec_;
+};
+
+
+}  // namespace mrd::host::internal
