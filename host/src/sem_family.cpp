@@ -254,8 +254,11 @@ FamilyResult FamilyFromJson(const json& j, const std::string& path) {
     c.score = score.is_null() ? kInf : number(score, where + " score");
     const json& sel = Field(jc, "selected", path, where);
     const json& terms = Field(jc, "terms", path, where);
-    if (!sel.is_number_unsigned() || sel.get<std::uint64_t>() > 1000000 ||
-        !terms.is_number_unsigned() || terms.get<std::uint64_t>() > 1000000) {
+    auto count = [](const json& v) {  // an integer 0 ... 1e6 (not 1.5, not "2")
+      return v.is_number_integer() && (v.is_number_unsigned() || v.get<long long>() >= 0) &&
+             v.get<std::uint64_t>() <= 1000000;
+    };
+    if (!count(sel) || !count(terms)) {
       throw InputError(path, 0, fmt::format("family: {}: 'selected' and 'terms' must be "
                                             "integers 0 ... 1000000", where));
     }
