@@ -349,7 +349,7 @@ ModelFile LoadModelFile(const std::string& path) {
     }
     m.selected = IntField(j, "selected", 0, 1000000, path, "");
     m.selection_rule = j.value("selection_rule", std::string());
-    if (j.contains("family")) m.family = FamilyFromJson(j.at("family"), path);
+    if (j.contains("family")) m.family = FamilyFromJson(j.at("family"), m.spec, path);
   } catch (const json::exception& e) {
     throw InputError(path, 0, fmt::format("bad model file: {}", e.what()));
   }

@@ -205,7 +205,7 @@ json FamilyToJson(const FamilyResult& f) {
           {"combinations", combos}};
 }
 
-FamilyResult FamilyFromJson(const json& j, const std::string& path) {
+FamilyResult FamilyFromJson(const json& j, const SemSpec& spec, const std::string& path) {
   FamilyResult f;
   auto number = [&](const json& v, const std::string& what) {
     if (!v.is_number()) throw InputError(path, 0, fmt::format("family: {} must be a number", what));
@@ -275,6 +275,23 @@ FamilyResult FamilyFromJson(const json& j, const std::string& path) {
                                           chosen.dump()));
   }
   f.chosen = chosen.get<int>();
+  // The spec holds the chosen members.
+  const auto& members = f.combinations[static_cast<std::size_t>(f.chosen)].members;
+  for (std::size_t i = 0; i < f.regressors.size(); ++i) {
+    const int r = spec.RegressorIndex(f.regressors[i]);
+    if (r < 0) {
+      throw InputError(path, 0, fmt::format("family: '{}' is not a regressor of the spec",
+                                            f.regressors[i]));
+    }
+    const auto& reg = spec.regressors[static_cast<std::size_t>(r)];
+    const TransformChoice held{reg.transform, reg.exponent, 0};
+    if (!(held == members[i]) && !(Info(reg.transform).parameter[0] == '\0' &&
+                                    reg.transform == members[i].transform)) {
+      throw InputError(path, 0, fmt::format("family: the chosen {} of '{}' is not the spec's {}",
+                                            TransformLabel(members[i]), f.regressors[i],
+                                            TransformLabel(held)));
+    }
+  }
   return f;
 }
 

@@ -149,8 +149,9 @@ TEST(SemFamilySpecTest, BadFamilySectionInModelFileIsRefused) {
   f.combinations.push_back({{TransformChoice{Transform::kTanh, 0.1, 0}}, 0.5, 2, 2, 0.4});
   f.combinations.push_back({{TransformChoice{Transform::kSign, 1.0, 0}}, 0.25, 3, 3, 0.2});
   f.chosen = 1;
+  const SemSpec spec = ParseSemSpec(Spec(R"(transform = "sign")"), "fam.toml");  // resolved
   const nlohmann::json good = FamilyToJson(f);
-  const FamilyResult back = FamilyFromJson(good, "m.json");
+  const FamilyResult back = FamilyFromJson(good, spec, "m.json");
   ASSERT_EQ(back.combinations.size(), 2u);
   EXPECT_EQ(back.chosen, 1);
   EXPECT_EQ(back.rule, f.rule);
@@ -159,7 +160,7 @@ TEST(SemFamilySpecTest, BadFamilySectionInModelFileIsRefused) {
   EXPECT_EQ(back.combinations[1].selected, 3);
   auto refused = [&](nlohmann::json j, const std::string& what) {
     try {
-      FamilyFromJson(j, "m.json");
+      FamilyFromJson(j, spec, "m.json");
       ADD_FAILURE() << "accepted: " << what;
     } catch (const InputError& e) {
       EXPECT_EQ(e.file(), "m.json");
@@ -184,11 +185,15 @@ TEST(SemFamilySpecTest, BadFamilySectionInModelFileIsRefused) {
   j = good;
   j.erase("rule");
   refused(j, "lacks 'rule'");
+  j = good;
+  j["chosen"] = 0;  // the spec holds sign, not the tanh member
+  refused(j, "the chosen tanh(scale=0.1) of 'a' is not the spec's sign");
+  j = good;
+  j["regressors"][0] = "b";
+  refused(j, "'b' is not a regressor of the spec");
   // Through LoadModelFile: a model file whose family section is bad is not loaded.
   ModelFile m;
-  m.spec = ParseSemSpec(Spec(R"(transform = "tanh"
-scale = 0.1)"),
-                        "fam.toml");
+  m.spec = spec;
   m.channels = {{"y", 0.0, 1.0}, {"u", 0.0, 1.0}};
   m.iterations.push_back({});
   m.family = f;

@@ -78,10 +78,11 @@ std::string FamilyMembers(const std::vector<std::string>& regressors, const Fami
 //   {"regressors": ["u2"], "rule": "...", "chosen": 1,
 //    "combinations": [{"members": [{"transform": "abs_pow", "exponent": 0.2}], "score": ...,
 //                      "selected": 7, "terms": 9, "J": ...}, ...]}
-// score is null when not finite. FamilyFromJson throws InputError naming `path` for a
+// score and J are null when not finite. FamilyFromJson throws InputError naming `path` for a
 // missing or mistyped field, an unknown transform, a member count that does not match the
-// regressors, or a chosen index out of range.
+// regressors, a chosen index out of range, or a chosen member that is not what the (resolved)
+// spec holds.
 nlohmann::json FamilyToJson(const FamilyResult& f);
-FamilyResult FamilyFromJson(const nlohmann::json& j, const std::string& path);
+FamilyResult FamilyFromJson(const nlohmann::json& j, const SemSpec& spec, const std::string& path);
 
 }  // namespace mrd::host
