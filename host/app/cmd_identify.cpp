@@ -68,7 +68,8 @@ void RunIdentify(const IdentifyOptions& o) {
   // A spec with transform families runs once per combination (sem_family.hpp).
   auto member = [](std::size_t i, std::size_t n, const std::vector<std::string>& regs,
                    const FamilyCombination& c) {
-    fmt::print(stderr, "family {}/{}: {}: selected iteration {} ({} terms, J {:.6g}), score {:.6g}\n",
+    fmt::print(stderr,
+               "family {}/{}: {}: selected iteration {} ({} terms, J {:.6g}), score {:.6g}\n",
                i + 1, n, FamilyMembers(regs, c), c.selected, c.terms, c.j, c.score);
   };
   const FamilyIdentification fi = IdentifyFamilies(spec, data, val, so, member);

@@ -1,11 +1,11 @@
 #include "mrd/host/sem_family.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
-
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "mrd/host/input_error.hpp"
@@ -52,10 +52,10 @@ double Score(Rule rule, const SemSpec& spec, std::span<const DataSet> identifica
       s = Sum(sel.validation_j);
       break;
     case Rule::kCrossValidation:
-      s = Sum(sel.cv_j.size() == static_cast<std::size_t>(kSelectionFolds)
-                  ? sel.cv_j
-                  : CrossValidatedCost(spec, r.channels, sel.terms, identification,
-                                       kSelectionFolds));
+      s = Sum(
+          sel.cv_j.size() == static_cast<std::size_t>(kSelectionFolds)
+              ? sel.cv_j
+              : CrossValidatedCost(spec, r.channels, sel.terms, identification, kSelectionFolds));
       break;
     case Rule::kIdentification:
       s = sel.j;
@@ -80,8 +80,7 @@ std::string TransformLabel(const TransformChoice& c) {
   return fmt::format("{}({}={:g})", i.name, i.parameter, c.parameter);
 }
 
-std::string FamilyMembers(const std::vector<std::string>& regressors,
-                          const FamilyCombination& c) {
+std::string FamilyMembers(const std::vector<std::string>& regressors, const FamilyCombination& c) {
   std::string s;
   for (std::size_t i = 0; i < c.members.size(); ++i) {
     s += fmt::format("{}{} = {}", i > 0 ? ", " : "",
@@ -122,8 +121,7 @@ SemSpec ResolveFamilies(const SemSpec& spec, const std::vector<TransformChoice>&
   return s;
 }
 
-FamilyIdentification IdentifyFamilies(const SemSpec& spec,
-                                      std::span<const DataSet> identification,
+FamilyIdentification IdentifyFamilies(const SemSpec& spec, std::span<const DataSet> identification,
                                       std::span<const DataSet> validation,
                                       const SemOptions& options, const FamilyProgress& progress) {
   FamilyIdentification out;
@@ -148,9 +146,9 @@ FamilyIdentification IdentifyFamilies(const SemSpec& spec,
       out.family.rule = "lowest summed validation J of the selected iteration";
       break;
     case Rule::kCrossValidation:
-      out.family.rule = fmt::format(
-          "lowest summed {}-fold cross-validated free-run J of the selected iteration",
-          kSelectionFolds);
+      out.family.rule =
+          fmt::format("lowest summed {}-fold cross-validated free-run J of the selected iteration",
+                      kSelectionFolds);
       break;
     case Rule::kIdentification:
       out.family.rule = fmt::format(
@@ -229,9 +227,10 @@ FamilyResult FamilyFromJson(const json& j, const SemSpec& spec, const std::strin
     FamilyCombination c;
     const json& members = Field(jc, "members", path, where);
     if (!members.is_array() || members.size() != f.regressors.size()) {
-      throw InputError(path, 0, fmt::format("family: {}: 'members' must hold one transform per "
-                                            "family regressor ({})",
-                                            where, f.regressors.size()));
+      throw InputError(path, 0,
+                       fmt::format("family: {}: 'members' must hold one transform per "
+                                   "family regressor ({})",
+                                   where, f.regressors.size()));
     }
     for (const auto& jm : members) {
       const json& name = Field(jm, "transform", path, where);
@@ -240,8 +239,8 @@ FamilyResult FamilyFromJson(const json& j, const SemSpec& spec, const std::strin
         if (name.is_string() && name.get<std::string>() == i.name) info = &i;
       }
       if (info == nullptr) {
-        throw InputError(path, 0, fmt::format("family: {}: unknown transform {}", where,
-                                              name.dump()));
+        throw InputError(path, 0,
+                         fmt::format("family: {}: unknown transform {}", where, name.dump()));
       }
       TransformChoice m;
       m.transform = info->transform;
@@ -259,8 +258,10 @@ FamilyResult FamilyFromJson(const json& j, const SemSpec& spec, const std::strin
              v.get<std::uint64_t>() <= 1000000;
     };
     if (!count(sel) || !count(terms)) {
-      throw InputError(path, 0, fmt::format("family: {}: 'selected' and 'terms' must be "
-                                            "integers 0 ... 1000000", where));
+      throw InputError(path, 0,
+                       fmt::format("family: {}: 'selected' and 'terms' must be "
+                                   "integers 0 ... 1000000",
+                                   where));
     }
     c.selected = sel.get<int>();
     c.terms = terms.get<std::size_t>();
@@ -271,8 +272,8 @@ FamilyResult FamilyFromJson(const json& j, const SemSpec& spec, const std::strin
   const json& chosen = Field(j, "chosen", path, "section");
   if (!chosen.is_number_integer() || chosen.get<long long>() < 0 ||
       chosen.get<long long>() >= static_cast<long long>(f.combinations.size())) {
-    throw InputError(path, 0, fmt::format("family: 'chosen' = {} is not a combination index",
-                                          chosen.dump()));
+    throw InputError(
+        path, 0, fmt::format("family: 'chosen' = {} is not a combination index", chosen.dump()));
   }
   f.chosen = chosen.get<int>();
   // The spec holds the chosen members.
@@ -280,16 +281,17 @@ FamilyResult FamilyFromJson(const json& j, const SemSpec& spec, const std::strin
   for (std::size_t i = 0; i < f.regressors.size(); ++i) {
     const int r = spec.RegressorIndex(f.regressors[i]);
     if (r < 0) {
-      throw InputError(path, 0, fmt::format("family: '{}' is not a regressor of the spec",
-                                            f.regressors[i]));
+      throw InputError(path, 0,
+                       fmt::format("family: '{}' is not a regressor of the spec", f.regressors[i]));
     }
     const auto& reg = spec.regressors[static_cast<std::size_t>(r)];
     const TransformChoice held{reg.transform, reg.exponent, 0};
-    if (!(held == members[i]) && !(Info(reg.transform).parameter[0] == '\0' &&
-                                    reg.transform == members[i].transform)) {
-      throw InputError(path, 0, fmt::format("family: the chosen {} of '{}' is not the spec's {}",
-                                            TransformLabel(members[i]), f.regressors[i],
-                                            TransformLabel(held)));
+    if (!(held == members[i]) &&
+        !(Info(reg.transform).parameter[0] == '\0' && reg.transform == members[i].transform)) {
+      throw InputError(
+          path, 0,
+          fmt::format("family: the chosen {} of '{}' is not the spec's {}",
+                      TransformLabel(members[i]), f.regressors[i], TransformLabel(held)));
     }
   }
   return f;

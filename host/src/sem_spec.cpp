@@ -113,8 +113,9 @@ const char* ParameterKey(Transform t) {
 TransformChoice ParseFamilyMember(const std::string& path, const toml::node& node) {
   const auto* t = node.as_table();
   if (t == nullptr) {
-    Fail(path, node, "'family' members must be inline tables like {transform = \"tanh\", "
-                     "scale = 0.1}");
+    Fail(path, node,
+         "'family' members must be inline tables like {transform = \"tanh\", "
+         "scale = 0.1}");
   }
   TransformChoice c;
   c.line = LineOf(node);
@@ -130,20 +131,22 @@ TransformChoice ParseFamilyMember(const std::string& path, const toml::node& nod
       Fail(path, n, fmt::format("unknown key '{}' in a 'family' member", k));
     }
     if (k != want) {
-      Fail(path, n, fmt::format("'{}' is not a parameter of transform \"{}\" in 'family'", k,
-                                GetString(path, *tr, "transform")));
+      Fail(path, n,
+           fmt::format("'{}' is not a parameter of transform \"{}\" in 'family'", k,
+                       GetString(path, *tr, "transform")));
     }
     c.parameter = GetNumber(path, n, k);
     if (!(c.parameter > 0.0) || (k == "tau" && c.parameter > kMaxLowPassTau)) {
-      Fail(path, n, k == "tau" ? fmt::format("'tau' in 'family' must be in (0, {:g}] samples",
-                                             kMaxLowPassTau)
-                               : fmt::format("'{}' in 'family' must be > 0", k));
+      Fail(path, n,
+           k == "tau"
+               ? fmt::format("'tau' in 'family' must be in (0, {:g}] samples", kMaxLowPassTau)
+               : fmt::format("'{}' in 'family' must be > 0", k));
     }
     has_parameter = true;
   }
   if (!want.empty() && !has_parameter) {
-    Fail(path, node, fmt::format("'family' member \"{}\" needs '{}'",
-                                 GetString(path, *tr, "transform"), want));
+    Fail(path, node,
+         fmt::format("'family' member \"{}\" needs '{}'", GetString(path, *tr, "transform"), want));
   }
   return c;
 }

@@ -23,11 +23,11 @@ TEST(RealDataFamilyTest, NeesFamilyChoosesByCrossValidationAndFitsHeldOutSegment
                     held = dir.File("held.csv"), model = dir.File("family.json");
   auto ok = [](const CommandResult& r) { ASSERT_EQ(r.status, 0) << r.output; };
   ok(test::Run(Bin("mrd") + " import --in " + kNeesFile +
-         " --map t=t,x=D,v=V,E=Y,f=F --rate 1000 --out " + all));
+               " --map t=t,x=D,v=V,E=Y,f=F --rate 1000 --out " + all));
   ok(test::Run(Bin("mrd") + " slice --in " + all + " --from 0 --to 14 --out " + id));
   ok(test::Run(Bin("mrd") + " slice --in " + all + " --from 14 --to 19.5 --out " + held));
   const auto r = test::Run(Bin("mrd") + " identify --data " + id + " --spec " + MRD_SOURCE_DIR +
-                     "/host/specs/nees-family.toml --threads 2 --out " + model);
+                           "/host/specs/nees-family.toml --threads 2 --out " + model);
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("family 5/5: u2 = tanh(scale=0.2)"), std::string::npos) << r.output;
   const host::ModelFile mf = host::LoadModelFile(model);
@@ -52,8 +52,9 @@ TEST(RealDataFamilyTest, NeesFamilyChoosesByCrossValidationAndFitsHeldOutSegment
   EXPECT_LT(i["fit_percent"].get<double>() - h["fit_percent"].get<double>(), 2.0);
   // Table export (the firmware's checks, inverter included) and the firmware run it as any.
   ok(test::Run(Bin("mrd") + " export --model " + model + " --table " + dir.File("f.bin") +
-         " --header " + dir.File("f.hpp")));
-  ok(test::Run(Bin("mrd-firmware") + " --table " + dir.File("f.bin") + " --dry-run 0.5 --lockstep"));
+               " --header " + dir.File("f.hpp")));
+  ok(test::Run(Bin("mrd-firmware") + " --table " + dir.File("f.bin") +
+               " --dry-run 0.5 --lockstep"));
 }
 
 }  // namespace

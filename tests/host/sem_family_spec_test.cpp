@@ -3,9 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
@@ -27,7 +26,8 @@ delays = [1]
 [[regressor]]
 name = "a"
 signal = "u"
-)") + family_lines + "\npowers = [1]\n" + extra;
+)") + family_lines +
+         "\npowers = [1]\n" + extra;
 }
 
 void ExpectError(const std::string& text, std::size_t line, const std::string& what) {
@@ -42,11 +42,11 @@ void ExpectError(const std::string& text, std::size_t line, const std::string& w
 }
 
 TEST(SemFamilySpecTest, ParsesMembersInOrderAndStartsAtTheFirst) {
-  const SemSpec s = ParseSemSpec(
-      Spec(R"(family = [{transform = "abs_pow", exponent = 0.5}, {transform = "sign"},
+  const SemSpec s =
+      ParseSemSpec(Spec(R"(family = [{transform = "abs_pow", exponent = 0.5}, {transform = "sign"},
           {transform = "tanh", scale = 0.1}, {transform = "clip", limit = 0.5},
           {transform = "low_pass", tau = 4.0}, {transform = "identity"}])"),
-      "fam.toml");
+                   "fam.toml");
   const auto& f = s.regressors[1].family;
   ASSERT_EQ(f.size(), 6u);
   EXPECT_EQ(f[0].transform, Transform::kAbsPow);
@@ -74,9 +74,10 @@ family = [{transform = "sign"}, {transform = "tanh", scale = 1.0}]
 powers = [1]
 )";
   const SemSpec s = ParseSemSpec(
-      Spec(R"(family = [{transform = "abs_pow", exponent = 0.2}, {transform = "abs_pow", exponent = 0.5},
+      Spec(
+          R"(family = [{transform = "abs_pow", exponent = 0.2}, {transform = "abs_pow", exponent = 0.5},
                        {transform = "identity"}])",
-           second),
+          second),
       "fam.toml");
   const auto c = FamilyCombinations(s);
   ASSERT_EQ(c.size(), 6u);  // the first family varies slowest

@@ -1,20 +1,20 @@
 // Issue 15: transform families chosen by the simulation-error criterion (sem_family.hpp) on a
 // system whose true input transform is one member: y(k) = 0.5 y(k-1) + |u(k-1)|^0.5, plus
 // measurement noise on y.
+#include "mrd/host/sem_family.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
-#include "mrd/host/sem_family.hpp"
 #include "sem_test_util.hpp"
 #include "test_util.hpp"
 
@@ -146,8 +146,7 @@ TEST(SemFamilyTest, CliRecordsScoresAndChoice) {
   const auto r = test::Run(test::Bin("mrd") + " identify --data " + dir.File("id.csv") +
                            " --spec " + spec + " --threads 2 --out " + model);
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("family 4/4: a = tanh(scale=0.5): selected iteration"),
-            std::string::npos)
+  EXPECT_NE(r.output.find("family 4/4: a = tanh(scale=0.5): selected iteration"), std::string::npos)
       << r.output;
   EXPECT_NE(r.output.find("a = abs_pow(exponent=0.5): score"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("terms  <- chosen"), std::string::npos) << r.output;

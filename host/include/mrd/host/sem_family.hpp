@@ -14,11 +14,10 @@
 
 #include <cstddef>
 #include <functional>
+#include <nlohmann/json_fwd.hpp>
 #include <span>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json_fwd.hpp>
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/sem.hpp"
@@ -29,10 +28,10 @@ namespace mrd::host {
 // One identification of the family search.
 struct FamilyCombination {
   std::vector<TransformChoice> members;  // one per FamilyResult::regressors entry
-  double score = 0.0;      // by FamilyResult::rule; +inf when not finite
-  int selected = 0;        // iteration picked by this run's own selection
-  std::size_t terms = 0;   // of that iteration
-  double j = 0.0;          // identification J of that iteration
+  double score = 0.0;                    // by FamilyResult::rule; +inf when not finite
+  int selected = 0;                      // iteration picked by this run's own selection
+  std::size_t terms = 0;                 // of that iteration
+  double j = 0.0;                        // identification J of that iteration
 };
 
 struct FamilyResult {
