@@ -162,7 +162,10 @@ FamilyIdentification IdentifyFamilies(const SemSpec& spec, std::span<const DataS
   for (std::size_t c = 0; c < combos.size(); ++c) {
     SemSpec resolved = ResolveFamilies(spec, combos[c]);
     SemResult r = Identify(resolved, identification, validation, options);
-    const SemIteration& sel = r.iterations.at(static_cast<std::size_t>(r.selected));
+    const auto it = std::find_if(r.iterations.begin(), r.iterations.end(),
+                                 [&](const SemIteration& i) { return i.iteration == r.selected; });
+    if (it == r.iterations.end()) throw InputError(spec.path, 0, "family: no selected iteration");
+    const SemIteration& sel = *it;
     FamilyCombination fc;
     fc.members = combos[c];
     fc.score = Score(rule, resolved, identification, r, sel);

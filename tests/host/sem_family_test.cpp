@@ -135,6 +135,23 @@ TEST(SemFamilyTest, ValidationDataDecideWhenGiven) {
   EXPECT_EQ(f.combinations[static_cast<std::size_t>(f.chosen)].score, lowest);
 }
 
+// Records too short for 20 folds of 20 samples: the identification J of the selected
+// iteration decides (the selection's own fallback), and says so.
+TEST(SemFamilyTest, ShortRecordsFallBackToTheIdentificationJ) {
+  const SemSpec spec = ParseSemSpec(kFamilySpec, "fam.toml");
+  const std::vector<DataSet> id = {System(6, 300, 0.02)};
+  const FamilyIdentification fi = IdentifyFamilies(spec, id, {}, Options());
+  const FamilyResult& f = fi.family;
+  EXPECT_NE(f.rule.find("identification J of the selected iteration (records too short"),
+            std::string::npos)
+      << f.rule;
+  for (const auto& c : f.combinations) {
+    EXPECT_EQ(c.score, c.j);
+    EXPECT_GE(c.score, f.combinations[static_cast<std::size_t>(f.chosen)].score);
+  }
+  EXPECT_EQ(f.chosen, kTrueMember);
+}
+
 // Through the CLI: progress per member on stderr, the scores and the choice on stdout, in the
 // model file and in `mrd report`; `mrd simulate` runs the model file unchanged.
 TEST(SemFamilyTest, CliRecordsScoresAndChoice) {
