@@ -12,6 +12,7 @@
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
+#include "mrd/host/sem_family.hpp"
 #include "mrd/host/sem_spec.hpp"
 
 namespace mrd::host::cli {
@@ -64,8 +65,17 @@ void RunIdentify(const IdentifyOptions& o) {
     fmt::print("\n");
     std::fflush(stdout);
   };
-  const SemResult r = Identify(spec, data, val, so);
-  ModelFile mf = MakeModelFile(spec, r);
+  // A spec with transform families runs once per combination (sem_family.hpp).
+  auto member = [](std::size_t i, std::size_t n, const std::vector<std::string>& regs,
+                   const FamilyCombination& c) {
+    fmt::print(stderr,
+               "family {}/{}: {}: selected iteration {} ({} terms, J {:.6g}), score {:.6g}\n",
+               i + 1, n, FamilyMembers(regs, c), c.selected, c.terms, c.j, c.score);
+  };
+  const FamilyIdentification fi = IdentifyFamilies(spec, data, val, so, member);
+  const SemResult& r = fi.result;
+  ModelFile mf = MakeModelFile(fi.spec, r);
+  mf.family = fi.family;
   mf.identification_data = o.data;
   mf.validation_data = o.validate;
   SaveModelFile(mf, o.out);
@@ -73,6 +83,15 @@ void RunIdentify(const IdentifyOptions& o) {
   fmt::print("{}: {} candidates, {} iterations, selected iteration {} ({} terms, J {:.6g}; {})\n",
              o.out, r.num_candidates, r.iterations.size() - 1, mf.selected, sel.terms.size(),
              sel.j, mf.selection_rule);
+  const FamilyResult& f = mf.family;
+  if (!f.empty()) {
+    fmt::print("transform family ({}):\n", f.rule);
+    for (std::size_t c = 0; c < f.combinations.size(); ++c) {
+      const FamilyCombination& fc = f.combinations[c];
+      fmt::print("  {}: score {:.6g}, {} terms{}\n", FamilyMembers(f.regressors, fc), fc.score,
+                 fc.terms, static_cast<int>(c) == f.chosen ? "  <- chosen" : "");
+    }
+  }
 }
 
 }  // namespace

@@ -227,6 +227,7 @@ std::string ModelFileToJson(const ModelFile& m) {
             {"selection_rule", m.selection_rule},
             {"identification_data", m.identification_data},
             {"validation_data", m.validation_data}};
+  if (!m.family.empty()) j["family"] = FamilyToJson(m.family);
   return j.dump(1) + "\n";
 }
 
@@ -348,6 +349,7 @@ ModelFile LoadModelFile(const std::string& path) {
     }
     m.selected = IntField(j, "selected", 0, 1000000, path, "");
     m.selection_rule = j.value("selection_rule", std::string());
+    if (j.contains("family")) m.family = FamilyFromJson(j.at("family"), m.spec, path);
   } catch (const json::exception& e) {
     throw InputError(path, 0, fmt::format("bad model file: {}", e.what()));
   }

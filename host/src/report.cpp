@@ -250,6 +250,16 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
   }
   fmt::format_to(out, "selected iteration: {} ({} terms, J {}; {})\n", mf.selected,
                  sel.terms.size(), FormatJ(sel.j), mf.selection_rule);
+  if (!mf.family.empty()) {  // transform family: every combination's score, the choice
+    fmt::format_to(out, "transform family ({}):\n", mf.family.rule);
+    for (std::size_t c = 0; c < mf.family.combinations.size(); ++c) {
+      const FamilyCombination& fc = mf.family.combinations[c];
+      fmt::format_to(out, "  {}: score {}, iteration {} ({} terms, J {}){}\n",
+                     FamilyMembers(mf.family.regressors, fc), FormatJ(fc.score), fc.selected,
+                     fc.terms, FormatJ(fc.j),
+                     static_cast<int>(c) == mf.family.chosen ? "  <- chosen" : "");
+    }
+  }
   fmt::format_to(out, "reported iteration: {} ({} terms, J {}){}\n", k, it.terms.size(),
                  FormatJ(it.j), k_given ? " from --iteration" : "");
   fmt::format_to(out, "channels (normalised = (raw - offset) / scale):");

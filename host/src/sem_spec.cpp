@@ -77,6 +77,95 @@ std::vector<int> GetIntList(const std::string& path, const toml::node& n, const 
   return out;
 }
 
+Transform ParseTransformName(const std::string& path, const toml::node& node) {
+  const std::string tr = GetString(path, node, "transform");
+  if (tr == "identity") return Transform::kIdentity;
+  if (tr == "abs_pow") return Transform::kAbsPow;
+  if (tr == "sign") return Transform::kSign;
+  if (tr == "low_pass") return Transform::kLowPass;
+  if (tr == "tanh") return Transform::kTanh;
+  if (tr == "clip") return Transform::kClip;
+  Fail(path, node,
+       fmt::format("unknown transform '{}' (expected identity, abs_pow, sign, low_pass, tanh or "
+                   "clip)",
+                   tr));
+}
+
+// Key of a transform's parameter ("" when it takes none).
+const char* ParameterKey(Transform t) {
+  switch (t) {
+    case Transform::kAbsPow:
+      return "exponent";
+    case Transform::kLowPass:
+      return "tau";
+    case Transform::kTanh:
+      return "scale";
+    case Transform::kClip:
+      return "limit";
+    case Transform::kIdentity:
+    case Transform::kSign:
+      break;
+  }
+  return "";
+}
+
+// One member of 'family': an inline table {transform = "...", <its parameter> = x}.
+TransformChoice ParseFamilyMember(const std::string& path, const toml::node& node) {
+  const auto* t = node.as_table();
+  if (t == nullptr) {
+    Fail(path, node,
+         "'family' members must be inline tables like {transform = \"tanh\", "
+         "scale = 0.1}");
+  }
+  TransformChoice c;
+  c.line = LineOf(node);
+  const toml::node* tr = t->get("transform");
+  if (tr == nullptr) Fail(path, node, "'family' member needs a 'transform'");
+  c.transform = ParseTransformName(path, *tr);
+  const std::string want = ParameterKey(c.transform);
+  bool has_parameter = false;
+  for (const auto& [key, n] : *t) {
+    const std::string k(key.str());
+    if (k == "transform") continue;
+    if (k != "exponent" && k != "tau" && k != "scale" && k != "limit") {
+      Fail(path, n, fmt::format("unknown key '{}' in a 'family' member", k));
+    }
+    if (k != want) {
+      Fail(path, n,
+           fmt::format("'{}' is not a parameter of transform \"{}\" in 'family'", k,
+                       GetString(path, *tr, "transform")));
+    }
+    c.parameter = GetNumber(path, n, k);
+    if (!(c.parameter > 0.0) || (k == "tau" && c.parameter > kMaxLowPassTau)) {
+      Fail(path, n,
+           k == "tau"
+               ? fmt::format("'tau' in 'family' must be in (0, {:g}] samples", kMaxLowPassTau)
+               : fmt::format("'{}' in 'family' must be > 0", k));
+    }
+    has_parameter = true;
+  }
+  if (!want.empty() && !has_parameter) {
+    Fail(path, node,
+         fmt::format("'family' member \"{}\" needs '{}'", GetString(path, *tr, "transform"), want));
+  }
+  return c;
+}
+
+std::vector<TransformChoice> ParseFamily(const std::string& path, const toml::node& node) {
+  const auto* arr = node.as_array();
+  if (arr == nullptr) Fail(path, node, "'family' must be an array of inline tables");
+  if (arr->empty()) Fail(path, node, "'family' must not be empty");
+  std::vector<TransformChoice> out;
+  for (const auto& e : *arr) {
+    const TransformChoice c = ParseFamilyMember(path, e);
+    if (std::find(out.begin(), out.end(), c) != out.end()) {
+      Fail(path, e, "duplicate member in 'family'");
+    }
+    out.push_back(c);
+  }
+  return out;
+}
+
 ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t,
                                    std::size_t line) {
   ElementaryRegressor r;
@@ -85,6 +174,7 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
   bool has_tau = false;
   bool has_scale = false;
   bool has_limit = false;
+  bool has_transform = false;
   for (const auto& [key, node] : t) {
     const std::string k(key.str());
     if (k == "name") {
@@ -93,25 +183,10 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
       r.signal = GetString(path, node, k);
       r.signal_line = LineOf(node);
     } else if (k == "transform") {
-      const std::string tr = GetString(path, node, k);
-      if (tr == "identity") {
-        r.transform = Transform::kIdentity;
-      } else if (tr == "abs_pow") {
-        r.transform = Transform::kAbsPow;
-      } else if (tr == "sign") {
-        r.transform = Transform::kSign;
-      } else if (tr == "low_pass") {
-        r.transform = Transform::kLowPass;
-      } else if (tr == "tanh") {
-        r.transform = Transform::kTanh;
-      } else if (tr == "clip") {
-        r.transform = Transform::kClip;
-      } else {
-        Fail(path, node,
-             fmt::format("unknown transform '{}' (expected identity, abs_pow, sign, low_pass, "
-                         "tanh or clip)",
-                         tr));
-      }
+      r.transform = ParseTransformName(path, node);
+      has_transform = true;
+    } else if (k == "family") {
+      r.family = ParseFamily(path, node);
     } else if (k == "exponent") {
       r.exponent = GetNumber(path, node, k);
       if (!(r.exponent > 0.0)) Fail(path, node, "'exponent' must be > 0");
@@ -146,6 +221,15 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
   if (r.signal.empty()) throw InputError(path, line, "[[regressor]] needs a 'signal' column");
   if (r.powers.empty()) throw InputError(path, line, "[[regressor]] needs 'powers'");
   if (r.delays.empty()) r.delays = {0};
+  if (!r.family.empty()) {
+    if (has_transform || has_exponent || has_tau || has_scale || has_limit) {
+      throw InputError(path, line,
+                       "'family' replaces 'transform' and its parameter: give one or the other");
+    }
+    r.transform = r.family.front().transform;  // until ResolveFamilies picks a member
+    r.exponent = r.family.front().parameter;
+    return r;
+  }
   if (has_exponent && r.transform != Transform::kAbsPow) {
     throw InputError(path, line, "'exponent' is only valid with transform = \"abs_pow\"");
   }
@@ -348,11 +432,27 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
                                    "regressors need delays >= 1",
                                    r.name, s.output));
     }
+    if (r.signal == s.output && !r.family.empty()) {
+      throw InputError(path, r.line,
+                       fmt::format("regressor '{}': 'family' is for input signals only, not the "
+                                   "output '{}'",
+                                   r.name, s.output));
+    }
     if (r.signal == s.output && r.transform == Transform::kLowPass) {
       throw InputError(path, r.line,
                        fmt::format("regressor '{}': low_pass is for input signals only, not the "
                                    "output '{}'",
                                    r.name, s.output));
+    }
+  }
+  std::size_t combinations = 1;
+  for (const auto& r : s.regressors) {
+    combinations *= std::max<std::size_t>(r.family.size(), 1);
+    if (combinations > kMaxFamilyCombinations) {
+      throw InputError(path, r.line,
+                       fmt::format("'family' regressors up to '{}' make {} combinations > {} "
+                                   "(one identification each): use fewer members",
+                                   r.name, combinations, kMaxFamilyCombinations));
     }
   }
   for (const auto* list : {&s.stress.stretch_signals, &s.stress.sweep_signals}) {

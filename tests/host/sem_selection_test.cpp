@@ -38,7 +38,7 @@ TEST(SemSpecDocTest, DocumentedExampleParsesAsWritten) {
   const std::string text = DocumentedExample();
   ASSERT_NE(text.find("[algorithm]"), std::string::npos) << "example block not found";
   const SemSpec s = ParseSemSpec(text, "sem_spec.hpp");
-  ASSERT_EQ(s.regressors.size(), 5u);
+  ASSERT_EQ(s.regressors.size(), 6u);
   EXPECT_EQ(s.output, "f");
   EXPECT_EQ(s.regressors[1].transform, Transform::kAbsPow);
   EXPECT_DOUBLE_EQ(s.regressors[1].exponent, 0.2);
@@ -48,6 +48,10 @@ TEST(SemSpecDocTest, DocumentedExampleParsesAsWritten) {
   EXPECT_DOUBLE_EQ(s.regressors[3].exponent, 0.5);
   EXPECT_EQ(s.regressors[4].transform, Transform::kClip);
   EXPECT_DOUBLE_EQ(s.regressors[4].exponent, 1.0);
+  ASSERT_EQ(s.regressors[5].family.size(), 3u);  // a transform family
+  EXPECT_EQ(s.regressors[5].family[1].transform, Transform::kTanh);
+  EXPECT_DOUBLE_EQ(s.regressors[5].family[1].parameter, 0.1);
+  EXPECT_EQ(s.regressors[5].family[2].transform, Transform::kSign);
   EXPECT_TRUE(s.stress.enabled);
   EXPECT_DOUBLE_EQ(s.stress.stretch, 2.0);
   EXPECT_DOUBLE_EQ(s.stress.force_bound, 3.0);

@@ -13,7 +13,9 @@
 //                     "terms": [{"coefficient": c,
 //                                "factors": [{"regressor": "u2", "delay": 1, "power": 3}]}]}],
 //     "selected": k, "selection_rule": "...",
-//     "identification_data": ["id.csv"], "validation_data": ["v1.csv", ...] }  // optional
+//     "identification_data": ["id.csv"], "validation_data": ["v1.csv", ...],  // optional
+//     "family": {...} }   // spec with a transform family only: every member's score and the
+//                         // choice (sem_family.hpp); "spec" then holds the chosen transform
 //
 // Coefficients are in normalised units (signals divided by their channel scale).
 
@@ -23,6 +25,7 @@
 #include "mrd/common/model.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/host/sem.hpp"
+#include "mrd/host/sem_family.hpp"
 #include "mrd/host/sem_spec.hpp"
 
 namespace mrd::host {
@@ -38,6 +41,7 @@ struct ModelFile {
   // Data files of the run, as given on the command line (provenance; may be empty).
   std::vector<std::string> identification_data;
   std::vector<std::string> validation_data;  // in the order of validation_J
+  FamilyResult family;  // transform family search (empty: the spec had no family)
 
   int warmup_samples() const { return spec.MaxDelay(); }
   // Iteration by its number; throws InputError naming the file when absent.

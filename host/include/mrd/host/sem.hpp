@@ -93,7 +93,8 @@ struct SemResult {
 std::vector<ChannelInfo> ComputeScales(const SemSpec& spec, std::span<const DataSet> data);
 
 // Runs the identification. Throws InputError when a data set lacks a spec signal (naming the
-// spec file and the regressor's line) or is too short, or an initial term is bad.
+// spec file and the regressor's line) or is too short, or an initial term is bad. A transform
+// family runs as its first member; IdentifyFamilies (sem_family.hpp) chooses among them.
 SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
                    std::span<const DataSet> validation, const SemOptions& options);
 

@@ -46,6 +46,18 @@
 //   limit = 1.0                # required with clip only (> 0, normalised)
 //   powers = [1]
 //
+//   [[regressor]]
+//   name = "g"
+//   signal = "v"
+//   family = [{transform = "abs_pow", exponent = 0.5},   # instead of 'transform': the engine
+//             {transform = "tanh", scale = 0.1},         # identifies once per member (every
+//             {transform = "sign"}]                      # combination over the family
+//                              # regressors, at most 16) and keeps the one whose selected
+//                              # model scores best (host/include/mrd/host/sem_family.hpp);
+//                              # members: inline tables of a transform and its parameter,
+//                              # distinct, input signals only
+//   powers = [1, 2]
+//
 //   [limits]
 //   max_factors = 3            # most factors (regressor/delay pairs) per term, 1 ... 16
 //   max_degree = 0             # most summed powers per term, 0 ... 1000 (0: no limit)
@@ -87,7 +99,9 @@
 // END EXAMPLE
 //
 // Errors (unknown key, wrong type, bad power or delay, unknown transform, duplicate name,
-// empty candidate set, malformed TOML) throw InputError naming the file and line.
+// empty candidate set, malformed TOML; a family that is empty, repeats a member, has a bad
+// member, sits on the output signal, comes with 'transform' or its parameter, or makes more
+// than kMaxFamilyCombinations combinations) throw InputError naming the file and line.
 
 #include <cstddef>
 #include <cstdint>
@@ -97,6 +111,21 @@
 #include "mrd/common/model.hpp"
 
 namespace mrd::host {
+
+// One member of a transform family: a transform and its parameter (ElementaryRegressor's
+// `exponent` meaning).
+struct TransformChoice {
+  Transform transform = Transform::kIdentity;
+  double parameter = 1.0;
+  std::size_t line = 0;  // line of the member in the spec file, for messages
+  friend bool operator==(const TransformChoice& a, const TransformChoice& b) {
+    return a.transform == b.transform && a.parameter == b.parameter;
+  }
+};
+
+// Most combinations of family members over all family regressors of a spec (one full
+// identification each).
+inline constexpr std::size_t kMaxFamilyCombinations = 16;
 
 struct ElementaryRegressor {
   std::string name;
@@ -108,6 +137,10 @@ struct ElementaryRegressor {
   std::vector<int> delays;   // sorted, unique, 0 ... kMaxDelay [samples]
   std::size_t line = 0;         // line of [[regressor]] in the spec file, for messages
   std::size_t signal_line = 0;  // line of its 'signal' key
+  // Transforms to choose among (spec key 'family'; empty: `transform` is fixed). While
+  // unresolved, transform/exponent hold the first member; ResolveFamilies (sem_family.hpp)
+  // fixes one member and clears this.
+  std::vector<TransformChoice> family;
 };
 
 enum class CostWeighting { kRelative, kMse };
