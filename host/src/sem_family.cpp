@@ -41,6 +41,14 @@ double Sum(const std::vector<double>& v) {
   return s;
 }
 
+std::size_t ScoredSamples(const SemSpec& spec, std::span<const DataSet> identification) {
+  std::size_t n = 0;
+  for (const DataSet& d : identification) {
+    n += d.rows() - std::min(d.rows(), static_cast<std::size_t>(spec.MaxDelay()));
+  }
+  return n;
+}
+
 // Score of one run's selected iteration by `rule` (see the header).
 enum class Rule { kValidation, kCrossValidation, kIdentification };
 
@@ -51,12 +59,14 @@ double Score(Rule rule, const SemSpec& spec, std::span<const DataSet> identifica
     case Rule::kValidation:
       s = Sum(sel.validation_j);
       break;
-    case Rule::kCrossValidation:
-      s = Sum(
+    case Rule::kCrossValidation: {
+      const double cv = Sum(
           sel.cv_j.size() == static_cast<std::size_t>(kSelectionFolds)
               ? sel.cv_j
               : CrossValidatedCost(spec, r.channels, sel.terms, identification, kSelectionFolds));
+      s = FamilyCvScore(cv, sel.terms.size(), r.num_candidates, ScoredSamples(spec, identification));
       break;
+    }
     case Rule::kIdentification:
       s = sel.j;
       break;
@@ -73,6 +83,14 @@ const json& Field(const json& obj, const char* key, const std::string& path,
 }
 
 }  // namespace
+
+double FamilyCvScore(double cv, std::size_t terms, std::size_t candidates, std::size_t samples) {
+  const double n = std::max(static_cast<double>(samples), 2.0);
+  const double c = std::max(static_cast<double>(candidates), 1.0);
+  const double m = static_cast<double>(terms), k = std::min(m, c);
+  const double log_choose = std::lgamma(c + 1.0) - std::lgamma(k + 1.0) - std::lgamma(c - k + 1.0);
+  return n * std::log(cv) + m * std::log(n) + 2.0 * log_choose;
+}
 
 std::string TransformLabel(const TransformChoice& c) {
   const TransformInfo& i = Info(c.transform);
@@ -146,9 +164,10 @@ FamilyIdentification IdentifyFamilies(const SemSpec& spec, std::span<const DataS
       out.family.rule = "lowest summed validation J of the selected iteration";
       break;
     case Rule::kCrossValidation:
-      out.family.rule =
-          fmt::format("lowest summed {}-fold cross-validated free-run J of the selected iteration",
-                      kSelectionFolds);
+      out.family.rule = fmt::format(
+          "lowest n ln(CV J) + m ln(n) + 2 ln(C choose m) of the selected iteration (CV J: its "
+          "summed {}-fold cross-validated free-run J; m terms of C candidates; n scored samples)",
+          kSelectionFolds);
       break;
     case Rule::kIdentification:
       out.family.rule = fmt::format(

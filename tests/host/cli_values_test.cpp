@@ -53,6 +53,8 @@ delays = [0]
 max_factors = 1
 [cost]
 weighting = "mse"
+[algorithm]
+one_step_start = false  # the greedy path: early iterations are imperfect fits
 )";
 
 // A two-iteration model of the toy data (an imperfect fit: non-zero errors).

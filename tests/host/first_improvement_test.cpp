@@ -50,6 +50,10 @@ delays = [0, 1]
 constant = true
 [cost]
 weighting = "mse"
+[algorithm]   # the add step alone, least-squares coefficients
+exchange = false
+one_step_start = false
+refine = false
 )";
 
 struct Candidate {

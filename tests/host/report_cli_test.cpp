@@ -52,6 +52,7 @@ delays = [0]
 max_factors = 3
 [algorithm]
 max_iterations = 4
+one_step_start = false  # the greedy path: iteration 1 has 1 term
 )";
 
 std::string Read(const std::string& path) {

@@ -49,6 +49,7 @@ max_degree = 2
 weighting = "mse"
 [algorithm]
 max_iterations = 4
+one_step_start = false  # the greedy path: early iterations are imperfect fits
 )";
 
 TEST(SemCliTest, IdentifyThenSimulateJson) {

@@ -166,7 +166,7 @@ TEST(SemSelectionTest, ModelFileStatesTheRuleAndValidationStillWins) {
   o.max_iterations = 8;
   const SemResult a = Identify(spec, id, {}, o);
   const std::string ja = ModelFileToJson(MakeModelFile(spec, a));
-  EXPECT_NE(ja.find(std::to_string(kSelectionFolds) + "-fold cross-validation of the free-run J"),
+  EXPECT_NE(ja.find(std::to_string(kSelectionFolds) + "-fold cross-validation of the output-error refined free-run J"),
             std::string::npos)
       << ja;
   EXPECT_EQ(a.iterations.front().cv_j.size(), static_cast<std::size_t>(kSelectionFolds));
