@@ -1,0 +1,284 @@
+#include "sem_kernels.hpp"
+
+#include <cstring>
+
+namespace mrd::host::internal {
+namespace {
+
+// kLaneWidth doubles (GCC/Clang vector extension; SSE2 pairs without AVX).
+using Vec = double __attribute__((vector_size(kLaneWidth * sizeof(double))));
+using Mask = long long __attribute__((vector_size(kLaneWidth * sizeof(double))));
+// The same vector at any double's address (as __m256d_u); functions taking or returning Vec
+// would change with the ABI of the clone, so loads and stores are macros.
+typedef double VecU __attribute__((vector_size(kLaneWidth * sizeof(double)), aligned(8),
+                                   may_alias));
+#define Load(p) (*reinterpret_cast<const VecU*>(p))
+#define Store(p, v) (*reinterpret_cast<VecU*>(p) = (v))
+
+#define MRD_MULTIVERSION __attribute__((target_clones("avx2", "default")))
+
+// One or two lane vectors (W) from lane vector v: c (+)= the terms [j, j + 4) or the term j.
+template <int W>
+__attribute__((always_inline)) inline void AddFour(const double* const* u, std::size_t off, const double* theta, std::size_t j,
+             std::size_t kL, std::size_t lv, std::size_t len, bool first, double* c) {
+  const double *a0 = u[j] + off, *a1 = u[j + 1] + off, *a2 = u[j + 2] + off,
+               *a3 = u[j + 3] + off;
+  Vec t0[W], t1[W], t2[W], t3[W];
+  for (int w = 0; w < W; ++w) {
+    const std::size_t o = lv + static_cast<std::size_t>(w) * kLaneWidth;
+    t0[w] = Load(theta + j * kL + o);
+    t1[w] = Load(theta + (j + 1) * kL + o);
+    t2[w] = Load(theta + (j + 2) * kL + o);
+    t3[w] = Load(theta + (j + 3) * kL + o);
+  }
+  for (std::size_t s = 0; s < len; ++s) {
+    for (int w = 0; w < W; ++w) {
+      double* cv = c + s * kL + lv + static_cast<std::size_t>(w) * kLaneWidth;
+      const Vec g = (t0[w] * a0[s] + t1[w] * a1[s]) + (t2[w] * a2[s] + t3[w] * a3[s]);
+      Store(cv, first ? g : Load(cv) + g);
+    }
+  }
+}
+
+template <int W>
+__attribute__((always_inline)) inline void AddOne(const double* const* u, std::size_t off, const double* theta, std::size_t j,
+            std::size_t kL, std::size_t lv, std::size_t len, bool first, double* c) {
+  const double* a0 = u[j] + off;
+  Vec t0[W];
+  for (int w = 0; w < W; ++w) {
+    t0[w] = Load(theta + j * kL + lv + static_cast<std::size_t>(w) * kLaneWidth);
+  }
+  for (std::size_t s = 0; s < len; ++s) {
+    for (int w = 0; w < W; ++w) {
+      double* cv = c + s * kL + lv + static_cast<std::size_t>(w) * kLaneWidth;
+      const Vec g = t0[w] * a0[s];
+      Store(cv, first ? g : Load(cv) + g);
+    }
+  }
+}
+
+template <int NV>
+MRD_MULTIVERSION void LaneSumsT(const double* const* u, std::size_t off, const double* theta,
+                                std::size_t m, std::size_t len, double* c) {
+  constexpr std::size_t kL = NV * kLaneWidth;
+  if (m == 0) {
+    std::memset(c, 0, len * kL * sizeof(double));
+    return;
+  }
+  for (int v = 0; v < NV; v += 2) {  // lane vectors in pairs (u loaded once per pair)
+    const std::size_t lv = static_cast<std::size_t>(v) * kLaneWidth;
+    std::size_t j = 0;
+    for (; j + 4 <= m; j += 4) {
+      if (v + 1 < NV) {
+        AddFour<2>(u, off, theta, j, kL, lv, len, j == 0, c);
+      } else {
+        AddFour<1>(u, off, theta, j, kL, lv, len, j == 0, c);
+      }
+    }
+    for (; j < m; ++j) {
+      if (v + 1 < NV) {
+        AddOne<2>(u, off, theta, j, kL, lv, len, j == 0, c);
+      } else {
+        AddOne<1>(u, off, theta, j, kL, lv, len, j == 0, c);
+      }
+    }
+  }
+}
+
+// NQ > 0: nq fixed at compile time; 0: nq at run time.
+template <int NV, int NQ>
+MRD_MULTIVERSION void LaneFreeRunT(std::size_t nq_rt, const double* c, std::size_t stride,
+                                   const double* y, const double* w, std::size_t len, double lim,
+                                   double* p, double* acc, bool* bad) {
+  constexpr std::size_t kL = NV * kLaneWidth;
+  const std::size_t nq = NQ > 0 ? static_cast<std::size_t>(NQ) : nq_rt;
+  Vec pv[NV], av[NV];
+  Mask bv[NV];
+  for (int v = 0; v < NV; ++v) {
+    const std::size_t lv = static_cast<std::size_t>(v) * kLaneWidth;
+    pv[v] = Load(p + lv);
+    av[v] = Load(acc + lv);
+    for (std::size_t l = 0; l < kLaneWidth; ++l) bv[v][l] = bad[lv + l] ? -1 : 0;
+  }
+  for (std::size_t s = 0; s < len; ++s) {
+    for (int v = 0; v < NV; ++v) {
+      const std::size_t lv = static_cast<std::size_t>(v) * kLaneWidth;
+      Vec yk = Load(c + ((nq - 1) * stride + s) * kL + lv);
+      for (std::size_t q = nq - 1; q-- > 0;) yk = yk * pv[v] + Load(c + (q * stride + s) * kL + lv);
+      const Vec e = y[s] - yk;
+      av[v] += w[s] * (e * e);
+      // Same verdict as !(|yk| <= lim), NaN included.
+      bv[v] |= ~((yk <= lim) & (yk >= -lim));
+      pv[v] = yk;
+    }
+  }
+  for (int v = 0; v < NV; ++v) {
+    const std::size_t lv = static_cast<std::size_t>(v) * kLaneWidth;
+    Store(p + lv, pv[v]);
+    Store(acc + lv, av[v]);
+    for (std::size_t l = 0; l < kLaneWidth; ++l) bad[lv + l] = bv[v][l] != 0;
+  }
+}
+
+template <int NV>
+void LaneFreeRunNq(std::size_t nq, const double* c, std::size_t stride, const double* y,
+                   const double* w, std::size_t len, double lim, double* p, double* acc,
+                   bool* bad) {
+  switch (nq) {
+    case 1:
+      return LaneFreeRunT<NV, 1>(nq, c, stride, y, w, len, lim, p, acc, bad);
+    case 2:
+      return LaneFreeRunT<NV, 2>(nq, c, stride, y, w, len, lim, p, acc, bad);
+    case 3:
+      return LaneFreeRunT<NV, 3>(nq, c, stride, y, w, len, lim, p, acc, bad);
+    default:
+      return LaneFreeRunT<NV, 0>(nq, c, stride, y, w, len, lim, p, acc, bad);
+  }
+}
+
+// Independent sums of kMaxLanes lanes (unused lanes read lane 0 and are not stored).
+MRD_MULTIVERSION void LaneDotsT(std::size_t lanes, const double* b, std::size_t stride,
+                                const double* x, std::size_t x_stride, std::size_t len,
+                                double* s) {
+  double a[kMaxLanes];
+  const double* rb[kMaxLanes];
+  const double* rx[kMaxLanes];
+  for (std::size_t l = 0; l < kMaxLanes; ++l) {
+    const std::size_t k = l < lanes ? l : 0;
+    a[l] = s[k];
+    rb[l] = b + k * stride;
+    rx[l] = x + k * x_stride;
+  }
+  for (std::size_t i = 0; i < len; ++i) {
+    for (std::size_t l = 0; l < kMaxLanes; ++l) a[l] += rb[l][i] * rx[l][i];
+  }
+  for (std::size_t l = 0; l < lanes; ++l) s[l] = a[l];
+}
+
+template <int NV>
+MRD_MULTIVERSION void LaneExtraT(const double* const* ub, const double* th, const int* q,
+                                 std::size_t nq, std::size_t len, double* c,
+                                 std::size_t c_stride) {
+  constexpr std::size_t kL = NV * kLaneWidth;
+  for (int v = 0; v < NV; ++v) {
+    const std::size_t lv = static_cast<std::size_t>(v) * kLaneWidth;
+    const Vec t = Load(th + lv);
+    const double *r0 = ub[lv], *r1 = ub[lv + 1], *r2 = ub[lv + 2], *r3 = ub[lv + 3];
+    for (std::size_t qq = 0; qq < nq; ++qq) {
+      const Mask sel = {q[lv] == static_cast<int>(qq) ? -1 : 0,
+                        q[lv + 1] == static_cast<int>(qq) ? -1 : 0,
+                        q[lv + 2] == static_cast<int>(qq) ? -1 : 0,
+                        q[lv + 3] == static_cast<int>(qq) ? -1 : 0};
+      if (!(sel[0] | sel[1] | sel[2] | sel[3])) continue;
+      double* cq = c + qq * c_stride * kL + lv;
+      std::size_t s = 0;
+      for (; s + 4 <= len; s += 4) {
+        // 4 x 4 transpose: x_k[l] = input of lane l at sample s + k.
+        const Vec y0 = Load(r0 + s), y1 = Load(r1 + s), y2 = Load(r2 + s), y3 = Load(r3 + s);
+        const Vec a = __builtin_shuffle(y0, y1, Mask{0, 4, 2, 6});
+        const Vec b = __builtin_shuffle(y0, y1, Mask{1, 5, 3, 7});
+        const Vec d = __builtin_shuffle(y2, y3, Mask{0, 4, 2, 6});
+        const Vec e = __builtin_shuffle(y2, y3, Mask{1, 5, 3, 7});
+        const Vec x[4] = {__builtin_shuffle(a, d, Mask{0, 1, 4, 5}),
+                          __builtin_shuffle(b, e, Mask{0, 1, 4, 5}),
+                          __builtin_shuffle(a, d, Mask{2, 3, 6, 7}),
+                          __builtin_shuffle(b, e, Mask{2, 3, 6, 7})};
+        for (std::size_t k = 0; k < 4; ++k) {
+          double* pc = cq + (s + k) * kL;
+          const Vec old = Load(pc);
+          Store(pc, sel ? old + t * x[k] : old);
+        }
+      }
+      for (; s < len; ++s) {
+        for (std::size_t l = 0; l < kLaneWidth; ++l) {
+          if (sel[l]) cq[s * kL + l] += th[lv + l] * ub[lv + l][s];
+        }
+      }
+    }
+  }
+}
+
+MRD_MULTIVERSION void ProductT(const double* const* cols, std::size_t n, std::size_t off,
+                               std::size_t len, double* out) {
+  if (n == 0) {
+    for (std::size_t i = 0; i < len; ++i) out[i] = 1.0;
+    return;
+  }
+  const double* a = cols[0] + off;
+  if (n == 1) {
+    for (std::size_t i = 0; i < len; ++i) out[i] = a[i];
+    return;
+  }
+  const double* b = cols[1] + off;
+  if (n == 2) {
+    for (std::size_t i = 0; i < len; ++i) out[i] = a[i] * b[i];
+    return;
+  }
+  const double* d = cols[2] + off;
+  for (std::size_t i = 0; i < len; ++i) out[i] = a[i] * b[i] * d[i];
+  for (std::size_t f = 3; f < n; ++f) {
+    const double* e = cols[f] + off;
+    for (std::size_t i = 0; i < len; ++i) out[i] *= e[i];
+  }
+}
+
+#undef Load
+#undef Store
+
+}  // namespace
+
+void LaneSums(int nv, const double* const* u, std::size_t off, const double* theta,
+              std::size_t m, std::size_t len, double* c) {
+  switch (nv) {
+    case 1:
+      return LaneSumsT<1>(u, off, theta, m, len, c);
+    case 2:
+      return LaneSumsT<2>(u, off, theta, m, len, c);
+    case 3:
+      return LaneSumsT<3>(u, off, theta, m, len, c);
+    default:
+      return LaneSumsT<4>(u, off, theta, m, len, c);
+  }
+}
+
+void LaneFreeRun(int nv, std::size_t nq, const double* c, std::size_t stride, const double* y,
+                 const double* w, std::size_t len, double lim, double* p, double* acc,
+                 bool* bad) {
+  switch (nv) {
+    case 1:
+      return LaneFreeRunNq<1>(nq, c, stride, y, w, len, lim, p, acc, bad);
+    case 2:
+      return LaneFreeRunNq<2>(nq, c, stride, y, w, len, lim, p, acc, bad);
+    case 3:
+      return LaneFreeRunNq<3>(nq, c, stride, y, w, len, lim, p, acc, bad);
+    default:
+      return LaneFreeRunNq<4>(nq, c, stride, y, w, len, lim, p, acc, bad);
+  }
+}
+
+void LaneDots(std::size_t lanes, const double* b, std::size_t stride, const double* x,
+              std::size_t x_stride, std::size_t len, double* s) {
+  LaneDotsT(lanes, b, stride, x, x_stride, len, s);
+}
+
+
+void LaneExtra(int nv, const double* const* ub, const double* th, const int* q, std::size_t nq,
+               std::size_t len, double* c, std::size_t c_stride) {
+  switch (nv) {
+    case 1:
+      return LaneExtraT<1>(ub, th, q, nq, len, c, c_stride);
+    case 2:
+      return LaneExtraT<2>(ub, th, q, nq, len, c, c_stride);
+    case 3:
+      return LaneExtraT<3>(ub, th, q, nq, len, c, c_stride);
+    default:
+      return LaneExtraT<4>(ub, th, q, nq, len, c, c_stride);
+  }
+}
+
+void Product(const double* const* cols, std::size_t n, std::size_t off, std::size_t len,
+             double* out) {
+  ProductT(cols, n, off, len, out);
+}
+
+}  // namespace mrd::host::internal
