@@ -131,6 +131,7 @@ class Engine {
       n_ += seg.len;
       segs_.push_back(std::move(seg));
     }
+    ones_.assign(n_, 1.0);
     // Elementary power columns.
     col_index_.assign(spec.regressors.size(), {});
     base_index_.assign(spec.regressors.size(), {});
@@ -205,11 +206,8 @@ class Engine {
   // phi'phi and phi'y of every candidate (sums in sample order).
   void PrepareCandidates() {
     std::vector<double> ss(cands_.size()), sy(cands_.size());
-    ForCandidateBlocks([&](std::size_t c0, std::size_t nc, std::size_t g0, std::size_t len,
-                           const double* buf) {
-      internal::LaneDots(nc, buf, internal::kSubBlock, buf, internal::kSubBlock, len, &ss[c0]);
-      internal::LaneDots(nc, buf, internal::kSubBlock, y_.data() + g0, 0, len, &sy[c0]);
-    });
+    GramSums(nullptr, ss.data());
+    GramSums(y_.data(), sy.data());
     for (std::size_t c = 0; c < cands_.size(); ++c) {
       cands_[c].ss = ss[c];
       cands_[c].sy = sy[c];
@@ -231,10 +229,7 @@ class Engine {
       Phi(t, g0, std::min(kBlock, n_ - g0), phit.data() + g0);
     }
     std::vector<double> out(cands_.size());
-    ForCandidateBlocks([&](std::size_t c0, std::size_t nc, std::size_t g0, std::size_t len,
-                           const double* buf) {
-      internal::LaneDots(nc, buf, internal::kSubBlock, phit.data() + g0, 0, len, &out[c0]);
-    });
+    GramSums(phit.data(), out.data());
     return cross_.emplace(t, std::move(out)).first->second;
   }
 
@@ -305,30 +300,44 @@ class Engine {
   }
 
  private:
-  // fn(c0, nc, g0, len, phi) for every group of nc <= kMaxLanes candidates from c0 and every
-  // block [g0, g0 + len) in sample order, phi[l * kSubBlock + i] = regressor of candidate c0 + l
-  // at sample g0 + i. Work items of kCandidateItem candidates sweep the samples once (the
-  // columns of a block stay in cache for all the item's groups).
-  template <typename F>
-  void ForCandidateBlocks(F&& fn) {
-    using internal::kMaxLanes;
+  // out[c] = sum_k phi_c(k) x(k) for every candidate c (x == nullptr: phi_c(k)^2), summed in
+  // sample order, kMaxLanes candidates at a time (sem_kernels.hpp). Work items of
+  // kCandidateItem candidates sweep the samples once (a block's columns stay in cache).
+  void GramSums(const double* x, double* out) {
+    using internal::kLaneWidth, internal::kMaxLanes;
     constexpr std::size_t kCandidateItem = 8 * kMaxLanes;
-    constexpr std::size_t kLen = internal::kSubBlock;  // phi and the columns stay in L1
+    constexpr std::size_t kLen = kBlock;
     const std::size_t nc_all = cands_.size();
     ParallelFor((nc_all + kCandidateItem - 1) / kCandidateItem, threads_,
                 [&](std::size_t item, int) {
-      const std::size_t c_end = std::min(nc_all, (item + 1) * kCandidateItem);
-      std::vector<double> buf(kMaxLanes * kLen);
+      const std::size_t c_begin = item * kCandidateItem;
+      const std::size_t c_end = std::min(nc_all, c_begin + kCandidateItem);
+      // Per group of kMaxLanes: factor columns [lane * nf + k], padded with ones.
+      std::vector<std::vector<const double*>> f;
+      std::vector<std::size_t> nf;
+      for (std::size_t c0 = c_begin; c0 < c_end; c0 += kMaxLanes) {
+        const std::size_t nc = std::min(kMaxLanes, c_end - c0);
+        const std::size_t lanes = (nc + kLaneWidth - 1) / kLaneWidth * kLaneWidth;
+        std::size_t n = 1;
+        for (std::size_t l = 0; l < nc; ++l) n = std::max(n, factor_cols_[c0 + l].size());
+        std::vector<const double*> fg(lanes * n, ones_.data());
+        for (std::size_t l = 0; l < nc; ++l) {
+          std::copy(factor_cols_[c0 + l].begin(), factor_cols_[c0 + l].end(),
+                    fg.begin() + static_cast<std::ptrdiff_t>(l * n));
+        }
+        f.push_back(std::move(fg));
+        nf.push_back(n);
+      }
+      std::vector<double> acc((c_end - c_begin + kMaxLanes) / kMaxLanes * kMaxLanes, 0.0);
       for (std::size_t g0 = 0; g0 < n_; g0 += kLen) {
         const std::size_t len = std::min(kLen, n_ - g0);
-        for (std::size_t c0 = item * kCandidateItem; c0 < c_end; c0 += kMaxLanes) {
-          const std::size_t nc = std::min(kMaxLanes, c_end - c0);
-          for (std::size_t l = 0; l < nc; ++l) {
-            Phi(static_cast<int>(c0 + l), g0, len, &buf[l * kLen]);
-          }
-          fn(c0, nc, g0, len, buf.data());
+        for (std::size_t g = 0; g < f.size(); ++g) {
+          const int nv = static_cast<int>(f[g].size() / nf[g] / kLaneWidth);
+          internal::LaneGram(nv, f[g].data(), nf[g], g0, x, len, &acc[g * kMaxLanes]);
         }
       }
+      std::copy(acc.begin(), acc.begin() + static_cast<std::ptrdiff_t>(c_end - c_begin),
+                out + c_begin);
     });
   }
 
@@ -341,6 +350,8 @@ class Engine {
   void Phi(int c, std::size_t g0, std::size_t len, double* out) const {
     internal::Product(factor_cols_[c].data(), factor_cols_[c].size(), g0, len, out);
   }
+
+  int ExtraPow(const Job& j) const { return j.extra >= 0 ? cands_[j.extra].ypow : -1; }
 
   // Free run of the fast path (y(k-1) only): y(k) = sum_q c_q(k) y(k-1)^q with
   // c_q(k) = sum over terms of y-power q of theta_i u_i(k) (+ the job's extra candidate).
@@ -364,11 +375,10 @@ class Engine {
     }
     // Lane sums c[q][s][lane], thetas theta[term][lane] (by_q order), one input block.
     const std::size_t c_size = nq * kSubBlock * kMaxLanes;
-    scratch.assign(c_size + terms.size() * kMaxLanes + kMaxLanes * kSubBlock, 0.0);
+    scratch.assign(c_size + terms.size() * kMaxLanes, 0.0);
     double* c = scratch.data();
     double* theta = c + c_size;
-    double* ub = theta + terms.size() * kMaxLanes;  // extras' inputs, kSubBlock per lane
-    const double* ex_u[kMaxLanes];
+    std::vector<const double*> ex_f;  // [lane * nf + k]: the extra's input factor columns
     double ex_th[kMaxLanes];
     int ex_q[kMaxLanes];
     std::vector<double> yprev(jobs.size());
@@ -379,9 +389,12 @@ class Engine {
       for (std::size_t g0 = seg.start; g0 < seg.start + seg.len; g0 += kBlock) {
         const std::size_t len = std::min(kBlock, seg.start + seg.len - g0);
         const double bnd = bound.load(std::memory_order_relaxed);
+        // Live jobs by the extra's y power (a lane vector then mostly adds to one c_q).
         alive.clear();
-        for (std::size_t j = 0; j < jobs.size(); ++j) {
-          if (!jobs[j].dead) alive.push_back(j);
+        for (int q = -1; q <= q_max; ++q) {
+          for (std::size_t j = 0; j < jobs.size(); ++j) {
+            if (!jobs[j].dead && ExtraPow(jobs[j]) == q) alive.push_back(j);
+          }
         }
         for (std::size_t a0 = 0; a0 < alive.size(); a0 += kMaxLanes) {
           const std::size_t na = std::min(kMaxLanes, alive.size() - a0);
@@ -399,6 +412,24 @@ class Engine {
             }
           }
           for (std::size_t l = 0; l < na; ++l) p[l] = yprev[alive[a0 + l]];
+          // Extras: input factor columns per lane, padded with ones to the group's most.
+          std::size_t nf = 1;
+          for (std::size_t l = 0; l < na; ++l) {
+            const Job& job = jobs[alive[a0 + l]];
+            if (job.extra >= 0) nf = std::max(nf, cands_[job.extra].in_cols.size());
+          }
+          ex_f.assign(lanes * nf, ones_.data());
+          for (std::size_t l = 0; l < lanes; ++l) {
+            const Job* job = l < na ? &jobs[alive[a0 + l]] : nullptr;
+            const bool has = job != nullptr && job->extra >= 0;
+            ex_q[l] = has ? cands_[job->extra].ypow : -1;
+            ex_th[l] = has ? job->theta_extra : 0.0;
+            if (!has) continue;
+            const auto& fc = factor_cols_[job->extra];
+            std::copy(fc.begin(), fc.begin() + static_cast<std::ptrdiff_t>(
+                                                   cands_[job->extra].in_cols.size()),
+                      ex_f.begin() + static_cast<std::ptrdiff_t>(l * nf));
+          }
           for (std::size_t s0 = 0; s0 < len; s0 += kSubBlock) {
             const std::size_t sl = std::min(kSubBlock, len - s0);
             const double* th = theta;
@@ -407,21 +438,8 @@ class Engine {
                                  by_q[q].size(), sl, c + q * kSubBlock * lanes);
               th += by_q[q].size() * lanes;
             }
-            for (std::size_t l = 0; l < lanes; ++l) {
-              const Job* job = l < na ? &jobs[alive[a0 + l]] : nullptr;
-              ex_q[l] = job != nullptr && job->extra >= 0 ? cands_[job->extra].ypow : -1;
-              ex_th[l] = ex_q[l] >= 0 ? job->theta_extra : 0.0;
-              ex_u[l] = ones_.data();
-              if (ex_q[l] < 0) continue;
-              const std::size_t n_in = cands_[job->extra].in_cols.size();
-              if (n_in == 1) {
-                ex_u[l] = factor_cols_[job->extra][0] + g0 + s0;
-              } else if (n_in > 1) {
-                Input(job->extra, g0 + s0, sl, ub + l * kSubBlock);
-                ex_u[l] = ub + l * kSubBlock;
-              }
-            }
-            internal::LaneExtra(static_cast<int>(nv), ex_u, ex_th, ex_q, nq, sl, c, kSubBlock);
+            internal::LaneExtra(static_cast<int>(nv), ex_f.data(), nf, g0 + s0, ex_th, ex_q, nq,
+                                sl, c, kSubBlock);
             internal::LaneFreeRun(static_cast<int>(nv), nq, c, kSubBlock, y_.data() + g0 + s0,
                                   wn_.data() + g0 + s0, sl, lim, p, acc, bad);
           }
@@ -505,7 +523,7 @@ class Engine {
   std::vector<std::vector<double>> base_;     // transformed signal, power 1
   std::vector<Cand> cands_;
   std::vector<std::vector<const double*>> factor_cols_;  // per candidate: Phi's columns
-  std::vector<double> ones_ = std::vector<double>(internal::kSubBlock, 1.0);
+  std::vector<double> ones_;  // n_ ones (pads factor lists)
   std::unordered_map<int, std::vector<double>> cross_;
   std::unordered_map<int, std::vector<double>> u_;
 };

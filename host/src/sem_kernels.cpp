@@ -136,34 +136,43 @@ void LaneFreeRunNq(std::size_t nq, const double* c, std::size_t stride, const do
   }
 }
 
-// Independent sums of kMaxLanes lanes (unused lanes read lane 0 and are not stored).
-MRD_MULTIVERSION void LaneDotsT(std::size_t lanes, const double* b, std::size_t stride,
-                                const double* x, std::size_t x_stride, std::size_t len,
-                                double* s) {
-  double a[kMaxLanes];
-  const double* rb[kMaxLanes];
-  const double* rx[kMaxLanes];
-  for (std::size_t l = 0; l < kMaxLanes; ++l) {
-    const std::size_t k = l < lanes ? l : 0;
-    a[l] = s[k];
-    rb[l] = b + k * stride;
-    rx[l] = x + k * x_stride;
-  }
-  for (std::size_t i = 0; i < len; ++i) {
-    for (std::size_t l = 0; l < kMaxLanes; ++l) a[l] += rb[l][i] * rx[l][i];
-  }
-  for (std::size_t l = 0; l < lanes; ++l) s[l] = a[l];
-}
-
-template <int NV>
-MRD_MULTIVERSION void LaneExtraT(const double* const* ub, const double* th, const int* q,
-                                 std::size_t nq, std::size_t len, double* c,
-                                 std::size_t c_stride) {
+// NF > 0: nf fixed at compile time; 0: nf at run time.
+template <int NV, int NF>
+MRD_MULTIVERSION void LaneExtraT(const double* const* f, std::size_t nf_rt, std::size_t off,
+                                 const double* th, const int* q, std::size_t nq,
+                                 std::size_t len, double* c, std::size_t c_stride) {
   constexpr std::size_t kL = NV * kLaneWidth;
+  const std::size_t nf = NF > 0 ? static_cast<std::size_t>(NF) : nf_rt;
+  double xt[kSubBlock * kLaneWidth];  // th * input, [s][lane] of one lane vector
   for (int v = 0; v < NV; ++v) {
     const std::size_t lv = static_cast<std::size_t>(v) * kLaneWidth;
+    const double* const* fv = f + lv * nf;  // factors of lane lv + l: fv[l * nf + k]
     const Vec t = Load(th + lv);
-    const double *r0 = ub[lv], *r1 = ub[lv + 1], *r2 = ub[lv + 2], *r3 = ub[lv + 3];
+    std::size_t s = 0;
+    for (; s + 4 <= len; s += 4) {
+      Vec y[4];  // y[l]: input of lane l at samples s ... s + 3 (factors in order, as Product)
+      for (std::size_t l = 0; l < 4; ++l) {
+        Vec x = Load(fv[l * nf] + off + s);
+        for (std::size_t k = 1; k < nf; ++k) x = x * Load(fv[l * nf + k] + off + s);
+        y[l] = x;
+      }
+      // 4 x 4 transpose: x_k[l] = input of lane l at sample s + k.
+      const Vec a = __builtin_shuffle(y[0], y[1], Mask{0, 4, 2, 6});
+      const Vec b = __builtin_shuffle(y[0], y[1], Mask{1, 5, 3, 7});
+      const Vec d = __builtin_shuffle(y[2], y[3], Mask{0, 4, 2, 6});
+      const Vec e = __builtin_shuffle(y[2], y[3], Mask{1, 5, 3, 7});
+      Store(xt + s * kLaneWidth, t * __builtin_shuffle(a, d, Mask{0, 1, 4, 5}));
+      Store(xt + (s + 1) * kLaneWidth, t * __builtin_shuffle(b, e, Mask{0, 1, 4, 5}));
+      Store(xt + (s + 2) * kLaneWidth, t * __builtin_shuffle(a, d, Mask{2, 3, 6, 7}));
+      Store(xt + (s + 3) * kLaneWidth, t * __builtin_shuffle(b, e, Mask{2, 3, 6, 7}));
+    }
+    for (; s < len; ++s) {
+      for (std::size_t l = 0; l < kLaneWidth; ++l) {
+        double x = fv[l * nf][off + s];
+        for (std::size_t k = 1; k < nf; ++k) x *= fv[l * nf + k][off + s];
+        xt[s * kLaneWidth + l] = th[lv + l] * x;
+      }
+    }
     for (std::size_t qq = 0; qq < nq; ++qq) {
       const Mask sel = {q[lv] == static_cast<int>(qq) ? -1 : 0,
                         q[lv + 1] == static_cast<int>(qq) ? -1 : 0,
@@ -171,30 +180,87 @@ MRD_MULTIVERSION void LaneExtraT(const double* const* ub, const double* th, cons
                         q[lv + 3] == static_cast<int>(qq) ? -1 : 0};
       if (!(sel[0] | sel[1] | sel[2] | sel[3])) continue;
       double* cq = c + qq * c_stride * kL + lv;
-      std::size_t s = 0;
-      for (; s + 4 <= len; s += 4) {
-        // 4 x 4 transpose: x_k[l] = input of lane l at sample s + k.
-        const Vec y0 = Load(r0 + s), y1 = Load(r1 + s), y2 = Load(r2 + s), y3 = Load(r3 + s);
-        const Vec a = __builtin_shuffle(y0, y1, Mask{0, 4, 2, 6});
-        const Vec b = __builtin_shuffle(y0, y1, Mask{1, 5, 3, 7});
-        const Vec d = __builtin_shuffle(y2, y3, Mask{0, 4, 2, 6});
-        const Vec e = __builtin_shuffle(y2, y3, Mask{1, 5, 3, 7});
-        const Vec x[4] = {__builtin_shuffle(a, d, Mask{0, 1, 4, 5}),
-                          __builtin_shuffle(b, e, Mask{0, 1, 4, 5}),
-                          __builtin_shuffle(a, d, Mask{2, 3, 6, 7}),
-                          __builtin_shuffle(b, e, Mask{2, 3, 6, 7})};
-        for (std::size_t k = 0; k < 4; ++k) {
-          double* pc = cq + (s + k) * kL;
-          const Vec old = Load(pc);
-          Store(pc, sel ? old + t * x[k] : old);
-        }
-      }
-      for (; s < len; ++s) {
-        for (std::size_t l = 0; l < kLaneWidth; ++l) {
-          if (sel[l]) cq[s * kL + l] += th[lv + l] * ub[lv + l][s];
-        }
+      for (std::size_t k = 0; k < len; ++k) {
+        const Vec old = Load(cq + k * kL);
+        Store(cq + k * kL, sel ? old + Load(xt + k * kLaneWidth) : old);
       }
     }
+  }
+}
+
+template <int NV>
+void LaneExtraNf(const double* const* f, std::size_t nf, std::size_t off, const double* th,
+                 const int* q, std::size_t nq, std::size_t len, double* c,
+                 std::size_t c_stride) {
+  switch (nf) {
+    case 1:
+      return LaneExtraT<NV, 1>(f, nf, off, th, q, nq, len, c, c_stride);
+    case 2:
+      return LaneExtraT<NV, 2>(f, nf, off, th, q, nq, len, c, c_stride);
+    case 3:
+      return LaneExtraT<NV, 3>(f, nf, off, th, q, nq, len, c, c_stride);
+    default:
+      return LaneExtraT<NV, 0>(f, nf, off, th, q, nq, len, c, c_stride);
+  }
+}
+
+// NF > 0: nf fixed at compile time; 0: nf at run time. x == nullptr: squares.
+template <int NV, int NF>
+MRD_MULTIVERSION void LaneGramT(const double* const* f, std::size_t nf_rt, std::size_t off,
+                                const double* x, std::size_t len, double* acc) {
+  const std::size_t nf = NF > 0 ? static_cast<std::size_t>(NF) : nf_rt;
+  Vec a[NV];
+  for (int v = 0; v < NV; ++v) a[v] = Load(acc + static_cast<std::size_t>(v) * kLaneWidth);
+  std::size_t s = 0;
+  for (; s + 4 <= len; s += 4) {
+    for (int v = 0; v < NV; ++v) {  // independent chains, one per lane vector
+      const double* const* fv = f + static_cast<std::size_t>(v) * kLaneWidth * nf;
+      Vec y[4];  // y[l]: regressor of lane l at samples s ... s + 3 (factors in order, as Product)
+      for (std::size_t l = 0; l < 4; ++l) {
+        Vec p = Load(fv[l * nf] + off + s);
+        for (std::size_t k = 1; k < nf; ++k) p = p * Load(fv[l * nf + k] + off + s);
+        y[l] = p;
+      }
+      const Vec t0 = __builtin_shuffle(y[0], y[1], Mask{0, 4, 2, 6});
+      const Vec t1 = __builtin_shuffle(y[0], y[1], Mask{1, 5, 3, 7});
+      const Vec t2 = __builtin_shuffle(y[2], y[3], Mask{0, 4, 2, 6});
+      const Vec t3 = __builtin_shuffle(y[2], y[3], Mask{1, 5, 3, 7});
+      const Vec ph[4] = {__builtin_shuffle(t0, t2, Mask{0, 1, 4, 5}),
+                         __builtin_shuffle(t1, t3, Mask{0, 1, 4, 5}),
+                         __builtin_shuffle(t0, t2, Mask{2, 3, 6, 7}),
+                         __builtin_shuffle(t1, t3, Mask{2, 3, 6, 7})};
+      for (std::size_t k = 0; k < 4; ++k) {
+        a[v] += x != nullptr ? ph[k] * x[off + s + k] : ph[k] * ph[k];
+      }
+    }
+  }
+  for (; s < len; ++s) {
+    for (int v = 0; v < NV; ++v) {
+      const double* const* fv = f + static_cast<std::size_t>(v) * kLaneWidth * nf;
+      for (std::size_t l = 0; l < kLaneWidth; ++l) {
+        double p = fv[l * nf][off + s];
+        for (std::size_t k = 1; k < nf; ++k) p *= fv[l * nf + k][off + s];
+        a[v][l] += x != nullptr ? p * x[off + s] : p * p;
+      }
+    }
+  }
+  for (int v = 0; v < NV; ++v) Store(acc + static_cast<std::size_t>(v) * kLaneWidth, a[v]);
+}
+
+template <int NV>
+void LaneGramNf(const double* const* f, std::size_t nf, std::size_t off, const double* x,
+                std::size_t len, double* acc) {
+  switch (nf) {
+    case 1:
+      return LaneGramT<NV, 1>(f, nf, off, x, len, acc);
+    case 2:
+      return LaneGramT<NV, 2>(f, nf, off, x, len, acc);
+    case 3:
+      return LaneGramT<NV, 3>(f, nf, off, x, len, acc);
+    case 4:
+      return LaneGramT<NV, 4>(f, nf, off, x, len, acc);
+    default:
+      return LaneGramT<NV, 0>(f, nf, off, x, len, acc);
   }
 }
 
@@ -256,23 +322,34 @@ void LaneFreeRun(int nv, std::size_t nq, const double* c, std::size_t stride, co
   }
 }
 
-void LaneDots(std::size_t lanes, const double* b, std::size_t stride, const double* x,
-              std::size_t x_stride, std::size_t len, double* s) {
-  LaneDotsT(lanes, b, stride, x, x_stride, len, s);
-}
 
 
-void LaneExtra(int nv, const double* const* ub, const double* th, const int* q, std::size_t nq,
-               std::size_t len, double* c, std::size_t c_stride) {
+void LaneExtra(int nv, const double* const* f, std::size_t nf, std::size_t off,
+               const double* th, const int* q, std::size_t nq, std::size_t len, double* c,
+               std::size_t c_stride) {
   switch (nv) {
     case 1:
-      return LaneExtraT<1>(ub, th, q, nq, len, c, c_stride);
+      return LaneExtraNf<1>(f, nf, off, th, q, nq, len, c, c_stride);
     case 2:
-      return LaneExtraT<2>(ub, th, q, nq, len, c, c_stride);
+      return LaneExtraNf<2>(f, nf, off, th, q, nq, len, c, c_stride);
     case 3:
-      return LaneExtraT<3>(ub, th, q, nq, len, c, c_stride);
+      return LaneExtraNf<3>(f, nf, off, th, q, nq, len, c, c_stride);
     default:
-      return LaneExtraT<4>(ub, th, q, nq, len, c, c_stride);
+      return LaneExtraNf<4>(f, nf, off, th, q, nq, len, c, c_stride);
+  }
+}
+
+void LaneGram(int nv, const double* const* f, std::size_t nf, std::size_t off, const double* x,
+              std::size_t len, double* acc) {
+  switch (nv) {
+    case 1:
+      return LaneGramNf<1>(f, nf, off, x, len, acc);
+    case 2:
+      return LaneGramNf<2>(f, nf, off, x, len, acc);
+    case 3:
+      return LaneGramNf<3>(f, nf, off, x, len, acc);
+    default:
+      return LaneGramNf<4>(f, nf, off, x, len, acc);
   }
 }
 

@@ -37,18 +37,22 @@ void LaneFreeRun(int nv, std::size_t nq, const double* c, std::size_t stride, co
                  const double* w, std::size_t len, double lim, double* p, double* acc,
                  bool* bad);
 
-// Adds each lane's extra candidate: c[(q[l] * c_stride + s) * lanes + l] += th[l] * ub[l][s]
-// for s < len and lanes l (4 * nv) with 0 <= q[l] < nq (q[l] < 0: none).
-void LaneExtra(int nv, const double* const* ub, const double* th, const int* q, std::size_t nq,
-               std::size_t len, double* c, std::size_t c_stride);
+// Adds each lane's extra candidate: c[(q[l] * c_stride + s) * lanes + l] += th[l] * x_l(s)
+// for s < len (<= kSubBlock) and lanes l (4 * nv) with 0 <= q[l] < nq (q[l] < 0: none), x_l(s)
+// the product of f[l * nf + k][off + s] over k < nf (nf >= 1) in order of k (pad with columns
+// of ones: x * 1 = x exactly).
+void LaneExtra(int nv, const double* const* f, std::size_t nf, std::size_t off,
+               const double* th, const int* q, std::size_t nq, std::size_t len, double* c,
+               std::size_t c_stride);
 
 // out[i] = product of cols[f][off + i] over f < n, multiplied in order of f (1 when n = 0).
 void Product(const double* const* cols, std::size_t n, std::size_t off, std::size_t len,
              double* out);
 
-// s[l] += sum_i b[l * stride + i] * x[l * x_stride + i] for l < lanes (1 ... kMaxLanes),
-// i < len, each sum in order of i (the scalar reference's order); x_stride 0: one x for all.
-void LaneDots(std::size_t lanes, const double* b, std::size_t stride, const double* x,
-              std::size_t x_stride, std::size_t len, double* s);
+// Gram sums of lanes = 4 * nv regressors: acc[l] += sum_i phi_l(i) x(i) (x == nullptr:
+// phi_l(i)^2) over i in [off, off + len), each sum in order of i (the scalar reference's
+// order); phi_l(i) the product of f[l * nf + k][i] over k < nf (nf >= 1) in order of k.
+void LaneGram(int nv, const double* const* f, std::size_t nf, std::size_t off, const double* x,
+              std::size_t len, double* acc);
 
 }  // namespace mrd::host::internal
