@@ -301,44 +301,45 @@ class Engine {
 
  private:
   // out[c] = sum_k phi_c(k) x(k) for every candidate c (x == nullptr: phi_c(k)^2), summed in
-  // sample order, kMaxLanes candidates at a time (sem_kernels.hpp). Work items of
-  // kCandidateItem candidates sweep the samples once (a block's columns stay in cache).
+  // sample order, kMaxLanes candidates at a time (sem_kernels.hpp).
   void GramSums(const double* x, double* out) {
+    const std::size_t items = (cands_.size() + kGramItem - 1) / kGramItem;
+    ParallelFor(items, threads_, [&](std::size_t item, int) { GramItem(item, x, out); });
+  }
+
+  // GramSums of the candidates [item * kGramItem, ...): one sweep over the samples for all of
+  // them (a block's columns stay in cache).
+  static constexpr std::size_t kGramItem = 8 * internal::kMaxLanes;
+  void GramItem(std::size_t item, const double* x, double* out) const {
     using internal::kLaneWidth, internal::kMaxLanes;
-    constexpr std::size_t kCandidateItem = 8 * kMaxLanes;
-    constexpr std::size_t kLen = kBlock;
-    const std::size_t nc_all = cands_.size();
-    ParallelFor((nc_all + kCandidateItem - 1) / kCandidateItem, threads_,
-                [&](std::size_t item, int) {
-      const std::size_t c_begin = item * kCandidateItem;
-      const std::size_t c_end = std::min(nc_all, c_begin + kCandidateItem);
-      // Per group of kMaxLanes: factor columns [lane * nf + k], padded with ones.
-      std::vector<std::vector<const double*>> f;
-      std::vector<std::size_t> nf;
-      for (std::size_t c0 = c_begin; c0 < c_end; c0 += kMaxLanes) {
-        const std::size_t nc = std::min(kMaxLanes, c_end - c0);
-        const std::size_t lanes = (nc + kLaneWidth - 1) / kLaneWidth * kLaneWidth;
-        std::size_t n = 1;
-        for (std::size_t l = 0; l < nc; ++l) n = std::max(n, factor_cols_[c0 + l].size());
-        std::vector<const double*> fg(lanes * n, ones_.data());
-        for (std::size_t l = 0; l < nc; ++l) {
-          std::copy(factor_cols_[c0 + l].begin(), factor_cols_[c0 + l].end(),
-                    fg.begin() + static_cast<std::ptrdiff_t>(l * n));
-        }
-        f.push_back(std::move(fg));
-        nf.push_back(n);
+    const std::size_t c_begin = item * kGramItem;
+    const std::size_t c_end = std::min(cands_.size(), c_begin + kGramItem);
+    // Per group of kMaxLanes: factor columns [lane * nf + k], padded with ones.
+    std::vector<std::vector<const double*>> f;
+    std::vector<std::size_t> nf;
+    for (std::size_t c0 = c_begin; c0 < c_end; c0 += kMaxLanes) {
+      const std::size_t nc = std::min(kMaxLanes, c_end - c0);
+      const std::size_t lanes = (nc + kLaneWidth - 1) / kLaneWidth * kLaneWidth;
+      std::size_t n = 1;
+      for (std::size_t l = 0; l < nc; ++l) n = std::max(n, factor_cols_[c0 + l].size());
+      std::vector<const double*> fg(lanes * n, ones_.data());
+      for (std::size_t l = 0; l < nc; ++l) {
+        std::copy(factor_cols_[c0 + l].begin(), factor_cols_[c0 + l].end(),
+                  fg.begin() + static_cast<std::ptrdiff_t>(l * n));
       }
-      std::vector<double> acc((c_end - c_begin + kMaxLanes) / kMaxLanes * kMaxLanes, 0.0);
-      for (std::size_t g0 = 0; g0 < n_; g0 += kLen) {
-        const std::size_t len = std::min(kLen, n_ - g0);
-        for (std::size_t g = 0; g < f.size(); ++g) {
-          const int nv = static_cast<int>(f[g].size() / nf[g] / kLaneWidth);
-          internal::LaneGram(nv, f[g].data(), nf[g], g0, x, len, &acc[g * kMaxLanes]);
-        }
+      f.push_back(std::move(fg));
+      nf.push_back(n);
+    }
+    std::vector<double> acc(f.size() * kMaxLanes, 0.0);
+    for (std::size_t g0 = 0; g0 < n_; g0 += kBlock) {
+      const std::size_t len = std::min(kBlock, n_ - g0);
+      for (std::size_t g = 0; g < f.size(); ++g) {
+        const int nv = static_cast<int>(f[g].size() / nf[g] / kLaneWidth);
+        internal::LaneGram(nv, f[g].data(), nf[g], g0, x, len, &acc[g * kMaxLanes]);
       }
-      std::copy(acc.begin(), acc.begin() + static_cast<std::ptrdiff_t>(c_end - c_begin),
-                out + c_begin);
-    });
+    }
+    std::copy(acc.begin(), acc.begin() + static_cast<std::ptrdiff_t>(c_end - c_begin),
+              out + c_begin);
   }
 
   // Input part of candidate c (product of its input factors; 1 without) over [g0, g0 + len).
@@ -373,6 +374,8 @@ class Engine {
       by_q[q].push_back(i);
       u_q[q].push_back(U(terms[i]).data());
     }
+    std::vector<char> no_terms(nq);
+    for (std::size_t q = 0; q < nq; ++q) no_terms[q] = by_q[q].empty();
     // Lane sums c[q][s][lane], thetas theta[term][lane] (by_q order), one input block.
     const std::size_t c_size = nq * kSubBlock * kMaxLanes;
     scratch.assign(c_size + terms.size() * kMaxLanes, 0.0);
@@ -426,20 +429,21 @@ class Engine {
             ex_th[l] = has ? job->theta_extra : 0.0;
             if (!has) continue;
             const auto& fc = factor_cols_[job->extra];
-            std::copy(fc.begin(), fc.begin() + static_cast<std::ptrdiff_t>(
-                                                   cands_[job->extra].in_cols.size()),
+            std::copy(fc.begin(),
+                      fc.begin() + static_cast<std::ptrdiff_t>(cands_[job->extra].in_cols.size()),
                       ex_f.begin() + static_cast<std::ptrdiff_t>(l * nf));
           }
           for (std::size_t s0 = 0; s0 < len; s0 += kSubBlock) {
             const std::size_t sl = std::min(kSubBlock, len - s0);
             const double* th = theta;
             for (std::size_t q = 0; q < nq; ++q) {
-              internal::LaneSums(static_cast<int>(nv), u_q[q].data(), g0 + s0, th,
-                                 by_q[q].size(), sl, c + q * kSubBlock * lanes);
+              if (by_q[q].empty()) continue;  // LaneExtra writes c_q (zeros and extras)
+              internal::LaneSums(static_cast<int>(nv), u_q[q].data(), g0 + s0, th, by_q[q].size(),
+                                 sl, c + q * kSubBlock * lanes);
               th += by_q[q].size() * lanes;
             }
             internal::LaneExtra(static_cast<int>(nv), ex_f.data(), nf, g0 + s0, ex_th, ex_q, nq,
-                                sl, c, kSubBlock);
+                                no_terms.data(), sl, c, kSubBlock);
             internal::LaneFreeRun(static_cast<int>(nv), nq, c, kSubBlock, y_.data() + g0 + s0,
                                   wn_.data() + g0 + s0, sl, lim, p, acc, bad);
           }
@@ -523,7 +527,7 @@ class Engine {
   std::vector<std::vector<double>> base_;     // transformed signal, power 1
   std::vector<Cand> cands_;
   std::vector<std::vector<const double*>> factor_cols_;  // per candidate: Phi's columns
-  std::vector<double> ones_;  // n_ ones (pads factor lists)
+  std::vector<double> ones_;                             // n_ ones (pads factor lists)
   std::unordered_map<int, std::vector<double>> cross_;
   std::unordered_map<int, std::vector<double>> u_;
 };

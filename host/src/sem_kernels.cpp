@@ -10,8 +10,8 @@ using Vec = double __attribute__((vector_size(kLaneWidth * sizeof(double))));
 using Mask = long long __attribute__((vector_size(kLaneWidth * sizeof(double))));
 // The same vector at any double's address (as __m256d_u); functions taking or returning Vec
 // would change with the ABI of the clone, so loads and stores are macros.
-typedef double VecU __attribute__((vector_size(kLaneWidth * sizeof(double)), aligned(8),
-                                   may_alias));
+typedef double VecU
+    __attribute__((vector_size(kLaneWidth * sizeof(double)), aligned(8), may_alias));
 #define Load(p) (*reinterpret_cast<const VecU*>(p))
 #define Store(p, v) (*reinterpret_cast<VecU*>(p) = (v))
 
@@ -19,10 +19,11 @@ typedef double VecU __attribute__((vector_size(kLaneWidth * sizeof(double)), ali
 
 // One or two lane vectors (W) from lane vector v: c (+)= the terms [j, j + 4) or the term j.
 template <int W>
-__attribute__((always_inline)) inline void AddFour(const double* const* u, std::size_t off, const double* theta, std::size_t j,
-             std::size_t kL, std::size_t lv, std::size_t len, bool first, double* c) {
-  const double *a0 = u[j] + off, *a1 = u[j + 1] + off, *a2 = u[j + 2] + off,
-               *a3 = u[j + 3] + off;
+__attribute__((always_inline)) inline void AddFour(const double* const* u, std::size_t off,
+                                                   const double* theta, std::size_t j,
+                                                   std::size_t kL, std::size_t lv, std::size_t len,
+                                                   bool first, double* c) {
+  const double *a0 = u[j] + off, *a1 = u[j + 1] + off, *a2 = u[j + 2] + off, *a3 = u[j + 3] + off;
   Vec t0[W], t1[W], t2[W], t3[W];
   for (int w = 0; w < W; ++w) {
     const std::size_t o = lv + static_cast<std::size_t>(w) * kLaneWidth;
@@ -41,8 +42,10 @@ __attribute__((always_inline)) inline void AddFour(const double* const* u, std::
 }
 
 template <int W>
-__attribute__((always_inline)) inline void AddOne(const double* const* u, std::size_t off, const double* theta, std::size_t j,
-            std::size_t kL, std::size_t lv, std::size_t len, bool first, double* c) {
+__attribute__((always_inline)) inline void AddOne(const double* const* u, std::size_t off,
+                                                  const double* theta, std::size_t j,
+                                                  std::size_t kL, std::size_t lv, std::size_t len,
+                                                  bool first, double* c) {
   const double* a0 = u[j] + off;
   Vec t0[W];
   for (int w = 0; w < W; ++w) {
@@ -139,7 +142,7 @@ void LaneFreeRunNq(std::size_t nq, const double* c, std::size_t stride, const do
 // NF > 0: nf fixed at compile time; 0: nf at run time.
 template <int NV, int NF>
 MRD_MULTIVERSION void LaneExtraT(const double* const* f, std::size_t nf_rt, std::size_t off,
-                                 const double* th, const int* q, std::size_t nq,
+                                 const double* th, const int* q, std::size_t nq, const char* fresh,
                                  std::size_t len, double* c, std::size_t c_stride) {
   constexpr std::size_t kL = NV * kLaneWidth;
   const std::size_t nf = NF > 0 ? static_cast<std::size_t>(NF) : nf_rt;
@@ -174,12 +177,18 @@ MRD_MULTIVERSION void LaneExtraT(const double* const* f, std::size_t nf_rt, std:
       }
     }
     for (std::size_t qq = 0; qq < nq; ++qq) {
-      const Mask sel = {q[lv] == static_cast<int>(qq) ? -1 : 0,
-                        q[lv + 1] == static_cast<int>(qq) ? -1 : 0,
-                        q[lv + 2] == static_cast<int>(qq) ? -1 : 0,
-                        q[lv + 3] == static_cast<int>(qq) ? -1 : 0};
-      if (!(sel[0] | sel[1] | sel[2] | sel[3])) continue;
+      const Mask sel = {
+          q[lv] == static_cast<int>(qq) ? -1 : 0, q[lv + 1] == static_cast<int>(qq) ? -1 : 0,
+          q[lv + 2] == static_cast<int>(qq) ? -1 : 0, q[lv + 3] == static_cast<int>(qq) ? -1 : 0};
       double* cq = c + qq * c_stride * kL + lv;
+      if (fresh[qq]) {  // c_q = 0 (+ the extra), as LaneSums with no terms, then the add
+        const Vec zero = {0.0, 0.0, 0.0, 0.0};
+        for (std::size_t k = 0; k < len; ++k) {
+          Store(cq + k * kL, sel ? zero + Load(xt + k * kLaneWidth) : zero);
+        }
+        continue;
+      }
+      if (!(sel[0] | sel[1] | sel[2] | sel[3])) continue;
       for (std::size_t k = 0; k < len; ++k) {
         const Vec old = Load(cq + k * kL);
         Store(cq + k * kL, sel ? old + Load(xt + k * kLaneWidth) : old);
@@ -190,17 +199,17 @@ MRD_MULTIVERSION void LaneExtraT(const double* const* f, std::size_t nf_rt, std:
 
 template <int NV>
 void LaneExtraNf(const double* const* f, std::size_t nf, std::size_t off, const double* th,
-                 const int* q, std::size_t nq, std::size_t len, double* c,
+                 const int* q, std::size_t nq, const char* fresh, std::size_t len, double* c,
                  std::size_t c_stride) {
   switch (nf) {
     case 1:
-      return LaneExtraT<NV, 1>(f, nf, off, th, q, nq, len, c, c_stride);
+      return LaneExtraT<NV, 1>(f, nf, off, th, q, nq, fresh, len, c, c_stride);
     case 2:
-      return LaneExtraT<NV, 2>(f, nf, off, th, q, nq, len, c, c_stride);
+      return LaneExtraT<NV, 2>(f, nf, off, th, q, nq, fresh, len, c, c_stride);
     case 3:
-      return LaneExtraT<NV, 3>(f, nf, off, th, q, nq, len, c, c_stride);
+      return LaneExtraT<NV, 3>(f, nf, off, th, q, nq, fresh, len, c, c_stride);
     default:
-      return LaneExtraT<NV, 0>(f, nf, off, th, q, nq, len, c, c_stride);
+      return LaneExtraT<NV, 0>(f, nf, off, th, q, nq, fresh, len, c, c_stride);
   }
 }
 
@@ -225,10 +234,9 @@ MRD_MULTIVERSION void LaneGramT(const double* const* f, std::size_t nf_rt, std::
       const Vec t1 = __builtin_shuffle(y[0], y[1], Mask{1, 5, 3, 7});
       const Vec t2 = __builtin_shuffle(y[2], y[3], Mask{0, 4, 2, 6});
       const Vec t3 = __builtin_shuffle(y[2], y[3], Mask{1, 5, 3, 7});
-      const Vec ph[4] = {__builtin_shuffle(t0, t2, Mask{0, 1, 4, 5}),
-                         __builtin_shuffle(t1, t3, Mask{0, 1, 4, 5}),
-                         __builtin_shuffle(t0, t2, Mask{2, 3, 6, 7}),
-                         __builtin_shuffle(t1, t3, Mask{2, 3, 6, 7})};
+      const Vec ph[4] = {
+          __builtin_shuffle(t0, t2, Mask{0, 1, 4, 5}), __builtin_shuffle(t1, t3, Mask{0, 1, 4, 5}),
+          __builtin_shuffle(t0, t2, Mask{2, 3, 6, 7}), __builtin_shuffle(t1, t3, Mask{2, 3, 6, 7})};
       for (std::size_t k = 0; k < 4; ++k) {
         a[v] += x != nullptr ? ph[k] * x[off + s + k] : ph[k] * ph[k];
       }
@@ -293,8 +301,8 @@ MRD_MULTIVERSION void ProductT(const double* const* cols, std::size_t n, std::si
 
 }  // namespace
 
-void LaneSums(int nv, const double* const* u, std::size_t off, const double* theta,
-              std::size_t m, std::size_t len, double* c) {
+void LaneSums(int nv, const double* const* u, std::size_t off, const double* theta, std::size_t m,
+              std::size_t len, double* c) {
   switch (nv) {
     case 1:
       return LaneSumsT<1>(u, off, theta, m, len, c);
@@ -308,8 +316,7 @@ void LaneSums(int nv, const double* const* u, std::size_t off, const double* the
 }
 
 void LaneFreeRun(int nv, std::size_t nq, const double* c, std::size_t stride, const double* y,
-                 const double* w, std::size_t len, double lim, double* p, double* acc,
-                 bool* bad) {
+                 const double* w, std::size_t len, double lim, double* p, double* acc, bool* bad) {
   switch (nv) {
     case 1:
       return LaneFreeRunNq<1>(nq, c, stride, y, w, len, lim, p, acc, bad);
@@ -322,20 +329,18 @@ void LaneFreeRun(int nv, std::size_t nq, const double* c, std::size_t stride, co
   }
 }
 
-
-
-void LaneExtra(int nv, const double* const* f, std::size_t nf, std::size_t off,
-               const double* th, const int* q, std::size_t nq, std::size_t len, double* c,
+void LaneExtra(int nv, const double* const* f, std::size_t nf, std::size_t off, const double* th,
+               const int* q, std::size_t nq, const char* fresh, std::size_t len, double* c,
                std::size_t c_stride) {
   switch (nv) {
     case 1:
-      return LaneExtraNf<1>(f, nf, off, th, q, nq, len, c, c_stride);
+      return LaneExtraNf<1>(f, nf, off, th, q, nq, fresh, len, c, c_stride);
     case 2:
-      return LaneExtraNf<2>(f, nf, off, th, q, nq, len, c, c_stride);
+      return LaneExtraNf<2>(f, nf, off, th, q, nq, fresh, len, c, c_stride);
     case 3:
-      return LaneExtraNf<3>(f, nf, off, th, q, nq, len, c, c_stride);
+      return LaneExtraNf<3>(f, nf, off, th, q, nq, fresh, len, c, c_stride);
     default:
-      return LaneExtraNf<4>(f, nf, off, th, q, nq, len, c, c_stride);
+      return LaneExtraNf<4>(f, nf, off, th, q, nq, fresh, len, c, c_stride);
   }
 }
 

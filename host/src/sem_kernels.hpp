@@ -19,30 +19,30 @@
 
 namespace mrd::host::internal {
 
-inline constexpr std::size_t kLaneWidth = 4;               // doubles per SIMD vector
-inline constexpr std::size_t kMaxLanes = 4 * kLaneWidth;   // jobs per lane group
+inline constexpr std::size_t kLaneWidth = 4;              // doubles per SIMD vector
+inline constexpr std::size_t kMaxLanes = 4 * kLaneWidth;  // jobs per lane group
 inline constexpr std::size_t kSubBlock = 32;  // samples per pass (the lane sums stay in L1)
 
 // Lane sums over one group of model terms (those of one y power q), for lanes = 4 * nv jobs:
 // c[s * lanes + l] = sum_j theta[j * lanes + l] * u[j][off + s], s < len, j < m, summed as
 // the scalar reference: terms in fours ((t0 a0 + t1 a1) + (t2 a2 + t3 a3)), then singly;
 // 0 when m = 0.
-void LaneSums(int nv, const double* const* u, std::size_t off, const double* theta,
-              std::size_t m, std::size_t len, double* c);
+void LaneSums(int nv, const double* const* u, std::size_t off, const double* theta, std::size_t m,
+              std::size_t len, double* c);
 
 // Advances lanes = 4 * nv free runs y(k) = sum_q c_q(k) y(k-1)^q (Horner) over len samples,
 // c_q(s) = c[(q * stride + s) * lanes + l]; per lane: p the previous output (in/out), acc the
 // running sum of w (y - y_sim)^2 (in/out), bad set when |y_sim| > lim or NaN (in/out).
 void LaneFreeRun(int nv, std::size_t nq, const double* c, std::size_t stride, const double* y,
-                 const double* w, std::size_t len, double lim, double* p, double* acc,
-                 bool* bad);
+                 const double* w, std::size_t len, double lim, double* p, double* acc, bool* bad);
 
 // Adds each lane's extra candidate: c[(q[l] * c_stride + s) * lanes + l] += th[l] * x_l(s)
 // for s < len (<= kSubBlock) and lanes l (4 * nv) with 0 <= q[l] < nq (q[l] < 0: none), x_l(s)
 // the product of f[l * nf + k][off + s] over k < nf (nf >= 1) in order of k (pad with columns
-// of ones: x * 1 = x exactly).
-void LaneExtra(int nv, const double* const* f, std::size_t nf, std::size_t off,
-               const double* th, const int* q, std::size_t nq, std::size_t len, double* c,
+// of ones: x * 1 = x exactly). fresh[q] != 0: c_q is not read but written as 0 + the extras
+// (the y power q has no model term; LaneSums was not called for it).
+void LaneExtra(int nv, const double* const* f, std::size_t nf, std::size_t off, const double* th,
+               const int* q, std::size_t nq, const char* fresh, std::size_t len, double* c,
                std::size_t c_stride);
 
 // out[i] = product of cols[f][off + i] over f < n, multiplied in order of f (1 when n = 0).
