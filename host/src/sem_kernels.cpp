@@ -15,7 +15,19 @@ typedef double VecU
 #define Load(p) (*reinterpret_cast<const VecU*>(p))
 #define Store(p, v) (*reinterpret_cast<VecU*>(p) = (v))
 
+#if defined(__clang__)
+#define Shuffle(a, b, i0, i1, i2, i3) __builtin_shufflevector(a, b, i0, i1, i2, i3)
+#else
+#define Shuffle(a, b, i0, i1, i2, i3) __builtin_shuffle(a, b, Mask{i0, i1, i2, i3})
+#endif
+
+// AVX2 clone chosen at load time when the CPU has it (no FMA: the results stay the same).
+// Clang (14) has no target_clones on templates: one SSE2 version there.
+#if defined(__x86_64__) && !defined(__clang__)
 #define MRD_MULTIVERSION __attribute__((target_clones("avx2", "default")))
+#else
+#define MRD_MULTIVERSION
+#endif
 
 // One or two lane vectors (W) from lane vector v: c (+)= the terms [j, j + 4) or the term j.
 template <int W>
@@ -160,14 +172,14 @@ MRD_MULTIVERSION void LaneExtraT(const double* const* f, std::size_t nf_rt, std:
         y[l] = x;
       }
       // 4 x 4 transpose: x_k[l] = input of lane l at sample s + k.
-      const Vec a = __builtin_shuffle(y[0], y[1], Mask{0, 4, 2, 6});
-      const Vec b = __builtin_shuffle(y[0], y[1], Mask{1, 5, 3, 7});
-      const Vec d = __builtin_shuffle(y[2], y[3], Mask{0, 4, 2, 6});
-      const Vec e = __builtin_shuffle(y[2], y[3], Mask{1, 5, 3, 7});
-      Store(xt + s * kLaneWidth, t * __builtin_shuffle(a, d, Mask{0, 1, 4, 5}));
-      Store(xt + (s + 1) * kLaneWidth, t * __builtin_shuffle(b, e, Mask{0, 1, 4, 5}));
-      Store(xt + (s + 2) * kLaneWidth, t * __builtin_shuffle(a, d, Mask{2, 3, 6, 7}));
-      Store(xt + (s + 3) * kLaneWidth, t * __builtin_shuffle(b, e, Mask{2, 3, 6, 7}));
+      const Vec a = Shuffle(y[0], y[1], 0, 4, 2, 6);
+      const Vec b = Shuffle(y[0], y[1], 1, 5, 3, 7);
+      const Vec d = Shuffle(y[2], y[3], 0, 4, 2, 6);
+      const Vec e = Shuffle(y[2], y[3], 1, 5, 3, 7);
+      Store(xt + s * kLaneWidth, t * Shuffle(a, d, 0, 1, 4, 5));
+      Store(xt + (s + 1) * kLaneWidth, t * Shuffle(b, e, 0, 1, 4, 5));
+      Store(xt + (s + 2) * kLaneWidth, t * Shuffle(a, d, 2, 3, 6, 7));
+      Store(xt + (s + 3) * kLaneWidth, t * Shuffle(b, e, 2, 3, 6, 7));
     }
     for (; s < len; ++s) {
       for (std::size_t l = 0; l < kLaneWidth; ++l) {
@@ -230,13 +242,12 @@ MRD_MULTIVERSION void LaneGramT(const double* const* f, std::size_t nf_rt, std::
         for (std::size_t k = 1; k < nf; ++k) p = p * Load(fv[l * nf + k] + off + s);
         y[l] = p;
       }
-      const Vec t0 = __builtin_shuffle(y[0], y[1], Mask{0, 4, 2, 6});
-      const Vec t1 = __builtin_shuffle(y[0], y[1], Mask{1, 5, 3, 7});
-      const Vec t2 = __builtin_shuffle(y[2], y[3], Mask{0, 4, 2, 6});
-      const Vec t3 = __builtin_shuffle(y[2], y[3], Mask{1, 5, 3, 7});
-      const Vec ph[4] = {
-          __builtin_shuffle(t0, t2, Mask{0, 1, 4, 5}), __builtin_shuffle(t1, t3, Mask{0, 1, 4, 5}),
-          __builtin_shuffle(t0, t2, Mask{2, 3, 6, 7}), __builtin_shuffle(t1, t3, Mask{2, 3, 6, 7})};
+      const Vec t0 = Shuffle(y[0], y[1], 0, 4, 2, 6);
+      const Vec t1 = Shuffle(y[0], y[1], 1, 5, 3, 7);
+      const Vec t2 = Shuffle(y[2], y[3], 0, 4, 2, 6);
+      const Vec t3 = Shuffle(y[2], y[3], 1, 5, 3, 7);
+      const Vec ph[4] = {Shuffle(t0, t2, 0, 1, 4, 5), Shuffle(t1, t3, 0, 1, 4, 5),
+                         Shuffle(t0, t2, 2, 3, 6, 7), Shuffle(t1, t3, 2, 3, 6, 7)};
       for (std::size_t k = 0; k < 4; ++k) {
         a[v] += x != nullptr ? ph[k] * x[off + s + k] : ph[k] * ph[k];
       }
@@ -298,6 +309,8 @@ MRD_MULTIVERSION void ProductT(const double* const* cols, std::size_t n, std::si
 
 #undef Load
 #undef Store
+#undef Shuffle
+#undef MRD_MULTIVERSION
 
 }  // namespace
 

@@ -1,19 +1,26 @@
 #pragma once
-// Inner loops of the SEM engine's fast free run (sem.cpp, Engine::SimulateFast) and of its
-// Gram products (Engine::Cross), vectorised across jobs. Not public.
+// Inner loops of the SEM engine (sem.cpp, Engine): the fast free run of many jobs and the
+// Gram sums of the candidates, vectorised across jobs (one job per SIMD lane). Not public.
 //
-// Cost model (paper run: N = 40k samples, 1551 candidates, m <= 14 model terms, 20
-// iterations): per major iteration every admissible candidate is one job whose free run
-// costs m multiply-adds per sample for c_q(k) = sum theta_i u_i(k) plus a Horner step in
-// y(k-1); early stopping ends only ~7 % of that work (most candidates end near the current
-// J, so their partial cost passes the best J late). Total ~8.6e9 multiply-adds for the sums
-// and ~1e9 recursion steps. The scalar loop per job was bound by the load of u_i(k) per
-// multiply-add and by the latency of the recursion (one dependent chain of 4 FP operations
-// per sample). Here kLanes jobs run in lockstep, one per SIMD lane: each u_i(k) is loaded
-// once for all lanes, and the recursion has kLanes independent chains. Each job's arithmetic
-// is exactly the sequence of the scalar reference (same operations, same order, no FMA), so
-// every result is bit for bit the same on every CPU and thread count; AVX2 is used when the
-// CPU has it (function multi-versioning), plain SSE2 otherwise.
+// Cost model (paper run: N = 40k samples, 1551 candidates, m <= 14 model terms, 20 major
+// iterations). Per iteration every admissible candidate is one job whose free run costs, per
+// sample, m multiply-adds for c_q(k) = sum_i theta_i u_i(k) (LaneSums), the candidate's own
+// input product and add (LaneExtra) and a Horner step in y(k-1) (LaneFreeRun). Early stopping
+// ends only ~7 % of that work: most candidates end near the current J, so their partial cost
+// passes the best J late. Whole run: ~1.0e9 job-samples, ~8.6e9 multiply-adds in the sums;
+// and per term entering the model one Gram sum over N for every candidate (Cross, LaneGram:
+// ~20 x 1551 x N = 1.2e9 products). The scalar code was bound by loads (u_i(k) per
+// multiply-add), by the latency of the one recursion chain and of the one Gram sum chain,
+// and by cache misses (16 jobs per sweep over ~13 MB of columns). Here 16 jobs (4 vectors of
+// 4 lanes) run in lockstep: u_i(k) is loaded once for all lanes, the recursion and the sums
+// have 16 independent chains, a 4 x 4 transpose turns per-candidate columns into lanes, and a
+// sweep serves 64 jobs (Search's kChunk). Profile of the result (perf, 1 thread): lane sums
+// ~22 %, extras ~20 %, Gram ~14 %, recursion ~12 %.
+//
+// Each job's arithmetic is exactly the sequence of the scalar reference (same operations in
+// the same order, no FMA), so every J, coefficient and decision is bit for bit the same on
+// every CPU and thread count; AVX2 is used when the CPU has it (function multi-versioning),
+// SSE2 otherwise.
 
 #include <cstddef>
 
@@ -21,7 +28,7 @@ namespace mrd::host::internal {
 
 inline constexpr std::size_t kLaneWidth = 4;              // doubles per SIMD vector
 inline constexpr std::size_t kMaxLanes = 4 * kLaneWidth;  // jobs per lane group
-inline constexpr std::size_t kSubBlock = 32;  // samples per pass (the lane sums stay in L1)
+inline constexpr std::size_t kSubBlock = 32;              // samples per pass (lane sums stay in L1)
 
 // Lane sums over one group of model terms (those of one y power q), for lanes = 4 * nv jobs:
 // c[s * lanes + l] = sum_j theta[j * lanes + l] * u[j][off + s], s < len, j < m, summed as
