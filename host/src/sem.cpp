@@ -38,7 +38,7 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::size_t kBlock = 256;      // samples per block of the free-run pass
-constexpr std::size_t kChunk = 64;       // candidates per work item
+constexpr std::size_t kChunk = 64;       // candidates per work item (one column sweep)
 constexpr double kCollinear = 1e-13;     // relative Schur complement below which a
                                          // candidate is taken as linearly dependent
 
