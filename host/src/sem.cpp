@@ -16,6 +16,7 @@
 #include "mrd/host/sem_stress.hpp"
 #include "sem_evaluator.hpp"
 #include "sem_internal.hpp"
+#include "sem_kernels.hpp"
 
 namespace mrd::host {
 
@@ -38,8 +39,8 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::size_t kBlock = 256;      // samples per block of the free-run pass
-constexpr std::size_t kChunk = 16;       // candidates per work item
-constexpr int kMaxExchanges = 8;        // exchange passes per major iteration
+constexpr std::size_t kChunk = 64;       // candidates per work item (one column sweep)
+constexpr int kMaxExchanges = 8;         // exchange passes per major iteration
 constexpr std::size_t kExchangePool = 64;  // candidates (best one-step rank) tried per term
 constexpr double kExchangeGain = 1e-9;   // relative J decrease an exchange must bring
 constexpr double kCollinear = 1e-13;     // relative Schur complement below which a
@@ -134,6 +135,7 @@ class Engine {
       n_ += seg.len;
       segs_.push_back(std::move(seg));
     }
+    ones_.assign(n_, 1.0);
     // Elementary power columns.
     col_index_.assign(spec.regressors.size(), {});
     base_index_.assign(spec.regressors.size(), {});
@@ -196,28 +198,24 @@ class Engine {
         c.in_cols.push_back(col);
       }
     }
+    std::vector<const double*> ptr;  // columns never move once made
+    for (int col : c.in_cols) ptr.push_back(cols_[col].data());
+    for (int col : c.out_cols) ptr.push_back(cols_[col].data());
+    factor_cols_.push_back(std::move(ptr));
     cands_.push_back(std::move(c));
     return static_cast<int>(cands_.size()) - 1;
   }
 
   // phi' phi and phi' y of every candidate.
+  // phi'phi and phi'y of every candidate (sums in sample order).
   void PrepareCandidates() {
-    ParallelFor((cands_.size() + kChunk - 1) / kChunk, threads_, [&](std::size_t item, int) {
-      std::vector<double> buf(kBlock);
-      for (std::size_t c = item * kChunk; c < std::min(cands_.size(), (item + 1) * kChunk); ++c) {
-        double ss = 0.0, sy = 0.0;
-        for (std::size_t g0 = 0; g0 < n_; g0 += kBlock) {
-          const std::size_t len = std::min(kBlock, n_ - g0);
-          Phi(cands_[c], g0, len, buf.data());
-          for (std::size_t i = 0; i < len; ++i) {
-            ss += buf[i] * buf[i];
-            sy += buf[i] * y_[g0 + i];
-          }
-        }
-        cands_[c].ss = ss;
-        cands_[c].sy = sy;
-      }
-    });
+    std::vector<double> ss(cands_.size()), sy(cands_.size());
+    GramSums(nullptr, ss.data());
+    GramSums(y_.data(), sy.data());
+    for (std::size_t c = 0; c < cands_.size(); ++c) {
+      cands_[c].ss = ss[c];
+      cands_[c].sy = sy[c];
+    }
   }
 
   std::size_t num_candidates() const { return cands_.size(); }
@@ -225,28 +223,17 @@ class Engine {
   bool fast() const { return fast_; }
   double divergence_limit() const { return spec_.divergence_limit; }
 
-  // Cross products phi_t' phi_c for every candidate c (cached).
+  // Cross products phi_t' phi_c for every candidate c (cached; sums in sample order,
+  // kMaxLanes candidates at a time).
   const std::vector<double>& Cross(int t) {
     auto it = cross_.find(t);
     if (it != cross_.end()) return it->second;
     std::vector<double> phit(n_);
     for (std::size_t g0 = 0; g0 < n_; g0 += kBlock) {
-      Phi(cands_[t], g0, std::min(kBlock, n_ - g0), phit.data() + g0);
+      Phi(t, g0, std::min(kBlock, n_ - g0), phit.data() + g0);
     }
     std::vector<double> out(cands_.size());
-    ParallelFor((cands_.size() + kChunk - 1) / kChunk, threads_, [&](std::size_t item, int) {
-      std::vector<double> buf(kBlock);
-      for (std::size_t c = item * kChunk; c < std::min(cands_.size(), (item + 1) * kChunk); ++c) {
-        double s = 0.0;
-        for (std::size_t g0 = 0; g0 < n_; g0 += kBlock) {
-          const std::size_t len = std::min(kBlock, n_ - g0);
-          Phi(cands_[c], g0, len, buf.data());
-          const double* p = phit.data() + g0;
-          for (std::size_t i = 0; i < len; ++i) s += buf[i] * p[i];
-        }
-        out[c] = s;
-      }
-    });
+    GramSums(phit.data(), out.data());
     return cross_.emplace(t, std::move(out)).first->second;
   }
 
@@ -256,7 +243,7 @@ class Engine {
     if (it != u_.end()) return it->second;
     std::vector<double> u(n_);
     for (std::size_t g0 = 0; g0 < n_; g0 += kBlock) {
-      Input(cands_[t], g0, std::min(kBlock, n_ - g0), u.data() + g0);
+      Input(t, g0, std::min(kBlock, n_ - g0), u.data() + g0);
     }
     return u_.emplace(t, std::move(u)).first->second;
   }
@@ -317,136 +304,90 @@ class Engine {
   }
 
  private:
-  void Input(const Cand& c, std::size_t g0, std::size_t len, double* out) const {
-    if (c.in_cols.empty()) {
-      std::fill(out, out + len, 1.0);
-      return;
-    }
-    const double* a = cols_[c.in_cols[0]].data() + g0;
-    if (c.in_cols.size() == 1) {
-      std::copy(a, a + len, out);
-      return;
-    }
-    const double* b = cols_[c.in_cols[1]].data() + g0;
-    if (c.in_cols.size() == 2) {
-      for (std::size_t i = 0; i < len; ++i) out[i] = a[i] * b[i];
-      return;
-    }
-    const double* d = cols_[c.in_cols[2]].data() + g0;
-    for (std::size_t i = 0; i < len; ++i) out[i] = a[i] * b[i] * d[i];
-    for (std::size_t f = 3; f < c.in_cols.size(); ++f) {
-      const double* e = cols_[c.in_cols[f]].data() + g0;
-      for (std::size_t i = 0; i < len; ++i) out[i] *= e[i];
-    }
+  // out[c] = sum_k phi_c(k) x(k) for every candidate c (x == nullptr: phi_c(k)^2), summed in
+  // sample order, kMaxLanes candidates at a time (sem_kernels.hpp).
+  void GramSums(const double* x, double* out) {
+    const std::size_t items = (cands_.size() + kGramItem - 1) / kGramItem;
+    ParallelFor(items, threads_, [&](std::size_t item, int) { GramItem(item, x, out); });
   }
 
-  void Phi(const Cand& c, std::size_t g0, std::size_t len, double* out) const {
-    Input(c, g0, len, out);
-    for (int col : c.out_cols) {
-      const double* e = cols_[col].data() + g0;
-      for (std::size_t i = 0; i < len; ++i) out[i] *= e[i];
-    }
-  }
-
-  static constexpr std::size_t kLanes = 4;  // free runs advanced in lockstep (hides the
-                                            // latency of the scalar recursion)
-
-  // c_q(k) = sum over terms of y-power q of theta * u(k) for one job and one block;
-  // c[q * kBlock + s]. ub: scratch of kBlock.
-  void Coefficients(const std::vector<const double*>& u,
-                    const std::vector<std::vector<std::size_t>>& by_q, const Job& job,
-                    std::size_t g0, std::size_t len, double* c, double* ub) const {
-    for (std::size_t q = 0; q < by_q.size(); ++q) {
-      double* cq = c + q * kBlock;
-      const auto& idx = by_q[q];
-      std::size_t i = 0;
-      bool first = true;
-      for (; i + 4 <= idx.size(); i += 4) {
-        const double *a0 = u[idx[i]] + g0, *a1 = u[idx[i + 1]] + g0, *a2 = u[idx[i + 2]] + g0,
-                     *a3 = u[idx[i + 3]] + g0;
-        const double t0 = job.theta[idx[i]], t1 = job.theta[idx[i + 1]],
-                     t2 = job.theta[idx[i + 2]], t3 = job.theta[idx[i + 3]];
-        if (first) {
-          for (std::size_t k = 0; k < len; ++k) {
-            cq[k] = (t0 * a0[k] + t1 * a1[k]) + (t2 * a2[k] + t3 * a3[k]);
-          }
-        } else {
-          for (std::size_t k = 0; k < len; ++k) {
-            cq[k] += (t0 * a0[k] + t1 * a1[k]) + (t2 * a2[k] + t3 * a3[k]);
-          }
-        }
-        first = false;
+  // GramSums of the candidates [item * kGramItem, ...): one sweep over the samples for all of
+  // them (a block's columns stay in cache).
+  static constexpr std::size_t kGramItem = 8 * internal::kMaxLanes;
+  void GramItem(std::size_t item, const double* x, double* out) const {
+    using internal::kLaneWidth, internal::kMaxLanes;
+    const std::size_t c_begin = item * kGramItem;
+    const std::size_t c_end = std::min(cands_.size(), c_begin + kGramItem);
+    // Per group of kMaxLanes: factor columns [lane * nf + k], padded with ones.
+    std::vector<std::vector<const double*>> f;
+    std::vector<std::size_t> nf;
+    for (std::size_t c0 = c_begin; c0 < c_end; c0 += kMaxLanes) {
+      const std::size_t nc = std::min(kMaxLanes, c_end - c0);
+      const std::size_t lanes = (nc + kLaneWidth - 1) / kLaneWidth * kLaneWidth;
+      std::size_t n = 1;
+      for (std::size_t l = 0; l < nc; ++l) n = std::max(n, factor_cols_[c0 + l].size());
+      std::vector<const double*> fg(lanes * n, ones_.data());
+      for (std::size_t l = 0; l < nc; ++l) {
+        std::copy(factor_cols_[c0 + l].begin(), factor_cols_[c0 + l].end(),
+                  fg.begin() + static_cast<std::ptrdiff_t>(l * n));
       }
-      for (; i < idx.size(); ++i) {
-        const double* a0 = u[idx[i]] + g0;
-        const double t0 = job.theta[idx[i]];
-        if (first) {
-          for (std::size_t k = 0; k < len; ++k) cq[k] = t0 * a0[k];
-        } else {
-          for (std::size_t k = 0; k < len; ++k) cq[k] += t0 * a0[k];
-        }
-        first = false;
-      }
-      if (first) std::fill(cq, cq + len, 0.0);
+      f.push_back(std::move(fg));
+      nf.push_back(n);
     }
-    if (job.extra >= 0) {
-      const Cand& ex = cands_[job.extra];
-      Input(ex, g0, len, ub);
-      const double th = job.theta_extra;
-      double* cq = c + static_cast<std::size_t>(ex.ypow) * kBlock;
-      for (std::size_t k = 0; k < len; ++k) cq[k] += th * ub[k];
-    }
-  }
-
-  // Advances kLanes free runs y(k) = sum_q c_q(k) y(k-1)^q over one block (Horner), adding
-  // the weighted squared errors to cost and flagging |y| beyond lim (or NaN) in bad.
-  template <int NQ>
-  static void Recurse(const double* const* c, std::size_t nq_rt, const double* y,
-                      const double* w, std::size_t len, double lim, double* yp, double* cost,
-                      bool* bad) {
-    const int nq = NQ > 0 ? NQ : static_cast<int>(nq_rt);
-    double p[kLanes], acc[kLanes];
-    bool b[kLanes];
-    for (std::size_t l = 0; l < kLanes; ++l) {
-      p[l] = yp[l];
-      acc[l] = 0.0;
-      b[l] = false;
-    }
-    for (std::size_t s = 0; s < len; ++s) {
-      for (std::size_t l = 0; l < kLanes; ++l) {
-        double yk = c[l][static_cast<std::size_t>(nq - 1) * kBlock + s];
-        for (int q = nq - 2; q >= 0; --q) yk = yk * p[l] + c[l][static_cast<std::size_t>(q) * kBlock + s];
-        const double e = y[s] - yk;
-        acc[l] += w[s] * (e * e);
-        b[l] |= !(std::fabs(yk) <= lim);
-        p[l] = yk;
+    std::vector<double> acc(f.size() * kMaxLanes, 0.0);
+    for (std::size_t g0 = 0; g0 < n_; g0 += kBlock) {
+      const std::size_t len = std::min(kBlock, n_ - g0);
+      for (std::size_t g = 0; g < f.size(); ++g) {
+        const int nv = static_cast<int>(f[g].size() / nf[g] / kLaneWidth);
+        internal::LaneGram(nv, f[g].data(), nf[g], g0, x, len, &acc[g * kMaxLanes]);
       }
     }
-    for (std::size_t l = 0; l < kLanes; ++l) {
-      yp[l] = p[l];
-      cost[l] = acc[l];
-      bad[l] = b[l];
-    }
+    std::copy(acc.begin(), acc.begin() + static_cast<std::ptrdiff_t>(c_end - c_begin),
+              out + c_begin);
   }
 
+  // Input part of candidate c (product of its input factors; 1 without) over [g0, g0 + len).
+  void Input(int c, std::size_t g0, std::size_t len, double* out) const {
+    internal::Product(factor_cols_[c].data(), cands_[c].in_cols.size(), g0, len, out);
+  }
+
+  // Regressor of candidate c (input then output factors, measured output).
+  void Phi(int c, std::size_t g0, std::size_t len, double* out) const {
+    internal::Product(factor_cols_[c].data(), factor_cols_[c].size(), g0, len, out);
+  }
+
+  int ExtraPow(const Job& j) const { return j.extra >= 0 ? cands_[j.extra].ypow : -1; }
+
+  // Free run of the fast path (y(k-1) only): y(k) = sum_q c_q(k) y(k-1)^q with
+  // c_q(k) = sum over terms of y-power q of theta_i u_i(k) (+ the job's extra candidate).
+  // Jobs go through in lane groups of up to kMaxLanes (sem_kernels.hpp gives the cost model);
+  // the bound is checked every kBlock samples, as are divergence and finiteness.
   void SimulateFast(const std::vector<int>& terms, std::span<Job> jobs,
                     const std::atomic<double>& bound, std::vector<double>& scratch) {
+    using internal::kLaneWidth, internal::kMaxLanes, internal::kSubBlock;
     int q_max = 0;
     for (int t : terms) q_max = std::max(q_max, cands_[t].ypow);
     for (const Job& j : jobs) {
       if (j.extra >= 0) q_max = std::max(q_max, cands_[j.extra].ypow);
     }
     const std::size_t nq = static_cast<std::size_t>(q_max) + 1;
-    std::vector<std::vector<std::size_t>> by_q(nq);
+    std::vector<std::vector<std::size_t>> by_q(nq);  // term indices of each y power
+    std::vector<std::vector<const double*>> u_q(nq);
     for (std::size_t i = 0; i < terms.size(); ++i) {
-      by_q[static_cast<std::size_t>(cands_[terms[i]].ypow)].push_back(i);
+      const auto q = static_cast<std::size_t>(cands_[terms[i]].ypow);
+      by_q[q].push_back(i);
+      u_q[q].push_back(U(terms[i]).data());
     }
-    // Per lane: nq coefficient blocks; one more block of scratch; one all-zero dummy lane.
-    scratch.assign((kLanes * nq + 1 + nq) * kBlock, 0.0);
-    double* ub = scratch.data() + kLanes * nq * kBlock;
-    const double* dummy = ub + kBlock;
-    std::vector<const double*> u(terms.size());
-    for (std::size_t i = 0; i < terms.size(); ++i) u[i] = U(terms[i]).data();
+    std::vector<char> no_terms(nq);
+    for (std::size_t q = 0; q < nq; ++q) no_terms[q] = by_q[q].empty();
+    // Lane sums c[q][s][lane], thetas theta[term][lane] (by_q order), one input block.
+    const std::size_t c_size = nq * kSubBlock * kMaxLanes;
+    scratch.assign(c_size + terms.size() * kMaxLanes, 0.0);
+    double* c = scratch.data();
+    double* theta = c + c_size;
+    std::vector<const double*> ex_f;  // [lane * nf + k]: the extra's input factor columns
+    double ex_th[kMaxLanes];
+    int ex_q[kMaxLanes];
     std::vector<double> yprev(jobs.size());
     std::vector<std::size_t> alive;
     const double lim = spec_.divergence_limit;
@@ -455,46 +396,66 @@ class Engine {
       for (std::size_t g0 = seg.start; g0 < seg.start + seg.len; g0 += kBlock) {
         const std::size_t len = std::min(kBlock, seg.start + seg.len - g0);
         const double bnd = bound.load(std::memory_order_relaxed);
+        // Live jobs by the extra's y power (a lane vector then mostly adds to one c_q).
         alive.clear();
-        for (std::size_t j = 0; j < jobs.size(); ++j) {
-          if (!jobs[j].dead) alive.push_back(j);
+        for (int q = -1; q <= q_max; ++q) {
+          for (std::size_t j = 0; j < jobs.size(); ++j) {
+            if (!jobs[j].dead && ExtraPow(jobs[j]) == q) alive.push_back(j);
+          }
         }
-        for (std::size_t a0 = 0; a0 < alive.size(); a0 += kLanes) {
-          const double* c[kLanes];
-          double yp[kLanes], cost[kLanes];
-          bool bad[kLanes];
-          for (std::size_t l = 0; l < kLanes; ++l) {
-            if (a0 + l < alive.size()) {
-              double* cl = scratch.data() + l * nq * kBlock;
-              Coefficients(u, by_q, jobs[alive[a0 + l]], g0, len, cl, ub);
-              c[l] = cl;
-              yp[l] = yprev[alive[a0 + l]];
-            } else {
-              c[l] = dummy;
-              yp[l] = 0.0;
+        for (std::size_t a0 = 0; a0 < alive.size(); a0 += kMaxLanes) {
+          const std::size_t na = std::min(kMaxLanes, alive.size() - a0);
+          const std::size_t nv = (na + kLaneWidth - 1) / kLaneWidth;
+          const std::size_t lanes = nv * kLaneWidth;  // unused lanes: theta 0, output 0
+          double p[kMaxLanes] = {}, acc[kMaxLanes] = {};
+          bool bad[kMaxLanes] = {};
+          std::size_t col = 0;
+          for (std::size_t q = 0; q < nq; ++q) {
+            for (std::size_t i : by_q[q]) {
+              for (std::size_t l = 0; l < lanes; ++l) {
+                theta[col * lanes + l] = l < na ? jobs[alive[a0 + l]].theta[i] : 0.0;
+              }
+              ++col;
             }
           }
-          const double* y = y_.data() + g0;
-          const double* w = wn_.data() + g0;
-          switch (nq) {
-            case 1:
-              Recurse<1>(c, nq, y, w, len, lim, yp, cost, bad);
-              break;
-            case 2:
-              Recurse<2>(c, nq, y, w, len, lim, yp, cost, bad);
-              break;
-            case 3:
-              Recurse<3>(c, nq, y, w, len, lim, yp, cost, bad);
-              break;
-            default:
-              Recurse<0>(c, nq, y, w, len, lim, yp, cost, bad);
-              break;
+          for (std::size_t l = 0; l < na; ++l) p[l] = yprev[alive[a0 + l]];
+          // Extras: input factor columns per lane, padded with ones to the group's most.
+          std::size_t nf = 1;
+          for (std::size_t l = 0; l < na; ++l) {
+            const Job& job = jobs[alive[a0 + l]];
+            if (job.extra >= 0) nf = std::max(nf, cands_[job.extra].in_cols.size());
           }
-          for (std::size_t l = 0; l < kLanes && a0 + l < alive.size(); ++l) {
+          ex_f.assign(lanes * nf, ones_.data());
+          for (std::size_t l = 0; l < lanes; ++l) {
+            const Job* job = l < na ? &jobs[alive[a0 + l]] : nullptr;
+            const bool has = job != nullptr && job->extra >= 0;
+            ex_q[l] = has ? cands_[job->extra].ypow : -1;
+            ex_th[l] = has ? job->theta_extra : 0.0;
+            if (!has) continue;
+            const auto& fc = factor_cols_[job->extra];
+            std::copy(fc.begin(),
+                      fc.begin() + static_cast<std::ptrdiff_t>(cands_[job->extra].in_cols.size()),
+                      ex_f.begin() + static_cast<std::ptrdiff_t>(l * nf));
+          }
+          for (std::size_t s0 = 0; s0 < len; s0 += kSubBlock) {
+            const std::size_t sl = std::min(kSubBlock, len - s0);
+            const double* th = theta;
+            for (std::size_t q = 0; q < nq; ++q) {
+              if (by_q[q].empty()) continue;  // LaneExtra writes c_q (zeros and extras)
+              internal::LaneSums(static_cast<int>(nv), u_q[q].data(), g0 + s0, th, by_q[q].size(),
+                                 sl, c + q * kSubBlock * lanes);
+              th += by_q[q].size() * lanes;
+            }
+            internal::LaneExtra(static_cast<int>(nv), ex_f.data(), nf, g0 + s0, ex_th, ex_q, nq,
+                                no_terms.data(), sl, c, kSubBlock);
+            internal::LaneFreeRun(static_cast<int>(nv), nq, c, kSubBlock, y_.data() + g0 + s0,
+                                  wn_.data() + g0 + s0, sl, lim, p, acc, bad);
+          }
+          for (std::size_t l = 0; l < na; ++l) {
             const std::size_t j = alive[a0 + l];
             Job& job = jobs[j];
-            yprev[j] = yp[l];
-            job.cost += cost[l];
+            yprev[j] = p[l];
+            job.cost += acc[l];
             if (bad[l] || !std::isfinite(job.cost)) {
               job.dead = job.diverged = true;
               job.cost = kInf;
@@ -522,7 +483,7 @@ class Engine {
         const std::size_t off = seg.seed.size();
         for (std::size_t g0 = seg.start; g0 < seg.start + seg.len && !job.dead; g0 += kBlock) {
           const std::size_t len = std::min(kBlock, seg.start + seg.len - g0);
-          if (ex != nullptr) Input(*ex, g0, len, scratch.data());
+          if (ex != nullptr) Input(job.extra, g0, len, scratch.data());
           double cost = 0.0;
           bool bad = false;
           for (std::size_t s = 0; s < len; ++s) {
@@ -569,6 +530,8 @@ class Engine {
   std::vector<std::vector<int>> base_index_;  // [regressor][delay] -> base_
   std::vector<std::vector<double>> base_;     // transformed signal, power 1
   std::vector<Cand> cands_;
+  std::vector<std::vector<const double*>> factor_cols_;  // per candidate: Phi's columns
+  std::vector<double> ones_;                             // n_ ones (pads factor lists)
   std::unordered_map<int, std::vector<double>> cross_;
   std::unordered_map<int, std::vector<double>> u_;
 };
