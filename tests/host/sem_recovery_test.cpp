@@ -40,30 +40,33 @@ TEST_P(SemRecoveryTest, DefaultSettingsNoValidationRecoverTheTrueStructure) {
   EXPECT_GE(r.hits, c.n >= 1000 ? 19 : 17) << r.hits << "/20; misses:\n" << r.misses;
 }
 
-// Measured (default settings: first improvement, 20-fold cross-validated BIC selection):
-// these reach the target.
+// Measured (default settings: first improvement with exchange moves, a second start from
+// one-step forward regression, output-error refined coefficients, cross-validated extended-BIC
+// selection; counts in the README, issue 15 section): these reach the target.
 INSTANTIATE_TEST_SUITE_P(Meets, SemRecoveryTest,
                          testing::Values(Case{0, Noise::kEquation, 1000},
                                          Case{0, Noise::kOutput, 1000},
+                                         Case{0, Noise::kOutput, 500},
                                          Case{1, Noise::kEquation, 1000},
                                          Case{1, Noise::kEquation, 500},
+                                         Case{1, Noise::kOutput, 1000},
+                                         Case{1, Noise::kOutput, 500},
                                          Case{2, Noise::kEquation, 1000},
                                          Case{2, Noise::kEquation, 500},
                                          Case{2, Noise::kOutput, 1000},
                                          Case{2, Noise::kOutput, 500},
+                                         Case{3, Noise::kEquation, 1000},
+                                         Case{3, Noise::kEquation, 500},
                                          Case{3, Noise::kOutput, 1000},
                                          Case{3, Noise::kOutput, 500}),
                          CaseName);
 
-// Below the target today (counts in the README, issue 15 section).
+// Below the target: billings EE at N = 500 (14/20). In the misses the data prefer y(k-2)^3 to
+// the true y(k-2)^2 (coefficient -0.05): both the identification J and the cross-validated J
+// of the selected model are below the true structure's, so no selection by these criteria
+// can pick the truth there.
 INSTANTIATE_TEST_SUITE_P(DISABLED_BelowTarget, SemRecoveryTest,
-                         testing::Values(Case{0, Noise::kEquation, 500},
-                                         Case{0, Noise::kOutput, 500},
-                                         Case{1, Noise::kOutput, 1000},
-                                         Case{1, Noise::kOutput, 500},
-                                         Case{3, Noise::kEquation, 1000},
-                                         Case{3, Noise::kEquation, 500}),
-                         CaseName);
+                         testing::Values(Case{0, Noise::kEquation, 500}), CaseName);
 
 }  // namespace
 }  // namespace mrd::test
