@@ -91,6 +91,67 @@ class Evaluator {
     return std::isfinite(cost) ? cost : std::numeric_limits<double>::infinity();
   }
 
+  // A structure prepared for repeated free runs (the refinement's many runs of one structure):
+  // per term, the product of its input factors over every row, and its output factors.
+  struct OutFactor {
+    Transform transform;
+    double exponent;
+    std::size_t delay;
+    int power;
+  };
+  struct Prepared {
+    std::vector<std::vector<double>> input;  // [term][row]
+    std::vector<std::vector<OutFactor>> out;  // [term]
+  };
+  Prepared Prepare(const std::vector<SemTerm>& terms) const {
+    Prepared p;
+    const std::vector<double> none;
+    for (const SemTerm& t : terms) {
+      std::vector<double> in(rec_.y.size(), 1.0);
+      std::vector<OutFactor> out;
+      for (const auto& f : t.factors) {
+        const auto& reg = spec_.regressors[static_cast<std::size_t>(f.regressor)];
+        const auto& x = rec_.input[static_cast<std::size_t>(f.regressor)];
+        const auto d = static_cast<std::size_t>(f.delay);
+        if (x.empty()) {
+          out.push_back({reg.transform, reg.exponent, d, f.power});
+          continue;
+        }
+        for (std::size_t k = d; k < in.size(); ++k) in[k] *= IntPow(x[k - d], f.power);
+      }
+      p.input.push_back(std::move(in));
+      p.out.push_back(std::move(out));
+    }
+    return p;
+  }
+
+  // FreeRun of a prepared structure; ys: scratch for the output history.
+  double FreeRun(const Prepared& p, const Eigen::VectorXd& theta, std::size_t a, std::size_t b,
+                 std::vector<double>& ys, std::vector<double>* residual) const {
+    ys.assign(rec_.y.begin(), rec_.y.begin() + static_cast<std::ptrdiff_t>(b));
+    double cost = 0.0;
+    const std::size_t m = p.input.size();
+    for (std::size_t k = a; k < b; ++k) {
+      double v = 0.0;
+      for (std::size_t i = 0; i < m; ++i) {
+        double t = theta(static_cast<Eigen::Index>(i)) * p.input[i][k];
+        for (const OutFactor& f : p.out[i]) {
+          t *= IntPow(f.transform == Transform::kIdentity
+                          ? ys[k - f.delay]
+                          : ApplyTransform(f.transform, f.exponent, ys[k - f.delay]),
+                      f.power);
+        }
+        v += t;
+      }
+      if (!(std::fabs(v) <= spec_.divergence_limit)) return std::numeric_limits<double>::infinity();
+      ys[k] = v;
+      const double e = rec_.y[k] - v;
+      cost += rec_.w[k] * e * e;
+      if (residual != nullptr) residual->push_back(e);
+    }
+    return std::isfinite(cost) ? cost : std::numeric_limits<double>::infinity();
+  }
+
  private:
   const SemSpec& spec_;
   Record rec_;

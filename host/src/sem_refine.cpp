@@ -19,19 +19,23 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kMaxSteps = 30;           // LM steps (accepted or not)
-constexpr double kRelStop = 1e-7;       // stop when an accepted step lowers J by less
+constexpr double kRelStop = 1e-6;       // stop when an accepted step lowers J by less
 constexpr double kDiffStep = 1e-6;      // forward-difference step, relative (abs floor 1e-8)
 
 // Weighted free-run residual sqrt(w_k) (y_k - ysim_k) over every scored row of every record;
 // false when a run diverges.
-bool Residual(const std::vector<Evaluator>& ev, const std::vector<SemTerm>& terms,
+bool Residual(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Prepared>& prepared,
               const Eigen::VectorXd& theta, Eigen::VectorXd* r) {
-  std::vector<double> all, e;
-  for (const Evaluator& x : ev) {
-    const Record& rec = x.record();
+  std::vector<double> all, e, ys;
+  for (std::size_t i = 0; i < ev.size(); ++i) {
+    const Record& rec = ev[i].record();
     e.clear();
-    if (!std::isfinite(x.FreeRun(terms, theta, rec.first, rec.y.size(), &e))) return false;
-    for (std::size_t i = 0; i < e.size(); ++i) all.push_back(std::sqrt(rec.w[rec.first + i]) * e[i]);
+    if (!std::isfinite(ev[i].FreeRun(prepared[i], theta, rec.first, rec.y.size(), ys, &e))) {
+      return false;
+    }
+    for (std::size_t k = 0; k < e.size(); ++k) {
+      all.push_back(std::sqrt(rec.w[rec.first + k]) * e[k]);
+    }
   }
   *r = Eigen::Map<Eigen::VectorXd>(all.data(), static_cast<Eigen::Index>(all.size()));
   return true;
@@ -45,8 +49,10 @@ double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm
   const auto m = static_cast<Eigen::Index>(terms.size());
   Eigen::VectorXd theta(m);
   for (Eigen::Index i = 0; i < m; ++i) theta(i) = (*coefficients)[static_cast<std::size_t>(i)];
+  std::vector<Evaluator::Prepared> prepared;
+  for (const Evaluator& e : ev) prepared.push_back(e.Prepare(terms));
   Eigen::VectorXd r;
-  if (!Residual(ev, terms, theta, &r)) return kInf;
+  if (!Residual(ev, prepared, theta, &r)) return kInf;
   double j = r.squaredNorm();
   if (residual != nullptr) *residual = r;
   if (jacobian != nullptr) jacobian->resize(r.size(), m);
@@ -61,12 +67,12 @@ double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm
       Eigen::VectorXd tp = theta, rc;
       const double h = kDiffStep * std::max(std::fabs(theta(c)), 1e-2);
       tp(c) += h;
-      if (Residual(ev, terms, tp, &rc)) {
+      if (Residual(ev, prepared, tp, &rc)) {
         jac.col(c) = (rc - r) / h;
         return;
       }
       tp(c) = theta(c) - h;
-      if (Residual(ev, terms, tp, &rc)) {
+      if (Residual(ev, prepared, tp, &rc)) {
         jac.col(c) = (r - rc) / h;
       } else {
         ok = false;  // on the edge of divergence
@@ -93,7 +99,7 @@ double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm
     const Eigen::VectorXd delta = damped.ldlt().solve(-g);
     if (!delta.allFinite()) break;
     const Eigen::VectorXd cand = theta + delta;
-    if (Residual(ev, terms, cand, &rt) && rt.squaredNorm() < j) {
+    if (Residual(ev, prepared, cand, &rt) && rt.squaredNorm() < j) {
       const double jn = rt.squaredNorm();
       const bool done = j - jn < kRelStop * j;
       theta = cand;
