@@ -112,11 +112,14 @@ void ExpectCleanLoop(const json& f, const json& h) {
   EXPECT_LE(gpio["rx_ok"].get<long>(), edges_written);
   EXPECT_EQ(gpio["rx_rejected"].get<int>(), 0);
   EXPECT_EQ(gpio["tx_failed"].get<int>(), 0);
-  EXPECT_GT(gpio["tx_ok"].get<long>(), 2 * 2500);  // enable and heartbeat every period
   EXPECT_GT(can["rx_ok"].get<long>(), 2000);
   EXPECT_EQ(can["rx_rejected"].get<int>(), 0);
   const auto ticks = f["ticks"].get<long>();
-  EXPECT_GT(ticks, 2500);
+  // Every period of the run (3 s or 3.5 s at 1 kHz) was run or counted missed; a loaded
+  // machine (shared cores, no SCHED_FIFO) may make the loop miss some, never most.
+  EXPECT_GE(ticks + f["missed_periods"].get<long>(), 2990);
+  EXPECT_GT(ticks, 2000);
+  EXPECT_GE(gpio["tx_ok"].get<long>(), 2 * ticks);  // enable and heartbeat every period
   EXPECT_LT(f["overruns"].get<long>(), ticks / 10);
   EXPECT_EQ(f["watchdog"]["gpio_bus"]["trips"].get<int>(), 0);
   EXPECT_EQ(f["watchdog"]["can_bus"]["trips"].get<int>(), 0);
@@ -137,7 +140,10 @@ TEST(GpioIntegration, FaultLineTakesTheFirmwareToTheSafeStateAndItRecovers) {
   ASSERT_TRUE(RunBoth(s, 4.5, 3.5, "", "1.5:2.5", &f, &h));
   ExpectCleanLoop(f, h);
   EXPECT_EQ(f["watchdog"]["fault_line"]["trips"].get<int>(), 1);
-  EXPECT_GT(f["watchdog"]["fault_line"]["periods"].get<int>(), 800);
+  // Safe for most of the 1 s fault: > 80 % of the periods the loop ran in that second.
+  const double ran = f["ticks"].get<double>() /
+                     (f["ticks"].get<double>() + f["missed_periods"].get<double>());
+  EXPECT_GT(f["watchdog"]["fault_line"]["periods"].get<int>(), 800 * ran);
   EXPECT_GT(h["fault_steps"].get<int>(), 900);
   // The coil dropped within a few periods of the fault (enable low seen by the harness)...
   EXPECT_LT(h["fault_driven_steps"].get<int>(), 30);

@@ -1,6 +1,6 @@
 // The Modbus device (firmware/io) against real servers: mrd-hil's libmodbus port on
 // 127.0.0.1 and on a pty pair, and scripted peers for the faults (exception response,
-// timeout, CRC error, reserved bits, frozen sensors, peer gone and back, bad set-point).
+// timeout, CRC error, late RTU reply, reserved bits, frozen sensors, peer gone and back, bad set-point).
 #include "mrd/firmware/io/modbus_device.hpp"
 
 #include <gtest/gtest.h>
@@ -192,7 +192,7 @@ TEST(ModbusDeviceTest, SilentPeerTimesOutAndTheTickKeepsReturning) {
 
 TEST(ModbusDeviceTest, RtuCrcErrorIsRejectedAndCounted) {
   const std::string path = PtyPath("crc");
-  test::BadCrcRtuPeer peer(path);
+  test::ScriptedRtuPeer peer(path, test::RtuScript::kBadCrc);
   ModbusDevice device(RtuConfig(path));
   std::string error;
   ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
@@ -205,6 +205,32 @@ TEST(ModbusDeviceTest, RtuCrcErrorIsRejectedAndCounted) {
   EXPECT_GT(c.errors[static_cast<int>(IoError::kCrc)], 0U);
   EXPECT_GT(c.rx_rejected, 0U);
   EXPECT_EQ(c.rx_ok, 0U);
+}
+
+// RTU has no transaction id: a reply that comes after the timeout must be discarded, not
+// taken as the answer to the retry (and every reply after it refused as the wrong one).
+TEST(ModbusDeviceTest, RtuLateReplyIsDiscardedNotTakenForTheNextRequest) {
+  const std::string path = PtyPath("late");
+  test::ScriptedRtuPeer peer(path, test::RtuScript::kLateOnce, /*late_index=*/6,
+                             /*late_ms=*/35);  // the device waits 20 ms
+  ModbusDevice device(RtuConfig(path));
+  std::string error;
+  ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
+  IoError why = IoError::kNone;
+  std::uint64_t tick = 0;
+  ASSERT_TRUE(WaitFor([&] {  // reads and writes interleaved, as the loop drives them
+    (void)device.Write({1.0, true, false, ++tick}, &why);
+    return peer.answers() > 40;
+  }));
+  device.Deactivate();
+  const DeviceCounters c = device.counters();
+  EXPECT_EQ(c.errors[static_cast<int>(IoError::kTimeout)], 1U);
+  EXPECT_EQ(c.errors[static_cast<int>(IoError::kRejectedFrame)], 0U);
+  EXPECT_EQ(c.errors[static_cast<int>(IoError::kCrc)], 0U);
+  EXPECT_EQ(c.rx_rejected, 0U);
+  EXPECT_EQ(c.tx_failed, 0U);  // the retry after the quiet line got its own answer
+  EXPECT_GT(c.rx_ok, 10U);
+  EXPECT_GT(c.tx_ok, 10U);
 }
 
 TEST(ModbusDeviceTest, ReservedFaultBitsAreABadValue) {

@@ -88,22 +88,35 @@ TEST_P(ModbusIntegrationTest, FirmwareClosesTheLoopOverModbus) {
   ASSERT_TRUE(f.contains("devices") && f["devices"].contains("modbus")) << f.dump(2);
   const json& d = f["devices"]["modbus"];
   const auto ticks = f["ticks"].get<std::uint64_t>();
-  EXPECT_GT(ticks, 3000U);  // 4 s at 1 kHz, tolerant of a loaded machine
-  EXPECT_GT(d["rx_ok"].get<std::uint64_t>(), 2000U) << d.dump();
-  EXPECT_GT(d["tx_ok"].get<std::uint64_t>(), 2000U) << d.dump();
+  // Every period of the 4 s at 1 kHz was run or counted missed. A loaded machine (shared
+  // cores, no SCHED_FIFO) may make the loop miss some periods, never most.
+  EXPECT_GE(ticks + f["missed_periods"].get<std::uint64_t>(), 3990U) << f.dump(2);
+  EXPECT_GT(ticks, 2000U) << f.dump(2);
+  const auto rx_ok = d["rx_ok"].get<std::uint64_t>();
+  const auto tx_ok = d["tx_ok"].get<std::uint64_t>();
+  // The loop closed over the bus: most periods the loop ran got fresh data and sent.
+  EXPECT_GT(rx_ok, ticks / 2) << d.dump();
+  EXPECT_GT(tx_ok, ticks / 2) << d.dump();
+  // No peer fault here, but a loaded machine may delay a reply past the 20 ms timeout: rare
+  // (at most 1 % of the exchanges). The driver discards such a late reply, so it never
+  // becomes a refused frame or a CRC error, and a write fails only when its retry timed out
+  // too (two timeouts).
+  const auto timeouts = d["errors"]["timeout"].get<std::uint64_t>();
+  EXPECT_LE(100 * timeouts, rx_ok + tx_ok) << d.dump();
+  EXPECT_LE(2 * d["tx_failed"].get<std::uint64_t>(), timeouts) << d.dump();
   EXPECT_EQ(d["rx_rejected"].get<std::uint64_t>(), 0U) << d.dump();
-  EXPECT_EQ(d["tx_failed"].get<std::uint64_t>(), 0U) << d.dump();
-  EXPECT_EQ(d["errors"]["crc"].get<std::uint64_t>(), 0U);
-  EXPECT_EQ(d["errors"]["exception"].get<std::uint64_t>(), 0U);
+  EXPECT_EQ(d["errors"]["rejected_frame"].get<std::uint64_t>(), 0U) << d.dump();
+  EXPECT_EQ(d["errors"]["crc"].get<std::uint64_t>(), 0U) << d.dump();
+  EXPECT_EQ(d["errors"]["exception"].get<std::uint64_t>(), 0U) << d.dump();
   EXPECT_LT(f["safe_periods"].get<std::uint64_t>(), ticks / 4) << f.dump(2);
   // No peer fault here; a loaded machine (sanitizer build, shared cores, no SCHED_FIFO) may
   // still delay one reply past max_age: a trip or two, never a sustained safe state (above).
   EXPECT_LE(f["watchdog"]["modbus_bus"]["trips"].get<std::uint64_t>(), 2U);
   EXPECT_TRUE(f["final_safe_state"].get<bool>());
   EXPECT_EQ(h["invariant_violations"].get<std::uint64_t>(), 0U) << h.dump(2);
-  EXPECT_GT(h["commands"].get<std::uint64_t>(), 2000U) << h.dump(2);
+  EXPECT_GT(h["commands"].get<std::uint64_t>(), ticks / 2) << h.dump(2);
   EXPECT_GT(h["enabled_steps"].get<std::uint64_t>(), 2000U) << h.dump(2);
-  EXPECT_GT(h["latency_us"]["count"].get<std::uint64_t>(), 1000U) << h.dump(2);
+  EXPECT_GT(h["latency_us"]["count"].get<std::uint64_t>(), ticks / 4) << h.dump(2);
   EXPECT_EQ(
       h["ports"][GetParam().rtu ? "modbus-rtu" : "modbus-tcp"]["rejected"].get<std::uint64_t>(),
       0U);
@@ -124,7 +137,9 @@ TEST_P(ModbusIntegrationTest, PeerKilledAndRestartedTripsTheWatchdogAndRecovers)
   const json f = Parse(*fw), h = Parse(*hil2);
   const json& d = f["devices"]["modbus"];
   const auto ticks = f["ticks"].get<std::uint64_t>();
-  EXPECT_GT(ticks, 3750U) << "the loop stalled";  // 5 s at 1 kHz: it kept ticking
+  // 5 s at 1 kHz: every period run or counted missed, most of them run: it kept ticking.
+  EXPECT_GE(ticks + f["missed_periods"].get<std::uint64_t>(), 4990U) << "the loop stalled";
+  EXPECT_GT(ticks, 2500U) << "the loop stalled";
   EXPECT_GE(f["watchdog"]["modbus_bus"]["trips"].get<std::uint64_t>(), 1U) << f.dump(2);
   EXPECT_GE(f["watchdog"]["stale_sensor"]["trips"].get<std::uint64_t>(), 1U) << f.dump(2);
   // Safe for the outage (~0.7 s plus reconnecting), not for the whole run.
@@ -147,7 +162,9 @@ TEST_P(ModbusIntegrationTest, NoPeerKeepsTheSafeStateAndSaysSo) {
       << fw->Stderr();
   const json f = Parse(*fw);
   const json& d = f["devices"]["modbus"];
-  EXPECT_GT(f["ticks"].get<std::uint64_t>(), 750U);  // the loop ran regardless
+  // The loop ran regardless: each of the 1000 periods run or counted missed, most run.
+  EXPECT_GE(f["ticks"].get<std::uint64_t>() + f["missed_periods"].get<std::uint64_t>(), 990U);
+  EXPECT_GT(f["ticks"].get<std::uint64_t>(), 500U);
   EXPECT_EQ(f["safe_periods"].get<std::uint64_t>(), f["ticks"].get<std::uint64_t>());
   EXPECT_GE(f["watchdog"]["modbus_bus"]["trips"].get<std::uint64_t>(), 1U);
   EXPECT_EQ(d["rx_ok"].get<std::uint64_t>(), 0U);

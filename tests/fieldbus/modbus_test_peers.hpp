@@ -1,7 +1,7 @@
 #pragma once
 // Scripted Modbus peers for the device tests: a libmodbus TCP server on 127.0.0.1 that
 // answers from a register map, answers every request with an exception, or never answers;
-// and an RTU peer on a pseudo-terminal that answers with a corrupted CRC.
+// and an RTU peer on a pseudo-terminal that answers with a corrupted CRC or once too late.
 
 #include <modbus/modbus.h>
 #include <netinet/in.h>
@@ -134,11 +134,17 @@ inline std::uint16_t Crc16(const std::uint8_t* p, std::size_t n) {
   return crc;
 }
 
-// An RTU peer on a pty (link path = the slave) that answers every request well-formed but
-// with the CRC's bits flipped.
-class BadCrcRtuPeer {
+// An RTU peer on a pty (link path = the slave). Reads get a sensor block whose sequence
+// number grows with every answer; writes are acknowledged (address and count echoed).
+// kBadCrc: every answer has its CRC's bits flipped. kLateOnce: answer number late_index
+// (from 0) is sent late_ms after its request (past the master's response timeout), the
+// others at once.
+enum class RtuScript { kBadCrc, kLateOnce };
+
+class ScriptedRtuPeer {
  public:
-  explicit BadCrcRtuPeer(std::string link) : link_(std::move(link)) {
+  ScriptedRtuPeer(std::string link, RtuScript script, int late_index = 0, int late_ms = 0)
+      : link_(std::move(link)), script_(script), late_index_(late_index), late_ms_(late_ms) {
     char name[128] = {};
     openpty(&master_, &slave_, name, nullptr, nullptr);
     termios t{};
@@ -149,7 +155,7 @@ class BadCrcRtuPeer {
     symlink(name, link_.c_str());
     thread_ = std::thread([this] { Run(); });
   }
-  ~BadCrcRtuPeer() {
+  ~ScriptedRtuPeer() {
     running_ = false;
     thread_.join();
     close(master_);
@@ -169,23 +175,35 @@ class BadCrcRtuPeer {
       usleep(2000);  // let the whole request arrive
       std::uint8_t req[300];
       const ssize_t n = read(master_, req, sizeof req);
-      if (n < 4) continue;
+      if (n < 8) continue;
       std::vector<std::uint8_t> rsp = {req[0], req[1]};
       if (req[1] == 0x03) {
         const int count = (req[4] << 8) | req[5];
         rsp.push_back(static_cast<std::uint8_t>(2 * count));
         rsp.resize(rsp.size() + static_cast<std::size_t>(2 * count), 0);
+        const std::size_t lo = 3 + 2 * (protocol::modbus::kSeq + 1);  // low word of the seq
+        const int seq = answers_.load() + 1;
+        if (rsp.size() >= lo + 2) {
+          rsp.at(lo) = static_cast<std::uint8_t>(seq >> 8);
+          rsp.at(lo + 1) = static_cast<std::uint8_t>(seq & 0xFF);
+        }
       } else {  // 0x10 echo of address and count
         rsp.insert(rsp.end(), req + 2, req + 6);
       }
-      const std::uint16_t crc = static_cast<std::uint16_t>(Crc16(rsp.data(), rsp.size()) ^ 0xFFFFU);
+      std::uint16_t crc = Crc16(rsp.data(), rsp.size());
+      if (script_ == RtuScript::kBadCrc) crc = static_cast<std::uint16_t>(crc ^ 0xFFFFU);
       rsp.push_back(static_cast<std::uint8_t>(crc & 0xFF));
       rsp.push_back(static_cast<std::uint8_t>(crc >> 8));
+      if (script_ == RtuScript::kLateOnce && answers_.load() == late_index_) {
+        usleep(static_cast<useconds_t>(late_ms_) * 1000U);
+      }
       if (write(master_, rsp.data(), rsp.size()) > 0) ++answers_;
     }
   }
 
   std::string link_;
+  RtuScript script_;
+  int late_index_, late_ms_;
   int master_ = -1, slave_ = -1;
   std::atomic<bool> running_{true};
   std::atomic<int> answers_{0};

@@ -25,6 +25,7 @@ constexpr std::int64_t kBackoffMinNs = 5'000'000;
 constexpr std::int64_t kBackoffMaxNs = 200'000'000;
 constexpr std::int64_t kSleepSliceNs = 5'000'000;  // Deactivate waits at most this long
 constexpr int kReadAttempts = 4;                   // seqlock attempts per Read on the tick
+constexpr int kMaxResyncRounds = 4;  // quiet-line waits after a failed exchange, at most
 
 constexpr std::int64_t kLockstepIdleNs = 20'000;             // between reads without a new grant
 constexpr std::int64_t kLockstepCommandWaitNs = 100'000'000;  // for the tick's command
@@ -196,6 +197,25 @@ void ModbusDevice::Disconnect() {
   connected_ = false;
 }
 
+void ModbusDevice::Resync() {
+  // A failed exchange may leave a reply on its way: the peer answered after the timeout, or
+  // the rest of a frame torn by a stall. RTU has no transaction id, so that late reply would
+  // be taken as the answer to the next request, and each reply after it refused as the wrong
+  // one: one late peer became a run of refused frames. Discard input until the line has been
+  // quiet for one response timeout (at most kMaxResyncRounds waits; worker thread only).
+  const int fd = modbus_get_socket(ctx_);
+  const std::int64_t quiet = config_.response_timeout_ns;
+  const timespec ts{static_cast<time_t>(quiet / 1'000'000'000),
+                    static_cast<long>(quiet % 1'000'000'000)};
+  for (int round = 0; round < kMaxResyncRounds; ++round) {
+    modbus_flush(ctx_);
+    if (fd < 0 || !running_.load(std::memory_order_relaxed)) return;
+    pollfd p{fd, POLLIN, 0};
+    if (ppoll(&p, 1, &ts, nullptr) <= 0) return;  // quiet (or an error the next request sees)
+  }
+  modbus_flush(ctx_);
+}
+
 void ModbusDevice::Count(IoError e) {
   errors_[static_cast<std::size_t>(e)].fetch_add(1, std::memory_order_relaxed);
   last_error_.store(static_cast<std::uint8_t>(e), std::memory_order_relaxed);
@@ -211,7 +231,7 @@ bool ModbusDevice::ReadSensors(std::uint16_t* regs, int count, IoError* why) {
     if (*why != IoError::kTimeout && *why != IoError::kDisconnected) {
       rx_rejected_.fetch_add(1, std::memory_order_relaxed);  // a reply came and was refused
     }
-    if (*why != IoError::kDisconnected) modbus_flush(ctx_);
+    if (*why != IoError::kDisconnected) Resync();
     if (!Retriable(*why)) return false;
   }
   return false;
@@ -246,7 +266,7 @@ bool ModbusDevice::WriteCommand(const Command& c, IoError* why) {
     }
     *why = Classify(errno);
     Count(*why);
-    if (*why != IoError::kDisconnected) modbus_flush(ctx_);
+    if (*why != IoError::kDisconnected) Resync();
     if (!Retriable(*why)) break;
   }
   tx_failed_.fetch_add(1, std::memory_order_relaxed);

@@ -97,6 +97,7 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   // One transaction with retries; true on success, else *why (counted).
   bool ReadSensors(std::uint16_t* regs, int count, IoError* why);
   bool WriteCommand(const Command& c, IoError* why);
+  void Resync();  // after a failed exchange: discard input until the line is quiet
   void Count(IoError e);
 
   ModbusConfig config_;
