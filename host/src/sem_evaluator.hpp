@@ -71,28 +71,9 @@ class Evaluator {
     return v;
   }
 
-  // Weighted squared free-run error over rows [a, b), seeded by the measured output before a;
-  // +inf when the run leaves |y| <= divergence_limit or is not finite.
-  double FreeRun(const std::vector<SemTerm>& terms, const Eigen::VectorXd& theta, std::size_t a,
-                 std::size_t b, std::vector<double>* residual = nullptr) const {
-    std::vector<double> ys(rec_.y.begin(), rec_.y.begin() + static_cast<std::ptrdiff_t>(b));
-    double cost = 0.0;
-    for (std::size_t k = a; k < b; ++k) {
-      double v = 0.0;
-      for (std::size_t i = 0; i < terms.size(); ++i) {
-        v += theta(static_cast<Eigen::Index>(i)) * Term(terms[i], ys, k);
-      }
-      if (!(std::fabs(v) <= spec_.divergence_limit)) return std::numeric_limits<double>::infinity();
-      ys[k] = v;
-      const double e = rec_.y[k] - v;
-      cost += rec_.w[k] * e * e;
-      if (residual != nullptr) residual->push_back(e);
-    }
-    return std::isfinite(cost) ? cost : std::numeric_limits<double>::infinity();
-  }
-
-  // A structure prepared for repeated free runs (the refinement's many runs of one structure):
-  // per term, the product of its input factors over every row, and its output factors.
+  // A structure prepared for free runs (the refinement's and the cross-validation's many runs
+  // of one structure): per term, the product of its input factors over every row, and its
+  // output factors.
   struct OutFactor {
     Transform transform;
     double exponent;
@@ -105,7 +86,6 @@ class Evaluator {
   };
   Prepared Prepare(const std::vector<SemTerm>& terms) const {
     Prepared p;
-    const std::vector<double> none;
     for (const SemTerm& t : terms) {
       std::vector<double> in(rec_.y.size(), 1.0);
       std::vector<OutFactor> out;
@@ -125,7 +105,9 @@ class Evaluator {
     return p;
   }
 
-  // FreeRun of a prepared structure; ys: scratch for the output history.
+  // Weighted squared free-run error of a prepared structure over rows [a, b), seeded by the
+  // measured output before a; +inf when the run leaves |y| <= divergence_limit or is not
+  // finite. ys: scratch for the output history; residual (optional) receives y - ysim.
   double FreeRun(const Prepared& p, const Eigen::VectorXd& theta, std::size_t a, std::size_t b,
                  std::vector<double>& ys, std::vector<double>* residual) const {
     ys.assign(rec_.y.begin(), rec_.y.begin() + static_cast<std::ptrdiff_t>(b));

@@ -26,8 +26,28 @@ std::size_t Bound(const Record& r, int f, int folds) {
   return r.first + n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
 }
 
+std::vector<Evaluator::Prepared> PrepareAll(const std::vector<Evaluator>& ev,
+                                            const std::vector<SemTerm>& terms) {
+  std::vector<Evaluator::Prepared> out;
+  for (const Evaluator& e : ev) out.push_back(e.Prepare(terms));
+  return out;
+}
+
+// Free-run cost over fold f of every record (FreeRun of each, summed).
+double FoldRun(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Prepared>& prepared,
+               const Eigen::VectorXd& theta, int f, int folds) {
+  std::vector<double> ys;
+  double cost = 0.0;
+  for (std::size_t i = 0; i < ev.size(); ++i) {
+    cost += ev[i].FreeRun(prepared[i], theta, Bound(ev[i].record(), f, folds),
+                          Bound(ev[i].record(), f + 1, folds), ys, nullptr);
+  }
+  return cost;
+}
+
 std::vector<double> FoldCosts(const std::vector<Evaluator>& ev,
                               const std::vector<SemTerm>& terms, int folds) {
+  const auto prepared = PrepareAll(ev, terms);
   const auto m = static_cast<Eigen::Index>(terms.size());
   const auto nf = static_cast<std::size_t>(folds);
   // Per fold: Gram matrix and right-hand side of the one-step regression on its rows.
@@ -72,10 +92,7 @@ std::vector<double> FoldCosts(const std::vector<Evaluator>& ev,
       out[fi] = kInf;
       continue;
     }
-    for (const Evaluator& e : ev) {
-      out[fi] += e.FreeRun(terms, theta, Bound(e.record(), f, folds),
-                           Bound(e.record(), f + 1, folds));
-    }
+    out[fi] = FoldRun(ev, prepared, theta, f, folds);
   }
   return out;
 }
@@ -92,6 +109,7 @@ std::vector<double> RefinedFoldCosts(const std::vector<Evaluator>& ev,
   Eigen::MatrixXd jac;
   Eigen::VectorXd r;
   *j_refined = internal::RefineFreeRun(ev, terms, coefficients, 1, &jac, &r);
+  const auto prepared = PrepareAll(ev, terms);
   if (!std::isfinite(*j_refined)) return std::vector<double>(nf, kInf);
   const auto m = static_cast<Eigen::Index>(terms.size());
   Eigen::VectorXd theta(m);
@@ -115,10 +133,7 @@ std::vector<double> RefinedFoldCosts(const std::vector<Evaluator>& ev,
     Eigen::VectorXd tf = theta;
     if (m > 0) tf -= g.ldlt().solve(b);
     if (!tf.allFinite()) tf = theta;
-    for (const Evaluator& e : ev) {
-      out[static_cast<std::size_t>(f)] +=
-          e.FreeRun(terms, tf, Bound(e.record(), f, folds), Bound(e.record(), f + 1, folds));
-    }
+    out[static_cast<std::size_t>(f)] = FoldRun(ev, prepared, tf, f, folds);
   }
   return out;
 }
@@ -248,10 +263,11 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   for (std::size_t i = 0; i < its[low].coefficients.size(); ++i) {
     theta(static_cast<Eigen::Index>(i)) = its[low].coefficients[i];
   }
+  std::vector<double> ys;
   for (const Evaluator& e : ev) {
     std::vector<double> residual;
-    if (std::isfinite(e.FreeRun(its[low].terms, theta, e.record().first, e.record().y.size(),
-                                &residual))) {
+    if (std::isfinite(e.FreeRun(e.Prepare(its[low].terms), theta, e.record().first,
+                                e.record().y.size(), ys, &residual))) {
       n_eff += EffectiveSamples(residual);
     } else {
       n_eff += static_cast<double>(e.record().y.size() - e.record().first);
