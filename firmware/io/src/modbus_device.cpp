@@ -188,6 +188,7 @@ bool ModbusDevice::Connect() {
   connected_ = true;
   if (ever_connected_) reconnects_.fetch_add(1, std::memory_order_relaxed);
   ever_connected_ = true;
+  resync_ = false;
   modbus_flush(ctx_);
   return true;
 }
@@ -202,7 +203,9 @@ void ModbusDevice::Resync() {
   // the rest of a frame torn by a stall. RTU has no transaction id, so that late reply would
   // be taken as the answer to the next request, and each reply after it refused as the wrong
   // one: one late peer became a run of refused frames. Discard input until the line has been
-  // quiet for one response timeout (at most kMaxResyncRounds waits; worker thread only).
+  // quiet for one response timeout (at most kMaxResyncRounds waits; worker thread only),
+  // before the next request: the failure itself is reported at once.
+  resync_ = false;
   const int fd = modbus_get_socket(ctx_);
   const std::int64_t quiet = config_.response_timeout_ns;
   const timespec ts{static_cast<time_t>(quiet / 1'000'000'000),
@@ -223,6 +226,7 @@ void ModbusDevice::Count(IoError e) {
 
 bool ModbusDevice::ReadSensors(std::uint16_t* regs, int count, IoError* why) {
   for (int attempt = 0; attempt <= config_.retries; ++attempt) {
+    if (resync_) Resync();
     if (modbus_read_registers(ctx_, map::kSensorBase, count, regs) == count) {
       return true;
     }
@@ -231,7 +235,7 @@ bool ModbusDevice::ReadSensors(std::uint16_t* regs, int count, IoError* why) {
     if (*why != IoError::kTimeout && *why != IoError::kDisconnected) {
       rx_rejected_.fetch_add(1, std::memory_order_relaxed);  // a reply came and was refused
     }
-    if (*why != IoError::kDisconnected) Resync();
+    resync_ = *why != IoError::kDisconnected;
     if (!Retriable(*why)) return false;
   }
   return false;
@@ -259,6 +263,7 @@ bool ModbusDevice::WriteCommand(const Command& c, IoError* why) {
     return false;
   }
   for (int attempt = 0; attempt <= config_.retries; ++attempt) {
+    if (resync_) Resync();
     if (modbus_write_registers(ctx_, map::kCommandBase, map::kCommandCount, regs) ==
         map::kCommandCount) {
       tx_ok_.fetch_add(1, std::memory_order_relaxed);
@@ -266,7 +271,7 @@ bool ModbusDevice::WriteCommand(const Command& c, IoError* why) {
     }
     *why = Classify(errno);
     Count(*why);
-    if (*why != IoError::kDisconnected) Resync();
+    resync_ = *why != IoError::kDisconnected;
     if (!Retriable(*why)) break;
   }
   tx_failed_.fetch_add(1, std::memory_order_relaxed);

@@ -103,6 +103,7 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   ModbusConfig config_;
   modbus_t* ctx_ = nullptr;
   bool connected_ = false;
+  bool resync_ = false;  // a transaction failed: wait for a quiet line before the next one
   bool ever_connected_ = false;
   pthread_t thread_{};
   bool thread_started_ = false;
