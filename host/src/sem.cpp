@@ -961,7 +961,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     // squares did, and (with validation data) makes no validation set's J worse.
     if (spec.refine && !model.empty()) {
       std::vector<double> refined = theta;
-      const double jr = internal::RefineFreeRun(evaluators, it.terms, &refined, o.threads);
+      const double jr = internal::RefineFreeRun(evaluators, it.terms, &refined);
       const StressVerdict sv = jr < j ? stress_of(model, refined) : StressVerdict{};
       const std::vector<double> vj = jr < j ? validate(refined) : std::vector<double>{};
       bool no_worse = true;  // on every validation set

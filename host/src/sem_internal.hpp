@@ -14,14 +14,13 @@ class Evaluator;  // sem_evaluator.hpp
 
 // Output-error refinement: Levenberg-Marquardt on the free-run J of `terms` over the records,
 // from *coefficients (normalised units, replaced by the refined ones). Returns the refined J
-// (never above the start's; +inf when the start diverges). Finite-difference Jacobian: about
-// (terms + 1) free runs per step.
+// (never above the start's; +inf when the start diverges). Analytic Jacobian (the free run's
+// sensitivity recursion): about two free runs' work per step.
 // jacobian / residual (optional): d residual / d coefficient and the weighted residual
 // sqrt(w) (y - ysim) at the refined coefficients, rows = scored rows of every record in order.
-// threads: workers for the Jacobian's columns.
 double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm>& terms,
-                     std::vector<double>* coefficients, int threads,
-                     Eigen::MatrixXd* jacobian = nullptr, Eigen::VectorXd* residual = nullptr);
+                     std::vector<double>* coefficients, Eigen::MatrixXd* jacobian = nullptr,
+                     Eigen::VectorXd* residual = nullptr);
 
 // One elementary regressor over a whole record of raw values: T(raw / scale). Low-pass
 // filters start from r(-1) = 0 at the record's first sample, as ModelRunner after Reset.

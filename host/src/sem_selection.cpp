@@ -108,7 +108,7 @@ std::vector<double> RefinedFoldCosts(const std::vector<Evaluator>& ev,
   const auto nf = static_cast<std::size_t>(folds);
   Eigen::MatrixXd jac;
   Eigen::VectorXd r;
-  *j_refined = internal::RefineFreeRun(ev, terms, coefficients, 1, &jac, &r);
+  *j_refined = internal::RefineFreeRun(ev, terms, coefficients, &jac, &r);
   const auto prepared = PrepareAll(ev, terms);
   if (!std::isfinite(*j_refined)) return std::vector<double>(nf, kInf);
   const auto m = static_cast<Eigen::Index>(terms.size());
