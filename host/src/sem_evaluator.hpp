@@ -147,7 +147,7 @@ class Evaluator {
         v += t;
       }
       if (!(std::fabs(v) <= spec_.divergence_limit)) return std::numeric_limits<double>::infinity();
-      ys[k] = v;
+      ys[k] = v;  // the simulated output feeds back
       const double e = rec_.y[k] - v;
       cost += rec_.w[k] * e * e;
       if (residual != nullptr) residual->push_back(e);
