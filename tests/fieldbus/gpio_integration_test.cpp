@@ -127,9 +127,13 @@ void ExpectCleanLoop(const json& f, const json& h) {
   EXPECT_EQ(h["invariant_violations"].get<int>(), 0);
   EXPECT_GT(h["commands"].get<int>(), 1000);
   EXPECT_GT(h["ports"]["gpio"]["received"].get<long>(), 1000);  // heartbeat toggles
-  // The heartbeat stalled once: when the firmware exited (the harness outlives it).
+  // The heartbeat stalled once: when the firmware exited (the harness outlives it). A host
+  // that held the loop's thread for half the 50 ms heartbeat timeout or more (shared cores, no
+  // SCHED_FIFO) stalled the heartbeat for real, and the driver may have said so again.
   EXPECT_GE(h["heartbeat_timeouts"].get<int>(), 1);
-  EXPECT_LE(h["heartbeat_timeouts"].get<int>(), 2);
+  if (f["worst_latency_us"].get<double>() + f["worst_exec_us"].get<double>() < 25'000.0) {
+    EXPECT_LE(h["heartbeat_timeouts"].get<int>(), 2);
+  }
   EXPECT_DOUBLE_EQ(h["last_applied_v"].get<double>(), 0.0);
 }
 
