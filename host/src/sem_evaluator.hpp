@@ -129,49 +129,29 @@ class Evaluator {
   // Weighted squared free-run error of a prepared structure over rows [a, b), seeded by the
   // measured output before a; +inf when the run leaves |y| <= divergence_limit or is not
   // finite. ys: scratch for the output history; residual (optional) receives y - ysim.
-  double FreeRun(const Prepared& p, const Eigen::VectorXd& theta, std::size_t a, std::size_t b,
-                 std::vector<double>& ys, std::vector<double>* residual) const {
-    ys.assign(rec_.y.begin(), rec_.y.begin() + static_cast<std::ptrdiff_t>(b));
-    double cost = 0.0;
-    const std::size_t m = p.input.size();
-    for (std::size_t k = a; k < b; ++k) {
-      double v = 0.0;
-      for (std::size_t i = 0; i < m; ++i) {
-        double t = theta(static_cast<Eigen::Index>(i)) * p.input[i][k];
-        for (const OutFactor& f : p.out[i]) {
-          t *= IntPow(f.transform == Transform::kIdentity
-                          ? ys[k - f.delay]
-                          : ApplyTransform(f.transform, f.exponent, ys[k - f.delay]),
-                      f.power);
-        }
-        v += t;
-      }
-      if (!(std::fabs(v) <= spec_.divergence_limit)) return std::numeric_limits<double>::infinity();
-      ys[k] = v;  // the simulated output feeds back
-      const double e = rec_.y[k] - v;
-      cost += rec_.w[k] * e * e;
-      if (residual != nullptr) residual->push_back(e);
-    }
-    return std::isfinite(cost) ? cost : std::numeric_limits<double>::infinity();
-  }
-
-  // FreeRun with the sensitivities of the simulated output to theta: *sens (row-major, b - a
-  // rows of m) receives d ysim_k / d theta_j for k in [a, b). The measured output before a does
-  // not depend on theta; after it, by the chain rule through the output factors,
+  // sens (optional; row-major, b - a rows of m) receives the sensitivities d ysim_k / d theta_j
+  // for k in [a, b). The measured output before a does not depend on theta; after it, by the
+  // chain rule through the output factors,
   //   s_j(k) = phi_j(k) + sum_d (d ysim_k / d ysim_{k-d}) s_j(k-d).
-  // Cost and residual equal FreeRun's bit for bit; about twice its work, for all m columns.
-  double FreeRunSensitivity(const Prepared& p, const Eigen::VectorXd& theta, std::size_t a,
-                            std::size_t b, std::vector<double>& ys,
-                            std::vector<double>* residual, std::vector<double>* sens) const {
+  // The cost and residual do not depend on whether sens is asked for.
+  double FreeRun(const Prepared& p, const Eigen::VectorXd& theta, std::size_t a, std::size_t b,
+                 std::vector<double>& ys, std::vector<double>* residual,
+                 std::vector<double>* sens = nullptr) const {
     ys.assign(rec_.y.begin(), rec_.y.begin() + static_cast<std::ptrdiff_t>(b));
     const std::size_t m = p.input.size();
     std::size_t max_delay = 0, max_factors = 0;
-    for (const auto& out : p.out) {
-      max_factors = std::max(max_factors, out.size());
-      for (const OutFactor& f : out) max_delay = std::max(max_delay, f.delay);
+    std::vector<double> phi, slope, g, dg;  // sensitivities only
+    if (sens != nullptr) {
+      for (const auto& out : p.out) {
+        max_factors = std::max(max_factors, out.size());
+        for (const OutFactor& f : out) max_delay = std::max(max_delay, f.delay);
+      }
+      sens->assign((b - a) * m, 0.0);
+      phi.resize(m);
+      slope.resize(max_delay + 1);
+      g.resize(max_factors);
+      dg.resize(max_factors);
     }
-    sens->assign((b - a) * m, 0.0);
-    std::vector<double> phi(m), slope(max_delay + 1), g(max_factors), dg(max_factors);
     double cost = 0.0;
     for (std::size_t k = a; k < b; ++k) {
       std::fill(slope.begin(), slope.end(), 0.0);
@@ -179,21 +159,25 @@ class Evaluator {
       for (std::size_t i = 0; i < m; ++i) {
         const auto& out = p.out[i];
         const double th = theta(static_cast<Eigen::Index>(i));
-        double t = th * p.input[i][k];  // the product in FreeRun's order: the same ysim
-        double ph = p.input[i][k];
-        for (std::size_t q = 0; q < out.size(); ++q) {  // factor values and d factor / d y
+        double t = th * p.input[i][k];
+        for (std::size_t q = 0; q < out.size(); ++q) {
           const OutFactor& f = out[q];
           const double yd = ys[k - f.delay];
           const double x = f.transform == Transform::kIdentity
                                ? yd
                                : ApplyTransform(f.transform, f.exponent, yd);
-          g[q] = IntPow(x, f.power);
-          dg[q] = f.power * IntPow(x, f.power - 1) * TransformSlope(f.transform, f.exponent, yd);
-          t *= g[q];
-          ph *= g[q];
+          const double gq = IntPow(x, f.power);
+          t *= gq;
+          if (sens != nullptr) {  // factor value and d factor / d y
+            g[q] = gq;
+            dg[q] = f.power * IntPow(x, f.power - 1) * TransformSlope(f.transform, f.exponent, yd);
+          }
         }
-        phi[i] = ph;
         v += t;
+        if (sens == nullptr) continue;
+        double ph = p.input[i][k];
+        for (std::size_t q = 0; q < out.size(); ++q) ph *= g[q];
+        phi[i] = ph;
         for (std::size_t q = 0; q < out.size(); ++q) {  // product rule over the factors
           double d = th * p.input[i][k] * dg[q];
           for (std::size_t r = 0; r < out.size(); ++r) d *= r == q ? 1.0 : g[r];
@@ -201,10 +185,11 @@ class Evaluator {
         }
       }
       if (!(std::fabs(v) <= spec_.divergence_limit)) return std::numeric_limits<double>::infinity();
-      ys[k] = v;
+      ys[k] = v;  // the simulated output feeds back
       const double e = rec_.y[k] - v;
       cost += rec_.w[k] * e * e;
       if (residual != nullptr) residual->push_back(e);
+      if (sens == nullptr) continue;
       double* s = sens->data() + (k - a) * m;
       for (std::size_t j = 0; j < m; ++j) s[j] = phi[j];
       for (std::size_t d = 1; d <= max_delay && d <= k - a; ++d) {

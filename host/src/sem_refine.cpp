@@ -35,8 +35,8 @@ bool Residual(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Pre
   for (std::size_t i = 0; i < ev.size(); ++i) {
     const Record& rec = ev[i].record();
     e.clear();
-    if (!std::isfinite(ev[i].FreeRunSensitivity(prepared[i], theta, rec.first, rec.y.size(), ys,
-                                                &e, &sens))) {
+    const double cost = ev[i].FreeRun(prepared[i], theta, rec.first, rec.y.size(), ys, &e, &sens);
+    if (!std::isfinite(cost)) {
       return false;
     }
     for (std::size_t k = 0; k < e.size(); ++k, ++row) {
