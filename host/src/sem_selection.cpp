@@ -33,20 +33,42 @@ std::vector<Evaluator::Prepared> PrepareAll(const std::vector<Evaluator>& ev,
   return out;
 }
 
-// Free-run cost over fold f of every record (FreeRun of each, summed).
+// Whitening prefilter L(q) = 1 - a_1 q^-1 - ... - a_p q^-p, the inverse of an AR noise model of
+// the free-run residual: a = {a_1 ... a_p}; empty: L = 1.
+using Prefilter = std::vector<double>;
+
+// Sum over rows a ... a + e.size() - 1 of (L(q) z)^2, z_k = sqrt(w_k) e_k the weighted residual;
+// z before row a is 0 (the run is seeded with the measured output there).
+double FilteredCost(const Record& r, std::size_t a, const std::vector<double>& e,
+                    const Prefilter& l) {
+  double cost = 0.0;
+  for (std::size_t k = 0; k < e.size(); ++k) {
+    double v = std::sqrt(r.w[a + k]) * e[k];
+    for (std::size_t i = 0; i < l.size() && i < k; ++i) {
+      v -= l[i] * std::sqrt(r.w[a + k - i - 1]) * e[k - i - 1];
+    }
+    cost += v * v;
+  }
+  return cost;
+}
+
+// Free-run cost over fold f of every record, prefiltered by l (FreeRun of each, summed).
 double FoldRun(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Prepared>& prepared,
-               const Eigen::VectorXd& theta, int f, int folds) {
-  std::vector<double> ys;
+               const Eigen::VectorXd& theta, int f, int folds, const Prefilter& l) {
+  std::vector<double> ys, e;
   double cost = 0.0;
   for (std::size_t i = 0; i < ev.size(); ++i) {
-    cost += ev[i].FreeRun(prepared[i], theta, Bound(ev[i].record(), f, folds),
-                          Bound(ev[i].record(), f + 1, folds), ys, nullptr);
+    const std::size_t a = Bound(ev[i].record(), f, folds);
+    e.clear();
+    const double c = ev[i].FreeRun(prepared[i], theta, a, Bound(ev[i].record(), f + 1, folds), ys,
+                                   l.empty() ? nullptr : &e);
+    cost += l.empty() || !std::isfinite(c) ? c : FilteredCost(ev[i].record(), a, e, l);
   }
   return cost;
 }
 
 std::vector<double> FoldCosts(const std::vector<Evaluator>& ev,
-                              const std::vector<SemTerm>& terms, int folds) {
+                              const std::vector<SemTerm>& terms, int folds, const Prefilter& l) {
   const auto prepared = PrepareAll(ev, terms);
   const auto m = static_cast<Eigen::Index>(terms.size());
   const auto nf = static_cast<std::size_t>(folds);
@@ -92,7 +114,7 @@ std::vector<double> FoldCosts(const std::vector<Evaluator>& ev,
       out[fi] = kInf;
       continue;
     }
-    out[fi] = FoldRun(ev, prepared, theta, f, folds);
+    out[fi] = FoldRun(ev, prepared, theta, f, folds, l);
   }
   return out;
 }
@@ -104,7 +126,8 @@ std::vector<double> FoldCosts(const std::vector<Evaluator>& ev,
 // and the refined J in *j_refined.
 std::vector<double> RefinedFoldCosts(const std::vector<Evaluator>& ev,
                                      const std::vector<SemTerm>& terms, int folds,
-                                     std::vector<double>* coefficients, double* j_refined) {
+                                     const Prefilter& l, std::vector<double>* coefficients,
+                                     double* j_refined) {
   const auto nf = static_cast<std::size_t>(folds);
   Eigen::MatrixXd jac;
   Eigen::VectorXd r;
@@ -133,7 +156,7 @@ std::vector<double> RefinedFoldCosts(const std::vector<Evaluator>& ev,
     Eigen::VectorXd tf = theta;
     if (m > 0) tf -= g.ldlt().solve(b);
     if (!tf.allFinite()) tf = theta;
-    out[static_cast<std::size_t>(f)] = FoldRun(ev, prepared, tf, f, folds);
+    out[static_cast<std::size_t>(f)] = FoldRun(ev, prepared, tf, f, folds, l);
   }
   return out;
 }
@@ -162,6 +185,40 @@ double EffectiveSamples(const std::vector<double>& e) {
   return std::clamp(static_cast<double>(n) / tau, 1.0, static_cast<double>(n));
 }
 
+// Whitening prefilter of the weighted residuals z (one per record): the least-squares AR fit
+// z_k = sum_i a_i z_{k-i} + innovation over every record, its order p in 0 ... kMaxPrefilterOrder
+// the one of lowest BIC, n ln(innovation variance) + p ln(n). White residual (output-error
+// noise): p = 0, L = 1.
+Prefilter FitPrefilter(const std::vector<std::vector<double>>& z) {
+  Prefilter best;
+  double best_bic = kInf;
+  for (int p = 0; p <= kMaxPrefilterOrder; ++p) {
+    const auto pp = static_cast<std::size_t>(p);
+    Eigen::MatrixXd g = Eigen::MatrixXd::Zero(p, p);
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(p), x(p);
+    double zz = 0.0, n = 0.0;
+    for (const auto& r : z) {
+      for (std::size_t k = pp; k < r.size(); ++k) {
+        for (std::size_t i = 0; i < pp; ++i) x(static_cast<Eigen::Index>(i)) = r[k - i - 1];
+        g.noalias() += x * x.transpose();
+        b += x * r[k];
+        zz += r[k] * r[k];
+        n += 1.0;
+      }
+    }
+    if (n < 10.0 * (p + 1)) break;
+    const Eigen::VectorXd a = p > 0 ? Eigen::VectorXd(g.ldlt().solve(b)) : Eigen::VectorXd();
+    const double s2 = (zz - (p > 0 ? a.dot(b) : 0.0)) / n;
+    if (!(s2 > 0.0) || !a.allFinite()) break;
+    const double bic = n * std::log(s2) + p * std::log(n);
+    if (bic < best_bic) {
+      best_bic = bic;
+      best.assign(a.data(), a.data() + p);
+    }
+  }
+  return best;
+}
+
 double Sum(const std::vector<double>& v) {
   double s = 0.0;
   for (double x : v) s += x;
@@ -175,7 +232,7 @@ std::vector<double> CrossValidatedCost(const SemSpec& spec, const std::vector<Ch
                                        std::span<const DataSet> data, int folds) {
   std::vector<Evaluator> ev;
   for (const DataSet& d : data) ev.emplace_back(spec, ch, d);
-  return FoldCosts(ev, terms, folds);
+  return FoldCosts(ev, terms, folds, {});
 }
 
 int SelectByCrossValidation(const std::vector<SemIteration>& its,
@@ -230,6 +287,32 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   }
   std::vector<Evaluator> ev;
   for (const DataSet& d : identification) ev.emplace_back(spec, res->channels, d);
+  // The lowest-J iteration's free-run residual: the noise's colour (prefilter) and the
+  // effective sample size.
+  std::size_t low = 0;
+  for (std::size_t i = 1; i < its.size(); ++i) {
+    if (its[i].j < its[low].j) low = i;
+  }
+  std::vector<std::vector<double>> e(ev.size()), z(ev.size());
+  {
+    Eigen::VectorXd theta(static_cast<Eigen::Index>(its[low].coefficients.size()));
+    for (std::size_t i = 0; i < its[low].coefficients.size(); ++i) {
+      theta(static_cast<Eigen::Index>(i)) = its[low].coefficients[i];
+    }
+    std::vector<double> ys;
+    for (std::size_t d = 0; d < ev.size(); ++d) {
+      const Record& rec = ev[d].record();
+      if (!std::isfinite(ev[d].FreeRun(ev[d].Prepare(its[low].terms), theta, rec.first,
+                                       rec.y.size(), ys, &e[d]))) {
+        e[d].clear();
+        continue;
+      }
+      for (std::size_t k = 0; k < e[d].size(); ++k) {
+        z[d].push_back(std::sqrt(rec.w[rec.first + k]) * e[d][k]);
+      }
+    }
+  }
+  const Prefilter l = FitPrefilter(z);
   std::vector<std::vector<double>> cv(its.size());
   const int w = std::max(1, std::min<int>(threads, static_cast<int>(its.size())));
   auto run = [&](int worker) {
@@ -238,13 +321,13 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
       if (spec.refine) {  // coefficients already refined: converges at once, gives the Jacobian
         double jr = kInf;
         std::vector<double> th = its[i].coefficients;
-        cv[i] = RefinedFoldCosts(ev, its[i].terms, kSelectionFolds, &th, &jr);
+        cv[i] = RefinedFoldCosts(ev, its[i].terms, kSelectionFolds, l, &th, &jr);
         if (jr < its[i].j) {
           its[i].j = jr;
           its[i].coefficients = th;
         }
       } else {
-        cv[i] = FoldCosts(ev, its[i].terms, kSelectionFolds);
+        cv[i] = FoldCosts(ev, its[i].terms, kSelectionFolds, l);
       }
     }
   };
@@ -253,34 +336,27 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   run(0);
   for (auto& t : pool) t.join();
   for (std::size_t i = 0; i < its.size(); ++i) its[i].cv_j = cv[i];
-  // Effective sample size from the free-run residual of the lowest-J iteration.
-  std::size_t low = 0;
-  for (std::size_t i = 1; i < its.size(); ++i) {
-    if (its[i].j < its[low].j) low = i;
-  }
+  // Effective sample size of the (unfiltered) residual: the prefiltered one would count
+  // coloured equation-error noise as independent samples and let spurious terms in.
   double n_eff = 0.0;
-  Eigen::VectorXd theta(static_cast<Eigen::Index>(its[low].coefficients.size()));
-  for (std::size_t i = 0; i < its[low].coefficients.size(); ++i) {
-    theta(static_cast<Eigen::Index>(i)) = its[low].coefficients[i];
+  for (std::size_t d = 0; d < ev.size(); ++d) {
+    const Record& rec = ev[d].record();
+    n_eff += e[d].empty() ? static_cast<double>(rec.y.size() - rec.first) : EffectiveSamples(e[d]);
   }
-  std::vector<double> ys;
-  for (const Evaluator& e : ev) {
-    std::vector<double> residual;
-    if (std::isfinite(e.FreeRun(e.Prepare(its[low].terms), theta, e.record().first,
-                                e.record().y.size(), ys, &residual))) {
-      n_eff += EffectiveSamples(residual);
-    } else {
-      n_eff += static_cast<double>(e.record().y.size() - e.record().first);
-    }
+  std::string filter = "1";
+  for (std::size_t i = 0; i < l.size(); ++i) {
+    filter += fmt::format(" {} {:.3g} q^-{}", l[i] < 0.0 ? "+" : "-", std::fabs(l[i]), i + 1);
   }
   res->selected =
       SelectByCrossValidation(its, cv, n_eff, static_cast<double>(res->num_candidates));
   res->selection_rule = fmt::format(
       "{}-fold cross-validation of the {} free-run J inside the identification data: the "
       "iteration of lowest N ln(CV J) + m ln(N) + 2 ln(C choose m) (extended BIC, m terms of C = "
-      "{} candidates), N = {:.0f} effective samples of the lowest-J iteration's free-run residual",
+      "{} candidates), N = {:.0f} effective samples of the lowest-J iteration's free-run residual; "
+      "residuals prefiltered by L(q) = {}, the AR({}) whitening filter of that residual (order by "
+      "BIC, at most {})",
       kSelectionFolds, spec.refine ? "output-error refined" : "least-squares",
-      res->num_candidates, n_eff);
+      res->num_candidates, n_eff, filter, l.size(), kMaxPrefilterOrder);
 }
 
 }  // namespace mrd::host

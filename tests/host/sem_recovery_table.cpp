@@ -2,6 +2,7 @@
 // selected model per system, noise and record length, default settings, no validation data.
 //   build/tests/sem_recovery [--seeds N] [--strategy best|first] [--threads N] [--before] [--misses]
 //   [--trace SYSTEM EE|OE N SEED]   (every iteration of one case, * = selected)
+//   [--case SYSTEM EE|OE N]          (the count and misses of one case only)
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -28,6 +29,17 @@ int main(int argc, char** argv) {
              "[algorithm]\nstrategy = \"best\"\nselection = \"tolerance\"\n";
     } else if (a == "--misses") {
       misses = true;
+    } else if (a == "--case" && i + 3 < argc) {  // SYSTEM EE|OE N: one count, with misses
+      const std::string name = argv[i + 1], nz = argv[i + 2];
+      const auto n = static_cast<std::size_t>(std::atoi(argv[i + 3]));
+      for (const auto& s : mrd::test::RecoverySystems()) {
+        if (s.name != name) continue;
+        const auto noise = nz == "OE" ? mrd::test::Noise::kOutput : mrd::test::Noise::kEquation;
+        const auto c = mrd::test::CountRecovered(s, noise, n, seeds, o, spec);
+        std::printf("%s %s N=%zu: %d/%d\n%s", name.c_str(), nz.c_str(), n, c.hits, c.seeds,
+                    c.misses.c_str());
+      }
+      return 0;
     } else if (a == "--trace" && i + 4 < argc) {  // SYSTEM EE|OE N SEED: every iteration
       const std::string name = argv[i + 1], nz = argv[i + 2];
       const auto n = static_cast<std::size_t>(std::atoi(argv[i + 3]));
@@ -59,7 +71,8 @@ int main(int argc, char** argv) {
       return 0;
     } else {
       std::fprintf(stderr, "usage: sem_recovery [--seeds N] [--strategy best|first] "
-                           "[--threads N] [--before] [--misses] [--trace SYSTEM EE|OE N SEED]\n");
+                           "[--threads N] [--before] [--misses] [--trace SYSTEM EE|OE N SEED] "
+                           "[--case SYSTEM EE|OE N]\n");
       return 2;
     }
   }

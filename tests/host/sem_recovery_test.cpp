@@ -61,10 +61,11 @@ INSTANTIATE_TEST_SUITE_P(Meets, SemRecoveryTest,
                                          Case{3, Noise::kOutput, 500}),
                          CaseName);
 
-// Below the target: billings EE at N = 500 (14/20). In the misses the data prefer y(k-2)^3 to
-// the true y(k-2)^2 (coefficient -0.05): both the identification J and the cross-validated J
-// of the selected model are below the true structure's, so no selection by these criteria
-// can pick the truth there.
+// Below the target: billings EE at N = 500 (16/20). Seeds 1, 3 and 5 select y(k-2)^3 or
+// y(k-2) for the true y(k-2)^2 (coefficient -0.05): there the misfit has the lower J, the lower
+// whitened cross-validated J and the lower one-step least-squares error (the maximum-likelihood
+// criterion for equation-error noise). Seed 10 is a near tie: the one-step error prefers the
+// truth by 0.06 %, the whitened cross-validation the misfit.
 INSTANTIATE_TEST_SUITE_P(DISABLED_BelowTarget, SemRecoveryTest,
                          testing::Values(Case{0, Noise::kEquation, 500}), CaseName);
 

@@ -5,6 +5,7 @@
 
 #include <fstream>
 #include <sstream>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -155,6 +156,35 @@ TEST(SemSelectionTest, CrossValidatedCostOfTheTrueStructureIsNearTheNoiseLevel) 
   double fewer = 0.0;
   for (double v : CrossValidatedCost(spec, ch, terms, id, kSelectionFolds)) fewer += v;
   EXPECT_GT(fewer, 1.5 * total);
+}
+
+TEST(SemSelectionTest, EquationErrorNoiseIsWhitenedBeforeCrossValidation) {
+  // billings, equation-error noise, N = 500, seed 17: the free-run residual is the noise through
+  // 1 / (1 - 0.5 q^-1). Unfiltered, the cross-validated J preferred y(k-2)^3 over the true
+  // y(k-2)^2; whitened by the fitted AR(1) filter it picks the true structure.
+  const auto sys = test::RecoverySystems()[0];
+  const std::size_t n = 500;
+  const std::vector<DataSet> ee{
+      test::RecoveryData(sys, test::Noise::kEquation, 7919u * 17u + n, n)};
+  const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
+  const SemResult a = Identify(spec, ee, {}, SemOptions{});
+  std::set<std::string> got;
+  for (const auto& it : a.iterations) {
+    if (it.iteration != a.selected) continue;
+    for (const auto& t : it.terms) got.insert(TermName(spec, t));
+  }
+  EXPECT_EQ(got, sys.terms);
+  const std::string key = "L(q) = 1 - ";
+  const std::size_t at = a.selection_rule.find(key);
+  ASSERT_NE(at, std::string::npos) << a.selection_rule;
+  const double a1 = std::stod(a.selection_rule.substr(at + key.size()));  // true pole 0.5
+  EXPECT_GT(a1, 0.35);
+  EXPECT_LT(a1, 0.65);
+  EXPECT_NE(a.selection_rule.find("the AR(1) whitening filter"), std::string::npos);
+  // Output-error noise: the residual is white and the J is not filtered.
+  const std::vector<DataSet> oe{test::RecoveryData(sys, test::Noise::kOutput, 7919u * 17u + n, n)};
+  const SemResult b = Identify(spec, oe, {}, SemOptions{});
+  EXPECT_NE(b.selection_rule.find("L(q) = 1, the AR(0)"), std::string::npos) << b.selection_rule;
 }
 
 TEST(SemSelectionTest, ModelFileStatesTheRuleAndValidationStillWins) {

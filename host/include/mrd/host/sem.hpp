@@ -53,8 +53,8 @@ struct SemIteration {
   std::vector<double> coefficients;  // normalised units
   double j = 0.0;                    // identification cost
   std::vector<double> validation_j;  // one per validation data set
-  std::vector<double> cv_j;  // per fold: cross-validated J (CrossValidatedCost) when the
-                             // selection used it, else empty
+  std::vector<double> cv_j;  // per fold: cross-validated J, prefiltered, as the selection
+                             // by cross-validation scored it; empty when it did not run
   double elapsed_s = 0.0;            // since the start of Identify
   int rejected = 0;  // candidates of this iteration's search rejected: diverging free run
                      // (non-finite or beyond divergence_limit) or linearly dependent column
@@ -122,8 +122,18 @@ std::vector<double> CrossValidatedCost(const SemSpec& spec, const std::vector<Ch
                                        const std::vector<SemTerm>& terms,
                                        std::span<const DataSet> data, int folds);
 
+// Largest order of the AR whitening prefilter of the cross-validation selection (below).
+inline constexpr int kMaxPrefilterOrder = 4;
+
 // Pick by cross-validation with no tolerance to tune: cv[i] = fold costs of iterations[i]
-// (CrossValidatedCost, or its output-error refined form when spec.refine), samples = N, the
+// (CrossValidatedCost, or its output-error refined form when spec.refine). In Identify the
+// fold's weighted free-run residual z is first filtered by L(q) = 1 - a_1 q^-1 - ... - a_p q^-p,
+// the least-squares AR fit of the lowest-J iteration's residual (p <= kMaxPrefilterOrder by
+// BIC): output-error noise leaves that residual white (p = 0, L = 1, the plain free-run J);
+// equation-error noise reaches it through the model's dynamics, coloured, and the plain J then
+// weighs a few slow components heavily, so structures that the one-step error tells apart
+// score alike (the prediction-error method with a fixed noise model; coefficients unchanged).
+// samples = N, the
 // effective number of independent samples (the selection takes n / (1 + 2 sum_l rho_l^2) from
 // the free-run residual of the lowest-J iteration, rho_l its autocorrelations that exceed
 // 2/sqrt(n)), candidates = C; the iteration of lowest
