@@ -37,16 +37,20 @@ std::vector<Evaluator::Prepared> PrepareAll(const std::vector<Evaluator>& ev,
 // the free-run residual: a = {a_1 ... a_p}; empty: L = 1.
 using Prefilter = std::vector<double>;
 
-// Sum over rows a ... a + e.size() - 1 of (L(q) z)^2, z_k = sqrt(w_k) e_k the weighted residual;
-// z before row a is 0 (the run is seeded with the measured output there).
-double FilteredCost(const Record& r, std::size_t a, const std::vector<double>& e,
-                    const Prefilter& l) {
+// Weighted residual z_k = sqrt(w_k) e_k of the rows a, a + 1, ... (sum of z_k^2: the cost).
+std::vector<double> Weighted(const Record& r, std::size_t a, const std::vector<double>& e) {
+  std::vector<double> z(e.size());
+  for (std::size_t k = 0; k < e.size(); ++k) z[k] = std::sqrt(r.w[a + k]) * e[k];
+  return z;
+}
+
+// Sum of (L(q) z)^2 over a run's weighted residual z; z before the run is 0 (the run is seeded
+// with the measured output there).
+double FilteredCost(const std::vector<double>& z, const Prefilter& l) {
   double cost = 0.0;
-  for (std::size_t k = 0; k < e.size(); ++k) {
-    double v = std::sqrt(r.w[a + k]) * e[k];
-    for (std::size_t i = 0; i < l.size() && i < k; ++i) {
-      v -= l[i] * std::sqrt(r.w[a + k - i - 1]) * e[k - i - 1];
-    }
+  for (std::size_t k = 0; k < z.size(); ++k) {
+    double v = z[k];
+    for (std::size_t i = 0; i < l.size() && i < k; ++i) v -= l[i] * z[k - i - 1];
     cost += v * v;
   }
   return cost;
@@ -62,7 +66,7 @@ double FoldRun(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Pr
     e.clear();
     const double c = ev[i].FreeRun(prepared[i], theta, a, Bound(ev[i].record(), f + 1, folds), ys,
                                    l.empty() ? nullptr : &e);
-    cost += l.empty() || !std::isfinite(c) ? c : FilteredCost(ev[i].record(), a, e, l);
+    cost += l.empty() || !std::isfinite(c) ? c : FilteredCost(Weighted(ev[i].record(), a, e), l);
   }
   return cost;
 }
@@ -307,9 +311,7 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
         e[d].clear();
         continue;
       }
-      for (std::size_t k = 0; k < e[d].size(); ++k) {
-        z[d].push_back(std::sqrt(rec.w[rec.first + k]) * e[d][k]);
-      }
+      z[d] = Weighted(rec, rec.first, e[d]);
     }
   }
   const Prefilter l = FitPrefilter(z);

@@ -103,6 +103,16 @@ inline host::DataSet RecoveryData(const RecoverySystem& s, Noise noise, std::uin
   return MakeDataSet("sim", {"u", "y"}, {u, y});
 }
 
+// Term names of the selected iteration of a result.
+inline std::set<std::string> SelectedTerms(const host::SemSpec& spec, const host::SemResult& r) {
+  std::set<std::string> out;
+  for (const auto& it : r.iterations) {
+    if (it.iteration != r.selected) continue;
+    for (const auto& t : it.terms) out.insert(host::TermName(spec, t));
+  }
+  return out;
+}
+
 struct RecoveryCount {
   int hits = 0;
   int seeds = 0;
@@ -120,11 +130,7 @@ inline RecoveryCount CountRecovered(const RecoverySystem& s, Noise noise, std::s
     const std::vector<host::DataSet> id{
         RecoveryData(s, noise, 7919u * static_cast<std::uint64_t>(seed) + n, n)};
     const host::SemResult r = host::Identify(spec, id, {}, options);
-    std::set<std::string> got;
-    for (const auto& it : r.iterations) {
-      if (it.iteration != r.selected) continue;
-      for (const auto& t : it.terms) got.insert(host::TermName(spec, t));
-    }
+    const std::set<std::string> got = SelectedTerms(spec, r);
     ++out.seeds;
     if (got == s.terms) {
       ++out.hits;

@@ -33,14 +33,6 @@ DataSet Data(const std::string& system, Noise noise, std::size_t n, int seed) {
   return RecoveryData(System(system), noise, 7919u * static_cast<std::uint64_t>(seed) + n, n);
 }
 
-std::set<std::string> Selected(const SemSpec& spec, const SemResult& r) {
-  std::set<std::string> out;
-  for (const auto& t : r.iterations.at(static_cast<std::size_t>(r.selected)).terms) {
-    out.insert(host::TermName(spec, t));
-  }
-  return out;
-}
-
 SemSpec Spec(const std::string& algorithm = "") {
   return ParseSemSpec(std::string(kRecoverySpec) + "[algorithm]\n" + algorithm, "recovery.toml");
 }
@@ -73,12 +65,12 @@ TEST(SemSearchTest, OneStepStartEscapesTheGreedyLockInOnALightlyDampedResonance)
   o.threads = 2;
   const SemSpec with = Spec();
   const SemResult a = Identify(with, id, {}, o);
-  EXPECT_EQ(Selected(with, a), System("linear2").terms) << a.selection_rule;
+  EXPECT_EQ(SelectedTerms(with, a), System("linear2").terms) << a.selection_rule;
   EXPECT_NE(a.selection_rule.find("kept: the one-step start"), std::string::npos)
       << a.selection_rule;
   const SemSpec without = Spec("one_step_start = false\n");
   const SemResult b = Identify(without, id, {}, o);
-  EXPECT_NE(Selected(without, b), System("linear2").terms);
+  EXPECT_NE(SelectedTerms(without, b), System("linear2").terms);
   double best_greedy = 1e300;
   for (const auto& it : b.iterations) best_greedy = std::min(best_greedy, it.j);
   EXPECT_GT(best_greedy, 5.0 * a.iterations.at(static_cast<std::size_t>(a.selected)).j);
@@ -92,9 +84,9 @@ TEST(SemSearchTest, ExchangeReplacesATermTakenByOneStepRank) {
   SemOptions o;
   o.threads = 2;
   const SemSpec with = Spec();
-  EXPECT_EQ(Selected(with, Identify(with, id, {}, o)), System("billings").terms);
+  EXPECT_EQ(SelectedTerms(with, Identify(with, id, {}, o)), System("billings").terms);
   const SemSpec without = Spec("exchange = false\n");
-  const auto got = Selected(without, Identify(without, id, {}, o));
+  const auto got = SelectedTerms(without, Identify(without, id, {}, o));
   EXPECT_TRUE(got.count("y(k-2)^3") == 1 && got.count("y(k-2)^2") == 0)
       << "expected the one-step pick y(k-2)^3 without exchange";
 }

@@ -5,7 +5,6 @@
 
 #include <fstream>
 #include <sstream>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -168,12 +167,7 @@ TEST(SemSelectionTest, EquationErrorNoiseIsWhitenedBeforeCrossValidation) {
       test::RecoveryData(sys, test::Noise::kEquation, 7919u * 17u + n, n)};
   const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
   const SemResult a = Identify(spec, ee, {}, SemOptions{});
-  std::set<std::string> got;
-  for (const auto& it : a.iterations) {
-    if (it.iteration != a.selected) continue;
-    for (const auto& t : it.terms) got.insert(TermName(spec, t));
-  }
-  EXPECT_EQ(got, sys.terms);
+  EXPECT_EQ(test::SelectedTerms(spec, a), sys.terms);
   const std::string key = "L(q) = 1 - ";
   const std::size_t at = a.selection_rule.find(key);
   ASSERT_NE(at, std::string::npos) << a.selection_rule;
