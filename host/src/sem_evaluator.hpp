@@ -93,112 +93,155 @@ class Evaluator {
   }
 
   // A structure prepared for free runs (the refinement's and the cross-validation's many runs
-  // of one structure): per term, the product of its input factors over every row, and its
-  // output factors.
-  struct OutFactor {
+  // of one structure). Terms are grouped by their output factors (the signature: which
+  // transformed, delayed outputs to which powers); a group's input parts sum to one
+  // coefficient signal c_g(k) = sum_i theta_i u_i(k) before the run, so the sample loop only
+  // evaluates each slot (one transform of one delayed output) and each group once:
+  //   ysim(k) = sum_g c_g(k) prod_{(s, p) in g} x_s(k)^p.
+  struct Slot {
     Transform transform;
     double exponent;
     std::size_t delay;
-    int power;
+    int max_power;
+  };
+  struct Group {
+    std::vector<std::pair<std::size_t, int>> factors;  // (slot, power)
+    std::vector<std::size_t> terms;
   };
   struct Prepared {
-    std::vector<std::vector<double>> input;  // [term][row]
-    std::vector<std::vector<OutFactor>> out;  // [term]
+    std::size_t m = 0;          // terms
+    std::vector<double> input;  // [row * m + term]: product of the term's input factors
+    std::vector<Slot> slots;
+    std::vector<Group> groups;
+    std::vector<std::size_t> group_of;  // [term]
+    std::size_t max_delay = 0;          // of the output factors
+    int max_power = 0;
   };
   Prepared Prepare(const std::vector<SemTerm>& terms) const {
     Prepared p;
-    for (const SemTerm& t : terms) {
-      std::vector<double> in(rec_.y.size(), 1.0);
-      std::vector<OutFactor> out;
+    p.m = terms.size();
+    const std::size_t rows = rec_.y.size();
+    p.input.resize(rows * p.m);
+    std::vector<double> in;  // the term's input part, every row
+    for (std::size_t i = 0; i < p.m; ++i) {
+      const SemTerm& t = terms[i];
+      in.assign(rows, 1.0);
+      std::vector<std::pair<std::size_t, int>> sig;
       for (const auto& f : t.factors) {
         const auto& reg = spec_.regressors[static_cast<std::size_t>(f.regressor)];
         const auto& x = rec_.input[static_cast<std::size_t>(f.regressor)];
         const auto d = static_cast<std::size_t>(f.delay);
         if (x.empty()) {
-          out.push_back({reg.transform, reg.exponent, d, f.power});
+          std::size_t s = 0;
+          while (s < p.slots.size() &&
+                 !(p.slots[s].transform == reg.transform &&
+                   p.slots[s].exponent == reg.exponent && p.slots[s].delay == d)) {
+            ++s;
+          }
+          if (s == p.slots.size()) p.slots.push_back({reg.transform, reg.exponent, d, 0});
+          p.slots[s].max_power = std::max(p.slots[s].max_power, f.power);
+          p.max_delay = std::max(p.max_delay, d);
+          p.max_power = std::max(p.max_power, f.power);
+          sig.emplace_back(s, f.power);
           continue;
         }
-        for (std::size_t k = d; k < in.size(); ++k) in[k] *= IntPow(x[k - d], f.power);
+        for (std::size_t k = d; k < rows; ++k) in[k] *= IntPow(x[k - d], f.power);
       }
-      p.input.push_back(std::move(in));
-      p.out.push_back(std::move(out));
+      for (std::size_t k = 0; k < rows; ++k) p.input[k * p.m + i] = in[k];
+      std::sort(sig.begin(), sig.end());
+      std::size_t g = 0;
+      while (g < p.groups.size() && p.groups[g].factors != sig) ++g;
+      if (g == p.groups.size()) p.groups.push_back({sig, {}});
+      p.groups[g].terms.push_back(i);
+      p.group_of.push_back(g);
     }
     return p;
   }
 
+  // FreeRun's buffers, reused across runs: the output history (measured before the run's first
+  // row, simulated from it) and the groups' coefficient signals.
+  struct Scratch {
+    std::vector<double> ys, c;
+  };
+
   // Weighted squared free-run error of a prepared structure over rows [a, b), seeded by the
   // measured output before a; +inf when the run leaves |y| <= divergence_limit or is not
-  // finite. ys: scratch for the output history; residual (optional) receives y - ysim.
-  // sens (optional; row-major, b - a rows of m) receives the sensitivities d ysim_k / d theta_j
+  // finite. residual (optional) receives y - ysim.
+  // sens (optional; row-major, b - a rows of m, the caller's) receives the sensitivities
+  // d ysim_k / d theta_j
   // for k in [a, b). The measured output before a does not depend on theta; after it, by the
   // chain rule through the output factors,
   //   s_j(k) = phi_j(k) + sum_d (d ysim_k / d ysim_{k-d}) s_j(k-d).
   // The cost and residual do not depend on whether sens is asked for.
   double FreeRun(const Prepared& p, const Eigen::VectorXd& theta, std::size_t a, std::size_t b,
-                 std::vector<double>& ys, std::vector<double>* residual,
-                 std::vector<double>* sens = nullptr) const {
+                 Scratch& scratch, std::vector<double>* residual,
+                 double* sens = nullptr) const {
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    std::vector<double>& ys = scratch.ys;
     ys.assign(rec_.y.begin(), rec_.y.begin() + static_cast<std::ptrdiff_t>(b));
-    const std::size_t m = p.input.size();
-    std::size_t max_delay = 0, max_factors = 0;
-    std::vector<double> phi, slope, g, dg;  // sensitivities only
-    if (sens != nullptr) {
-      for (const auto& out : p.out) {
-        max_factors = std::max(max_factors, out.size());
-        for (const OutFactor& f : out) max_delay = std::max(max_delay, f.delay);
+    const std::size_t m = p.m, n = b - a, ng = p.groups.size();
+    const std::size_t ns = p.slots.size(), np = static_cast<std::size_t>(p.max_power) + 1;
+    // c_g(k) per group, [(k - a) * ng + g]: the group's terms' input parts, in order of terms
+    std::vector<double>& c = scratch.c;
+    c.resize(ng * n);
+    for (std::size_t g = 0; g < ng; ++g) {
+      const auto& ts = p.groups[g].terms;
+      for (std::size_t k = 0; k < n; ++k) {
+        const double* in = p.input.data() + (a + k) * m;
+        double v = 0.0;
+        for (std::size_t i : ts) v += theta(static_cast<Eigen::Index>(i)) * in[i];
+        c[k * ng + g] = v;
       }
-      sens->assign((b - a) * m, 0.0);
-      phi.resize(m);
-      slope.resize(max_delay + 1);
-      g.resize(max_factors);
-      dg.resize(max_factors);
     }
+    std::vector<double> pw(ns * np), sl(ns), gv(ng), slope(p.max_delay + 1);
     double cost = 0.0;
     for (std::size_t k = a; k < b; ++k) {
+      for (std::size_t s = 0; s < ns; ++s) {  // x_s^0 ... x_s^max_power and d x_s / d y
+        const Slot& sd = p.slots[s];
+        const double yd = ys[k - sd.delay];
+        const double x = sd.transform == Transform::kIdentity
+                             ? yd
+                             : ApplyTransform(sd.transform, sd.exponent, yd);
+        double* ps = pw.data() + s * np;
+        ps[0] = 1.0;
+        for (int q = 1; q <= sd.max_power; ++q) ps[q] = ps[q - 1] * x;
+        if (sens != nullptr) sl[s] = TransformSlope(sd.transform, sd.exponent, yd);
+      }
       std::fill(slope.begin(), slope.end(), 0.0);
       double v = 0.0;
-      for (std::size_t i = 0; i < m; ++i) {
-        const auto& out = p.out[i];
-        const double th = theta(static_cast<Eigen::Index>(i));
-        double t = th * p.input[i][k];
-        for (std::size_t q = 0; q < out.size(); ++q) {
-          const OutFactor& f = out[q];
-          const double yd = ys[k - f.delay];
-          const double x = f.transform == Transform::kIdentity
-                               ? yd
-                               : ApplyTransform(f.transform, f.exponent, yd);
-          const double gq = IntPow(x, f.power);
-          t *= gq;
-          if (sens != nullptr) {  // factor value and d factor / d y
-            g[q] = gq;
-            dg[q] = f.power * IntPow(x, f.power - 1) * TransformSlope(f.transform, f.exponent, yd);
-          }
-        }
-        v += t;
+      for (std::size_t g = 0; g < ng; ++g) {
+        const auto& fs = p.groups[g].factors;
+        const double cg = c[(k - a) * ng + g];
+        double gk = 1.0;
+        for (const auto& [s, q] : fs) gk *= pw[s * np + static_cast<std::size_t>(q)];
+        v += cg * gk;
         if (sens == nullptr) continue;
-        double ph = p.input[i][k];
-        for (std::size_t q = 0; q < out.size(); ++q) ph *= g[q];
-        phi[i] = ph;
-        for (std::size_t q = 0; q < out.size(); ++q) {  // product rule over the factors
-          double d = th * p.input[i][k] * dg[q];
-          for (std::size_t r = 0; r < out.size(); ++r) d *= r == q ? 1.0 : g[r];
-          slope[out[q].delay] += d;
+        gv[g] = gk;
+        for (std::size_t f = 0; f < fs.size(); ++f) {  // product rule over the factors
+          const auto [s, q] = fs[f];
+          double d = cg * q * pw[s * np + static_cast<std::size_t>(q - 1)] * sl[s];
+          for (std::size_t r = 0; r < fs.size(); ++r) {
+            if (r != f) d *= pw[fs[r].first * np + static_cast<std::size_t>(fs[r].second)];
+          }
+          slope[p.slots[s].delay] += d;
         }
       }
-      if (!(std::fabs(v) <= spec_.divergence_limit)) return std::numeric_limits<double>::infinity();
+      if (!(std::fabs(v) <= spec_.divergence_limit)) return kInf;
       ys[k] = v;  // the simulated output feeds back
       const double e = rec_.y[k] - v;
       cost += rec_.w[k] * e * e;
       if (residual != nullptr) residual->push_back(e);
       if (sens == nullptr) continue;
-      double* s = sens->data() + (k - a) * m;
-      for (std::size_t j = 0; j < m; ++j) s[j] = phi[j];
-      for (std::size_t d = 1; d <= max_delay && d <= k - a; ++d) {
+      double* sk = sens + (k - a) * m;
+      const double* in = p.input.data() + k * m;
+      for (std::size_t j = 0; j < m; ++j) sk[j] = in[j] * gv[p.group_of[j]];
+      for (std::size_t d = 1; d <= p.max_delay && d <= k - a; ++d) {
         if (slope[d] == 0.0) continue;
-        const double* sp = sens->data() + (k - a - d) * m;
-        for (std::size_t j = 0; j < m; ++j) s[j] += slope[d] * sp[j];
+        const double* sp = sk - d * m;
+        for (std::size_t j = 0; j < m; ++j) sk[j] += slope[d] * sp[j];
       }
     }
-    return std::isfinite(cost) ? cost : std::numeric_limits<double>::infinity();
+    return std::isfinite(cost) ? cost : kInf;
   }
 
  private:

@@ -12,6 +12,10 @@ namespace mrd::host::internal {
 
 class Evaluator;  // sem_evaluator.hpp
 
+// Jacobian of the weighted free-run residual, one row per scored row (row-major: the free
+// run's sensitivities are produced row by row).
+using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
 // Output-error refinement: Levenberg-Marquardt on the free-run J of `terms` over the records,
 // from *coefficients (normalised units, replaced by the refined ones). Returns the refined J
 // (never above the start's; +inf when the start diverges). Analytic Jacobian (the free run's
@@ -19,7 +23,7 @@ class Evaluator;  // sem_evaluator.hpp
 // jacobian / residual (optional): d residual / d coefficient and the weighted residual
 // sqrt(w) (y - ysim) at the refined coefficients, rows = scored rows of every record in order.
 double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm>& terms,
-                     std::vector<double>* coefficients, Eigen::MatrixXd* jacobian = nullptr,
+                     std::vector<double>* coefficients, Jacobian* jacobian = nullptr,
                      Eigen::VectorXd* residual = nullptr);
 
 // One elementary regressor over a whole record of raw values: T(raw / scale). Low-pass

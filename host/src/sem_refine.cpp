@@ -17,12 +17,23 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kMaxSteps = 30;      // LM steps (accepted or not)
 constexpr double kRelStop = 1e-6;  // stop when an accepted step lowers J by less
+// Levenberg-Marquardt damping, relative to the diagonal of J^T J (Marquardt's scaling, so
+// dimensionless): lambda * diag is added to the diagonal; start small (the least-squares start
+// is close, Gauss-Newton converges in a few steps); give up when a step that small still fails.
+constexpr double kLambda0 = 1e-4;
+constexpr double kLambdaMax = 1e12;
+
+// Buffers of Residual, reused across the steps.
+struct Work {
+  Evaluator::Scratch run;
+  std::vector<double> e;
+};
 
 // Weighted free-run residual r_k = sqrt(w_k) (y_k - ysim_k) over every scored row of every
 // record, and its Jacobian d r / d theta = -sqrt(w_k) d ysim_k / d theta from the sensitivity
 // recursion (exact, one pass for all columns); false when a run diverges.
 bool Residual(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Prepared>& prepared,
-              const Eigen::VectorXd& theta, Eigen::VectorXd* r, Eigen::MatrixXd* jac) {
+              const Eigen::VectorXd& theta, Work& w, Eigen::VectorXd* r, Jacobian* jac) {
   const auto m = static_cast<std::size_t>(theta.size());
   Eigen::Index rows = 0;
   for (const Evaluator& e : ev) {
@@ -30,21 +41,21 @@ bool Residual(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Pre
   }
   r->resize(rows);
   jac->resize(rows, theta.size());
-  std::vector<double> e, ys, sens;
   Eigen::Index row = 0;
   for (std::size_t i = 0; i < ev.size(); ++i) {
     const Record& rec = ev[i].record();
-    e.clear();
-    const double cost = ev[i].FreeRun(prepared[i], theta, rec.first, rec.y.size(), ys, &e, &sens);
+    w.e.clear();
+    const double cost =
+        ev[i].FreeRun(prepared[i], theta, rec.first, rec.y.size(), w.run, &w.e,
+                      jac->data() + row * static_cast<Eigen::Index>(m));
     if (!std::isfinite(cost)) {
       return false;
     }
-    for (std::size_t k = 0; k < e.size(); ++k, ++row) {
+    for (std::size_t k = 0; k < w.e.size(); ++k, ++row) {
       const double sw = std::sqrt(rec.w[rec.first + k]);
-      (*r)(row) = sw * e[k];
-      for (std::size_t j = 0; j < m; ++j) {
-        (*jac)(row, static_cast<Eigen::Index>(j)) = -sw * sens[k * m + j];
-      }
+      (*r)(row) = sw * w.e[k];
+      double* jr = jac->data() + row * static_cast<Eigen::Index>(m);
+      for (std::size_t j = 0; j < m; ++j) jr[j] *= -sw;  // d ysim / d theta -> d r / d theta
     }
   }
   return true;
@@ -53,39 +64,51 @@ bool Residual(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Pre
 }  // namespace
 
 double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm>& terms,
-                     std::vector<double>* coefficients, Eigen::MatrixXd* jacobian,
+                     std::vector<double>* coefficients, Jacobian* jacobian,
                      Eigen::VectorXd* residual) {
   const auto m = static_cast<Eigen::Index>(terms.size());
   Eigen::VectorXd theta(m);
   for (Eigen::Index i = 0; i < m; ++i) theta(i) = (*coefficients)[static_cast<std::size_t>(i)];
   std::vector<Evaluator::Prepared> prepared;
   for (const Evaluator& e : ev) prepared.push_back(e.Prepare(terms));
+  Work work;
   Eigen::VectorXd r, rt;
-  Eigen::MatrixXd jac, jt;
-  if (!Residual(ev, prepared, theta, &r, &jac)) return kInf;
+  Jacobian jac, jt;
+  if (!Residual(ev, prepared, theta, work, &r, &jac)) return kInf;
   double j = r.squaredNorm();
-  double lambda = -1.0;
+  Eigen::MatrixXd a;  // J^T J
+  Eigen::VectorXd g;  // J^T r
+  auto normal_equations = [&]() {
+    Eigen::MatrixXd low = Eigen::MatrixXd::Zero(m, m);  // lower half only: half the work
+    low.selfadjointView<Eigen::Lower>().rankUpdate(jac.transpose());
+    a = low.selfadjointView<Eigen::Lower>();
+    g.noalias() = jac.transpose() * r;
+  };
+  normal_equations();
+  double lambda = kLambda0;
   for (int step = 0; step < kMaxSteps && m > 0; ++step) {
-    const Eigen::MatrixXd a = jac.transpose() * jac;
-    const Eigen::VectorXd g = jac.transpose() * r;
-    if (lambda < 0.0) lambda = 1e-3 * a.diagonal().maxCoeff();
     Eigen::MatrixXd damped = a;
     damped.diagonal() += lambda * a.diagonal().cwiseMax(1e-12 * a.diagonal().maxCoeff());
     const Eigen::VectorXd delta = damped.ldlt().solve(-g);
     if (!delta.allFinite()) break;
+    // Converged when the linearised residual promises less than kRelStop of J (at the optimum
+    // already, e.g. a structure without output terms, whose free run is its one-step fit).
+    const double predicted = -(2.0 * g.dot(delta) + delta.dot(a * delta));
+    if (!(predicted > kRelStop * j)) break;
     const Eigen::VectorXd cand = theta + delta;
-    if (Residual(ev, prepared, cand, &rt, &jt) && rt.squaredNorm() < j) {
+    if (Residual(ev, prepared, cand, work, &rt, &jt) && rt.squaredNorm() < j) {
       const double jn = rt.squaredNorm();
       const bool done = j - jn < kRelStop * j;
       theta = cand;
       r.swap(rt);
       jac.swap(jt);
       j = jn;
-      lambda *= 0.2;
       if (done) break;
+      normal_equations();
+      lambda *= 0.2;
     } else {
       lambda *= 10.0;
-      if (lambda > 1e12 * a.diagonal().maxCoeff()) break;
+      if (lambda > kLambdaMax) break;
     }
   }
   for (Eigen::Index i = 0; i < m; ++i) (*coefficients)[static_cast<std::size_t>(i)] = theta(i);

@@ -59,12 +59,13 @@ double FilteredCost(const std::vector<double>& z, const Prefilter& l) {
 // Free-run cost over fold f of every record, prefiltered by l (FreeRun of each, summed).
 double FoldRun(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Prepared>& prepared,
                const Eigen::VectorXd& theta, int f, int folds, const Prefilter& l) {
-  std::vector<double> ys, e;
+  Evaluator::Scratch scratch;
+  std::vector<double> e;
   double cost = 0.0;
   for (std::size_t i = 0; i < ev.size(); ++i) {
     const std::size_t a = Bound(ev[i].record(), f, folds);
     e.clear();
-    const double c = ev[i].FreeRun(prepared[i], theta, a, Bound(ev[i].record(), f + 1, folds), ys,
+    const double c = ev[i].FreeRun(prepared[i], theta, a, Bound(ev[i].record(), f + 1, folds), scratch,
                                    l.empty() ? nullptr : &e);
     cost += l.empty() || !std::isfinite(c) ? c : FilteredCost(Weighted(ev[i].record(), a, e), l);
   }
@@ -133,7 +134,7 @@ std::vector<double> RefinedFoldCosts(const std::vector<Evaluator>& ev,
                                      const Prefilter& l, std::vector<double>* coefficients,
                                      double* j_refined) {
   const auto nf = static_cast<std::size_t>(folds);
-  Eigen::MatrixXd jac;
+  internal::Jacobian jac;
   Eigen::VectorXd r;
   *j_refined = internal::RefineFreeRun(ev, terms, coefficients, &jac, &r);
   const auto prepared = PrepareAll(ev, terms);
@@ -303,11 +304,11 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
     for (std::size_t i = 0; i < its[low].coefficients.size(); ++i) {
       theta(static_cast<Eigen::Index>(i)) = its[low].coefficients[i];
     }
-    std::vector<double> ys;
+    Evaluator::Scratch scratch;
     for (std::size_t d = 0; d < ev.size(); ++d) {
       const Record& rec = ev[d].record();
       if (!std::isfinite(ev[d].FreeRun(ev[d].Prepare(its[low].terms), theta, rec.first,
-                                       rec.y.size(), ys, &e[d]))) {
+                                       rec.y.size(), scratch, &e[d]))) {
         e[d].clear();
         continue;
       }

@@ -10,6 +10,8 @@
 
 #include "mrd/host/sem.hpp"
 #include "mrd/host/sem_spec.hpp"
+#include "sem_evaluator.hpp"
+#include "sem_internal.hpp"
 #include "sem_test_util.hpp"
 
 namespace {
@@ -49,6 +51,31 @@ BENCHMARK(BM_SemPaperRun)
     ->Unit(benchmark::kSecond)
     ->UseRealTime()
     ->Iterations(1);
+
+// The output-error refinement alone (Levenberg-Marquardt on the free-run J): the paper run's
+// final 14-term structure, from its least-squares coefficients (the search without refinement).
+void BM_SemRefine(benchmark::State& state) {
+  mrd::host::SemSpec spec =
+      mrd::host::LoadSemSpec(std::string(MRD_SOURCE_DIR) + "/host/specs/paper.toml");
+  spec.refine = false;
+  const std::vector<mrd::host::DataSet> id{mrd::test::DamperData("identification")};
+  mrd::host::SemOptions o;
+  o.max_iterations = 20;
+  o.threads = 2;
+  const mrd::host::SemResult r = mrd::host::Identify(spec, id, {}, o);
+  const std::vector<mrd::host::internal::Evaluator> ev{{spec, r.channels, id[0]}};
+  const auto& last = r.iterations.back();
+  double j = 0.0;
+  for (auto _ : state) {
+    std::vector<double> theta = last.coefficients;
+    j = mrd::host::internal::RefineFreeRun(ev, last.terms, &theta);
+    benchmark::DoNotOptimize(theta);
+  }
+  state.counters["terms"] = static_cast<double>(last.terms.size());
+  state.counters["J_start"] = last.j;
+  state.counters["J"] = j;
+}
+BENCHMARK(BM_SemRefine)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
 }  // namespace
 
