@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <limits>
 #include <map>
 #include <thread>
@@ -940,6 +941,20 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
   }
   std::vector<double> theta;
   double j = search.Cost(model, &theta);
+  auto validate = [&](const std::vector<SemTerm>& terms, const std::vector<double>& coefficients) {
+    std::vector<double> vj;
+    for (const auto& v : validation) {
+      vj.push_back(SimulateCost(spec, res.channels, terms, coefficients, v));
+    }
+    return vj;
+  };
+  // The refinement of a recorded iteration does not feed the search: with two or more threads
+  // it runs beside the search of the next iteration (one at a time, so the iterations are
+  // completed, reported and stored in order). Its results are the same either way.
+  std::future<void> refining;
+  auto finish_recorded = [&refining] {
+    if (refining.valid()) refining.get();
+  };
   auto record = [&](int iteration, int rejected, int stress_rejected) {
     SemIteration it;
     it.iteration = iteration;
@@ -949,33 +964,35 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     it.coefficients = theta;
     it.j = j;
     it.stress = stress_of(model, theta);
-    auto validate = [&](const std::vector<double>& coefficients) {
-      std::vector<double> vj;
-      for (const auto& v : validation) {
-        vj.push_back(SimulateCost(spec, res.channels, it.terms, coefficients, v));
-      }
-      return vj;
-    };
-    it.validation_j = validate(theta);
+    it.validation_j = validate(it.terms, theta);
     // Output-error refinement, kept when it lowers J, passes the stress check as the least
     // squares did, and (with validation data) makes no validation set's J worse.
-    if (spec.refine && !model.empty()) {
-      std::vector<double> refined = theta;
-      const double jr = internal::RefineFreeRun(evaluators, it.terms, &refined);
-      const StressVerdict sv = jr < j ? stress_of(model, refined) : StressVerdict{};
-      const std::vector<double> vj = jr < j ? validate(refined) : std::vector<double>{};
-      bool no_worse = true;  // on every validation set
-      for (std::size_t i = 0; i < vj.size(); ++i) no_worse &= vj[i] <= it.validation_j[i];
-      if (jr < j && (sv.pass || !it.stress.pass) && no_worse) {
-        it.coefficients = std::move(refined);
-        it.j = jr;
-        it.stress = sv;
-        it.validation_j = vj;
+    auto complete = [&, it = std::move(it), terms = model]() mutable {
+      if (spec.refine && !terms.empty()) {
+        std::vector<double> refined = it.coefficients;
+        const double jr = internal::RefineFreeRun(evaluators, it.terms, &refined);
+        const bool lower = jr < it.j;
+        const StressVerdict sv = lower ? stress_of(terms, refined) : StressVerdict{};
+        const std::vector<double> vj = lower ? validate(it.terms, refined) : std::vector<double>{};
+        bool no_worse = true;  // on every validation set
+        for (std::size_t i = 0; i < vj.size(); ++i) no_worse &= vj[i] <= it.validation_j[i];
+        if (lower && (sv.pass || !it.stress.pass) && no_worse) {
+          it.coefficients = std::move(refined);
+          it.j = jr;
+          it.stress = sv;
+          it.validation_j = vj;
+        }
       }
+      it.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (o.progress) o.progress(it);
+      res.iterations.push_back(std::move(it));
+    };
+    finish_recorded();
+    if (spec.refine && o.threads > 1) {
+      refining = std::async(std::launch::async, std::move(complete));
+    } else {
+      complete();
     }
-    it.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (o.progress) o.progress(it);
-    res.iterations.push_back(std::move(it));
   };
   // Pruning: drop the term whose removal gives the lowest J while that J is below j_prev.
   auto prune = [&](double j_prev) {
@@ -1062,6 +1079,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       }
       record(iteration, rejected, stress_rejected);
     }
+    finish_recorded();
   };
   const std::vector<int> initial_model = model;
   run_path();

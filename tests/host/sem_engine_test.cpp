@@ -85,13 +85,19 @@ TEST(SemEngineTest, SameResultWithOneAndTwoThreads) {
     o.strategy = st;
     o.threads = 1;
     const SemResult a = Identify(spec, id, {}, o);
-    o.threads = 2;
+    o.threads = 2;  // the refinement (paper.toml: refine = true) runs beside the search
+    std::vector<std::pair<int, double>> reported;  // progress: iteration, J
+    o.progress = [&](const SemIteration& it) { reported.emplace_back(it.iteration, it.j); };
     const SemResult b = Identify(spec, id, {}, o);
     ASSERT_EQ(a.iterations.size(), b.iterations.size());
+    ASSERT_EQ(reported.size(), b.iterations.size());
     for (std::size_t i = 0; i < a.iterations.size(); ++i) {
       EXPECT_EQ(a.iterations[i].terms, b.iterations[i].terms);
       EXPECT_EQ(a.iterations[i].coefficients, b.iterations[i].coefficients);
       EXPECT_EQ(a.iterations[i].j, b.iterations[i].j);
+      // reported in order, each once, with the refined J it is stored with
+      EXPECT_EQ(reported[i].first, b.iterations[i].iteration);
+      EXPECT_EQ(reported[i].second, b.iterations[i].j);
     }
   }
 }
