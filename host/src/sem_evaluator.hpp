@@ -166,16 +166,14 @@ class Evaluator {
 
   // Weighted squared free-run error of a prepared structure over rows [a, b), seeded by the
   // measured output before a; +inf when the run leaves |y| <= divergence_limit or is not
-  // finite. residual (optional) receives y - ysim.
-  // sens (optional; row-major, b - a rows of m, the caller's) receives the sensitivities
-  // d ysim_k / d theta_j
-  // for k in [a, b). The measured output before a does not depend on theta; after it, by the
-  // chain rule through the output factors,
+  // finite. residual (optional) receives y - ysim. sens (optional; the caller's b - a rows of
+  // m, row-major) receives the sensitivities d ysim_k / d theta_j for k in [a, b). The measured
+  // output before a does not depend on theta; after it, by the chain rule through the output
+  // factors,
   //   s_j(k) = phi_j(k) + sum_d (d ysim_k / d ysim_{k-d}) s_j(k-d).
   // The cost and residual do not depend on whether sens is asked for.
   double FreeRun(const Prepared& p, const Eigen::VectorXd& theta, std::size_t a, std::size_t b,
-                 Scratch& scratch, std::vector<double>* residual,
-                 double* sens = nullptr) const {
+                 Scratch& scratch, std::vector<double>* residual, double* sens = nullptr) const {
     constexpr double kInf = std::numeric_limits<double>::infinity();
     std::vector<double>& ys = scratch.ys;
     ys.assign(rec_.y.begin(), rec_.y.begin() + static_cast<std::ptrdiff_t>(b));

@@ -65,8 +65,8 @@ double FoldRun(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Pr
   for (std::size_t i = 0; i < ev.size(); ++i) {
     const std::size_t a = Bound(ev[i].record(), f, folds);
     e.clear();
-    const double c = ev[i].FreeRun(prepared[i], theta, a, Bound(ev[i].record(), f + 1, folds), scratch,
-                                   l.empty() ? nullptr : &e);
+    const double c = ev[i].FreeRun(prepared[i], theta, a, Bound(ev[i].record(), f + 1, folds),
+                                   scratch, l.empty() ? nullptr : &e);
     cost += l.empty() || !std::isfinite(c) ? c : FilteredCost(Weighted(ev[i].record(), a, e), l);
   }
   return cost;
