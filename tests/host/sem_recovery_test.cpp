@@ -65,7 +65,9 @@ INSTANTIATE_TEST_SUITE_P(Meets, SemRecoveryTest,
 // y(k-2) for the true y(k-2)^2 (coefficient -0.05): there the misfit has the lower J, the lower
 // whitened cross-validated J and the lower one-step least-squares error (the maximum-likelihood
 // criterion for equation-error noise). Seed 10 is a near tie: the one-step error prefers the
-// truth by 0.06 %, the whitened cross-validation the misfit.
+// truth by 0.06 %, the whitened cross-validation the misfit. The exhaustive one-step
+// least-squares oracle over all four-term structures (build/tests/sem_recovery --oracle
+// billings EE 500) recovers 17/20 here, 187/200 over 200 seeds; the engine 16 and 182.
 INSTANTIATE_TEST_SUITE_P(DISABLED_BelowTarget, SemRecoveryTest,
                          testing::Values(Case{0, Noise::kEquation, 500}), CaseName);
 
