@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -103,6 +104,20 @@ inline host::DataSet RecoveryData(const RecoverySystem& s, Noise noise, std::uin
   return MakeDataSet("sim", {"u", "y"}, {u, y});
 }
 
+// The system of RecoverySystems() called name; throws std::runtime_error when there is none.
+inline const RecoverySystem& RecoverySystemNamed(const std::string& name) {
+  static const std::vector<RecoverySystem> all = RecoverySystems();
+  for (const auto& s : all) {
+    if (s.name == name) return s;
+  }
+  throw std::runtime_error("no recovery system '" + name + "'");
+}
+
+// The suite's record of one seed (seeds 1, 2, ... of CountRecovered).
+inline host::DataSet SuiteData(const RecoverySystem& s, Noise noise, std::size_t n, int seed) {
+  return RecoveryData(s, noise, 7919u * static_cast<std::uint64_t>(seed) + n, n);
+}
+
 // Term names of the selected iteration of a result.
 inline std::set<std::string> SelectedTerms(const host::SemSpec& spec, const host::SemResult& r) {
   std::set<std::string> out;
@@ -127,8 +142,7 @@ inline RecoveryCount CountRecovered(const RecoverySystem& s, Noise noise, std::s
   const host::SemSpec spec = host::ParseSemSpec(spec_text, "recovery.toml");
   RecoveryCount out;
   for (int seed = 1; seed <= seeds; ++seed) {
-    const std::vector<host::DataSet> id{
-        RecoveryData(s, noise, 7919u * static_cast<std::uint64_t>(seed) + n, n)};
+    const std::vector<host::DataSet> id{SuiteData(s, noise, n, seed)};
     const host::SemResult r = host::Identify(spec, id, {}, options);
     const std::set<std::string> got = SelectedTerms(spec, r);
     ++out.seeds;

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <string>
 
 #include "sem_recovery.hpp"
@@ -35,8 +36,7 @@ void Oracle(const mrd::test::RecoverySystem& sys, mrd::test::Noise noise, std::s
   }
   int hits = 0;
   for (int seed = 1; seed <= seeds; ++seed) {
-    const mrd::host::DataSet d =
-        mrd::test::RecoveryData(sys, noise, 7919u * static_cast<std::uint64_t>(seed) + n, n);
+    const mrd::host::DataSet d = mrd::test::SuiteData(sys, noise, n, seed);
     const auto& y = d.Column("y");
     const std::size_t k0 = 2, rows = n - k0;  // samples with both delays available
     Eigen::MatrixXd phi(rows, nc);
@@ -97,9 +97,34 @@ void Oracle(const mrd::test::RecoverySystem& sys, mrd::test::Noise noise, std::s
               noise == mrd::test::Noise::kEquation ? "EE" : "OE", n, hits, seeds);
 }
 
+// Every iteration of one seed's run (* = selected), the selection rule, and the true
+// structure's least-squares J and cross-validated J for comparison.
+void Trace(const mrd::test::RecoverySystem& s, mrd::test::Noise noise, std::size_t n, int seed,
+           const mrd::host::SemOptions& o, const std::string& spec) {
+  const mrd::host::SemSpec sp = mrd::host::ParseSemSpec(spec, "recovery.toml");
+  const std::vector<mrd::host::DataSet> id{mrd::test::SuiteData(s, noise, n, seed)};
+  const auto r = mrd::host::Identify(sp, id, {}, o);
+  for (const auto& it : r.iterations) {
+    double cv = 0.0;
+    for (double v : it.cv_j) cv += v;
+    std::printf("%s%2d J %.6g CV %.6g:", it.iteration == r.selected ? "*" : " ", it.iteration,
+                it.j, cv);
+    for (const auto& t : it.terms) std::printf(" %s", mrd::host::TermName(sp, t).c_str());
+    std::printf("\n");
+  }
+  std::printf("%s\n", r.selection_rule.c_str());
+  mrd::host::SemOptions t = o;  // the true structure, least squares, no search
+  t.initial = std::vector<std::string>(s.terms.begin(), s.terms.end());
+  t.max_iterations = 0;
+  const auto truth = mrd::host::Identify(sp, id, {}, t);
+  double tcv = 0.0;
+  for (double v : truth.iterations.front().cv_j) tcv += v;
+  std::printf("true structure: J %.6g CV %.6g\n", truth.iterations.front().j, tcv);
+}
+
 }  // namespace
 
-int main(int argc, char** argv) {
+int main(int argc, char** argv) try {
   int seeds = 20;
   bool misses = false;
   std::string spec = mrd::test::kRecoverySpec;
@@ -119,53 +144,20 @@ int main(int argc, char** argv) {
              "[algorithm]\nstrategy = \"best\"\nselection = \"tolerance\"\n";
     } else if (a == "--misses") {
       misses = true;
-    } else if (a == "--case" && i + 3 < argc) {  // SYSTEM EE|OE N: one count, with misses
-      const std::string name = argv[i + 1], nz = argv[i + 2];
+    } else if ((a == "--case" || a == "--oracle" || a == "--trace") &&
+               i + (a == "--trace" ? 4 : 3) < argc) {  // SYSTEM EE|OE N [SEED]: one case
+      const mrd::test::RecoverySystem& s = mrd::test::RecoverySystemNamed(argv[i + 1]);
+      const std::string nz = argv[i + 2];
+      const auto noise = nz == "OE" ? mrd::test::Noise::kOutput : mrd::test::Noise::kEquation;
       const auto n = static_cast<std::size_t>(std::atoi(argv[i + 3]));
-      for (const auto& s : mrd::test::RecoverySystems()) {
-        if (s.name != name) continue;
-        const auto noise = nz == "OE" ? mrd::test::Noise::kOutput : mrd::test::Noise::kEquation;
+      if (a == "--case") {  // one count, with misses
         const auto c = mrd::test::CountRecovered(s, noise, n, seeds, o, spec);
-        std::printf("%s %s N=%zu: %d/%d\n%s", name.c_str(), nz.c_str(), n, c.hits, c.seeds,
+        std::printf("%s %s N=%zu: %d/%d\n%s", s.name.c_str(), nz.c_str(), n, c.hits, c.seeds,
                     c.misses.c_str());
-      }
-      return 0;
-    } else if (a == "--oracle" && i + 3 < argc) {  // SYSTEM EE|OE N: one-step LS oracle
-      const std::string name = argv[i + 1], nz = argv[i + 2];
-      const auto n = static_cast<std::size_t>(std::atoi(argv[i + 3]));
-      for (const auto& s : mrd::test::RecoverySystems()) {
-        if (s.name != name) continue;
-        Oracle(s, nz == "OE" ? mrd::test::Noise::kOutput : mrd::test::Noise::kEquation, n, seeds,
-               spec);
-      }
-      return 0;
-    } else if (a == "--trace" && i + 4 < argc) {  // SYSTEM EE|OE N SEED: every iteration
-      const std::string name = argv[i + 1], nz = argv[i + 2];
-      const auto n = static_cast<std::size_t>(std::atoi(argv[i + 3]));
-      const int seed = std::atoi(argv[i + 4]);
-      for (const auto& s : mrd::test::RecoverySystems()) {
-        if (s.name != name) continue;
-        const auto noise = nz == "OE" ? mrd::test::Noise::kOutput : mrd::test::Noise::kEquation;
-        const mrd::host::SemSpec sp = mrd::host::ParseSemSpec(spec, "recovery.toml");
-        const std::vector<mrd::host::DataSet> id{mrd::test::RecoveryData(
-            s, noise, 7919u * static_cast<std::uint64_t>(seed) + n, n)};
-        const auto r = mrd::host::Identify(sp, id, {}, o);
-        for (const auto& it : r.iterations) {
-          double cv = 0.0;
-          for (double v : it.cv_j) cv += v;
-          std::printf("%s%2d J %.6g CV %.6g:", it.iteration == r.selected ? "*" : " ",
-                      it.iteration, it.j, cv);
-          for (const auto& t : it.terms) std::printf(" %s", mrd::host::TermName(sp, t).c_str());
-          std::printf("\n");
-        }
-        std::printf("%s\n", r.selection_rule.c_str());
-        mrd::host::SemOptions t = o;  // the true structure, least squares, no search
-        t.initial = std::vector<std::string>(s.terms.begin(), s.terms.end());
-        t.max_iterations = 0;
-        const auto truth = mrd::host::Identify(sp, id, {}, t);
-        double tcv = 0.0;
-        for (double v : truth.iterations.front().cv_j) tcv += v;
-        std::printf("true structure: J %.6g CV %.6g\n", truth.iterations.front().j, tcv);
+      } else if (a == "--oracle") {
+        Oracle(s, noise, n, seeds, spec);
+      } else {
+        Trace(s, noise, n, std::atoi(argv[i + 4]), o, spec);
       }
       return 0;
     } else {
@@ -188,4 +180,7 @@ int main(int argc, char** argv) {
     }
   }
   return 0;
+} catch (const std::exception& e) {  // an unknown SYSTEM
+  std::fprintf(stderr, "sem_recovery: %s\n", e.what());
+  return 2;
 }

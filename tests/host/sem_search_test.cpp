@@ -21,16 +21,8 @@ using host::SemOptions;
 using host::SemResult;
 using host::SemSpec;
 
-const RecoverySystem& System(const std::string& name) {
-  static const std::vector<RecoverySystem> all = RecoverySystems();
-  for (const auto& s : all) {
-    if (s.name == name) return s;
-  }
-  throw std::runtime_error("no system " + name);
-}
-
 DataSet Data(const std::string& system, Noise noise, std::size_t n, int seed) {
-  return RecoveryData(System(system), noise, 7919u * static_cast<std::uint64_t>(seed) + n, n);
+  return SuiteData(RecoverySystemNamed(system), noise, n, seed);
 }
 
 SemSpec Spec(const std::string& algorithm = "") {
@@ -65,12 +57,12 @@ TEST(SemSearchTest, OneStepStartEscapesTheGreedyLockInOnALightlyDampedResonance)
   o.threads = 2;
   const SemSpec with = Spec();
   const SemResult a = Identify(with, id, {}, o);
-  EXPECT_EQ(SelectedTerms(with, a), System("linear2").terms) << a.selection_rule;
+  EXPECT_EQ(SelectedTerms(with, a), RecoverySystemNamed("linear2").terms) << a.selection_rule;
   EXPECT_NE(a.selection_rule.find("kept: the one-step start"), std::string::npos)
       << a.selection_rule;
   const SemSpec without = Spec("one_step_start = false\n");
   const SemResult b = Identify(without, id, {}, o);
-  EXPECT_NE(SelectedTerms(without, b), System("linear2").terms);
+  EXPECT_NE(SelectedTerms(without, b), RecoverySystemNamed("linear2").terms);
   double best_greedy = 1e300;
   for (const auto& it : b.iterations) best_greedy = std::min(best_greedy, it.j);
   EXPECT_GT(best_greedy, 5.0 * a.iterations.at(static_cast<std::size_t>(a.selected)).j);
@@ -84,7 +76,7 @@ TEST(SemSearchTest, ExchangeReplacesATermTakenByOneStepRank) {
   SemOptions o;
   o.threads = 2;
   const SemSpec with = Spec();
-  EXPECT_EQ(SelectedTerms(with, Identify(with, id, {}, o)), System("billings").terms);
+  EXPECT_EQ(SelectedTerms(with, Identify(with, id, {}, o)), RecoverySystemNamed("billings").terms);
   const SemSpec without = Spec("exchange = false\n");
   const auto got = SelectedTerms(without, Identify(without, id, {}, o));
   EXPECT_TRUE(got.count("y(k-2)^3") == 1 && got.count("y(k-2)^2") == 0)

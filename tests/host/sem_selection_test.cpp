@@ -163,8 +163,7 @@ TEST(SemSelectionTest, EquationErrorNoiseIsWhitenedBeforeCrossValidation) {
   // y(k-2)^2; whitened by the fitted AR(1) filter it picks the true structure.
   const auto sys = test::RecoverySystems()[0];
   const std::size_t n = 500;
-  const std::vector<DataSet> ee{
-      test::RecoveryData(sys, test::Noise::kEquation, 7919u * 17u + n, n)};
+  const std::vector<DataSet> ee{test::SuiteData(sys, test::Noise::kEquation, n, 17)};
   const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
   const SemResult a = Identify(spec, ee, {}, SemOptions{});
   EXPECT_EQ(test::SelectedTerms(spec, a), sys.terms);
@@ -176,7 +175,7 @@ TEST(SemSelectionTest, EquationErrorNoiseIsWhitenedBeforeCrossValidation) {
   EXPECT_LT(a1, 0.65);
   EXPECT_NE(a.selection_rule.find("the AR(1) whitening filter"), std::string::npos);
   // Output-error noise: the residual is white and the J is not filtered.
-  const std::vector<DataSet> oe{test::RecoveryData(sys, test::Noise::kOutput, 7919u * 17u + n, n)};
+  const std::vector<DataSet> oe{test::SuiteData(sys, test::Noise::kOutput, n, 17)};
   const SemResult b = Identify(spec, oe, {}, SemOptions{});
   EXPECT_NE(b.selection_rule.find("L(q) = 1, the AR(0)"), std::string::npos) << b.selection_rule;
 }
