@@ -1,6 +1,7 @@
 // Counts table of the structure-recovery suite (sem_recovery.hpp): exact recoveries of the
 // selected model per system, noise and record length, default settings, no validation data.
-//   build/tests/sem_recovery [--seeds N] [--strategy best|first] [--threads N] [--before] [--misses]
+//   build/tests/sem_recovery [--seeds N] [--strategy best|first] [--threads N] [--before]
+//   [--misses]
 //   [--trace SYSTEM EE|OE N SEED]   (every iteration of one case, * = selected)
 //   [--case SYSTEM EE|OE N]          (the count and misses of one case only)
 //   [--oracle SYSTEM EE|OE N]        (the one-step least-squares oracle of one case)

@@ -189,9 +189,9 @@ TEST(SemSelectionTest, ModelFileStatesTheRuleAndValidationStillWins) {
   o.max_iterations = 8;
   const SemResult a = Identify(spec, id, {}, o);
   const std::string ja = ModelFileToJson(MakeModelFile(spec, a));
-  EXPECT_NE(ja.find(std::to_string(kSelectionFolds) + "-fold cross-validation of the output-error refined free-run J"),
-            std::string::npos)
-      << ja;
+  const std::string rule = std::to_string(kSelectionFolds) +
+                           "-fold cross-validation of the output-error refined free-run J";
+  EXPECT_NE(ja.find(rule), std::string::npos) << ja;
   EXPECT_EQ(a.iterations.front().cv_j.size(), static_cast<std::size_t>(kSelectionFolds));
   const SemResult b = Identify(spec, id, val, o);
   EXPECT_EQ(b.selected, SelectIteration(b.iterations, spec.selection_tolerance_percent));
