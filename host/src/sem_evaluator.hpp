@@ -174,7 +174,6 @@ class Evaluator {
   // The cost and residual do not depend on whether sens is asked for.
   double FreeRun(const Prepared& p, const Eigen::VectorXd& theta, std::size_t a, std::size_t b,
                  Scratch& scratch, std::vector<double>* residual, double* sens = nullptr) const {
-    constexpr double kInf = std::numeric_limits<double>::infinity();
     std::vector<double>& ys = scratch.ys;
     ys.assign(rec_.y.begin(), rec_.y.begin() + static_cast<std::ptrdiff_t>(b));
     const std::size_t m = p.m, n = b - a, ng = p.groups.size();

@@ -1,6 +1,8 @@
 #pragma once
-// Shared by the SEM engine (sem.cpp) and its model selection (sem_selection.cpp); not public.
+// Shared by the SEM engine (sem.cpp, sem_engine.cpp) and its model selection
+// (sem_selection.cpp); not public.
 
+#include <limits>
 #include <span>
 
 #include <Eigen/Dense>
@@ -9,6 +11,8 @@
 #include "mrd/host/sem.hpp"
 
 namespace mrd::host::internal {
+
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
 
 class Evaluator;  // sem_evaluator.hpp
 

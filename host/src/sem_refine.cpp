@@ -14,7 +14,6 @@
 namespace mrd::host::internal {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kMaxSteps = 30;      // LM steps (accepted or not)
 constexpr double kRelStop = 1e-6;  // stop when an accepted step lowers J by less
 // Levenberg-Marquardt damping, relative to the diagonal of J^T J (Marquardt's scaling, so

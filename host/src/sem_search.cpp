@@ -1,0 +1,168 @@
+#include "sem_search.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+namespace mrd::host::internal {
+namespace {
+
+constexpr std::size_t kChunk = 64;    // candidates per work item (one column sweep)
+constexpr double kCollinear = 1e-13;  // relative Schur complement below which a
+                                      // candidate is taken as linearly dependent
+
+// Lowers an atomic double to v if v is smaller.
+void AtomicMin(std::atomic<double>& a, double v) {
+  double cur = a.load();
+  while (v < cur && !a.compare_exchange_weak(cur, v)) {
+  }
+}
+
+}  // namespace
+
+double Search::Cost(const std::vector<int>& terms, std::vector<double>* theta) {
+  if (!e_.Solve(terms, theta)) return kInf;
+  if (terms.empty()) return e_.YtWy();
+  return CostWith(terms, *theta, kInf);
+}
+
+double Search::CostWith(const std::vector<int>& terms, const std::vector<double>& theta,
+                        double bnd) {
+  Engine::Job job;
+  job.theta = theta;
+  std::atomic<double> bound{bnd};
+  std::vector<double> scratch;
+  e_.Simulate(terms, std::span<Engine::Job>(&job, 1), bound, scratch);
+  return job.dead ? (job.diverged ? kInf : job.cost) : job.cost;
+}
+
+Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
+                     double j_threshold, int* rejected, const Accept& accept, int* stress_rejected,
+                     std::size_t limit, double bound0) {
+  std::atomic<int> n_rejected{0};
+  struct Report {
+    std::atomic<int>& n;
+    int* out;
+    ~Report() { *out = n.load(); }
+  } report{n_rejected, rejected};
+  const std::size_t m = model.size();
+  // Cholesky of the model Gram matrix.
+  Eigen::MatrixXd g(m, m);
+  for (std::size_t i = 0; i < m; ++i) {
+    const auto& ci = e_.Cross(model[i]);
+    for (std::size_t j = 0; j < m; ++j) g(i, j) = ci[model[j]];
+  }
+  Eigen::LLT<Eigen::MatrixXd> llt(g);
+  std::vector<const std::vector<double>*> cross(m);
+  for (std::size_t i = 0; i < m; ++i) cross[i] = &e_.Cross(model[i]);
+  // Bordered LS for every candidate, and its one-step SSE reduction for ranking.
+  const std::size_t nc = e_.num_candidates();
+  std::vector<Trial> trials(nc);
+  std::vector<char> in_model(nc, 0);
+  for (int t : model) in_model[t] = 1;
+  ParallelFor((nc + kChunk - 1) / kChunk, threads_, [&](std::size_t item, int) {
+    Eigen::VectorXd gc(m), z(m);
+    Eigen::Map<const Eigen::VectorXd> wv(w.data(), static_cast<Eigen::Index>(m));
+    for (std::size_t c = item * kChunk; c < std::min(nc, (item + 1) * kChunk); ++c) {
+      Trial& tr = trials[c];
+      if (in_model[c]) continue;
+      const Cand& cd = e_.cand(static_cast<int>(c));
+      for (std::size_t i = 0; i < m; ++i) gc(i) = (*cross[i])[c];
+      double sigma = cd.ss, r = cd.sy;
+      if (m > 0) {
+        z = llt.solve(gc);
+        sigma -= gc.dot(z);
+        r -= gc.dot(wv);
+      }
+      if (!(sigma > kCollinear * cd.ss) || !std::isfinite(sigma)) {
+        ++n_rejected;
+        continue;
+      }
+      const double th = r / sigma;
+      tr.cand = static_cast<int>(c);
+      tr.rank = r * r / sigma;
+      tr.theta.resize(m + 1);
+      for (std::size_t i = 0; i < m; ++i) tr.theta[i] = w[i] - z(i) * th;
+      tr.theta[m] = th;
+    }
+  });
+  std::vector<int> order;
+  for (std::size_t c = 0; c < nc; ++c) {
+    if (trials[c].cand >= 0) order.push_back(static_cast<int>(c));
+  }
+  // Rank by one-step criterion (largest SSE reduction first), ties by index.
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return trials[a].rank > trials[b].rank; });
+  if (limit > 0 && order.size() > limit) order.resize(limit);
+  Trial none;
+  if (order.empty()) return none;
+  auto accepted = [&](int c) {
+    if (!accept || accept(c, trials[c].theta)) return true;
+    if (stress_rejected != nullptr) ++*stress_rejected;
+    return false;
+  };
+  // Admissible (finite J) candidates by J, ties by index, the first the check accepts.
+  auto best_accepted = [&](std::vector<int> ok) {
+    std::sort(ok.begin(), ok.end(), [&](int a, int b) {
+      return trials[a].j != trials[b].j ? trials[a].j < trials[b].j : a < b;
+    });
+    for (int c : ok) {
+      if (accepted(c)) return trials[c];
+    }
+    return none;
+  };
+  // Shared bound for early stopping. First improvement never lowers it below the
+  // threshold, so no candidate that would meet the threshold is cut short.
+  const double floor = first ? j_threshold : -kInf;
+  std::atomic<double> best{bound0};
+  for (int t : model) e_.U(t);  // materialise before the workers read them
+  auto run_chunk = [&](std::size_t begin, std::size_t end, std::vector<double>& scratch) {
+    std::vector<Engine::Job> jobs(end - begin);
+    for (std::size_t i = begin; i < end; ++i) {
+      Trial& tr = trials[order[i]];
+      jobs[i - begin].theta.assign(tr.theta.begin(), tr.theta.end() - 1);
+      jobs[i - begin].extra = tr.cand;
+      jobs[i - begin].theta_extra = tr.theta.back();
+    }
+    e_.Simulate(model, jobs, best, scratch);
+    for (std::size_t i = begin; i < end; ++i) {
+      const Engine::Job& job = jobs[i - begin];
+      Trial& tr = trials[order[i]];
+      tr.j = job.dead ? kInf : job.cost;
+      if (!job.dead) AtomicMin(best, std::max(job.cost, floor));
+      if (job.diverged) ++n_rejected;
+    }
+  };
+  if (!first) {
+    const std::size_t chunks = (order.size() + kChunk - 1) / kChunk;
+    std::vector<std::vector<double>> scratch(static_cast<std::size_t>(threads_));
+    ParallelFor(chunks, threads_, [&](std::size_t item, int worker) {
+      run_chunk(item * kChunk, std::min(order.size(), (item + 1) * kChunk), scratch[worker]);
+    });
+    std::vector<int> ok;
+    for (int c : order) {
+      if (trials[c].j < kInf) ok.push_back(c);
+    }
+    return best_accepted(std::move(ok));
+  }
+  // First improvement: rank order, in rounds of threads*kChunk candidates.
+  const std::size_t round = static_cast<std::size_t>(threads_) * kChunk;
+  std::vector<std::vector<double>> scratch(static_cast<std::size_t>(threads_));
+  std::vector<int> fallback;
+  for (std::size_t r0 = 0; r0 < order.size(); r0 += round) {
+    const std::size_t r1 = std::min(order.size(), r0 + round);
+    const std::size_t chunks = (r1 - r0 + kChunk - 1) / kChunk;
+    ParallelFor(chunks, threads_, [&](std::size_t item, int worker) {
+      run_chunk(r0 + item * kChunk, std::min(r1, r0 + (item + 1) * kChunk), scratch[worker]);
+    });
+    for (std::size_t i = r0; i < r1; ++i) {
+      const int c = order[i];
+      if (trials[c].j <= j_threshold && accepted(c)) return trials[c];
+      if (trials[c].j < kInf && trials[c].j > j_threshold) fallback.push_back(c);
+    }
+  }
+  return best_accepted(std::move(fallback));
+}
+
+}  // namespace mrd::host::internal

@@ -1,0 +1,49 @@
+#pragma once
+// The SEM search's candidate trials (used by sem.cpp's Identify): least squares of every
+// candidate added to a model (bordered on the model's Cholesky factor), its one-step rank,
+// and the free runs that pick one by J, first or best improvement. Not public.
+
+#include <cstddef>
+#include <functional>
+#include <vector>
+
+#include "sem_engine.hpp"
+
+namespace mrd::host::internal {
+
+// Outcome of trying one candidate.
+struct Trial {
+  int cand = -1;
+  double j = kInf;
+  double rank = 0.0;          // one-step SSE reduction
+  std::vector<double> theta;  // model terms then the candidate
+};
+
+class Search {
+ public:
+  Search(Engine& e, int threads) : e_(e), threads_(std::max(1, threads)) {}
+
+  // Full-model free-run cost (no bound), +inf when diverging or singular.
+  double Cost(const std::vector<int>& terms, std::vector<double>* theta);
+
+  // Free-run cost of terms with coefficients theta; a run whose partial cost exceeds bnd
+  // stops (then its partial cost, a lower bound, is returned); +inf when diverging.
+  double CostWith(const std::vector<int>& terms, const std::vector<double>& theta, double bnd);
+
+  // Tries adding every eligible candidate. Returns the chosen trial (cand < 0: none
+  // admissible). first: first-improvement with target j_threshold.
+  // accept (optional): stress check of model + candidate with the trial's coefficients; a
+  // candidate it refuses is skipped (counted in stress_rejected) for the next best.
+  // limit > 0: simulate only the `limit` candidates of best one-step rank. bound0: only
+  // candidates whose J is below it are admissible (early stop from the start).
+  using Accept = std::function<bool(int cand, const std::vector<double>& theta)>;
+  Trial TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
+               double j_threshold, int* rejected, const Accept& accept = {},
+               int* stress_rejected = nullptr, std::size_t limit = 0, double bound0 = kInf);
+
+ private:
+  Engine& e_;
+  int threads_;
+};
+
+}  // namespace mrd::host::internal
