@@ -5,6 +5,7 @@
 #include <cmath>
 #include <future>
 #include <map>
+#include <numeric>
 
 #include <fmt/format.h>
 
@@ -416,6 +417,87 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     }
     finish_recorded();
   };
+  // Backward elimination under the selection's score (cross-validated selection only): the
+  // search prunes a term only when J falls without it, and a path can start with a spurious
+  // term (the one-step start) that it never drops, so the truth is then on no path. Drops the
+  // picked structure's term whose removal lowers the score most, while the score falls; the
+  // result is a further iteration, selected, with the dropped terms in the rule.
+  auto drop_by_score = [&](const internal::SelectionCriterion& criterion) {
+    if (!spec.drop_terms || !criterion || res.selected < 0) return;
+    auto sel = std::find_if(res.iterations.begin(), res.iterations.end(),
+                            [&](const SemIteration& it) { return it.iteration == res.selected; });
+    if (sel == res.iterations.end() || sel->cv_j.empty()) return;
+    SemIteration cur = *sel;
+    std::vector<int> cur_model;
+    for (const SemTerm& t : cur.terms) {
+      const auto k = by_key.find(TermKey(spec, t));
+      if (k == by_key.end()) return;
+      cur_model.push_back(k->second);
+    }
+    const auto sum = [](const std::vector<double>& v) {
+      return std::accumulate(v.begin(), v.end(), 0.0);
+    };
+    double cur_score = criterion.Score(sum(cur.cv_j), cur_model.size());
+    std::vector<std::string> dropped;
+    while (cur_model.size() > 1) {
+      struct Drop {
+        std::vector<int> model;
+        std::vector<double> theta;
+        std::vector<double> cv;
+        double j = kInf;
+        double score = kInf;
+        std::size_t out = 0;  // index of the dropped term in cur_model
+      };
+      std::vector<Drop> drops(cur_model.size());
+      for (std::size_t i = 0; i < cur_model.size(); ++i) {  // least squares (the engine's cache)
+        drops[i].model = cur_model;
+        drops[i].model.erase(drops[i].model.begin() + static_cast<std::ptrdiff_t>(i));
+        drops[i].out = i;
+        if (!eng.Solve(drops[i].model, &drops[i].theta)) drops[i].theta.clear();
+      }
+      internal::ParallelFor(drops.size(), o.threads, [&](std::size_t i, int) {
+        Drop& d = drops[i];
+        if (d.theta.size() != d.model.size()) return;
+        std::vector<SemTerm> terms;
+        for (int c : d.model) terms.push_back(eng.cand(c).term);
+        d.cv = criterion.fold_costs(terms, &d.theta, &d.j);
+        d.score = criterion.Score(sum(d.cv), d.model.size());
+      });
+      const Drop* best = nullptr;
+      for (const Drop& d : drops) {
+        if (!(d.score < (best != nullptr ? best->score : cur_score)) || !std::isfinite(d.j)) {
+          continue;
+        }
+        if (!stress.empty() && !stress_of(d.model, d.theta).pass) continue;
+        best = &d;
+      }
+      if (best == nullptr) break;
+      dropped.push_back(TermName(spec, eng.cand(cur_model[best->out]).term));
+      cur_model = best->model;
+      cur.terms.clear();
+      for (int c : cur_model) cur.terms.push_back(eng.cand(c).term);
+      cur.coefficients = best->theta;
+      cur.j = best->j;
+      cur.cv_j = best->cv;
+      cur.stress = stress_of(cur_model, cur.coefficients);
+      cur_score = best->score;
+    }
+    if (dropped.empty()) return;
+    cur.iteration = res.iterations.back().iteration + 1;
+    cur.rejected = cur.stress_rejected = 0;
+    cur.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (o.progress) o.progress(cur);
+    res.selected = cur.iteration;
+    res.iterations.push_back(std::move(cur));
+    std::string list;
+    for (const std::string& d : dropped) {
+      if (!list.empty()) list += ", ";
+      list += d;
+    }
+    res.selection_rule += fmt::format(
+        "; then terms dropped from the pick while that lowers the score (iteration {}): {}",
+        res.selected, list);
+  };
   const std::vector<int> initial_model = model;
   run_path();
   // Second start: the structure the one-step (prediction-error) criterion selects by forward
@@ -464,7 +546,8 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       it.iteration += offset;
       res.iterations.push_back(std::move(it));
     }
-    internal::SelectModel(spec, identification, o.threads, &res);
+    internal::SelectionCriterion criterion;
+    internal::SelectModel(spec, identification, o.threads, &res, &criterion);
     const bool second = res.selected >= offset;  // keep the picked path (with its CV costs)
     if (second) {
       res.iterations.erase(res.iterations.begin(), res.iterations.begin() + offset);
@@ -477,8 +560,11 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
         "; over two search starts, kept: {} (the {}-term one-step forward-regression start {})",
         second ? "the one-step start" : "the initial structure", start.size(),
         second ? "won" : "lost");
+    drop_by_score(criterion);
   } else {
-    internal::SelectModel(spec, identification, o.threads, &res);
+    internal::SelectionCriterion criterion;
+    internal::SelectModel(spec, identification, o.threads, &res, &criterion);
+    drop_by_score(criterion);
   }
   if (res.selected < 0) {
     throw InputError(spec.path, spec.stress.line,

@@ -2,6 +2,7 @@
 // Shared by the SEM engine (sem.cpp, sem_engine.cpp) and its model selection
 // (sem_selection.cpp); not public.
 
+#include <functional>
 #include <limits>
 #include <span>
 
@@ -35,9 +36,25 @@ double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm
 std::vector<double> TransformSignal(const ElementaryRegressor& reg, const std::vector<double>& raw,
                                     double scale);
 
+// The score a cross-validated selection ranked the iterations by, for structures off the
+// search path: the same folds, prefilter, N and C (SelectByCrossValidation in sem.hpp).
+struct SelectionCriterion {
+  // Per-fold costs of terms from the start *coefficients (least squares; replaced by the
+  // refined ones when spec.refine), their J in *j.
+  std::function<std::vector<double>(const std::vector<SemTerm>& terms,
+                                    std::vector<double>* coefficients, double* j)>
+      fold_costs;
+  double samples = 0.0;     // N
+  double candidates = 0.0;  // C
+  // N ln(total) + m ln(N) + 2 ln(C choose m); +inf when total is not finite and positive.
+  double Score(double total, std::size_t m) const;
+  explicit operator bool() const { return static_cast<bool>(fold_costs); }
+};
+
 // Picks res->selected among res->iterations and states the rule in res->selection_rule:
 // the validation rule when validation J is present, else spec.selection (docs in sem.hpp).
+// criterion (optional): set to the cross-validated score when that rule picked, else empty.
 void SelectModel(const SemSpec& spec, std::span<const DataSet> identification, int threads,
-                 SemResult* res);
+                 SemResult* res, SelectionCriterion* criterion = nullptr);
 
 }  // namespace mrd::host::internal

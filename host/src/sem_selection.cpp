@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <thread>
 
 #include <Eigen/Dense>
@@ -232,6 +233,15 @@ double Sum(const std::vector<double>& v) {
 
 }  // namespace
 
+double internal::SelectionCriterion::Score(double total, std::size_t terms) const {
+  if (!(total > 0.0) || !std::isfinite(total)) return kInf;
+  const double m = static_cast<double>(terms);
+  const double k = std::min(m, candidates);  // an initial term outside the candidates
+  const double log_choose =
+      std::lgamma(candidates + 1.0) - std::lgamma(k + 1.0) - std::lgamma(candidates - k + 1.0);
+  return samples * std::log(total) + m * std::log(samples) + 2.0 * log_choose;
+}
+
 std::vector<double> CrossValidatedCost(const SemSpec& spec, const std::vector<ChannelInfo>& ch,
                                        const std::vector<SemTerm>& terms,
                                        std::span<const DataSet> data, int folds) {
@@ -247,16 +257,15 @@ int SelectByCrossValidation(const std::vector<SemIteration>& its,
   const double n = std::max(samples, 2.0);
   const double c = std::max(candidates, 1.0);
   const auto failed = [](const SemIteration& it) { return it.stress.checked && !it.stress.pass; };
+  internal::SelectionCriterion score_of;
+  score_of.samples = n;
+  score_of.candidates = c;
   int pick = -1;
   double best = kInf;
   for (std::size_t i = 0; i < its.size(); ++i) {
     if (failed(its[i])) continue;
-    const double total = Sum(cv[i]);
-    if (!(total > 0.0) || !std::isfinite(total)) continue;
-    const double m = static_cast<double>(its[i].terms.size());
-    const double k = std::min(m, c);  // an initial term outside the candidates: not chosen
-    const double log_choose = std::lgamma(c + 1.0) - std::lgamma(k + 1.0) - std::lgamma(c - k + 1.0);
-    const double score = n * std::log(total) + m * std::log(n) + 2.0 * log_choose;
+    const double score = score_of.Score(Sum(cv[i]), its[i].terms.size());
+    if (!std::isfinite(score)) continue;
     if (pick < 0 || score < best) {
       pick = static_cast<int>(i);
       best = score;
@@ -270,7 +279,8 @@ int SelectByCrossValidation(const std::vector<SemIteration>& its,
 }
 
 void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identification,
-                           int threads, SemResult* res) {
+                           int threads, SemResult* res, SelectionCriterion* criterion) {
+  if (criterion != nullptr) *criterion = {};
   auto& its = res->iterations;
   const bool validation = !its.empty() && !its.front().validation_j.empty();
   std::size_t shortest = std::numeric_limits<std::size_t>::max();
@@ -290,7 +300,8 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
             : "");
     return;
   }
-  std::vector<Evaluator> ev;
+  auto shared_ev = std::make_shared<std::vector<Evaluator>>();  // outlives the call (criterion)
+  std::vector<Evaluator>& ev = *shared_ev;
   for (const DataSet& d : identification) ev.emplace_back(spec, res->channels, d);
   // The lowest-J iteration's free-run residual: the noise's colour (prefilter) and the
   // effective sample size.
@@ -352,6 +363,21 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   }
   res->selected =
       SelectByCrossValidation(its, cv, n_eff, static_cast<double>(res->num_candidates));
+  if (criterion != nullptr) {
+    criterion->samples = std::max(n_eff, 2.0);
+    criterion->candidates = std::max(static_cast<double>(res->num_candidates), 1.0);
+    criterion->fold_costs = [shared_ev, l, refine = spec.refine](
+                                const std::vector<SemTerm>& terms,
+                                std::vector<double>* coefficients, double* j) {
+      if (refine) return RefinedFoldCosts(*shared_ev, terms, kSelectionFolds, l, coefficients, j);
+      Eigen::VectorXd theta(static_cast<Eigen::Index>(coefficients->size()));
+      for (std::size_t i = 0; i < coefficients->size(); ++i) {
+        theta(static_cast<Eigen::Index>(i)) = (*coefficients)[i];
+      }
+      *j = FoldRun(*shared_ev, PrepareAll(*shared_ev, terms), theta, 0, 1, {});
+      return FoldCosts(*shared_ev, terms, kSelectionFolds, l);
+    };
+  }
   res->selection_rule = fmt::format(
       "{}-fold cross-validation of the {} free-run J inside the identification data: the "
       "iteration of lowest N ln(CV J) + m ln(N) + 2 ln(C choose m) (extended BIC, m terms of C = "

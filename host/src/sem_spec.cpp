@@ -397,6 +397,8 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
           if (s.selection_tolerance_percent < 0.0) {
             Fail(path, sn, "'selection_tolerance_percent' must be >= 0");
           }
+        } else if (k == "algorithm" && sk == "drop_terms") {
+          s.drop_terms = GetBool(path, sn, sk);
         } else if (k == "algorithm" && sk == "exchange") {
           s.exchange = GetBool(path, sn, sk);
         } else if (k == "algorithm" && sk == "one_step_start") {

@@ -3,7 +3,9 @@
 // refusal of powers and delays the spec does not offer.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -13,6 +15,7 @@
 #include "mrd/host/sem.hpp"
 #include "mrd/host/sem_spec.hpp"
 #include "sem_recovery.hpp"
+#include "test_util.hpp"
 
 namespace mrd::host {
 namespace {
@@ -178,6 +181,65 @@ TEST(SemSelectionTest, EquationErrorNoiseIsWhitenedBeforeCrossValidation) {
   const std::vector<DataSet> oe{test::SuiteData(sys, test::Noise::kOutput, n, 17)};
   const SemResult b = Identify(spec, oe, {}, SemOptions{});
   EXPECT_NE(b.selection_rule.find("L(q) = 1, the AR(0)"), std::string::npos) << b.selection_rule;
+}
+
+TEST(SemSelectionTest, PickedStructureDropsTermsWhileTheScoreFalls) {
+  // linear2 (lightly damped), equation-error noise, N = 1000, seed 7: the one-step start is the
+  // truth plus y(k-1)^2*y(k-2), and no path drops that term (J rises without it: 0.00676
+  // against 0.00671), so the truth is on no path and the search's pick carries it. Dropping it
+  // lowers the cross-validated score: the truth is selected as a further iteration.
+  const auto& sys = test::RecoverySystemNamed("linear2");
+  const std::vector<DataSet> ee{test::SuiteData(sys, test::Noise::kEquation, 1000, 7)};
+  const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
+  const SemResult a = Identify(spec, ee, {}, SemOptions{});
+  EXPECT_EQ(test::SelectedTerms(spec, a), sys.terms);
+  EXPECT_NE(a.selection_rule.find("; then terms dropped from the pick while that lowers the "
+                                  "score (iteration " +
+                                  std::to_string(a.selected) + "): y(k-1)^2*y(k-2)"),
+            std::string::npos)
+      << a.selection_rule;
+  ASSERT_GE(a.iterations.size(), 2u);
+  const SemIteration& picked = a.iterations.back();
+  EXPECT_EQ(picked.iteration, a.selected);
+  ASSERT_EQ(picked.cv_j.size(), static_cast<std::size_t>(kSelectionFolds));
+  // The search's own pick (the lowest score on the path) has one more term, a lower J and a
+  // lower summed criterion: only the penalty of the extra term makes the drop pay.
+  const auto sum = [](const std::vector<double>& v) {
+    double t = 0.0;
+    for (double x : v) t += x;
+    return t;
+  };
+  bool superset = false;
+  for (const SemIteration& it : a.iterations) {
+    if (it.iteration == a.selected || it.terms.size() != picked.terms.size() + 1) continue;
+    std::set<std::string> names;
+    for (const SemTerm& t : it.terms) names.insert(TermName(spec, t));
+    if (!std::includes(names.begin(), names.end(), sys.terms.begin(), sys.terms.end())) continue;
+    superset = true;
+    EXPECT_LT(it.j, picked.j);
+    EXPECT_LT(sum(it.cv_j), sum(picked.cv_j));
+  }
+  EXPECT_TRUE(superset);
+  // The model file keeps it as the selected iteration, with the rule.
+  const test::TempDir dir;
+  SaveModelFile(MakeModelFile(spec, a), dir.File("m.json"));
+  const ModelFile m = LoadModelFile(dir.File("m.json"));
+  EXPECT_EQ(m.selected, a.selected);
+  EXPECT_EQ(m.Iteration(m.selected).terms.size(), picked.terms.size());
+  EXPECT_EQ(m.selection_rule, a.selection_rule);
+  // Not under the tolerance rule (nor with validation data): the pick stands.
+  SemSpec tol = spec;
+  tol.selection = Selection::kTolerance;
+  const SemResult b = Identify(tol, ee, {}, SemOptions{});
+  EXPECT_EQ(b.selection_rule.find("terms dropped"), std::string::npos) << b.selection_rule;
+  EXPECT_EQ(b.selected, SelectIteration(b.iterations, tol.selection_tolerance_percent));
+  // drop_terms = false: the search's pick, one term more than the truth.
+  SemSpec keep = spec;
+  keep.drop_terms = false;
+  const SemResult c = Identify(keep, ee, {}, SemOptions{});
+  EXPECT_EQ(c.selection_rule.find("terms dropped"), std::string::npos) << c.selection_rule;
+  EXPECT_EQ(c.iterations.size() + 1, a.iterations.size());
+  EXPECT_EQ(test::SelectedTerms(spec, c).size(), sys.terms.size() + 1);
 }
 
 TEST(SemSelectionTest, ModelFileStatesTheRuleAndValidationStillWins) {

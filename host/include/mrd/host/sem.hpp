@@ -142,7 +142,10 @@ inline constexpr int kMaxPrefilterOrder = 4;
 // pays for having picked the m terms among C, which a greedy search over many candidates
 // otherwise over-fits. Ties to the lower iteration. An iteration whose cross-validation
 // diverges, or that failed the stress check, is never picked (all diverging: the last that
-// passed the stress check; -1 when none did).
+// passed the stress check; -1 when none did). Identify then drops terms of the pick while the
+// same score falls (the structure without them scored on the same folds and prefilter, from
+// its least squares, refined); the result is a further iteration, selected, and the rule lists
+// the dropped terms.
 int SelectByCrossValidation(const std::vector<SemIteration>& iterations,
                             const std::vector<std::vector<double>>& cv, double samples,
                             double candidates);

@@ -79,6 +79,8 @@
 //                                     # (default) | tolerance (sem.hpp)
 //   selection_tolerance_percent = 5.0 # >= 0: tolerance rule (with validation data, or with
 //                                     # selection = "tolerance")
+//   drop_terms = true          # cross-validation: drop terms of the pick while its score
+//                              # falls (default true; sem.hpp, SelectByCrossValidation)
 //   exchange = true            # after add and prune, replace a term by a candidate while
 //                              # that lowers J (default true)
 //   one_step_start = true      # also search from the structure forward regression on the
@@ -190,6 +192,7 @@ struct SemSpec {
   // identification data (default) or the tolerance rule on the identification J.
   Selection selection = Selection::kCrossValidation;
   double selection_tolerance_percent = 5.0;  // tolerance rule, see SelectIteration
+  bool drop_terms = true;      // cross-validation: terms of the pick dropped while it scores lower
   bool exchange = true;        // exchange moves after add and prune (sem.hpp)
   bool one_step_start = true;  // second search path from the one-step forward regression
   bool refine = true;          // output-error refinement of every iteration's coefficients
