@@ -185,9 +185,10 @@ TEST(SemSelectionTest, EquationErrorNoiseIsWhitenedBeforeCrossValidation) {
 
 TEST(SemSelectionTest, PickedStructureDropsTermsWhileTheScoreFalls) {
   // linear2 (lightly damped), equation-error noise, N = 1000, seed 7: the one-step start is the
-  // truth plus y(k-1)^2*y(k-2), and no path drops that term (J rises without it: 0.00676
-  // against 0.00671), so the truth is on no path and the search's pick carries it. Dropping it
-  // lowers the cross-validated score: the truth is selected as a further iteration.
+  // truth plus y(k-1)^2*u(k-1), which its first iteration exchanges for y(k-1)^2*y(k-2) (J
+  // 0.00640); no path drops that term (the truth's J is 0.00676), so the truth is on no path
+  // and the pick carries it. Dropping it lowers the cross-validated score: the truth is selected
+  // as a further iteration.
   const auto& sys = test::RecoverySystemNamed("linear2");
   const std::vector<DataSet> ee{test::SuiteData(sys, test::Noise::kEquation, 1000, 7)};
   const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
