@@ -5,7 +5,6 @@
 #include <cmath>
 #include <future>
 #include <map>
-#include <numeric>
 
 #include <fmt/format.h>
 
@@ -434,10 +433,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       if (k == by_key.end()) return;
       cur_model.push_back(k->second);
     }
-    const auto sum = [](const std::vector<double>& v) {
-      return std::accumulate(v.begin(), v.end(), 0.0);
-    };
-    double cur_score = criterion.Score(sum(cur.cv_j), cur_model.size());
+    double cur_score = criterion.Score(cur.cv_j, cur_model.size());
     std::vector<std::string> dropped;
     while (cur_model.size() > 1) {
       struct Drop {
@@ -461,15 +457,18 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
         std::vector<SemTerm> terms;
         for (int c : d.model) terms.push_back(eng.cand(c).term);
         d.cv = criterion.fold_costs(terms, &d.theta, &d.j);
-        d.score = criterion.Score(sum(d.cv), d.model.size());
+        d.score = criterion.Score(d.cv, d.model.size());
       });
       const Drop* best = nullptr;
+      StressVerdict best_stress;
       for (const Drop& d : drops) {
         if (!(d.score < (best != nullptr ? best->score : cur_score)) || !std::isfinite(d.j)) {
           continue;
         }
-        if (!stress.empty() && !stress_of(d.model, d.theta).pass) continue;
+        const StressVerdict v = stress_of(d.model, d.theta);  // unchecked without [stress]
+        if (!stress.empty() && !v.pass) continue;
         best = &d;
+        best_stress = v;
       }
       if (best == nullptr) break;
       dropped.push_back(TermName(spec, eng.cand(cur_model[best->out]).term));
@@ -479,7 +478,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       cur.coefficients = best->theta;
       cur.j = best->j;
       cur.cv_j = best->cv;
-      cur.stress = stress_of(cur_model, cur.coefficients);
+      cur.stress = best_stress;
       cur_score = best->score;
     }
     if (dropped.empty()) return;

@@ -64,7 +64,8 @@ double Score(Rule rule, const SemSpec& spec, std::span<const DataSet> identifica
           sel.cv_j.size() == static_cast<std::size_t>(kSelectionFolds)
               ? sel.cv_j
               : CrossValidatedCost(spec, r.channels, sel.terms, identification, kSelectionFolds));
-      s = FamilyCvScore(cv, sel.terms.size(), r.num_candidates, ScoredSamples(spec, identification));
+      s = CrossValidationScore(cv, sel.terms.size(), static_cast<double>(r.num_candidates),
+                               static_cast<double>(ScoredSamples(spec, identification)));
       break;
     }
     case Rule::kIdentification:
@@ -83,14 +84,6 @@ const json& Field(const json& obj, const char* key, const std::string& path,
 }
 
 }  // namespace
-
-double FamilyCvScore(double cv, std::size_t terms, std::size_t candidates, std::size_t samples) {
-  const double n = std::max(static_cast<double>(samples), 2.0);
-  const double c = std::max(static_cast<double>(candidates), 1.0);
-  const double m = static_cast<double>(terms), k = std::min(m, c);
-  const double log_choose = std::lgamma(c + 1.0) - std::lgamma(k + 1.0) - std::lgamma(c - k + 1.0);
-  return n * std::log(cv) + m * std::log(n) + 2.0 * log_choose;
-}
 
 std::string TransformLabel(const TransformChoice& c) {
   const TransformInfo& i = Info(c.transform);

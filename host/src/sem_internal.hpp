@@ -46,8 +46,8 @@ struct SelectionCriterion {
       fold_costs;
   double samples = 0.0;     // N
   double candidates = 0.0;  // C
-  // N ln(total) + m ln(N) + 2 ln(C choose m); +inf when total is not finite and positive.
-  double Score(double total, std::size_t m) const;
+  // CrossValidationScore (sem.hpp) of a structure of m terms with these per-fold costs.
+  double Score(const std::vector<double>& costs, std::size_t m) const;
   explicit operator bool() const { return static_cast<bool>(fold_costs); }
 };
 

@@ -233,13 +233,19 @@ double Sum(const std::vector<double>& v) {
 
 }  // namespace
 
-double internal::SelectionCriterion::Score(double total, std::size_t terms) const {
-  if (!(total > 0.0) || !std::isfinite(total)) return kInf;
+double CrossValidationScore(double cv, std::size_t terms, double candidates, double samples) {
+  if (!(cv > 0.0) || !std::isfinite(cv)) return kInf;
+  const double n = std::max(samples, 2.0);
+  const double c = std::max(candidates, 1.0);
   const double m = static_cast<double>(terms);
-  const double k = std::min(m, candidates);  // an initial term outside the candidates
-  const double log_choose =
-      std::lgamma(candidates + 1.0) - std::lgamma(k + 1.0) - std::lgamma(candidates - k + 1.0);
-  return samples * std::log(total) + m * std::log(samples) + 2.0 * log_choose;
+  const double k = std::min(m, c);  // an initial term outside the candidates
+  const double log_choose = std::lgamma(c + 1.0) - std::lgamma(k + 1.0) - std::lgamma(c - k + 1.0);
+  return n * std::log(cv) + m * std::log(n) + 2.0 * log_choose;
+}
+
+double internal::SelectionCriterion::Score(const std::vector<double>& costs,
+                                           std::size_t terms) const {
+  return CrossValidationScore(Sum(costs), terms, candidates, samples);
 }
 
 std::vector<double> CrossValidatedCost(const SemSpec& spec, const std::vector<ChannelInfo>& ch,
@@ -254,17 +260,13 @@ int SelectByCrossValidation(const std::vector<SemIteration>& its,
                             const std::vector<std::vector<double>>& cv, double samples,
                             double candidates) {
   if (its.empty()) return 0;
-  const double n = std::max(samples, 2.0);
-  const double c = std::max(candidates, 1.0);
   const auto failed = [](const SemIteration& it) { return it.stress.checked && !it.stress.pass; };
-  internal::SelectionCriterion score_of;
-  score_of.samples = n;
-  score_of.candidates = c;
   int pick = -1;
   double best = kInf;
   for (std::size_t i = 0; i < its.size(); ++i) {
     if (failed(its[i])) continue;
-    const double score = score_of.Score(Sum(cv[i]), its[i].terms.size());
+    const double score =
+        CrossValidationScore(Sum(cv[i]), its[i].terms.size(), candidates, samples);
     if (!std::isfinite(score)) continue;
     if (pick < 0 || score < best) {
       pick = static_cast<int>(i);
@@ -364,8 +366,8 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   res->selected =
       SelectByCrossValidation(its, cv, n_eff, static_cast<double>(res->num_candidates));
   if (criterion != nullptr) {
-    criterion->samples = std::max(n_eff, 2.0);
-    criterion->candidates = std::max(static_cast<double>(res->num_candidates), 1.0);
+    criterion->samples = n_eff;
+    criterion->candidates = static_cast<double>(res->num_candidates);
     criterion->fold_costs = [shared_ev, l, refine = spec.refine](
                                 const std::vector<SemTerm>& terms,
                                 std::vector<double>* coefficients, double* j) {

@@ -94,8 +94,9 @@ TEST(SemFamilyTest, CrossValidationPicksTheTrueTransform) {
   // (variance of the normalised noise); every other member's is higher.
   ASSERT_EQ(sel.cv_j.size(), static_cast<std::size_t>(kSelectionFolds));
   const double chosen = f.combinations[kTrueMember].score;
-  EXPECT_DOUBLE_EQ(chosen, FamilyCvScore(Sum(sel.cv_j), sel.terms.size(),
-                                         fi.result.num_candidates, id[0].rows() - 1));
+  EXPECT_DOUBLE_EQ(chosen, CrossValidationScore(Sum(sel.cv_j), sel.terms.size(),
+                                                static_cast<double>(fi.result.num_candidates),
+                                                static_cast<double>(id[0].rows() - 1)));
   const double noise = 0.02 / fi.result.channels[0].scale;
   EXPECT_LT(Sum(sel.cv_j), 1.15 * noise * noise);
   for (std::size_t c = 0; c < f.combinations.size(); ++c) {

@@ -146,6 +146,12 @@ inline constexpr int kMaxPrefilterOrder = 4;
 // same score falls (the structure without them scored on the same folds and prefilter, from
 // its least squares, refined); the result is a further iteration, selected, and the rule lists
 // the dropped terms.
+// The score above: N ln(cv) + m ln(N) + 2 ln(C choose m), cv the summed fold costs, m = terms,
+// C = candidates (at least 1; m above C counts as C), N = samples (at least 2); +inf when cv is
+// not finite and positive. Also scores off-path structures (Identify) and family members
+// (sem_family.hpp).
+double CrossValidationScore(double cv, std::size_t terms, double candidates, double samples);
+
 int SelectByCrossValidation(const std::vector<SemIteration>& iterations,
                             const std::vector<std::vector<double>>& cv, double samples,
                             double candidates);

@@ -5,11 +5,11 @@
 // kMaxFamilyCombinations), then keeps the combination whose selected model scores best by
 // the selection's own criterion:
 //   - with validation data: the summed validation J of the selected iteration;
-//   - without: FamilyCvScore of the selected iteration: its summed kSelectionFolds-fold
-//     cross-validated free-run J (the one its selection computed, the same folds for every
-//     member) with the extended-BIC penalty of SelectByCrossValidation on n scored samples,
-//     so a member does not win by a spurious extra term; or, when the records are too short
-//     for that many folds, the selected iteration's identification J.
+//   - without: CrossValidationScore (sem.hpp) of the selected iteration: its summed
+//     kSelectionFolds-fold cross-validated free-run J (the one its selection computed, the
+//     same folds for every member) with the extended-BIC penalty of SelectByCrossValidation
+//     on n scored samples, so a member does not win by a spurious extra term; or, when the
+//     records are too short for that many folds, the selected iteration's identification J.
 // Ties (and non-finite scores) go to the earlier combination. The chosen spec has the
 // family replaced by the chosen member, so the model file, `mrd simulate`, `mrd export` and
 // the firmware see an ordinary fixed transform.
@@ -26,10 +26,6 @@
 #include "mrd/host/sem_spec.hpp"
 
 namespace mrd::host {
-
-// n ln(cv) + m ln(n) + 2 ln(C choose m): cv summed fold costs, m = terms, C = candidates,
-// n = scored samples (at least 2).
-double FamilyCvScore(double cv, std::size_t terms, std::size_t candidates, std::size_t samples);
 
 // One identification of the family search.
 struct FamilyCombination {
