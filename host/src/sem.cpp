@@ -1,12 +1,12 @@
 #include "mrd/host/sem.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <future>
 #include <map>
-
-#include <fmt/format.h>
 
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/sem_stress.hpp"
@@ -36,9 +36,11 @@ namespace {
 
 using internal::Engine, internal::Search, internal::Trial, internal::kInf, internal::Pow;
 
-constexpr int kMaxExchanges = 8;         // exchange passes per major iteration
+constexpr int kMaxExchanges = 8;           // exchange passes per major iteration
 constexpr std::size_t kExchangePool = 64;  // candidates (best one-step rank) tried per term
-constexpr double kExchangeGain = 1e-9;   // relative J decrease an exchange must bring
+constexpr double kExchangeGain = 1e-9;     // relative J decrease an exchange must bring
+constexpr std::size_t kScorePool = 8;      // candidates per term for exchanges under the score
+constexpr int kMaxScoreMoves = 16;         // moves of the pick under the score
 
 std::size_t SignalLine(const SemSpec& spec, const std::string& signal) {
   if (signal == spec.output) return spec.output_line;
@@ -58,8 +60,8 @@ void CheckData(const SemSpec& spec, std::span<const DataSet> data) {
     }
     if (d.rows() <= static_cast<std::size_t>(spec.MaxDelay()) + 1) {
       throw InputError(d.path, 0,
-                       fmt::format("{} rows: too short for the spec's largest delay {}",
-                                   d.rows(), spec.MaxDelay()));
+                       fmt::format("{} rows: too short for the spec's largest delay {}", d.rows(),
+                                   spec.MaxDelay()));
     }
   }
 }
@@ -217,8 +219,10 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
                                    "nothing to identify",
                                    s, lo));
     }
-    fmt::print(stderr, "warning: signal '{}' is constant ({}) in the identification data; its "
-                       "terms cannot be told from the constant\n", s, lo);
+    fmt::print(stderr,
+               "warning: signal '{}' is constant ({}) in the identification data; its "
+               "terms cannot be told from the constant\n",
+               s, lo);
   }
   SemSpec limited = spec;
   if (o.max_candidates) limited.max_candidates = *o.max_candidates;
@@ -398,9 +402,9 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       const double j_prev = j;
       int rejected = 0;
       int stress_rejected = 0;
-      const Trial tr = search.TryAdd(model, theta, strategy == Strategy::kFirst,
-                                     j_prev * (1.0 - threshold / 100.0), &rejected, accept,
-                                     &stress_rejected);
+      const Trial tr =
+          search.TryAdd(model, theta, strategy == Strategy::kFirst,
+                        j_prev * (1.0 - threshold / 100.0), &rejected, accept, &stress_rejected);
       if (tr.cand < 0) {  // nothing admissible
         res.exhausted_rejected = rejected;
         break;
@@ -416,13 +420,17 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     }
     finish_recorded();
   };
-  // Backward elimination under the selection's score (cross-validated selection only): the
-  // search prunes a term only when J falls without it, and a path can start with a spurious
-  // term (the one-step start) that it never drops, so the truth is then on no path. Drops the
-  // picked structure's term whose removal lowers the score most, while the score falls; the
-  // result is a further iteration, selected, with the dropped terms in the rule.
-  auto drop_by_score = [&](const internal::SelectionCriterion& criterion) {
-    if (!spec.drop_terms || !criterion || res.selected < 0) return;
+  // Local search under the selection's score (cross-validated selection only). The search
+  // prunes a term only when J falls without it, so a path can start with a spurious term (the
+  // one-step start) that it never drops; and it compares structures by the least squares' J,
+  // which output-error noise biases towards a close relative of a true term (y(k-2)^3 for
+  // y(k-2)^2). Either way the truth is then on no path. Moves from the pick: drop a term
+  // (drop_terms), or exchange one for a candidate of the kScorePool best by one-step rank
+  // (score_exchange). Each structure is fitted (least squares, refined) and scored on the
+  // selection's folds; the best move is taken while the score falls (a local minimum of the
+  // score). The result is a further iteration, selected, with the moves in the rule.
+  auto improve_by_score = [&](const internal::SelectionCriterion& criterion) {
+    if (!(spec.drop_terms || spec.score_exchange) || !criterion || res.selected < 0) return;
     auto sel = std::find_if(res.iterations.begin(), res.iterations.end(),
                             [&](const SemIteration& it) { return it.iteration == res.selected; });
     if (sel == res.iterations.end() || sel->cv_j.empty()) return;
@@ -433,35 +441,46 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       if (k == by_key.end()) return;
       cur_model.push_back(k->second);
     }
+    const auto name = [&](int c) { return TermName(spec, eng.cand(c).term); };
     double cur_score = criterion.Score(cur.cv_j, cur_model.size());
-    std::vector<std::string> dropped;
-    while (cur_model.size() > 1) {
-      struct Drop {
+    std::vector<std::string> moves;
+    for (int step = 0; step < kMaxScoreMoves; ++step) {
+      struct Move {
         std::vector<int> model;
         std::vector<double> theta;
         std::vector<double> cv;
         double j = kInf;
         double score = kInf;
-        std::size_t out = 0;  // index of the dropped term in cur_model
+        std::size_t out = 0;  // index of the dropped or exchanged term in cur_model
+        int in = -1;          // the candidate exchanged in (-1: a drop)
       };
-      std::vector<Drop> drops(cur_model.size());
+      std::vector<Move> mv;
       for (std::size_t i = 0; i < cur_model.size(); ++i) {  // least squares (the engine's cache)
-        drops[i].model = cur_model;
-        drops[i].model.erase(drops[i].model.begin() + static_cast<std::ptrdiff_t>(i));
-        drops[i].out = i;
-        if (!eng.Solve(drops[i].model, &drops[i].theta)) drops[i].theta.clear();
+        std::vector<int> reduced = cur_model;
+        reduced.erase(reduced.begin() + static_cast<std::ptrdiff_t>(i));
+        std::vector<double> th;
+        const bool solved = eng.Solve(reduced, &th);
+        if (spec.drop_terms && !reduced.empty() && solved) {
+          mv.push_back({reduced, th, {}, kInf, kInf, i, -1});
+        }
+        if (!spec.score_exchange || !solved) continue;
+        for (int c : search.Ranked(reduced, th, kScorePool)) {
+          if (c == cur_model[i]) continue;
+          Move x{reduced, {}, {}, kInf, kInf, i, c};
+          x.model.insert(x.model.begin() + static_cast<std::ptrdiff_t>(i), c);
+          if (eng.Solve(x.model, &x.theta)) mv.push_back(std::move(x));
+        }
       }
-      internal::ParallelFor(drops.size(), o.threads, [&](std::size_t i, int) {
-        Drop& d = drops[i];
-        if (d.theta.size() != d.model.size()) return;
+      internal::ParallelFor(mv.size(), o.threads, [&](std::size_t i, int) {
+        Move& d = mv[i];
         std::vector<SemTerm> terms;
         for (int c : d.model) terms.push_back(eng.cand(c).term);
         d.cv = criterion.fold_costs(terms, &d.theta, &d.j);
         d.score = criterion.Score(d.cv, d.model.size());
       });
-      const Drop* best = nullptr;
+      const Move* best = nullptr;
       StressVerdict best_stress;
-      for (const Drop& d : drops) {
+      for (const Move& d : mv) {
         if (!(d.score < (best != nullptr ? best->score : cur_score)) || !std::isfinite(d.j)) {
           continue;
         }
@@ -471,7 +490,9 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
         best_stress = v;
       }
       if (best == nullptr) break;
-      dropped.push_back(TermName(spec, eng.cand(cur_model[best->out]).term));
+      moves.push_back(best->in < 0 ? fmt::format("dropped {}", name(cur_model[best->out]))
+                                   : fmt::format("exchanged {} for {}", name(cur_model[best->out]),
+                                                 name(best->in)));
       cur_model = best->model;
       cur.terms.clear();
       for (int c : cur_model) cur.terms.push_back(eng.cand(c).term);
@@ -481,7 +502,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       cur.stress = best_stress;
       cur_score = best->score;
     }
-    if (dropped.empty()) return;
+    if (moves.empty()) return;
     cur.iteration = res.iterations.back().iteration + 1;
     cur.rejected = cur.stress_rejected = 0;
     cur.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -489,13 +510,13 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     res.selected = cur.iteration;
     res.iterations.push_back(std::move(cur));
     std::string list;
-    for (const std::string& d : dropped) {
+    for (const std::string& m : moves) {
       if (!list.empty()) list += ", ";
-      list += d;
+      list += m;
     }
-    res.selection_rule += fmt::format(
-        "; then terms dropped from the pick while that lowers the score (iteration {}): {}",
-        res.selected, list);
+    res.selection_rule +=
+        fmt::format("; then the pick changed while that lowers the score (iteration {}): {}",
+                    res.selected, list);
   };
   const std::vector<int> initial_model = model;
   run_path();
@@ -559,11 +580,11 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
         "; over two search starts, kept: {} (the {}-term one-step forward-regression start {})",
         second ? "the one-step start" : "the initial structure", start.size(),
         second ? "won" : "lost");
-    drop_by_score(criterion);
+    improve_by_score(criterion);
   } else {
     internal::SelectionCriterion criterion;
     internal::SelectModel(spec, identification, o.threads, &res, &criterion);
-    drop_by_score(criterion);
+    improve_by_score(criterion);
   }
   if (res.selected < 0) {
     throw InputError(spec.path, spec.stress.line,

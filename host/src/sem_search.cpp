@@ -37,15 +37,8 @@ double Search::CostWith(const std::vector<int>& terms, const std::vector<double>
   return job.dead ? (job.diverged ? kInf : job.cost) : job.cost;
 }
 
-Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
-                     double j_threshold, int* rejected, const Accept& accept, int* stress_rejected,
-                     std::size_t limit, double bound0) {
-  std::atomic<int> n_rejected{0};
-  struct Report {
-    std::atomic<int>& n;
-    int* out;
-    ~Report() { *out = n.load(); }
-  } report{n_rejected, rejected};
+std::vector<Trial> Search::Bordered(const std::vector<int>& model, const std::vector<double>& w,
+                                    std::atomic<int>& n_rejected) {
   const std::size_t m = model.size();
   // Cholesky of the model Gram matrix.
   Eigen::MatrixXd g(m, m);
@@ -87,14 +80,38 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
       tr.theta[m] = th;
     }
   });
+  return trials;
+}
+
+std::vector<int> Search::RankOrder(const std::vector<Trial>& trials, std::size_t limit) {
   std::vector<int> order;
-  for (std::size_t c = 0; c < nc; ++c) {
+  for (std::size_t c = 0; c < trials.size(); ++c) {
     if (trials[c].cand >= 0) order.push_back(static_cast<int>(c));
   }
-  // Rank by one-step criterion (largest SSE reduction first), ties by index.
+  // Largest SSE reduction first, ties by index.
   std::stable_sort(order.begin(), order.end(),
                    [&](int a, int b) { return trials[a].rank > trials[b].rank; });
   if (limit > 0 && order.size() > limit) order.resize(limit);
+  return order;
+}
+
+std::vector<int> Search::Ranked(const std::vector<int>& model, const std::vector<double>& w,
+                                std::size_t limit) {
+  std::atomic<int> n_rejected{0};
+  return RankOrder(Bordered(model, w, n_rejected), limit);
+}
+
+Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
+                     double j_threshold, int* rejected, const Accept& accept, int* stress_rejected,
+                     std::size_t limit, double bound0) {
+  std::atomic<int> n_rejected{0};
+  struct Report {
+    std::atomic<int>& n;
+    int* out;
+    ~Report() { *out = n.load(); }
+  } report{n_rejected, rejected};
+  std::vector<Trial> trials = Bordered(model, w, n_rejected);
+  const std::vector<int> order = RankOrder(trials, limit);
   Trial none;
   if (order.empty()) return none;
   auto accepted = [&](int c) {

@@ -3,6 +3,7 @@
 // candidate added to a model (bordered on the model's Cholesky factor), its one-step rank,
 // and the free runs that pick one by J, first or best improvement. Not public.
 
+#include <atomic>
 #include <cstddef>
 #include <functional>
 #include <vector>
@@ -41,7 +42,18 @@ class Search {
                double j_threshold, int* rejected, const Accept& accept = {},
                int* stress_rejected = nullptr, std::size_t limit = 0, double bound0 = kInf);
 
+  // The candidates (not in model) by one-step rank given the model's least squares w,
+  // best first, at most limit (0: all); no free run.
+  std::vector<int> Ranked(const std::vector<int>& model, const std::vector<double>& w,
+                          std::size_t limit);
+
  private:
+  // Bordered least squares of every candidate added to model (cand < 0: in the model or
+  // collinear, the latter counted in n_rejected).
+  std::vector<Trial> Bordered(const std::vector<int>& model, const std::vector<double>& w,
+                              std::atomic<int>& n_rejected);
+  static std::vector<int> RankOrder(const std::vector<Trial>& trials, std::size_t limit);
+
   Engine& e_;
   int threads_;
 };

@@ -399,6 +399,8 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
           }
         } else if (k == "algorithm" && sk == "drop_terms") {
           s.drop_terms = GetBool(path, sn, sk);
+        } else if (k == "algorithm" && sk == "score_exchange") {
+          s.score_exchange = GetBool(path, sn, sk);
         } else if (k == "algorithm" && sk == "exchange") {
           s.exchange = GetBool(path, sn, sk);
         } else if (k == "algorithm" && sk == "one_step_start") {

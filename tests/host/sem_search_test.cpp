@@ -35,9 +35,12 @@ TEST(SemSearchTest, AlgorithmKeysParseAndBadValuesAreRefusedWithTheirLine) {
   EXPECT_TRUE(d.one_step_start);
   EXPECT_TRUE(d.refine);
   EXPECT_TRUE(d.drop_terms);
-  const SemSpec off =
-      Spec("exchange = false\none_step_start = false\nrefine = false\ndrop_terms = false\n");
+  EXPECT_TRUE(d.score_exchange);
+  const SemSpec off = Spec(
+      "exchange = false\none_step_start = false\nrefine = false\ndrop_terms = false\n"
+      "score_exchange = false\n");
   EXPECT_FALSE(off.drop_terms);
+  EXPECT_FALSE(off.score_exchange);
   EXPECT_FALSE(off.exchange);
   EXPECT_FALSE(off.one_step_start);
   EXPECT_FALSE(off.refine);

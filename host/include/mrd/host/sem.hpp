@@ -142,10 +142,11 @@ inline constexpr int kMaxPrefilterOrder = 4;
 // pays for having picked the m terms among C, which a greedy search over many candidates
 // otherwise over-fits. Ties to the lower iteration. An iteration whose cross-validation
 // diverges, or that failed the stress check, is never picked (all diverging: the last that
-// passed the stress check; -1 when none did). Identify then drops terms of the pick while the
-// same score falls (the structure without them scored on the same folds and prefilter, from
-// its least squares, refined); the result is a further iteration, selected, and the rule lists
-// the dropped terms.
+// passed the stress check; -1 when none did). Identify then moves from the pick while the same
+// score falls: it drops a term (drop_terms), or exchanges one for a candidate of the 8 best by
+// one-step rank (score_exchange); each structure is scored on the same folds and prefilter,
+// from its least squares, refined. The result is a further iteration, selected, and the rule
+// lists the moves.
 // The score above: N ln(cv) + m ln(N) + 2 ln(C choose m), cv the summed fold costs, m = terms,
 // C = candidates (at least 1; m above C counts as C), N = samples (at least 2); +inf when cv is
 // not finite and positive. Also scores off-path structures (Identify) and family members

@@ -81,6 +81,8 @@
 //                                     # selection = "tolerance")
 //   drop_terms = true          # cross-validation: drop terms of the pick while its score
 //                              # falls (default true; sem.hpp, SelectByCrossValidation)
+//   score_exchange = true      # cross-validation: also exchange terms of the pick for
+//                              # candidates while its score falls (default true)
 //   exchange = true            # after add and prune, replace a term by a candidate while
 //                              # that lowers J (default true)
 //   one_step_start = true      # also search from the structure forward regression on the
@@ -193,6 +195,7 @@ struct SemSpec {
   Selection selection = Selection::kCrossValidation;
   double selection_tolerance_percent = 5.0;  // tolerance rule, see SelectIteration
   bool drop_terms = true;      // cross-validation: terms of the pick dropped while it scores lower
+  bool score_exchange = true;  // cross-validation: terms of the pick exchanged likewise
   bool exchange = true;        // exchange moves after add and prune (sem.hpp)
   bool one_step_start = true;  // second search path from the one-step forward regression
   bool refine = true;          // output-error refinement of every iteration's coefficients
