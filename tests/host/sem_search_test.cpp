@@ -81,12 +81,17 @@ TEST(SemSearchTest, ExchangeReplacesATermTakenByOneStepRank) {
   const std::vector<DataSet> id{Data("billings", Noise::kOutput, 500, 3)};
   SemOptions o;
   o.threads = 2;
-  const SemSpec with = Spec();
+  // The search's exchange alone (none of the pick's under the score).
+  const SemSpec with = Spec("score_exchange = false\n");
   EXPECT_EQ(SelectedTerms(with, Identify(with, id, {}, o)), RecoverySystemNamed("billings").terms);
-  const SemSpec without = Spec("exchange = false\n");
+  const SemSpec without = Spec("exchange = false\nscore_exchange = false\n");
   const auto got = SelectedTerms(without, Identify(without, id, {}, o));
   EXPECT_TRUE(got.count("y(k-2)^3") == 1 && got.count("y(k-2)^2") == 0)
       << "expected the one-step pick y(k-2)^3 without exchange";
+  // Without the search's exchange, the pick's exchange under the score reaches the truth too.
+  const SemSpec pick_only = Spec("exchange = false\n");
+  EXPECT_EQ(SelectedTerms(pick_only, Identify(pick_only, id, {}, o)),
+            RecoverySystemNamed("billings").terms);
 }
 
 // Piroddi system, output-error noise: the one-step least squares are biased (noisy output in
