@@ -464,11 +464,11 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
           mv.push_back({reduced, th, {}, kInf, kInf, i, -1});
         }
         if (!spec.score_exchange || !solved) continue;
-        for (int c : search.Ranked(reduced, th, kScorePool)) {
-          if (c == cur_model[i]) continue;
-          Move x{reduced, {}, {}, kInf, kInf, i, c};
-          x.model.insert(x.model.begin() + static_cast<std::ptrdiff_t>(i), c);
-          if (eng.Solve(x.model, &x.theta)) mv.push_back(std::move(x));
+        for (Trial& tr : search.Ranked(reduced, th, kScorePool)) {  // theta: reduced, then c
+          if (tr.cand == cur_model[i]) continue;
+          Move x{reduced, std::move(tr.theta), {}, kInf, kInf, i, tr.cand};
+          x.model.push_back(tr.cand);
+          mv.push_back(std::move(x));
         }
       }
       internal::ParallelFor(mv.size(), o.threads, [&](std::size_t i, int) {

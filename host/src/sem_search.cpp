@@ -95,10 +95,13 @@ std::vector<int> Search::RankOrder(const std::vector<Trial>& trials, std::size_t
   return order;
 }
 
-std::vector<int> Search::Ranked(const std::vector<int>& model, const std::vector<double>& w,
-                                std::size_t limit) {
+std::vector<Trial> Search::Ranked(const std::vector<int>& model, const std::vector<double>& w,
+                                  std::size_t limit) {
   std::atomic<int> n_rejected{0};
-  return RankOrder(Bordered(model, w, n_rejected), limit);
+  std::vector<Trial> trials = Bordered(model, w, n_rejected);
+  std::vector<Trial> out;
+  for (int c : RankOrder(trials, limit)) out.push_back(std::move(trials[c]));
+  return out;
 }
 
 Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,

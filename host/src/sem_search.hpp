@@ -42,10 +42,11 @@ class Search {
                double j_threshold, int* rejected, const Accept& accept = {},
                int* stress_rejected = nullptr, std::size_t limit = 0, double bound0 = kInf);
 
-  // The candidates (not in model) by one-step rank given the model's least squares w,
-  // best first, at most limit (0: all); no free run.
-  std::vector<int> Ranked(const std::vector<int>& model, const std::vector<double>& w,
-                          std::size_t limit);
+  // The candidates (not in model) by one-step rank given the model's least squares w, best
+  // first, at most limit (0: all), with the least squares of model + candidate; no free run
+  // and no Gram column of the candidates (Engine::Cross), j unset.
+  std::vector<Trial> Ranked(const std::vector<int>& model, const std::vector<double>& w,
+                            std::size_t limit);
 
  private:
   // Bordered least squares of every candidate added to model (cand < 0: in the model or
