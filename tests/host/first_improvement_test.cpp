@@ -50,10 +50,12 @@ delays = [0, 1]
 constant = true
 [cost]
 weighting = "mse"
-[algorithm]   # the add step alone, least-squares coefficients
+[algorithm]   # the add step alone, least-squares coefficients, the path's pick unmoved
 exchange = false
 one_step_start = false
 refine = false
+drop_terms = false
+score_exchange = false
 )";
 
 struct Candidate {
