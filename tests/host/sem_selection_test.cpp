@@ -183,6 +183,18 @@ TEST(SemSelectionTest, EquationErrorNoiseIsWhitenedBeforeCrossValidation) {
   EXPECT_NE(b.selection_rule.find("L(q) = 1, the AR(0)"), std::string::npos) << b.selection_rule;
 }
 
+double SumOf(const std::vector<double>& v) {
+  double t = 0.0;
+  for (double x : v) t += x;
+  return t;
+}
+
+// The rule's statement of the pick's moves under the score (Identify), moves as listed.
+std::string MovedPickRule(int selected, const std::string& moves) {
+  return "; then the pick changed while that lowers the score (iteration " +
+         std::to_string(selected) + "): " + moves;
+}
+
 TEST(SemSelectionTest, PickedStructureDropsTermsWhileTheScoreFalls) {
   // linear2 (lightly damped), equation-error noise, N = 1000, seed 7: the one-step start is the
   // truth plus y(k-1)^2*u(k-1), which its first iteration exchanges for y(k-1)^2*y(k-2) (J
@@ -194,10 +206,8 @@ TEST(SemSelectionTest, PickedStructureDropsTermsWhileTheScoreFalls) {
   const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
   const SemResult a = Identify(spec, ee, {}, SemOptions{});
   EXPECT_EQ(test::SelectedTerms(spec, a), sys.terms);
-  EXPECT_NE(
-      a.selection_rule.find("; then the pick changed while that lowers the score (iteration " +
-                            std::to_string(a.selected) + "): dropped y(k-1)^2*y(k-2)"),
-      std::string::npos)
+  EXPECT_NE(a.selection_rule.find(MovedPickRule(a.selected, "dropped y(k-1)^2*y(k-2)")),
+            std::string::npos)
       << a.selection_rule;
   ASSERT_GE(a.iterations.size(), 2u);
   const SemIteration& picked = a.iterations.back();
@@ -205,11 +215,6 @@ TEST(SemSelectionTest, PickedStructureDropsTermsWhileTheScoreFalls) {
   ASSERT_EQ(picked.cv_j.size(), static_cast<std::size_t>(kSelectionFolds));
   // The search's own pick (the lowest score on the path) has one more term, a lower J and a
   // lower summed criterion: only the penalty of the extra term makes the drop pay.
-  const auto sum = [](const std::vector<double>& v) {
-    double t = 0.0;
-    for (double x : v) t += x;
-    return t;
-  };
   bool superset = false;
   for (const SemIteration& it : a.iterations) {
     if (it.iteration == a.selected || it.terms.size() != picked.terms.size() + 1) continue;
@@ -218,7 +223,7 @@ TEST(SemSelectionTest, PickedStructureDropsTermsWhileTheScoreFalls) {
     if (!std::includes(names.begin(), names.end(), sys.terms.begin(), sys.terms.end())) continue;
     superset = true;
     EXPECT_LT(it.j, picked.j);
-    EXPECT_LT(sum(it.cv_j), sum(picked.cv_j));
+    EXPECT_LT(SumOf(it.cv_j), SumOf(picked.cv_j));
   }
   EXPECT_TRUE(superset);
   // The model file keeps it as the selected iteration, with the rule.
@@ -254,8 +259,7 @@ TEST(SemSelectionTest, PickedStructureExchangesATermWhileTheScoreFalls) {
   const SemResult a = Identify(spec, oe, {}, SemOptions{});
   EXPECT_EQ(test::SelectedTerms(spec, a), sys.terms);
   EXPECT_NE(
-      a.selection_rule.find("; then the pick changed while that lowers the score (iteration " +
-                            std::to_string(a.selected) + "): exchanged y(k-2)^3 for y(k-2)^2"),
+      a.selection_rule.find(MovedPickRule(a.selected, "exchanged y(k-2)^3 for y(k-2)^2")),
       std::string::npos)
       << a.selection_rule;
   const SemIteration& picked = a.iterations.back();
@@ -275,12 +279,7 @@ TEST(SemSelectionTest, PickedStructureExchangesATermWhileTheScoreFalls) {
   ASSERT_EQ(chosen->terms.size(), sys.terms.size());
   EXPECT_NE(test::SelectedTerms(spec, b), sys.terms);
   EXPECT_GT(chosen->j, picked.j);
-  const auto sum = [](const std::vector<double>& v) {
-    double t = 0.0;
-    for (double x : v) t += x;
-    return t;
-  };
-  EXPECT_GT(sum(chosen->cv_j), sum(picked.cv_j));  // same size: the score's order
+  EXPECT_GT(SumOf(chosen->cv_j), SumOf(picked.cv_j));  // same size: the score's order
   // The truth is on no path.
   for (const SemIteration& it : b.iterations) {
     std::set<std::string> names;
