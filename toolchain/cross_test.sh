@@ -16,7 +16,10 @@ preset="${1:?usage: cross_test.sh aarch64|armhf}"
 case "$preset" in aarch64|armhf) ;; *) echo "cross_test: unknown target '$preset'" >&2; exit 2 ;; esac
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-cmake --preset "$preset" "${launcher[@]}" >/dev/null
+# The target's libraries: its sysroot, refreshed to the newest packages its indexes offer.
+deb_arch="$preset"; [ "$preset" = aarch64 ] && deb_arch=arm64
+sysroot="$(bash toolchain/sysroot.sh "$deb_arch" | tail -n 1)"
+cmake --preset "$preset" "${launcher[@]}" -DMRD_SYSROOT="$sysroot" >/dev/null
 cmake --build --preset "$preset" -j2
 realtime='^(TelemetryTest\.ReaderSeesConsistentSnapshotsWhileWriterRuns|FirmwareCliTest\.RealTimeDryRunRunsAndCountsTime|FirmwareCliTest\.SigtermStopsTheLoopInTheSafeState|FirmwareHardeningTest\.EveryTerminatingSignalEndsInTheSafeState)$'
 ctest --preset "$preset" -E "$realtime" -LE 'fieldbus|hil' --timeout 300

@@ -30,10 +30,14 @@ for key in Type=notify CPUSchedulingPolicy=fifo CPUSchedulingPriority= LimitMEML
   grep -q -- "$key" "$unit" || fail "unit lacks $key"
 done
 
+# An Arm package runs under qemu-user with the build's target sysroot as the library prefix
+# (toolchain/sysroot.sh: the board's libc, libmodbus, libgpiod and toml++).
 fw=("$root/usr/bin/mrd-firmware")
+sysroot="$(sed -n 's/^MRD_SYSROOT:PATH=//p' "$build/CMakeCache.txt")"
+[ -z "$sysroot" ] || export MRD_SYSROOT="$sysroot"  # toolchain/deploy runs it likewise
 case "$(od -An -tx1 -j18 -N1 "${fw[0]}" | tr -d ' ')" in
-  b7) [ "$(uname -m)" = aarch64 ] || fw=(qemu-aarch64 -L /usr/aarch64-linux-gnu "${fw[@]}") ;;
-  28) [ "$(uname -m)" = armv7l ] || fw=(qemu-arm -L /usr/arm-linux-gnueabihf "${fw[@]}") ;;
+  b7) [ "$(uname -m)" = aarch64 ] || fw=(qemu-aarch64 -L "$sysroot" "${fw[@]}") ;;
+  28) [ "$(uname -m)" = armv7l ] || fw=(qemu-arm -L "$sysroot" "${fw[@]}") ;;
 esac
 cfg="$root/etc/mrd/firmware.toml"
 dest="$root/var/lib/mrd/table.bin"

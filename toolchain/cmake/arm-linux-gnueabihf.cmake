@@ -1,22 +1,17 @@
-# Cross build for armhf boards (arm-linux-gnueabihf) with Debian's cross compiler (g++-arm-linux-gnueabihf); the target's
-# libraries (GoogleTest, toml++, libmodbus, libgpiod) come from Debian multiarch
-# (/usr/lib/arm-linux-gnueabihf, installed by toolchain/setup.sh). Tests run under qemu-user with the
-# cross sysroot as the library prefix. Preset: armhf (CMakePresets.json).
+# Cross build for armhf boards (arm-linux-gnueabihf) with Debian's cross compiler (g++-arm-linux-gnueabihf). The target's
+# libraries (libmodbus, libgpiod, GoogleTest, toml++, nlohmann-json, CLI11 and the C/C++
+# runtime) come from a per-target sysroot of Debian armhf packages unpacked outside the build
+# machine's package database (toolchain/sysroot.sh; cached in ~/.cache/mrd/sysroot/armhf/).
+# MRD_SYSROOT (cache variable or environment) names one; unset, toolchain/sysroot.sh armhf is
+# run to find or build it. The compiler keeps its own C library (/usr/arm-linux-gnueabihf); tests run under
+# qemu-user with the sysroot as the library prefix. Preset: armhf (CMakePresets.json).
 set(CMAKE_SYSTEM_NAME Linux)
 set(CMAKE_SYSTEM_PROCESSOR arm)
 set(CMAKE_C_COMPILER arm-linux-gnueabihf-gcc)
 set(CMAKE_CXX_COMPILER arm-linux-gnueabihf-g++)
 set(CMAKE_LIBRARY_ARCHITECTURE arm-linux-gnueabihf)
-# Multiarch: headers in /usr/include, libraries and CMake packages in /usr/lib/arm-linux-gnueabihf.
-set(CMAKE_FIND_ROOT_PATH /usr/arm-linux-gnueabihf)
-set(CMAKE_FIND_ROOT_PATH_MODE_PROGRAM NEVER)
-set(CMAKE_FIND_ROOT_PATH_MODE_LIBRARY BOTH)
-set(CMAKE_FIND_ROOT_PATH_MODE_INCLUDE BOTH)
-set(CMAKE_FIND_ROOT_PATH_MODE_PACKAGE BOTH)
-# pkg-config (pkg_check_modules: libmodbus, libgpiod) reads the target's .pc files only, never
-# the build machine's.
-set(ENV{PKG_CONFIG_LIBDIR} /usr/lib/arm-linux-gnueabihf/pkgconfig:/usr/share/pkgconfig)
-set(ENV{PKG_CONFIG_PATH} "")
-set(CMAKE_CROSSCOMPILING_EMULATOR qemu-arm -L /usr/arm-linux-gnueabihf)
+include(${CMAKE_CURRENT_LIST_DIR}/sysroot.cmake)
+mrd_target_sysroot(armhf arm-linux-gnueabihf)
+set(CMAKE_CROSSCOMPILING_EMULATOR qemu-arm -L ${MRD_SYSROOT})
 # Debian architecture of the package (CPack DEB).
 set(CPACK_DEBIAN_PACKAGE_ARCHITECTURE armhf)

@@ -1,0 +1,217 @@
+#!/usr/bin/env bash
+# shellcheck disable=SC2016  # the checks' bash -c programs expand their own arguments
+# toolchain/setup.sh's decisions against fake dpkg-query, dpkg, apt-get, apt-cache, id and sudo
+# on PATH (nothing is installed, nothing needs root). Each case sets what is installed and what
+# the apt indexes offer, runs the script and checks its exit status, its message and the
+# install calls it made. Usage: setup_test.sh [SETUP_SCRIPT]   (default: toolchain/setup.sh)
+set -uo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+script="$(readlink -f "${1:-$here/../../toolchain/setup.sh}")"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+real_dpkg="$(command -v dpkg)"
+
+# The package list, read from the script (one word per package, comments dropped).
+mapfile -t all < <(sed -n '/^packages=(/,/^)/p' "$script" | sed '1d;$d;s/#.*//' | tr ' ' '\n' |
+                   sed 's/:.*//' | grep -v '^$' | sort -u)
+[ ${#all[@]} -gt 10 ] || { echo "FAIL: could not read the package list of $script"; exit 1; }
+
+fakes="$work/bin"
+mkdir -p "$fakes"
+# State: $FAKE/installed and $FAKE/offered hold "package version" lines; $FAKE/calls logs
+# every apt-get call ("sudo apt-get" when run through sudo); $FAKE/uid is the user id; $FAKE/update_fail, when present, is
+# what apt-get update prints before it fails; $FAKE/install_fail makes apt-get install fail.
+cat >"$fakes/dpkg-query" <<'F'
+#!/usr/bin/env bash
+p="${@: -1}"; p="${p%%:*}"
+v="$(awk -v p="$p" '$1 == p { print $2 }' "$FAKE/installed")"
+[ -n "$v" ] || { echo "dpkg-query: no packages found matching $p" >&2; exit 1; }
+printf 'install ok installed %s' "$v"
+F
+cat >"$fakes/dpkg" <<F
+#!/usr/bin/env bash
+case "\$1" in
+  --print-architecture) echo amd64 ;;
+  --print-foreign-architectures) : ;;
+  --add-architecture) echo "dpkg \$*" >>"\$FAKE/calls" ;;
+  --compare-versions) exec "$real_dpkg" "\$@" ;;
+  *) echo "fake dpkg: \$*" >>"\$FAKE/calls"; exit 1 ;;
+esac
+F
+cat >"$fakes/apt-cache" <<'F'
+#!/usr/bin/env bash
+case "$1" in
+  policy)
+    p="${2%%:*}"; v="$(awk -v p="$p" '$1 == p { print $2 }' "$FAKE/offered" | head -1)"
+    echo "$p:"; echo "  Installed: (none)"; echo "  Candidate: ${v:-(none)}" ;;
+  madison)
+    p="${2%%:*}"; awk -v p="$p" '$1 == p { print p " | " $2 " | http://deb.debian.org/debian bookworm/main" }' "$FAKE/offered" ;;
+esac
+F
+cat >"$fakes/apt-get" <<'F'
+#!/usr/bin/env bash
+echo "${FAKE_SUDO:+sudo }apt-get $*" >>"$FAKE/calls"
+if [ "$(cat "$FAKE/uid")" != 0 ] && [ -z "${FAKE_SUDO:-}" ]; then
+  echo "E: Could not open lock file /var/lib/dpkg/lock-frontend - open (13: Permission denied)" >&2
+  echo "E: Unable to acquire the dpkg frontend lock, are you root?" >&2; exit 100
+fi
+args=(); for a in "$@"; do case "$a" in -*|DPkg::*) ;; *) args+=("$a") ;; esac; done
+case "${args[0]}" in
+  update) if [ -f "$FAKE/update_fail" ]; then cat "$FAKE/update_fail"; exit 100; fi ;;
+  install)
+    [ -f "$FAKE/install_fail" ] && { echo "E: Unable to locate package x" >&2; exit 100; }
+    for p in "${args[@]:1}"; do
+      name="${p%%=*}"; name="${name%%:*}"
+      v="$(awk -v p="$name" '$1 == p { print $2 }' "$FAKE/offered" | head -1)"
+      [ -n "$v" ] || { echo "E: Unable to locate package $name" >&2; exit 100; }
+      grep -v "^$name " "$FAKE/installed" >"$FAKE/installed.new" || true
+      echo "$name $v" >>"$FAKE/installed.new"; mv "$FAKE/installed.new" "$FAKE/installed"
+    done ;;
+esac
+F
+cat >"$fakes/id" <<'F'
+#!/usr/bin/env bash
+case "$1" in -u) cat "$FAKE/uid" ;; -un) echo user ;; *) echo "uid=$(cat "$FAKE/uid")" ;; esac
+F
+cat >"$fakes/sudo" <<'F'
+#!/usr/bin/env bash
+FAKE_SUDO=1 exec "$@"
+F
+chmod +x "$fakes"/*
+# A PATH of the fakes and the standard tools, without sudo unless a case adds it.
+tools="$work/tools"
+mkdir -p "$tools"
+for t in bash sh sed awk grep cat mktemp rm mv tr head tail sort cut wc env readlink dirname \
+         basename printf; do
+  src="$(command -v "$t")" && ln -sf "$src" "$tools/$t"
+done
+
+failures=0
+state=""
+indent() { sed 's/^/    /' "$@"; }
+new_case() {  # new_case NAME: an empty state, running as root with sudo absent
+  state="$work/case-$1"; mkdir -p "$state"
+  : >"$state/installed"; : >"$state/calls"; echo 0 >"$state/uid"
+  for p in "${all[@]}" libmodbus5 libmodbus-dev libgpiod2 libgpiod-dev; do
+    echo "$p 1.0-1" >>"$state/offered"
+  done
+}
+offer() { grep -v "^$1 " "$state/offered" >"$state/o" || true; echo "$1 $2" >>"$state/o"; mv "$state/o" "$state/offered"; }
+install() { echo "$1 $2" >>"$state/installed"; }
+run() {  # run [with-sudo]: runs the script; sets status, out
+  local path="$fakes:$tools"
+  if [ "${1:-}" != with-sudo ]; then
+    mkdir -p "$state/nosudo"; for f in "$fakes"/*; do [ "${f##*/}" = sudo ] || ln -sf "$f" "$state/nosudo/"; done
+    path="$state/nosudo:$tools"
+  fi
+  out="$(cd "$work" && FAKE="$state" PATH="$path" bash "$script" 2>&1)"
+  status=$?
+  # Never a silent failure: a non-zero exit always says what failed.
+  if [ "$status" -ne 0 ] && ! grep -q '^setup: error: ' <<<"$out"; then
+    echo "FAIL: ${state##*/case-}: exit $status with no 'setup: error:' line"
+    indent <<<"$out"
+    failures=$((failures + 1))
+  fi
+}
+check() {  # check DESCRIPTION CONDITION...
+  local what="$1"; shift
+  if "$@"; then echo "ok: $what"; else echo "FAIL: $what"; echo "  exit status: $status"; echo "  output:"; indent <<<"$out"; echo "  calls:"; indent "$state/calls"; failures=$((failures + 1)); fi
+}
+calls() { cat "$state/calls"; }
+installed_all() { for p in "${all[@]}"; do grep -q "^$p " "$state/installed" || return 1; done; }
+no_downgrade() { ! grep -qE -- '--allow-downgrades|--add-architecture|dpkg --add' "$state/calls"; }
+readable_error() { [ "$status" -ne 0 ] && grep -q '^setup: error: .*[a-z]' <<<"$out"; }
+
+# 1. A fresh machine: nothing installed.
+new_case nothing
+run
+check "nothing installed: exit 0" test "$status" -eq 0
+check "nothing installed: every package installed" installed_all
+check "nothing installed: apt-get update, then one install" \
+  bash -c '[ "$(grep -c "apt-get .*update" "$0")" -eq 1 ] && [ "$(grep -c "apt-get .*install" "$0")" -eq 1 ]' "$state/calls"
+check "nothing installed: no downgrade, no foreign architecture" no_downgrade
+
+# 2. Everything installed: no apt call at all.
+new_case everything
+for p in "${all[@]}"; do install "$p" 1.0-1; done
+run
+check "everything installed: exit 0" test "$status" -eq 0
+check "everything installed: no apt-get call" test ! -s "$state/calls"
+check "everything installed: says so" grep -q 'all .* packages present' <<<"$out"
+
+# 3. Half installed: only the missing ones are installed.
+new_case half
+half=("${all[@]:0:$(( ${#all[@]} / 2 ))}")
+for p in "${half[@]}"; do install "$p" 1.0-1; done
+run
+check "half installed: exit 0" test "$status" -eq 0
+check "half installed: every package installed" installed_all
+check "half installed: installs none of the installed ones" \
+  bash -c 'line="$(grep "apt-get .*install" "$0")"; for p in "${@:1}"; do grep -qw -- "$p" <<<"${line#*--no-install-recommends}" && exit 1; done; exit 0' "$state/calls" "${half[@]}"
+
+# 4. apt-get update fails for one architecture's index; every package still offered.
+new_case update-fails
+printf '%s\n' "Err:4 http://deb.debian.org/debian-security bookworm-security/main armhf Packages" \
+  "E: Failed to fetch http://deb.debian.org/debian-security/dists/bookworm-security/main/binary-armhf/Packages.xz  File has unexpected size (334084 != 351124). Mirror sync in progress?" \
+  "E: Some index files failed to download. They have been ignored, or old ones used instead." >"$state/update_fail"
+run
+check "update fails for one index: exit 0" test "$status" -eq 0
+check "update fails for one index: a warning naming the failed index" grep -q 'warning: apt-get update failed.*binary-armhf/Packages' <<<"$out"
+check "update fails for one index: every package installed" installed_all
+
+# 4b. ... and a missing package is offered nowhere: a non-zero exit that names it.
+new_case not-offered
+cp "$work/case-update-fails/update_fail" "$state/"
+grep -v '^shellcheck ' "$state/offered" >"$state/o"; mv "$state/o" "$state/offered"
+run
+check "package not offered: non-zero exit, one readable line" readable_error
+check "package not offered: names the package and the failed update" grep -q 'error: package shellcheck is not offered.*apt-get update failed' <<<"$out"
+check "package not offered: nothing installed" bash -c '! grep -q "apt-get .*install" "$0"' "$state/calls"
+
+# 5. Not root and no sudo.
+new_case no-root
+echo 1000 >"$state/uid"
+run
+check "no root, no sudo: non-zero exit, one readable line" readable_error
+check "no root, no sudo: says what to do" grep -q 'not root and sudo is not installed' <<<"$out"
+check "no root, no sudo: no apt-get call" test ! -s "$state/calls"
+
+# 6. Not root, with sudo: every apt-get call goes through sudo.
+new_case sudo
+echo 1000 >"$state/uid"
+run with-sudo
+check "sudo: exit 0" test "$status" -eq 0
+check "sudo: every package installed" installed_all
+check "sudo: apt-get calls, all through sudo" bash -c 'grep -q "^sudo apt-get" "$0" && ! grep -q "^apt-get" "$0"' "$state/calls"
+
+# 7. An installed linked library older than the archive's (a security update): updated, never
+#    the other way round.
+new_case outdated
+for p in "${all[@]}"; do install "$p" 1.0-1; done
+grep -v '^libmodbus5 ' "$state/installed" >"$state/i"; mv "$state/i" "$state/installed"
+install libmodbus5 3.1.6-2.1
+offer libmodbus5 3.1.6-2.1+deb12u1
+run
+check "outdated libmodbus5: exit 0" test "$status" -eq 0
+check "outdated libmodbus5: updated to the archive's newest" grep -q '^libmodbus5 3.1.6-2.1+deb12u1$' "$state/installed"
+check "outdated libmodbus5: no downgrade" no_downgrade
+
+# 7b. Installed newer than the indexes offer (an index failed): kept, nothing installed.
+new_case newer
+for p in "${all[@]}"; do install "$p" 1.0-1; done
+grep -v '^libmodbus5 ' "$state/installed" >"$state/i"; mv "$state/i" "$state/installed"
+install libmodbus5 3.1.6-2.1+deb12u1
+offer libmodbus5 3.1.6-2.1
+run
+check "newer installed: exit 0, kept" bash -c '[ "$1" -eq 0 ] && grep -q "^libmodbus5 3.1.6-2.1+deb12u1$" "$0"' "$state/installed" "$status"
+check "newer installed: no apt-get call" test ! -s "$state/calls"
+
+# 8. apt-get install itself fails.
+new_case install-fails
+touch "$state/install_fail"
+run
+check "install fails: non-zero exit, one readable line" readable_error
+
+echo
+if [ "$failures" -ne 0 ]; then echo "setup_test: $failures check(s) failed for $script"; exit 1; fi
+echo "setup_test: every check passed for $script"
