@@ -28,7 +28,7 @@ struct SummaryInfo {
   std::vector<Device> devices;
   const char* clock = "monotonic";  // bus mode: "monotonic" | "grant" (lockstep)
   std::uint64_t grants = 0;         // lockstep: time grants received
-  std::uint64_t missed_grants = 0;  // lockstep: grants not received in time (safe periods)  // bus mode: per field device (empty in a dry run)
+  std::uint64_t missed_grants = 0;  // lockstep: 1 when no grant came within grant_timeout_ms (stopped)  // bus mode: per field device (empty in a dry run)
 };
 
 // Pretty-printed JSON text with a final newline; "" if it cannot be built (no memory).

@@ -213,9 +213,11 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                "Bus mode: the loop's time from CLOCK_MONOTONIC, or lockstep with the HIL "
                "harness: time grants on the [can] bus (docs/can_bus.md), else on the [modbus] "
                "grant register (docs/modbus_registers.md)."),
-        Duration("grant_timeout_ms", &c->grant_timeout_ns, 1e6, 1.0, 1e5, "ms",
-                 "clock = \"grant\": a grant not received within this wall time is missed: "
-                 "the loop steps on by itself in the safe state (counted).")}},
+        Duration("grant_timeout_ms", &c->grant_timeout_ns, 1e6, 100.0, 3.6e6, "ms",
+                 "clock = \"grant\": the loop waits for each grant however late it comes "
+                 "(simulated time never depends on wall time); when none has come for this "
+                 "wall time the harness is taken for gone and the firmware stops in the safe "
+                 "state (exit 1, clock.missed_grants 1).")}},
       {"control",
        {Choice("law", &k.law.mode,
                {{"force", ControlMode::kForceTracking},

@@ -80,6 +80,7 @@ void Loop::Run(const std::atomic<bool>& stop, std::int64_t duration_ns) {
   while (!stop.load(std::memory_order_relaxed) &&
          (duration_ns <= 0 || deadline - start <= duration_ns)) {
     clock_.SleepUntil(deadline);
+    if (clock_.Halted()) break;  // lockstep without a harness: no time, no tick
     const std::int64_t wake = clock_.Now();
     const std::int64_t latency = wake - deadline;
     if (latency > stats_.worst_latency_ns) stats_.worst_latency_ns = latency;
@@ -88,9 +89,8 @@ void Loop::Run(const std::atomic<bool>& stop, std::int64_t duration_ns) {
     stats_.last_exec_ns = end - wake;
     if (stats_.last_exec_ns > stats_.worst_exec_ns) stats_.worst_exec_ns = stats_.last_exec_ns;
     deadline += period_ns_;
-    // A clock behind its deadline (lockstep after a missed grant: time only moves with the
-    // harness's grants) re-aligns on its own time; never with CLOCK_MONOTONIC, where
-    // end >= the previous deadline.
+    // A clock behind its deadline re-aligns on its own time (never with CLOCK_MONOTONIC,
+    // where end >= the previous deadline).
     if (end + period_ns_ < deadline) deadline = end + period_ns_;
     // A late wake-up that ends exactly on the next deadline skips it too: that period's tick
     // would otherwise run at once on the same time (lockstep: two ticks on one grant after the

@@ -32,6 +32,9 @@ namespace {
 
 std::atomic<bool> g_stop{false};
 extern "C" void OnSignal(int) { g_stop.store(true); }
+// `run`: the signal that asked it to stop (the run forwards it to the firmware child).
+std::atomic<int> g_interrupt{0};
+extern "C" void OnRunSignal(int sig) { g_interrupt.store(sig); }
 
 constexpr int kExitOk = 0;
 constexpr int kExitFailure = 1;
@@ -176,14 +179,23 @@ int RunCommand(const std::string& scenario_path, mrd::hil::RunOptions o, const s
     temp = o.work_dir = dir;
   }
   o.keep_trace = true;
-  if (o.attach) o.startup_timeout_s = 120.0;  // time to start the firmware by hand
+  if (o.attach && o.startup_timeout_s <= 0.0) o.startup_timeout_s = 120.0;  // start it by hand
+  if (o.startup_timeout_s <= 0.0) o.startup_timeout_s = 10.0;
   mrd::hil::RunResult r;
+  // SIGTERM, SIGINT, SIGHUP: the run stops, the firmware child gets the same signal and is
+  // reaped, the temporary directory goes; exit 128 + the signal, as a shell reports it.
+  struct sigaction sa {};
+  sa.sa_handler = OnRunSignal;
+  sigemptyset(&sa.sa_mask);
+  for (const int sig : {SIGTERM, SIGINT, SIGHUP}) sigaction(sig, &sa, nullptr);
+  o.interrupt = &g_interrupt;
   const int rc = mrd::hil::RunScenario(s, o, &r, &error);
   if (rc != 0) {
     std::fprintf(stderr, "error: %s\n", error.c_str());
     if (!r.firmware_stderr.empty()) std::fprintf(stderr, "firmware: %s", r.firmware_stderr.c_str());
     std::error_code ec;
     if (!temp.empty()) std::filesystem::remove_all(temp, ec);
+    if (r.interrupted != 0) return 128 + r.interrupted;
     return rc == 2 ? kExitBadInput : kExitFailure;
   }
   const nlohmann::json j = mrd::hil::SummaryJson(s, r);
@@ -329,9 +341,15 @@ int main(int argc, char** argv) {
                 "started by hand")->excludes(fw_opt);
   run->add_option("--out", out_dir,
                   "write summary.json, trace.csv, firmware.toml and plots (gnuplot) here");
+  ro.startup_timeout_s = 0.0;  // default: 10 s, 120 s with --attach
+  run->add_option("--startup-timeout", ro.startup_timeout_s,
+                  "seconds to wait for the firmware's first answer (default 10, 120 with "
+                  "--attach); a firmware that never answers ends the run with an error")
+      ->check(CLI::Range(0.1, 3600.0));
   run->add_option("--command-timeout", ro.command_timeout_s,
-                  "lockstep: seconds to wait for one tick's command")
-      ->check(CLI::Range(0.001, 60.0))->capture_default_str();
+                  "lockstep liveness: a firmware silent this long (wall clock) ends the run "
+                  "with an error; a slow answer never changes the result [s]")
+      ->check(CLI::Range(0.1, 3600.0))->capture_default_str();
   run->add_option("--can-interface", ro.can_interface,
                   "CAN: a SocketCAN interface (CAN_RAW with filters, e.g. vcan0) for harness and "
                   "firmware instead of the local frame bus");

@@ -182,6 +182,10 @@ class CanPort final : public PlantPort {
   }
 
   void SetLockstep(bool on) override { lockstep_ = on; }
+  void PeerRestarted() override {
+    command_check_.Reset();
+    heartbeat_check_.Reset();
+  }
 
   void Close() override {
     if (relay_ != nullptr) {

@@ -8,10 +8,6 @@
 
 namespace mrd::hil {
 
-double GrantTimeoutMs(const Scenario& s, const std::string& transport) {
-  return transport == "can" ? s.grant_timeout_ms : std::max(s.grant_timeout_ms, 100.0);
-}
-
 std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
                                const std::string& endpoint, const std::string& gpio_chip) {
   std::ostringstream c;
@@ -23,7 +19,7 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
     << (lockstep ? "lockstep" : "real time") << ")\n";
   c << "[loop]\nperiod_us = 1000\npriority = 0\nlock_memory = false\n";
   if (lockstep) {
-    c << "clock = \"grant\"\ngrant_timeout_ms = " << GrantTimeoutMs(s, transport) << "\n";
+    c << "clock = \"grant\"\ngrant_timeout_ms = " << s.grant_timeout_ms << "\n";
   }
   // Lockstep: a slow reply is a loaded machine, not a fault (time waits for the harness).
   const int response_ms = lockstep ? 100 : transport == "modbus-rtu" ? 10 : 20;

@@ -3,6 +3,8 @@
 
 #include <sys/prctl.h>
 #include <sys/stat.h>
+
+#include <csignal>
 #include <unistd.h>
 
 #include <algorithm>
@@ -41,6 +43,12 @@ void SleepUntil(std::int64_t t_ns) {
   }
 }
 
+
+std::string FormatSeconds(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g s", s);
+  return buf;
+}
 
 // Output file suffix of the n-th firmware instance ("" for the first).
 std::string Tag(int n) {
@@ -332,6 +340,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
                   e)) {
       return false;
     }
+    if (r->firmware_starts > 0) port->PeerRestarted();
     ++r->firmware_starts;
     return true;
   };
@@ -341,6 +350,26 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
                  r->config_path.c_str(), lockstep ? " (lockstep: add --duration to stop it)" : "");
   }
   const auto firmware_alive = [&] { return o.attach || fw.Alive(); };
+  const auto interrupted = [&] {
+    return o.interrupt != nullptr ? o.interrupt->load(std::memory_order_relaxed) : 0;
+  };
+  // Ends the run early (error or signal): the firmware child stopped and reaped (the signal
+  // forwarded), the ports closed; returns 1.
+  const auto end_run = [&](const std::string& why, int sig) {
+    *error = why;
+    r->interrupted = sig;
+    if (!o.attach) {
+      r->firmware_exit = fw.Stop(2.0, sig != 0 ? sig : SIGTERM);
+      ReadFile(o.work_dir + "/firmware" + Tag(r->firmware_starts - 1) + ".err",
+               &r->firmware_stderr);
+    }
+    if (port_open) port->Close();
+    gpio.Close();
+    return 1;
+  };
+  const auto interrupt_text = [](int sig) {
+    return std::string("interrupted by ") + strsignal(sig);
+  };
 
   // Per-step state.
   DriverInput in;
@@ -361,8 +390,6 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   if (!lockstep) jitter_us.reserve(static_cast<std::size_t>(steps) + 16);
   if (o.keep_trace) r->trace.reserve(static_cast<std::size_t>(steps));
   const auto hb_timeout_steps = static_cast<std::int64_t>(std::llround(s.heartbeat_timeout_s / 1e-3));
-  const double grant_timeout_ms = GrantTimeoutMs(s, o.transport);
-  const auto grant_sleep_ns = static_cast<std::int64_t>(grant_timeout_ms * 1.2e6);
 
   // Quarter car: ride figures of the run and of its passive twins after the settle time.
   RideMetrics ride, ride_off, ride_on;
@@ -392,6 +419,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       port->Poll(&fresh);
       in = fresh;
       if (in.heartbeat_ns != 0 || in.has_command) break;
+      if (const int sig = interrupted()) return end_run(interrupt_text(sig), sig);
       if (!firmware_alive() || NowNs() > until) {
         *error = firmware_alive() ? "the firmware did not answer within the start-up timeout"
                                   : "the firmware exited during start-up";
@@ -416,6 +444,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   std::int64_t deadline = wall0;
   std::uint32_t seq_base = 1000;  // real time: above the start-up publications
   for (std::int64_t k = 0; k < steps; ++k) {
+    if (const int sig = interrupted()) return end_run(interrupt_text(sig), sig);
     // The fault schedule at step k.
     SensorFault sf = SensorFault::kNone;
     bool delay_active = false, implausible = false, plant_dead = false, fault_line = false;
@@ -446,7 +475,9 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       if (f.kind == FaultKind::kKillPlant) plant_dead = true;
       if (f.kind == FaultKind::kFaultLine) fault_line = true;
     }
-    if (plant_dead && port_open) {
+    // Real time: the plant's bus node goes away. Lockstep: the harness is also the clock, so
+    // time goes on (grants) while the plant's node is silent (no sensor data).
+    if (plant_dead && port_open && !lockstep) {
       port->Close();
       port_open = false;
     } else if (!plant_dead && !port_open) {
@@ -471,7 +502,9 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     }
     gpio.Publish(out, lockstep);  // lockstep: settled before the grant below
     if (port_open) {
-      if (delay_active || !delayed.empty()) {
+      if (plant_dead) {
+        // lockstep: silent plant, granted time (above)
+      } else if (delay_active || !delayed.empty()) {
         delayed.push_back(out);
         while (!delayed.empty() &&
                (!delay_active || static_cast<std::int64_t>(out.seq - delayed.front().seq) >= delay_periods)) {
@@ -489,25 +522,32 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     DriverInput fresh = in;
     fresh.has_command = fresh.has_echo = fresh.has_status = fresh.has_safe = false;
     if (lockstep) {
-      if (!port_open) {
-        pump_for(grant_sleep_ns);  // the firmware misses this step's grant
-      } else if (firmware_alive()) {
+      // The tick's command and status (the generated config sends a status every period),
+      // however long they take: simulated time never depends on wall time. Liveness is
+      // separate: a firmware that exits is seen at once; one that stays silent for the
+      // start-up or command timeout (wall clock) ends the run with an error.
+      if (firmware_alive()) {
         const double wait_s = awaiting_start ? o.startup_timeout_s : o.command_timeout_s;
         const std::int64_t until = NowNs() + static_cast<std::int64_t>(wait_s * 1e9);
         std::int64_t resend = NowNs() + 50'000'000;
-        std::int64_t status_until = 0;
         while (true) {
           port->Poll(&fresh);
-          if (fresh.has_command) {
-            if (fresh.has_status) break;
-            if (status_until == 0) status_until = NowNs() + 5'000'000;
-          }
+          if (fresh.has_command && fresh.has_status) break;
+          if (!firmware_alive()) break;  // exited mid-step: no command for this step
           const std::int64_t now = NowNs();
-          if (now >= until || (status_until != 0 && now >= status_until)) break;
+          if (const int sig = interrupted()) return end_run(interrupt_text(sig), sig);
+          if (now >= until) {
+            return end_run(std::string(awaiting_start
+                                           ? "no firmware answered within the start-up timeout ("
+                                           : "the firmware stopped answering: no command within "
+                                             "the command timeout (") +
+                               FormatSeconds(wait_s) + ") at step " + std::to_string(k) +
+                               (o.attach ? "" : "; it was stopped"),
+                           0);
+          }
           if (awaiting_start && now >= resend) {
             // The firmware may not be on the bus yet: offer the step again.
-            if (!firmware_alive()) break;
-            publish(out);
+            if (!plant_dead) publish(out);
             port->SendGrant((k + 1) * kPeriodNs);
             resend = now + 50'000'000;
           }
@@ -606,9 +646,11 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   if (!o.attach) {
     if (fw.Alive()) {
       if (lockstep) {
-        // Its last tick may still wait for a grant: one more ends it without a timeout.
+        // Its last tick may still wait for a grant: one more ends it.
         port->SendGrant((steps + 1) * kPeriodNs);
-        if (fw.Wait(std::max(2.0, grant_timeout_ms * 3e-3)) < 0) fw.Stop(2.0);
+        const std::int64_t until = NowNs() + static_cast<std::int64_t>(o.command_timeout_s * 1e9);
+        while (fw.Alive() && NowNs() < until) pump(2'000'000);
+        if (fw.Alive()) fw.Stop(2.0);
       } else {
         fw.Stop(2.0);
       }

@@ -35,7 +35,8 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
   [control]     law = "force" | "passive-off" | "passive-on" | "constant" | "skyhook";
                 constant_voltage [V]; skyhook_gain [N s/cm]
   [firmware]    max_age_ms (5), recover_periods (5), velocity_limit [cm/s] (250),
-                grant_timeout_ms (20): written into the generated mrd-firmware config
+                grant_timeout_ms (10000: lockstep, the firmware stops when no grant came
+                for this long): written into the generated mrd-firmware config
   [pass]        max_invariant_violations (0), max_error_reachable, max_error_all,
                 max_missed_grants, max_detection_to_safe_periods (2), require_recovery (true),
                 expect_firmware_exit (e.g. 2 with a corrupt_table fault),
@@ -223,7 +224,7 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
         {"max_age_ms", Num(&s.max_age_ms, 0.01, 1e4, "max_age_ms")},
         {"recover_periods", Int(&s.recover_periods, 1, 1000000, "recover_periods")},
         {"velocity_limit", Num(&s.velocity_limit, 0.0, 1e6, "velocity_limit")},
-        {"grant_timeout_ms", Num(&s.grant_timeout_ms, 1.0, 1e5, "grant_timeout_ms")}};
+        {"grant_timeout_ms", Num(&s.grant_timeout_ms, 100.0, 3.6e6, "grant_timeout_ms")}};
     const std::map<std::string, Setter> pass = {
         {"max_invariant_violations", Int(&pass_max_viol, 0, 1000000000, "max_invariant_violations")},
         {"max_error_reachable", Num(&err_reach, 0.0, 1e6, "max_error_reachable")},

@@ -12,6 +12,9 @@ set(CMAKE_CXX_COMPILER arm-linux-gnueabihf-g++)
 set(CMAKE_LIBRARY_ARCHITECTURE arm-linux-gnueabihf)
 include(${CMAKE_CURRENT_LIST_DIR}/sysroot.cmake)
 mrd_target_sysroot(armhf arm-linux-gnueabihf)
+# GCC's note that std::map iterators pass differently since GCC 7.1 on 32-bit Arm (-Wpsabi):
+# the whole program is built by one compiler, so it does not apply.
+set(CMAKE_CXX_FLAGS_INIT -Wno-psabi)
 set(CMAKE_CROSSCOMPILING_EMULATOR qemu-arm -L ${MRD_SYSROOT})
 # Debian architecture of the package (CPack DEB).
 set(CPACK_DEBIAN_PACKAGE_ARCHITECTURE armhf)

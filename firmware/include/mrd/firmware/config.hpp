@@ -28,7 +28,7 @@ enum class LoopClock : std::uint8_t { kMonotonic = 0, kGrant };
 struct FirmwareConfig {
   std::int64_t period_ns = 1'000'000;
   LoopClock clock = LoopClock::kMonotonic;
-  std::int64_t grant_timeout_ns = 100'000'000;  // wall time to wait for a grant [ns]
+  std::int64_t grant_timeout_ns = 10'000'000'000;  // lockstep: no grant this long = stop [ns]
   int priority = 80;
   bool lock_memory = true;
   std::optional<double> e_max;  // [V]; unset: the table's

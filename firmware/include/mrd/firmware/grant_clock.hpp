@@ -7,16 +7,15 @@
 //
 //   Now()          = the latest granted time [ns] (0 before the first grant)
 //   SleepUntil(t)  = returns at once when Now() >= t; else waits for grants until one is >= t.
-//                    A grant that does not come within grant_timeout (wall clock) is a fault,
-//                    not a hang: SleepUntil returns without one (time stays at the last grant:
-//                    only the harness moves time) and counts a missed grant; the device reports
-//                    the period as a bus timeout, so the loop commands the safe state. The loop
-//                    then re-aligns its next deadline on Now() (loop.hpp), so the next grant
-//                    ticks it again: a lost grant or command costs one safe period, never a
-//                    permanent offset between harness and firmware.
-//                    Before the first grant the wait is first_grant_timeout (start-up: the
-//                    harness may come up after the firmware); a miss there is counted the same.
+//                    Simulated time never depends on wall time: however late a grant comes (a
+//                    loaded machine, a harness stopped for a while), the loop waits for it and
+//                    no period is inserted. Liveness is separate: when no grant has come for
+//                    give_up (wall clock, long: the harness is gone), or the stop flag is set,
+//                    the clock halts (Halted() true) and SleepUntil returns; the loop then
+//                    ends in the safe state instead of ticking safe periods into a simulation.
+//                    The wait is sliced (kSliceNs) so a stop request ends it promptly.
 
+#include <atomic>
 #include <cstdint>
 
 #include "mrd/firmware/io.hpp"
@@ -28,35 +27,36 @@ class TimeGrantSource {
  public:
   virtual ~TimeGrantSource() = default;
   // Waits at most timeout_ns of wall-clock time for the next grant; true with *t_ns (harness
-  // time [ns]). Processes whatever else arrives meanwhile (sensor data). Real-time safe in the
-  // sense of bounded: no allocation, one bounded wait.
+  // time [ns]). Processes whatever else arrives meanwhile (sensor data). A wait that ends
+  // without a grant is not a fault (the clock decides). Bounded: no allocation, one bounded
+  // wait.
   virtual bool WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) = 0;
 };
 
 class GrantClock final : public Clock {
  public:
-  // source outlives this; grant_timeout_ns > 0.
-  static constexpr std::int64_t kFirstGrantTimeoutNs = 5'000'000'000;
-  GrantClock(TimeGrantSource& source, std::int64_t grant_timeout_ns,
-             std::int64_t first_grant_timeout_ns = kFirstGrantTimeoutNs)
-      : source_(source),
-        timeout_ns_(grant_timeout_ns),
-        first_timeout_ns_(first_grant_timeout_ns > grant_timeout_ns ? first_grant_timeout_ns
-                                                                    : grant_timeout_ns) {}
+  static constexpr std::int64_t kSliceNs = 50'000'000;  // one WaitGrant call at most [ns]
+  // source (and stop, when given) outlive this; give_up_ns > 0 [ns of wall time].
+  GrantClock(TimeGrantSource& source, std::int64_t give_up_ns,
+             const std::atomic<bool>* stop = nullptr)
+      : source_(source), give_up_ns_(give_up_ns), stop_(stop) {}
 
   std::int64_t Now() override { return now_; }
   void SleepUntil(std::int64_t t_ns) override;
+  bool Halted() const override { return halted_; }
 
   std::uint64_t grants() const { return grants_; }
-  std::uint64_t missed_grants() const { return missed_; }
+  // True when the clock halted because no grant came within give_up (not on a stop request).
+  bool gave_up() const { return gave_up_; }
 
  private:
   TimeGrantSource& source_;
-  std::int64_t timeout_ns_;
-  std::int64_t first_timeout_ns_;
+  std::int64_t give_up_ns_;
+  const std::atomic<bool>* stop_;
   std::int64_t now_ = 0;
   std::uint64_t grants_ = 0;
-  std::uint64_t missed_ = 0;
+  bool halted_ = false;
+  bool gave_up_ = false;
 };
 
 }  // namespace mrd::firmware

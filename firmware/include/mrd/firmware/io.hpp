@@ -65,6 +65,9 @@ class Clock {
   virtual std::int64_t Now() = 0;  // [ns]
   // Sleeps until the absolute time t_ns (returns at once when it has passed). Real-time safe.
   virtual void SleepUntil(std::int64_t t_ns) = 0;
+  // True once time can no longer advance (a lockstep clock whose harness is gone): the loop
+  // then ends instead of ticking.
+  virtual bool Halted() const { return false; }
 };
 
 // CLOCK_MONOTONIC; SleepUntil uses clock_nanosleep(TIMER_ABSTIME) and resumes after signals.

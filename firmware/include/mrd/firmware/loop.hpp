@@ -1,9 +1,9 @@
 #pragma once
 // The control loop: wires a SensorSource and a CurrentDriver to the Controller at a fixed
 // period with absolute deadlines. Per period, in order: read inputs, clamp dt, update, write,
-// count time (and publish telemetry). Overruns skip the missed deadlines and are counted. A
-// clock found behind its next deadline (the lockstep GrantClock after a missed grant) re-aligns
-// the deadline on its own time.
+// count time (and publish telemetry). Overruns skip the missed deadlines and are counted (in
+// lockstep: a grant that jumps ahead, e.g. to a restarted firmware). A clock that halts (the
+// lockstep GrantClock whose harness is gone) ends the run.
 // The loop always leaves the driver in the safe state when it returns.
 
 #include <atomic>

@@ -1,8 +1,11 @@
 #pragma once
 // The firmware under test as a child process of the harness: spawned with its output in files,
-// polled for exit, stopped cleanly (SIGTERM, then SIGKILL after a timeout) or killed.
+// polled for exit, stopped cleanly (SIGTERM, then SIGKILL after a timeout) or killed. A child
+// gets SIGTERM when the harness dies (PR_SET_PDEATHSIG), so it never outlives its run.
 
 #include <sys/types.h>
+
+#include <csignal>
 
 #include <string>
 #include <vector>
@@ -23,8 +26,9 @@ class Child {
   bool Alive();
   // Waits up to timeout_s for the exit; the exit status (128 + signal), or -1 on timeout.
   int Wait(double timeout_s);
-  // SIGTERM, then SIGKILL after term_timeout_s; the exit status (128 + signal when killed).
-  int Stop(double term_timeout_s);
+  // sig (SIGTERM by default), then SIGKILL after term_timeout_s; the exit status (128 +
+  // signal when killed).
+  int Stop(double term_timeout_s, int sig = SIGTERM);
   void Kill();  // SIGKILL, reaped
   pid_t pid() const { return pid_; }
   int status() const { return status_; }

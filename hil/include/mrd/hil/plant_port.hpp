@@ -80,6 +80,9 @@ class PlantPort {
   }
   // Lockstep: Poll hands over one firmware tick at a time (CAN: up to its status frame).
   virtual void SetLockstep(bool on) { (void)on; }
+  // A new firmware instance is starting (the harness restarted it): forget the previous
+  // sender's rolling counters, so its first frames are not taken for repeated or stale ones.
+  virtual void PeerRestarted() {}
   // Waits up to timeout_ns for something from the firmware (then Poll). Default: sleeps a
   // little (transports without a pollable fd).
   virtual void Wait(std::int64_t timeout_ns);

@@ -6,9 +6,14 @@
 //
 // Clocks:
 //   lockstep             per step k: sensor frames (registers) of the plant at k·T, then a
-//                        TimeGrant frame (the Modbus grant register) of (k+1)·T; the harness waits (command_timeout) for the firmware's command
-//                        and status of that tick, applies it and steps the plant. Deterministic
-//                        and as fast as both processes allow.
+//                        TimeGrant frame (the Modbus grant register) of (k+1)·T; the harness
+//                        waits for the firmware's command and status of that tick, however
+//                        long they take, applies them and steps the plant. Deterministic (no
+//                        wall time enters the result) and as fast as both processes allow.
+//                        Liveness is separate: a firmware child that exits is seen at once; one
+//                        silent for command_timeout (startup_timeout for its first tick) ends
+//                        the run with an error. A dead plant (kill_plant) is silent on the bus
+//                        while the harness keeps granting time.
 //   realtime             the plant steps at 1 kHz on CLOCK_MONOTONIC (absolute deadlines); the
 //                        firmware runs on its own clock; wake-up jitter and sensor->command
 //                        latency are measured.
@@ -21,6 +26,7 @@
 // heartbeat loss), to the safe state (first safe command, or coil dropped by the driver) and to
 // recovery after the fault clears (first non-safe, driven command).
 
+#include <atomic>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -40,8 +46,11 @@ struct RunOptions {
   std::string firmware;             // mrd-firmware to start
   bool attach = false;              // do not start it: wait for one started by hand
   std::string work_dir;             // config, sockets, firmware output (created if absent)
-  double command_timeout_s = 0.5;   // lockstep: wait for one tick's command
-  double startup_timeout_s = 10.0;  // first sign of life of the firmware
+  double command_timeout_s = 10.0;  // lockstep liveness: silence this long ends the run [s]
+  double startup_timeout_s = 10.0;  // first sign of life of the firmware [s]
+  // Set (to the signal number) by the caller's SIGTERM/SIGINT/SIGHUP handler: the run stops,
+  // forwards the signal to the firmware child, reaps it and returns 1 (error "interrupted").
+  const std::atomic<int>* interrupt = nullptr;
   bool keep_trace = true;           // record per-step signals and score (false: benchmark;
                                     // no probes, no passive twins, no tracking scores)
   // Real devices instead of the build machine's stand-ins (e.g. on the virtual board):
@@ -105,6 +114,7 @@ struct RunResult {
   std::optional<RideScores> ride;       // quarter-car scenarios (needs keep_trace)
   std::vector<FaultResult> faults;
   int firmware_exit = -1;               // -1: still running / not started by us
+  int interrupted = 0;                  // the signal that stopped the run (RunOptions::interrupt)
   std::string firmware_json;            // the firmware's --json summary (last instance)
   std::string firmware_stderr;
   std::optional<std::uint64_t> missed_grants;  // from the firmware's summary (lockstep)
@@ -128,7 +138,6 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
 // The firmware's grant timeout on a transport [ms]: the scenario's, at least 100 ms on Modbus
 // (a grant there crosses two more threads, the harness's server and the firmware's worker, so
 // a loaded machine must not turn scheduling delays into missed grants).
-double GrantTimeoutMs(const Scenario& s, const std::string& transport);
 
 // The generated mrd-firmware configuration for a transport and endpoint (CAN: a local bus
 // socket path, or a SocketCAN interface name when it has no '/'). gpio_chip: where the

@@ -79,7 +79,7 @@ struct Scenario {
   double max_age_ms = 5.0;
   int recover_periods = 5;
   double velocity_limit = 250.0;
-  double grant_timeout_ms = 20.0;
+  double grant_timeout_ms = 10000.0;  // lockstep: the firmware stops without grants this long
   // [pass]
   std::uint64_t max_invariant_violations = 0;
   std::optional<double> max_error_reachable;  // ||f - d|| / ||d|| over reachable demands

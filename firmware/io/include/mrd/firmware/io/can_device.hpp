@@ -102,7 +102,6 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   std::int64_t granted_ns_ = 0;
   bool got_grant_ = false;
   bool unstamped_motion_ = false, unstamped_force_ = false;
-  bool missed_grant_ = false;
   bool fresh_in_wait_ = false;
   std::int64_t next_heartbeat_ns_ = 0, next_status_ns_ = 0, next_reconnect_ns_ = 0;
   DeviceCounters counters_;

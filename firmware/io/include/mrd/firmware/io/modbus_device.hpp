@@ -124,7 +124,6 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   std::uint32_t last_seq_ = 0;
   bool last_write_failed_ = false;
   std::int64_t granted_ns_ = 0;   // the latest grant WaitGrant returned
-  bool missed_grant_ = false;     // since the last Read
   IoError last_why_ = IoError::kNone;
 
   // Counters, written by the worker, read by anyone.
