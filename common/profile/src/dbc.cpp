@@ -1,15 +1,12 @@
 #include "mrd/profile/dbc.hpp"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
-#include <map>
+
+#include "file_text.hpp"
 
 namespace mrd::profile {
 namespace {
@@ -365,32 +362,8 @@ bool ParseDbc(std::string_view text, const std::string& path, Dbc* out, std::str
 }
 
 bool LoadDbc(const std::string& path, Dbc* out, std::string* error) {
-  const int fd = open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0) {
-    *error = path + ": cannot open (" + std::strerror(errno) + ")";
-    return false;
-  }
-  struct stat st {};
-  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    close(fd);
-    *error = path + ": not a regular file";
-    return false;
-  }
-  if (static_cast<std::size_t>(st.st_size) > kMaxDbcBytes) {
-    close(fd);
-    *error = path + ": larger than 4 MiB";
-    return false;
-  }
-  std::string text(static_cast<std::size_t>(st.st_size), '\0');
-  std::size_t got = 0;
-  while (got < text.size()) {
-    const ssize_t n = read(fd, text.data() + got, text.size() - got);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    got += static_cast<std::size_t>(n);
-  }
-  close(fd);
-  text.resize(got);
+  std::string text;
+  if (!ReadTextFile(path, kMaxDbcBytes, &text, error)) return false;
   return ParseDbc(text, path, out, error);
 }
 
