@@ -1,0 +1,146 @@
+#include "mrd/firmware/io/pwm_device.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+
+namespace mrd::firmware {
+namespace {
+
+// Writes a value and a newline to a sysfs attribute in one write (the kernel parses up to the
+// newline); false with *error.
+bool WriteAttr(const std::string& path, const char* text, std::string* error) {
+  const int fd = open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) {
+    *error = "pwm: cannot open " + path + ": " + std::strerror(errno);
+    return false;
+  }
+  char buf[64];
+  const int len = std::snprintf(buf, sizeof buf, "%s\n", text);
+  const auto n = static_cast<ssize_t>(len);
+  const bool ok = len > 0 && static_cast<std::size_t>(len) < sizeof buf &&
+                  write(fd, buf, static_cast<std::size_t>(n)) == n;
+  const int e = errno;
+  close(fd);
+  if (!ok) *error = "pwm: cannot write '" + std::string(text) + "' to " + path + ": " + std::strerror(e);
+  return ok;
+}
+
+std::int64_t NowNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+}  // namespace
+
+PwmDevice::PwmDevice(const PwmConfig& config) : config_(config) {
+  dir_ = config_.chip + "/pwm" + std::to_string(config_.channel);
+}
+
+PwmDevice::~PwmDevice() { Deactivate(); }
+
+bool PwmDevice::Configure(std::string* error) {
+  struct stat st {};
+  if (config_.chip.empty() || stat(config_.chip.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
+    *error = "pwm: chip '" + config_.chip + "' is not a sysfs PWM chip directory";
+    return false;
+  }
+  if (config_.channel < 0 || config_.period_ns <= 0 || !(config_.safe_duty_percent >= 0.0) ||
+      config_.safe_duty_percent > 100.0) {
+    *error = "pwm: channel >= 0, period > 0 and safe duty in [0, 100] % required";
+    return false;
+  }
+  if (stat(dir_.c_str(), &st) != 0) {
+    if (!WriteAttr(config_.chip + "/export", std::to_string(config_.channel).c_str(), error)) {
+      return false;
+    }
+    // The kernel creates pwmN at once; udev may take a moment to make its files writable.
+    const std::int64_t until = NowNs() + kExportWaitNs;
+    while (access((dir_ + "/enable").c_str(), W_OK) != 0) {
+      if (NowNs() > until) {
+        *error = "pwm: " + dir_ + " did not appear (or stayed unwritable) within 1 s of export";
+        return false;
+      }
+      usleep(5000);
+    }
+  }
+  char buf[32];
+  if (!WriteAttr(dir_ + "/enable", "0", error)) return false;
+  if (!WriteAttr(dir_ + "/duty_cycle", "0", error)) return false;
+  std::snprintf(buf, sizeof buf, "%lld", static_cast<long long>(config_.period_ns));
+  if (!WriteAttr(dir_ + "/period", buf, error)) return false;
+  if (!WriteAttr(dir_ + "/polarity", config_.inversed ? "inversed" : "normal", error)) return false;
+  duty_fd_ = open((dir_ + "/duty_cycle").c_str(), O_WRONLY | O_CLOEXEC);
+  enable_fd_ = open((dir_ + "/enable").c_str(), O_WRONLY | O_CLOEXEC);
+  if (duty_fd_ < 0 || enable_fd_ < 0) {
+    *error = "pwm: cannot open " + dir_ + "/duty_cycle or enable: " + std::strerror(errno);
+    return false;
+  }
+  return true;
+}
+
+bool PwmDevice::WriteDuty(std::int64_t duty_ns) {
+  if (duty_ns == last_duty_ns_) return true;
+  char buf[24];
+  const int n = std::snprintf(buf, sizeof buf, "%lld\n", static_cast<long long>(duty_ns));
+  if (duty_fd_ < 0 || pwrite(duty_fd_, buf, static_cast<std::size_t>(n), 0) != n) {
+    ++counters_.tx_failed;
+    ++counters_.errors[static_cast<std::size_t>(IoError::kSystem)];
+    counters_.last_error = IoError::kSystem;
+    last_duty_ns_ = -1;  // unknown now: write again next time
+    return false;
+  }
+  ++counters_.tx_ok;
+  last_duty_ns_ = duty_ns;
+  return true;
+}
+
+bool PwmDevice::Activate(std::string* error) {
+  const auto safe = static_cast<std::int64_t>(
+      std::llround(config_.safe_duty_percent / 100.0 * static_cast<double>(config_.period_ns)));
+  if (!WriteDuty(safe) || pwrite(enable_fd_, "1\n", 2, 0) != 2) {
+    *error = "pwm: cannot start " + dir_ + ": " + std::strerror(errno);
+    return false;
+  }
+  active_ = true;
+  return true;
+}
+
+void PwmDevice::Deactivate() {
+  if (duty_fd_ >= 0) {
+    (void)WriteDuty(0);
+    if (enable_fd_ >= 0) (void)!pwrite(enable_fd_, "0\n", 2, 0);
+  }
+  if (duty_fd_ >= 0) close(duty_fd_);
+  if (enable_fd_ >= 0) close(enable_fd_);
+  duty_fd_ = enable_fd_ = -1;
+  active_ = false;
+}
+
+IoStatus PwmDevice::Read(SensorFrame* frame, IoError* why) {
+  (void)frame;
+  (void)why;
+  return IoStatus::kNoData;
+}
+
+IoStatus PwmDevice::Write(const DriverCommand& cmd, IoError* why) {
+  double duty = cmd.safe ? config_.safe_duty_percent : config_.map.Apply(cmd.volts, config_.period_s);
+  if (!std::isfinite(duty) || duty < 0.0) duty = 0.0;
+  if (duty > 100.0) duty = 100.0;
+  const auto ns = static_cast<std::int64_t>(
+      std::llround(duty / 100.0 * static_cast<double>(config_.period_ns)));
+  if (!active_ || !WriteDuty(ns)) {
+    *why = IoError::kSystem;
+    return IoStatus::kFault;
+  }
+  return IoStatus::kOk;
+}
+
+}  // namespace mrd::firmware
