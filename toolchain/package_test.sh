@@ -56,7 +56,7 @@ before="$(sha256sum <"$dest")"
 bash toolchain/deploy --root "$root" --table "$root/new.bin" >/dev/null
 cmp -s "$dest" "$root/new.bin" || fail "table not installed"
 [ "$(sha256sum <"$dest.prev")" = "$before" ] || fail "previous table not kept"
-[ ! -e "$dest.new" ] || fail "staging file left behind"
+! compgen -G "$dest*.tmp-*" >/dev/null || fail "staging file left behind"
 echo "table update: installed, previous kept as table.bin.prev"
 
 # A corrupt table is refused by deploy and changes nothing.

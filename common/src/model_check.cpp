@@ -16,6 +16,7 @@ Error ModelCheck::error() const {
     case ModelProblem::kTooManyFactors:
       return Error::kCapacityExceeded;
     case ModelProblem::kChannelName:
+    case ModelProblem::kChannelNameRepeated:
       return Error::kInvalidArgument;
     case ModelProblem::kChannelScaleNonFinite:
     case ModelProblem::kRegressorExponent:
@@ -55,13 +56,25 @@ ModelCheck CheckModel(const BasicModel<T>& m) {
   if (m.num_terms > kMaxTerms) return at(ModelProblem::kTooManyTerms, 0, m.num_terms);
   if (m.output_channel >= m.num_channels) return at(ModelProblem::kOutputChannel, 0);
   for (std::size_t c = 0; c < m.num_channels; ++c) {
-    if (std::memchr(m.channel_names[c].data(), '\0', m.channel_names[c].size()) == nullptr) {
+    const char* name = m.channel_names[c].data();
+    if (std::memchr(name, '\0', m.channel_names[c].size()) == nullptr || *name == '\0') {
       return at(ModelProblem::kChannelName, c);
+    }
+    for (const char* p = name; *p != '\0'; ++p) {
+      if (*p < 0x20 || *p > 0x7e) return at(ModelProblem::kChannelName, c);  // printable ASCII
     }
     if (!std::isfinite(m.scales[c].offset) || !std::isfinite(m.scales[c].scale)) {
       return at(ModelProblem::kChannelScaleNonFinite, c);
     }
-    if (!(m.scales[c].scale > T(0))) return at(ModelProblem::kChannelScale, c);
+    if (!(m.scales[c].scale >= T(kMinChannelScale)) || m.scales[c].scale > T(kMaxChannelScale) ||
+        std::fabs(m.scales[c].offset) > T(kMaxChannelOffset)) {
+      return at(ModelProblem::kChannelScale, c);
+    }
+    for (std::size_t d = 0; d < c; ++d) {
+      if (std::strcmp(m.channel_names[c].data(), m.channel_names[d].data()) == 0) {
+        return at(ModelProblem::kChannelNameRepeated, c, static_cast<int>(d));
+      }
+    }
   }
   for (std::size_t r = 0; r < m.num_regressors; ++r) {
     const BasicRegressor<T>& reg = m.regressors[r];
@@ -111,7 +124,9 @@ ModelCheck CheckTable(const CoefficientTable& t) {
   if (!std::isfinite(t.e_min) || !std::isfinite(t.e_max)) {
     return {ModelProblem::kVoltageNonFinite, 0, 0};
   }
-  if (!(t.e_min < t.e_max)) return {ModelProblem::kVoltageRange, 0, 0};
+  if (!(t.e_min < t.e_max) || t.e_min < 0.0 || t.e_max > kMaxCommandVoltage) {
+    return {ModelProblem::kVoltageRange, 0, 0};
+  }
   if (t.has_envelope) {
     for (std::size_t c = 0; c < t.model.num_channels; ++c) {
       const ChannelRange& r = t.envelope[c];

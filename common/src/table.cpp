@@ -136,21 +136,33 @@ Result<TableBytes> EncodeTable(const CoefficientTable& table) {
 }
 
 Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes) {
-  if (bytes.size() < kTableHeaderSize) return Error::kBadSize;
+  return DecodeTable(bytes, nullptr);
+}
+
+Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes, TableDiagnosis* why) {
+  TableDiagnosis scratch;
+  TableDiagnosis& d = why != nullptr ? *why : scratch;
+  d = TableDiagnosis{};
+  d.size = bytes.size();
+  const auto refuse = [&d](Error e) {
+    d.error = e;
+    return e;
+  };
+  if (bytes.size() < kTableHeaderSize) return refuse(Error::kBadSize);
   const Reader r(bytes);
   for (std::size_t i = 0; i < kTableMagic.size(); ++i) {
-    if (r.U8(i) != kTableMagic[i]) return Error::kBadMagic;
+    if (r.U8(i) != kTableMagic[i]) return refuse(Error::kBadMagic);
   }
   const std::uint16_t version = r.U16(4);
-  if (version != kTableVersion && version != kTableVersionV1) return Error::kBadVersion;
+  if (version != kTableVersion && version != kTableVersionV1) return refuse(Error::kBadVersion);
   const bool v1 = version == kTableVersionV1;
   const std::size_t size = v1 ? kTableSizeV1 : kTableSize;
   const std::size_t crc_at = v1 ? kTableCrcOffsetV1 : kTableCrcOffset;
-  if (r.U32(8) != size || bytes.size() != size) return Error::kBadSize;
-  if (r.U32(crc_at) != Crc32(bytes.first(crc_at))) return Error::kBadCrc;
+  if (r.U32(8) != size || bytes.size() != size) return refuse(Error::kBadSize);
+  if (r.U32(crc_at) != Crc32(bytes.first(crc_at))) return refuse(Error::kBadCrc);
   const std::uint16_t flags = r.U16(6);
   // Version 1 defines no flag; version 2 only the envelope bit.
-  if ((flags & ~(v1 ? 0u : unsigned{kTableFlagEnvelope})) != 0) return Error::kOutOfRange;
+  if ((flags & ~(v1 ? 0u : unsigned{kTableFlagEnvelope})) != 0) return refuse(Error::kOutOfRange);
 
   CoefficientTable table;
   Model& m = table.model;
@@ -161,7 +173,7 @@ Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes) {
   m.num_terms = r.U8(kTableCountsOffset + 4);
   if (m.num_channels == 0 || m.num_channels > kTableChannels ||
       m.num_regressors > kTableRegressors || m.num_terms > kTableTerms) {
-    return Error::kCapacityExceeded;
+    return refuse(Error::kCapacityExceeded);
   }
   table.e_min = r.F64(kTableRangeOffset);
   table.e_max = r.F64(kTableRangeOffset + 8);
@@ -183,7 +195,7 @@ Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes) {
     const std::size_t at = kTableTermsOffset + t * kTableTermRecord;
     Term& term = m.terms[t];
     term.num_factors = r.U8(at);
-    if (term.num_factors > kTableFactors) return Error::kCapacityExceeded;
+    if (term.num_factors > kTableFactors) return refuse(Error::kCapacityExceeded);
     for (std::size_t f = 0; f < term.num_factors; ++f) {
       term.factors[f].regressor = r.U8(at + 4 + 3 * f);
       term.factors[f].delay = r.U8(at + 5 + 3 * f);
@@ -198,8 +210,22 @@ Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes) {
       table.envelope[c].max = r.F64(kTableEnvelopeOffset + c * kTableEnvelopeRecord + 8);
     }
   }
-  const Error e = table.Validate();
-  if (e != Error::kOk) return e;
+  d.table = table;
+  d.check = CheckTable(table);
+  if (!d.check.ok()) return refuse(d.check.error());
+  // Canonical: every byte the encoder writes as zero is zero (all but the version and size
+  // fields, which differ in a version 1 image, and the CRC, which is checked above).
+  const Result<TableBytes> canonical = EncodeTable(table);
+  if (!canonical.ok()) return refuse(canonical.error());
+  for (std::size_t i = 0; i < crc_at; ++i) {
+    if ((i >= 4 && i < 6) || (i >= 8 && i < 12)) continue;
+    if (bytes[i] != canonical.value()[i]) {
+      d.stray_byte = true;
+      d.byte = i;
+      d.byte_value = bytes[i];
+      return refuse(Error::kOutOfRange);
+    }
+  }
   return table;
 }
 

@@ -4,6 +4,7 @@
 #include <cstring>
 #include <string>
 
+#include "mrd/common/input_file.hpp"
 #include "mrd/firmware/config.hpp"
 #include "mrd/firmware/table_update.hpp"
 
@@ -18,8 +19,10 @@ constexpr const char* kUsage =
     "       mrd-firmware --check-table FILE [--config FILE.toml] [--rollback]\n"
     "       mrd-firmware --install-table NEW --to DEST [--config FILE.toml]\n";
 
-int Refuse(const std::string& reason) {
-  std::fprintf(stderr, "error: %s\n", reason.c_str());
+// reason may echo arguments and paths: printed as mrd::Printable (control bytes as \xNN).
+int Refuse(const std::string& reason, bool usage = false) {
+  std::fprintf(stderr, "error: %s\n%s", Printable(reason, 4 * kMaxEchoChars).c_str(),
+               usage ? kUsage : "");
   return kBadInput;
 }
 
@@ -31,7 +34,7 @@ int RunMaintenance(int argc, char** argv) {
   if (command != "--check-config" && command != "--check-table" && command != "--install-table") {
     return -1;
   }
-  if (argc < 3) return Refuse(command + " needs a file\n" + kUsage);
+  if (argc < 3) return Refuse(command + " needs a file", true);
   const char* file = argv[2];
   const char* config_path = command == "--check-config" ? file : nullptr;
   const char* to = nullptr;
@@ -45,7 +48,7 @@ int RunMaintenance(int argc, char** argv) {
     } else if (a == "--rollback" && command == "--check-table") {
       rollback = true;
     } else {
-      return Refuse("unexpected argument '" + a + "' for " + command + "\n" + kUsage);
+      return Refuse("unexpected argument '" + a + "' for " + command, true);
     }
   }
   FirmwareConfig config;
@@ -58,7 +61,7 @@ int RunMaintenance(int argc, char** argv) {
     return kOk;
   }
   if (command == "--install-table") {
-    if (to == nullptr) return Refuse(std::string("--install-table needs --to DEST\n") + kUsage);
+    if (to == nullptr) return Refuse("--install-table needs --to DEST", true);
     const std::string why = InstallTable(file, to, config);
     if (!why.empty()) return Refuse(why + " (nothing installed)");
     std::printf("table %s installed as %s (previous kept as %s.prev)\n", file, to, to);

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "check.hpp"
+#include "mrd/common/input_file.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/config.hpp"
@@ -33,6 +34,7 @@
 #include "mrd/firmware/sd_notify.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
+#include "mrd/firmware/table_update.hpp"
 #include "summary_json.hpp"
 
 namespace {
@@ -346,31 +348,30 @@ int Run(const Options& o) {
   mrd::CoefficientTable table = kBuiltinTable;
   const char* table_name = o.table != nullptr ? o.table : "compiled-in";
   if (o.table != nullptr) {
-    const auto loaded = LoadTableFile(o.table);
+    std::string reason;
+    const auto loaded = LoadTableFile(o.table, &reason);
     if (!loaded.ok()) {
+      const std::string shown = mrd::Printable(o.table);
       if (loaded.error() == mrd::Error::kIo) {
-        std::fprintf(stderr, "error: table %s: cannot read (%s)\n", o.table, std::strerror(errno));
+        std::fprintf(stderr, "error: table %s: cannot read (%s)\n", shown.c_str(), reason.c_str());
       } else {
-        std::fprintf(stderr, "error: table %s refused: %s\n", o.table,
-                     mrd::ErrorName(loaded.error()));
+        std::fprintf(stderr, "error: table %s refused: %s\n", shown.c_str(), reason.c_str());
       }
       return kExitBadInput;
     }
     table = loaded.value();
   }
   if (o.write_table != nullptr) {
-    const auto image = mrd::EncodeTable(table);
-    if (!image.ok()) {
+    if (const auto image = mrd::EncodeTable(table); !image.ok()) {
       std::fprintf(stderr, "error: table refused: %s\n", mrd::ErrorName(image.error()));
       return kExitBadInput;
     }
-    FILE* f = std::fopen(o.write_table, "wb");
-    if (f == nullptr || std::fwrite(image.value().data(), 1, image.value().size(), f) != image.value().size()) {
-      std::fprintf(stderr, "error: cannot write %s\n", o.write_table);
-      if (f != nullptr) std::fclose(f);
+    // Temporary, fsync, rename: OUT is the whole table or unchanged.
+    const std::string why = WriteTableFile(o.write_table, table);
+    if (!why.empty()) {
+      std::fprintf(stderr, "error: %s (nothing written)\n", mrd::Printable(why).c_str());
       return kExitFailure;
     }
-    std::fclose(f);
     return kExitOk;
   }
 

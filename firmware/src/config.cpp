@@ -3,9 +3,12 @@
 
 #include <toml++/toml.h>
 
-#include <cmath>
-#include <fstream>
+#include "mrd/common/input_file.hpp"
+
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <functional>
 #include <sstream>
 #include <vector>
@@ -98,16 +101,45 @@ Key Bool(const char* name, bool* out, const char* description) {
           description};
 }
 
-Key Text(const char* name, std::string* out, const char* description) {
-  Setter set = [out](const toml::node& n, std::string* why) {
+// A string the firmware hands to the system (an interface, host or path): 1 ... max_len bytes,
+// no control characters (an embedded NUL would silently cut it at the system call), and none
+// of `banned` (e.g. "/: " for an interface name).
+Key Text(const char* name, std::string* out, std::size_t max_len, const char* limit_why,
+         const char* banned, const char* description) {
+  std::string accepts = "a string of 1 to " + std::to_string(max_len) + " bytes (" + limit_why +
+                        "), no control characters";
+  for (const char* b = banned; *b != '\0'; ++b) {
+    accepts += std::string(b[1] == '\0' ? " or " : ", ") +
+               (*b == ' ' ? std::string("blanks") : "'" + std::string(1, *b) + "'");
+  }
+  Setter set = [=](const toml::node& n, std::string* why) {
     const auto v = n.value_exact<std::string>();
     if (!v) return *why = "must be a string", false;
     if (v->empty()) return *why = "must not be empty", false;
+    for (const char ch : *v) {
+      const auto c = static_cast<unsigned char>(ch);
+      if (c < 0x20 || c == 0x7f) {
+        char hex[5];
+        std::snprintf(hex, sizeof hex, "\\x%02x", c);
+        return *why = std::string("must not contain control characters (has ") + hex + ")",
+               false;
+      }
+      if (std::strchr(banned, ch) != nullptr) {
+        return *why = std::string("must not contain ") +
+                          (ch == ' ' ? std::string("blanks") : "'" + std::string(1, ch) + "'"),
+               false;
+      }
+    }
+    if (v->size() > max_len) {
+      return *why = "is " + std::to_string(v->size()) + " bytes long; at most " +
+                        std::to_string(max_len) + " (" + limit_why + ")",
+             false;
+    }
     *out = *v;
     return true;
   };
   return {name, set, [out] { return out->empty() ? std::string("(none)") : "\"" + *out + "\""; },
-          "a non-empty string", "", description};
+          accepts, "", description};
 }
 
 // A duration given in a unit of unit_ns nanoseconds (1e3: us, 1e6: ms), kept in ns.
@@ -178,6 +210,13 @@ std::vector<std::string> OutputNames(std::initializer_list<Output> outputs) {
   for (Output o : outputs) all[static_cast<std::size_t>(o)] = OutputName(o);
   return all;
 }
+
+// Longest strings the system takes [bytes, without the NUL]: a network interface name
+// (IFNAMSIZ 16), a UNIX socket path (sun_path 108), a DNS name, a path (PATH_MAX 4096).
+constexpr std::size_t kMaxInterface = 15;
+constexpr std::size_t kMaxSocketPath = 107;
+constexpr std::size_t kMaxHost = 253;
+constexpr std::size_t kMaxPath = 4095;
 
 // Values kept in other units than the config's while the table is in use.
 struct Scratch {
@@ -251,7 +290,10 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Number("velocity_limit", &k.velocity_limit, 0.0, 1e6, "cm/s",
                "|v| above this is implausible (safe state); 0 = no limit."),
         Number("displacement_limit", &k.displacement_limit, 0.0, 1e6, "cm",
-               "|x| above this is implausible (safe state); 0 = no limit.")}},
+               "|x| above this is implausible (safe state), whenever a displacement is "
+               "measured, whether the model and the velocity use it or not; 0 = no limit. "
+               "With bus sections, a limit needs a bus serving input 'displacement' (the dry "
+               "run's simulated damper always measures it).")}},
       {"envelope",
        {Bool("hold", &k.envelope,
              "Hold the model's v, x and fed-back force to the table's operating envelope "
@@ -283,8 +325,9 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Names("outputs", &io.can.outputs,
               OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
               "Signals sent on CAN."),
-        Text("interface", &io.can.interface, "SocketCAN interface (e.g. \"can0\"); or local_bus."),
-        Text("local_bus", &io.can.local_bus,
+        Text("interface", &io.can.interface, kMaxInterface, "IFNAMSIZ", "/: ",
+             "SocketCAN interface (e.g. \"can0\"); or local_bus."),
+        Text("local_bus", &io.can.local_bus, kMaxSocketPath, "a UNIX socket path", "",
              "UNIX socket path of a local frame bus (mrd-canbus; machines without AF_CAN)."),
         Duration("tx_deadline_us", &io.can.tx_deadline_ns, 1e3, 1.0, 1e6, "us",
                  "A frame not sent by then is dropped (counted)."),
@@ -302,9 +345,11 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
               "Signals written over Modbus."),
         Choice("mode", &io.modbus.mode, {{"tcp", ModbusMode::kTcp}, {"rtu", ModbusMode::kRtu}},
                "Modbus TCP or RTU (serial)."),
-        Text("host", &io.modbus.host, "TCP: the server's address."),
+        Text("host", &io.modbus.host, kMaxHost, "a DNS name", " ",
+             "TCP: the server's address."),
         Integer("port", &io.modbus.port, 1, 65535, "", "TCP: the server's port."),
-        Text("device", &io.modbus.device, "RTU: the serial device (e.g. /dev/ttyS1)."),
+        Text("device", &io.modbus.device, kMaxPath, "PATH_MAX", "",
+             "RTU: the serial device (e.g. /dev/ttyS1)."),
         Integer("baud", &io.modbus.baud, 50, 4'000'000, "bit/s", "RTU: baud rate."),
         Choice("parity", &io.modbus.parity, {{"N", 'N'}, {"E", 'E'}, {"O", 'O'}},
                "RTU: parity."),
@@ -322,8 +367,10 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
               "Signals read from GPIO lines (displacement from a quadrature encoder)."),
         Names("outputs", &io.gpio.outputs, OutputNames({Output::kEnable, Output::kHeartbeat}),
               "Signals driven on GPIO lines."),
-        Text("chip", &io.gpio.chip, "GPIO character device (libgpiod), e.g. \"gpiochip0\"."),
-        Text("sim_chip", &io.gpio.sim_chip, "Path of a simulated chip (tests, mrd-hil)."),
+        Text("chip", &io.gpio.chip, kMaxPath, "PATH_MAX", "",
+             "GPIO character device (libgpiod), e.g. \"gpiochip0\"."),
+        Text("sim_chip", &io.gpio.sim_chip, kMaxPath, "PATH_MAX", "",
+             "Path of a simulated chip (tests, mrd-hil)."),
         Line("enable_line", &io.gpio.enable_line, "Driver enable output (low in the safe state)."),
         Line("heartbeat_line", &io.gpio.heartbeat_line, "Heartbeat output (toggles per period)."),
         Line("fault_line", &io.gpio.fault_line, "Driver fault input."),
@@ -408,6 +455,12 @@ bool CheckIo(const toml::table& root, const std::string& source, const FirmwareC
       !need(Input::kBodyVelocity, "skyhook laws")) {
     return false;
   }
+  if (k.displacement_limit > 0.0 && (inputs & Bit(Input::kDisplacement)) == 0) {
+    *error = Where(root, source, "safety", "displacement_limit") +
+             "displacement_limit needs a measured displacement: no bus serves input "
+             "'displacement' (route it, or drop the limit)";
+    return false;
+  }
   if ((outputs & Bit(Output::kCommand)) == 0) {
     *error = source + ": no bus drives the 'command' output (the current driver's set-point)";
     return false;
@@ -469,8 +522,8 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
             c->e_max.value_or(NAN)};
   ControllerConfig& k = c->controller;
   const Sections sections = KeyTable(c, &x);
-  auto fail = [&](const toml::node& n, const std::string& what) {
-    *error = source + ":" + std::to_string(n.source().begin.line) + ": " + what;
+  auto fail = [&](const toml::node& n, const std::string& what) {  // what may echo input
+    *error = source + ":" + std::to_string(n.source().begin.line) + ": " + Printable(what);
     return false;
   };
   for (const auto& [name, node] : root) {
@@ -518,7 +571,11 @@ std::string ConfigReference() {
         "`firmware/src/config.cpp` (a test checks that this file equals its output).\n\n"
         "`mrd-firmware --config FILE.toml` reads TOML once at start-up. Every key is optional;\n"
         "an unknown section or key, a wrong type or a value out of range is an error\n"
-        "(`error: FILE:LINE: reason`, exit 2).\n";
+        "(`error: FILE:LINE: reason`, exit 2; input the reason echoes is shown with control\n"
+        "bytes as `\\xNN` and cut at 400 characters). The file must be a regular file of at most\n"
+        "1 MiB (a directory, FIFO or device is refused without reading it). `--check-config`\n"
+        "refuses every value the start would refuse for its form (routing, lengths,\n"
+        "characters); an interface, host or device that is missing shows only at start.\n";
     for (const auto& [section, keys] : KeyTable(&c, &x)) {
       out += "\n## [" + section + "]\n\n";
       out += "| key | default | unit | accepts | meaning |\n|---|---|---|---|---|\n";
@@ -541,30 +598,33 @@ std::string ConfigReference() {
 bool ParseConfig(std::string_view text, const std::string& source, FirmwareConfig* config,
                  std::string* error) {
   try {
-    const toml::table root = toml::parse(text, source);
-    FirmwareConfig c = *config;
-    if (!Apply(root, source, &c, error)) return false;
-    *config = c;
-    return true;
-  } catch (const toml::parse_error& e) {
-    *error = source + ":" + std::to_string(e.source().begin.line) + ": " +
-             std::string(e.description());
-    return false;
-  } catch (const std::exception& e) {
-    *error = source + ": " + e.what();
+    const std::string shown = Printable(source);  // messages echo it
+    try {
+      const toml::table root = toml::parse(text, source);
+      FirmwareConfig c = *config;
+      if (!Apply(root, shown, &c, error)) return false;
+      *config = c;
+      return true;
+    } catch (const toml::parse_error& e) {
+      *error = shown + ":" + std::to_string(e.source().begin.line) + ": " +
+               Printable(e.description());
+      return false;
+    }
+  } catch (const std::exception& e) {  // std::bad_alloc
+    *error = Printable(source) + ": " + e.what();
     return false;
   }
 }
 
 bool LoadConfigFile(const std::string& path, FirmwareConfig* config, std::string* error) {
-  std::ifstream in(path);
-  if (!in) {
-    *error = path + ": cannot open";
+  try {
+    std::string text;
+    if (!ReadInputFile(path, kMaxConfigBytes, &text, error)) return false;
+    return ParseConfig(text, path, config, error);
+  } catch (const std::exception& e) {  // std::bad_alloc
+    *error = Printable(path) + ": " + e.what();
     return false;
   }
-  std::stringstream text;
-  text << in.rdbuf();
-  return ParseConfig(text.str(), path, config, error);
 }
 
 }  // namespace mrd::firmware

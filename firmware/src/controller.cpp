@@ -17,6 +17,9 @@ std::uint32_t Check(const Stamped& s, Real value, std::int64_t now_ns, std::int6
   return causes;
 }
 
+// True once the signal has been sampled (a bus serves it).
+bool Measured(const Stamped& s) { return s.stamp_ns != std::numeric_limits<std::int64_t>::min(); }
+
 // True when a finite value exceeds a limit (limit 0: none).
 bool Implausible(Real value, Real limit) { return limit > Real(0) && std::fabs(value) > limit; }
 
@@ -63,6 +66,7 @@ void Controller::Reset() {
   x_ = Real(0);
   E_prev_ = safe_voltage_;
   model_resets_ = 0;
+  model_diverged_ = false;
   runtime_.ClearExcursions();
 }
 
@@ -114,11 +118,18 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
         }
       }
     }
+  } else if (Measured(frame.displacement) && Implausible(displacement, displacement_limit_)) {
+    // Measured though neither the model nor the velocity reads it: the limit still holds.
+    causes |= kImplausibleBit;
   }
   if (law_.needs_demand()) causes |= Check(frame.demand, demand, now_ns, max_age);
   if (law_.needs_body_velocity()) {
     causes |= Check(frame.body_velocity, body_velocity, now_ns, max_age);
   }
+
+  // The model's force was non-finite last period (it was reset): its next inversions start
+  // from a cleared history, and a model that diverges every period would do so for ever.
+  if (model_diverged_) causes |= Watchdog::Bit(FaultCause::kNonFinite);
 
   ControllerOutput out;
   out.causes = causes;
@@ -140,7 +151,8 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
   const Real model_force = runtime_.Finish(volts);
   out.volts = static_cast<double>(volts);
   out.model_force = static_cast<double>(model_force);
-  if (!std::isfinite(model_force)) {  // a diverging model must not poison later periods
+  model_diverged_ = !std::isfinite(model_force);
+  if (model_diverged_) {  // a diverging model must not poison later periods
     runtime_.Reset();
     ++model_resets_;
   }

@@ -1,11 +1,16 @@
 #include "mrd/firmware/table_update.hpp"
 
+#include <dirent.h>
 #include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <thread>
 
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/controller.hpp"
@@ -16,12 +21,26 @@ namespace {
 
 std::string Errno(const std::string& what) { return what + ": " + std::strerror(errno); }
 
+// Folder of path with its trailing slash ("./" for a bare name), and the name in it.
+std::string Folder(const std::string& path) {
+  const std::size_t slash = path.rfind('/');
+  return slash == std::string::npos ? "./" : path.substr(0, slash + 1);
+}
+std::string BaseName(const std::string& path) {
+  const std::size_t slash = path.rfind('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
 bool WriteAll(int fd, const std::uint8_t* data, std::size_t size) {
   std::size_t n = 0;
   while (n < size) {
     const ssize_t w = ::write(fd, data + n, size - n);
     if (w < 0 && errno == EINTR) continue;
-    if (w <= 0) return false;
+    if (w < 0) return false;
+    if (w == 0) {
+      errno = EIO;
+      return false;
+    }
     n += static_cast<std::size_t>(w);
   }
   return true;
@@ -29,22 +48,146 @@ bool WriteAll(int fd, const std::uint8_t* data, std::size_t size) {
 
 // fsync of the folder holding path, so renames in it are durable.
 bool SyncFolder(const std::string& path) {
-  const std::size_t slash = path.rfind('/');
-  const std::string folder = slash == std::string::npos ? "." : path.substr(0, slash + 1);
-  const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  const int fd = ::open(Folder(path).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (fd < 0) return false;
   const bool ok = ::fsync(fd) == 0;
   ::close(fd);
   return ok;
 }
 
+// "" when path is missing or a regular file; else why it must not be replaced (a symlink,
+// device, FIFO or folder at the destination is refused, never written through).
+std::string NotRegular(const std::string& path) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0) return errno == ENOENT ? "" : Errno("cannot stat " + path);
+  if (S_ISREG(st.st_mode)) return "";
+  const char* kind = S_ISLNK(st.st_mode)    ? "a symbolic link"
+                     : S_ISDIR(st.st_mode)  ? "a directory"
+                     : S_ISFIFO(st.st_mode) ? "a FIFO"
+                     : S_ISCHR(st.st_mode)  ? "a character device"
+                     : S_ISBLK(st.st_mode)  ? "a block device"
+                                            : "not a regular file";
+  return path + " is " + kind + ", not a regular file: refused";
+}
+
+constexpr const char* kTempInfix = ".tmp-";  // temporaries: PATH.tmp-XXXXXX
+
+// A new, empty file PATH.tmp-XXXXXX beside path (mkostemp: O_CREAT | O_EXCL, so a symlink or
+// any file at that name is never opened), with the mode a plain create would give. -1 on
+// failure (errno).
+int CreateTemp(const std::string& path, std::string* name) {
+  std::string tmpl = path + kTempInfix + "XXXXXX";
+  const int fd = ::mkostemp(tmpl.data(), O_CLOEXEC);
+  if (fd < 0) return -1;
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  ::fchmod(fd, 0666 & ~mask);
+  *name = tmpl;
+  return fd;
+}
+
+// Writes image to a new temporary beside path, fsyncs and closes it (every step checked).
+// "" with its name in *tmp, else the reason (the temporary removed).
+std::string WriteTemp(const std::string& path, const TableBytes& image, std::string* tmp) {
+  const int fd = CreateTemp(path, tmp);
+  if (fd < 0) return Errno("cannot create a temporary file beside " + path);
+  const bool written = WriteAll(fd, image.data(), image.size()) && ::fsync(fd) == 0;
+  int saved_errno = errno;
+  const bool closed = ::close(fd) == 0;
+  if (written && !closed) saved_errno = errno;
+  if (!written || !closed) {
+    ::unlink(tmp->c_str());
+    errno = saved_errno;
+    return Errno("cannot write " + *tmp);
+  }
+  return "";
+}
+
+// Removes temporaries a killed install left beside path (PATH.tmp-XXXXXX and
+// PATH.prev.tmp-XXXXXX regular files). Only under the install lock.
+void RemoveStaleTemps(const std::string& path) {
+  DIR* dir = ::opendir(Folder(path).c_str());
+  if (dir == nullptr) return;
+  const std::string base = BaseName(path);
+  const std::string prefixes[] = {base + kTempInfix, base + ".prev" + kTempInfix};
+  while (const dirent* e = ::readdir(dir)) {
+    const std::string name = e->d_name;
+    for (const std::string& p : prefixes) {
+      if (name.size() != p.size() + 6 || name.compare(0, p.size(), p) != 0) continue;
+      struct stat st {};
+      const std::string full = Folder(path) + name;
+      if (::lstat(full.c_str(), &st) == 0 && S_ISREG(st.st_mode)) ::unlink(full.c_str());
+    }
+  }
+  ::closedir(dir);
+}
+
+// flock(LOCK_EX) on DEST.lock (created if missing, never through a symlink): one install or
+// rollback of DEST at a time. Waits up to kLockWait for another one to finish.
+class DestLock {
+ public:
+  static constexpr std::chrono::seconds kLockWait{60};
+
+  explicit DestLock(const std::string& dest) : path_(dest + ".lock") {}
+  ~DestLock() {
+    if (fd_ >= 0) ::close(fd_);  // releases the lock
+  }
+  DestLock(const DestLock&) = delete;
+  DestLock& operator=(const DestLock&) = delete;
+
+  // "" when held, else the reason.
+  std::string Acquire() {
+    fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (fd_ < 0) return Errno("cannot open the lock file " + path_);
+    const auto until = std::chrono::steady_clock::now() + kLockWait;
+    while (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      if (errno != EWOULDBLOCK && errno != EINTR) return Errno("cannot lock " + path_);
+      if (std::chrono::steady_clock::now() > until) {
+        return path_ + " is held by another install or rollback for more than " +
+               std::to_string(kLockWait.count()) + " s";
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return "";
+  }
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+};
+
+// Hard-links dest to a fresh PATH.prev.tmp-XXXXXX name, then renames that onto DEST.prev
+// (replacing whatever entry DEST.prev was, never writing through it). "" or the reason.
+std::string KeepPrevious(const std::string& dest) {
+  const std::string prev = dest + ".prev";
+  for (int attempt = 0; attempt < 10; ++attempt) {
+    std::string name;
+    const int fd = CreateTemp(prev, &name);  // reserves a unique name
+    if (fd < 0) return Errno("cannot create a temporary file beside " + prev);
+    ::close(fd);
+    ::unlink(name.c_str());
+    if (::link(dest.c_str(), name.c_str()) != 0) {
+      if (errno == EEXIST) continue;  // taken meanwhile: another name
+      return Errno("cannot keep the previous table as " + prev);
+    }
+    if (::rename(name.c_str(), prev.c_str()) != 0) {
+      const std::string why = Errno("cannot keep the previous table as " + prev);
+      ::unlink(name.c_str());
+      return why;
+    }
+    return "";
+  }
+  return "cannot keep the previous table as " + prev + ": no free temporary name";
+}
+
 }  // namespace
 
 std::string CheckTable(const char* path, const FirmwareConfig& config) {
-  const auto loaded = LoadTableFile(path);
+  std::string reason;
+  const auto loaded = LoadTableFile(path, &reason);
   if (!loaded.ok()) {
-    if (loaded.error() == Error::kIo) return Errno(std::string("cannot read ") + path);
-    return std::string("table ") + path + " refused: " + ErrorName(loaded.error());
+    if (loaded.error() == Error::kIo) return std::string("cannot read ") + path + ": " + reason;
+    return std::string("table ") + path + " refused: " + reason;
   }
   ControllerConfig c = config.controller;
   c.e_max = config.e_max.value_or(loaded.value().e_max);
@@ -56,36 +199,50 @@ std::string CheckTable(const char* path, const FirmwareConfig& config) {
   return "";
 }
 
+std::string WriteTableFile(const char* path, const CoefficientTable& table) {
+  const auto image = EncodeTable(table);
+  if (!image.ok()) return std::string("table refused: ") + ErrorName(image.error());
+  const std::string p = path;
+  std::string why = NotRegular(p);
+  if (!why.empty()) return why;
+  std::string tmp;
+  why = WriteTemp(p, image.value(), &tmp);
+  if (!why.empty()) return why;
+  if (::rename(tmp.c_str(), path) != 0) {
+    why = Errno("cannot rename " + tmp + " onto " + p);
+    ::unlink(tmp.c_str());
+    return why;
+  }
+  if (!SyncFolder(p)) return Errno("wrote " + p + " but cannot fsync its folder");
+  return "";
+}
+
 std::string InstallTable(const char* source, const char* dest, const FirmwareConfig& config) {
   std::string why = CheckTable(source, config);
   if (!why.empty()) return why;
   const auto table = LoadTableFile(source);
+  if (!table.ok()) return std::string("cannot read ") + source;  // changed since the check
   const auto image = EncodeTable(table.value());
   if (!image.ok()) return std::string("table ") + source + " refused: " + ErrorName(image.error());
   const std::string d = dest;
-  const std::string staged = d + ".new";
-  const int fd = ::open(staged.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return Errno("cannot create " + staged);
-  const bool written = WriteAll(fd, image.value().data(), image.value().size()) && ::fsync(fd) == 0;
-  const int saved_errno = errno;
-  ::close(fd);
-  if (!written) {
-    ::unlink(staged.c_str());
-    errno = saved_errno;
-    return Errno("cannot write " + staged);
-  }
+  DestLock lock(d);
+  why = lock.Acquire();
+  if (!why.empty()) return why;
+  why = NotRegular(d);
+  if (!why.empty()) return why;
+  RemoveStaleTemps(d);
+  std::string staged;
+  why = WriteTemp(d, image.value(), &staged);
+  if (!why.empty()) return why;
   why = CheckTable(staged.c_str(), config);  // what is on disk, CRC included
   if (!why.empty()) {
     ::unlink(staged.c_str());
     return why;
   }
-  if (::access(dest, F_OK) == 0) {
-    const std::string prev = d + ".prev";
-    const std::string prev_staged = prev + ".new";
-    ::unlink(prev_staged.c_str());
-    if (::link(dest, prev_staged.c_str()) != 0 ||
-        ::rename(prev_staged.c_str(), prev.c_str()) != 0) {
-      why = Errno("cannot keep the previous table as " + prev);
+  struct stat st {};
+  if (::lstat(dest, &st) == 0) {
+    why = KeepPrevious(d);
+    if (!why.empty()) {
       ::unlink(staged.c_str());
       return why;
     }
@@ -102,9 +259,14 @@ std::string InstallTable(const char* source, const char* dest, const FirmwareCon
 std::string CheckTableOrRollBack(const char* dest, const FirmwareConfig& config,
                                  bool* rolled_back) {
   *rolled_back = false;
+  if (CheckTable(dest, config).empty()) return "";  // no lock needed (read-only folders too)
+  const std::string d = dest;
+  DestLock lock(d);
+  const std::string locked = lock.Acquire();
+  // Checked again under the lock: an install may have replaced DEST meanwhile.
   const std::string refused = CheckTable(dest, config);
   if (refused.empty()) return "";
-  const std::string d = dest;
+  if (!locked.empty()) return refused + "; cannot roll back: " + locked;
   const std::string prev = d + ".prev";
   if (::access(prev.c_str(), F_OK) != 0) return refused + "; no previous table " + prev;
   const std::string prev_refused = CheckTable(prev.c_str(), config);

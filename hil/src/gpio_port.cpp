@@ -57,6 +57,10 @@ class GpioPort final : public PlantPort {
 
   void Publish(const SensorOutput& out) override {
     if (!chip_.is_open()) return;
+    if (!chip_.Check()) {  // the chip file was truncated or overwritten: counted as rejected
+      ++failed_;
+      return;
+    }
     const std::int64_t now = sim_gpio::MonotonicNs();
     chip_.SetValue(Line(c_.fault_line), out.fault_line != c_.fault_active_low, now);
     const double target_d = std::round(out.sample.x * c_.counts_per_cm);
@@ -78,7 +82,7 @@ class GpioPort final : public PlantPort {
   }
 
   void Poll(DriverInput* in) override {
-    if (!chip_.is_open()) return;
+    if (!chip_.is_open() || chip_.damaged()) return;
     const bool enable = chip_.GetValue(Line(c_.enable_line));
     if (enable != enable_) ++received_;
     enable_ = enable;
@@ -94,7 +98,7 @@ class GpioPort final : public PlantPort {
   }
 
   void Close() override { chip_.Close(); }
-  PortCounters counters() const override { return {published_, received_, 0}; }
+  PortCounters counters() const override { return {published_, received_, failed_}; }
 
  private:
   static std::size_t Line(int offset) { return static_cast<std::size_t>(offset); }
@@ -105,7 +109,7 @@ class GpioPort final : public PlantPort {
   std::int64_t last_t_ = 0;
   std::uint64_t heartbeat_head_ = 0;
   bool enable_ = false;
-  std::uint64_t published_ = 0, received_ = 0;
+  std::uint64_t published_ = 0, received_ = 0, failed_ = 0;
 };
 
 }  // namespace

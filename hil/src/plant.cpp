@@ -3,10 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
-#include <fstream>
 #include <sstream>
 
+#include "mrd/common/input_file.hpp"
+
 namespace mrd::hil {
+namespace {
+constexpr std::uint64_t kMaxTraceBytes = std::uint64_t{256} << 20;  // [bytes]
+}  // namespace
 
 TracePlant::TracePlant(const SpencerParams& params, Trace trace, double period_s, int substeps)
     : damper_(params, substeps), trace_(std::move(trace)), period_s_(period_s) {
@@ -60,11 +64,10 @@ PlantSample TracePlant::Sample() const {
 
 bool LoadTrace(const std::string& path, const std::string& demand_column, Trace* trace,
                std::string* error) {
-  std::ifstream in(path);
-  if (!in) {
-    *error = path + ": cannot open";
-    return false;
-  }
+  // A regular file of at most kMaxTraceBytes (a FIFO or /dev/zero would never end).
+  std::string text;
+  if (!ReadInputFile(path, kMaxTraceBytes, &text, error)) return false;
+  std::istringstream in(std::move(text));
   std::string line;
   if (!std::getline(in, line)) {
     *error = path + ":1: empty file (expected a header row naming x and v)";
@@ -107,7 +110,8 @@ bool LoadTrace(const std::string& path, const std::string& demand_column, Trace*
       const double v = std::strtod(cell.c_str(), &end);
       while (end != nullptr && (*end == ' ' || *end == '\r')) ++end;
       if (end == cell.c_str() || *end != '\0' || !std::isfinite(v)) {
-        *error = path + ":" + std::to_string(lineno) + ": '" + cell + "' is not a finite number";
+        *error = Printable(path) + ":" + std::to_string(lineno) + ": '" + Printable(cell) +
+                 "' is not a finite number";
         return false;
       }
       row.push_back(v);

@@ -7,6 +7,7 @@
 #include <limits>
 #include <map>
 
+#include "mrd/common/input_file.hpp"
 #include "mrd/common/spencer_damper.hpp"
 
 namespace mrd::hil {
@@ -51,11 +52,13 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 at_s (onset), duration_s (0: to the end), delay_periods (delay, 10)
 )";
 
+constexpr std::uint64_t kMaxScenarioBytes = 1 << 20;  // [bytes]
+
 struct Ctx {
   const std::string& path;
   std::string* error;
-  bool Fail(const toml::node& n, const std::string& why) {
-    *error = path + ":" + std::to_string(n.source().begin.line) + ": " + why;
+  bool Fail(const toml::node& n, const std::string& why) {  // why may echo input
+    *error = Printable(path) + ":" + std::to_string(n.source().begin.line) + ": " + Printable(why);
     return false;
   }
 };
@@ -174,7 +177,10 @@ const char* ScenarioKeysHelp() { return kHelp; }
 bool LoadScenario(const std::string& path, Scenario* scenario, std::string* error) {
   Ctx c{path, error};
   try {
-    const toml::table root = toml::parse_file(path);
+    // A regular file of at most kMaxScenarioBytes: a directory, FIFO or device is refused.
+    std::string text;
+    if (!ReadInputFile(path, kMaxScenarioBytes, &text, error)) return false;
+    const toml::table root = toml::parse(text, path);
     Scenario s;
     s.path = path;
     double hb_ms = s.heartbeat_timeout_s * 1e3;
@@ -369,10 +375,11 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
     *scenario = std::move(s);
     return true;
   } catch (const toml::parse_error& e) {
-    *error = path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
+    *error = Printable(path) + ":" + std::to_string(e.source().begin.line) + ": " +
+             Printable(e.description());
     return false;
   } catch (const std::exception& e) {
-    *error = path + ": " + e.what();
+    *error = Printable(path) + ": " + e.what();
     return false;
   }
 }

@@ -94,11 +94,15 @@ std::string FormatModelCheck(const CoefficientTable& table, const ModelCheck& c)
     case ModelProblem::kOutputChannel:
       return "output channel index out of range";
     case ModelProblem::kChannelName:
-      return fmt::format("channel {} name is longer than {} characters", i, kMaxNameLength);
+      return fmt::format("channel {} name is empty, longer than {} characters or not printable "
+                         "ASCII", i, kMaxNameLength);
     case ModelProblem::kChannelScaleNonFinite:
     case ModelProblem::kChannelScale:
       return fmt::format("channel '{}' has an invalid normalisation (offset {}, scale {})",
                          m.channel_names[i].data(), m.scales[i].offset, m.scales[i].scale);
+    case ModelProblem::kChannelNameRepeated:
+      return fmt::format("channels {} and {} are both named '{}'", c.count, i,
+                         m.channel_names[i].data());
     case ModelProblem::kRegressorChannel:
       return fmt::format("regressor {} reads no channel", i);
     case ModelProblem::kRegressorTransform:
@@ -129,8 +133,8 @@ std::string FormatModelCheck(const CoefficientTable& table, const ModelCheck& c)
       return "input channel is missing or is the output";
     case ModelProblem::kVoltageNonFinite:
     case ModelProblem::kVoltageRange:
-      return fmt::format("voltage range [{}, {}] is empty or not finite", table.e_min,
-                         table.e_max);
+      return fmt::format("voltage range [{}, {}] is empty, not finite or outside [0, {}] V",
+                         table.e_min, table.e_max, kMaxCommandVoltage);
     case ModelProblem::kEnvelopeNonFinite:
     case ModelProblem::kEnvelopeRange:
       return fmt::format("envelope of channel '{}' [{}, {}] is empty or not finite",

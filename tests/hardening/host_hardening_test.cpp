@@ -154,12 +154,12 @@ TEST(HardeningTest, ExportWritesBothOutputsOrNeither) {
   TempDir dir;
   const Toy toy = MakeToyModel(dir);
   const CommandResult r =
-      test::Run(Mrd() + " export --model " + toy.model + " --input u --e-min -1 --e-max 1 --table " +
+      test::Run(Mrd() + " export --model " + toy.model + " --input u --e-min 0 --e-max 1 --table " +
                 dir.File("t.bin") + " --header " + dir.File("nodir/t.hpp"));
   EXPECT_NE(r.status, 0) << r.output;
   EXPECT_FALSE(fs::exists(dir.File("t.bin")));
   const CommandResult ok =
-      test::Run(Mrd() + " export --model " + toy.model + " --input u --e-min -1 --e-max 1 --table " +
+      test::Run(Mrd() + " export --model " + toy.model + " --input u --e-min 0 --e-max 1 --table " +
                 dir.File("t.bin") + " --header " + dir.File("t.hpp"));
   EXPECT_EQ(ok.status, 0) << ok.output;
   EXPECT_TRUE(fs::exists(dir.File("t.bin")));
@@ -176,7 +176,7 @@ TEST(HardeningTest, ExportRefusesTablesTheFirmwareCannotInvert) {
   ASSERT_EQ(test::Run(Mrd() + " identify --data " + data + " --spec " + spec + " --out " + model +
                       " --initial 'u1(k)' --max-iterations 0").status, 0);
   const CommandResult r = test::Run(Mrd() + " export --model " + model +
-                                    " --input u --e-min -1 --e-max 1 --table " + dir.File("t.bin"));
+                                    " --input u --e-min 0 --e-max 1 --table " + dir.File("t.bin"));
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("not invertible"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(dir.File("t.bin")));
@@ -254,7 +254,7 @@ TEST(HardeningTest, BadInputGetsExitTwoAndAReadableReason) {
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("target_j"), std::string::npos) << r.output;
 
-  r = test::Run(Mrd() + " export --model " + toy.model + " --input u --e-min -1 --e-max 1 "
+  r = test::Run(Mrd() + " export --model " + toy.model + " --input u --e-min 0 --e-max 1 "
                 "--header " + dir.File("h.hpp") + " --symbol 'a b'");
   EXPECT_EQ(r.status, 2) << r.output;
   r = test::Run(Mrd() + " slice --in " + toy.data + " --from 0 --to 1 --out ''");

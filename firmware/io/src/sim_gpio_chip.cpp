@@ -1,6 +1,7 @@
-// GpioChip over the simulated chip (mrd/sim_gpio/sim_chip.hpp): shared memory only, no system
-// call on the real-time path. Edges written by the peer are stamped by the peer
-// (CLOCK_MONOTONIC), like a kernel stamps them on a board.
+// GpioChip over the simulated chip (mrd/sim_gpio/sim_chip.hpp): shared memory, and one fstat
+// per call on the real-time path (SimChip::Check: a truncated or overwritten chip file fails
+// the call, a device fault, instead of a SIGBUS). Edges written by the peer are stamped by the
+// peer (CLOCK_MONOTONIC), like a kernel stamps them on a board.
 #include <algorithm>
 #include <array>
 
@@ -35,18 +36,18 @@ class SimGpioChip final : public GpioChip {
   }
 
   bool SetValue(int offset, bool value) override {
-    return Find(offset) != nullptr &&
+    return Find(offset) != nullptr && chip_.Check() &&
            chip_.SetValue(static_cast<std::size_t>(offset), value, sim_gpio::MonotonicNs());
   }
   int GetValue(int offset) override {
-    if (Find(offset) == nullptr) return -1;
+    if (Find(offset) == nullptr || !chip_.Check()) return -1;
     return chip_.GetValue(static_cast<std::size_t>(offset)) ? 1 : 0;
   }
   int ReadEdges(int offset, protocol::QuadratureEdge* out, std::size_t max,
                 std::uint64_t* lost) override {
     *lost = 0;
     Held* h = Find(offset);
-    if (h == nullptr) return -1;
+    if (h == nullptr || !chip_.Check()) return -1;
     std::array<sim_gpio::Event, 64> events{};
     std::size_t n = 0;
     while (n < max) {
@@ -58,6 +59,7 @@ class SimGpioChip final : public GpioChip {
       for (std::size_t i = 0; i < got; ++i) out[n++] = {events[i].t_ns, events[i].rising};
       if (got == 0) break;
     }
+    if (chip_.damaged()) return -1;  // truncated while being read: the events may be zeros
     return static_cast<int>(n);
   }
 

@@ -52,6 +52,10 @@ inline constexpr std::size_t kTableSizeV1 = kTableCrcOffsetV1 + 4;      // 2088
 
 using TableBytes = std::array<std::uint8_t, kTableSize>;
 
+// Highest command the buses carry [V] (CAN VoltageSetpoint [0, 24] V, docs/mrd.dbc): the
+// input range [e_min, e_max] of a table lies in [0, kMaxCommandVoltage].
+inline constexpr double kMaxCommandVoltage = 24.0;
+
 // Range one channel covered in the identification data [raw units], min <= max.
 struct ChannelRange {
   double min = 0.0;
@@ -71,8 +75,8 @@ struct CoefficientTable {
   std::array<ChannelRange, kMaxChannels> envelope{};  // per model channel; zeros when absent
 
   // Model::Validate() plus the input channel, the voltage range and the envelope. kOk or the
-  // first problem (kOutOfRange for a bad index, e_min >= e_max or an envelope min > max;
-  // kNonFinite for a non-finite bound).
+  // first problem (kOutOfRange for a bad index, e_min >= e_max, a range outside
+  // [0, kMaxCommandVoltage] or an envelope min > max; kNonFinite for a non-finite bound).
   Error Validate() const;
 };
 
@@ -109,9 +113,13 @@ Result<TableBytes> EncodeTable(const CoefficientTable& table);
 // Decodes and validates an image of version 2 (or 1: no envelope). Errors, checked in this
 // order: kBadSize (shorter than the header), kBadMagic, kBadVersion (not 1 or 2), kBadSize
 // (size field or span size != the version's size), kBadCrc, kOutOfRange (an unknown flag),
-// kCapacityExceeded (a count over its capacity), kOutOfRange (an index, delay, power,
-// transform, flag or the voltage range), kNonFinite (a coefficient, scale, exponent or bound),
-// kInvalidArgument (a channel name without NUL). No allocation.
+// kCapacityExceeded (a count over its capacity), then the content (CheckTable): kOutOfRange
+// (an index, delay, power, transform, normalisation or the voltage range), kNonFinite (a
+// coefficient, scale, exponent or bound), kInvalidArgument (a channel name without NUL or
+// repeated); last kOutOfRange for a byte the encoder writes as zero that is not (a reserved
+// byte, an unused slot, a name byte after its NUL, the envelope without flag bit 0): a valid
+// image is exactly EncodeTable's image of its table. No allocation. The reason in detail:
+// DecodeTable(bytes, TableDiagnosis*) in model_check.hpp.
 Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes);
 
 }  // namespace mrd

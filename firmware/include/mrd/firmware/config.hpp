@@ -38,7 +38,8 @@ struct FirmwareConfig {
 };
 
 // Parses TOML text (source names it in messages). Unknown keys, wrong types and out-of-range
-// values are errors: returns false with *error = "SOURCE:LINE: reason". Start-up only
+// values are errors: returns false with *error = "SOURCE:LINE: reason" (source and reason
+// as mrd::Printable). Start-up only
 // (allocates; toml++ exceptions are caught inside).
 bool ParseConfig(std::string_view text, const std::string& source, FirmwareConfig* config,
                  std::string* error);
@@ -46,7 +47,13 @@ bool ParseConfig(std::string_view text, const std::string& source, FirmwareConfi
 // with its default, unit, accepted values and meaning. "" if it cannot be built (no memory).
 std::string ConfigReference();
 
-// Reads and parses a file; false with *error on a missing file or bad content.
+// Longest config file [bytes].
+inline constexpr std::uint64_t kMaxConfigBytes = 1 << 20;
+
+// Reads and parses a file; false with *error on a missing file, a path that is not a regular
+// file (directory, FIFO, device: refused without blocking), a file over kMaxConfigBytes, or
+// bad content. Messages echo input as mrd::Printable (control bytes as \xNN, at most 400
+// characters).
 bool LoadConfigFile(const std::string& path, FirmwareConfig* config, std::string* error);
 
 }  // namespace mrd::firmware

@@ -4,7 +4,8 @@
 // delivered and sends its command to the driver.
 //
 //   causes  = stale/non-finite required inputs | bus fault | driver fault | fault line
-//             | velocity or displacement beyond its plausibility limit
+//             | velocity or a measured displacement beyond its plausibility limit
+//             | the model's force non-finite last period (non_finite; the model is reset)
 //   safe    = watchdog(causes)
 //   E(k)    = safe ? E_safe
 //                  : law gives a voltage ? clamp(voltage, E_min, E_max)
@@ -42,7 +43,9 @@ struct ControllerConfig {
   double safe_voltage = 0.0;    // [V], within the table's range
   // Plausibility limits: |v| [cm/s] (measured or derived) and |x| [cm] above them are
   // implausible (a sensor fault, or far outside the range the model was identified on): safe
-  // state, and the model keeps the last plausible value. 0: no limit.
+  // state, and the model keeps the last plausible value. 0: no limit. The displacement limit
+  // holds whenever a displacement is measured (sampled at least once), used or not; with no
+  // displacement measured there is nothing to check (the config refuses the limit then).
   double velocity_limit = 0.0;
   double displacement_limit = 0.0;
   // Operating envelope of the table (version 2): the model's v, x and fed-back force are held
@@ -106,6 +109,7 @@ class Controller {
   Real x_ = Real(0);  // last valid displacement [cm]
   Real E_prev_ = Real(0);
   std::uint64_t model_resets_ = 0;
+  bool model_diverged_ = false;  // the model force was non-finite last period
 };
 
 }  // namespace mrd::firmware

@@ -4,11 +4,12 @@
 //   safe(k) = any cause active at k, or fewer than recover_periods clean periods since the
 //             last active cause.
 //
-// Causes: stale sensor data (age > max_age), a non-finite input, a sensor-source fault that
-// names no bus (simulated sources), a driver fault (last write failed), the external fault
-// line, an implausible sensor value (velocity or displacement beyond its configured limit),
-// and a fault per bus (CAN, Modbus, GPIO: the device reported why in its counters). Counters per cause: periods
-// in which it was active and trips (inactive -> active transitions).
+// Causes: stale sensor data (age > max_age), a non-finite input or model force (the model
+// diverged the period before and was reset), a sensor-source fault that names no bus
+// (simulated sources), a driver fault (last write failed), the external fault line, an
+// implausible sensor value (velocity or displacement beyond its configured limit), and a
+// fault per bus (CAN, Modbus, GPIO: the device reported why in its counters). Counters per
+// cause: periods in which it was active and trips (inactive -> active transitions).
 
 #include <array>
 #include <cstdint>

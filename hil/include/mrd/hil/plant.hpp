@@ -97,7 +97,8 @@ class TracePlant final : public Plant {
 
 // Reads a CSV trace with a header row naming at least x and v (and optionally the demand
 // column named demand_column, e.g. "f" of an `mrd generate` data set). false: *error =
-// "FILE:LINE: reason".
+// "FILE:LINE: reason"; a path that is not a regular file (FIFO, /dev/zero, a folder) or is
+// over 256 MiB is refused before reading.
 bool LoadTrace(const std::string& path, const std::string& demand_column, Trace* trace,
                std::string* error);
 

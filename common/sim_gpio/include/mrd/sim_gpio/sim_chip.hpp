@@ -15,7 +15,14 @@
 // initialised under a temporary name and renamed into place, so a reader never sees it
 // half-made; an existing valid chip is reused (a restarted peer continues its rings). The
 // firmware opens an existing chip only. Open and Close allocate and may block; everything
-// else is real-time safe (no allocation, no system call).
+// else is real-time safe (no allocation; no system call but Check's one fstat).
+//
+// A damaged file: the file may be truncated while mapped (a test, a slip of the hand), and an
+// access beyond its new end would raise SIGBUS. Check() (one fstat and the magic) tells
+// before an access; the accessors of a chip found damaged fail (SetValue false) or read zeros.
+// For a truncation between a Check and an access, Open installs a SIGBUS handler once per
+// process: a fault inside a chip's mapping replaces that mapping with zero pages and marks the
+// chip damaged, and the access goes on; a SIGBUS anywhere else takes its usual course.
 
 #include <atomic>
 #include <cstddef>
@@ -68,6 +75,12 @@ class SimChip {
   bool Open(const std::string& path, bool create, std::string* error);
   void Close();
   bool is_open() const { return layout_ != nullptr; }
+  // True while the file still holds this chip (size unchanged, magic intact). Once false the
+  // chip is damaged for good (reopen it): its mapping is replaced by zero pages, SetValue
+  // fails, GetValue, head and ReadEvents read nothing. Real-time safe: one fstat.
+  bool Check();
+  // The chip was found damaged (by Check or by the SIGBUS handler). No system call.
+  bool damaged() const;
   const std::string& path() const { return path_; }
 
   // Writer of `line` (one per line): sets its level; a change records an edge at t_ns.
@@ -83,7 +96,11 @@ class SimChip {
                          std::uint64_t* lost) const;
 
  private:
+  void MarkDamaged();
+
   Layout* layout_ = nullptr;
+  int fd_ = -1;    // kept open for Check's fstat
+  int slot_ = -1;  // entry in the process's table of mapped chips (SIGBUS handler)
   std::string path_;
 };
 
