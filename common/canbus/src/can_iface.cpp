@@ -6,10 +6,15 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstddef>
 #include <ctime>
 
 namespace mrd::canbus {
 namespace {
+
+std::int64_t Ns(const timespec& ts) {
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
 
 bool IsDisconnect(int err) {
   return err == EPIPE || err == ECONNRESET || err == ENOTCONN || err == ENETDOWN || err == ENODEV ||
@@ -43,7 +48,47 @@ const char* CanResultName(CanResult result) {
 std::int64_t MonotonicNs() {
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+  return Ns(ts);
+}
+
+std::int64_t ArrivalStamp(const timespec& realtime_stamp, std::int64_t monotonic_now_ns,
+                          std::int64_t realtime_now_ns) {
+  const std::int64_t age = realtime_now_ns - Ns(realtime_stamp);
+  return monotonic_now_ns - (age >= 0 ? age : kUnknownAgeNs);
+}
+
+bool EnableReceiveStamps(int fd) {
+  const int on = 1;
+  return setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) == 0;
+}
+
+ssize_t ReceiveStamped(int fd, void* buf, std::size_t size, std::int64_t* stamp_ns,
+                       bool* truncated) {
+  iovec iov{buf, size};
+  alignas(cmsghdr) unsigned char control[CMSG_SPACE(sizeof(timespec)) * 2];
+  msghdr msg{};
+  msg.msg_iov = &iov;
+  msg.msg_iovlen = 1;
+  msg.msg_control = control;
+  msg.msg_controllen = sizeof control;
+  const ssize_t n = recvmsg(fd, &msg, MSG_DONTWAIT);
+  if (n < 0) return n;
+  // Both clocks right after the read: the kernel stamp's age is measured on the wall clock
+  // over this short interval and applied to the monotonic one.
+  timespec mono{}, real{};
+  clock_gettime(CLOCK_MONOTONIC, &mono);
+  clock_gettime(CLOCK_REALTIME, &real);
+  *stamp_ns = Ns(mono);
+  *truncated = (msg.msg_flags & MSG_TRUNC) != 0;
+  for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
+    if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPNS &&
+        c->cmsg_len >= CMSG_LEN(sizeof(timespec))) {
+      timespec ts{};
+      __builtin_memcpy(&ts, CMSG_DATA(c), sizeof ts);
+      if (ts.tv_sec != 0 || ts.tv_nsec != 0) *stamp_ns = ArrivalStamp(ts, Ns(mono), Ns(real));
+    }
+  }
+  return n;
 }
 
 void CanIface::Attach(int fd) {
@@ -52,6 +97,7 @@ void CanIface::Attach(int fd) {
   if (fd_ >= 0) {
     const int flags = fcntl(fd_, F_GETFL, 0);
     if (flags >= 0) fcntl(fd_, F_SETFL, flags | O_NONBLOCK);
+    (void)EnableReceiveStamps(fd_);  // else (not a socket) frames are stamped at the read
   }
 }
 
@@ -71,8 +117,10 @@ CanResult CanIface::Lost() {
 CanResult CanIface::Receive(can_frame* frame, std::int64_t* stamp_ns) {
   if (fd_ < 0) return CanResult::kDisconnected;
   // Room for a CAN FD frame, so an oversized packet shows as such instead of truncating.
-  alignas(can_frame) unsigned char buf[sizeof(canfd_frame)];
-  const ssize_t n = recv(fd_, buf, sizeof buf, MSG_DONTWAIT);
+  alignas(LocalBusPacket) unsigned char buf[sizeof(canfd_frame)];
+  std::int64_t stamp = 0;
+  bool truncated = false;
+  const ssize_t n = ReceiveStamped(fd_, buf, sizeof buf, &stamp, &truncated);
   if (n < 0) {
     if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) return CanResult::kEmpty;
     if (IsDisconnect(errno)) return Lost();
@@ -80,12 +128,20 @@ CanResult CanIface::Receive(can_frame* frame, std::int64_t* stamp_ns) {
     return CanResult::kError;
   }
   if (n == 0) return Lost();  // orderly shutdown of the peer (SOCK_SEQPACKET EOF)
-  if (static_cast<std::size_t>(n) != sizeof(can_frame)) {
+  if (truncated ||
+      (static_cast<std::size_t>(n) != sizeof(can_frame) &&
+       static_cast<std::size_t>(n) != sizeof(LocalBusPacket))) {
     ++stats_.rx_bad;
     return CanResult::kBadFrame;
   }
   __builtin_memcpy(frame, buf, sizeof(can_frame));
-  *stamp_ns = MonotonicNs();
+  if (static_cast<std::size_t>(n) == sizeof(LocalBusPacket)) {
+    // The relay's stamp: when the frame entered the bus (never later than our own).
+    std::int64_t bus_stamp = 0;
+    __builtin_memcpy(&bus_stamp, buf + offsetof(LocalBusPacket, stamp_ns), sizeof bus_stamp);
+    if (bus_stamp < stamp) stamp = bus_stamp;
+  }
+  *stamp_ns = stamp;
   if ((frame->can_id & CAN_ERR_FLAG) != 0) {
     ++stats_.rx_errors;
     if ((frame->can_id & CAN_ERR_BUSOFF) != 0) {
