@@ -1,7 +1,7 @@
 // mrd_can_node — a test node on the local frame bus (docs/can_bus.md), for the process-level
 // CAN tests:
 //   capture  writes every frame it hears as a `candump -L` line, stamped with the relay's
-//            bus stamp (CLOCK_MONOTONIC seconds): "(SEC.USEC) localbus ID#DATA";
+//            bus stamp (CLOCK_MONOTONIC seconds; CanIface): "(SEC.USEC) localbus ID#DATA";
 //            --valid-only leaves out (counts) frames of checksummed IDs whose checksum is wrong
 //            (a babbling node's: the log stays small)
 //   babble   a babbling node: RATE frames per millisecond (absolute 1 ms deadlines) with the
@@ -73,6 +73,9 @@ int Capture(const Options& o, std::int64_t end_ns) {
     std::fprintf(stderr, "error: %s\n", error.c_str());
     return 1;
   }
+  // CanIface: the relay's bus stamp (or, from a relay sending bare frames, the kernel's).
+  mrd::canbus::CanIface iface;
+  iface.Attach(fd);
   std::FILE* out = std::fopen(o.out.c_str(), "w");
   if (out == nullptr) {
     std::fprintf(stderr, "error: %s: cannot write\n", o.out.c_str());
@@ -80,31 +83,26 @@ int Capture(const Options& o, std::int64_t end_ns) {
   }
   static char buffer[1 << 20];
   std::setvbuf(out, buffer, _IOFBF, sizeof buffer);
-  std::uint64_t frames = 0, bad = 0, invalid = 0;
+  std::uint64_t frames = 0, invalid = 0;
   std::int64_t invalid_first = 0, invalid_last = 0;  // bus stamps of the left-out frames [ns]
-  bool eof = false;
-  while (!Expired(end_ns) && !eof) {
-    pollfd p{fd, POLLIN, 0};
+  while (!Expired(end_ns) && iface.is_open()) {
+    pollfd p{iface.fd(), POLLIN, 0};
     if (poll(&p, 1, 50) <= 0) continue;
     for (int k = 0; k < 256; ++k) {
-      mrd::canbus::LocalBusPacket packet{};
-      const ssize_t n = recv(fd, &packet, sizeof packet, MSG_DONTWAIT);
-      if (n == 0) eof = true;
-      if (n <= 0) break;
-      if (n != static_cast<ssize_t>(sizeof packet)) {
-        ++bad;
-        continue;
-      }
-      const can_frame& f = packet.frame;
+      can_frame f{};
+      std::int64_t stamp = 0;
+      const mrd::canbus::CanResult r = iface.Receive(&f, &stamp);
+      if (r == mrd::canbus::CanResult::kEmpty || r == mrd::canbus::CanResult::kDisconnected) break;
+      if (r != mrd::canbus::CanResult::kOk) continue;  // counted in the stats
       namespace pc = mrd::protocol::can;
       const pc::Message m = pc::Classify(f);
       if (o.valid_only && m != pc::Message::kUnknown && m != pc::Message::kFirmwareStatus &&
           f.len >= 1 && f.len <= 8 && pc::Checksum(f) != f.data[f.len - 1]) {
-        if (invalid++ == 0) invalid_first = packet.stamp_ns;
-        invalid_last = packet.stamp_ns;
+        if (invalid++ == 0) invalid_first = stamp;
+        invalid_last = stamp;
         continue;
       }
-      const std::int64_t us = packet.stamp_ns / 1000;
+      const std::int64_t us = stamp / 1000;
       std::fprintf(out, "(%" PRId64 ".%06" PRId64 ") localbus %03X#", us / 1'000'000,
                    us % 1'000'000, f.can_id & CAN_SFF_MASK);
       for (int i = 0; i < f.len && i < 8; ++i) std::fprintf(out, "%02X", f.data[i]);
@@ -116,7 +114,7 @@ int Capture(const Options& o, std::int64_t end_ns) {
   std::printf("{\"frames\": %" PRIu64 ", \"bad_packets\": %" PRIu64
               ", \"left_out_bad_checksum\": %" PRIu64
               ", \"left_out_first_s\": %.6f, \"left_out_last_s\": %.6f}\n",
-              frames, bad, invalid, static_cast<double>(invalid_first) * 1e-9,
+              frames, iface.stats().rx_bad, invalid, static_cast<double>(invalid_first) * 1e-9,
               static_cast<double>(invalid_last) * 1e-9);
   return ok ? 0 : 1;
 }

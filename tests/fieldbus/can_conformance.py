@@ -390,7 +390,7 @@ def cmd_stall_flood(a):
         stall()
         at(0.4)
         babbler = procs.start([a.node, "babble", "--socket", bus, "--rate", str(a.babble_rate),
-                               "--nodes", "2"], os.path.join(tmp, "babble.json"))
+                               "--nodes", str(a.babble_nodes)], os.path.join(tmp, "babble.json"))
         b0 = time.monotonic()
         at(0.55)
         stall()
@@ -409,6 +409,11 @@ def cmd_stall_flood(a):
     out["babbler"] = read_json(os.path.join(tmp, "babble.json"))
     out["babbler"]["frames_per_ms"] = out["babbler"]["sent"] / out["babbler"]["seconds"] / 1e3
     fw_stats = read_json(os.path.join(tmp, "firmware.json"))
+    hil = read_json(os.path.join(run_dir, "summary.json"))
+    out["harness"] = {k: hil.get(k) for k in ("steps", "commands", "safe_commands",
+                                              "driven_steps", "invariant_violations")}
+    out["harness"]["late_steps"] = hil.get("timing", {}).get("late_steps")
+    out["harness"]["heard_from_firmware"] = hil.get("ports", {}).get("can", {}).get("received")
     out["capture"] = read_json(os.path.join(tmp, "capture.json"))
     frames = dec.decode_log(log, keep_invalid=True)
     # The sensor frames the harness sent (valid checksums: not the babbler's).
@@ -421,6 +426,9 @@ def cmd_stall_flood(a):
             published.setdefault(int(v["SensorSeq"]), t)
         elif n == "DriverCommand":
             commands.append((t, v))
+    # Commands the capture missed (a node of the flooded bus too): gaps in CommandCounter.
+    lost = sum((int(b["CommandCounter"]) - int(a_["CommandCounter"]) - 1) % 16
+               for (_, a_), (_, b) in zip(commands, commands[1:]))
     tol_ms = 0.2  # the firmware checks before its send; the relay stamps the send
     driving = [(t, v) for t, v in commands if v["SafeState"] == 0]
     ages, unknown, violations = [], 0, []
@@ -440,6 +448,7 @@ def cmd_stall_flood(a):
     driving_in_flood = [t for t, _ in driving if flood and flood[0] <= t <= flood[1]]
     out["figures"] = {
         "commands_captured": len(commands),
+        "commands_missed_by_the_capture": lost,
         "driving_commands": len(driving),
         "safe_commands": len(commands) - len(driving),
         "driving_commands_older_than_max_age": len(violations),
@@ -452,7 +461,7 @@ def cmd_stall_flood(a):
     wd = fw_stats.get("watchdog", {})
     out["firmware"] = {k: fw_stats.get(k) for k in ("ticks", "overruns", "safe_periods",
                                                     "missed_periods")}
-    out["firmware"]["safe_entries"] = wd.get("entries")
+    out["firmware"]["safe_entries"] = fw_stats.get("safe_entries")
     out["firmware"]["can_bus_trips"] = wd.get("can_bus", {}).get("trips")
     out["firmware"]["stale_sensor_trips"] = wd.get("stale_sensor", {}).get("trips")
     out["firmware"]["can_errors"] = fw_stats.get("devices", {}).get("can", {}).get("errors")
@@ -467,6 +476,8 @@ def cmd_stall_flood(a):
         errors.append("the babbler's frames never reached the bus")
     if not wd.get("can_bus", {}).get("trips"):
         errors.append("the flood never tripped the can_bus cause")
+    if lost > len(commands) // 10:
+        errors.append(f"the capture missed {lost} of {len(commands) + lost} commands: not checked")
     if unknown > len(driving) // 100:
         errors.append(f"{unknown} driving commands whose sample is missing from the capture")
     errors[:0] = dec.errors[:20]
@@ -489,6 +500,7 @@ def main():
     sf = sub.add_parser("stall-flood")
     sf.add_argument("--seconds", type=float, default=5.0)
     sf.add_argument("--babble-rate", type=float, default=200.0, help="frames per ms")
+    sf.add_argument("--babble-nodes", type=int, default=4, help="connections it spreads over")
     sf.add_argument("--stall-ms", type=float, default=200.0)
     sf.add_argument("--keep", action="store_true", help="keep the files")
     a = p.parse_args()
