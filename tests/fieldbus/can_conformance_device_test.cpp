@@ -110,7 +110,7 @@ TEST_F(CanDeviceConformance, DataThatWaitedInTheSocketKeepTheirArrivalStamps) {
 }
 
 TEST_F(CanDeviceConformance, ABacklogIsDrainedToTheNewestFrame) {
-  constexpr int kBacklog = 200;  // 200 ms of motion frames behind a stalled firmware
+  constexpr int kBacklog = 100;  // 100 ms of motion frames behind a stalled firmware
   for (int i = 0; i < kBacklog; ++i) {
     SendMotion(0.01 * i, 0.0, static_cast<std::uint16_t>(i), static_cast<std::uint8_t>(i & 15));
   }

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <linux/can/error.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -152,6 +153,12 @@ CanResult CanIface::Receive(can_frame* frame, std::int64_t* stamp_ns) {
   }
   ++stats_.rx_frames;
   return CanResult::kOk;
+}
+
+bool CanIface::Readable() const {
+  if (fd_ < 0) return false;
+  pollfd p{fd_, POLLIN, 0};
+  return poll(&p, 1, 0) > 0 && (p.revents & POLLIN) != 0;
 }
 
 CanResult CanIface::Send(const can_frame& frame, std::int64_t deadline_ns, std::int64_t now_ns) {

@@ -248,7 +248,8 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
     }
     // More frames than a period's budget, or more refused ones than a healthy bus has: a
     // babbling node (or a backlog no sample of which can be fresh).
-    flooded = k == kMaxFramesPerRead || rejects_since_read_ > kMaxRejectsPerRead;
+    flooded = (k == kMaxFramesPerRead && iface_.Readable()) ||
+              rejects_since_read_ > kMaxRejectsPerRead;
   }
   rejects_since_read_ = 0;
   if (flooded) {

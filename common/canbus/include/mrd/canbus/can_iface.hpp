@@ -93,6 +93,8 @@ class CanIface {
 
   // One frame if one is waiting, with its arrival stamp.
   CanResult Receive(can_frame* frame, std::int64_t* stamp_ns);
+  // Whether something waits to be received (a zero-timeout poll).
+  bool Readable() const;
   // Queues frame until deadline_ns and sends what the fd takes now (Flush).
   CanResult Send(const can_frame& frame, std::int64_t deadline_ns, std::int64_t now_ns);
   // Writes queued frames in order until the fd would block; drops those past their deadline.

@@ -60,9 +60,11 @@ namespace mrd::firmware {
 
 class CanDevice final : public BusDevice, public TimeGrantSource {
  public:
-  // A period's drain budget: more than a full receive queue holds after a stall (the local
-  // bus's relay and SocketCAN's default receive buffer both hold a few hundred frames).
-  static constexpr int kMaxFramesPerRead = 256;
+  // A period's drain budget. A backlog a stall left (a full receive queue: about 270 frames on
+  // the local bus and with SocketCAN's default buffer) is drained in a few periods, each of them
+  // a fault (its samples are old anyway); a flood of well-formed frames costs a tick at most
+  // this many reads (about 2.7 us each on the 2-core build VM: 350 us).
+  static constexpr int kMaxFramesPerRead = 128;
   // Refused frames per period beyond which the bus counts as flooded (a healthy bus refuses
   // a frame now and then: a corrupt or repeated one per sensor frame at most).
   static constexpr int kMaxRejectsPerRead = 16;
