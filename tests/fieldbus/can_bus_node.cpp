@@ -5,7 +5,8 @@
 //            --valid-only leaves out (counts) frames of checksummed IDs whose checksum is wrong
 //            (a babbling node's: the log stays small)
 //   babble   a babbling node: RATE frames per millisecond (absolute 1 ms deadlines) with the
-//            given IDs, DLC 8 and a wrong checksum, spread over NODES connections
+//            given IDs, DLC 8 and a wrong checksum, spread over NODES connections; reports
+//            its own pauses (descheduled for more than 20 ms)
 // Both run until SIGTERM/SIGINT or --duration, then print a JSON line of counts.
 // Usage:
 //   mrd_can_node capture --socket PATH --out FILE [--valid-only] [--duration S]
@@ -141,7 +142,19 @@ int Babble(const Options& o, std::int64_t end_ns) {
   const std::int64_t start = mrd::canbus::MonotonicNs();
   std::int64_t deadline = start;
   double owed = 0.0;
+  // Its own pauses (descheduled longer than kPauseNs): the bus was not flooded meanwhile.
+  constexpr std::int64_t kPauseNs = 20'000'000;
+  std::string pauses;
+  std::int64_t last = start;
   while (!Expired(end_ns)) {
+    const std::int64_t now = mrd::canbus::MonotonicNs();
+    if (now - last > kPauseNs) {
+      char b[64];
+      std::snprintf(b, sizeof b, "%s[%.6f, %.6f]", pauses.empty() ? "" : ", ",
+                    static_cast<double>(last) * 1e-9, static_cast<double>(now) * 1e-9);
+      pauses += b;
+    }
+    last = now;
     owed += o.rate;
     for (; owed >= 1.0; owed -= 1.0, ++n) {
       can_frame f{};
@@ -162,8 +175,9 @@ int Babble(const Options& o, std::int64_t end_ns) {
     clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
   }
   const double seconds = static_cast<double>(mrd::canbus::MonotonicNs() - start) * 1e-9;
-  std::printf("{\"sent\": %" PRIu64 ", \"would_block\": %" PRIu64 ", \"seconds\": %.3f}\n", sent,
-              blocked, seconds);
+  std::printf("{\"sent\": %" PRIu64 ", \"would_block\": %" PRIu64
+              ", \"seconds\": %.3f, \"pauses\": [%s]}\n",
+              sent, blocked, seconds, pauses.c_str());
   return 0;
 }
 

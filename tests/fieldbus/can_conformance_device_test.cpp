@@ -152,11 +152,23 @@ TEST_F(CanDeviceConformance, ABabblingNodeIsAFloodAndABusFault) {
   SensorFrame composite;
   EXPECT_EQ(io.Read(&composite), IoStatus::kFault);
   EXPECT_EQ(composite.bus_faults, Watchdog::Bit(FaultCause::kCanBus));
-  // Once the flood is drained, the good frame behind it is taken.
+  // Once the flood is drained, the good frame behind it is taken; the bus fault holds for
+  // kFloodHoldNs after the last flooded period, then a clean bus is healthy again.
   int reads = 0;
-  while (Read(&frame, &why) == IoStatus::kFault && ++reads < 100) {
+  std::int64_t last_flood = canbus::MonotonicNs();
+  while (reads < 100 && device_->counters().rx_ok < 2) {
+    Read(&frame, &why);
+    ++reads;
+    last_flood = canbus::MonotonicNs();
   }
   EXPECT_DOUBLE_EQ(frame.velocity.value, 3.0);
+  const IoStatus held = Read(&frame, &why);
+  if (canbus::MonotonicNs() - last_flood < CanDevice::kFloodHoldNs / 2) {
+    EXPECT_EQ(held, IoStatus::kFault);
+    EXPECT_EQ(why, IoError::kOverflow);
+  }
+  std::this_thread::sleep_for(std::chrono::nanoseconds(CanDevice::kFloodHoldNs + 10'000'000));
+  EXPECT_EQ(Read(&frame, &why), IoStatus::kNoData);
   // A few refused frames are not a flood.
   for (int i = 0; i < CanDevice::kMaxRejectsPerRead; ++i) {
     can_frame f{};

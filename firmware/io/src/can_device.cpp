@@ -246,16 +246,17 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
         Count(IoError::kSystem);
       }
     }
-    // More frames than a period's budget, or more refused ones than a healthy bus has: a
-    // babbling node (or a backlog no sample of which can be fresh).
-    flooded = (k == kMaxFramesPerRead && iface_.Readable()) ||
-              rejects_since_read_ > kMaxRejectsPerRead;
+    // More frames than a period's budget (a backlog, or a flood of well-formed frames), or
+    // more refused ones than a healthy bus has: a babbling node, whose fault holds for
+    // kFloodHoldNs after its last flooded period (a babbler that pauses for a few periods
+    // does not make the bus healthy).
+    const bool babble = rejects_since_read_ > kMaxRejectsPerRead;
+    flooded = babble || (k == kMaxFramesPerRead && iface_.Readable());
+    if (babble) flood_until_ns_ = Now() + kFloodHoldNs;
   }
   rejects_since_read_ = 0;
-  if (flooded) {
-    Count(IoError::kOverflow);
-    if (fault == IoError::kNone) fault = IoError::kOverflow;
-  }
+  if (flooded) Count(IoError::kOverflow);
+  if ((flooded || Now() < flood_until_ns_) && fault == IoError::kNone) fault = IoError::kOverflow;
   const std::uint32_t in = config_.inputs;
   if ((in & Bit(Input::kVelocity)) != 0) frame->velocity = velocity_;
   if ((in & Bit(Input::kDisplacement)) != 0) frame->displacement = displacement_;

@@ -19,8 +19,9 @@
 //          or the kernel's, not the read's), so data that waited in the socket (a stalled
 //          process, a backlog) show their true age to the watchdog. A flood — the budget
 //          used up with frames still waiting, or more than kMaxRejectsPerRead frames refused
-//          since the last Read (a babbling node) — is kFault (overflow, one count per period):
-//          the can_bus cause, the safe state. A lost bus (EOF, reset, network down, bus-off)
+//          since the last Read (a babbling node) — is kFault (overflow, counted per period):
+//          the can_bus cause, the safe state; after refused frames it holds for
+//          kFloodHoldNs after the last such period. A lost bus (EOF, reset, network down, bus-off)
 //          is kFault (disconnected / bus_off) — the can_bus cause too — and the device
 //          reopens its fd every kReconnectInterval from the tick (socket + connect/bind: no
 //          allocation, no wait). Silence (a sender that stopped) is kNoData: the stamps go
@@ -68,6 +69,9 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   // Refused frames per period beyond which the bus counts as flooded (a healthy bus refuses
   // a frame now and then: a corrupt or repeated one per sensor frame at most).
   static constexpr int kMaxRejectsPerRead = 16;
+  // How long the bus counts as flooded after the last period with too many refused frames
+  // [ns] (device time: granted time in lockstep).
+  static constexpr std::int64_t kFloodHoldNs = 100'000'000;
   static constexpr std::int64_t kReconnectInterval = 100'000'000;  // [ns]
 
   // Opens from config.interface (SocketCAN) or config.local_bus at Configure.
@@ -118,6 +122,7 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   std::uint8_t driver_faults_ = 0;
   double driver_current_ = 0.0;
   int rejects_since_read_ = 0;
+  std::int64_t flood_until_ns_ = 0;  // a babbling node's fault holds until then (Now())
   Stamped velocity_, displacement_, demand_, body_velocity_, force_;
   // Lockstep: the latest granted time, sensor values waiting for their grant's stamp, a grant
   // missed since the last Read, fresh values seen by WaitGrant since the last Read.
