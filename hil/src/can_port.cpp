@@ -3,8 +3,9 @@
 // DriverStatus every kStatusPeriodSteps steps and at once when its fault bits change: the
 // current of the latest command (its set-point over a kCoilOhms coil while it enables the
 // coil, else 0 A) and the driver's fault (the step's fault_line: the scenario's fault_line
-// fault, `mrd-hil serve --fault-line`) as the overcurrent bit (docs/mrd.dbc). Endpoint: a local frame bus socket path (contains '/') or a SocketCAN
-// interface. On a local bus path nobody serves yet (no socket, or one left by a dead relay),
+// fault, `mrd-hil serve --fault-line`) as the overcurrent bit (docs/mrd.dbc). Commands are
+// timed by their bus stamps (when the firmware sent them). Endpoint: a local frame bus socket
+// path (contains '/') or a SocketCAN interface. On a local bus path nobody serves yet (no socket, or one left by a dead relay),
 // the port runs the relay itself on a thread: the harness then owns the bus, and the firmware
 // loses it when the harness exits (the peer-restart test relies on that).
 #include <linux/can.h>
