@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <climits>
 #include <cstddef>
 #include <ctime>
 
@@ -74,19 +75,32 @@ ssize_t ReceiveStamped(int fd, void* buf, std::size_t size, std::int64_t* stamp_
   msg.msg_controllen = sizeof control;
   const ssize_t n = recvmsg(fd, &msg, MSG_DONTWAIT);
   if (n < 0) return n;
-  // Both clocks right after the read: the kernel stamp's age is measured on the wall clock
-  // over this short interval and applied to the monotonic one.
-  timespec mono{}, real{};
-  clock_gettime(CLOCK_MONOTONIC, &mono);
-  clock_gettime(CLOCK_REALTIME, &real);
-  *stamp_ns = Ns(mono);
+  *stamp_ns = MonotonicNs();
   *truncated = (msg.msg_flags & MSG_TRUNC) != 0;
   for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
     if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPNS &&
         c->cmsg_len >= CMSG_LEN(sizeof(timespec))) {
       timespec ts{};
       __builtin_memcpy(&ts, CMSG_DATA(c), sizeof ts);
-      if (ts.tv_sec != 0 || ts.tv_nsec != 0) *stamp_ns = ArrivalStamp(ts, Ns(mono), Ns(real));
+      if (ts.tv_sec == 0 && ts.tv_nsec == 0) continue;
+      // Both clocks now: the kernel stamp's age is measured on the wall clock over this short
+      // interval and applied to the monotonic one. The wall clock is read between two
+      // monotonic reads, the tightest of a few tries kept: a preemption between the reads
+      // would otherwise add itself to the age.
+      std::int64_t best_gap = INT64_MAX, mono_mid = 0, real_now = 0;
+      for (int i = 0; i < 4 && best_gap > 2'000; ++i) {
+        timespec m0{}, r{}, m1{};
+        clock_gettime(CLOCK_MONOTONIC, &m0);
+        clock_gettime(CLOCK_REALTIME, &r);
+        clock_gettime(CLOCK_MONOTONIC, &m1);
+        const std::int64_t gap = Ns(m1) - Ns(m0);
+        if (gap < best_gap) {
+          best_gap = gap;
+          mono_mid = Ns(m0) + gap / 2;
+          real_now = Ns(r);
+        }
+      }
+      *stamp_ns = ArrivalStamp(ts, mono_mid, real_now);
     }
   }
   return n;
