@@ -225,6 +225,7 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
     // drain: what follows it belongs to the next step (the grant stays pending for the next
     // WaitGrant). A flood ends it too: the period is a fault whatever the rest holds.
     int k = 0;
+    std::int64_t first_stamp = 0, last_stamp = 0;  // arrivals of the frames drained
     for (; k < kMaxFramesPerRead && iface_.is_open() && !got_grant_; ++k) {
       if (rejects_since_read_ > kMaxRejectsPerRead) break;
       can_frame f{};
@@ -232,6 +233,8 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
       const canbus::CanResult r = iface_.Receive(&f, &stamp);
       if (r == canbus::CanResult::kEmpty) break;
       if (r == canbus::CanResult::kOk) {
+        if (k == 0) first_stamp = stamp;
+        last_stamp = stamp;
         fresh = Handle(f, stamp) || fresh;
       } else if (r == canbus::CanResult::kBadFrame) {
         Reject(pc::Reject::kWrongDlc);
@@ -246,12 +249,14 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
         Count(IoError::kSystem);
       }
     }
-    // More frames than a period's budget (a backlog, or a flood of well-formed frames), or
-    // more refused ones than a healthy bus has: a babbling node, whose fault holds for
-    // kFloodHoldNs after its last flooded period (a babbler that pauses for a few periods
-    // does not make the bus healthy).
+    // More refused frames than a healthy bus has: a babbling node, whose fault holds for
+    // kFloodHoldNs after its last flooded period (a babbler that pauses for a few periods does
+    // not make the bus healthy). Or a budget of frames that arrived within kFloodSpanNs with
+    // more still waiting: a flood of well-formed frames. A backlog a stall of this process left
+    // (frames spread over the stall) is no bus fault: its samples are merely old (stale).
     const bool babble = rejects_since_read_ > kMaxRejectsPerRead;
-    flooded = babble || (k == kMaxFramesPerRead && iface_.Readable());
+    flooded = babble || (k == kMaxFramesPerRead && !config_.lockstep &&
+                         last_stamp - first_stamp < kFloodSpanNs && iface_.Readable());
     if (babble) flood_until_ns_ = Now() + kFloodHoldNs;
   }
   rejects_since_read_ = 0;

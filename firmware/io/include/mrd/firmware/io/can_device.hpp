@@ -17,11 +17,12 @@
 //          counter checked; rejects are counted (rejected_frame / crc / bad_value) and change
 //          nothing. Accepted sensor values keep their arrival stamps (CanIface: the relay's
 //          or the kernel's, not the read's), so data that waited in the socket (a stalled
-//          process, a backlog) show their true age to the watchdog. A flood — the budget
-//          used up with frames still waiting, or more than kMaxRejectsPerRead frames refused
-//          since the last Read (a babbling node) — is kFault (overflow, counted per period):
-//          the can_bus cause, the safe state; after refused frames it holds for
-//          kFloodHoldNs after the last such period. A lost bus (EOF, reset, network down, bus-off)
+//          process, a backlog) show their true age to the watchdog. A flood — more than
+//          kMaxRejectsPerRead frames refused since the last Read (a babbling node), or a
+//          budget of frames that arrived within kFloodSpanNs with more still waiting — is
+//          kFault (overflow, counted per period): the can_bus cause, the safe state; after
+//          refused frames it holds for kFloodHoldNs after the last such period. A backlog a
+//          stall of the firmware left is no flood: its samples are just old. A lost bus (EOF, reset, network down, bus-off)
 //          is kFault (disconnected / bus_off) — the can_bus cause too — and the device
 //          reopens its fd every kReconnectInterval from the tick (socket + connect/bind: no
 //          allocation, no wait). Silence (a sender that stopped) is kNoData: the stamps go
@@ -62,9 +63,9 @@ namespace mrd::firmware {
 class CanDevice final : public BusDevice, public TimeGrantSource {
  public:
   // A period's drain budget. A backlog a stall left (a full receive queue: about 270 frames on
-  // the local bus and with SocketCAN's default buffer) is drained in a few periods, each of them
-  // a fault (its samples are old anyway); a flood of well-formed frames costs a tick at most
-  // this many reads (about 2.7 us each on the 2-core build VM: 350 us).
+  // the local bus and with SocketCAN's default buffer) is drained in a few periods (its samples
+  // are old: stale); a flood costs a tick at most this many reads (about 2.7 us each on the
+  // 2-core build VM: 350 us).
   static constexpr int kMaxFramesPerRead = 128;
   // Refused frames per period beyond which the bus counts as flooded (a healthy bus refuses
   // a frame now and then: a corrupt or repeated one per sensor frame at most).
@@ -72,6 +73,9 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   // How long the bus counts as flooded after the last period with too many refused frames
   // [ns] (device time: granted time in lockstep).
   static constexpr std::int64_t kFloodHoldNs = 100'000'000;
+  // A drain budget of frames that arrived within this span is a flood (over 25 frames/ms: a
+  // healthy bus carries about 3, a 1 Mbit/s CAN bus at most 8) [ns].
+  static constexpr std::int64_t kFloodSpanNs = 5'000'000;
   static constexpr std::int64_t kReconnectInterval = 100'000'000;  // [ns]
 
   // Opens from config.interface (SocketCAN) or config.local_bus at Configure.
