@@ -158,11 +158,11 @@ int Babble(const Options& o, std::int64_t end_ns) {
     owed += o.rate;
     for (; owed >= 1.0; owed -= 1.0, ++n) {
       can_frame f{};
-      f.can_id = ids[n % ids.size()];
+      f.can_id = ids[static_cast<std::size_t>(n % ids.size())];
       f.len = 8;
       for (int i = 0; i < 7; ++i) f.data[i] = static_cast<std::uint8_t>((n * 37 + i * 11) & 0xFF);
       f.data[7] = static_cast<std::uint8_t>(mrd::protocol::can::Checksum(f) ^ 0x5A);  // never valid
-      const int fd = fds[n % fds.size()];
+      const int fd = fds[static_cast<std::size_t>(n % fds.size())];
       if (send(fd, &f, sizeof f, MSG_DONTWAIT | MSG_NOSIGNAL) == static_cast<ssize_t>(sizeof f)) {
         ++sent;
       } else {
