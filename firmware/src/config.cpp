@@ -555,6 +555,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   // Grants travel on CAN when there is a CAN bus, else on Modbus.
   c->io.can.lockstep = c->clock == LoopClock::kGrant;
   c->io.modbus.lockstep = c->clock == LoopClock::kGrant && !c->io.can.enabled;
+  c->io.can.max_age_ns = k.watchdog.max_age_ns;  // the CAN device's last check before sending
   return true;
 }
 

@@ -313,8 +313,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1e-3, 10.0))->capture_default_str();
   std::string fault_window;
   serve->add_option("--fault-line", fault_window,
-                    "START:END: assert the fault line (GPIO line, Modbus sensor block) from "
-                    "START to END seconds");
+                    "START:END: assert the fault line (GPIO line, Modbus sensor block, CAN "
+                    "DriverStatus overcurrent bit) from START to END seconds");
   serve->add_flag("--json", json, "print the summary as JSON");
 
   auto* run = app.add_subcommand(

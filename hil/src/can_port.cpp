@@ -1,7 +1,11 @@
 // The harness's CAN side (plant_port.hpp): the plant's sensors send SensorMotion and
-// SensorForce every step; the simulated driver hears DriverCommand and Heartbeat
-// (docs/mrd.dbc). Endpoint: a local frame bus socket path (contains '/') or a SocketCAN
-// interface. On a local bus path nobody serves yet (no socket, or one left by a dead relay),
+// SensorForce every step; the simulated driver hears DriverCommand and Heartbeat and sends
+// DriverStatus every kStatusPeriodSteps steps and at once when its fault bits change: the
+// current of the latest command (its set-point over a kCoilOhms coil while it enables the
+// coil, else 0 A) and the driver's fault (the step's fault_line: the scenario's fault_line
+// fault, `mrd-hil serve --fault-line`) as the overcurrent bit (docs/mrd.dbc). Commands are
+// timed by their bus stamps (when the firmware sent them). Endpoint: a local frame bus socket
+// path (contains '/') or a SocketCAN interface. On a local bus path nobody serves yet (no socket, or one left by a dead relay),
 // the port runs the relay itself on a thread: the harness then owns the bus, and the firmware
 // loses it when the harness exits (the peer-restart test relies on that).
 #include <linux/can.h>
@@ -9,8 +13,10 @@
 
 #include <ctime>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <cstring>
 #include <memory>
 #include <thread>
@@ -29,12 +35,23 @@ namespace pc = protocol::can;
 constexpr int kMaxFramesPerPoll = 64;
 constexpr std::int64_t kTxDeadlineNs = 1'000'000;  // one plant period
 constexpr std::int64_t kReconnectNs = 100'000'000;
+constexpr std::uint32_t kStatusPeriodSteps = 100;  // DriverStatus period: 100 ms (docs/mrd.dbc)
+constexpr double kCoilOhms = 5.0;  // simulated coil (e.g. a Lord RD-1005-3: about 5 ohm)
 
 constexpr can_filter kFilters[] = {
     {pc::kDriverCommandId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
     {pc::kHeartbeatId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
     {pc::kFirmwareStatusId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
 };
+
+// The IDs the harness listens to (kFilters), for the relay's tap: what the sockets' receive
+// filters do on SocketCAN, so frames of other IDs (a babbling node's) never fill its queue.
+bool Wanted(const can_frame& f) {
+  for (const can_filter& k : kFilters) {
+    if ((f.can_id & k.can_mask) == (k.can_id & k.can_mask)) return true;
+  }
+  return false;
+}
 
 // The 32-bit step number a 16-bit echo stands for: the latest one published with those low
 // bits (the echo never runs ahead of what was published).
@@ -85,7 +102,9 @@ class CanPort final : public PlantPort {
     last_published_ = out.seq;
     const std::int64_t now = canbus::MonotonicNs();
     if (!IsOpen()) Reconnect(now);
-    if (!IsOpen() || out.fault == SensorFault::kDrop) return;
+    if (!IsOpen()) return;
+    PublishDriverStatus(out, now);  // the driver's node: not subject to the sensors' faults
+    if (out.fault == SensorFault::kDrop) return;
     if (out.fault == SensorFault::kStall) {
       // The same frames again: counters repeat, the firmware refuses them.
       if (have_last_) {
@@ -187,6 +206,24 @@ class CanPort final : public PlantPort {
     heartbeat_check_.Reset();
   }
 
+  // The simulated driver's DriverStatus: every kStatusPeriodSteps published steps, and at once
+  // when the fault bits change (so a fault reaches the firmware in the step it appears).
+  void PublishDriverStatus(const SensorOutput& out, std::int64_t now) {
+    const std::uint8_t faults = out.fault_line ? pc::kFaultOvercurrent : std::uint8_t{0};
+    if (status_sent_ && faults == status_faults_ && ++steps_since_status_ < kStatusPeriodSteps) {
+      return;
+    }
+    const double volts = std::isfinite(command_volts_) ? command_volts_ : 0.0;
+    const double amps = command_drives_ ? std::clamp(volts, 0.0, pc::kMaxVoltage) / kCoilOhms : 0.0;
+    can_frame f{};
+    if (pc::Encode(pc::DriverStatus{amps, faults, status_counter_}, &f) != pc::Reject::kNone) return;
+    status_counter_ = static_cast<std::uint8_t>((status_counter_ + 1) & 0x0F);
+    SendFrame(f, now);
+    status_sent_ = true;
+    status_faults_ = faults;
+    steps_since_status_ = 0;
+  }
+
   void Close() override {
     if (relay_ != nullptr) {
       relay_open_ = false;
@@ -224,17 +261,21 @@ class CanPort final : public PlantPort {
     return canbus::CanResult::kOk;
   }
 
-  // Frames the relay's socket nodes sent (called from LocalBusRelay::Step).
-  static void Tap(void* context, const void* frame) {
+  // Frames the relay's socket nodes sent, with their bus stamps (called from
+  // LocalBusRelay::Step).
+  static void Tap(void* context, const void* frame, std::int64_t stamp_ns) {
     auto* self = static_cast<CanPort*>(context);
     if (!self->relay_open_) return;
+    can_frame f;
+    std::memcpy(&f, frame, sizeof f);
+    if (!Wanted(f)) return;
     if (self->rx_count_ == self->rx_.size()) {
       ++self->rejected_;  // overflow: as a full controller FIFO
       return;
     }
     const std::size_t slot = (self->rx_head_ + self->rx_count_) % self->rx_.size();
-    std::memcpy(&self->rx_[slot].frame, frame, sizeof(can_frame));
-    self->rx_[slot].stamp = canbus::MonotonicNs();
+    self->rx_[slot].frame = f;
+    self->rx_[slot].stamp = stamp_ns;
     ++self->rx_count_;
   }
 
@@ -274,6 +315,8 @@ class CanPort final : public PlantPort {
           in->has_enable = true;
           in->enable = m.enable;
         }
+        command_volts_ = m.volts;
+        command_drives_ = !m.enable_valid || m.enable;
         return;
       }
       case pc::Message::kHeartbeat: {
@@ -327,7 +370,13 @@ class CanPort final : public PlantPort {
   std::atomic<bool> relay_stop_{false};
   canbus::CanIface iface_;
   pc::CounterCheck command_check_, heartbeat_check_;
-  std::uint8_t motion_counter_ = 0, force_counter_ = 0, grant_counter_ = 0;
+  std::uint8_t motion_counter_ = 0, force_counter_ = 0, grant_counter_ = 0, status_counter_ = 0;
+  // The simulated driver: the latest command heard, the DriverStatus schedule.
+  double command_volts_ = 0.0;
+  bool command_drives_ = false;
+  bool status_sent_ = false;
+  std::uint8_t status_faults_ = 0;
+  std::uint32_t steps_since_status_ = 0;
   can_frame last_motion_{}, last_force_{};
   bool have_last_ = false;
   std::uint32_t last_published_ = 0;

@@ -71,11 +71,13 @@ int main(int argc, char** argv) {
   relay.Close();
   std::printf(
       "{\"nodes_joined\": %llu, \"nodes_left\": %llu, \"frames_in\": %llu, "
-      "\"frames_out\": %llu, \"frames_dropped\": %llu, \"bad_packets\": %llu}\n",
+      "\"frames_out\": %llu, \"frames_dropped\": %llu, \"bad_packets\": %llu, "
+      "\"nodes_refused\": %llu}\n",
       static_cast<unsigned long long>(s.nodes_joined),
       static_cast<unsigned long long>(s.nodes_left), static_cast<unsigned long long>(s.frames_in),
       static_cast<unsigned long long>(s.frames_out),
       static_cast<unsigned long long>(s.frames_dropped),
-      static_cast<unsigned long long>(s.bad_packets));
+      static_cast<unsigned long long>(s.bad_packets),
+      static_cast<unsigned long long>(s.nodes_refused));
   return 0;
 }

@@ -1,5 +1,6 @@
 #include "mrd/canbus/local_bus.hpp"
 
+#include <fcntl.h>
 #include <linux/can.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -10,19 +11,40 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
+
+#include "mrd/canbus/can_iface.hpp"
 
 namespace mrd::canbus {
 namespace {
 
 constexpr int kBacklog = 16;
 constexpr int kMaxFramesPerNodeRound = 64;  // fairness: bounded work per node per Step
+constexpr std::int64_t kProbeWaitNs = 200'000'000;  // a full backlog: retry this long [ns]
+constexpr std::int64_t kAcceptPauseNs = 100'000'000;  // accept() failing: listener rests [ns]
 
+void SleepNs(std::int64_t ns) {
+  const timespec ts{0, static_cast<long>(ns)};
+  nanosleep(&ts, nullptr);
+}
+
+// Whether a relay serves addr. Never blocks: a non-blocking connect succeeds at once when the
+// relay's backlog has room, fails with ECONNREFUSED when nobody listens (a socket file left by
+// a dead relay), and with EAGAIN when the backlog is full: the owner is alive but does not
+// accept (stopped, or busy). That is retried for kProbeWaitNs and then counts as served.
 bool Listening(const sockaddr_un& addr) {
-  const int probe = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
-  if (probe < 0) return false;
-  const bool live = connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
-  close(probe);
-  return live;
+  const std::int64_t until = MonotonicNs() + kProbeWaitNs;
+  while (true) {
+    const int probe = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (probe < 0) return true;  // cannot tell: never replace what may be a live relay
+    const int rc = connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof addr);
+    const int err = errno;
+    close(probe);
+    if (rc == 0) return true;
+    if (err != EAGAIN && err != EINTR) return false;
+    if (MonotonicNs() >= until) return true;
+    SleepNs(10'000'000);
+  }
 }
 
 }  // namespace
@@ -44,7 +66,9 @@ bool LocalBusRelay::Open(const std::string& path, std::string* error) {
       return false;
     }
     if (Listening(addr)) {
-      *error = "local bus: " + path + " is already served by another relay";
+      *error = "local bus: " + path +
+               " is already served by another relay (or by one that does not accept "
+               "connections: stopped?)";
       return false;
     }
     unlink(path.c_str());  // left by a relay that died
@@ -72,6 +96,8 @@ bool LocalBusRelay::Open(const std::string& path, std::string* error) {
     return false;
   }
   path_ = path;
+  spare_fd_ = open("/dev/null", O_RDONLY | O_CLOEXEC);
+  listen_paused_until_ns_ = 0;
   return true;
 }
 
@@ -83,6 +109,8 @@ void LocalBusRelay::Close() {
     listen_fd_ = -1;
     unlink(path_.c_str());
   }
+  if (spare_fd_ >= 0) close(spare_fd_);
+  spare_fd_ = -1;
 }
 
 void LocalBusRelay::Drop(std::size_t i) {
@@ -93,14 +121,17 @@ void LocalBusRelay::Drop(std::size_t i) {
 
 void LocalBusRelay::Broadcast(const void* frame) {
   in_.fetch_add(1, std::memory_order_relaxed);
-  Forward(nodes_.size(), frame);
+  Forward(nodes_.size(), frame, MonotonicNs());
 }
 
-void LocalBusRelay::Forward(std::size_t from, const void* frame) {
+void LocalBusRelay::Forward(std::size_t from, const void* frame, std::int64_t stamp_ns) {
+  LocalBusPacket packet;
+  std::memcpy(&packet.frame, frame, sizeof(can_frame));
+  packet.stamp_ns = stamp_ns;
   for (std::size_t j = 0; j < nodes_.size(); ++j) {
     if (j == from) continue;
-    if (send(nodes_[j], frame, sizeof(can_frame), MSG_DONTWAIT | MSG_NOSIGNAL) ==
-        static_cast<ssize_t>(sizeof(can_frame))) {
+    if (send(nodes_[j], &packet, sizeof packet, MSG_DONTWAIT | MSG_NOSIGNAL) ==
+        static_cast<ssize_t>(sizeof packet)) {
       out_.fetch_add(1, std::memory_order_relaxed);
     } else {
       dropped_.fetch_add(1, std::memory_order_relaxed);  // full (or leaving: seen on its recv)
@@ -108,11 +139,50 @@ void LocalBusRelay::Forward(std::size_t from, const void* frame) {
   }
 }
 
+void LocalBusRelay::Accept() {
+  while (true) {
+    const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd >= 0) {
+      (void)EnableReceiveStamps(fd);  // else frames are stamped when the relay reads them
+      nodes_.push_back(fd);
+      joined_.fetch_add(1, std::memory_order_relaxed);
+      continue;
+    }
+    if (errno == EAGAIN || errno == EWOULDBLOCK) return;
+    if (errno == EINTR || errno == ECONNABORTED) continue;
+    if ((errno == EMFILE || errno == ENFILE) && spare_fd_ >= 0) {
+      // Out of descriptors: the spare one makes room to take the pending connection and
+      // close it (the node sees EOF), so it does not keep the listener readable.
+      close(spare_fd_);
+      const int refused = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
+      const int err = errno;
+      if (refused >= 0) {
+        close(refused);
+        refused_.fetch_add(1, std::memory_order_relaxed);
+      }
+      spare_fd_ = open("/dev/null", O_RDONLY | O_CLOEXEC);
+      if (refused >= 0) continue;
+      if (err == EAGAIN || err == EWOULDBLOCK) return;
+    }
+    // No spare descriptor, or another failure (ENOBUFS, ENOMEM): rest the listener a while
+    // instead of polling it readable in a loop.
+    listen_paused_until_ns_ = MonotonicNs() + kAcceptPauseNs;
+    return;
+  }
+}
+
 void LocalBusRelay::Step(int timeout_ms) {
   if (listen_fd_ < 0) return;
   std::vector<pollfd>& fds = fds_;
   fds.clear();
-  fds.push_back({listen_fd_, POLLIN, 0});
+  const bool listening = MonotonicNs() >= listen_paused_until_ns_;
+  if (listening && listen_paused_until_ns_ != 0 && spare_fd_ < 0) {
+    spare_fd_ = open("/dev/null", O_RDONLY | O_CLOEXEC);
+  }
+  if (!listening && timeout_ms > static_cast<int>(kAcceptPauseNs / 1'000'000)) {
+    timeout_ms = static_cast<int>(kAcceptPauseNs / 1'000'000);
+  }
+  fds.push_back({listening ? listen_fd_ : -1, POLLIN, 0});
   for (int fd : nodes_) fds.push_back({fd, POLLIN, 0});
   if (poll(fds.data(), fds.size(), timeout_ms) <= 0) return;
   // Nodes first (indices match nodes_ as polled), newest last; removals go backwards.
@@ -122,32 +192,27 @@ void LocalBusRelay::Step(int timeout_ms) {
     if ((fds[i + 1].revents & (POLLIN | POLLHUP | POLLERR)) == 0) continue;
     for (int k = 0; k < kMaxFramesPerNodeRound; ++k) {
       alignas(can_frame) unsigned char buf[sizeof(canfd_frame)];
-      const ssize_t n = recv(nodes_[i], buf, sizeof buf, MSG_DONTWAIT);
+      std::int64_t stamp = 0;
+      bool truncated = false;
+      const ssize_t n = ReceiveStamped(nodes_[i], buf, sizeof buf, &stamp, &truncated);
       if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) break;
       if (n <= 0) {
         gone[i] = 1;
         break;
       }
-      if (static_cast<std::size_t>(n) != sizeof(can_frame)) {
+      if (truncated || static_cast<std::size_t>(n) != sizeof(can_frame)) {
         bad_.fetch_add(1, std::memory_order_relaxed);
         continue;
       }
       in_.fetch_add(1, std::memory_order_relaxed);
-      Forward(i, buf);
-      if (tap_ != nullptr) tap_(tap_context_, buf);
+      Forward(i, buf, stamp);
+      if (tap_ != nullptr) tap_(tap_context_, buf, stamp);
     }
   }
   for (std::size_t i = gone.size(); i-- > 0;) {
     if (gone[i] != 0) Drop(i);
   }
-  if ((fds[0].revents & POLLIN) != 0) {
-    while (true) {
-      const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
-      if (fd < 0) break;
-      nodes_.push_back(fd);
-      joined_.fetch_add(1, std::memory_order_relaxed);
-    }
-  }
+  if ((fds[0].revents & POLLIN) != 0) Accept();
 }
 
 void LocalBusRelay::Run(const std::atomic<bool>& stop) {
@@ -162,6 +227,7 @@ RelayStats LocalBusRelay::stats() const {
   s.frames_out = out_.load(std::memory_order_relaxed);
   s.frames_dropped = dropped_.load(std::memory_order_relaxed);
   s.bad_packets = bad_.load(std::memory_order_relaxed);
+  s.nodes_refused = refused_.load(std::memory_order_relaxed);
   return s;
 }
 

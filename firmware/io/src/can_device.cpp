@@ -5,6 +5,7 @@
 
 #include <cerrno>
 #include <ctime>
+#include <limits>
 #include <memory>
 
 #include "mrd/canbus/socket.hpp"
@@ -106,6 +107,7 @@ void CanDevice::Count(IoError error) {
 
 void CanDevice::Reject(pc::Reject reason) {
   ++counters_.rx_rejected;
+  ++rejects_since_read_;
   Count(ErrorOf(reason));
 }
 
@@ -190,6 +192,7 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
       }
       ++counters_.rx_ok;
       driver_faults_ = m.faults;
+      driver_current_ = m.current;
       return false;
     }
     case pc::Message::kDriverCommand:
@@ -209,18 +212,25 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
   IoError fault = IoError::kNone;
   bool fresh = fresh_in_wait_;
   fresh_in_wait_ = false;
+  bool flooded = false;
   if (!iface_.is_open()) {
     fault = IoError::kDisconnected;
   } else {
     iface_.Flush(now);
-    // In lockstep a grant ends the drain: what follows it belongs to the next step (the
-    // grant stays pending for the next WaitGrant).
-    for (int k = 0; k < kMaxFramesPerRead && iface_.is_open() && !got_grant_; ++k) {
+    // Drains to the newest frame (each keeps its arrival stamp). In lockstep a grant ends the
+    // drain: what follows it belongs to the next step (the grant stays pending for the next
+    // WaitGrant). A flood ends it too: the period is a fault whatever the rest holds.
+    int k = 0;
+    std::int64_t first_stamp = 0, last_stamp = 0;  // arrivals of the frames drained
+    for (; k < kMaxFramesPerRead && iface_.is_open() && !got_grant_; ++k) {
+      if (rejects_since_read_ > kMaxRejectsPerRead) break;
       can_frame f{};
       std::int64_t stamp = 0;
       const canbus::CanResult r = iface_.Receive(&f, &stamp);
       if (r == canbus::CanResult::kEmpty) break;
       if (r == canbus::CanResult::kOk) {
+        if (k == 0) first_stamp = stamp;
+        last_stamp = stamp;
         fresh = Handle(f, stamp) || fresh;
       } else if (r == canbus::CanResult::kBadFrame) {
         Reject(pc::Reject::kWrongDlc);
@@ -235,19 +245,42 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
         Count(IoError::kSystem);
       }
     }
+    // More refused frames than a healthy bus has: a babbling node, whose fault holds for
+    // kFloodHoldNs after its last flooded period (a babbler that pauses for a few periods does
+    // not make the bus healthy). Or a budget of frames that arrived within kFloodSpanNs with
+    // more still waiting: a flood of well-formed frames. A backlog a stall of this process left
+    // (frames spread over the stall) is no bus fault: its samples are merely old (stale).
+    const bool babble = rejects_since_read_ > kMaxRejectsPerRead;
+    flooded = babble || (k == kMaxFramesPerRead && !config_.lockstep &&
+                         last_stamp - first_stamp < kFloodSpanNs && iface_.Readable());
+    if (babble) flood_until_ns_ = Now() + kFloodHoldNs;
   }
+  rejects_since_read_ = 0;
+  if (flooded) Count(IoError::kOverflow);
+  if ((flooded || Now() < flood_until_ns_) && fault == IoError::kNone) fault = IoError::kOverflow;
   const std::uint32_t in = config_.inputs;
   if ((in & Bit(Input::kVelocity)) != 0) frame->velocity = velocity_;
   if ((in & Bit(Input::kDisplacement)) != 0) frame->displacement = displacement_;
   if ((in & Bit(Input::kDemand)) != 0) frame->demand = demand_;
   if ((in & Bit(Input::kBodyVelocity)) != 0) frame->body_velocity = body_velocity_;
   if ((in & Bit(Input::kForce)) != 0) frame->force = force_;
+  // A fault the current driver reports (any DriverStatus fault bit) is the driver's fault line,
+  // as the Modbus sensor block's driver-fault bit is: the watchdog's fault_line cause.
+  if (driver_faults_ != 0) frame->fault_line = true;
   Publish();
   if (fault != IoError::kNone) {
     *why = fault;
     return IoStatus::kFault;
   }
   return fresh ? IoStatus::kOk : IoStatus::kNoData;
+}
+
+bool CanDevice::MotionTooOld(std::int64_t now) const {
+  constexpr std::uint32_t kMotion = Bit(Input::kVelocity) | Bit(Input::kDisplacement);
+  if (config_.lockstep || (config_.inputs & kMotion) == 0) return false;
+  // Never sampled: the watchdog already holds the safe state (stale), no driving command.
+  const std::int64_t stamp = velocity_.stamp_ns;
+  return stamp != std::numeric_limits<std::int64_t>::min() && stamp < now - config_.max_age_ns;
 }
 
 bool CanDevice::Send(const can_frame& f, std::int64_t now) {
@@ -290,6 +323,16 @@ IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
     can_frame f{};
     pc::DriverCommand m{cmd.volts, cmd.enable, enable_routed,
                         cmd.safe,  last_seq_,  command_counter_};
+    if (!cmd.safe && MotionTooOld(now)) {
+      // The tick was held up (preempted, stopped) after the watchdog saw fresh data: driving
+      // the coil now would act on an old sample. Not sent (timeout); the loop commands the
+      // safe state instead.
+      ++counters_.tx_failed;
+      Count(IoError::kTimeout);
+      Publish();
+      *why = IoError::kTimeout;
+      return IoStatus::kFault;
+    }
     if (pc::Encode(m, &f) != pc::Reject::kNone) {
       // Not representable (never from the loop: it commands within [0, E_max]): send the
       // safe state instead and report the write as failed.

@@ -59,6 +59,9 @@ struct CanConfig {
   // Lockstep ([loop] clock = "grant"): the device is the loop's TimeGrantSource, stamps and
   // schedules in granted time instead of CLOCK_MONOTONIC. Not a [can] key: set from [loop].
   bool lockstep = false;
+  // [safety] max_age_ms: no driving command leaves on a sensor sample older than this [ns].
+  // Not a [can] key: set from [safety].
+  std::int64_t max_age_ns = 5'000'000;
 };
 
 enum class ModbusMode : std::uint8_t { kTcp = 0, kRtu };

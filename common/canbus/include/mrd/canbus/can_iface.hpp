@@ -5,10 +5,22 @@
 // sent late), bus statistics. Real-time safe: no allocation, no blocking, bounded work (one
 // frame per Receive; at most kTxQueue frames per Flush). Single-threaded.
 //
-// Receive stamps are CLOCK_MONOTONIC [ns] at the read (the loop's clock). On SocketCAN an
-// error frame reporting bus-off comes back as kBusOff.
+// Receive stamps are CLOCK_MONOTONIC [ns] of the frame's arrival, not of the read, so a frame
+// that waited in the socket (a stalled reader, a backlog behind a flood) shows its true age:
+//   local frame bus  the relay's stamp carried in the packet (LocalBusPacket: when the frame
+//                    entered the bus, i.e. when its sender wrote it)
+//   SocketCAN        the kernel's receive stamp (SO_TIMESTAMPNS, enabled by Attach)
+// Kernel stamps are CLOCK_REALTIME; each is converted with the two clocks read together at the
+// read (ArrivalStamp): the age is then exact unless the wall clock is stepped between arrival
+// and read (NTP slewing moves both clocks alike). A stamp from the future (the wall clock
+// stepped back meanwhile) has an unknown age and is taken as kUnknownAgeNs old: stale, never
+// fresh. A packet without any stamp (a peer without timestamps) is stamped at the read.
+// On SocketCAN an error frame reporting bus-off comes back as kBusOff.
 
 #include <linux/can.h>
+#include <sys/types.h>
+
+#include <ctime>
 
 #include <array>
 #include <cstddef>
@@ -42,6 +54,27 @@ struct CanStats {
 
 std::int64_t MonotonicNs();
 
+// What the local bus relay hands a node (local_bus.hpp): the frame and the CLOCK_MONOTONIC
+// time [ns] it entered the bus. Nodes send bare `struct can_frame`s (16 bytes).
+struct LocalBusPacket {
+  can_frame frame;
+  std::int64_t stamp_ns;
+};
+static_assert(sizeof(LocalBusPacket) == 24, "local bus packet: 16-byte frame + 8-byte stamp");
+
+// Age given to a kernel stamp from the future (see above) [ns].
+inline constexpr std::int64_t kUnknownAgeNs = 1'000'000'000;
+// A kernel receive stamp (CLOCK_REALTIME) as CLOCK_MONOTONIC, given both clocks read now.
+std::int64_t ArrivalStamp(const timespec& realtime_stamp, std::int64_t monotonic_now_ns,
+                          std::int64_t realtime_now_ns);
+// Turns on kernel receive stamps (SO_TIMESTAMPNS) on a socket; false where unsupported.
+bool EnableReceiveStamps(int fd);
+// recvmsg of one packet with its kernel stamp: bytes (or -1 with errno); *stamp_ns the
+// arrival as CLOCK_MONOTONIC, or the read time when the packet has no kernel stamp; *truncated
+// when the packet was longer than size.
+ssize_t ReceiveStamped(int fd, void* buf, std::size_t size, std::int64_t* stamp_ns,
+                       bool* truncated);
+
 class CanIface {
  public:
   static constexpr std::size_t kTxQueue = 8;
@@ -51,14 +84,17 @@ class CanIface {
   CanIface(const CanIface&) = delete;
   CanIface& operator=(const CanIface&) = delete;
 
-  // Takes ownership of fd (made non-blocking); drops what was queued for the old one.
+  // Takes ownership of fd (made non-blocking, kernel receive stamps on); drops what was queued
+  // for the old one.
   void Attach(int fd);
   void Close();
   bool is_open() const { return fd_ >= 0; }
   int fd() const { return fd_; }
 
-  // One frame if one is waiting.
+  // One frame if one is waiting, with its arrival stamp.
   CanResult Receive(can_frame* frame, std::int64_t* stamp_ns);
+  // Whether something waits to be received (a zero-timeout poll).
+  bool Readable() const;
   // Queues frame until deadline_ns and sends what the fd takes now (Flush).
   CanResult Send(const can_frame& frame, std::int64_t deadline_ns, std::int64_t now_ns);
   // Writes queued frames in order until the fd would block; drops those past their deadline.

@@ -2,9 +2,19 @@
 // The local frame bus: a CAN bus stand-in for machines without AF_CAN. A relay listens on a
 // UNIX SOCK_SEQPACKET socket; every node (OpenLocalBusNode) sends one `struct can_frame` per
 // packet, and the relay hands each frame to every other node, as on a CAN bus (a node does not
-// hear its own frames, like CAN_RAW without CAN_RAW_RECV_OWN_MSGS). Packets of another size
-// are dropped and counted. A node whose receive buffer is full loses the frame (counted), as a
-// CAN controller with a full FIFO does; the relay never blocks on a slow node.
+// hear its own frames, like CAN_RAW without CAN_RAW_RECV_OWN_MSGS), as a LocalBusPacket
+// (can_iface.hpp): the frame and the CLOCK_MONOTONIC time it entered the bus, i.e. the kernel's
+// receive stamp of the sender's packet at the relay (SO_TIMESTAMPNS; the relay's clock where
+// there is none), so a frame's age does not depend on when the relay or the node got round to
+// it. Packets of another size are dropped and counted. A node whose receive buffer is full
+// loses the frame (counted), as a CAN controller with a full FIFO does; the relay never blocks
+// on a slow node.
+//
+// Robustness: the "already served?" probe of Open never blocks (a relay that is alive but does
+// not accept, e.g. stopped with a full backlog, counts as serving after a bounded wait); out of
+// file descriptors (EMFILE, ENFILE), the relay takes a pending connection with a spare
+// descriptor and closes it at once (the node sees EOF: refused, counted), so the listener does
+// not stay readable and the relay does not spin.
 //
 // Run it as its own process (mrd-canbus --socket PATH) or in-process on a thread (the HIL's
 // CAN port does when the socket does not exist yet). Not real-time: it allocates as nodes come.
@@ -25,6 +35,7 @@ struct RelayStats {
   std::uint64_t frames_out = 0;      // deliveries (frames_in x other nodes, minus drops)
   std::uint64_t frames_dropped = 0;  // deliveries lost to a full node
   std::uint64_t bad_packets = 0;     // not one can_frame
+  std::uint64_t nodes_refused = 0;   // connections closed at once: out of file descriptors
 };
 
 class LocalBusRelay {
@@ -47,10 +58,11 @@ class LocalBusRelay {
   std::size_t nodes() const { return nodes_.size(); }
 
   // An in-process node (the HIL harness, which owns the relay): Broadcast hands a frame to every
-  // socket node; the tap receives every frame a socket node sends (from Step, on the calling
-  // thread). Saves the harness's own socket round trip per frame.
+  // socket node (stamped now); the tap receives every frame a socket node sends, with its bus
+  // stamp (from Step, on the calling thread). Saves the harness's own socket round trip per
+  // frame.
   void Broadcast(const void* frame);
-  using Tap = void (*)(void* context, const void* frame);
+  using Tap = void (*)(void* context, const void* frame, std::int64_t stamp_ns);
   void SetTap(Tap tap, void* context) {
     tap_ = tap;
     tap_context_ = context;
@@ -59,18 +71,22 @@ class LocalBusRelay {
   RelayStats stats() const;
 
  private:
-  void Forward(std::size_t from, const void* frame);
+  void Forward(std::size_t from, const void* frame, std::int64_t stamp_ns);
   void Drop(std::size_t i);
+  void Accept();
 
   std::string path_;
   Tap tap_ = nullptr;
   void* tap_context_ = nullptr;
   int listen_fd_ = -1;
+  int spare_fd_ = -1;                // given up to take a connection when out of descriptors
+  std::int64_t listen_paused_until_ns_ = 0;  // accept() failing otherwise: listener not polled
   std::vector<int> nodes_;
   // Step's scratch (kept: no allocation per round once the node count is steady).
   std::vector<pollfd> fds_;
   std::vector<char> gone_;
-  std::atomic<std::uint64_t> joined_{0}, left_{0}, in_{0}, out_{0}, dropped_{0}, bad_{0};
+  std::atomic<std::uint64_t> joined_{0}, left_{0}, in_{0}, out_{0}, dropped_{0}, bad_{0},
+      refused_{0};
 };
 
 }  // namespace mrd::canbus
