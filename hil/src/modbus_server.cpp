@@ -17,8 +17,8 @@ namespace {
 
 namespace mb = mrd::protocol::modbus;
 
-constexpr int kPollMs = 20;          // the stop request is seen this often
-constexpr int kRtuPartialPollMs = 2;  // while an RTU frame is incomplete
+constexpr int kPollMs = 20;                           // the stop request is seen this often
+constexpr int kRtuPartialPollMs = 2;                  // while an RTU frame is incomplete
 constexpr std::int64_t kAcceptPauseNs = 100'000'000;  // after EMFILE / ENFILE
 
 std::int64_t NowNs() {
@@ -139,8 +139,8 @@ void ModbusServer::Accept(std::int64_t now) {
       }
       return;  // EAGAIN: all taken; ECONNABORTED and the like: nothing to serve
     }
-    const auto free = std::find_if(clients_.begin(), clients_.end(),
-                                   [](const Client& c) { return c.fd < 0; });
+    const auto free =
+        std::find_if(clients_.begin(), clients_.end(), [](const Client& c) { return c.fd < 0; });
     if (free == clients_.end()) {
       close(fd);  // over the limit
       bank_.CountRefused();
@@ -243,8 +243,9 @@ void ModbusServer::ReadRtu(std::int64_t now) {
         break;
       }
       AnswerRtu(line_.in.data(), static_cast<std::size_t>(len));
-      std::memmove(line_.in.data(), line_.in.data() + len, line_.have - static_cast<std::size_t>(len));
-      line_.have -= static_cast<std::size_t>(len);
+      const auto n = static_cast<std::size_t>(len);
+      std::memmove(line_.in.data(), line_.in.data() + n, line_.have - n);
+      line_.have -= n;
     }
   }
 }

@@ -92,7 +92,7 @@ class ModbusServer {
   std::int64_t accept_paused_until_ = 0;  // out of descriptors: accept again later
   std::vector<Client> clients_;           // kMaxClients slots, fd -1 when free
   // RTU
-  Client line_;             // the pty master's input, output and (fd) descriptor
+  Client line_;  // the pty master's input, output and (fd) descriptor
   std::int64_t last_byte_ns_ = 0;
 };
 

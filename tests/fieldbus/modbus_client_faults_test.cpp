@@ -148,20 +148,22 @@ TEST(ModbusClientFaultsTest, LateReplyIsStampedWithItsRequest) {
   std::string error;
   ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
   int fresh = 0;
-  ASSERT_TRUE(WaitFor([&] {
-    SensorFrame f;
-    IoError why = IoError::kNone;
-    if (device.Read(&f, &why) == IoStatus::kOk) {
-      const std::uint32_t seq = SeqOf(f);
-      const std::int64_t arrival = peer.ReadArrival(seq);
-      EXPECT_GT(arrival, 0) << "seq " << seq;
-      EXPECT_LE(f.velocity.stamp_ns, arrival)
-          << "seq " << seq << " stamped " << (f.velocity.stamp_ns - arrival) / 1000
-          << " us after its request reached the server";
-      ++fresh;
-    }
-    return fresh >= 5;
-  }, 10.0));
+  ASSERT_TRUE(WaitFor(
+      [&] {
+        SensorFrame f;
+        IoError why = IoError::kNone;
+        if (device.Read(&f, &why) == IoStatus::kOk) {
+          const std::uint32_t seq = SeqOf(f);
+          const std::int64_t arrival = peer.ReadArrival(seq);
+          EXPECT_GT(arrival, 0) << "seq " << seq;
+          EXPECT_LE(f.velocity.stamp_ns, arrival)
+              << "seq " << seq << " stamped " << (f.velocity.stamp_ns - arrival) / 1000
+              << " us after its request reached the server";
+          ++fresh;
+        }
+        return fresh >= 5;
+      },
+      10.0));
   device.Deactivate();
 }
 

@@ -46,16 +46,19 @@ class ModbusConformanceTest : public ::testing::TestWithParam<bool> {  // true: 
 
   std::unique_ptr<ChildProcess> StartHil(double duration_s) {
     auto hil = std::make_unique<ChildProcess>(std::vector<std::string>{
-        kBin + "/mrd-hil", "serve", "--port",
-        (rtu() ? "modbus-rtu=" : "modbus-tcp=") + Where(), "--duration",
-        std::to_string(duration_s), "--json"});
+        kBin + "/mrd-hil", "serve", "--port", (rtu() ? "modbus-rtu=" : "modbus-tcp=") + Where(),
+        "--duration", std::to_string(duration_s), "--json"});
     EXPECT_TRUE(Ready()) << hil->Stderr();
     return hil;
   }
   // A pymodbus server playing the driver (pymodbus_driver.py) with extra options.
   std::unique_ptr<ChildProcess> StartDriver(std::vector<std::string> options) {
-    std::vector<std::string> argv = {kPython, kTests + "pymodbus_driver.py", rtu() ? "rtu" : "tcp",
-                                     rtu() ? link_ : std::to_string(port_), "--seconds", "30"};
+    std::vector<std::string> argv = {kPython,
+                                     kTests + "pymodbus_driver.py",
+                                     rtu() ? "rtu" : "tcp",
+                                     rtu() ? link_ : std::to_string(port_),
+                                     "--seconds",
+                                     "30"};
     argv.insert(argv.end(), options.begin(), options.end());
     auto driver = std::make_unique<ChildProcess>(argv);
     EXPECT_TRUE(Ready()) << driver->Stderr();
@@ -74,9 +77,9 @@ class ModbusConformanceTest : public ::testing::TestWithParam<bool> {  // true: 
            "inputs = [\"velocity\", \"displacement\", \"demand\"]\n"
            "outputs = [\"command\", \"enable\", \"heartbeat\", \"status\"]\n";
     cfg.close();
-    return std::make_unique<ChildProcess>(std::vector<std::string>{
-        kBin + "/mrd-firmware", "--config", dir_ + "/fw.toml", "--duration",
-        std::to_string(duration_s), "--json"});
+    return std::make_unique<ChildProcess>(
+        std::vector<std::string>{kBin + "/mrd-firmware", "--config", dir_ + "/fw.toml",
+                                 "--duration", std::to_string(duration_s), "--json"});
   }
   static json Parse(ChildProcess& p) {
     const json j = json::parse(p.Stdout(), nullptr, false);
@@ -92,7 +95,8 @@ class ModbusConformanceTest : public ::testing::TestWithParam<bool> {  // true: 
 // documented, and the specification's exception code (or silence) for every wrong request.
 TEST_P(ModbusConformanceTest, PymodbusClientGetsTheDocumentedAnswersFromTheHarness) {
   auto hil = StartHil(30.0);
-  ChildProcess client({kPython, kTests + "pymodbus_conformance.py", rtu() ? "rtu" : "tcp", Where()});
+  ChildProcess client(
+      {kPython, kTests + "pymodbus_conformance.py", rtu() ? "rtu" : "tcp", Where()});
   ASSERT_EQ(client.Wait(60.0), 0) << client.Stdout() << client.Stderr();
   hil->Signal(SIGTERM);
   ASSERT_EQ(hil->Wait(20.0), 0) << hil->Stderr();
@@ -114,8 +118,8 @@ TEST_P(ModbusConformanceTest, PymodbusClientGetsTheDocumentedAnswersFromTheHarne
 // block is refused with ILLEGAL DATA ADDRESS.
 TEST_P(ModbusConformanceTest, MbpollReadsTheSensorBlockInTheDocumentedWordOrder) {
   auto hil = StartHil(30.0);
-  std::vector<std::string> common = {"/usr/bin/mbpoll", "-m", rtu() ? "rtu" : "tcp", "-a", "1",
-                                     "-1", "-o", "2"};
+  std::vector<std::string> common = {
+      "/usr/bin/mbpoll", "-m", rtu() ? "rtu" : "tcp", "-a", "1", "-1", "-o", "2"};
   if (rtu()) {
     common.insert(common.end(), {"-b", "115200", "-P", "none"});
   } else {
@@ -139,8 +143,7 @@ TEST_P(ModbusConformanceTest, MbpollReadsTheSensorBlockInTheDocumentedWordOrder)
   const double t = static_cast<double>(v[0]) * 1e-3;
   EXPECT_GT(v[0], 0);
   EXPECT_NEAR(static_cast<double>(v[2]) * 1e-5, std::sin(4.0 * M_PI * t), 1e-3) << out;
-  EXPECT_NEAR(static_cast<double>(v[1]) * 1e-4, 4.0 * M_PI * std::cos(4.0 * M_PI * t), 1e-2)
-      << out;
+  EXPECT_NEAR(static_cast<double>(v[1]) * 1e-4, 4.0 * M_PI * std::cos(4.0 * M_PI * t), 1e-2) << out;
   std::vector<std::string> write = common;
   write.insert(write.end(), {"-t", "4", "-r", "1", target, "5", "6"});  // registers 0..1
   ChildProcess refused(write);
@@ -188,9 +191,11 @@ TEST_P(ModbusConformanceTest, FirmwareSendsTheDocumentedRequests) {
   }
   EXPECT_GT(reads, 50U);
   EXPECT_GT(writes, 50U);
-  const json& blocks = log["blocks"];  // [t, echo, set_point, enable, heartbeat, state, causes, ticks]
+  // [t, echo, set_point, enable, heartbeat, state, causes, ticks]
+  const json& blocks = log["blocks"];
   ASSERT_GT(blocks.size(), 50U);
   long long last_ticks = -1, last_heartbeat = -1;
+  std::uint64_t repeated = 0;  // a block sent again (a retry after a timeout)
   for (const json& b : blocks) {
     const int set_point = b[2].get<int>() >= 0x8000 ? b[2].get<int>() - 0x10000 : b[2].get<int>();
     const int enable = b[3].get<int>(), state = b[5].get<int>();
@@ -203,7 +208,7 @@ TEST_P(ModbusConformanceTest, FirmwareSendsTheDocumentedRequests) {
       EXPECT_EQ(enable, 0) << "safe with enable on " << b.dump();
     }
     EXPECT_LT(b[6].get<int>(), 1 << 9) << "causes beyond the documented bits " << b.dump();
-    EXPECT_NE(b[4].get<long long>(), last_heartbeat) << "heartbeat repeated " << b.dump();
+    if (b[4].get<long long>() == last_heartbeat) ++repeated;
     EXPECT_GE(b[7].get<long long>(), last_ticks) << b.dump();
     last_heartbeat = b[4].get<long long>();
     last_ticks = b[7].get<long long>();
@@ -213,6 +218,8 @@ TEST_P(ModbusConformanceTest, FirmwareSendsTheDocumentedRequests) {
   EXPECT_EQ(last[3].get<int>(), 0) << "shutdown block: enable off " << last.dump();
   EXPECT_EQ(last[5].get<int>() & 1, 1) << "shutdown block: safe " << last.dump();
   const json& d = f["devices"]["modbus"];
+  // The heartbeat changes from block to block; only a retry sends one again.
+  EXPECT_LE(repeated, d["errors"]["timeout"].get<std::uint64_t>()) << d.dump();
   EXPECT_GT(d["rx_ok"].get<std::uint64_t>(), 50U) << d.dump();
   EXPECT_EQ(d["rx_rejected"].get<std::uint64_t>(), 0U) << d.dump();
 }

@@ -2,12 +2,13 @@
 // (mrd/protocol/modbus_server.hpp), pure: CRC-16 and frame lengths against the specification's
 // examples, the client's reply checks, the server's exception codes, and the RTU wire times
 // docs/modbus_registers.md quotes.
+#include "mrd/protocol/modbus_frame.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdint>
 #include <vector>
 
-#include "mrd/protocol/modbus_frame.hpp"
 #include "mrd/protocol/modbus_map.hpp"
 #include "mrd/protocol/modbus_server.hpp"
 

@@ -2,8 +2,8 @@
 // what a select() fd_set holds (FD_SETSIZE 1024: fd_set overflowed with about 1020 clients,
 // and Release aborted), and it limits its clients (32, docs/modbus_registers.md): a client
 // beyond the limit is refused at once and counted ("refused" in the port's JSON counters).
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <modbus/modbus.h>
 #include <netinet/in.h>
 #include <poll.h>

@@ -22,12 +22,12 @@
 namespace mrd::test {
 
 struct RawPeerScript {
-  int reply_delay_ms = 0;   // each reply sent this long after its request
-  int trickle_ms = 0;       // > 0: each reply byte sent alone, this long after the previous
-  std::uint16_t faults = 0; // the sensor block's faults register (12)
-  int reply_unit = -1;      // >= 0: every reply carries this unit id
-  int reply_protocol = 0;   // every reply's MBAP protocol id
-  bool silent = false;      // requests are read, never answered
+  int reply_delay_ms = 0;        // each reply sent this long after its request
+  int trickle_ms = 0;            // > 0: each reply byte sent alone, this long after the previous
+  std::uint16_t faults = 0;      // the sensor block's faults register (12)
+  int reply_unit = -1;           // >= 0: every reply carries this unit id
+  int reply_protocol = 0;        // every reply's MBAP protocol id
+  bool silent = false;           // requests are read, never answered
   bool reset_on_accept = false;  // every connection reset as soon as it is accepted
 };
 
@@ -141,14 +141,14 @@ class RawTcpPeer {
       pdu = {static_cast<std::uint8_t>(function | 0x80), 0x01};
     }
     if (script_.silent) return;
-    std::vector<std::uint8_t> rsp = {req[0], req[1],
-                                     static_cast<std::uint8_t>(script_.reply_protocol >> 8),
-                                     static_cast<std::uint8_t>(script_.reply_protocol & 0xFF),
-                                     static_cast<std::uint8_t>((pdu.size() + 1) >> 8),
-                                     static_cast<std::uint8_t>((pdu.size() + 1) & 0xFF),
-                                     script_.reply_unit >= 0
-                                         ? static_cast<std::uint8_t>(script_.reply_unit)
-                                         : req[6]};
+    std::vector<std::uint8_t> rsp = {
+        req[0],
+        req[1],
+        static_cast<std::uint8_t>(script_.reply_protocol >> 8),
+        static_cast<std::uint8_t>(script_.reply_protocol & 0xFF),
+        static_cast<std::uint8_t>((pdu.size() + 1) >> 8),
+        static_cast<std::uint8_t>((pdu.size() + 1) & 0xFF),
+        script_.reply_unit >= 0 ? static_cast<std::uint8_t>(script_.reply_unit) : req[6]};
     rsp.insert(rsp.end(), pdu.begin(), pdu.end());
     if (script_.reply_delay_ms > 0) {
       std::this_thread::sleep_for(std::chrono::milliseconds(script_.reply_delay_ms));

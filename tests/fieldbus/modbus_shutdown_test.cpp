@@ -33,8 +33,8 @@ TEST(ModbusShutdownTest, SigtermWithASilentPeerStopsWithinOneResponseTimeout) {
         << "inputs = [\"velocity\", \"displacement\", \"demand\"]\n"
         << "outputs = [\"command\", \"enable\", \"heartbeat\", \"status\"]\n";
   }
-  ChildProcess fw({std::string(MRD_BIN_DIR) + "/mrd-firmware", "--config", dir + "/fw.toml",
-                   "--json"});
+  ChildProcess fw(
+      {std::string(MRD_BIN_DIR) + "/mrd-firmware", "--config", dir + "/fw.toml", "--json"});
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   while (peer.requests() < 1 && std::chrono::steady_clock::now() < until) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));

@@ -108,9 +108,10 @@ def main():
     mode, where = sys.argv[1], sys.argv[2]
     if mode == "tcp":
         host, port = where.rsplit(":", 1)
-        c = ModbusTcpClient(host, port=int(port), timeout=1, retries=0)  # pymodbus 3.0 truncates it to whole seconds
+        # timeout in whole seconds: pymodbus 3.0 truncates it to an int
+        c = ModbusTcpClient(host, port=int(port), timeout=1, retries=0)
     else:
-        c = ModbusSerialClient(port=where, framer=ModbusRtuFramer, baudrate=115200, timeout=1,  # whole seconds (pymodbus 3.0 truncates)
+        c = ModbusSerialClient(port=where, framer=ModbusRtuFramer, baudrate=115200, timeout=1,
                                retries=0)
     if not c.connect():
         print(json.dumps([{"check": "connect", "ok": False}]), flush=True)
@@ -132,7 +133,8 @@ def main():
 
     # The command block is written with 0x10, whole or in part.
     valid = [0, 7, 1500, 1, 42, 2, 0, 0, 9]  # echo 7, 1.5 V, enable, heartbeat 42, status
-    check("write 32..40 with 0x10", "ok", outcome(c.write_registers(COMMAND_BASE, valid, slave=UNIT)))
+    check("write 32..40 with 0x10", "ok",
+          outcome(c.write_registers(COMMAND_BASE, valid, slave=UNIT)))
     back = read(COMMAND_BASE, COMMAND_COUNT)
     check("read back 32..40", valid, back.registers if outcome(back) == "ok" else outcome(back))
     check("write the set-point 34 alone with 0x10", "ok",
@@ -214,7 +216,8 @@ def main():
     if mode == "tcp":
         check("unit 2 (another unit)", GATEWAY_NO_RESPONSE, outcome(read(0, 1, unit=2)))
         check("unit 247", GATEWAY_NO_RESPONSE, outcome(read(0, 1, unit=247)))
-        check("unit 255 (Modbus TCP: the device addressed by IP)", "ok", outcome(read(0, 1, unit=255)))
+        check("unit 255 (Modbus TCP: the device addressed by IP)", "ok",
+              outcome(read(0, 1, unit=255)))
         check("unit 0 (Modbus TCP: the device addressed by IP)", "ok", outcome(read(0, 1, unit=0)))
         check("MBAP protocol id 7", NO_REPLY,
               exception_of(raw.ask(struct.pack(">BHH", 0x03, 0, 1), protocol=7), 0x03))

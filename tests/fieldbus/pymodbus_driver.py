@@ -198,6 +198,9 @@ def main():
     p.add_argument("--reply-unit", type=int)
     p.add_argument("--reply-protocol", type=int)
     options = p.parse_args()
+    # The RTU relay is a second Python thread: with the default 5 ms GIL switch interval it
+    # could wait that long behind the server's thread, a delay of this peer, not the client's.
+    sys.setswitchinterval(0.0001)
     asyncio.run(serve(options))
     return 0
 

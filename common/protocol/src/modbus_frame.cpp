@@ -90,9 +90,16 @@ int RtuReplyLength(const std::uint8_t* adu, int have) {
   const std::uint8_t f = adu[1];
   if ((f & kExceptionFlag) != 0) return 5;
   switch (f) {
-    case 0x01: case 0x02: case 0x03: case 0x04: case 0x17:  // address, function, count, data
+    case 0x01:
+    case 0x02:
+    case 0x03:
+    case 0x04:
+    case 0x17:  // address, function, count, data
       return have < 3 ? 0 : 5 + adu[2];
-    case 0x05: case 0x06: case 0x0F: case 0x10:
+    case 0x05:
+    case 0x06:
+    case 0x0F:
+    case 0x10:
       return 8;
     case 0x16:
       return 10;
@@ -104,13 +111,24 @@ int RtuReplyLength(const std::uint8_t* adu, int have) {
 int RtuRequestLength(const std::uint8_t* adu, int have) {
   if (have < 2) return 0;
   switch (adu[1]) {
-    case 0x01: case 0x02: case 0x03: case 0x04: case 0x05: case 0x06: case 0x08:
+    case 0x01:
+    case 0x02:
+    case 0x03:
+    case 0x04:
+    case 0x05:
+    case 0x06:
+    case 0x08:
       return 8;
-    case 0x07: case 0x0B: case 0x0C: case 0x11:
+    case 0x07:
+    case 0x0B:
+    case 0x0C:
+    case 0x11:
       return 4;
-    case 0x0F: case 0x10:  // address, function, start, count, byte count, data
+    case 0x0F:
+    case 0x10:  // address, function, start, count, byte count, data
       return have < 7 ? 0 : 9 + adu[6];
-    case 0x14: case 0x15:
+    case 0x14:
+    case 0x15:
       return have < 3 ? 0 : 5 + adu[2];
     case 0x16:
       return 10;

@@ -74,17 +74,21 @@ bool Retriable(IoError e) { return e == IoError::kTimeout || e == IoError::kCrc;
 
 }  // namespace
 
-// The link's wake-up policy: a stop abandons any wait; a safe block posted after a driven one
-// was written abandons a TCP request in flight (full duplex: its late reply is told by its
-// transaction id) or an RTU quiet-line wait (RTU must not talk over a reply in flight).
+// The link's wake-up policy. TCP is full duplex (a late reply is told by its transaction id):
+// a stop abandons any wait, a safe block posted after a driven one was written abandons the
+// request in flight. RTU is half duplex: nothing may be sent while a reply can be on its way,
+// so only the quiet-line wait gives way (to both); a request in flight runs to its reply or
+// its deadline.
 class ModbusDevice::Waker final : public ModbusLink::Interrupt {
  public:
   explicit Waker(ModbusDevice& d) : d_(d) {}
   bool Abandon(ModbusLink::Phase phase) override {
-    if (!d_.running_.load(std::memory_order_relaxed)) return true;
+    const bool tcp = d_.config_.mode == ModbusMode::kTcp;
+    if (!d_.running_.load(std::memory_order_relaxed)) {
+      return tcp || phase == ModbusLink::Phase::kQuiet;
+    }
     if (d_.config_.lockstep || d_.writing_safe_ || !d_.SafePending()) return false;
-    return d_.config_.mode == ModbusMode::kTcp ? phase == ModbusLink::Phase::kReply
-                                                : phase == ModbusLink::Phase::kQuiet;
+    return tcp ? phase == ModbusLink::Phase::kReply : phase == ModbusLink::Phase::kQuiet;
   }
 
  private:
@@ -210,6 +214,7 @@ bool ModbusDevice::Connect(Sample* s) {
   ever_connected_ = true;
   session_good_ = false;
   resync_ = false;
+  unanswered_since_ns_ = 0;
   have_seq_ = false;  // a new peer may restart its sequence
   return true;
 }
@@ -230,7 +235,8 @@ bool ModbusDevice::LatestCommand(Command* c) const {
 
 bool ModbusDevice::SafePending() const {
   Command c;
-  return !written_safe_ && LatestCommand(&c) && c.safe && (!any_written_ || c.tick != written_tick_);
+  return !written_safe_ && LatestCommand(&c) && c.safe &&
+         (!any_written_ || c.tick != written_tick_);
 }
 
 ModbusDevice::Outcome ModbusDevice::WriteOnce(const Command& c, IoError* why, bool interruptible) {
@@ -330,10 +336,17 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
     }
     if (!running_.load(std::memory_order_relaxed)) return Outcome::kAbandoned;
     // The reply's values are no older than this request: its stamp (however late the reply).
+    // RTU has no transaction id: while an earlier read may still be answered late, the
+    // stamp is that read's (the reply taken may be its).
     const std::int64_t sent_ns = NowNs();
+    const bool rtu = config_.mode == ModbusMode::kRtu;
+    const std::int64_t stamp_ns = rtu && unanswered_since_ns_ != 0 ? unanswered_since_ns_ : sent_ns;
     int reply_len = 0;
     const ModbusLink::Result r =
         link_->Transact(pdu, len, reply, &reply_len, &why, wake_, waker_.get());
+    if (rtu && r != ModbusLink::Result::kOk && unanswered_since_ns_ == 0) {
+      unanswered_since_ns_ = sent_ns;
+    }
     if (r == ModbusLink::Result::kAbandoned) return Outcome::kAbandoned;
     if (r == ModbusLink::Result::kOk) {
       std::uint16_t regs[map::kLockstepSensorCount] = {};
@@ -341,7 +354,8 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
       const map::Reply check = map::CheckReadReply(reply, reply_len, count, regs, &exception);
       if (check == map::Reply::kOk) {
         GoodExchange();
-        std::int64_t stamp = sent_ns;
+        unanswered_since_ns_ = 0;
+        std::int64_t stamp = stamp_ns;
         if (config_.lockstep) {
           // The grant follows its step's sensor values: they are stamped with it.
           const auto grant = static_cast<std::int64_t>(map::GetU48(regs + map::kGrant)) * 1000;

@@ -24,9 +24,9 @@ std::int64_t NowNs() {
 
 // errno of a failed send/receive on the link.
 IoError Classify(int err) {
-  if (err == ECONNRESET || err == EPIPE || err == ECONNREFUSED || err == ENOTCONN ||
-      err == EBADF || err == EIO || err == ENXIO || err == ENOENT || err == EHOSTUNREACH ||
-      err == ENETUNREACH || err == ECONNABORTED || err == ETIMEDOUT) {
+  if (err == ECONNRESET || err == EPIPE || err == ECONNREFUSED || err == ENOTCONN || err == EBADF ||
+      err == EIO || err == ENXIO || err == ENOENT || err == EHOSTUNREACH || err == ENETUNREACH ||
+      err == ECONNABORTED || err == ETIMEDOUT) {
     return IoError::kDisconnected;
   }
   return IoError::kSystem;
@@ -94,8 +94,7 @@ void ModbusLink::Close() {
 }
 
 std::int64_t ModbusLink::WireNs(int bytes) const {
-  return mb::RtuFrameNs(bytes, config_.baud, config_.data_bits, config_.parity,
-                        config_.stop_bits);
+  return mb::RtuFrameNs(bytes, config_.baud, config_.data_bits, config_.parity, config_.stop_bits);
 }
 
 ModbusLink::Result ModbusLink::Broken(IoError e, IoError* why) {
@@ -131,7 +130,8 @@ ModbusLink::Result ModbusLink::Send(const std::uint8_t* adu, int len, std::int64
   int sent = 0;
   while (sent < len) {
     const auto rest = static_cast<std::size_t>(len - sent);
-    const ssize_t n = tcp ? send(fd_, adu + sent, rest, MSG_NOSIGNAL) : write(fd_, adu + sent, rest);
+    const ssize_t n =
+        tcp ? send(fd_, adu + sent, rest, MSG_NOSIGNAL) : write(fd_, adu + sent, rest);
     if (n > 0) {
       sent += static_cast<int>(n);
       continue;
@@ -193,8 +193,8 @@ ModbusLink::Result ModbusLink::ReceiveTcp(std::uint8_t* reply, int* reply_len,
                                           std::int64_t deadline_ns, IoError* why, int wake_fd,
                                           Interrupt* interrupt) {
   while (true) {
-    Result r = ReadExactly(buf_, mb::kMbapSize, deadline_ns, Phase::kReply, why, wake_fd,
-                           interrupt);
+    Result r =
+        ReadExactly(buf_, mb::kMbapSize, deadline_ns, Phase::kReply, why, wake_fd, interrupt);
     if (r != Result::kOk) return r;
     const mb::Mbap h = mb::GetMbap(buf_);
     if (!mb::MbapLengthValid(h.length)) return Broken(IoError::kRejectedFrame, why);
@@ -217,21 +217,32 @@ ModbusLink::Result ModbusLink::ReceiveTcp(std::uint8_t* reply, int* reply_len,
   }
 }
 
-ModbusLink::Result ModbusLink::ReceiveRtu(std::uint8_t* reply, int* reply_len,
-                                          std::int64_t deadline_ns, IoError* why, int wake_fd,
-                                          Interrupt* interrupt) {
+ModbusLink::Result ModbusLink::ReceiveRtu(std::uint8_t function, std::uint8_t* reply,
+                                          int* reply_len, std::int64_t deadline_ns, IoError* why,
+                                          int wake_fd, Interrupt* interrupt) {
   int have = 0;
   int len = 0;
-  while (len <= 0 || have < len) {
+  while (true) {
+    if (len > 0 && have >= len) {
+      // A whole frame from this unit that answers another function: a late reply to an
+      // earlier request (RTU has no transaction id). Dropped; the wait goes on.
+      const bool ours =
+          buf_[1] == function || buf_[1] == (function | mb::kExceptionFlag);
+      if (ours || buf_[0] != config_.slave || !mb::RtuCrcValid(buf_, len)) break;
+      std::memmove(buf_, buf_ + len, static_cast<std::size_t>(have - len));
+      have -= len;
+      len = mb::RtuReplyLength(buf_, have);
+      continue;
+    }
     const ssize_t r = read(fd_, buf_ + have, sizeof buf_ - static_cast<std::size_t>(have));
     if (r > 0) {
       have += static_cast<int>(r);
       len = mb::RtuReplyLength(buf_, have);
-      if (len < 0 || len > static_cast<int>(sizeof buf_)) {  // no length to wait for
-        *why = IoError::kRejectedFrame;
-        return Result::kFailed;
-      }
       continue;
+    }
+    if (len < 0 || len > static_cast<int>(sizeof buf_)) {  // no length to wait for
+      *why = IoError::kRejectedFrame;
+      return Result::kFailed;
     }
     if (r < 0 && errno == EINTR) continue;
     if (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK) return Broken(Classify(errno), why);
@@ -290,14 +301,14 @@ ModbusLink::Result ModbusLink::Transact(const std::uint8_t* pdu, int len, std::u
   if (r != Result::kOk) return r;
   return config_.mode == ModbusMode::kTcp
              ? ReceiveTcp(reply, reply_len, deadline, why, wake_fd, interrupt)
-             : ReceiveRtu(reply, reply_len, deadline, why, wake_fd, interrupt);
+             : ReceiveRtu(pdu[0], reply, reply_len, deadline, why, wake_fd, interrupt);
 }
 
 bool ModbusLink::Quiet(int wake_fd, Interrupt* interrupt) {
   for (int round = 0; round < kMaxQuietRounds && fd_ >= 0; ++round) {
     tcflush(fd_, TCIFLUSH);
-    switch (WaitFor(POLLIN, NowNs() + config_.response_timeout_ns, Phase::kQuiet, wake_fd,
-                    interrupt)) {
+    switch (
+        WaitFor(POLLIN, NowNs() + config_.response_timeout_ns, Phase::kQuiet, wake_fd, interrupt)) {
       case Wait::kTimeout:
         return true;
       case Wait::kAbandoned:

@@ -12,7 +12,8 @@
 // on the wire at the configured baud rate). TCP replies are matched by transaction id: one
 // with another id (a reply that came after its timeout, or to an abandoned request) is read
 // and dropped, and the wait goes on. RTU has no transaction id: input is discarded before
-// every request, and the caller waits for a quiet line after a failure (Quiet).
+// every request, a frame from the unit that answers another function is dropped (a late
+// reply), and the caller waits for a quiet line after a failure (Quiet).
 // Every wait also watches a wake-up descriptor (eventfd): when it fires, the caller's
 // Interrupt decides whether the wait is abandoned.
 
@@ -83,15 +84,15 @@ class ModbusLink {
   enum class Wait : std::uint8_t { kReady, kTimeout, kAbandoned, kHangUp };
   Wait WaitFor(short events, std::int64_t deadline_ns, Phase phase, int wake_fd,
                Interrupt* interrupt);
-  Result Send(const std::uint8_t* adu, int len, std::int64_t deadline_ns, IoError* why,
-              int wake_fd, Interrupt* interrupt);
+  Result Send(const std::uint8_t* adu, int len, std::int64_t deadline_ns, IoError* why, int wake_fd,
+              Interrupt* interrupt);
   // Reads exactly n bytes into buf by the deadline (phase: of the first byte).
-  Result ReadExactly(std::uint8_t* buf, int n, std::int64_t deadline_ns, Phase phase,
-                     IoError* why, int wake_fd, Interrupt* interrupt);
+  Result ReadExactly(std::uint8_t* buf, int n, std::int64_t deadline_ns, Phase phase, IoError* why,
+                     int wake_fd, Interrupt* interrupt);
   Result ReceiveTcp(std::uint8_t* reply, int* reply_len, std::int64_t deadline_ns, IoError* why,
                     int wake_fd, Interrupt* interrupt);
-  Result ReceiveRtu(std::uint8_t* reply, int* reply_len, std::int64_t deadline_ns, IoError* why,
-                    int wake_fd, Interrupt* interrupt);
+  Result ReceiveRtu(std::uint8_t function, std::uint8_t* reply, int* reply_len,
+                    std::int64_t deadline_ns, IoError* why, int wake_fd, Interrupt* interrupt);
   Result Broken(IoError e, IoError* why);
   std::int64_t WireNs(int bytes) const;
 

@@ -32,7 +32,7 @@ inline constexpr int kMaxWriteCount = 123;  // registers per 0x10 request
 inline constexpr int kMaxPdu = 253;
 inline constexpr int kMbapSize = 7;
 inline constexpr int kMaxTcpAdu = kMbapSize - 1 + kMaxPdu;  // 260
-inline constexpr int kMaxRtuAdu = 1 + kMaxPdu + 2;           // 256
+inline constexpr int kMaxRtuAdu = 1 + kMaxPdu + 2;          // 256
 
 // CRC-16/MODBUS (polynomial 0xA001 reflected, initial 0xFFFF); sent low byte first.
 std::uint16_t Crc16(const std::uint8_t* data, std::size_t n);

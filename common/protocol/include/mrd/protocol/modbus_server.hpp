@@ -20,7 +20,7 @@
 namespace mrd::protocol::modbus {
 
 struct ServerAnswer {
-  int reply_len = 0;      // bytes of the reply PDU written to *reply (always > 0)
+  int reply_len = 0;       // bytes of the reply PDU written to *reply (always > 0)
   bool exception = false;  // the reply is an exception (the request was refused)
   bool wrote = false;      // a write was carried out: regs holds the new values
   bool command = false;    // ... and it touched the command block (kCommandBase..+kCommandCount)

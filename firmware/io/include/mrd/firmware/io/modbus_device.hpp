@@ -8,8 +8,9 @@
 // libmodbus opens it, the frames are built and checked there): each poll_period it writes the
 // latest posted command block (one 0x10 request, only when the loop posted a new one) and
 // reads the sensor block (one 0x03 request), stamps the sample with CLOCK_MONOTONIC when the
-// request was sent (the values are no older than the request, whenever the reply arrives),
-// and publishes it through a seqlock. The tick only copies memory: Read takes the latest
+// request was sent (the values are no older than the request, whenever the reply arrives;
+// RTU, after a read that got no reply: when that read was sent, since RTU cannot tell its
+// late reply from the next one), and publishes it through a seqlock. The tick only copies memory: Read takes the latest
 // sample (a bounded number of seqlock attempts, kNoData if the worker is mid-write every
 // time), Write posts the command into another seqlock. Nothing on the tick allocates, locks
 // or waits on the bus; Write signals an eventfd when the loop enters the safe state.
@@ -34,7 +35,9 @@
 // reason (the loop raises the modbus_bus watchdog cause) and the sample stamps age, so the
 // stale-sensor cause trips as well. A sensor block whose seq did not change since the last
 // accepted one is not new data (a frozen server goes stale). Every wait of the worker watches
-// the stop request: Deactivate returns within one response timeout (its final safe write).
+// the stop request (RTU lets a request in flight finish: half duplex): Deactivate returns
+// within two response timeouts (a TCP connect or an RTU request in flight, then its final
+// safe write).
 //
 // Lockstep (config.lockstep: [loop] clock = "grant" and no [can] bus): the device is the loop's
 // TimeGrantSource. The worker reads the sensor block and the grant register in one request
@@ -147,6 +150,7 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
 
   // Worker side.
   bool resync_ = false;           // RTU: wait for a quiet line before the next request
+  std::int64_t unanswered_since_ns_ = 0;  // RTU: a read sent then that may be answered late
   bool timed_out_ = false;        // a transaction of this cycle timed out (link suspect)
   bool session_good_ = false;     // this connection carried a good exchange
   bool any_written_ = false;
