@@ -357,7 +357,9 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Integer("stop_bits", &io.modbus.stop_bits, 1, 2, "", "RTU: stop bits."),
         Integer("slave", &io.modbus.slave, 1, 247, "", "Unit / slave id of the current driver."),
         Duration("response_timeout_ms", &io.modbus.response_timeout_ns, 1e6, 0.1, 1e4, "ms",
-                 "Timeout of one request."),
+                 "A reply must be complete within it (RTU: plus the frames' time on the "
+                 "wire); also the TCP connect timeout. A stop takes at most twice it (RTU: plus that "
+                 "wire time)."),
         Integer("retries", &io.modbus.retries, 0, 10, "",
                 "Extra attempts per transaction after a timeout or CRC error."),
         Duration("poll_period_us", &io.modbus.poll_period_ns, 1e3, 100.0, 1e6, "us",

@@ -113,7 +113,7 @@ nlohmann::json ToJson(const mrd::hil::ServeResult& r) {
                      {"max", r.latency.max_us}};
   for (const auto& [name, c] : r.ports) {
     j["ports"][name] = {{"published", c.published}, {"received", c.received},
-                        {"rejected", c.rejected}};
+                        {"rejected", c.rejected}, {"refused", c.refused}};
   }
   return j;
 }

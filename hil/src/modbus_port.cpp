@@ -1,18 +1,18 @@
-// The harness's Modbus side: a libmodbus server holding the register map of
-// docs/modbus_registers.md, over TCP ("HOST:PORT", several clients at once) or RTU on a
-// pseudo-terminal (the endpoint becomes a symlink to the pty's slave, which the firmware
-// opens as its serial device; the server talks on the master). A server thread answers the
-// requests; Publish and Poll exchange the registers with it under a mutex held only for a
-// register copy (the plant loop never waits on the wire). The sensor block is read-only:
-// a write to it gets the exception ILLEGAL DATA ADDRESS and counts as rejected.
+// The harness's Modbus side: the register map of docs/modbus_registers.md served over TCP
+// ("HOST:PORT", several clients at once) or RTU on a pseudo-terminal (the endpoint becomes a
+// symlink to the pty's slave, which the firmware opens as its serial device; the server talks
+// on the master). The wire is modbus_server.hpp's (its own thread, non-blocking descriptors);
+// the registers are here: each request is answered from a copy taken under the mutex, and a
+// write puts the command block back under it, so the plant loop (Publish, Poll, SendGrant,
+// Wait) never waits on a client. The server implements 0x03 and 0x10 (modbus_server.hpp in
+// common/protocol: the exception codes); refused requests count as rejected.
 // Lockstep: Publish stages the step's sensor block and SendGrant writes it together with the
 // grant register (13-15) under one lock, so the firmware never reads a step's values without
-// its grant (their stamp is the grant); the firmware's tick answers with one command block carrying its status, which wakes Wait.
+// its grant (their stamp is the grant); the firmware's tick answers with one command block
+// carrying its status, which wakes Wait.
 #include <arpa/inet.h>
 #include <fcntl.h>
-#include <modbus/modbus.h>
 #include <pty.h>
-#include <sys/select.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -28,8 +28,10 @@
 #include <thread>
 #include <vector>
 
+#include "modbus_server.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/protocol/modbus_map.hpp"
+#include "mrd/protocol/modbus_server.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -42,25 +44,26 @@ std::int64_t NowNs() {
   return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
 
-class ModbusPort final : public PlantPort {
+class ModbusPort final : public PlantPort, private ModbusServer::Bank {
  public:
-  ModbusPort(bool rtu, std::string endpoint) : rtu_(rtu), endpoint_(std::move(endpoint)) {}
+  ModbusPort(bool rtu, std::string endpoint)
+      : rtu_(rtu), endpoint_(std::move(endpoint)), server_(*this) {}
   ~ModbusPort() override { Close(); }
 
   const char* name() const override { return rtu_ ? "modbus-rtu" : "modbus-tcp"; }
 
   bool Open(std::string* error) override {
-    if (rtu_ ? !OpenRtu(error) : !OpenTcp(error)) return false;
-    mapping_ = modbus_mapping_new(0, 0, map::kMapSize, 0);
-    if (mapping_ == nullptr) {
-      *error = std::string(name()) + ": cannot allocate the register map";
-      return false;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      std::fill(regs_, regs_ + map::kMapSize, std::uint16_t{0});
+      // Until the firmware writes: no set-point, enable not driven, no heartbeat.
+      regs_[map::kCommandBase + map::kSetPoint] = map::kNoSetPoint;
+      regs_[map::kCommandBase + map::kEnable] = map::kEnableNotDriven;
     }
-    // Until the firmware writes: no set-point, enable not driven, no heartbeat.
-    mapping_->tab_registers[map::kCommandBase + map::kSetPoint] = map::kNoSetPoint;
-    mapping_->tab_registers[map::kCommandBase + map::kEnable] = map::kEnableNotDriven;
-    running_.store(true);
-    thread_ = std::thread([this] { Serve(); });
+    if (rtu_ ? !OpenRtu(error) : !OpenTcp(error)) return false;
+    server_.Start();
+    std::lock_guard<std::mutex> lock(mu_);
+    open_ = true;
     return true;
   }
 
@@ -83,14 +86,13 @@ class ModbusPort final : public PlantPort {
     if (map::EncodeSensors(b, regs) != map::MapError::kOk) return;  // not representable
     if (out.fault == SensorFault::kOutOfRange) regs[map::kFaults] |= 0x8000U;  // reserved bit
     std::lock_guard<std::mutex> lock(mu_);
-    if (mapping_ == nullptr) return;
     ++counters_.published;
     if (lockstep_) {  // written with the grant, so no read sees the block without it
       std::copy(regs, regs + map::kSensorCount, staged_);
       staged_valid_ = true;
       return;
     }
-    std::copy(regs, regs + map::kSensorCount, mapping_->tab_registers + map::kSensorBase);
+    std::copy(regs, regs + map::kSensorCount, regs_ + map::kSensorBase);
   }
 
   void SetLockstep(bool on) override {
@@ -102,12 +104,12 @@ class ModbusPort final : public PlantPort {
     std::uint16_t regs[3];
     map::PutU48(static_cast<std::uint64_t>(t_ns / 1000), regs);
     std::lock_guard<std::mutex> lock(mu_);
-    if (mapping_ == nullptr) return false;
+    if (!open_) return false;
     if (staged_valid_) {
-      std::copy(staged_, staged_ + map::kSensorCount, mapping_->tab_registers + map::kSensorBase);
+      std::copy(staged_, staged_ + map::kSensorCount, regs_ + map::kSensorBase);
       staged_valid_ = false;
     }
-    std::copy(regs, regs + 3, mapping_->tab_registers + map::kSensorBase + map::kGrant);
+    std::copy(regs, regs + 3, regs_ + map::kSensorBase + map::kGrant);
     return true;
   }
 
@@ -144,23 +146,13 @@ class ModbusPort final : public PlantPort {
   }
 
   void Close() override {
-    if (thread_.joinable()) {
-      running_.store(false);
-      thread_.join();
-    }
-    for (int fd : clients_) close(fd);
-    clients_.clear();
-    if (listen_fd_ >= 0) close(listen_fd_);
-    listen_fd_ = -1;
+    server_.Stop();
     if (master_fd_ >= 0) close(master_fd_);
     if (slave_fd_ >= 0) close(slave_fd_);
     if (rtu_ && master_fd_ >= 0) unlink(endpoint_.c_str());
     master_fd_ = slave_fd_ = -1;
-    if (ctx_ != nullptr) modbus_free(ctx_);
-    ctx_ = nullptr;
     std::lock_guard<std::mutex> lock(mu_);
-    if (mapping_ != nullptr) modbus_mapping_free(mapping_);
-    mapping_ = nullptr;
+    open_ = false;
   }
 
   PortCounters counters() const override {
@@ -183,19 +175,9 @@ class ModbusPort final : public PlantPort {
       *error = "modbus-tcp '" + endpoint_ + "': port must be 1-65535";
       return false;
     }
-    in_addr addr{};
-    if (inet_pton(AF_INET, host.c_str(), &addr) != 1) {
-      *error = "modbus-tcp '" + endpoint_ + "': host must be an IPv4 address";
-      return false;
-    }
-    ctx_ = modbus_new_tcp(host.c_str(), port);
-    if (ctx_ == nullptr) {
-      *error = "modbus-tcp '" + endpoint_ + "': " + modbus_strerror(errno);
-      return false;
-    }
-    listen_fd_ = modbus_tcp_listen(ctx_, 4);
-    if (listen_fd_ < 0) {
-      *error = "modbus-tcp '" + endpoint_ + "': cannot listen: " + modbus_strerror(errno);
+    std::string why;
+    if (!server_.ListenTcp(host, port, &why)) {
+      *error = "modbus-tcp '" + endpoint_ + "': " + why;
       return false;
     }
     return true;
@@ -219,116 +201,27 @@ class ModbusPort final : public PlantPort {
                std::strerror(errno);
       return false;
     }
-    // The context only frames RTU over the master fd: never connected (no device to open).
-    ctx_ = modbus_new_rtu(slave_name, 115200, 'N', 8, 1);
-    if (ctx_ == nullptr || modbus_set_slave(ctx_, 1) != 0 ||
-        modbus_set_socket(ctx_, master_fd_) != 0) {
-      *error = "modbus-rtu: " + std::string(modbus_strerror(errno));
-      return false;
-    }
-    modbus_set_byte_timeout(ctx_, 0, 20'000);
+    server_.ServeRtu(master_fd_);
     return true;
   }
 
-  void Serve() {
-    std::uint8_t query[MODBUS_RTU_MAX_ADU_LENGTH > MODBUS_TCP_MAX_ADU_LENGTH
-                           ? MODBUS_RTU_MAX_ADU_LENGTH
-                           : MODBUS_TCP_MAX_ADU_LENGTH];
-    while (running_.load()) {
-      fd_set fds;
-      FD_ZERO(&fds);
-      int max_fd = -1;
-      const auto add = [&](int fd) {
-        FD_SET(fd, &fds);
-        max_fd = std::max(max_fd, fd);
-      };
-      if (rtu_) {
-        add(master_fd_);
-      } else {
-        add(listen_fd_);
-        for (int fd : clients_) add(fd);
-      }
-      timeval tv{0, 20'000};
-      if (select(max_fd + 1, &fds, nullptr, nullptr, &tv) <= 0) continue;
-      if (!rtu_ && FD_ISSET(listen_fd_, &fds)) {
-        int listen_fd = listen_fd_;
-        const int fd = modbus_tcp_accept(ctx_, &listen_fd);
-        if (fd >= 0) clients_.push_back(fd);
-      }
-      if (rtu_) {
-        if (FD_ISSET(master_fd_, &fds)) HandleOne(master_fd_, query);
-        continue;
-      }
-      for (std::size_t i = 0; i < clients_.size();) {
-        const int fd = clients_[i];
-        if (FD_ISSET(fd, &fds) && !HandleOne(fd, query)) {
-          close(fd);
-          clients_.erase(clients_.begin() + static_cast<std::ptrdiff_t>(i));
-          continue;
-        }
-        ++i;
-      }
-    }
-  }
-
-  // Receives and answers one request on fd; false when a TCP client has gone.
-  bool HandleOne(int fd, std::uint8_t* query) {
-    modbus_set_socket(ctx_, fd);
-    const int n = modbus_receive(ctx_, query);
-    if (n == 0) return true;  // addressed to another slave (RTU)
-    if (n < 0) {
-      if (rtu_) {
-        // CRC error, truncated frame or the line hung up: drop what is buffered.
-        if (errno == EMBBADCRC || errno == ETIMEDOUT) {
-          std::lock_guard<std::mutex> lock(mu_);
-          ++counters_.rejected;
-        }
-        tcflush(master_fd_, TCIFLUSH);
-        if (errno == EIO) {
-          timespec pause{0, 5'000'000};  // slave side closed: no busy loop on EIO
-          nanosleep(&pause, nullptr);
-        }
-        return true;
-      }
-      return false;
-    }
-    const int h = modbus_get_header_length(ctx_);
-    const int function = query[h];
-    const int addr = (query[h + 1] << 8) | query[h + 2];
-    int count = 0;
-    bool write = false;
-    if (function == MODBUS_FC_WRITE_SINGLE_REGISTER) {
-      write = true;
-      count = 1;
-    } else if (function == MODBUS_FC_WRITE_MULTIPLE_REGISTERS ||
-               function == MODBUS_FC_WRITE_AND_READ_REGISTERS) {
-      write = true;
-      count = function == MODBUS_FC_WRITE_MULTIPLE_REGISTERS ? (query[h + 3] << 8) | query[h + 4]
-                                                             : (query[h + 7] << 8) | query[h + 8];
-    }
-    const int write_addr =
-        function == MODBUS_FC_WRITE_AND_READ_REGISTERS ? (query[h + 5] << 8) | query[h + 6] : addr;
-    if (write && write_addr < map::kCommandBase) {  // the sensor block is read-only
-      modbus_reply_exception(ctx_, query, MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS);
+  // ModbusServer::Bank: one request against a copy of the registers; a write goes back
+  // under the lock (the command block and the unused 41..47: the plant never writes them).
+  map::ServerAnswer Answer(const std::uint8_t* pdu, int len, std::uint8_t* reply) override {
+    std::uint16_t regs[map::kMapSize];
+    {
       std::lock_guard<std::mutex> lock(mu_);
-      ++counters_.rejected;
-      return true;
+      std::copy(regs_, regs_ + map::kMapSize, regs);
     }
+    const map::ServerAnswer a = map::AnswerRequest(pdu, len, regs, reply);
     std::lock_guard<std::mutex> lock(mu_);
-    std::uint16_t before[map::kCommandCount];
-    std::copy(mapping_->tab_registers + map::kCommandBase,
-              mapping_->tab_registers + map::kCommandBase + map::kCommandCount, before);
-    if (modbus_reply(ctx_, query, n, mapping_) < 0) return rtu_;
-    if (!write || write_addr + count <= map::kCommandBase ||
-        write_addr >= map::kCommandBase + map::kCommandCount) {
-      return true;
-    }
+    if (a.exception) ++counters_.rejected;
+    if (!a.wrote) return a;
+    std::copy(regs + map::kCommandBase, regs + map::kMapSize, regs_ + map::kCommandBase);
     map::CommandBlock c;
-    if (map::DecodeCommand(mapping_->tab_registers + map::kCommandBase, &c) != map::MapError::kOk) {
-      // Undefined codes: keep the last valid block.
-      std::copy(before, before + map::kCommandCount, mapping_->tab_registers + map::kCommandBase);
-      ++counters_.rejected;
-      return true;
+    if (!a.command ||
+        map::DecodeCommand(regs_ + map::kCommandBase, &c) != map::MapError::kOk) {
+      return a;
     }
     const std::int64_t now = NowNs();
     ++counters_.received;
@@ -340,19 +233,25 @@ class ModbusPort final : public PlantPort {
     command_ns_ = now;
     pending_ = true;
     written_.notify_all();
-    return true;
+    return a;
+  }
+  void CountRejected() override {
+    std::lock_guard<std::mutex> lock(mu_);
+    ++counters_.rejected;
+  }
+  void CountRefused() override {
+    std::lock_guard<std::mutex> lock(mu_);
+    ++counters_.refused;
   }
 
   const bool rtu_;
   const std::string endpoint_;
-  modbus_t* ctx_ = nullptr;
-  int listen_fd_ = -1, master_fd_ = -1, slave_fd_ = -1;
-  std::vector<int> clients_;  // server thread only
-  std::thread thread_;
-  std::atomic<bool> running_{false};
+  int master_fd_ = -1, slave_fd_ = -1;
+  ModbusServer server_;
 
   mutable std::mutex mu_;  // guards everything below
-  modbus_mapping_t* mapping_ = nullptr;
+  bool open_ = false;
+  std::uint16_t regs_[map::kMapSize] = {};  // holding registers 0..47
   map::CommandBlock last_;
   bool pending_ = false;
   std::int64_t command_ns_ = 0;

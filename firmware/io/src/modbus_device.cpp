@@ -1,6 +1,5 @@
 #include "mrd/firmware/io/modbus_device.hpp"
 
-#include <modbus/modbus.h>
 #include <poll.h>
 #include <sys/eventfd.h>
 #include <unistd.h>
@@ -11,8 +10,10 @@
 #include <ctime>
 #include <memory>
 
+#include "modbus_link.hpp"
 #include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/telemetry.hpp"
+#include "mrd/protocol/modbus_frame.hpp"
 #include "mrd/protocol/modbus_map.hpp"
 
 namespace mrd::firmware {
@@ -20,12 +21,10 @@ namespace {
 
 namespace map = mrd::protocol::modbus;
 
-constexpr int kMaxFailedCycles = 3;  // then close and reconnect
+constexpr int kMaxFailedCycles = 3;  // cycles in a row with a timeout, then reconnect
 constexpr std::int64_t kBackoffMinNs = 5'000'000;
 constexpr std::int64_t kBackoffMaxNs = 200'000'000;
-constexpr std::int64_t kSleepSliceNs = 5'000'000;  // Deactivate waits at most this long
-constexpr int kReadAttempts = 4;                   // seqlock attempts per Read on the tick
-constexpr int kMaxResyncRounds = 4;  // quiet-line waits after a failed exchange, at most
+constexpr int kReadAttempts = 4;  // seqlock attempts per Read on the tick
 
 constexpr std::int64_t kLockstepIdleNs = 20'000;             // between reads without a new grant
 constexpr std::int64_t kLockstepCommandWaitNs = 100'000'000;  // for the tick's command
@@ -44,109 +43,98 @@ void SleepUntil(std::int64_t t_ns) {
   }
 }
 
-// eventfd wake-ups (lockstep). Signal never blocks (a full counter is already a wake-up).
+// eventfd wake-ups. Signal never blocks (a full counter is already a wake-up).
 void Signal(int fd) {
+  if (fd < 0) return;
   const std::uint64_t one = 1;
   (void)!write(fd, &one, sizeof one);
 }
-// Waits for fd's signal (consumed) at most timeout_ns, in slices so a stop request is seen.
-bool WaitEvent(int fd, std::int64_t timeout_ns, const std::atomic<bool>& running) {
-  const std::int64_t until = NowNs() + timeout_ns;
-  for (std::int64_t now = NowNs(); now < until && running.load(std::memory_order_relaxed);
-       now = NowNs()) {
-    const std::int64_t wait = until - now < kSleepSliceNs ? until - now : kSleepSliceNs;
-    const timespec ts{static_cast<time_t>(wait / 1'000'000'000), static_cast<long>(wait % 1'000'000'000)};
+// Waits until t_ns or fd's signal (consumed); true when signalled.
+bool WaitEventUntil(int fd, std::int64_t t_ns) {
+  while (true) {
+    const std::int64_t left = t_ns - NowNs();
+    if (left <= 0) return false;
+    const timespec ts{static_cast<time_t>(left / 1'000'000'000),
+                      static_cast<long>(left % 1'000'000'000)};
     pollfd p{fd, POLLIN, 0};
-    if (ppoll(&p, 1, &ts, nullptr) > 0) {
+    const int r = ppoll(&p, 1, &ts, nullptr);
+    if (r > 0) {
       std::uint64_t n = 0;
       (void)!read(fd, &n, sizeof n);
       return true;
     }
+    if (r < 0 && errno != EINTR) {
+      SleepUntil(t_ns);
+      return false;
+    }
   }
-  return false;
-}
-
-// libmodbus errno -> why.
-IoError Classify(int err) {
-  if (err == ETIMEDOUT) return IoError::kTimeout;
-  if (err == EMBBADCRC) return IoError::kCrc;
-  if (err >= EMBXILFUN && err <= EMBXGTAR) return IoError::kException;
-  if (err == EMBBADDATA || err == EMBBADEXC || err == EMBUNKEXC || err == EMBMDATA ||
-      err == EMBBADSLAVE) {
-    return IoError::kRejectedFrame;
-  }
-  if (err == ECONNRESET || err == EPIPE || err == ECONNREFUSED || err == ENOTCONN || err == EBADF ||
-      err == EIO || err == ENXIO || err == ENOENT || err == EHOSTUNREACH || err == ENETUNREACH ||
-      err == ECONNABORTED) {
-    return IoError::kDisconnected;
-  }
-  return IoError::kSystem;
 }
 
 bool Retriable(IoError e) { return e == IoError::kTimeout || e == IoError::kCrc; }
 
-void SetTimeout(modbus_t* ctx, std::int64_t ns) {
-  const auto sec = static_cast<std::uint32_t>(ns / 1'000'000'000);
-  const auto usec = static_cast<std::uint32_t>((ns % 1'000'000'000) / 1000);
-  modbus_set_response_timeout(ctx, sec, usec);
-  modbus_set_byte_timeout(ctx, sec, usec);
-}
-
 }  // namespace
 
-ModbusDevice::ModbusDevice(const ModbusConfig& config) : config_(config) {}
+// The link's wake-up policy. TCP is full duplex (a late reply is told by its transaction id):
+// a stop abandons any wait, a safe block posted after a driven one was written abandons the
+// request in flight. RTU is half duplex: nothing may be sent while a reply can be on its way,
+// so only the quiet-line wait gives way (to both); a request in flight runs to its reply or
+// its deadline.
+class ModbusDevice::Waker final : public ModbusLink::Interrupt {
+ public:
+  explicit Waker(ModbusDevice& d) : d_(d) {}
+  bool Abandon(ModbusLink::Phase phase) override {
+    const bool tcp = d_.config_.mode == ModbusMode::kTcp;
+    if (!d_.running_.load(std::memory_order_relaxed)) {
+      return tcp || phase == ModbusLink::Phase::kQuiet;
+    }
+    if (d_.config_.lockstep || d_.writing_safe_ || !d_.SafePending()) return false;
+    return tcp ? phase == ModbusLink::Phase::kReply : phase == ModbusLink::Phase::kQuiet;
+  }
+
+ private:
+  ModbusDevice& d_;
+};
+
+ModbusDevice::ModbusDevice(const ModbusConfig& config)
+    : config_(config),
+      link_(std::make_unique<ModbusLink>(config)),
+      waker_(std::make_unique<Waker>(*this)) {}
 
 ModbusDevice::~ModbusDevice() {
   Deactivate();
-  if (ctx_ != nullptr) modbus_free(ctx_);
+  link_.reset();
+  if (wake_ >= 0) close(wake_);
   if (grant_event_ >= 0) close(grant_event_);
-  if (command_event_ >= 0) close(command_event_);
 }
 
 bool ModbusDevice::Configure(std::string* error) {
-  if (ctx_ != nullptr) return true;
-  if (config_.lockstep && grant_event_ < 0) {
-    grant_event_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    command_event_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    if (grant_event_ < 0 || command_event_ < 0) {
-      *error = std::string("modbus: eventfd: ") + std::strerror(errno);
-      return false;
-    }
+  if (configured_) return true;
+  if (wake_ < 0) wake_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (config_.lockstep && grant_event_ < 0) grant_event_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (wake_ < 0 || (config_.lockstep && grant_event_ < 0)) {
+    *error = std::string("modbus: eventfd: ") + std::strerror(errno);
+    return false;
   }
-  if (config_.mode == ModbusMode::kTcp) {
-    const std::string port = std::to_string(config_.port);
-    ctx_ = modbus_new_tcp_pi(config_.host.c_str(), port.c_str());
+  if (!link_->Create(error)) return false;
+  configured_ = true;
+  backoff_ns_ = kBackoffMinNs;
+  if (link_->Open()) {
+    ever_connected_ = true;
   } else {
-    ctx_ = modbus_new_rtu(config_.device.c_str(), config_.baud, config_.parity, config_.data_bits,
-                          config_.stop_bits);
-  }
-  if (ctx_ == nullptr) {
-    *error = std::string("modbus: cannot create the ") +
-             (config_.mode == ModbusMode::kTcp ? "TCP" : "RTU") +
-             " context: " + modbus_strerror(errno);
-    return false;
-  }
-  if (modbus_set_slave(ctx_, config_.slave) != 0) {
-    *error = std::string("modbus: slave ") + std::to_string(config_.slave) + ": " +
-             modbus_strerror(errno);
-    return false;
-  }
-  SetTimeout(ctx_, config_.response_timeout_ns);
-  if (!Connect()) {
     const std::string where = config_.mode == ModbusMode::kTcp
                                   ? config_.host + ":" + std::to_string(config_.port)
                                   : config_.device;
     std::fprintf(stderr,
                  "warning: modbus: cannot connect to %s yet (%s); retrying in the "
                  "background, the loop stays in the safe state until data arrives\n",
-                 where.c_str(), modbus_strerror(errno));
+                 where.c_str(), std::strerror(errno));
   }
   return true;
 }
 
 bool ModbusDevice::Activate(std::string* error) {
   if (thread_started_) return true;
-  if (ctx_ == nullptr && !Configure(error)) return false;
+  if (!configured_ && !Configure(error)) return false;
   running_.store(true);
   const int rc = pthread_create(&thread_, nullptr, &ModbusDevice::WorkerMain, this);
   if (rc != 0) {
@@ -161,18 +149,23 @@ bool ModbusDevice::Activate(std::string* error) {
 void ModbusDevice::Deactivate() {
   if (thread_started_) {
     running_.store(false);
+    Signal(wake_);  // every wait of the worker watches it
     pthread_join(thread_, nullptr);
     thread_started_ = false;
   }
-  if (ctx_ == nullptr) return;
-  if (connected_ && (config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
+  if (!configured_) return;
+  if (link_->open() && !link_->broken() &&
+      (config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
     Command safe;
     safe.tick = command_.Read().tick + 1;
     safe.echo = last_seq_;
     IoError why = IoError::kNone;
-    (void)WriteCommand(safe, &why);  // best effort: the peer may be gone
+    // Best effort, one attempt: the peer may be gone.
+    if (WriteOnce(safe, &why, /*interruptible=*/false) != Outcome::kOk) {
+      tx_failed_.fetch_add(1, std::memory_order_relaxed);
+    }
   }
-  Disconnect();
+  link_->Close();
 }
 
 void* ModbusDevice::WorkerMain(void* self) {
@@ -180,68 +173,73 @@ void* ModbusDevice::WorkerMain(void* self) {
   return nullptr;
 }
 
-bool ModbusDevice::Connect() {
-  if (modbus_connect(ctx_) != 0) {
-    connected_ = false;
-    return false;
-  }
-  connected_ = true;
-  if (ever_connected_) reconnects_.fetch_add(1, std::memory_order_relaxed);
-  ever_connected_ = true;
-  resync_ = false;
-  modbus_flush(ctx_);
-  return true;
-}
-
-void ModbusDevice::Disconnect() {
-  if (connected_) modbus_close(ctx_);
-  connected_ = false;
-}
-
-void ModbusDevice::Resync() {
-  // A failed exchange may leave a reply on its way: the peer answered after the timeout, or
-  // the rest of a frame torn by a stall. RTU has no transaction id, so that late reply would
-  // be taken as the answer to the next request, and each reply after it refused as the wrong
-  // one: one late peer became a run of refused frames. Discard input until the line has been
-  // quiet for one response timeout (at most kMaxResyncRounds waits; worker thread only),
-  // before the next request: the failure itself is reported at once.
-  resync_ = false;
-  const int fd = modbus_get_socket(ctx_);
-  const std::int64_t quiet = config_.response_timeout_ns;
-  const timespec ts{static_cast<time_t>(quiet / 1'000'000'000),
-                    static_cast<long>(quiet % 1'000'000'000)};
-  for (int round = 0; round < kMaxResyncRounds; ++round) {
-    modbus_flush(ctx_);
-    if (fd < 0 || !running_.load(std::memory_order_relaxed)) return;
-    pollfd p{fd, POLLIN, 0};
-    if (ppoll(&p, 1, &ts, nullptr) <= 0) return;  // quiet (or an error the next request sees)
-  }
-  modbus_flush(ctx_);
-}
-
 void ModbusDevice::Count(IoError e) {
   errors_[static_cast<std::size_t>(e)].fetch_add(1, std::memory_order_relaxed);
   last_error_.store(static_cast<std::uint8_t>(e), std::memory_order_relaxed);
 }
 
-bool ModbusDevice::ReadSensors(std::uint16_t* regs, int count, IoError* why) {
-  for (int attempt = 0; attempt <= config_.retries; ++attempt) {
-    if (resync_) Resync();
-    if (modbus_read_registers(ctx_, map::kSensorBase, count, regs) == count) {
-      return true;
-    }
-    *why = Classify(errno);
-    Count(*why);
-    if (*why != IoError::kTimeout && *why != IoError::kDisconnected) {
-      rx_rejected_.fetch_add(1, std::memory_order_relaxed);  // a reply came and was refused
-    }
-    resync_ = *why != IoError::kDisconnected;
-    if (!Retriable(*why)) return false;
+void ModbusDevice::Failed(IoError e, bool reply_refused) {
+  Count(e);
+  if (reply_refused) rx_rejected_.fetch_add(1, std::memory_order_relaxed);
+  if (e == IoError::kTimeout) timed_out_ = true;
+  // RTU has no transaction id: a late or torn reply must not meet the next request.
+  if (config_.mode == ModbusMode::kRtu &&
+      (e == IoError::kTimeout || e == IoError::kCrc || e == IoError::kRejectedFrame)) {
+    resync_ = true;
   }
-  return false;
 }
 
-bool ModbusDevice::WriteCommand(const Command& c, IoError* why) {
+void ModbusDevice::GoodExchange() {
+  session_good_ = true;
+  backoff_ns_ = kBackoffMinNs;
+}
+
+bool ModbusDevice::Connect(Sample* s) {
+  if (link_->open()) return true;
+  if (NowNs() < connect_at_ns_) {  // backoff after a failed session or connect
+    WaitEventUntil(wake_, connect_at_ns_);
+    return false;
+  }
+  if (!link_->Open()) {
+    Count(IoError::kDisconnected);
+    s->read_failed = config_.inputs != 0 || config_.lockstep;
+    s->write_failed = config_.outputs != 0;
+    s->why = IoError::kDisconnected;
+    sample_.Write(*s);
+    connect_at_ns_ = NowNs() + backoff_ns_;
+    backoff_ns_ = backoff_ns_ * 2 > kBackoffMaxNs ? kBackoffMaxNs : backoff_ns_ * 2;
+    return false;
+  }
+  if (ever_connected_) reconnects_.fetch_add(1, std::memory_order_relaxed);
+  ever_connected_ = true;
+  session_good_ = false;
+  resync_ = false;
+  unanswered_since_ns_ = 0;
+  have_seq_ = false;  // a new peer may restart its sequence
+  return true;
+}
+
+void ModbusDevice::EndSession() {
+  link_->Close();
+  // Every session that ends is followed by the backoff; it doubles while sessions fail
+  // without one good exchange (a peer that accepts and resets is not hammered).
+  connect_at_ns_ = NowNs() + backoff_ns_;
+  backoff_ns_ = backoff_ns_ * 2 > kBackoffMaxNs ? kBackoffMaxNs : backoff_ns_ * 2;
+}
+
+bool ModbusDevice::LatestCommand(Command* c) const {
+  if (command_.version() == 0) return false;
+  *c = command_.Read();
+  return true;
+}
+
+bool ModbusDevice::SafePending() const {
+  Command c;
+  return !written_safe_ && LatestCommand(&c) && c.safe &&
+         (!any_written_ || c.tick != written_tick_);
+}
+
+ModbusDevice::Outcome ModbusDevice::WriteOnce(const Command& c, IoError* why, bool interruptible) {
   map::CommandBlock b;
   b.echo = c.echo;
   b.has_set_point = (config_.outputs & Bit(Output::kCommand)) != 0;
@@ -255,138 +253,186 @@ bool ModbusDevice::WriteCommand(const Command& c, IoError* why) {
   b.has_status = (config_.outputs & Bit(Output::kStatus)) != 0;
   b.causes = status_causes_.load(std::memory_order_relaxed);
   b.ticks = status_ticks_.load(std::memory_order_relaxed);
+  written_tick_ = c.tick;  // sent or failed, a command is not sent again
+  any_written_ = true;
   std::uint16_t regs[map::kCommandCount] = {};
   if (map::EncodeCommand(b, regs) != map::MapError::kOk) {
     *why = IoError::kBadValue;  // a set-point outside the register's range is not sent
-    Count(*why);
-    tx_failed_.fetch_add(1, std::memory_order_relaxed);
-    return false;
+    Failed(*why, false);
+    return Outcome::kFailed;
   }
-  for (int attempt = 0; attempt <= config_.retries; ++attempt) {
-    if (resync_) Resync();
-    if (modbus_write_registers(ctx_, map::kCommandBase, map::kCommandCount, regs) ==
-        map::kCommandCount) {
-      tx_ok_.fetch_add(1, std::memory_order_relaxed);
-      return true;
+  std::uint8_t pdu[map::kMaxPdu], reply[map::kMaxPdu];
+  const int len = map::PutWriteRequest(map::kCommandBase, regs, map::kCommandCount, pdu);
+  int reply_len = 0;
+  writing_safe_ = c.safe;
+  const ModbusLink::Result r = link_->Transact(pdu, len, reply, &reply_len, why,
+                                               interruptible ? wake_ : -1, waker_.get());
+  writing_safe_ = false;
+  if (r == ModbusLink::Result::kAbandoned) {
+    if (!link_->broken()) written_safe_ = c.safe;  // it went out; its reply will be dropped
+    return Outcome::kAbandoned;
+  }
+  if (r == ModbusLink::Result::kOk) {
+    std::uint8_t exception = 0;
+    switch (map::CheckWriteReply(reply, reply_len, map::kCommandBase, map::kCommandCount,
+                                 &exception)) {
+      case map::Reply::kOk:
+        tx_ok_.fetch_add(1, std::memory_order_relaxed);
+        written_safe_ = c.safe;
+        GoodExchange();
+        return Outcome::kOk;
+      case map::Reply::kException:
+        *why = IoError::kException;
+        break;
+      case map::Reply::kMalformed:
+        *why = IoError::kRejectedFrame;
+        break;
     }
-    *why = Classify(errno);
-    Count(*why);
-    resync_ = *why != IoError::kDisconnected;
-    if (!Retriable(*why)) break;
   }
-  tx_failed_.fetch_add(1, std::memory_order_relaxed);
-  return false;
+  if (*why != IoError::kDisconnected) written_safe_ = c.safe;  // the request went out
+  Failed(*why, false);
+  return Outcome::kFailed;
 }
 
-void ModbusDevice::Work() {
-  const bool reads = config_.inputs != 0;
-  const bool writes = config_.outputs != 0;
-  Sample s;  // the worker's copy of what it publishes
-  std::uint64_t written_tick = 0;
-  bool any_written = false;
-  bool have_seq = false;
-  int failed_cycles = 0;
-  std::int64_t backoff_ns = kBackoffMinNs;
-  std::int64_t next = NowNs();
-  while (running_.load(std::memory_order_relaxed)) {
-    if (!connected_) {
-      if (!Connect()) {
-        Count(IoError::kDisconnected);
-        s.read_failed = reads;
-        s.write_failed = writes;
-        s.why = IoError::kDisconnected;
-        sample_.Write(s);
-        const std::int64_t until = NowNs() + backoff_ns;
-        backoff_ns = backoff_ns * 2 > kBackoffMaxNs ? kBackoffMaxNs : backoff_ns * 2;
-        for (std::int64_t t = NowNs(); t < until && running_.load(std::memory_order_relaxed);
-             t = NowNs()) {
-          SleepUntil(t + kSleepSliceNs < until ? t + kSleepSliceNs : until);
-        }
-        next = NowNs();
-        continue;
-      }
-      backoff_ns = kBackoffMinNs;
-      failed_cycles = 0;
-      have_seq = false;  // a new peer may restart its sequence
+ModbusDevice::Outcome ModbusDevice::WriteLatest(Sample* s) {
+  Command c;
+  if (!LatestCommand(&c) || (any_written_ && c.tick == written_tick_)) return Outcome::kNothing;
+  IoError why = IoError::kNone;
+  for (int attempt = 0; attempt <= config_.retries;) {
+    if (resync_) {
+      resync_ = false;
+      (void)link_->Quiet(wake_, waker_.get());  // gives way to a safe block
     }
+    if (!running_.load(std::memory_order_relaxed)) return Outcome::kAbandoned;
+    (void)LatestCommand(&c);  // the newest block, at the moment it is written
+    const Outcome o = WriteOnce(c, &why, /*interruptible=*/true);
+    if (o == Outcome::kOk) {
+      s->write_failed = false;
+      return o;
+    }
+    if (o == Outcome::kAbandoned) {
+      if (!running_.load(std::memory_order_relaxed) || link_->broken()) return o;
+      continue;  // a safe block supersedes the one in flight: written now, not a retry
+    }
+    if (!Retriable(why) || link_->broken()) break;
+    ++attempt;
+  }
+  tx_failed_.fetch_add(1, std::memory_order_relaxed);
+  s->write_failed = true;
+  s->why = why;
+  return Outcome::kFailed;
+}
 
-    bool cycle_failed = false;
-    IoError why = IoError::kNone;
-    if (writes) {
-      Command c;
-      if (command_.TryRead(&c) && command_.version() > 0 &&
-          (!any_written || c.tick != written_tick)) {
-        // Sent or failed (after retries), a command is not sent again: the loop's next
-        // one supersedes it.
-        s.write_failed = !WriteCommand(c, &why);
-        written_tick = c.tick;
-        any_written = true;
-        if (s.write_failed) {
-          cycle_failed = true;
-          s.why = why;
-        }
-      }
+ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
+  Sample& s = *out;
+  const int count = config_.lockstep ? map::kLockstepSensorCount : map::kSensorCount;
+  std::uint8_t pdu[8], reply[map::kMaxPdu];
+  const int len = map::PutReadRequest(map::kSensorBase, count, pdu);
+  IoError why = IoError::kNone;
+  for (int attempt = 0; attempt <= config_.retries; ++attempt) {
+    if (resync_) {
+      resync_ = false;
+      if (!link_->Quiet(wake_, waker_.get())) return Outcome::kAbandoned;
     }
-    bool new_grant = false;
-    if ((reads || config_.lockstep) && connected_ && why != IoError::kDisconnected) {
+    if (!running_.load(std::memory_order_relaxed)) return Outcome::kAbandoned;
+    // The reply's values are no older than this request: its stamp (however late the reply).
+    // RTU has no transaction id: while an earlier read may still be answered late, the
+    // stamp is that read's (the reply taken may be its).
+    const std::int64_t sent_ns = NowNs();
+    const bool rtu = config_.mode == ModbusMode::kRtu;
+    const std::int64_t stamp_ns = rtu && unanswered_since_ns_ != 0 ? unanswered_since_ns_ : sent_ns;
+    int reply_len = 0;
+    const ModbusLink::Result r =
+        link_->Transact(pdu, len, reply, &reply_len, &why, wake_, waker_.get());
+    if (rtu && r != ModbusLink::Result::kOk && unanswered_since_ns_ == 0) {
+      unanswered_since_ns_ = sent_ns;
+    }
+    if (r == ModbusLink::Result::kAbandoned) return Outcome::kAbandoned;
+    if (r == ModbusLink::Result::kOk) {
       std::uint16_t regs[map::kLockstepSensorCount] = {};
-      IoError rwhy = IoError::kNone;
-      const int count = config_.lockstep ? map::kLockstepSensorCount : map::kSensorCount;
-      if (ReadSensors(regs, count, &rwhy)) {
-        std::int64_t stamp = NowNs();
+      std::uint8_t exception = 0;
+      const map::Reply check = map::CheckReadReply(reply, reply_len, count, regs, &exception);
+      if (check == map::Reply::kOk) {
+        GoodExchange();
+        unanswered_since_ns_ = 0;
+        std::int64_t stamp = stamp_ns;
         if (config_.lockstep) {
           // The grant follows its step's sensor values: they are stamped with it.
           const auto grant = static_cast<std::int64_t>(map::GetU48(regs + map::kGrant)) * 1000;
-          new_grant = grant > s.grant_ns;
-          if (new_grant) s.grant_ns = grant;
+          *new_grant = grant > s.grant_ns;
+          if (*new_grant) s.grant_ns = grant;
           stamp = s.grant_ns;
         }
         map::SensorBlock b;
         if (map::DecodeSensors(regs, &b) != map::MapError::kOk) {
-          rwhy = IoError::kBadValue;
-          Count(rwhy);
-          rx_rejected_.fetch_add(1, std::memory_order_relaxed);
-          s.read_failed = true;
-          s.why = rwhy;
-          cycle_failed = true;
-        } else {
-          s.read_failed = false;
-          if (!have_seq || b.seq != s.seq) {  // a repeated seq is not new data
-            have_seq = true;
-            s.seq = b.seq;
-            s.stamp_ns = stamp;
-            s.velocity = b.velocity;
-            s.displacement = b.displacement;
-            s.demand = b.demand;
-            s.body_velocity = b.body_velocity;
-            s.force = b.force;
-            s.fault_line = b.fault_line || b.driver_fault;
-            ++s.accepted;
-            rx_ok_.fetch_add(1, std::memory_order_relaxed);
-          }
+          why = IoError::kBadValue;  // a well-formed reply with undefined bits: not retried
+          Failed(why, true);
+          break;
         }
-      } else {
-        s.read_failed = true;
-        s.why = rwhy;
-        why = rwhy;
-        cycle_failed = true;
+        s.read_failed = false;
+        if (!have_seq_ || b.seq != s.seq) {  // a repeated seq is not new data
+          have_seq_ = true;
+          s.seq = b.seq;
+          s.stamp_ns = stamp;
+          s.velocity = b.velocity;
+          s.displacement = b.displacement;
+          s.demand = b.demand;
+          s.body_velocity = b.body_velocity;
+          s.force = b.force;
+          s.fault_line = b.fault_line || b.driver_fault;
+          ++s.accepted;
+          rx_ok_.fetch_add(1, std::memory_order_relaxed);
+        }
+        return Outcome::kOk;
       }
+      why = check == map::Reply::kException ? IoError::kException : IoError::kRejectedFrame;
+      Failed(why, true);
+    } else {
+      // A reply that came and was refused (CRC, unit id, framing) counts as rejected.
+      Failed(why, why != IoError::kTimeout && why != IoError::kDisconnected);
     }
+    if (!Retriable(why) || link_->broken()) break;
+  }
+  s.read_failed = true;
+  s.why = why;
+  return Outcome::kFailed;
+}
+
+void ModbusDevice::Work() {
+  const bool reads = config_.inputs != 0 || config_.lockstep;
+  const bool writes = config_.outputs != 0;
+  Sample s;  // the worker's copy of what it publishes
+  int timed_out_cycles = 0;
+  std::int64_t next = NowNs();
+  while (running_.load(std::memory_order_relaxed)) {
+    if (!Connect(&s)) {
+      timed_out_cycles = 0;
+      next = NowNs();
+      continue;
+    }
+    timed_out_ = false;
+    Outcome w = Outcome::kNothing, r = Outcome::kNothing;
+    if (writes) w = WriteLatest(&s);
+    bool new_grant = false;
+    if (reads && w != Outcome::kAbandoned && !link_->broken()) r = ReadSensors(&s, &new_grant);
     if (!s.read_failed && !s.write_failed) s.why = IoError::kNone;
     sample_.Write(s);
 
-    failed_cycles = cycle_failed ? failed_cycles + 1 : 0;
-    if (why == IoError::kDisconnected || failed_cycles >= kMaxFailedCycles) {
-      Disconnect();
-      failed_cycles = 0;
+    // Only link failures reconnect: a protocol-level failure (exception, refused frame, bad
+    // value, CRC) keeps a link that carries frames.
+    timed_out_cycles = timed_out_ ? timed_out_cycles + 1 : 0;
+    if (link_->broken() || timed_out_cycles >= kMaxFailedCycles) {
+      EndSession();
+      timed_out_cycles = 0;
       continue;
     }
+    if (w == Outcome::kAbandoned || r == Outcome::kAbandoned) continue;  // a safe block, now
     if (config_.lockstep) {
       // A new grant: wake the loop, wait for its tick's command (written at the top of the
       // next cycle). Else read again soon: the harness sets the next grant after our command.
       if (new_grant) {
         Signal(grant_event_);
-        WaitEvent(command_event_, kLockstepCommandWaitNs, running_);
+        (void)WaitEventUntil(wake_, NowNs() + kLockstepCommandWaitNs);
       } else {
         SleepUntil(NowNs() + kLockstepIdleNs);
       }
@@ -395,7 +441,7 @@ void ModbusDevice::Work() {
     next += config_.poll_period_ns;
     const std::int64_t now = NowNs();
     if (next < now) next = now;  // behind (slow peer): no catch-up burst
-    SleepUntil(next);
+    if (!SafePending()) (void)WaitEventUntil(wake_, next);
   }
 }
 
@@ -413,7 +459,7 @@ IoStatus ModbusDevice::Read(SensorFrame* frame, IoError* why) {
   }
   if (s.accepted > 0) {
     // The loop starts every period from an empty frame: the latest values always go in,
-    // with the stamps of when they arrived (so old data ages into the stale cause).
+    // with the stamps of their requests (so old data ages into the stale cause).
     const std::uint32_t in = config_.inputs;
     if ((in & Bit(Input::kVelocity)) != 0) frame->velocity = {s.velocity, s.stamp_ns};
     if ((in & Bit(Input::kDisplacement)) != 0) frame->displacement = {s.displacement, s.stamp_ns};
@@ -437,6 +483,9 @@ IoStatus ModbusDevice::Write(const DriverCommand& cmd, IoError* why) {
   c.safe = cmd.safe;
   c.echo = last_seq_;
   command_.Write(c);
+  // Entering the safe state: the worker writes this block at once (lockstep: PublishStatus).
+  if (c.safe && !posted_safe_ && !config_.lockstep) Signal(wake_);
+  posted_safe_ = c.safe;
   Sample s;
   if (sample_.TryRead(&s)) {  // the worker's latest word on writes (else: as of Read)
     last_write_failed_ = s.write_failed;
@@ -455,7 +504,7 @@ void ModbusDevice::PublishStatus(const TelemetrySnapshot& stats) {
   status_ticks_.store(static_cast<std::uint32_t>(stats.ticks & 0xFFFFFFFFU),
                       std::memory_order_relaxed);
   // Lockstep: the tick's command and status are posted; the worker writes them now.
-  if (config_.lockstep) Signal(command_event_);
+  if (config_.lockstep) Signal(wake_);
 }
 
 bool ModbusDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {

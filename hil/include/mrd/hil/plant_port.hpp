@@ -58,6 +58,8 @@ struct PortCounters {
   std::uint64_t published = 0;  // sensor messages / register updates
   std::uint64_t received = 0;   // commands and heartbeats heard
   std::uint64_t rejected = 0;   // malformed messages from the firmware
+  std::uint64_t refused = 0;    // Modbus TCP: clients refused (over the limit) or dropped
+                                // (a request not complete in time, replies not read)
 };
 
 class PlantPort {

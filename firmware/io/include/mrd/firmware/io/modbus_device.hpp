@@ -1,27 +1,43 @@
 #pragma once
-// The Modbus field device: a libmodbus client (TCP or RTU) for the register map of
+// The Modbus field device: a Modbus TCP or RTU client for the register map of
 // docs/modbus_registers.md (mrd/protocol/modbus_map.hpp).
 //
-// Why a worker thread and not non-blocking I/O in the tick: libmodbus 3.1.6 blocks in every
-// transaction until the reply or the response timeout, and an RTU read of the sensor block
-// takes about 2 ms on a 115200 Bd line, longer than the 1 ms period. So one thread per device
-// owns the modbus_t: each poll_period it writes the latest posted command block (one 0x10
-// request, only when the loop posted a new one) and reads the sensor block (one 0x03
-// request), stamps the sample with CLOCK_MONOTONIC when the reply arrived, and publishes it
-// through a seqlock. The tick only copies memory: Read takes the latest sample (a bounded
-// number of seqlock attempts, kNoData if the worker is mid-write every time), Write posts the
-// command into another seqlock. Nothing on the tick allocates, locks or waits on the bus.
+// Why a worker thread and not non-blocking I/O in the tick: a transaction waits for its reply
+// (an RTU read of the sensor block takes 3.4 ms on a 115200 Bd line, the command write 3.0 ms),
+// longer than the 1 ms period. So one thread per device owns the link (src/modbus_link.hpp:
+// libmodbus opens it, the frames are built and checked there): each poll_period it writes the
+// latest posted command block (one 0x10 request, only when the loop posted a new one) and
+// reads the sensor block (one 0x03 request), stamps the sample with CLOCK_MONOTONIC when the
+// request was sent (the values are no older than the request, whenever the reply arrives;
+// RTU, after a read that got no reply: when that read was sent, since RTU cannot tell its
+// late reply from the next one), and publishes it through a seqlock. The tick only copies memory: Read takes the latest
+// sample (a bounded number of seqlock attempts, kNoData if the worker is mid-write every
+// time), Write posts the command into another seqlock. Nothing on the tick allocates, locks
+// or waits on the bus; Write signals an eventfd when the loop enters the safe state.
 //
-// Failures (per attempt, counted in errors[]): timeout (no reply within response_timeout),
+// The latest block, at once: every write encodes the block the loop posted last, at the
+// moment it is written (a retry, or a write after a quiet-line wait, sends the newest block,
+// never an older one). When the loop posts a safe block after a driven one was written, the
+// worker wakes from its sleep or quiet-line wait and writes it at once; over TCP it also
+// abandons a request in flight (its late reply is recognised by its transaction id and
+// dropped). RTU is half duplex: the safe block waits for the reply or the timeout of the
+// request in flight.
+//
+// Failures (per attempt, counted in errors[]): timeout (no complete reply by the deadline),
 // crc (RTU), exception (the server answered with a Modbus exception), rejected_frame (reply
-// malformed, wrong slave/function), bad_value (reserved fault bits set), disconnected (reset,
-// refused, EIO on the serial line). A timeout or CRC error is retried `retries` times in the
-// same cycle. After a disconnect, or 3 failed cycles in a row, the worker closes the link and
-// reconnects with backoff (5 ms doubling to 200 ms), counting reconnects. While the latest
-// transaction failed, Read reports kFault with the reason (the loop raises the modbus_bus
-// watchdog cause) and the sample stamps age, so the stale-sensor cause trips as well. A sensor
-// block whose seq did not change since the last accepted one is not new data (a frozen server
-// goes stale).
+// malformed, wrong unit id, MBAP protocol id not 0), bad_value (reserved fault bits set),
+// disconnected (reset, refused, EIO on the serial line). A timeout or CRC error is retried
+// `retries` times in the same cycle. Only link failures reconnect: a disconnect, a TCP stream
+// out of step, or 3 cycles in a row with a timeout; a protocol-level failure (exception,
+// rejected frame, CRC, bad value) keeps the link. Every connection that fails, or ends
+// without one good exchange, is followed by a backoff (5 ms doubling to 200 ms; a good
+// exchange resets it). While the latest transaction failed, Read reports kFault with the
+// reason (the loop raises the modbus_bus watchdog cause) and the sample stamps age, so the
+// stale-sensor cause trips as well. A sensor block whose seq did not change since the last
+// accepted one is not new data (a frozen server goes stale). Every wait of the worker watches
+// the stop request (RTU lets a request in flight finish: half duplex): Deactivate returns
+// within two response timeouts (a TCP connect or an RTU request in flight, then its final
+// safe write).
 //
 // Lockstep (config.lockstep: [loop] clock = "grant" and no [can] bus): the device is the loop's
 // TimeGrantSource. The worker reads the sensor block and the grant register in one request
@@ -36,15 +52,16 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "mrd/firmware/bus_device.hpp"
 #include "mrd/firmware/grant_clock.hpp"
 #include "mrd/firmware/seqlock.hpp"
 
-typedef struct _modbus modbus_t;  // NOLINT: libmodbus's own name
-
 namespace mrd::firmware {
+
+class ModbusLink;
 
 class ModbusDevice final : public BusDevice, public TimeGrantSource {
  public:
@@ -53,12 +70,13 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
 
   const char* name() const override { return "modbus"; }
   FaultCause fault_cause() const override { return FaultCause::kModbusBus; }
-  // Creates the libmodbus context and tries a first connection (a peer not up yet is not an
-  // error: the worker keeps trying and the loop stays safe meanwhile).
+  // Creates the link and tries a first connection (a peer not up yet is not an error: the
+  // worker keeps trying and the loop stays safe meanwhile).
   bool Configure(std::string* error) override;
   // Starts the worker thread.
   bool Activate(std::string* error) override;
-  // Stops the worker, writes the safe command block (0 V, enable off) once, closes the link.
+  // Stops the worker, writes the safe command block (0 V, enable off) once on a link that is
+  // up (one attempt, at most one response timeout), closes the link.
   void Deactivate() override;
 
   IoStatus Read(SensorFrame* frame, IoError* why) override;
@@ -72,7 +90,7 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   // What the worker hands to the loop.
   struct Sample {
     std::uint64_t accepted = 0;  // sensor blocks accepted so far (changes: new data)
-    std::int64_t stamp_ns = 0;   // CLOCK_MONOTONIC when the latest accepted reply arrived
+    std::int64_t stamp_ns = 0;   // CLOCK_MONOTONIC when its request was sent (lockstep: grant)
     std::uint32_t seq = 0;
     std::int64_t grant_ns = 0;  // lockstep: the latest granted time (0: none yet)
     double velocity = 0.0, displacement = 0.0, demand = 0.0, body_velocity = 0.0, force = 0.0;
@@ -89,40 +107,66 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
     bool safe = true;
     std::uint32_t echo = 0;
   };
+  enum class Outcome : std::uint8_t { kOk, kFailed, kAbandoned, kNothing };
+  class Waker;  // the link's Interrupt (modbus_device.cpp)
 
   static void* WorkerMain(void* self);
   void Work();
-  bool Connect();
-  void Disconnect();
-  // One transaction with retries; true on success, else *why (counted).
-  bool ReadSensors(std::uint16_t* regs, int count, IoError* why);
-  bool WriteCommand(const Command& c, IoError* why);
-  void Resync();  // after a failed exchange: discard input until the line is quiet
+  // Waits for the next connection attempt; true when connected.
+  bool Connect(Sample* s);
+  void EndSession();
+  // The worker's transactions (with retries); on failure s->why and the counters say why.
+  Outcome WriteLatest(Sample* s);
+  Outcome ReadSensors(Sample* s, bool* new_grant);
+  // One write of c (one attempt). why: set on failure.
+  Outcome WriteOnce(const Command& c, IoError* why, bool interruptible);
+  bool LatestCommand(Command* c) const;
+  // The loop posted a safe block since the latest block written was a driven one.
+  bool SafePending() const;
+  // Sleeps until t_ns, or until a wake-up (safe block posted, lockstep status, stop).
+  void SleepOrWake(std::int64_t t_ns);
+  // Counts a failed attempt (reply_refused: a reply came and was refused, rx_rejected).
+  void Failed(IoError e, bool reply_refused);
   void Count(IoError e);
+  void GoodExchange();  // a complete exchange on this connection: the backoff restarts
 
   ModbusConfig config_;
-  modbus_t* ctx_ = nullptr;
-  bool connected_ = false;
-  bool resync_ = false;  // a transaction failed: wait for a quiet line before the next one
-  bool ever_connected_ = false;
+  std::unique_ptr<ModbusLink> link_;
+  std::unique_ptr<Waker> waker_;
+  bool configured_ = false;
   pthread_t thread_{};
   bool thread_started_ = false;
   std::atomic<bool> running_{false};
 
-  // Lockstep wake-ups (eventfds, -1 otherwise): worker -> WaitGrant, loop -> worker.
+  // Wake-ups (eventfds): loop/Deactivate -> worker (a safe block posted, lockstep status, stop),
+  // worker -> WaitGrant (lockstep).
+  int wake_ = -1;
   int grant_event_ = -1;
-  int command_event_ = -1;
 
   Seqlock<Sample> sample_;
   Seqlock<Command> command_;
   std::atomic<std::uint16_t> status_causes_{0};
   std::atomic<std::uint32_t> status_ticks_{0};
 
+  // Worker side.
+  bool resync_ = false;           // RTU: wait for a quiet line before the next request
+  std::int64_t unanswered_since_ns_ = 0;  // RTU: a read sent then that may be answered late
+  bool timed_out_ = false;        // a transaction of this cycle timed out (link suspect)
+  bool session_good_ = false;     // this connection carried a good exchange
+  bool any_written_ = false;
+  std::uint64_t written_tick_ = 0;
+  bool written_safe_ = true;      // the latest block written was a safe one
+  bool writing_safe_ = false;     // the write in flight carries the safe state
+  bool have_seq_ = false;
+  std::int64_t backoff_ns_ = 0;
+  std::int64_t connect_at_ns_ = 0;
+
   // Loop side (tick thread only).
   Sample cached_;  // latest sample copied out of sample_
   std::uint64_t seen_accepted_ = 0;
   std::uint32_t last_seq_ = 0;
   bool last_write_failed_ = false;
+  bool posted_safe_ = true;       // the latest command posted was a safe one
   std::int64_t granted_ns_ = 0;   // the latest grant WaitGrant returned
   IoError last_why_ = IoError::kNone;
 
@@ -130,6 +174,7 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   std::atomic<std::uint64_t> rx_ok_{0}, rx_rejected_{0}, tx_ok_{0}, tx_failed_{0}, reconnects_{0};
   std::atomic<std::uint64_t> errors_[kNumIoErrors] = {};
   std::atomic<std::uint8_t> last_error_{0};
+  bool ever_connected_ = false;
 };
 
 }  // namespace mrd::firmware
