@@ -21,8 +21,9 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
   if (lockstep) {
     c << "clock = \"grant\"\ngrant_timeout_ms = " << s.grant_timeout_ms << "\n";
   }
-  // Lockstep: a slow reply is a loaded machine, not a fault (time waits for the harness).
-  const int response_ms = lockstep ? 100 : transport == "modbus-rtu" ? 10 : 20;
+  // Lockstep: 2 s, so a harness or firmware held up for a while (a loaded machine, SIGSTOP)
+  // is waited for, not timed out: simulated time never depends on wall time.
+  const int response_ms = lockstep ? 2000 : transport == "modbus-rtu" ? 10 : 20;
   c << "\n[control]\n";
   if (s.law == "force") {
     c << "law = \"force\"\n";

@@ -223,8 +223,14 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
         map::DecodeCommand(regs_ + map::kCommandBase, &c) != map::MapError::kOk) {
       return a;
     }
+    // Lockstep: a block the firmware wrote again (its write timed out on a stalled harness
+    // and was retried) is the same tick, not the next one: only a new tick count is a command.
+    if (lockstep_ && have_last_ && c.has_status && last_.has_status && c.ticks == last_.ticks) {
+      return a;
+    }
     const std::int64_t now = NowNs();
     ++counters_.received;
+    have_last_ = true;
     if (c.heartbeat != last_.heartbeat) {
       heartbeat_ns_ = now;
       ++heartbeats_;
@@ -234,6 +240,10 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
     pending_ = true;
     written_.notify_all();
     return a;
+  }
+  void PeerRestarted() override {
+    std::lock_guard<std::mutex> lock(mu_);
+    have_last_ = false;  // a new firmware counts its ticks from the start
   }
   void CountRejected() override {
     std::lock_guard<std::mutex> lock(mu_);
@@ -253,6 +263,7 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
   bool open_ = false;
   std::uint16_t regs_[map::kMapSize] = {};  // holding registers 0..47
   map::CommandBlock last_;
+  bool have_last_ = false;
   bool pending_ = false;
   std::int64_t command_ns_ = 0;
   std::int64_t heartbeat_ns_ = 0;

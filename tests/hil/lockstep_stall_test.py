@@ -7,8 +7,9 @@ The summary is compared without the figures that measure wall time by definition
 speed_x, the sensor->command latency, the wake-up jitter, the firmware's worst latency and
 execution time); everything else, every trace column and every counter, must be identical.
 
-Usage: lockstep_stall_test.py BIN_DIR SOURCE_DIR PAPER_DIR WORK_DIR [SCENARIO ...]
-  SCENARIO: force-v1 (with PAPER_DIR/v1.csv) or quarter-car-skyhook (default: both).
+Usage: lockstep_stall_test.py BIN_DIR SOURCE_DIR PAPER_DIR WORK_DIR [SCENARIO[@TRANSPORT] ...]
+  SCENARIO: force-v1 (with PAPER_DIR/v1.csv) or quarter-car-skyhook (default: both, on CAN);
+  TRANSPORT: can (default), modbus-tcp or modbus-rtu.
 Prints one line per run with its hashes; exit 0 when every disturbed run matches, else 1.
 """
 import hashlib
@@ -117,8 +118,10 @@ def main():
                                 "--table", os.path.join(paper, "table.bin")],
     }
     ok = True
-    for name in names:
-        args = scenarios[name]
+    for spec in names:
+        name, _, transport = spec.partition("@")
+        args = scenarios[name] + ["--transport", transport or "can"]
+        name = spec.replace("@", "-")
         base = run(bin_dir, args, os.path.join(work, name, "undisturbed"))
         print(f"{name} undisturbed: summary {base['summary']} trace {base['trace']} "
               f"pass {base['pass']} wall {base['wall']:.2f} s", flush=True)
