@@ -177,13 +177,15 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
   {
     std::ofstream f(dir + "/trace.csv");
     const bool ride = r.ride.has_value();
-    f << "t,x,v,demand,force,force_off,force_on,command,applied,safe,driven,reachable,causes"
+    f << "t,x,v,demand,force,force_off,force_on,command,applied,safe,driven,reachable,causes,"
+         "command_age_ms"
       << (ride ? ",body_accel,body_accel_off,body_accel_on\n" : "\n");
     f.precision(9);
     for (const StepRecord& k : r.trace) {
       f << k.t << ',' << k.x << ',' << k.v << ',' << k.demand << ',' << k.force << ','
         << k.force_off << ',' << k.force_on << ',' << k.command << ',' << k.applied << ','
-        << k.safe << ',' << k.driven << ',' << k.reachable << ',' << k.causes;
+        << k.safe << ',' << k.driven << ',' << k.reachable << ',' << k.causes << ','
+        << k.command_age_ms;
       if (ride) f << ',' << k.body_accel << ',' << k.body_accel_off << ',' << k.body_accel_on;
       f << '\n';
     }
@@ -214,9 +216,9 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
       g << "unset y2label\nunset y2tics\nset autoscale y2\n"
         << "set output '" << dir << "/ride.png'\nset ylabel 'body acceleration [m/s^2]'\n"
         << "set title 'Quarter car: body acceleration, controlled vs passive-off and passive-on'\n"
-        << "plot '" << dir << "/trace.csv' every ::1 using 1:16 with lines dt 3 title 'passive-on', "
-        << "'' every ::1 using 1:15 with lines dt 2 title 'passive-off', "
-        << "'' every ::1 using 1:14 with lines lw 2 title 'controlled'\n";
+        << "plot '" << dir << "/trace.csv' every ::1 using 1:17 with lines dt 3 title 'passive-on', "
+        << "'' every ::1 using 1:16 with lines dt 2 title 'passive-off', "
+        << "'' every ::1 using 1:15 with lines lw 2 title 'controlled'\n";
     }
   }
   const int rc = Gnuplot(script, dir + "/gnuplot.log");

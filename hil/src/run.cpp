@@ -521,6 +521,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     // Hear the firmware.
     DriverInput fresh = in;
     fresh.has_command = fresh.has_echo = fresh.has_status = fresh.has_safe = false;
+    double command_age_ms = -1.0;
     if (lockstep) {
       // The tick's command and status (the generated config sends a status every period),
       // however long they take: simulated time never depends on wall time. Liveness is
@@ -578,6 +579,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
         const std::size_t slot = fresh.echo % kRing;
         if (published_seq[slot] == fresh.echo && published_ns[slot] != 0) {
           latency_us.push_back(static_cast<double>(fresh.command_ns - published_ns[slot]) * 1e-3);
+          command_age_ms = lockstep ? 0.0 : latency_us.back() * 1e-3;
         }
       }
     }
@@ -628,6 +630,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       r->trace.push_back({sample.t_s, sample.x, v_seen, sample.demand, sample.force, f_off, f_on,
                           set_point, applied, cmd_safe, driven,
                           sample.demand >= lo && sample.demand <= hi, causes});
+      r->trace.back().command_age_ms = command_age_ms;
       if (score_ride) {
         r->trace.back().body_accel = plant->Ride()->body_accel;
         r->trace.back().body_accel_off = plant_off->Ride()->body_accel;

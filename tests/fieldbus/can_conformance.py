@@ -20,6 +20,7 @@ codec), fed with frames a test node (mrd_can_node capture) recorded on the local
 Prints a JSON summary; exit 0 when every check holds, 1 when one fails (listed), 2 on bad use.
 """
 import argparse
+import csv
 import importlib.util
 import json
 import os
@@ -473,6 +474,22 @@ def cmd_stall_flood(a):
         "babbler_pauses_over_20ms": len(out["babbler"]["pauses"]),
         "firmware_tx_frames": fw_stats.get("devices", {}).get("can", {}).get("tx_ok"),
     }
+    # The same from the harness's own trace: each step's command with the age of the sample it
+    # was computed from when it left the firmware (command_age_ms; -1 without a command).
+    with open(os.path.join(run_dir, "trace.csv")) as f:
+        rows = [r for r in csv.DictReader(f) if float(r["command_age_ms"]) >= 0.0]
+    trace_driving = [float(r["command_age_ms"]) for r in rows if int(r["safe"]) == 0]
+    trace_violations = [a for a in trace_driving if a > MAX_AGE_MS + tol_ms]
+    out["figures"]["trace_commands_with_age"] = len(rows)
+    out["figures"]["trace_driving_commands"] = len(trace_driving)
+    out["figures"]["trace_driving_commands_older_than_max_age"] = len(trace_violations)
+    out["figures"]["trace_max_sample_age_of_a_driving_command_ms"] = (
+        round(max(trace_driving), 3) if trace_driving else None)
+    if trace_violations:
+        errors.append(f"harness trace: {len(trace_violations)} driving commands on samples older "
+                      f"than {MAX_AGE_MS} ms (worst {max(trace_violations):.3f} ms)")
+    if len(trace_driving) < 100 * T:
+        errors.append(f"harness trace: only {len(trace_driving)} driving commands with their age")
     wd = fw_stats.get("watchdog", {})
     out["firmware"] = {k: fw_stats.get(k) for k in ("ticks", "overruns", "safe_periods",
                                                     "missed_periods")}

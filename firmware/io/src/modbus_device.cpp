@@ -1,5 +1,8 @@
 #include "mrd/firmware/io/modbus_device.hpp"
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <poll.h>
 #include <sys/eventfd.h>
 #include <unistd.h>
@@ -143,6 +146,16 @@ bool ModbusDevice::Activate(std::string* error) {
     return false;
   }
   thread_started_ = true;
+  if (config_.priority > 0) {
+    sched_param sp{};
+    sp.sched_priority = config_.priority;
+    const int err = pthread_setschedparam(thread_, SCHED_FIFO, &sp);
+    if (err != 0) {
+      std::fprintf(stderr, "warning: modbus: SCHED_FIFO priority %d refused for the I/O thread "
+                   "(%s); a safe block may reach the wire later than the loop's period\n",
+                   config_.priority, std::strerror(err));
+    }
+  }
   return true;
 }
 
@@ -466,7 +479,8 @@ IoStatus ModbusDevice::Read(SensorFrame* frame, IoError* why) {
     if ((in & Bit(Input::kDemand)) != 0) frame->demand = {s.demand, s.stamp_ns};
     if ((in & Bit(Input::kBodyVelocity)) != 0) frame->body_velocity = {s.body_velocity, s.stamp_ns};
     if ((in & Bit(Input::kForce)) != 0) frame->force = {s.force, s.stamp_ns};
-    if ((in & Bit(Input::kFaultLine)) != 0) frame->fault_line = s.fault_line;
+    // OR, not overwrite: a CAN driver's fault bits may have set it already this period.
+    if ((in & Bit(Input::kFaultLine)) != 0) frame->fault_line = frame->fault_line || s.fault_line;
   }
   if (s.read_failed) {
     *why = s.why;

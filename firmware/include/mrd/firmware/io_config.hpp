@@ -85,6 +85,9 @@ struct ModbusConfig {
   // Lockstep ([loop] clock = "grant" without a [can] bus): the device is the loop's
   // TimeGrantSource (the grant register, docs/modbus_registers.md). Set from [loop].
   bool lockstep = false;
+  // SCHED_FIFO priority of the worker thread, the loop's ([loop] priority; 0: normal), so a
+  // safe block the loop posts is on the wire within the periods the loop itself keeps.
+  int priority = 0;
 };
 
 struct GpioConfig {

@@ -97,6 +97,10 @@ struct StepRecord {
   bool safe, driven, reachable;
   std::uint16_t causes;
   double body_accel = 0.0, body_accel_off = 0.0, body_accel_on = 0.0;  // quarter car [m/s^2]
+  // Real time: how old the sample a command heard this step was computed from was when the
+  // command left the firmware (its bus stamp minus the harness's publication of the echoed
+  // sample) [ms]; -1 without a command or its sample; 0 in lockstep (the step's own sample).
+  double command_age_ms = -1.0;
 };
 
 struct RunResult {
