@@ -191,10 +191,15 @@ std::uint8_t FrameChecksum(const MessageSpec& spec, const protocol::SignalLayout
 }
 
 bool LoadCanProfile(const std::string& path, CanProfile* out, std::string* error) {
-  *out = CanProfile{};
-  out->path = path;
   std::string text;
   if (!ReadTextFile(path, 1u << 20, &text, error)) return false;
+  return ParseCanProfile(text, path, nullptr, out, error);
+}
+
+bool ParseCanProfile(const std::string& text, const std::string& path,
+                     const std::string* dbc_text, CanProfile* out, std::string* error) {
+  *out = CanProfile{};
+  out->path = path;
   const Ctx c{path, error};
   toml::table root;
   try {
@@ -213,8 +218,17 @@ bool LoadCanProfile(const std::string& path, CanProfile* out, std::string* error
       return false;
     }
     std::string dbc_path = *dbc_node->value<std::string>();
-    if (dbc_path.empty() || dbc_path[0] != '/') dbc_path = Directory(path) + "/" + dbc_path;
-    if (!LoadDbc(dbc_path, &out->dbc, error)) return false;
+    if (dbc_text != nullptr) {
+      if (!ParseDbc(*dbc_text, dbc_path, &out->dbc, error)) return false;
+    } else {
+      if (dbc_path.empty() || dbc_path[0] != '/') dbc_path = Directory(path) + "/" + dbc_path;
+      if (!LoadDbc(dbc_path, &out->dbc, error)) return false;
+    }
+    if (out->dbc.messages.size() > 64) {
+      *error = dbc_path + ": " + std::to_string(out->dbc.messages.size()) +
+               " messages; a profile's DBC may hold at most 64";
+      return false;
+    }
     out->specs.resize(out->dbc.messages.size());
     for (std::size_t m = 0; m < out->specs.size(); ++m) {
       out->specs[m].message = static_cast<int>(m);

@@ -95,6 +95,13 @@ struct CanProfile {
 // signal carrying two roles, a message never both sent and received, counter and checksum
 // signals of the right size and not carrying a role, every key known.
 bool LoadCanProfile(const std::string& path, CanProfile* out, std::string* error);
+// The same from text: `path` names it in errors; with dbc_text the DBC is that text (named by
+// the profile's `dbc` value) instead of the file the profile names.
+bool ParseCanProfile(const std::string& text, const std::string& path,
+                     const std::string* dbc_text, CanProfile* out, std::string* error);
+// The built-in mrd-native profile (firmware/profiles/mrd-native.toml with docs/mrd.dbc,
+// compiled in): the firmware's and the harness's default. Never fails on a correct build.
+const CanProfile& NativeCanProfile();
 
 // The checksum of a frame under a message's spec: CRC-8 (MSB first, the spec's polynomial,
 // init and final xor) or the byte sum mod 256, over the identifier's bytes (little-endian: 2
