@@ -186,15 +186,21 @@ TEST_F(CanDeviceTest, BadFramesAreRejectedCountedAndChangeNothing) {
 }
 
 TEST_F(CanDeviceTest, MoreFramesThanAPeriodsBudgetAreAFlood) {
-  // Fill the socket (as a flood of well-formed frames would): more than the budget waits.
+  // Fill the socket (as a flood of well-formed frames would): more than the budget waits. The
+  // frames come as local-bus packets that all entered the bus at one instant, so the flood's
+  // arrival span does not depend on how fast this test runs on a loaded machine.
+  const std::int64_t entered = canbus::MonotonicNs();
   int sent = 0;
   for (; sent < 4 * CanDevice::kMaxFramesPerRead; ++sent) {
-    can_frame f{};
+    canbus::LocalBusPacket packet{};
     ASSERT_EQ(pc::Encode(pc::SensorMotion{1.0, 0.0, static_cast<std::uint16_t>(sent),
                                           static_cast<std::uint8_t>(sent & 15)},
-                         &f),
+                         &packet.frame),
               pc::Reject::kNone);
-    if (send(peer_, &f, sizeof f, MSG_DONTWAIT) != static_cast<ssize_t>(sizeof f)) break;
+    packet.stamp_ns = entered;
+    if (send(peer_, &packet, sizeof packet, MSG_DONTWAIT) != static_cast<ssize_t>(sizeof packet)) {
+      break;
+    }
   }
   ASSERT_GT(sent, CanDevice::kMaxFramesPerRead) << "the socket holds fewer frames than a budget";
   // Each period drains one budget and is a fault while more waits; the rest, once it fits a

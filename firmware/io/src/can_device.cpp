@@ -3,7 +3,9 @@
 #include <linux/can.h>
 #include <poll.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <ctime>
 #include <limits>
 #include <memory>
@@ -33,26 +35,76 @@ IoError ErrorOf(pc::Reject r) {
   }
 }
 
-// The IDs the firmware listens to (SocketCAN receive filters; exact standard data frames).
-constexpr can_filter kFilters[] = {
-    {pc::kSensorMotionId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
-    {pc::kSensorForceId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
-    {pc::kTimeGrantId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
-    {pc::kDriverStatusId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
-};
+namespace pf = profile;
+
+// A role's signal reference in the profile.
+pf::SignalRef In(const pf::CanProfile& p, pf::CanIn r) { return p.inputs[static_cast<std::size_t>(r)]; }
+pf::SignalRef Out(const pf::CanProfile& p, pf::CanOut r) {
+  return p.outputs[static_cast<std::size_t>(r)];
+}
+
+// The echo signal's raw range (a sensor seq wider than the echo field wraps into it).
+std::uint32_t EchoMask(const pf::CanProfile& p) {
+  const pf::SignalRef r = Out(p, pf::CanOut::kEcho);
+  if (!r.mapped()) return 0;
+  const int len = p.Layout(r).length;
+  return len >= 32 ? 0xFFFFFFFFU : static_cast<std::uint32_t>((std::uint64_t{1} << len) - 1U);
+}
+
+std::shared_ptr<const pf::CanProfile> ProfileOf(const CanConfig& config) {
+  if (config.can_profile != nullptr) return config.can_profile;
+  // The built-in profile lives as long as the program: no ownership to share.
+  return std::shared_ptr<const pf::CanProfile>(&pf::NativeCanProfile(), [](const pf::CanProfile*) {});
+}
 
 }  // namespace
 
-CanDevice::CanDevice(const CanConfig& config) : config_(config), reopenable_(true) { Publish(); }
+CanDevice::CanDevice(const CanConfig& config)
+    : config_(config), profile_(ProfileOf(config)), codec_(*profile_), reopenable_(true) {
+  Index();
+  Publish();
+}
 
-CanDevice::CanDevice(const CanConfig& config, int fd) : config_(config), reopenable_(false) {
+CanDevice::CanDevice(const CanConfig& config, int fd)
+    : config_(config), profile_(ProfileOf(config)), codec_(*profile_), reopenable_(false) {
+  Index();
   iface_.Attach(fd);
   Publish();
 }
 
+void CanDevice::Index() {
+  const pf::CanProfile& p = *profile_;
+  for (std::size_t r = 0; r < pf::kNumCanIn; ++r) {
+    const pf::SignalRef ref = p.inputs[r];
+    if (!ref.mapped()) continue;
+    rx_roles_[static_cast<std::size_t>(ref.message)] =
+        static_cast<std::uint16_t>(rx_roles_[static_cast<std::size_t>(ref.message)] | (1U << r));
+  }
+  const auto add = [](std::vector<int>* v, int m) {
+    if (m >= 0 && std::find(v->begin(), v->end(), m) == v->end()) v->push_back(m);
+  };
+  for (const pf::CanOut r : {pf::CanOut::kCommand, pf::CanOut::kEnable, pf::CanOut::kEnableValid,
+                            pf::CanOut::kSafe, pf::CanOut::kEcho}) {
+    add(&command_msgs_, Out(p, r).message);
+  }
+  add(&heartbeat_msgs_, Out(p, pf::CanOut::kHeartbeatSafe).message);
+  for (const pf::CanOut r : {pf::CanOut::kStatusSafe, pf::CanOut::kStatusCauses,
+                            pf::CanOut::kStatusOverruns, pf::CanOut::kStatusSafeEntries}) {
+    add(&status_msgs_, Out(p, r).message);
+  }
+  status_driver_msg_ = In(p, pf::CanIn::kDriverFaults).message;
+  // Receive filters: every message carrying an input role (exact id and frame format).
+  for (std::size_t m = 0; m < p.dbc.messages.size(); ++m) {
+    if (rx_roles_[m] == 0) continue;
+    const pf::DbcMessage& msg = p.dbc.messages[m];
+    filters_.push_back({pf::WireId(msg), (msg.extended ? CAN_EFF_MASK : CAN_SFF_MASK) |
+                                             CAN_EFF_FLAG | CAN_RTR_FLAG});
+  }
+}
+
 int CanDevice::Open(std::string* error) const {
   if (!config_.local_bus.empty()) return canbus::OpenLocalBusNode(config_.local_bus.c_str(), error);
-  return canbus::OpenSocketCan(config_.interface.c_str(), kFilters, std::size(kFilters), error);
+  return canbus::OpenSocketCan(config_.interface.c_str(), filters_.data(), filters_.size(), error);
 }
 
 bool CanDevice::Configure(std::string* error) {
@@ -77,6 +129,7 @@ bool CanDevice::Activate(std::string* error) {
   next_heartbeat_ns_ = now;
   next_status_ns_ = now;
   next_reconnect_ns_ = now;
+  driver_status_ns_ = now;
   active_ = true;
   return true;
 }
@@ -84,14 +137,9 @@ bool CanDevice::Activate(std::string* error) {
 void CanDevice::Deactivate() {
   if (iface_.is_open()) {
     // Last word on the bus: 0 V, enable low, safe.
-    can_frame f{};
-    const bool enable_routed = (config_.outputs & Bit(Output::kEnable)) != 0;
-    if ((config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0 &&
-        pc::Encode(pc::DriverCommand{0.0, false, enable_routed, true, last_seq_, command_counter_},
-                   &f) == pc::Reject::kNone) {
-      command_counter_ = static_cast<std::uint8_t>((command_counter_ + 1) & 0x0F);
+    if ((config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
       const std::int64_t now = canbus::MonotonicNs();
-      Send(f, now);
+      (void)SendCommand(DriverCommand{0.0, false, true, 0}, now);
       iface_.Flush(now);
     }
     iface_.Close();
@@ -117,93 +165,68 @@ void CanDevice::TryReconnect(std::int64_t now) {
   const int fd = Open(nullptr);
   if (fd < 0) return;
   iface_.Attach(fd);
-  motion_check_.Reset();
-  force_check_.Reset();
-  status_check_.Reset();
-  grant_check_.Reset();
+  codec_.ResetCounters();
   ++counters_.reconnects;
 }
 
-bool CanDevice::HandleGrant(const can_frame& f) {
-  pc::TimeGrant m;
-  pc::Reject r = pc::Decode(f, &m);
-  if (r == pc::Reject::kNone) r = grant_check_.Check(m.counter);
+void CanDevice::Grant(double time_us) {
+  const auto t = static_cast<std::int64_t>(std::llround(time_us * 1000.0));
+  if (t > granted_ns_) granted_ns_ = t;  // grants never move time backwards
+  // The values that came before this grant are its step's samples.
+  for (std::size_t r = 0; r < pf::kNumCanIn; ++r) {
+    if ((unstamped_ >> r) & 1U) values_[r].stamp_ns = granted_ns_;
+  }
+  unstamped_ = 0;
+  got_grant_ = true;
+}
+
+bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
+  const int m = codec_.Find(f);
+  if (m < 0) {
+    Reject(pc::Reject::kUnknownId);
+    return false;
+  }
+  const std::uint16_t roles = rx_roles_[static_cast<std::size_t>(m)];
+  if (roles == 0) return false;  // ours from another node, or a message without a role
+  pc::Reject r = codec_.Check(m, f);
+  // Every role the frame carries must decode within its range, or none is taken.
+  std::array<double, pf::kNumCanIn> v{};
+  for (std::size_t i = 0; i < pf::kNumCanIn && r == pc::Reject::kNone; ++i) {
+    if (((roles >> i) & 1U) == 0) continue;
+    if (codec_.Get(f, profile_->inputs[i], &v[i]) != protocol::SignalError::kNone) {
+      r = pc::Reject::kOutOfRange;
+    }
+  }
   if (r != pc::Reject::kNone) {
     Reject(r);
     return false;
   }
   ++counters_.rx_ok;
-  const auto t = static_cast<std::int64_t>(m.time_us) * 1000;
-  if (t > granted_ns_) granted_ns_ = t;  // grants never move time backwards
-  // The sensor values that came before this grant are its step's samples.
-  if (unstamped_motion_) velocity_.stamp_ns = displacement_.stamp_ns = granted_ns_;
-  if (unstamped_force_) {
-    demand_.stamp_ns = body_velocity_.stamp_ns = force_.stamp_ns = granted_ns_;
-  }
-  unstamped_motion_ = unstamped_force_ = false;
-  got_grant_ = true;
-  return true;
-}
-
-bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
-  const std::uint32_t in = config_.inputs;
+  const auto has = [roles](pf::CanIn role) { return ((roles >> static_cast<unsigned>(role)) & 1U) != 0; };
   if (config_.lockstep) stamp = granted_ns_;
-  switch (pc::Classify(f)) {
-    case pc::Message::kTimeGrant:
-      if (config_.lockstep) HandleGrant(f);
-      return false;
-    case pc::Message::kSensorMotion: {
-      pc::SensorMotion m;
-      pc::Reject r = pc::Decode(f, &m);
-      if (r == pc::Reject::kNone) r = motion_check_.Check(m.counter);
-      if (r != pc::Reject::kNone) {
-        Reject(r);
-        return false;
-      }
-      ++counters_.rx_ok;
-      velocity_ = {m.velocity, stamp};
-      displacement_ = {m.displacement, stamp};
-      last_seq_ = m.seq;
-      unstamped_motion_ = config_.lockstep;
-      return (in & (Bit(Input::kVelocity) | Bit(Input::kDisplacement))) != 0;
-    }
-    case pc::Message::kSensorForce: {
-      pc::SensorForce m;
-      pc::Reject r = pc::Decode(f, &m);
-      if (r == pc::Reject::kNone) r = force_check_.Check(m.counter);
-      if (r != pc::Reject::kNone) {
-        Reject(r);
-        return false;
-      }
-      ++counters_.rx_ok;
-      demand_ = {m.demand, stamp};
-      body_velocity_ = {m.body_velocity, stamp};
-      force_ = {m.force, stamp};
-      unstamped_force_ = config_.lockstep;
-      return (in & (Bit(Input::kDemand) | Bit(Input::kBodyVelocity) | Bit(Input::kForce))) != 0;
-    }
-    case pc::Message::kDriverStatus: {
-      pc::DriverStatus m;
-      pc::Reject r = pc::Decode(f, &m);
-      if (r == pc::Reject::kNone) r = status_check_.Check(m.counter);
-      if (r != pc::Reject::kNone) {
-        Reject(r);
-        return false;
-      }
-      ++counters_.rx_ok;
-      driver_faults_ = m.faults;
-      driver_current_ = m.current;
-      return false;
-    }
-    case pc::Message::kDriverCommand:
-    case pc::Message::kHeartbeat:
-    case pc::Message::kFirmwareStatus:
-      return false;  // our own IDs from another node: not for us
-    case pc::Message::kUnknown:
-      break;
+  bool fresh = false;
+  for (std::size_t i = 0; i <= static_cast<std::size_t>(pf::CanIn::kForce); ++i) {
+    if (((roles >> i) & 1U) == 0) continue;
+    values_[i] = {v[i], stamp};
+    if (config_.lockstep) unstamped_ = static_cast<std::uint16_t>(unstamped_ | (1U << i));
+    fresh = fresh || (config_.inputs & (1U << i)) != 0;
   }
-  Reject(pc::Reject::kUnknownId);
-  return false;
+  if (has(pf::CanIn::kFaultLine)) {
+    fault_input_ = v[static_cast<std::size_t>(pf::CanIn::kFaultLine)] != 0.0;
+    fresh = fresh || (config_.inputs & Bit(Input::kFaultLine)) != 0;
+  }
+  if (has(pf::CanIn::kSensorSeq)) {
+    last_seq_ = static_cast<std::uint32_t>(v[static_cast<std::size_t>(pf::CanIn::kSensorSeq)]);
+  }
+  if (has(pf::CanIn::kDriverFaults)) {
+    driver_faults_ = static_cast<std::uint32_t>(v[static_cast<std::size_t>(pf::CanIn::kDriverFaults)]);
+    driver_status_ns_ = Now();
+  }
+  if (has(pf::CanIn::kDriverCurrent)) {
+    driver_current_ = v[static_cast<std::size_t>(pf::CanIn::kDriverCurrent)];
+  }
+  if (has(pf::CanIn::kGrant) && config_.lockstep) Grant(v[static_cast<std::size_t>(pf::CanIn::kGrant)]);
+  return fresh;
 }
 
 IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
@@ -259,14 +282,22 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
   if (flooded) Count(IoError::kOverflow);
   if ((flooded || Now() < flood_until_ns_) && fault == IoError::kNone) fault = IoError::kOverflow;
   const std::uint32_t in = config_.inputs;
-  if ((in & Bit(Input::kVelocity)) != 0) frame->velocity = velocity_;
-  if ((in & Bit(Input::kDisplacement)) != 0) frame->displacement = displacement_;
-  if ((in & Bit(Input::kDemand)) != 0) frame->demand = demand_;
-  if ((in & Bit(Input::kBodyVelocity)) != 0) frame->body_velocity = body_velocity_;
-  if ((in & Bit(Input::kForce)) != 0) frame->force = force_;
-  // A fault the current driver reports (any DriverStatus fault bit) is the driver's fault line,
-  // as the Modbus sensor block's driver-fault bit is: the watchdog's fault_line cause.
+  const auto value = [this](Input i) { return values_[static_cast<std::size_t>(i)]; };
+  if ((in & Bit(Input::kVelocity)) != 0) frame->velocity = value(Input::kVelocity);
+  if ((in & Bit(Input::kDisplacement)) != 0) frame->displacement = value(Input::kDisplacement);
+  if ((in & Bit(Input::kDemand)) != 0) frame->demand = value(Input::kDemand);
+  if ((in & Bit(Input::kBodyVelocity)) != 0) frame->body_velocity = value(Input::kBodyVelocity);
+  if ((in & Bit(Input::kForce)) != 0) frame->force = value(Input::kForce);
+  if ((in & Bit(Input::kFaultLine)) != 0 && fault_input_) frame->fault_line = true;
+  // A fault the current driver reports (any fault bit), or a driver status that stopped coming
+  // (its message's timeout), is the driver's fault line, as the Modbus sensor block's
+  // driver-fault bit is: the watchdog's fault_line cause.
   if (driver_faults_ != 0) frame->fault_line = true;
+  if (status_driver_msg_ >= 0 && active_) {
+    const std::int64_t timeout =
+        profile_->specs[static_cast<std::size_t>(status_driver_msg_)].timeout_ns;
+    if (timeout > 0 && Now() - driver_status_ns_ > timeout) frame->fault_line = true;
+  }
   Publish();
   if (fault != IoError::kNone) {
     *why = fault;
@@ -279,7 +310,7 @@ bool CanDevice::MotionTooOld(std::int64_t now) const {
   constexpr std::uint32_t kMotion = Bit(Input::kVelocity) | Bit(Input::kDisplacement);
   if (config_.lockstep || (config_.inputs & kMotion) == 0) return false;
   // Never sampled: the watchdog already holds the safe state (stale), no driving command.
-  const std::int64_t stamp = velocity_.stamp_ns;
+  const std::int64_t stamp = values_[static_cast<std::size_t>(Input::kVelocity)].stamp_ns;
   return stamp != std::numeric_limits<std::int64_t>::min() && stamp < now - config_.max_age_ns;
 }
 
@@ -319,10 +350,6 @@ IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
   bool ok = true;
   const std::uint32_t out = config_.outputs;
   if ((out & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
-    const bool enable_routed = (out & Bit(Output::kEnable)) != 0;
-    can_frame f{};
-    pc::DriverCommand m{cmd.volts, cmd.enable, enable_routed,
-                        cmd.safe,  last_seq_,  command_counter_};
     if (!cmd.safe && MotionTooOld(now)) {
       // The tick was held up (preempted, stopped) after the watchdog saw fresh data: driving
       // the coil now would act on an old sample. Not sent (timeout); the loop commands the
@@ -333,25 +360,19 @@ IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
       *why = IoError::kTimeout;
       return IoStatus::kFault;
     }
-    if (pc::Encode(m, &f) != pc::Reject::kNone) {
-      // Not representable (never from the loop: it commands within [0, E_max]): send the
-      // safe state instead and report the write as failed.
-      Count(IoError::kBadValue);
-      ok = false;
-      m = {0.0, false, enable_routed, true, last_seq_, command_counter_};
-      pc::Encode(m, &f);
-    }
-    command_counter_ = static_cast<std::uint8_t>((command_counter_ + 1) & 0x0F);
-    ok = Send(f, now) && ok;
+    ok = SendCommand(cmd, now);
   }
   const std::int64_t t = Now();  // schedules run in granted time in lockstep
   if ((out & Bit(Output::kHeartbeat)) != 0 && t >= next_heartbeat_ns_) {
     next_heartbeat_ns_ += config_.heartbeat_period_ns;
     if (next_heartbeat_ns_ <= t) next_heartbeat_ns_ = t + config_.heartbeat_period_ns;
-    can_frame f{};
-    pc::Encode(pc::Heartbeat{cmd.safe, heartbeat_counter_}, &f);
-    heartbeat_counter_ = static_cast<std::uint8_t>((heartbeat_counter_ + 1) & 0x0F);
-    ok = Send(f, now) && ok;
+    for (const int m : heartbeat_msgs_) {
+      can_frame f{};
+      codec_.Begin(m, &f);
+      (void)codec_.Set(&f, Out(*profile_, pf::CanOut::kHeartbeatSafe), cmd.safe ? 1.0 : 0.0);
+      codec_.Seal(m, &f);
+      ok = Send(f, now) && ok;
+    }
   }
   Publish();
   if (!ok) {
@@ -368,14 +389,55 @@ void CanDevice::PublishStatus(const TelemetrySnapshot& stats) {
   if (t < next_status_ns_) return;
   next_status_ns_ += config_.status_period_ns;
   if (next_status_ns_ <= t) next_status_ns_ = t + config_.status_period_ns;
-  can_frame f{};
-  pc::Encode(
-      pc::FirmwareStatus{stats.safe, static_cast<std::uint16_t>(stats.active_causes & 0xFFFFU),
-                         Saturate16(stats.overruns), Saturate16(stats.watchdog.entries),
-                         status_sequence_++},
-      &f);
-  Send(f, now);
+  for (const int m : status_msgs_) {
+    can_frame f{};
+    codec_.Begin(m, &f);
+    const auto set = [&](pf::CanOut role, double v) {
+      const pf::SignalRef r = Out(*profile_, role);
+      if (r.message == m) (void)codec_.Set(&f, r, v);
+    };
+    set(pf::CanOut::kStatusSafe, stats.safe ? 1.0 : 0.0);
+    set(pf::CanOut::kStatusCauses, static_cast<double>(stats.active_causes & 0xFFFFU));
+    set(pf::CanOut::kStatusOverruns, Saturate16(stats.overruns));
+    set(pf::CanOut::kStatusSafeEntries, Saturate16(stats.watchdog.entries));
+    codec_.Seal(m, &f);
+    Send(f, now);
+  }
   Publish();
+}
+
+bool CanDevice::SendCommand(const DriverCommand& cmd, std::int64_t now) {
+  const pf::CanProfile& p = *profile_;
+  const bool enable_routed = (config_.outputs & Bit(Output::kEnable)) != 0;
+  const double setpoint = cmd.volts;  // (the profile's command map comes with [command])
+  bool ok = true;
+  for (const int m : command_msgs_) {
+    can_frame f{};
+    const auto fill = [&](double sp, bool enable, bool safe) {
+      codec_.Begin(m, &f);
+      bool fits = true;
+      const auto set = [&](pf::CanOut role, double v) {
+        const pf::SignalRef r = Out(p, role);
+        if (r.message == m && codec_.Set(&f, r, v) != protocol::SignalError::kNone) fits = false;
+      };
+      set(pf::CanOut::kCommand, sp);
+      set(pf::CanOut::kEnable, enable_routed && enable ? 1.0 : 0.0);
+      set(pf::CanOut::kEnableValid, enable_routed ? 1.0 : 0.0);
+      set(pf::CanOut::kSafe, safe ? 1.0 : 0.0);
+      set(pf::CanOut::kEcho, static_cast<double>(last_seq_ & EchoMask(p)));
+      return fits;
+    };
+    if (!fill(setpoint, cmd.enable, cmd.safe)) {
+      // Not representable (never from the loop within the profile's range): the safe state
+      // instead, and the write reported as failed.
+      Count(IoError::kBadValue);
+      ok = false;
+      (void)fill(0.0, false, true);
+    }
+    codec_.Seal(m, &f);
+    ok = Send(f, now) && ok;
+  }
+  return ok;
 }
 
 bool CanDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {

@@ -4,8 +4,8 @@
 // docs/firmware_config.md). Plain data; start-up only.
 //
 // Each bus section lists the inputs it serves and the outputs it drives:
-//   [can]     inputs  velocity displacement demand body_velocity force
-//             outputs command enable heartbeat status
+//   [can]     inputs  velocity displacement demand body_velocity force fault_line
+//             outputs command enable heartbeat status   (in the device profile's messages)
 //   [modbus]  inputs  velocity displacement demand body_velocity force fault_line
 //             outputs command enable heartbeat status
 //   [gpio]    inputs  fault_line displacement (quadrature encoder)
@@ -15,7 +15,12 @@
 // With no bus section the loop runs the built-in simulated damper (dry run).
 
 #include <cstdint>
+#include <memory>
 #include <string>
+
+namespace mrd::profile {
+struct CanProfile;
+}  // namespace mrd::profile
 
 namespace mrd::firmware {
 
@@ -53,6 +58,10 @@ struct CanConfig {
   // the UNIX socket path of a local frame bus (mrd-canbus; build machines without AF_CAN).
   std::string interface;
   std::string local_bus;
+  // The device profile: the file ("" : the built-in mrd-native one), loaded and checked with
+  // the configuration (the pointer; empty for mrd-native).
+  std::string profile;
+  std::shared_ptr<const profile::CanProfile> can_profile;
   std::int64_t tx_deadline_ns = 500'000;   // a frame not sent by then is dropped [ns]
   std::int64_t status_period_ns = 100'000'000;     // status frame period [ns]
   std::int64_t heartbeat_period_ns = 10'000'000;   // heartbeat frame period [ns]

@@ -1,8 +1,10 @@
 #pragma once
-// The CAN field device: sensor frames in, driver command / heartbeat / status frames out
-// (docs/mrd.dbc, codec in mrd/protocol/can_codec.hpp), over a SocketCAN CAN_RAW socket with
-// receive filters or a node of the local frame bus (mrd-canbus); only the fd's creation
-// differs (mrd/canbus/socket.hpp), the receive/transmit code is the same.
+// The CAN field device: sensor frames in, driver command / heartbeat / status frames out, in
+// the messages and signals of a device profile (mrd/profile/can_profile.hpp, docs/devices.md;
+// the built-in mrd-native profile is docs/mrd.dbc), over a SocketCAN CAN_RAW socket with
+// receive filters derived from the profile, or a node of the local frame bus (mrd-canbus);
+// only the fd's creation differs (mrd/canbus/socket.hpp), the receive/transmit code is the
+// same.
 //
 // Why non-blocking fds in the tick, not an I/O thread: a CAN frame is one 16-byte read or
 // write on a socket that never blocks (O_NONBLOCK), a few microseconds each, and the kernel's
@@ -13,8 +15,8 @@
 //
 // Per period:
 //   Read   flushes queued frames, drains the received ones to the newest (at most
-//          kMaxFramesPerRead): each is decoded (ID, DLC, checksum, range) and its rolling
-//          counter checked; rejects are counted (rejected_frame / crc / bad_value) and change
+//          kMaxFramesPerRead): each is matched to a profile message, checked (length, checksum,
+//          rolling counter) and its roles decoded (range); rejects are counted (rejected_frame / crc / bad_value) and change
 //          nothing. Accepted sensor values keep their arrival stamps (CanIface: the relay's
 //          or the kernel's, not the read's), so data that waited in the socket (a stalled
 //          process, a backlog) show their true age to the watchdog. A flood — more than
@@ -26,36 +28,45 @@
 //          is kFault (disconnected / bus_off) — the can_bus cause too — and the device
 //          reopens its fd every kReconnectInterval from the tick (socket + connect/bind: no
 //          allocation, no wait). Silence (a sender that stopped) is kNoData: the stamps go
-//          stale and the watchdog's stale-sensor cause takes over. A DriverStatus with any
-//          fault bit sets the frame's fault_line (the watchdog's fault_line cause, as the
-//          Modbus sensor block's driver-fault bit does) until a status without one.
-//   Write  queues the driver command (set-point, enable, safe flag, echo of the latest sensor
-//          seq) with the deadline tx_deadline, and the heartbeat at heartbeat_period; a frame
+//          stale and the watchdog's stale-sensor cause takes over. A driver status with any
+//          fault bit (the driver_faults role) sets the frame's fault_line (the watchdog's
+//          fault_line cause, as the Modbus sensor block's driver-fault bit does) until a status
+//          without one; so does the fault_line role when non-zero, and a driver-status message
+//          with a timeout_ms that has not come for that long (device time).
+//   Write  queues the command messages (set-point through the profile's CommandMap, enable,
+//          enable-valid, safe flag, echo of the latest sensor seq) with the deadline
+//          tx_deadline every period, and the heartbeat messages at heartbeat_period; a frame
 //          not written by its deadline is dropped (timeout). In real time a driving (non-safe)
 //          command is not sent either when the SensorMotion sample it echoes is older than
 //          max_age by then (a tick held up after the watchdog's check: preempted, stopped):
 //          timeout, and the loop commands the safe state instead. A failed or dropped send is
 //          kFault.
-//   PublishStatus  the firmware status frame at status_period.
-// Frames of the firmware's own IDs heard from another node are ignored; the driver's status
-// frame is checked and counted (its fault bits and current are kept: driver_faults(),
-// driver_current()).
+//   PublishStatus  the status messages at status_period.
+// Frames of the messages the firmware sends, heard from another node, are ignored; so are
+// messages of the profile's DBC that carry no role. A set-point the profile's signal cannot
+// carry is never wrapped: the command message then says safe (0, enable low) and the write is
+// kFault (bad_value).
 //
 // Lockstep (config.lockstep, [loop] clock = "grant"): the device is also the loop's
 // TimeGrantSource (grant_clock.hpp). WaitGrant handles frames as they come (one ppoll on the
 // fd with the remaining timeout, then non-blocking reads) and returns at the first valid
-// TimeGrant frame. Time is then the granted time: sensor values are stamped with the grant
-// that follows them (the harness sends a step's sensor frames, then its grant), heartbeat and
-// status are scheduled in granted time. A wait that times out is a missed grant: the next Read
-// is kFault (timeout, the can_bus cause), so the loop commands the safe state for that period.
+// frame carrying the grant role (mrd-native: TimeGrant). Time is then the granted time: sensor
+// values are stamped with the grant that follows them (the harness sends a step's sensor
+// frames, then its grant), heartbeat and status are scheduled in granted time. A wait that
+// ends without a grant is no fault: the clock keeps waiting (grant_clock.hpp).
 
 #include <cstdint>
 #include <string>
+
+#include <array>
+#include <memory>
+#include <vector>
 
 #include "mrd/canbus/can_iface.hpp"
 #include "mrd/firmware/bus_device.hpp"
 #include "mrd/firmware/grant_clock.hpp"
 #include "mrd/firmware/seqlock.hpp"
+#include "mrd/profile/frame_codec.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
 namespace mrd::firmware {
@@ -78,7 +89,8 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   static constexpr std::int64_t kFloodSpanNs = 5'000'000;
   static constexpr std::int64_t kReconnectInterval = 100'000'000;  // [ns]
 
-  // Opens from config.interface (SocketCAN) or config.local_bus at Configure.
+  // Opens from config.interface (SocketCAN) or config.local_bus at Configure. The profile is
+  // config.can_profile (loaded with the configuration), else the built-in mrd-native one.
   explicit CanDevice(const CanConfig& config);
   // Runs on an fd already open (e.g. one end of a socketpair); it cannot be reopened.
   CanDevice(const CanConfig& config, int fd);
@@ -98,42 +110,53 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   TimeGrantSource* grant_source() override { return config_.lockstep ? this : nullptr; }
 
   const canbus::CanStats& bus_stats() const { return iface_.stats(); }
-  std::uint8_t driver_faults() const { return driver_faults_; }
-  double driver_current() const { return driver_current_; }  // [A], latest DriverStatus
+  std::uint32_t driver_faults() const { return driver_faults_; }
+  double driver_current() const { return driver_current_; }  // [driver unit], latest status
+  const profile::CanProfile& can_profile() const { return *profile_; }
 
  private:
+  void Index();  // role and message tables of the profile, receive filters (construction)
   int Open(std::string* error) const;
   void TryReconnect(std::int64_t now);
   void Reject(protocol::can::Reject reason);
   void Count(IoError error);
   bool Handle(const can_frame& f, std::int64_t stamp);
-  bool HandleGrant(const can_frame& f);
+  void Grant(double time_us);
   // The device's time: CLOCK_MONOTONIC, or the latest granted time in lockstep.
   std::int64_t Now() const;
   // Queues one frame; false (and counted) when it failed.
   bool Send(const can_frame& f, std::int64_t now);
-  // Real time: the latest SensorMotion sample (routed here) is older than max_age at now.
+  // Real time: the latest motion sample (routed here) is older than max_age at now.
   bool MotionTooOld(std::int64_t now) const;
+  // Encodes and queues the command messages; false when a send failed or a value was refused.
+  bool SendCommand(const DriverCommand& cmd, std::int64_t now);
   void Publish() { published_.Write(counters_); }
 
   CanConfig config_;
+  std::shared_ptr<const profile::CanProfile> profile_;
+  profile::FrameCodec codec_;
+  std::vector<can_filter> filters_;  // SocketCAN receive filters (the profile's inputs)
+  // Per profile message: the input roles it carries (bit i = CanIn i); the messages the
+  // firmware sends, by kind.
+  std::array<std::uint16_t, profile::FrameCodec::kMaxMessages> rx_roles_{};
+  std::vector<int> command_msgs_, heartbeat_msgs_, status_msgs_;
+  int status_driver_msg_ = -1;  // the message carrying driver_faults (its timeout applies)
   bool reopenable_;
   bool active_ = false;
   canbus::CanIface iface_;
-  protocol::can::CounterCheck motion_check_, force_check_, status_check_;
-  std::uint8_t command_counter_ = 0, heartbeat_counter_ = 0, status_sequence_ = 0;
-  std::uint16_t last_seq_ = 0;
-  std::uint8_t driver_faults_ = 0;
+  std::uint32_t last_seq_ = 0;
+  std::uint32_t driver_faults_ = 0;
   double driver_current_ = 0.0;
+  bool fault_input_ = false;              // the fault_line role, non-zero
+  std::int64_t driver_status_ns_ = 0;     // device time of the latest driver status
   int rejects_since_read_ = 0;
   std::int64_t flood_until_ns_ = 0;  // a babbling node's fault holds until then (Now())
-  Stamped velocity_, displacement_, demand_, body_velocity_, force_;
-  // Lockstep: the latest granted time, sensor values waiting for their grant's stamp, a grant
-  // missed since the last Read, fresh values seen by WaitGrant since the last Read.
-  protocol::can::CounterCheck grant_check_;
+  std::array<Stamped, profile::kNumCanIn> values_{};  // latest value of each input role
+  // Lockstep: the latest granted time, values waiting for their grant's stamp (bit i = role
+  // i), fresh values seen by WaitGrant since the last Read.
   std::int64_t granted_ns_ = 0;
   bool got_grant_ = false;
-  bool unstamped_motion_ = false, unstamped_force_ = false;
+  std::uint16_t unstamped_ = 0;
   bool fresh_in_wait_ = false;
   std::int64_t next_heartbeat_ns_ = 0, next_status_ns_ = 0, next_reconnect_ns_ = 0;
   DeviceCounters counters_;
