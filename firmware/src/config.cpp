@@ -4,6 +4,7 @@
 #include <toml++/toml.h>
 
 #include "mrd/common/input_file.hpp"
+#include "mrd/profile/can_profile.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -320,8 +321,8 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
       {"can",
        {Names("inputs", &io.can.inputs,
               InputNames({Input::kVelocity, Input::kDisplacement, Input::kDemand,
-                          Input::kBodyVelocity, Input::kForce}),
-              "Signals read from CAN (docs/can_bus.md)."),
+                          Input::kBodyVelocity, Input::kForce, Input::kFaultLine}),
+              "Signals read from CAN (in the profile's messages; docs/can_bus.md)."),
         Names("outputs", &io.can.outputs,
               OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
               "Signals sent on CAN."),
@@ -329,6 +330,10 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
              "SocketCAN interface (e.g. \"can0\"); or local_bus."),
         Text("local_bus", &io.can.local_bus, kMaxSocketPath, "a UNIX socket path", "",
              "UNIX socket path of a local frame bus (mrd-canbus; machines without AF_CAN)."),
+        Text("profile", &io.can.profile, kMaxPath, "PATH_MAX", "",
+             "Device profile (docs/devices.md): the driver's DBC messages and signals for each "
+             "input and output, relative to this file; default: the built-in mrd-native "
+             "(docs/mrd.dbc)."),
         Duration("tx_deadline_us", &io.can.tx_deadline_ns, 1e3, 1.0, 1e6, "us",
                  "A frame not sent by then is dropped (counted)."),
         Duration("status_period_ms", &io.can.status_period_ns, 1e6, 1.0, 1e4, "ms",
@@ -517,6 +522,70 @@ bool CheckIo(const toml::table& root, const std::string& source, const FirmwareC
   return true;
 }
 
+// [can] profile: loaded (relative to the configuration file) and checked against the routing:
+// every input and output the [can] section names, and the grant in lockstep, must be a role
+// the profile maps. Without the key: the built-in mrd-native profile (checked the same way).
+bool LoadCanProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,
+                      std::string* error) {
+  CanConfig& can = c->io.can;
+  const profile::CanProfile* p = &profile::NativeCanProfile();
+  std::string where = Where(root, source, "can", "profile");
+  if (!can.profile.empty()) {
+    std::string path = can.profile;
+    if (path[0] != '/') {
+      const auto slash = source.rfind('/');
+      path = (slash == std::string::npos ? std::string(".") : source.substr(0, slash)) + "/" + path;
+    }
+    auto loaded = std::make_shared<profile::CanProfile>();
+    std::string why;
+    if (!profile::LoadCanProfile(path, loaded.get(), &why)) {
+      *error = where + "device profile: " + Printable(why);
+      return false;
+    }
+    can.can_profile = loaded;
+    p = loaded.get();
+  } else {
+    where = Where(root, source, "can", "inputs");
+  }
+  const auto mapped_in = [&](profile::CanIn r) { return p->inputs[static_cast<std::size_t>(r)].mapped(); };
+  const auto mapped_out = [&](profile::CanOut r) {
+    return p->outputs[static_cast<std::size_t>(r)].mapped();
+  };
+  for (std::size_t i = 0; i < kNumInputs; ++i) {
+    if ((can.inputs & (1U << i)) != 0 && !mapped_in(static_cast<profile::CanIn>(i))) {
+      *error = where + "profile " + p->name + " maps no signal to input '" +
+               InputName(static_cast<Input>(i)) + "' ([inputs] of the profile)";
+      return false;
+    }
+  }
+  struct Need {
+    Output output;
+    std::initializer_list<profile::CanOut> any;
+  };
+  const Need needs[] = {
+      {Output::kCommand, {profile::CanOut::kCommand}},
+      {Output::kEnable, {profile::CanOut::kEnable}},
+      {Output::kHeartbeat, {profile::CanOut::kHeartbeatSafe}},
+      {Output::kStatus, {profile::CanOut::kStatusSafe, profile::CanOut::kStatusCauses,
+                         profile::CanOut::kStatusOverruns, profile::CanOut::kStatusSafeEntries}}};
+  for (const Need& n : needs) {
+    if ((can.outputs & Bit(n.output)) == 0) continue;
+    bool any = false;
+    for (const profile::CanOut r : n.any) any = any || mapped_out(r);
+    if (!any) {
+      *error = where + "profile " + p->name + " maps no signal to output '" +
+               OutputName(n.output) + "' ([outputs] of the profile)";
+      return false;
+    }
+  }
+  if (c->clock == LoopClock::kGrant && !mapped_in(profile::CanIn::kGrant)) {
+    *error = where + "clock = \"grant\" needs the profile's 'grant' input (profile " + p->name +
+             " has none)";
+    return false;
+  }
+  return true;
+}
+
 bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c,
            std::string* error) {
   Scratch x{static_cast<double>(c->period_ns) / 1e3,
@@ -551,6 +620,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
     }
   }
   if (!CheckIo(root, source, *c, error)) return false;
+  if (c->io.can.enabled && !LoadCanProfileOf(root, source, c, error)) return false;
   c->period_ns = static_cast<std::int64_t>(std::llround(x.period_us * 1e3));
   k.watchdog.max_age_ns = static_cast<std::int64_t>(std::llround(x.max_age_ms * 1e6));
   if (x.e_max_set) c->e_max = x.e_max;

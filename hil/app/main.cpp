@@ -331,6 +331,9 @@ int main(int argc, char** argv) {
                   "lockstep (time grants on the bus: deterministic, as fast as both sides "
                   "allow) | realtime (1 kHz wall clock: latency and jitter)");
   run->add_option("--table", ro.table, "coefficient table for the firmware (mrd export)");
+  run->add_option("--profile", ro.profile,
+                  "CAN device profile (docs/devices.md): the harness plays the driver in its "
+                  "messages and the firmware gets the same file (default: mrd-native)");
   run->add_option("--excitation", ro.excitation,
                   "CSV (header with x, v and the demand column, e.g. an `mrd generate` data "
                   "set) replacing the scenario's excitation");

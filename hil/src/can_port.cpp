@@ -1,6 +1,9 @@
-// The harness's CAN side (plant_port.hpp): the plant's sensors send SensorMotion and
-// SensorForce every step; the simulated driver hears DriverCommand and Heartbeat and sends
-// DriverStatus every kStatusPeriodSteps steps and at once when its fault bits change: the
+// The harness's CAN side (plant_port.hpp), in the messages of a device profile read from the
+// other side (mrd/profile/can_profile.hpp; default the built-in mrd-native: SensorMotion,
+// SensorForce, TimeGrant, DriverStatus out; DriverCommand, Heartbeat, FirmwareStatus in): the
+// plant's sensor messages every step; the simulated driver hears the command and heartbeat
+// messages and sends its status message every kStatusPeriodSteps steps and at once when its
+// fault bits change: the
 // current of the latest command (its set-point over a kCoilOhms coil while it enables the
 // coil, else 0 A) and the driver's fault (the step's fault_line: the scenario's fault_line
 // fault, `mrd-hil serve --fault-line`) as the overcurrent bit (docs/mrd.dbc). Commands are
@@ -25,6 +28,7 @@
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/canbus/socket.hpp"
 #include "mrd/hil/plant_port.hpp"
+#include "mrd/profile/frame_codec.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
 namespace mrd::hil {
@@ -38,34 +42,45 @@ constexpr std::int64_t kReconnectNs = 100'000'000;
 constexpr std::uint32_t kStatusPeriodSteps = 100;  // DriverStatus period: 100 ms (docs/mrd.dbc)
 constexpr double kCoilOhms = 5.0;  // simulated coil (e.g. a Lord RD-1005-3: about 5 ohm)
 
-constexpr can_filter kFilters[] = {
-    {pc::kDriverCommandId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
-    {pc::kHeartbeatId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
-    {pc::kFirmwareStatusId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
-};
+namespace pf = profile;
+using pf::CanIn;
+using pf::CanOut;
 
-// The IDs the harness listens to (kFilters), for the relay's tap: what the sockets' receive
-// filters do on SocketCAN, so frames of other IDs (a babbling node's) never fill its queue.
-bool Wanted(const can_frame& f) {
-  for (const can_filter& k : kFilters) {
-    if ((f.can_id & k.can_mask) == (k.can_id & k.can_mask)) return true;
-  }
-  return false;
+// The step number an echo of `bits` bits stands for: the latest one published with those low
+// bits (the echo never runs ahead of what was published).
+std::uint32_t ExpandEcho(std::uint32_t echo, std::uint32_t last_published, int bits) {
+  if (bits >= 32) return echo;
+  const std::uint32_t span = std::uint32_t{1} << bits;
+  std::uint32_t s = (last_published & ~(span - 1U)) | echo;
+  if (s > last_published && s >= span) s -= span;
+  return s;
 }
 
-// The 32-bit step number a 16-bit echo stands for: the latest one published with those low
-// bits (the echo never runs ahead of what was published).
-std::uint32_t ExpandEcho(std::uint16_t echo, std::uint32_t last_published) {
-  std::uint32_t s = (last_published & 0xFFFF0000U) | echo;
-  if (s > last_published && s >= 0x10000U) s -= 0x10000U;
-  return s;
+std::shared_ptr<const pf::CanProfile> ProfileOrNative(std::shared_ptr<const pf::CanProfile> p) {
+  if (p != nullptr) return p;
+  return std::shared_ptr<const pf::CanProfile>(&pf::NativeCanProfile(), [](const pf::CanProfile*) {});
+}
+
+// A signal's extreme raw values (the NaN code is the most negative, as in the native DBC).
+std::int64_t MaxRaw(const protocol::SignalLayout& l) {
+  return l.is_signed ? (std::int64_t{1} << (l.length - 1)) - 1
+                     : static_cast<std::int64_t>((std::uint64_t{1} << l.length) - 1U);
+}
+std::int64_t MinRaw(const protocol::SignalLayout& l) {
+  return l.is_signed ? -(std::int64_t{1} << (l.length - 1)) : 0;
 }
 
 class CanPort final : public PlantPort {
  public:
-  explicit CanPort(std::string endpoint) : endpoint_(std::move(endpoint)) {}
+  CanPort(std::string endpoint, std::shared_ptr<const pf::CanProfile> profile)
+      : endpoint_(std::move(endpoint)), profile_(ProfileOrNative(std::move(profile))),
+        codec_(*profile_) {
+    Index();
+  }
   // An in-process node of a relay this process runs (the harness owns the bus).
-  explicit CanPort(canbus::LocalBusRelay& relay) : relay_(&relay) {
+  CanPort(canbus::LocalBusRelay& relay, std::shared_ptr<const pf::CanProfile> profile)
+      : relay_(&relay), profile_(ProfileOrNative(std::move(profile))), codec_(*profile_) {
+    Index();
     relay.SetTap(&CanPort::Tap, this);
   }
   ~CanPort() override {
@@ -81,7 +96,7 @@ class CanPort final : public PlantPort {
       return true;
     }
     if (!canbus::IsLocalBusPath(endpoint_)) {
-      const int fd = canbus::OpenSocketCan(endpoint_.c_str(), kFilters, std::size(kFilters), error);
+      const int fd = canbus::OpenSocketCan(endpoint_.c_str(), filters_.data(), filters_.size(), error);
       if (fd < 0) return false;
       iface_.Attach(fd);
       return true;
@@ -108,58 +123,65 @@ class CanPort final : public PlantPort {
     if (out.fault == SensorFault::kStall) {
       // The same frames again: counters repeat, the firmware refuses them.
       if (have_last_) {
-        SendFrame(last_motion_, now);
-        SendFrame(last_force_, now);
+        for (const int m : sensor_msgs_) SendFrame(last_[static_cast<std::size_t>(m)], now);
       }
       return;
     }
-    can_frame motion{}, force{};
-    const double v = out.fault == SensorFault::kOutOfRange || out.fault == SensorFault::kNan
-                         ? 0.0
-                         : out.sample.v;
-    const bool motion_ok =
-        pc::Encode(pc::SensorMotion{v, out.sample.x,
-                                    static_cast<std::uint16_t>(out.seq & 0xFFFFU), motion_counter_},
-                   &motion) == pc::Reject::kNone;
-    const bool force_ok = pc::Encode(pc::SensorForce{out.sample.demand, out.sample.body_velocity,
-                                                     out.sample.force, force_counter_},
-                                     &force) == pc::Reject::kNone;
-    if (motion_ok) {
-      if (out.fault == SensorFault::kOutOfRange || out.fault == SensorFault::kNan) {
-        // A raw velocity outside the DBC's [-300, 300] cm/s (0x7FFF = 327.67; 0x8000, the
-        // most negative code, stands for "not a number"), sealed with a valid checksum.
-        const std::uint16_t raw = out.fault == SensorFault::kNan ? 0x8000U : 0x7FFFU;
-        motion.data[0] = static_cast<std::uint8_t>(raw & 0xFFU);
-        motion.data[1] = static_cast<std::uint8_t>(raw >> 8);
-        motion.data[motion.len - 1] = pc::Checksum(motion);
-      } else if (out.fault == SensorFault::kCorrupt) {
-        motion.data[1] ^= 0x10U;  // after sealing: checksum mismatch
+    const pf::SignalRef velocity = profile_->inputs[static_cast<std::size_t>(CanIn::kVelocity)];
+    bool all_ok = true;
+    for (const int m : sensor_msgs_) {
+      can_frame f{};
+      codec_.Begin(m, &f);
+      bool ok = true;
+      const auto set = [&](CanIn role, double v) {
+        const pf::SignalRef r = profile_->inputs[static_cast<std::size_t>(role)];
+        if (r.message == m && codec_.Set(&f, r, v) != protocol::SignalError::kNone) ok = false;
+      };
+      const bool bad_v = out.fault == SensorFault::kOutOfRange || out.fault == SensorFault::kNan;
+      set(CanIn::kVelocity, bad_v ? 0.0 : out.sample.v);
+      set(CanIn::kDisplacement, out.sample.x);
+      set(CanIn::kDemand, out.sample.demand);
+      set(CanIn::kBodyVelocity, out.sample.body_velocity);
+      set(CanIn::kForce, out.sample.force);
+      set(CanIn::kFaultLine, out.fault_line ? 1.0 : 0.0);
+      const pf::SignalRef seq = profile_->inputs[static_cast<std::size_t>(CanIn::kSensorSeq)];
+      if (seq.message == m) {
+        protocol::InsertRaw(f.data, profile_->Layout(seq),
+                            static_cast<std::int64_t>(out.seq & static_cast<std::uint32_t>(MaxRaw(profile_->Layout(seq)))));
       }
-      motion_counter_ = static_cast<std::uint8_t>((motion_counter_ + 1) & 0x0F);
-      if (SendFrame(motion, now) == canbus::CanResult::kOk) ++published_;
+      if (!ok) {  // not representable: this message is not sent (as the native encoder refuses)
+        all_ok = false;
+        continue;
+      }
+      if (bad_v && velocity.message == m) {
+        // A raw velocity outside the DBC's range (the field's largest code; the most negative,
+        // "not a number"), sealed with a valid checksum.
+        const auto& l = profile_->Layout(velocity);
+        protocol::InsertRaw(f.data, l, out.fault == SensorFault::kNan ? MinRaw(l) : MaxRaw(l));
+      }
+      codec_.Seal(m, &f);
+      if (out.fault == SensorFault::kCorrupt) f.data[f.len > 1 ? 1 : 0] ^= 0x10U;  // after sealing
+      const bool sent = SendFrame(f, now) == canbus::CanResult::kOk;
+      if (sent && (velocity.message == m || velocity.message < 0) && m == sensor_msgs_.front()) {
+        ++published_;
+      }
+      last_[static_cast<std::size_t>(m)] = f;
     }
-    if (force_ok) {
-      if (out.fault == SensorFault::kCorrupt) force.data[3] ^= 0x01U;
-      force_counter_ = static_cast<std::uint8_t>((force_counter_ + 1) & 0x0F);
-      SendFrame(force, now);
-    }
-    if (motion_ok && force_ok) {
-      last_motion_ = motion;
-      last_force_ = force;
-      have_last_ = true;
-    }
+    have_last_ = all_ok && !sensor_msgs_.empty();
   }
 
   bool SendGrant(std::int64_t t_ns) override {
     const std::int64_t now = canbus::MonotonicNs();
     if (!IsOpen()) Reconnect(now);
     if (!IsOpen()) return false;
+    const pf::SignalRef grant = profile_->inputs[static_cast<std::size_t>(CanIn::kGrant)];
+    if (!grant.mapped()) return false;  // the profile carries no grant: real time only
     can_frame f{};
-    if (pc::Encode(pc::TimeGrant{static_cast<std::uint64_t>(t_ns / 1000), grant_counter_}, &f) !=
-        pc::Reject::kNone) {
+    codec_.Begin(grant.message, &f);
+    if (codec_.Set(&f, grant, static_cast<double>(t_ns / 1000)) != protocol::SignalError::kNone) {
       return false;
     }
-    grant_counter_ = static_cast<std::uint8_t>((grant_counter_ + 1) & 0x0F);
+    codec_.Seal(grant.message, &f);
     return SendFrame(f, now) == canbus::CanResult::kOk;
   }
 
@@ -191,34 +213,47 @@ class CanPort final : public PlantPort {
       }
       const bool command_before = in->has_command;
       Handle(f, stamp, in);
-      // Lockstep: a tick's messages end with its status; what follows belongs to the next
-      // tick (or the firmware's shutdown) and waits for the next Poll.
-      if (lockstep_ && command_before && in->has_status &&
-          pc::Classify(f) == pc::Message::kFirmwareStatus) {
-        break;
+      // Lockstep: a tick's messages end with its status (its command, when the profile has
+      // no status message); what follows belongs to the next tick (or the firmware's
+      // shutdown) and waits for the next Poll.
+      if (lockstep_ && in->has_command) {
+        const int m = codec_.Find(f);
+        if (status_msgs_.empty() ? IsIn(command_msgs_, m)
+                                 : command_before && in->has_status && IsIn(status_msgs_, m)) {
+          break;
+        }
       }
     }
   }
 
   void SetLockstep(bool on) override { lockstep_ = on; }
-  void PeerRestarted() override {
-    command_check_.Reset();
-    heartbeat_check_.Reset();
-  }
+  bool CarriesStatus() const override { return !status_msgs_.empty(); }
+  void PeerRestarted() override { codec_.ResetCounters(); }
 
   // The simulated driver's DriverStatus: every kStatusPeriodSteps published steps, and at once
   // when the fault bits change (so a fault reaches the firmware in the step it appears).
   void PublishDriverStatus(const SensorOutput& out, std::int64_t now) {
-    const std::uint8_t faults = out.fault_line ? pc::kFaultOvercurrent : std::uint8_t{0};
-    if (status_sent_ && faults == status_faults_ && ++steps_since_status_ < kStatusPeriodSteps) {
+    const std::uint32_t faults = out.fault_line ? pc::kFaultOvercurrent : 0U;
+    if (driver_msgs_.empty() ||
+        (status_sent_ && faults == status_faults_ && ++steps_since_status_ < kStatusPeriodSteps)) {
       return;
     }
     const double volts = std::isfinite(command_volts_) ? command_volts_ : 0.0;
-    const double amps = command_drives_ ? std::clamp(volts, 0.0, pc::kMaxVoltage) / kCoilOhms : 0.0;
-    can_frame f{};
-    if (pc::Encode(pc::DriverStatus{amps, faults, status_counter_}, &f) != pc::Reject::kNone) return;
-    status_counter_ = static_cast<std::uint8_t>((status_counter_ + 1) & 0x0F);
-    SendFrame(f, now);
+    const double amps = command_drives_ ? std::max(volts, 0.0) / kCoilOhms : 0.0;
+    for (const int m : driver_msgs_) {
+      can_frame f{};
+      codec_.Begin(m, &f);
+      bool ok = true;
+      const auto set = [&](CanIn role, double v) {
+        const pf::SignalRef r = profile_->inputs[static_cast<std::size_t>(role)];
+        if (r.message == m && codec_.Set(&f, r, v) != protocol::SignalError::kNone) ok = false;
+      };
+      set(CanIn::kDriverCurrent, amps);
+      set(CanIn::kDriverFaults, faults);
+      if (!ok) continue;
+      codec_.Seal(m, &f);
+      SendFrame(f, now);
+    }
     status_sent_ = true;
     status_faults_ = faults;
     steps_since_status_ = 0;
@@ -268,7 +303,7 @@ class CanPort final : public PlantPort {
     if (!self->relay_open_) return;
     can_frame f;
     std::memcpy(&f, frame, sizeof f);
-    if (!Wanted(f)) return;
+    if (!self->Wanted(f)) return;
     if (self->rx_count_ == self->rx_.size()) {
       ++self->rejected_;  // overflow: as a full controller FIFO
       return;
@@ -288,70 +323,111 @@ class CanPort final : public PlantPort {
     const int fd = canbus::OpenLocalBusNode(endpoint_.c_str(), nullptr);
     if (fd >= 0) {
       iface_.Attach(fd);
-      command_check_.Reset();
-      heartbeat_check_.Reset();
+      codec_.ResetCounters();
     }
   }
 
+  static bool IsIn(const std::vector<int>& v, int m) {
+    return std::find(v.begin(), v.end(), m) != v.end();
+  }
+
+  // The firmware's messages the port listens to: filters, and which is which.
+  void Index() {
+    const pf::CanProfile& p = *profile_;
+    const auto add = [](std::vector<int>* v, int m) {
+      if (m >= 0 && !IsIn(*v, m)) v->push_back(m);
+    };
+    for (const CanOut r : {CanOut::kCommand, CanOut::kEnable, CanOut::kEnableValid, CanOut::kSafe,
+                           CanOut::kEcho}) {
+      add(&command_msgs_, p.outputs[static_cast<std::size_t>(r)].message);
+    }
+    add(&heartbeat_msgs_, p.outputs[static_cast<std::size_t>(CanOut::kHeartbeatSafe)].message);
+    for (const CanOut r : {CanOut::kStatusSafe, CanOut::kStatusCauses, CanOut::kStatusOverruns,
+                           CanOut::kStatusSafeEntries}) {
+      add(&status_msgs_, p.outputs[static_cast<std::size_t>(r)].message);
+    }
+    const int grant = p.inputs[static_cast<std::size_t>(CanIn::kGrant)].message;
+    for (const CanIn r : {CanIn::kVelocity, CanIn::kDisplacement, CanIn::kDemand,
+                          CanIn::kBodyVelocity, CanIn::kForce, CanIn::kFaultLine,
+                          CanIn::kSensorSeq}) {
+      const int m = p.inputs[static_cast<std::size_t>(r)].message;
+      if (m != grant) add(&sensor_msgs_, m);
+    }
+    for (const CanIn r : {CanIn::kDriverFaults, CanIn::kDriverCurrent}) {
+      const int m = p.inputs[static_cast<std::size_t>(r)].message;
+      if (!IsIn(sensor_msgs_, m) && m != grant) add(&driver_msgs_, m);
+    }
+    for (const auto* list : {&command_msgs_, &heartbeat_msgs_, &status_msgs_}) {
+      for (const int m : *list) {
+        const pf::DbcMessage& msg = p.dbc.messages[static_cast<std::size_t>(m)];
+        filters_.push_back({pf::WireId(msg), (msg.extended ? CAN_EFF_MASK : CAN_SFF_MASK) |
+                                                 CAN_EFF_FLAG | CAN_RTR_FLAG});
+      }
+    }
+    last_.resize(p.dbc.messages.size());
+  }
+
+  // The IDs the harness listens to (filters_), for the relay's tap: what the sockets' receive
+  // filters do on SocketCAN, so frames of other IDs (a babbling node's) never fill its queue.
+  bool Wanted(const can_frame& f) const {
+    for (const can_filter& k : filters_) {
+      if ((f.can_id & k.can_mask) == (k.can_id & k.can_mask)) return true;
+    }
+    return false;
+  }
+
   void Handle(const can_frame& f, std::int64_t stamp, DriverInput* in) {
-    switch (pc::Classify(f)) {
-      case pc::Message::kDriverCommand: {
-        pc::DriverCommand m;
-        pc::Reject r = pc::Decode(f, &m);
-        if (r == pc::Reject::kNone) r = command_check_.Check(m.counter);
-        if (r != pc::Reject::kNone) {
-          ++rejected_;
-          return;
-        }
-        ++received_;
+    const int m = codec_.Find(f);
+    const bool command = IsIn(command_msgs_, m), heartbeat = IsIn(heartbeat_msgs_, m),
+               status = IsIn(status_msgs_, m);
+    if (m < 0) {
+      ++rejected_;
+      return;
+    }
+    if (!command && !heartbeat && !status) return;  // the device side's own messages
+    if (codec_.Check(m, f) != pc::Reject::kNone) {
+      ++rejected_;
+      return;
+    }
+    const pf::CanProfile& p = *profile_;
+    const auto get = [&](CanOut role, double* v) {
+      const pf::SignalRef r = p.outputs[static_cast<std::size_t>(role)];
+      return r.message == m && codec_.Get(f, r, v) == protocol::SignalError::kNone;
+    };
+    ++received_;
+    double v = 0.0;
+    if (command) {
+      if (get(CanOut::kCommand, &v)) {
         in->has_command = true;
-        in->volts = m.volts;
+        in->volts = v;
         in->command_ns = stamp;
+        command_volts_ = v;
+      }
+      if (get(CanOut::kEcho, &v)) {
+        const pf::SignalRef r = p.outputs[static_cast<std::size_t>(CanOut::kEcho)];
         in->has_echo = true;
-        in->echo = ExpandEcho(m.echo_seq, last_published_);
+        in->echo = ExpandEcho(static_cast<std::uint32_t>(v), last_published_, p.Layout(r).length);
+      }
+      if (get(CanOut::kSafe, &v)) {
         in->has_safe = true;
-        in->safe = m.safe;
-        if (m.enable_valid) {
-          in->has_enable = true;
-          in->enable = m.enable;
-        }
-        command_volts_ = m.volts;
-        command_drives_ = !m.enable_valid || m.enable;
-        return;
+        in->safe = v != 0.0;
       }
-      case pc::Message::kHeartbeat: {
-        pc::Heartbeat m;
-        pc::Reject r = pc::Decode(f, &m);
-        if (r == pc::Reject::kNone) r = heartbeat_check_.Check(m.counter);
-        if (r != pc::Reject::kNone) {
-          ++rejected_;
-          return;
-        }
-        ++received_;
-        in->heartbeat_ns = stamp;
-        ++in->heartbeats;
-        return;
+      double valid = 1.0;
+      const bool has_valid = get(CanOut::kEnableValid, &valid);
+      if (get(CanOut::kEnable, &v) && (!has_valid || valid != 0.0)) {
+        in->has_enable = true;
+        in->enable = v != 0.0;
       }
-      case pc::Message::kFirmwareStatus: {
-        pc::FirmwareStatus m;
-        if (pc::Decode(f, &m) != pc::Reject::kNone) {
-          ++rejected_;
-          return;
-        }
-        ++received_;
-        in->has_status = true;
-        in->status_causes = m.active_causes;
-        in->status_safe = m.safe;
-        return;
-      }
-      case pc::Message::kSensorMotion:
-      case pc::Message::kSensorForce:
-      case pc::Message::kTimeGrant:
-      case pc::Message::kDriverStatus:
-        return;  // the device side's own IDs from another node
-      case pc::Message::kUnknown:
-        ++rejected_;
-        return;
+      command_drives_ = !in->has_enable || in->enable;
+    }
+    if (heartbeat) {
+      in->heartbeat_ns = stamp;
+      ++in->heartbeats;
+    }
+    if (status) {
+      in->has_status = true;
+      if (get(CanOut::kStatusCauses, &v)) in->status_causes = static_cast<std::uint16_t>(v);
+      if (get(CanOut::kStatusSafe, &v)) in->status_safe = v != 0.0;
     }
   }
 
@@ -369,15 +445,18 @@ class CanPort final : public PlantPort {
   std::thread relay_thread_;
   std::atomic<bool> relay_stop_{false};
   canbus::CanIface iface_;
-  pc::CounterCheck command_check_, heartbeat_check_;
-  std::uint8_t motion_counter_ = 0, force_counter_ = 0, grant_counter_ = 0, status_counter_ = 0;
+  std::shared_ptr<const pf::CanProfile> profile_;
+  pf::FrameCodec codec_;
+  std::vector<can_filter> filters_;
+  // Profile messages by kind: the firmware's (heard) and the plant's and driver's (sent).
+  std::vector<int> command_msgs_, heartbeat_msgs_, status_msgs_, sensor_msgs_, driver_msgs_;
   // The simulated driver: the latest command heard, the DriverStatus schedule.
   double command_volts_ = 0.0;
   bool command_drives_ = false;
   bool status_sent_ = false;
-  std::uint8_t status_faults_ = 0;
+  std::uint32_t status_faults_ = 0;
   std::uint32_t steps_since_status_ = 0;
-  can_frame last_motion_{}, last_force_{};
+  std::vector<can_frame> last_;  // per message: the latest sensor frame sent (stall)
   bool have_last_ = false;
   std::uint32_t last_published_ = 0;
   std::int64_t next_reconnect_ = 0;
@@ -386,12 +465,14 @@ class CanPort final : public PlantPort {
 
 }  // namespace
 
-std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint) {
-  return std::make_unique<CanPort>(endpoint);
+std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint,
+                                       std::shared_ptr<const profile::CanProfile> profile) {
+  return std::make_unique<CanPort>(endpoint, std::move(profile));
 }
 
-std::unique_ptr<PlantPort> MakeCanPortOnRelay(canbus::LocalBusRelay& relay) {
-  return std::make_unique<CanPort>(relay);
+std::unique_ptr<PlantPort> MakeCanPortOnRelay(canbus::LocalBusRelay& relay,
+                                              std::shared_ptr<const profile::CanProfile> profile) {
+  return std::make_unique<CanPort>(relay, std::move(profile));
 }
 
 }  // namespace mrd::hil

@@ -5,11 +5,13 @@
 
 #include "mrd/hil/gpio_port.hpp"
 #include "mrd/hil/run.hpp"
+#include "mrd/profile/can_profile.hpp"
 
 namespace mrd::hil {
 
 std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
-                               const std::string& endpoint, const std::string& gpio_chip) {
+                               const std::string& endpoint, const std::string& gpio_chip,
+                               const profile::CanProfile* can_profile) {
   std::ostringstream c;
   const bool modbus = transport != "can";
   // In real time a Modbus transaction takes a few ms on its worker thread: the CAN defaults
@@ -43,16 +45,35 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
   if (!modbus) {
     // Signals on GPIO leave CAN: the motion frame's (displacement, velocity) for the encoder,
     // enable and heartbeat for the lines.
-    const std::string can_inputs =
-        g.displacement ? "[\"demand\", \"body_velocity\", \"force\"]" : inputs;
+    // Only what the device profile maps travels on CAN.
+    const profile::CanProfile& p = can_profile != nullptr ? *can_profile
+                                                          : profile::NativeCanProfile();
+    const auto in = [&](profile::CanIn r) { return p.inputs[static_cast<std::size_t>(r)].mapped(); };
+    const auto out = [&](profile::CanOut r) {
+      return p.outputs[static_cast<std::size_t>(r)].mapped();
+    };
+    std::string can_inputs = "[";
+    const auto add = [](std::string* list, const char* name) {
+      *list += std::string(list->size() > 1 ? ", " : "") + "\"" + name + "\"";
+    };
+    if (!g.displacement && in(profile::CanIn::kVelocity)) add(&can_inputs, "velocity");
+    if (!g.displacement && in(profile::CanIn::kDisplacement)) add(&can_inputs, "displacement");
+    if (in(profile::CanIn::kDemand)) add(&can_inputs, "demand");
+    if (in(profile::CanIn::kBodyVelocity)) add(&can_inputs, "body_velocity");
+    if (in(profile::CanIn::kForce)) add(&can_inputs, "force");
+    can_inputs += "]";
     std::string can_outputs = "[\"command\"";
-    if (!g.enable) can_outputs += ", \"enable\"";
-    if (!g.heartbeat) can_outputs += ", \"heartbeat\"";
-    can_outputs += ", \"status\"]";
+    if (!g.enable && out(profile::CanOut::kEnable)) can_outputs += ", \"enable\"";
+    if (!g.heartbeat && out(profile::CanOut::kHeartbeatSafe)) can_outputs += ", \"heartbeat\"";
+    if (out(profile::CanOut::kStatusSafe) || out(profile::CanOut::kStatusCauses)) {
+      can_outputs += ", \"status\"";
+    }
+    can_outputs += "]";
     const bool local = endpoint.find('/') != std::string::npos;
     c << "\n[can]\n" << (local ? "local_bus" : "interface") << " = \"" << endpoint
       << "\"\ninputs = " << can_inputs << "\noutputs = " << can_outputs
       << "\nstatus_period_ms = 1\nheartbeat_period_ms = 10\n";
+    if (can_profile != nullptr) c << "profile = \"" << can_profile->path << "\"\n";
   } else if (transport == "modbus-tcp") {
     const auto colon = endpoint.rfind(':');
     c << "\n[modbus]\nmode = \"tcp\"\nhost = \"" << endpoint.substr(0, colon)

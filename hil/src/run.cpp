@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -23,6 +24,7 @@
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/hil/child.hpp"
 #include "mrd/hil/plant.hpp"
+#include "mrd/profile/can_profile.hpp"
 #include "run_gpio.hpp"
 #include "run_internal.hpp"
 
@@ -235,6 +237,29 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       return 2;
     }
   }
+  // The CAN device profile: the harness plays the driver in its messages; the firmware gets
+  // the same file.
+  std::shared_ptr<const profile::CanProfile> can_profile;
+  if (!o.profile.empty()) {
+    if (o.transport != "can") {
+      *error = "--profile: a CAN device profile needs --transport can";
+      return 2;
+    }
+    char resolved[PATH_MAX];
+    auto p = std::make_shared<profile::CanProfile>();
+    std::string why;
+    if (realpath(o.profile.c_str(), resolved) == nullptr ||
+        !profile::LoadCanProfile(resolved, p.get(), &why)) {
+      *error = "--profile: " + (why.empty() ? o.profile + ": " + std::strerror(errno) : why);
+      return 2;
+    }
+    if (lockstep && !p->inputs[static_cast<std::size_t>(profile::CanIn::kGrant)].mapped()) {
+      *error = "--profile " + o.profile + ": lockstep needs a 'grant' input in the profile (the "
+               "simulation's time grant, e.g. the native TimeGrant message); or --clock realtime";
+      return 2;
+    }
+    can_profile = p;
+  }
   if (s.quarter_car && !o.excitation.empty()) {
     *error = "--excitation: " + s.path + " is a quarter car, excited by its [road]";
     return 2;
@@ -268,11 +293,11 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   const bool relay_bus = can && o.can_interface.empty();  // else SocketCAN (CAN_RAW)
   if (can && !relay_bus) {
     endpoint = o.can_interface;
-    port = MakeCanPort(endpoint);
+    port = MakeCanPort(endpoint, can_profile);
   } else if (can) {
     endpoint = o.work_dir + "/canbus.sock";
     if (!relay.Open(endpoint, error)) return 1;
-    port = MakeCanPortOnRelay(relay);
+    port = MakeCanPortOnRelay(relay, can_profile);
   } else if (o.transport == "modbus-rtu") {
     endpoint = o.work_dir + "/modbus-pty";
     port = MakeModbusRtuPort(endpoint);
@@ -313,7 +338,8 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   RunGpio gpio;  // the scenario's [gpio] lines (none without)
   std::string gpio_chip;
   if (!gpio.Open(s, o, &gpio_chip, error)) return 1;
-  const std::string config = FirmwareConfigText(s, o.transport, lockstep, endpoint, gpio_chip);
+  const std::string config =
+      FirmwareConfigText(s, o.transport, lockstep, endpoint, gpio_chip, can_profile.get());
   r->config_path = o.work_dir + "/firmware.toml";
   std::ofstream(r->config_path) << config;
 
@@ -533,7 +559,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
         std::int64_t resend = NowNs() + 50'000'000;
         while (true) {
           port->Poll(&fresh);
-          if (fresh.has_command && fresh.has_status) break;
+          if (fresh.has_command && (fresh.has_status || !port->CarriesStatus())) break;
           if (!firmware_alive()) break;  // exited mid-step: no command for this step
           const std::int64_t now = NowNs();
           if (const int sig = interrupted()) return end_run(interrupt_text(sig), sig);

@@ -13,6 +13,9 @@
 namespace mrd::canbus {
 class LocalBusRelay;
 }  // namespace mrd::canbus
+namespace mrd::profile {
+struct CanProfile;
+}  // namespace mrd::profile
 
 namespace mrd::hil {
 
@@ -82,6 +85,9 @@ class PlantPort {
   }
   // Lockstep: Poll hands over one firmware tick at a time (CAN: up to its status frame).
   virtual void SetLockstep(bool on) { (void)on; }
+  // Lockstep: the firmware's status travels on this port with every tick's command (the
+  // harness then waits for both).
+  virtual bool CarriesStatus() const { return true; }
   // A new firmware instance is starting (the harness restarted it): forget the previous
   // sender's rolling counters, so its first frames are not taken for repeated or stale ones.
   virtual void PeerRestarted() {}
@@ -94,13 +100,16 @@ class PlantPort {
 // socket path or CAN interface; "HOST:PORT" for Modbus TCP; the pty link path for Modbus
 // RTU; the simulated chip path (with optional line settings, gpio_port.hpp) for GPIO. nullptr
 // when the transport is not in this build (GPIO: or the endpoint does not parse).
-std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint);
+// CAN: in the messages of a device profile (nullptr: the built-in mrd-native one).
+std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint,
+                                       std::shared_ptr<const profile::CanProfile> profile = nullptr);
 std::unique_ptr<PlantPort> MakeModbusTcpPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeModbusRtuPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeGpioPort(const std::string& endpoint);
 // CAN as an in-process node of a local-bus relay this process runs (mrd-hil run owns the bus):
 // frames go straight to the relay's socket nodes and come back through its tap; Wait steps the
 // relay. The relay outlives the port.
-std::unique_ptr<PlantPort> MakeCanPortOnRelay(canbus::LocalBusRelay& relay);
+std::unique_ptr<PlantPort> MakeCanPortOnRelay(
+    canbus::LocalBusRelay& relay, std::shared_ptr<const profile::CanProfile> profile = nullptr);
 
 }  // namespace mrd::hil

@@ -44,6 +44,7 @@ struct RunOptions {
   std::string table;                // table file for the firmware; "": its compiled-in table
   std::string excitation;           // CSV replacing the scenario's excitation ("": keep it)
   std::string firmware;             // mrd-firmware to start
+  std::string profile;              // CAN device profile file ("": the built-in mrd-native)
   bool attach = false;              // do not start it: wait for one started by hand
   std::string work_dir;             // config, sockets, firmware output (created if absent)
   double command_timeout_s = 10.0;  // lockstep liveness: silence this long ends the run [s]
@@ -148,7 +149,10 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
 // firmware finds the scenario's [gpio] lines (unused without them): a simulated chip's path
 // (contains '/') or a GPIO character device for libgpiod (e.g. "gpiochip0"); the line offsets
 // are GpioPortConfig's defaults (gpio_port.hpp).
+// can_profile: the CAN device profile (its file written as [can] profile; the inputs and
+// outputs routed to CAN are those it maps); nullptr: the built-in mrd-native one.
 std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
-                               const std::string& endpoint, const std::string& gpio_chip = "");
+                               const std::string& endpoint, const std::string& gpio_chip = "",
+                               const profile::CanProfile* can_profile = nullptr);
 
 }  // namespace mrd::hil
