@@ -629,6 +629,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   c->io.modbus.lockstep = c->clock == LoopClock::kGrant && !c->io.can.enabled;
   c->io.can.max_age_ns = k.watchdog.max_age_ns;  // the CAN device's last check before sending
   c->io.modbus.priority = c->priority;  // the worker that writes the loop's safe block
+  c->io.can.period_ns = c->period_ns;
   return true;
 }
 

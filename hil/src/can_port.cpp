@@ -398,6 +398,7 @@ class CanPort final : public PlantPort {
     double v = 0.0;
     if (command) {
       if (get(CanOut::kCommand, &v)) {
+        v = p.command.Invert(v);  // the driver's set-point back to the coil's E [V]
         in->has_command = true;
         in->volts = v;
         in->command_ns = stamp;

@@ -157,6 +157,35 @@ bool Message(const Ctx& c, const toml::table& t, const std::string& name, CanPro
   return true;
 }
 
+// [command]: unit, calibration (a CSV relative to the profile), min, max, slew_per_s.
+bool Command(const Ctx& c, const toml::table& t, const std::string& dir, CanProfile* p) {
+  double min = -1e300, max = 1e300, slew = 0.0;
+  for (const auto& [k, v] : t) {
+    const std::string key(k.str());
+    const std::string full = "command." + key;
+    if (key == "unit") {
+      const auto s = v.value<std::string>();
+      if (!s || s->empty() || s->size() > 16) return c.Fail(&v, full + ": expected a short unit name");
+      p->command_unit = *s;
+    } else if (key == "calibration") {
+      const auto s = v.value<std::string>();
+      if (!s || s->empty()) return c.Fail(&v, full + ": expected the path of a CSV file");
+      const std::string file = (*s)[0] == '/' ? *s : dir + "/" + *s;
+      std::string why;
+      if (!p->command.LoadCalibration(file, &why)) return c.Fail(&v, full + ": " + why);
+    } else if (key == "min" || key == "max" || key == "slew_per_s") {
+      const auto d = v.value<double>();
+      if (!d || !std::isfinite(*d)) return c.Fail(&v, full + ": expected a number");
+      (key == "min" ? min : key == "max" ? max : slew) = *d;
+    } else {
+      return c.Fail(&v, full + ": unknown key (unit, calibration, min, max, slew_per_s)");
+    }
+  }
+  std::string why;
+  if (!p->command.SetRange(min, max, slew, &why)) return c.Fail(&t, why);
+  return true;
+}
+
 }  // namespace
 
 const char* CanInName(CanIn role) { return kCanInNames[static_cast<std::size_t>(role)]; }
@@ -283,8 +312,15 @@ bool ParseCanProfile(const std::string& text, const std::string& path,
           if (mt == nullptr) return c.Fail(&mv, "messages." + std::string(mk.str()) + ": expected a table");
           if (!Message(c, *mt, std::string(mk.str()), out)) return false;
         }
+      } else if (key == "command") {
+        const toml::table* t = v.as_table();
+        if (t == nullptr) return c.Fail(&v, "command: expected a table");
+        if (!Command(c, *t, dbc_text != nullptr ? std::string(".") : Directory(path), out)) {
+          return false;
+        }
       } else if (key != "dbc" && key != "inputs" && key != "outputs" && key != "description") {
-        return c.Fail(&v, key + ": unknown key (name, description, dbc, inputs, outputs, messages)");
+        return c.Fail(&v, key + ": unknown key (name, description, dbc, inputs, outputs, "
+                                "messages, command)");
       }
     }
     if (out->name.empty()) {

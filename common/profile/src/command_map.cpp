@@ -91,6 +91,18 @@ double CommandMap::Calibrate(double e) const {
   return u_[i - 1] + t * (u_[i] - u_[i - 1]);
 }
 
+double CommandMap::Invert(double u) const {
+  if (n_ < 2) return u;
+  const bool rising = u_[n_ - 1] > u_[0];
+  const auto before = [rising](double a, double b) { return rising ? a <= b : a >= b; };
+  if (before(u, u_[0])) return e_[0];
+  if (before(u_[n_ - 1], u)) return e_[n_ - 1];
+  std::size_t i = 1;
+  while (!before(u, u_[i])) ++i;  // u between u_[i-1] and u_[i]
+  const double t = (u - u_[i - 1]) / (u_[i] - u_[i - 1]);
+  return e_[i - 1] + t * (e_[i] - e_[i - 1]);
+}
+
 double CommandMap::Apply(double e, double dt_s) {
   double u = std::isfinite(e) ? Calibrate(e) : 0.0;
   if (u < min_) u = min_;

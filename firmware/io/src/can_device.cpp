@@ -60,13 +60,15 @@ std::shared_ptr<const pf::CanProfile> ProfileOf(const CanConfig& config) {
 }  // namespace
 
 CanDevice::CanDevice(const CanConfig& config)
-    : config_(config), profile_(ProfileOf(config)), codec_(*profile_), reopenable_(true) {
+    : config_(config), profile_(ProfileOf(config)), codec_(*profile_), command_(profile_->command),
+      reopenable_(true) {
   Index();
   Publish();
 }
 
 CanDevice::CanDevice(const CanConfig& config, int fd)
-    : config_(config), profile_(ProfileOf(config)), codec_(*profile_), reopenable_(false) {
+    : config_(config), profile_(ProfileOf(config)), codec_(*profile_), command_(profile_->command),
+      reopenable_(false) {
   Index();
   iface_.Attach(fd);
   Publish();
@@ -409,7 +411,9 @@ void CanDevice::PublishStatus(const TelemetrySnapshot& stats) {
 bool CanDevice::SendCommand(const DriverCommand& cmd, std::int64_t now) {
   const pf::CanProfile& p = *profile_;
   const bool enable_routed = (config_.outputs & Bit(Output::kEnable)) != 0;
-  const double setpoint = cmd.volts;  // (the profile's command map comes with [command])
+  // The profile's way from E to the driver's set-point; the safe state is not slew-limited.
+  if (cmd.safe) command_.Reset();
+  const double setpoint = command_.Apply(cmd.volts, static_cast<double>(config_.period_ns) * 1e-9);
   bool ok = true;
   for (const int m : command_msgs_) {
     can_frame f{};

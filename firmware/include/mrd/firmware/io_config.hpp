@@ -63,6 +63,7 @@ struct CanConfig {
   std::string profile;
   std::shared_ptr<const profile::CanProfile> can_profile;
   std::int64_t tx_deadline_ns = 500'000;   // a frame not sent by then is dropped [ns]
+  std::int64_t period_ns = 1'000'000;      // the control period (the command's slew step) [ns]
   std::int64_t status_period_ns = 100'000'000;     // status frame period [ns]
   std::int64_t heartbeat_period_ns = 10'000'000;   // heartbeat frame period [ns]
   // Lockstep ([loop] clock = "grant"): the device is the loop's TimeGrantSource, stamps and

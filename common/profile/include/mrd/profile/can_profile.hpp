@@ -10,12 +10,14 @@
 //   [outputs]  command = "Msg.Signal" ...   (firmware outputs the bus carries)
 //   [messages.Msg]  counter = "Signal"  checksum = "Signal"  checksum_kind = "crc8"|"sum8"
 //                   crc_poly crc_init crc_xor  checksum_covers_id  period_ms  timeout_ms
+//   [command]  unit = "A"  calibration = "coil.csv"  min  max  slew_per_s   (command_map.hpp)
 
 #include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "mrd/profile/command_map.hpp"
 #include "mrd/profile/dbc.hpp"
 
 namespace mrd::profile {
@@ -83,6 +85,9 @@ struct CanProfile {
   std::vector<MessageSpec> specs;  // one per DBC message, same index
   std::array<SignalRef, kNumCanIn> inputs{};
   std::array<SignalRef, kNumCanOut> outputs{};
+  // E [V] -> the driver's set-point ([command]; identity without it).
+  std::string command_unit = "V";
+  CommandMap command;
   const protocol::SignalLayout& Layout(SignalRef r) const {
     return dbc.messages[static_cast<std::size_t>(r.message)]
         .signals[static_cast<std::size_t>(r.signal)]

@@ -37,6 +37,9 @@ class CommandMap {
   double Apply(double e, double dt_s);
   // The calibration alone (no range, no slew): set-point for e.
   double Calibrate(double e) const;
+  // The calibration's inverse (the E that gives set-point u; held at the curve's ends): what a
+  // simulated driver applies for a set-point it hears.
+  double Invert(double u) const;
   // Forget the previous set-point (the next Apply is not slew-limited).
   void Reset() { have_last_ = false; }
 

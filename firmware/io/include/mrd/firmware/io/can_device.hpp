@@ -135,6 +135,7 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   CanConfig config_;
   std::shared_ptr<const profile::CanProfile> profile_;
   profile::FrameCodec codec_;
+  profile::CommandMap command_;      // the profile's, with this device's slew state
   std::vector<can_filter> filters_;  // SocketCAN receive filters (the profile's inputs)
   // Per profile message: the input roles it carries (bit i = CanIn i); the messages the
   // firmware sends, by kind.
