@@ -19,7 +19,12 @@ namespace {
 
 namespace pc = protocol::can;
 
-class CanDeviceConformance : public CanDevicePeerTest {};
+class CanDeviceConformance : public CanDevicePeerTest {
+ protected:
+  // n sensor frames with bad checksums: a babbling node's, each refused by the device.
+  void SendBadChecksums(int n) {
+    for (int i = 0; i < n; ++i) {
+      can_frame f{};
       ASSERT_EQ(pc::Encode(pc::SensorMotion{9.0, 0.0, 9, static_cast<std::uint8_t>(i & 15)}, &f),
                 pc::Reject::kNone);
       f.data[7] ^= 0x5A;
@@ -65,13 +70,7 @@ TEST_F(CanDeviceConformance, ABabblingNodeIsAFloodAndABusFault) {
   // Sensor IDs with bad checksums, far more than a healthy bus ever refuses, around the good
   // frames of the real sensor.
   SendMotion(2.0, 0.0, 1, 0);
-  for (int i = 0; i < 200; ++i) {
-    can_frame f{};
-    ASSERT_EQ(pc::Encode(pc::SensorMotion{9.0, 0.0, 9, static_cast<std::uint8_t>(i & 15)}, &f),
-              pc::Reject::kNone);
-    f.data[7] ^= 0x5A;
-    PeerSend(f);
-  }
+  ASSERT_NO_FATAL_FAILURE(SendBadChecksums(200));
   SendMotion(3.0, 0.0, 2, 1);
   SensorFrame frame;
   IoError why = IoError::kNone;
@@ -102,13 +101,7 @@ TEST_F(CanDeviceConformance, ABabblingNodeIsAFloodAndABusFault) {
   std::this_thread::sleep_for(std::chrono::nanoseconds(CanDevice::kFloodHoldNs + 10'000'000));
   EXPECT_EQ(Read(&frame, &why), IoStatus::kNoData);
   // A few refused frames are not a flood.
-  for (int i = 0; i < CanDevice::kMaxRejectsPerRead; ++i) {
-    can_frame f{};
-    ASSERT_EQ(pc::Encode(pc::SensorMotion{9.0, 0.0, 9, static_cast<std::uint8_t>(i & 15)}, &f),
-              pc::Reject::kNone);
-    f.data[7] ^= 0x5A;
-    PeerSend(f);
-  }
+  ASSERT_NO_FATAL_FAILURE(SendBadChecksums(CanDevice::kMaxRejectsPerRead));
   EXPECT_EQ(Read(&frame, &why), IoStatus::kNoData);
 }
 
