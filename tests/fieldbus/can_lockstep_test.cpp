@@ -75,21 +75,28 @@ struct HarnessSocket {
   bool ok = false;
 };
 
-TEST(CanLockstep, OneTickPerGrantALateGrantChangesNothingNoAllocation) {
-  HarnessSocket bus;
-  ASSERT_TRUE(bus.ok);
-  CanDevice device(bus.Config());
+// The firmware's side of the bus: the device configured, active and accepted by the harness
+// socket (bus.peer), in io; the controller on the demo table.
+void StartFirmwareSide(HarnessSocket& bus, CanDevice& device, FieldbusIo& io,
+                       Controller& controller) {
   std::string error;
   ASSERT_TRUE(device.Configure(&error)) << error;
   ASSERT_TRUE(device.Activate(&error)) << error;
   bus.peer = accept(bus.listener, nullptr, nullptr);
-  const int peer = bus.peer;
-  ASSERT_GE(peer, 0);
-  ASSERT_EQ(device.grant_source(), &device);
-  FieldbusIo io;
+  ASSERT_GE(bus.peer, 0);
   ASSERT_TRUE(io.Add(&device));
-  Controller controller;
   ASSERT_EQ(controller.Configure(test::DemoDamperTable(), {}), Error::kOk);
+}
+
+TEST(CanLockstep, OneTickPerGrantALateGrantChangesNothingNoAllocation) {
+  HarnessSocket bus;
+  ASSERT_TRUE(bus.ok);
+  CanDevice device(bus.Config());
+  FieldbusIo io;
+  Controller controller;
+  ASSERT_NO_FATAL_FAILURE(StartFirmwareSide(bus, device, io, controller));
+  const int peer = bus.peer;
+  ASSERT_EQ(device.grant_source(), &device);
   Telemetry telemetry;
   GrantClock clock(device, 10'000'000'000);
   Loop loop(clock, io, io, controller, telemetry, kPeriod);
@@ -150,15 +157,9 @@ TEST(CanLockstep, AHarnessThatIsGoneEndsTheLoopInTheSafeState) {
   HarnessSocket bus;
   ASSERT_TRUE(bus.ok);
   CanDevice device(bus.Config());
-  std::string error;
-  ASSERT_TRUE(device.Configure(&error)) << error;
-  ASSERT_TRUE(device.Activate(&error)) << error;
-  bus.peer = accept(bus.listener, nullptr, nullptr);
-  ASSERT_GE(bus.peer, 0);
   FieldbusIo io;
-  ASSERT_TRUE(io.Add(&device));
   Controller controller;
-  ASSERT_EQ(controller.Configure(test::DemoDamperTable(), {}), Error::kOk);
+  ASSERT_NO_FATAL_FAILURE(StartFirmwareSide(bus, device, io, controller));
   Telemetry telemetry;
   GrantClock clock(device, 200'000'000);  // 0.2 s without a grant: gone
   Loop loop(clock, io, io, controller, telemetry, kPeriod);
