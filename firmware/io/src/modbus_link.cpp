@@ -12,15 +12,16 @@
 #include <ctime>
 
 namespace mrd::firmware {
-namespace {
 
-namespace mb = mrd::protocol::modbus;
-
-std::int64_t NowNs() {
+std::int64_t ModbusNowNs() {
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
+
+namespace {
+
+namespace mb = mrd::protocol::modbus;
 
 // errno of a failed send/receive on the link.
 IoError Classify(int err) {
@@ -106,7 +107,7 @@ ModbusLink::Result ModbusLink::Broken(IoError e, IoError* why) {
 ModbusLink::Wait ModbusLink::WaitFor(short events, std::int64_t deadline_ns, Phase phase,
                                      int wake_fd, Interrupt* interrupt) {
   while (true) {
-    const std::int64_t left = deadline_ns - NowNs();
+    const std::int64_t left = deadline_ns - ModbusNowNs();
     if (left <= 0) return Wait::kTimeout;
     const timespec ts{static_cast<time_t>(left / 1'000'000'000),
                       static_cast<long>(left % 1'000'000'000)};
@@ -296,7 +297,7 @@ ModbusLink::Result ModbusLink::Transact(const std::uint8_t* pdu, int len, std::u
     wait_ns += WireNs(n) + WireNs(RtuReplyBytes(pdu));
     tcflush(fd_, TCIFLUSH);  // no transaction id: nothing older may be taken for the reply
   }
-  const std::int64_t deadline = NowNs() + wait_ns;
+  const std::int64_t deadline = ModbusNowNs() + wait_ns;
   const Result r = Send(adu, n, deadline, why, wake_fd, interrupt);
   if (r != Result::kOk) return r;
   return config_.mode == ModbusMode::kTcp
@@ -307,8 +308,8 @@ ModbusLink::Result ModbusLink::Transact(const std::uint8_t* pdu, int len, std::u
 bool ModbusLink::Quiet(int wake_fd, Interrupt* interrupt) {
   for (int round = 0; round < kMaxQuietRounds && fd_ >= 0; ++round) {
     tcflush(fd_, TCIFLUSH);
-    switch (
-        WaitFor(POLLIN, NowNs() + config_.response_timeout_ns, Phase::kQuiet, wake_fd, interrupt)) {
+    switch (WaitFor(POLLIN, ModbusNowNs() + config_.response_timeout_ns, Phase::kQuiet, wake_fd,
+                    interrupt)) {
       case Wait::kTimeout:
         return true;
       case Wait::kAbandoned:
