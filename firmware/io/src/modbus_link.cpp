@@ -104,6 +104,14 @@ ModbusLink::Result ModbusLink::Broken(IoError e, IoError* why) {
   return Result::kFailed;
 }
 
+ModbusLink::Result ModbusLink::Unfinished(Wait w, bool mid_frame, IoError* why) {
+  if (w == Wait::kHangUp) return Broken(IoError::kDisconnected, why);
+  if (mid_frame) broken_ = true;  // the frame's rest would follow on the stream
+  if (w == Wait::kAbandoned) return Result::kAbandoned;
+  *why = IoError::kTimeout;
+  return Result::kFailed;
+}
+
 ModbusLink::Wait ModbusLink::WaitFor(short events, std::int64_t deadline_ns, Phase phase,
                                      int wake_fd, Interrupt* interrupt) {
   while (true) {
@@ -139,19 +147,9 @@ ModbusLink::Result ModbusLink::Send(const std::uint8_t* adu, int len, std::int64
     }
     if (n < 0 && errno == EINTR) continue;
     if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-      switch (WaitFor(POLLOUT, deadline_ns, Phase::kMidFrame, wake_fd, interrupt)) {
-        case Wait::kReady:
-          continue;
-        case Wait::kTimeout:
-          *why = IoError::kTimeout;
-          if (tcp && sent > 0) broken_ = true;  // half a request on the stream
-          return Result::kFailed;
-        case Wait::kAbandoned:
-          if (tcp && sent > 0) broken_ = true;
-          return Result::kAbandoned;
-        case Wait::kHangUp:
-          return Broken(IoError::kDisconnected, why);
-      }
+      const Wait w = WaitFor(POLLOUT, deadline_ns, Phase::kMidFrame, wake_fd, interrupt);
+      if (w == Wait::kReady) continue;
+      return Unfinished(w, tcp && sent > 0, why);  // TCP: half a request on the stream
     }
     return Broken(n < 0 ? Classify(errno) : IoError::kDisconnected, why);
   }
@@ -173,19 +171,8 @@ ModbusLink::Result ModbusLink::ReadExactly(std::uint8_t* buf, int n, std::int64_
     if (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK) return Broken(Classify(errno), why);
     // Nothing to read yet (a serial line in raw mode with VMIN = 0 reads 0 bytes).
     const Phase now = have > 0 ? Phase::kMidFrame : phase;
-    switch (WaitFor(POLLIN, deadline_ns, now, wake_fd, interrupt)) {
-      case Wait::kReady:
-        break;
-      case Wait::kTimeout:
-        *why = IoError::kTimeout;
-        if (now == Phase::kMidFrame) broken_ = true;  // the frame's rest would follow
-        return Result::kFailed;
-      case Wait::kAbandoned:
-        if (now == Phase::kMidFrame) broken_ = true;
-        return Result::kAbandoned;
-      case Wait::kHangUp:
-        return Broken(IoError::kDisconnected, why);
-    }
+    const Wait w = WaitFor(POLLIN, deadline_ns, now, wake_fd, interrupt);
+    if (w != Wait::kReady) return Unfinished(w, now == Phase::kMidFrame, why);
   }
   return Result::kOk;
 }
@@ -247,18 +234,10 @@ ModbusLink::Result ModbusLink::ReceiveRtu(std::uint8_t function, std::uint8_t* r
     }
     if (r < 0 && errno == EINTR) continue;
     if (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK) return Broken(Classify(errno), why);
-    switch (WaitFor(POLLIN, deadline_ns, have > 0 ? Phase::kMidFrame : Phase::kReply, wake_fd,
-                    interrupt)) {
-      case Wait::kReady:
-        break;
-      case Wait::kTimeout:
-        *why = IoError::kTimeout;
-        return Result::kFailed;
-      case Wait::kAbandoned:
-        return Result::kAbandoned;  // the next request flushes the line first
-      case Wait::kHangUp:
-        return Broken(IoError::kDisconnected, why);
-    }
+    const Wait w = WaitFor(POLLIN, deadline_ns, have > 0 ? Phase::kMidFrame : Phase::kReply,
+                           wake_fd, interrupt);
+    // A torn frame leaves the link usable: the next request flushes the line first.
+    if (w != Wait::kReady) return Unfinished(w, /*mid_frame=*/false, why);
   }
   if (!mb::RtuCrcValid(buf_, len)) {
     *why = IoError::kCrc;

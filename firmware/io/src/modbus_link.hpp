@@ -97,6 +97,9 @@ class ModbusLink {
   Result ReceiveRtu(std::uint8_t function, std::uint8_t* reply, int* reply_len,
                     std::int64_t deadline_ns, IoError* why, int wake_fd, Interrupt* interrupt);
   Result Broken(IoError e, IoError* why);
+  // A send or read whose wait ended other than ready (w): a hang-up breaks the link; a timeout
+  // (*why) or an abandoned wait breaks it too when mid_frame (part of a frame is on the stream).
+  Result Unfinished(Wait w, bool mid_frame, IoError* why);
   std::int64_t WireNs(int bytes) const;
 
   ModbusConfig config_;
