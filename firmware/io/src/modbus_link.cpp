@@ -13,11 +13,7 @@
 
 namespace mrd::firmware {
 
-std::int64_t ModbusNowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
+std::int64_t ModbusNowNs() { return MonotonicClock().Now(); }
 
 namespace {
 
