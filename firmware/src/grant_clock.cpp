@@ -1,15 +1,10 @@
 #include "mrd/firmware/grant_clock.hpp"
 
-#include <ctime>
-
 namespace mrd::firmware {
 namespace {
 
-std::int64_t WallNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
+// Wall time (CLOCK_MONOTONIC) [ns]: how long the harness has been silent.
+std::int64_t WallNs() { return MonotonicClock().Now(); }
 
 }  // namespace
 

@@ -180,6 +180,20 @@ std::string KeepPrevious(const std::string& dest) {
   return "cannot keep the previous table as " + prev + ": no free temporary name";
 }
 
+// Renames the staged temporary onto dest (removing it when that fails), then fsyncs dest's
+// folder. "" or the reason; `done` says what was done when only the fsync failed.
+std::string Commit(const std::string& staged, const std::string& dest, const char* done) {
+  if (::rename(staged.c_str(), dest.c_str()) != 0) {
+    const std::string why = Errno("cannot rename " + staged + " onto " + dest);
+    ::unlink(staged.c_str());
+    return why;
+  }
+  if (!SyncFolder(dest)) {
+    return Errno(std::string(done) + " " + dest + " but cannot fsync its folder");
+  }
+  return "";
+}
+
 }  // namespace
 
 std::string CheckTable(const char* path, const FirmwareConfig& config) {
@@ -208,13 +222,7 @@ std::string WriteTableFile(const char* path, const CoefficientTable& table) {
   std::string tmp;
   why = WriteTemp(p, image.value(), &tmp);
   if (!why.empty()) return why;
-  if (::rename(tmp.c_str(), path) != 0) {
-    why = Errno("cannot rename " + tmp + " onto " + p);
-    ::unlink(tmp.c_str());
-    return why;
-  }
-  if (!SyncFolder(p)) return Errno("wrote " + p + " but cannot fsync its folder");
-  return "";
+  return Commit(tmp, p, "wrote");
 }
 
 std::string InstallTable(const char* source, const char* dest, const FirmwareConfig& config) {
@@ -247,13 +255,7 @@ std::string InstallTable(const char* source, const char* dest, const FirmwareCon
       return why;
     }
   }
-  if (::rename(staged.c_str(), dest) != 0) {
-    why = Errno("cannot rename " + staged + " onto " + d);
-    ::unlink(staged.c_str());
-    return why;
-  }
-  if (!SyncFolder(d)) return Errno("installed " + d + " but cannot fsync its folder");
-  return "";
+  return Commit(staged, d, "installed");
 }
 
 std::string CheckTableOrRollBack(const char* dest, const FirmwareConfig& config,

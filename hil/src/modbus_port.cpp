@@ -23,7 +23,6 @@
 #include <condition_variable>
 #include <cerrno>
 #include <cstring>
-#include <ctime>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -37,12 +36,6 @@ namespace mrd::hil {
 namespace {
 
 namespace map = mrd::protocol::modbus;
-
-std::int64_t NowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 class ModbusPort final : public PlantPort, private ModbusServer::Bank {
  public:
@@ -228,7 +221,7 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
     if (lockstep_ && have_last_ && c.has_status && last_.has_status && c.ticks == last_.ticks) {
       return a;
     }
-    const std::int64_t now = NowNs();
+    const std::int64_t now = ModbusNowNs();
     ++counters_.received;
     have_last_ = true;
     if (c.heartbeat != last_.heartbeat) {

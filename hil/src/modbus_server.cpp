@@ -21,15 +21,15 @@ constexpr int kPollMs = 20;                           // the stop request is see
 constexpr int kRtuPartialPollMs = 2;                  // while an RTU frame is incomplete
 constexpr std::int64_t kAcceptPauseNs = 100'000'000;  // after EMFILE / ENFILE
 
-std::int64_t NowNs() {
+void NonBlocking(int fd) { fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK); }
+
+}  // namespace
+
+std::int64_t ModbusNowNs() {
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
-
-void NonBlocking(int fd) { fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK); }
-
-}  // namespace
 
 bool ModbusServer::ListenTcp(const std::string& host, int port, std::string* error) {
   sockaddr_in a{};
@@ -81,7 +81,7 @@ void ModbusServer::Run() {
   std::array<pollfd, kMaxClients + 1> fds{};
   std::array<Client*, kMaxClients + 1> owner{};
   while (running_.load()) {
-    const std::int64_t now = NowNs();
+    const std::int64_t now = ModbusNowNs();
     std::size_t n = 0;
     if (line_.fd >= 0) {
       fds[n] = {line_.fd, static_cast<short>(POLLIN | (line_.out_len > 0 ? POLLOUT : 0)), 0};
@@ -98,7 +98,7 @@ void ModbusServer::Run() {
     }
     const int timeout = line_.fd >= 0 && line_.have > 0 ? kRtuPartialPollMs : kPollMs;
     const int ready = poll(fds.data(), n, timeout);
-    const std::int64_t t = NowNs();
+    const std::int64_t t = ModbusNowNs();
     for (std::size_t i = 0; ready > 0 && i < n; ++i) {
       if (fds[i].revents == 0) continue;
       Client* c = owner[i];

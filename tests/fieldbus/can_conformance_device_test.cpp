@@ -4,15 +4,12 @@
 // leaves on a sample older than max_age, and a driver fault in DriverStatus asserts the fault
 // line (the watchdog cause the Modbus driver-fault bit raises).
 #include <gtest/gtest.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <chrono>
-#include <memory>
-#include <string>
 #include <thread>
 #include <vector>
 
+#include "can_device_peer.hpp"
 #include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/io/can_device.hpp"
 #include "mrd/protocol/can_codec.hpp"
@@ -22,78 +19,18 @@ namespace {
 
 namespace pc = protocol::can;
 
-CanConfig AllRouted() {
-  CanConfig c;
-  c.enabled = true;
-  c.inputs = Bit(Input::kVelocity) | Bit(Input::kDisplacement) | Bit(Input::kDemand) |
-             Bit(Input::kBodyVelocity) | Bit(Input::kForce);
-  c.outputs =
-      Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) | Bit(Output::kStatus);
-  return c;
-}
-
-class CanDeviceConformance : public ::testing::Test {
+class CanDeviceConformance : public CanDevicePeerTest {
  protected:
-  void SetUp() override { Make(AllRouted()); }
-  void TearDown() override {
-    device_.reset();
-    if (peer_ >= 0) close(peer_);
-  }
-  void Make(const CanConfig& config) {
-    device_.reset();
-    if (peer_ >= 0) close(peer_);
-    int sv[2];
-    ASSERT_EQ(socketpair(AF_UNIX, SOCK_SEQPACKET, 0, sv), 0);
-    peer_ = sv[1];
-    device_ = std::make_unique<CanDevice>(config, sv[0]);
-    std::string error;
-    ASSERT_TRUE(device_->Configure(&error)) << error;
-    ASSERT_TRUE(device_->Activate(&error)) << error;
-  }
-  void PeerSend(const can_frame& f) {
-    ASSERT_EQ(write(peer_, &f, sizeof f), static_cast<ssize_t>(sizeof f));
-  }
-  void SendMotion(double v, double x, std::uint16_t seq, std::uint8_t counter) {
-    can_frame f{};
-    ASSERT_EQ(pc::Encode(pc::SensorMotion{v, x, seq, counter}, &f), pc::Reject::kNone);
-    PeerSend(f);
-  }
-  // Frames the device sent, in order.
-  std::vector<can_frame> PeerDrain() {
-    std::vector<can_frame> out;
-    can_frame f{};
-    while (recv(peer_, &f, sizeof f, MSG_DONTWAIT) == static_cast<ssize_t>(sizeof f)) {
-      out.push_back(f);
-    }
-    return out;
-  }
-  IoStatus Read(SensorFrame* frame, IoError* why = nullptr) {
-    IoError w = IoError::kNone;
-    const IoStatus s = device_->Read(frame, &w);
-    if (why != nullptr) *why = w;
-    return s;
-  }
-  std::uint64_t Errors(IoError e) const {
-    return device_->counters().errors[static_cast<std::size_t>(e)];
-  }
-
-  // Counts heartbeat and status frames the device sent; keeps the last status.
-  void PeerDrainInto() {
-    for (const can_frame& f : PeerDrain()) {
-      pc::Heartbeat hb;
-      pc::FirmwareStatus st;
-      if (pc::Decode(f, &hb) == pc::Reject::kNone) ++heartbeats_;
-      if (pc::Decode(f, &st) == pc::Reject::kNone) {
-        ++statuses_;
-        last_status_ = st;
-      }
+  // n sensor frames with bad checksums: a babbling node's, each refused by the device.
+  void SendBadChecksums(int n) {
+    for (int i = 0; i < n; ++i) {
+      can_frame f{};
+      ASSERT_EQ(pc::Encode(pc::SensorMotion{9.0, 0.0, 9, static_cast<std::uint8_t>(i & 15)}, &f),
+                pc::Reject::kNone);
+      f.data[7] ^= 0x5A;
+      PeerSend(f);
     }
   }
-
-  std::unique_ptr<CanDevice> device_;
-  int peer_ = -1;
-  int heartbeats_ = 0, statuses_ = 0;
-  pc::FirmwareStatus last_status_;
 };
 
 TEST_F(CanDeviceConformance, DataThatWaitedInTheSocketKeepTheirArrivalStamps) {
@@ -133,13 +70,7 @@ TEST_F(CanDeviceConformance, ABabblingNodeIsAFloodAndABusFault) {
   // Sensor IDs with bad checksums, far more than a healthy bus ever refuses, around the good
   // frames of the real sensor.
   SendMotion(2.0, 0.0, 1, 0);
-  for (int i = 0; i < 200; ++i) {
-    can_frame f{};
-    ASSERT_EQ(pc::Encode(pc::SensorMotion{9.0, 0.0, 9, static_cast<std::uint8_t>(i & 15)}, &f),
-              pc::Reject::kNone);
-    f.data[7] ^= 0x5A;
-    PeerSend(f);
-  }
+  ASSERT_NO_FATAL_FAILURE(SendBadChecksums(200));
   SendMotion(3.0, 0.0, 2, 1);
   SensorFrame frame;
   IoError why = IoError::kNone;
@@ -170,13 +101,7 @@ TEST_F(CanDeviceConformance, ABabblingNodeIsAFloodAndABusFault) {
   std::this_thread::sleep_for(std::chrono::nanoseconds(CanDevice::kFloodHoldNs + 10'000'000));
   EXPECT_EQ(Read(&frame, &why), IoStatus::kNoData);
   // A few refused frames are not a flood.
-  for (int i = 0; i < CanDevice::kMaxRejectsPerRead; ++i) {
-    can_frame f{};
-    ASSERT_EQ(pc::Encode(pc::SensorMotion{9.0, 0.0, 9, static_cast<std::uint8_t>(i & 15)}, &f),
-              pc::Reject::kNone);
-    f.data[7] ^= 0x5A;
-    PeerSend(f);
-  }
+  ASSERT_NO_FATAL_FAILURE(SendBadChecksums(CanDevice::kMaxRejectsPerRead));
   EXPECT_EQ(Read(&frame, &why), IoStatus::kNoData);
 }
 

@@ -75,24 +75,36 @@ struct HarnessSocket {
   bool ok = false;
 };
 
-TEST(CanLockstep, OneTickPerGrantALateGrantChangesNothingNoAllocation) {
-  HarnessSocket bus;
-  ASSERT_TRUE(bus.ok);
-  CanDevice device(bus.Config());
-  std::string error;
-  ASSERT_TRUE(device.Configure(&error)) << error;
-  ASSERT_TRUE(device.Activate(&error)) << error;
-  bus.peer = accept(bus.listener, nullptr, nullptr);
-  const int peer = bus.peer;
-  ASSERT_GE(peer, 0);
-  ASSERT_EQ(device.grant_source(), &device);
+// The harness socket and the firmware's side of the bus: the lockstep CAN device, the
+// composite io over it, the controller and telemetry a Loop needs.
+struct LockstepRig {
+  // The device configured, active and accepted (bus.peer), in io; the controller on the demo
+  // table.
+  void Start() {
+    ASSERT_TRUE(bus.ok);
+    std::string error;
+    ASSERT_TRUE(device.Configure(&error)) << error;
+    ASSERT_TRUE(device.Activate(&error)) << error;
+    bus.peer = accept(bus.listener, nullptr, nullptr);
+    ASSERT_GE(bus.peer, 0);
+    ASSERT_TRUE(io.Add(&device));
+    ASSERT_EQ(controller.Configure(test::DemoDamperTable(), {}), Error::kOk);
+  }
+
+  HarnessSocket bus;  // outlives the device
+  CanDevice device{bus.Config()};
   FieldbusIo io;
-  ASSERT_TRUE(io.Add(&device));
   Controller controller;
-  ASSERT_EQ(controller.Configure(test::DemoDamperTable(), {}), Error::kOk);
   Telemetry telemetry;
-  GrantClock clock(device, 10'000'000'000);
-  Loop loop(clock, io, io, controller, telemetry, kPeriod);
+};
+
+TEST(CanLockstep, OneTickPerGrantALateGrantChangesNothingNoAllocation) {
+  LockstepRig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.Start());
+  const int peer = rig.bus.peer;
+  ASSERT_EQ(rig.device.grant_source(), &rig.device);
+  GrantClock clock(rig.device, 10'000'000'000);
+  Loop loop(clock, rig.io, rig.io, rig.controller, rig.telemetry, kPeriod);
 
   constexpr int kSteps = 600, kLateGrant = 300;
   std::atomic<bool> stop{false};
@@ -136,32 +148,22 @@ TEST(CanLockstep, OneTickPerGrantALateGrantChangesNothingNoAllocation) {
   EXPECT_EQ(normal_late, 1);    // the late grant's period is a normal one
   EXPECT_EQ(safe_commands, 0);  // and none was safe
   EXPECT_EQ(normal_at_end, 1);
-  EXPECT_EQ(device.counters().errors[static_cast<std::size_t>(IoError::kTimeout)], 0U);
+  EXPECT_EQ(rig.device.counters().errors[static_cast<std::size_t>(IoError::kTimeout)], 0U);
   EXPECT_EQ(loop.stats().watchdog.entries, 0U);
   // Granted time, not wall time: 150 ms of waiting is no overrun.
   EXPECT_EQ(loop.stats().overruns, 0U);
   EXPECT_EQ(loop.stats().ticks, static_cast<std::uint64_t>(kSteps));
-  device.Deactivate();
+  rig.device.Deactivate();
 }
 
 // The harness goes away mid-run (no more grants): after the give-up time the clock halts, the
 // loop ends and leaves a safe command on the bus; no period was ticked without time.
 TEST(CanLockstep, AHarnessThatIsGoneEndsTheLoopInTheSafeState) {
-  HarnessSocket bus;
-  ASSERT_TRUE(bus.ok);
-  CanDevice device(bus.Config());
-  std::string error;
-  ASSERT_TRUE(device.Configure(&error)) << error;
-  ASSERT_TRUE(device.Activate(&error)) << error;
-  bus.peer = accept(bus.listener, nullptr, nullptr);
-  ASSERT_GE(bus.peer, 0);
-  FieldbusIo io;
-  ASSERT_TRUE(io.Add(&device));
-  Controller controller;
-  ASSERT_EQ(controller.Configure(test::DemoDamperTable(), {}), Error::kOk);
-  Telemetry telemetry;
-  GrantClock clock(device, 200'000'000);  // 0.2 s without a grant: gone
-  Loop loop(clock, io, io, controller, telemetry, kPeriod);
+  LockstepRig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.Start());
+  const int peer = rig.bus.peer;
+  GrantClock clock(rig.device, 200'000'000);  // 0.2 s without a grant: gone
+  Loop loop(clock, rig.io, rig.io, rig.controller, rig.telemetry, kPeriod);
   std::atomic<bool> stop{false};
   std::thread firmware([&] { loop.Run(stop, 0); });  // no duration: only the halt ends it
   std::uint8_t counter = 0;
@@ -170,14 +172,14 @@ TEST(CanLockstep, AHarnessThatIsGoneEndsTheLoopInTheSafeState) {
   for (int k = 0; k < kSteps; ++k) {
     can_frame f{};
     pc::Encode(pc::SensorMotion{5.0, 0.0, static_cast<std::uint16_t>(k + 1), counter}, &f);
-    write(bus.peer, &f, sizeof f);
+    write(peer, &f, sizeof f);
     pc::Encode(pc::SensorForce{100.0, 0.0, 0.0, counter}, &f);
-    write(bus.peer, &f, sizeof f);
+    write(peer, &f, sizeof f);
     pc::Encode(pc::TimeGrant{static_cast<std::uint64_t>(k + 1) * 1000U, counter}, &f);
-    write(bus.peer, &f, sizeof f);
+    write(peer, &f, sizeof f);
     counter = static_cast<std::uint8_t>((counter + 1) & 15);
     pc::DriverCommand m;
-    if (!NextCommand(bus.peer, 2000, &m)) break;
+    if (!NextCommand(peer, 2000, &m)) break;
     ++answered;
   }
   ASSERT_EQ(answered, kSteps);
@@ -194,14 +196,14 @@ TEST(CanLockstep, AHarnessThatIsGoneEndsTheLoopInTheSafeState) {
   EXPECT_TRUE(loop.stats().safe);
   pc::DriverCommand last;
   bool any = false;
-  for (pc::DriverCommand m; NextCommand(bus.peer, 200, &m);) {
+  for (pc::DriverCommand m; NextCommand(peer, 200, &m);) {
     last = m;
     any = true;
   }
   ASSERT_TRUE(any);
   EXPECT_TRUE(last.safe);
   EXPECT_EQ(last.volts, 0.0);
-  device.Deactivate();
+  rig.device.Deactivate();
 }
 
 }  // namespace

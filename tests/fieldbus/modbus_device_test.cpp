@@ -20,14 +20,7 @@ namespace {
 
 namespace map = mrd::protocol::modbus;
 
-bool WaitFor(const std::function<bool()>& done, double timeout_s = 3.0) {
-  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > until) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  return true;
-}
+using test::WaitFor;
 
 ModbusConfig TcpConfig(int port) {
   ModbusConfig c;

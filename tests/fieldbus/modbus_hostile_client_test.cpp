@@ -24,19 +24,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-int Connect(int port) {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  a.sin_port = htons(static_cast<std::uint16_t>(port));
-  if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    close(fd);
-    return -1;
-  }
-  return fd;
-}
-
 // A Modbus TCP request: MBAP (transaction, protocol 0, length, unit 1) + PDU.
 std::vector<std::uint8_t> Request(std::uint16_t tid, const std::vector<std::uint8_t>& pdu) {
   const std::size_t length = pdu.size() + 1;
@@ -91,7 +78,7 @@ class ModbusHostileClientTest : public ::testing::Test {
 // The client pipelines reads of the whole map and never reads a reply: the server's output
 // to it fills up. The plant's 1000 steps (Publish, Poll) must not wait for that client.
 TEST_F(ModbusHostileClientTest, ClientThatNeverReadsDoesNotBlockThePlant) {
-  const int hostile = Connect(port_);
+  const int hostile = test::ConnectLoopback(port_);
   ASSERT_GE(hostile, 0);
   fcntl(hostile, F_SETFL, fcntl(hostile, F_GETFL) | O_NONBLOCK);
   // Requests until the server stops taking them (its replies are not read) or drops us.
@@ -131,7 +118,7 @@ TEST_F(ModbusHostileClientTest, ClientThatNeverReadsDoesNotBlockThePlant) {
 
 // Unknown function codes get ILLEGAL FUNCTION at once, not after libmodbus's 0.5 s sleep.
 TEST_F(ModbusHostileClientTest, UnknownFunctionCodesAreAnsweredAtOnce) {
-  const int c = Connect(port_);
+  const int c = test::ConnectLoopback(port_);
   ASSERT_GE(c, 0);
   constexpr int kRequests = 20;
   for (int i = 0; i < kRequests; ++i) {
@@ -161,7 +148,7 @@ TEST_F(ModbusHostileClientTest, UnknownFunctionCodesAreAnsweredAtOnce) {
 // client's reads are answered meanwhile, and the trickler is dropped once its request has
 // been incomplete for longer than the server allows.
 TEST_F(ModbusHostileClientTest, TrickledRequestStallsNoOtherClient) {
-  const int hostile = Connect(port_);
+  const int hostile = test::ConnectLoopback(port_);
   ASSERT_GE(hostile, 0);
   std::atomic<bool> stop{false};
   std::atomic<bool> dropped{false};

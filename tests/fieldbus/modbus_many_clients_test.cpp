@@ -24,27 +24,13 @@ namespace mrd::test {
 namespace {
 
 constexpr int kClientLimit = 32;  // docs/modbus_registers.md
+constexpr int kConnectTimeoutS = 5;  // bounds connect()
 
 // The child has not exited (checked without reaping it).
 bool Alive(const ChildProcess& p) {
   siginfo_t si{};
   return waitid(P_PID, static_cast<id_t>(p.pid()), &si, WEXITED | WNOHANG | WNOWAIT) == 0 &&
          si.si_pid == 0;
-}
-
-int Connect(int port) {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  a.sin_port = htons(static_cast<std::uint16_t>(port));
-  const timeval tv{5, 0};
-  setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);  // bounds connect()
-  if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    close(fd);
-    return -1;
-  }
-  return fd;
 }
 
 // The server closed the connection within wait_ms.
@@ -91,7 +77,7 @@ TEST(ModbusManyClientsTest, ServesSocketsNumberedBeyondFdSetSize) {
   for (int fd : held) close(fd);
   ASSERT_TRUE(TcpReady(port, 10.0)) << hil.Stderr();
   std::vector<int> clients;
-  for (int i = 0; i < 10; ++i) clients.push_back(Connect(port));
+  for (int i = 0; i < 10; ++i) clients.push_back(ConnectLoopback(port, kConnectTimeoutS));
   EXPECT_EQ(ReadSensorBlock(port), 13) << hil.Stderr();
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   const bool alive = Alive(hil);
@@ -110,7 +96,7 @@ TEST(ModbusManyClientsTest, ClientsBeyondTheLimitAreRefusedAndCounted) {
   std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the probe has gone
   std::vector<int> clients;
   for (int i = 0; i < kClientLimit + 68; ++i) {
-    const int fd = Connect(port);
+    const int fd = ConnectLoopback(port, kConnectTimeoutS);
     ASSERT_GE(fd, 0) << i;
     clients.push_back(fd);
   }

@@ -12,8 +12,10 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -23,18 +25,50 @@
 
 namespace mrd::test {
 
-// A TCP port on 127.0.0.1 that was free a moment ago.
-inline int FreeTcpPort() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+// Polls done() every millisecond until it holds (true) or timeout_s has passed (false).
+inline bool WaitFor(const std::function<bool()>& done, double timeout_s = 3.0) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return true;
+}
+
+// 127.0.0.1:port (0: any free port, for bind).
+inline sockaddr_in Loopback(int port) {
   sockaddr_in a{};
   a.sin_family = AF_INET;
   a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  a.sin_port = 0;
+  a.sin_port = htons(static_cast<std::uint16_t>(port));
+  return a;
+}
+
+// A TCP port on 127.0.0.1 that was free a moment ago.
+inline int FreeTcpPort() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a = Loopback(0);
   bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
   socklen_t len = sizeof a;
   getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
   close(fd);
   return ntohs(a.sin_port);
+}
+
+// A blocking TCP client connected to 127.0.0.1:port, or -1. send_timeout_s > 0 bounds
+// connect() and every send (SO_SNDTIMEO; 0: unbounded, the socket's default).
+inline int ConnectLoopback(int port, int send_timeout_s = 0) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  const sockaddr_in a = Loopback(port);
+  if (send_timeout_s > 0) {
+    const timeval tv{send_timeout_s, 0};
+    setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+  }
+  if (connect(fd, reinterpret_cast<const sockaddr*>(&a), sizeof a) != 0) {
+    close(fd);
+    return -1;
+  }
+  return fd;
 }
 
 enum class PeerBehaviour { kAnswer, kException, kSilent };

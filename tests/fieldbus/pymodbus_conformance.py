@@ -18,9 +18,12 @@ import serial
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.framer.rtu_framer import ModbusRtuFramer
 
+sys.dont_write_bytecode = True  # no __pycache__ beside the sources
+from pymodbus_common import (COMMAND_BASE, COMMAND_COUNT, MAP_SIZE,  # noqa: E402
+                             SENSOR_COUNT)
+
 UNIT = 1
-SENSOR_COUNT, LOCKSTEP_COUNT, MAP_SIZE = 13, 16, 48
-COMMAND_BASE, COMMAND_COUNT = 32, 9
+LOCKSTEP_COUNT = 16
 SET_POINT, ENABLE, STATE = COMMAND_BASE + 2, COMMAND_BASE + 3, COMMAND_BASE + 5
 ILLEGAL_FUNCTION, ILLEGAL_ADDRESS, ILLEGAL_VALUE, GATEWAY_NO_RESPONSE = 1, 2, 3, 0x0B
 NO_REPLY = "no reply"

@@ -25,12 +25,9 @@ import argparse
 import asyncio
 import json
 import os
-import select
 import signal
 import sys
-import threading
 import time
-import tty
 
 from pymodbus.datastore import (ModbusSequentialDataBlock, ModbusServerContext,
                                 ModbusSlaveContext)
@@ -39,9 +36,10 @@ from pymodbus.pdu import ExceptionResponse
 from pymodbus.register_read_message import ReadHoldingRegistersResponse
 from pymodbus.server import async_io
 
-# The map, from docs/modbus_registers.md.
-SENSOR_BASE, SENSOR_COUNT = 0, 13
-COMMAND_BASE, COMMAND_COUNT = 32, 9
+sys.dont_write_bytecode = True  # no __pycache__ beside the sources
+from pymodbus_common import (COMMAND_BASE, COMMAND_COUNT, MAP_SIZE,  # noqa: E402
+                             SENSOR_BASE, SENSOR_COUNT, pty_pair_relay)
+
 FAULTS = 12                   # sensor block: bit 0 fault line, bit 1 driver fault, others 0
 RESERVED_FAULT_BIT = 0x8000
 SLAVE_DEVICE_FAILURE = 0x04
@@ -122,31 +120,6 @@ def manipulator(options):
     return manipulate
 
 
-def pty_pair_relay(link):
-    """Two pty pairs whose masters are relayed: LINK -> slave A (the client opens it);
-    returns the name of slave B (pymodbus opens it): a null-modem cable."""
-    ma, sa = os.openpty()
-    mb, sb = os.openpty()
-    for fd in (sa, sb):
-        tty.setraw(fd)
-    if os.path.lexists(link):
-        os.unlink(link)
-    os.symlink(os.ttyname(sa), link)
-
-    def relay():
-        while True:
-            ready, _, _ = select.select([ma, mb], [], [], 0.1)
-            for fd in ready:
-                try:
-                    data = os.read(fd, 512)
-                except OSError:
-                    continue
-                os.write(mb if fd == ma else ma, data)
-
-    threading.Thread(target=relay, daemon=True).start()
-    return os.ttyname(sb), (sa, sb)  # keep the slaves open: no EIO on the masters
-
-
 def finish():
     print(json.dumps({"requests": requests, "blocks": blocks, "faults": faults}), flush=True)
     os._exit(0)
@@ -172,7 +145,7 @@ async def campaign(options, tcp):
 async def serve(options):
     async_io.ModbusBaseRequestHandler.execute = log_execute(
         async_io.ModbusBaseRequestHandler.execute)
-    block = SensorModule(0, [0] * 48)
+    block = SensorModule(0, [0] * MAP_SIZE)
     block.setValues(COMMAND_BASE + 2, [0x8000, 0xFFFF])  # no set-point, enable not driven
     context = ModbusServerContext(slaves=ModbusSlaveContext(hr=block, zero_mode=True),
                                   single=True)

@@ -15,19 +15,17 @@ Run with Debian's /usr/bin/python3 (the package is not in other interpreters).
 import asyncio
 import json
 import os
-import select
 import sys
-import threading
 import time
-import tty
 
 from pymodbus.datastore import (ModbusSequentialDataBlock, ModbusServerContext,
                                 ModbusSlaveContext)
 from pymodbus.framer.rtu_framer import ModbusRtuFramer
 
-# The map, from docs/modbus_registers.md.
-SENSOR_BASE, SENSOR_COUNT = 0, 13
-COMMAND_BASE, COMMAND_COUNT = 32, 9
+sys.dont_write_bytecode = True  # no __pycache__ beside the sources
+from pymodbus_common import (COMMAND_BASE, COMMAND_COUNT, MAP_SIZE,  # noqa: E402
+                             SENSOR_BASE, SENSOR_COUNT, pty_pair_relay)
+
 VELOCITY_LSB, DISPLACEMENT_LSB, FORCE_LSB, SETPOINT_LSB = 1e-4, 1e-5, 1e-2, 1e-3
 
 # The sensor block the servers hold.
@@ -72,34 +70,9 @@ def decode_command(r):
             "ticks": (r[7] << 16) | r[8]}
 
 
-def pty_pair_relay(link):
-    """Two pty pairs whose masters are relayed: LINK -> slave A (the client opens it),
-    returns the name of slave B (pymodbus opens it): a null-modem cable."""
-    ma, sa = os.openpty()
-    mb, sb = os.openpty()
-    for fd in (sa, sb):
-        tty.setraw(fd)
-    if os.path.lexists(link):
-        os.unlink(link)
-    os.symlink(os.ttyname(sa), link)
-
-    def relay():
-        while True:
-            ready, _, _ = select.select([ma, mb], [], [], 0.1)
-            for fd in ready:
-                try:
-                    data = os.read(fd, 512)
-                except OSError:
-                    continue
-                os.write(mb if fd == ma else ma, data)
-
-    threading.Thread(target=relay, daemon=True).start()
-    return os.ttyname(sb), (sa, sb)  # keep the slaves open: no EIO on the masters
-
-
 async def serve(mode, where):
     from pymodbus.server import StartAsyncSerialServer, StartAsyncTcpServer
-    block = ModbusSequentialDataBlock(0, [0] * 48)
+    block = ModbusSequentialDataBlock(0, [0] * MAP_SIZE)
     block.setValues(SENSOR_BASE, sensor_block(SENSORS))
     block.setValues(COMMAND_BASE + 2, [0x8000, 0xFFFF])  # no set-point, enable not driven
     slave = ModbusSlaveContext(hr=block, zero_mode=True)

@@ -6,7 +6,6 @@
 
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <string>
 
 #include "host/test_util.hpp"
@@ -17,11 +16,6 @@ namespace {
 
 std::string Firmware() { return Bin("mrd-firmware"); }
 
-std::string Bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
 bool Exists(const std::string& path) { return std::filesystem::exists(path); }
 
 // Table A: the compiled-in one (E in [0, 2.25] V). Table B: the same model with E_max 2.0 V,
@@ -29,7 +23,7 @@ bool Exists(const std::string& path) { return std::filesystem::exists(path); }
 struct Tables {
   explicit Tables(const TempDir& dir) : a(dir.File("a.bin")), b(dir.File("b.bin")) {
     EXPECT_EQ(test::Run(Firmware() + " --write-table " + a).status, 0);
-    const std::string image = Bytes(a);
+    const std::string image = FileBytes(a);
     auto decoded = DecodeTable(std::span<const std::uint8_t>(
         reinterpret_cast<const std::uint8_t*>(image.data()), image.size()));
     EXPECT_TRUE(decoded.ok());
@@ -51,12 +45,12 @@ TEST(TableUpdateTest, InstallReplacesAtomicallyAndKeepsThePreviousTable) {
   const std::string dest = dir.File("table.bin");
   CommandResult r = test::Run(Firmware() + " --install-table " + t.a + " --to " + dest);
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_EQ(Bytes(dest), Bytes(t.a));
+  EXPECT_EQ(FileBytes(dest), FileBytes(t.a));
   EXPECT_FALSE(Exists(dest + ".prev"));
   r = test::Run(Firmware() + " --install-table " + t.b + " --to " + dest);
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_EQ(Bytes(dest), Bytes(t.b));
-  EXPECT_EQ(Bytes(dest + ".prev"), Bytes(t.a));
+  EXPECT_EQ(FileBytes(dest), FileBytes(t.b));
+  EXPECT_EQ(FileBytes(dest + ".prev"), FileBytes(t.a));
   EXPECT_FALSE(Exists(dest + ".new"));
   EXPECT_EQ(test::Run(Firmware() + " --check-table " + dest).status, 0);
 }
@@ -68,7 +62,7 @@ TEST(TableUpdateTest, RefusedTableInstallsNothing) {
   ASSERT_EQ(test::Run(Firmware() + " --install-table " + t.a + " --to " + dest).status, 0);
   // Corrupt image (CRC): exit 2 with the reason, DEST and the folder unchanged.
   const std::string bad = dir.File("bad.bin");
-  std::string image = Bytes(t.b);
+  std::string image = FileBytes(t.b);
   image[100] = static_cast<char>(image[100] ^ 0x5A);
   std::ofstream(bad, std::ios::binary) << image;
   CommandResult r = test::Run(Firmware() + " --install-table " + bad + " --to " + dest);
@@ -84,7 +78,7 @@ TEST(TableUpdateTest, RefusedTableInstallsNothing) {
       test::Run(Firmware() + " --install-table " + dir.File("none.bin") + " --to " + dest).status,
       2);
   EXPECT_EQ(test::Run(Firmware() + " --install-table " + t.b).status, 2);
-  EXPECT_EQ(Bytes(dest), Bytes(t.a));
+  EXPECT_EQ(FileBytes(dest), FileBytes(t.a));
   EXPECT_FALSE(Exists(dest + ".prev"));
   EXPECT_FALSE(Exists(dest + ".new"));
 }
@@ -101,17 +95,17 @@ TEST(TableUpdateTest, TableRefusedAtStartRollsBackToThePreviousOne) {
   ASSERT_EQ(test::Run(Firmware() + " --install-table " + t.b + " --to " + dest).status, 0);
   CommandResult r = test::Run(Firmware() + " --check-table " + dest + " --config " + cfg);
   EXPECT_EQ(r.status, 2) << r.output;
-  EXPECT_EQ(Bytes(dest), Bytes(t.b));  // a check alone changes nothing
+  EXPECT_EQ(FileBytes(dest), FileBytes(t.b));  // a check alone changes nothing
   r = test::Run(Firmware() + " --check-table " + dest + " --config " + cfg + " --rollback");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("rolled back"), std::string::npos) << r.output;
-  EXPECT_EQ(Bytes(dest), Bytes(t.a));
-  EXPECT_EQ(Bytes(dest + ".refused"), Bytes(t.b));
+  EXPECT_EQ(FileBytes(dest), FileBytes(t.a));
+  EXPECT_EQ(FileBytes(dest + ".refused"), FileBytes(t.b));
   EXPECT_FALSE(Exists(dest + ".prev"));
   r = test::Run(Firmware() + " --table " + dest + " --config " + cfg + " --dry-run 0.2 --lockstep");
   EXPECT_EQ(r.status, 0) << r.output;
   // Corrupted on disk with no previous table left: refused, nothing to roll back to.
-  std::string image = Bytes(dest);
+  std::string image = FileBytes(dest);
   image[64] = static_cast<char>(image[64] ^ 0x5A);
   std::ofstream(dest, std::ios::binary) << image;
   r = test::Run(Firmware() + " --check-table " + dest + " --rollback");

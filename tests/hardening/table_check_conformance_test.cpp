@@ -9,7 +9,6 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,18 +26,13 @@ CommandResult Fw(const std::string& args) {
   return test::Run("timeout 20 " + Firmware() + " " + args + " </dev/null");
 }
 
-std::string Bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
 // The compiled-in table's image with patches, resealed (CRC).
 std::string PatchedTable(const TempDir& dir, const std::string& name,
                          const std::vector<std::pair<std::size_t, double>>& f64,
                          const std::vector<std::pair<std::size_t, std::uint8_t>>& u8) {
   const std::string base = dir.File("base.bin");
   EXPECT_EQ(test::Run(Firmware() + " --write-table " + base).status, 0);
-  std::string image = Bytes(base);
+  std::string image = FileBytes(base);
   EXPECT_EQ(image.size(), kTableSize);
   for (const auto& [at, v] : f64) {
     const auto u = std::bit_cast<std::uint64_t>(v);
@@ -73,7 +67,7 @@ TEST(TableCheckConformance, AbsurdTablesAreRefusedWithTheReason) {
   };
   const std::string dest = dir.File("table.bin");
   ASSERT_EQ(test::Run(Firmware() + " --write-table " + dest).status, 0);
-  const std::string before = Bytes(dest);
+  const std::string before = FileBytes(dest);
   for (const auto& c : cases) {
     const std::string path = PatchedTable(dir, c.name, c.f64, c.u8);
     CommandResult r = Fw("--check-table " + path);
@@ -86,7 +80,7 @@ TEST(TableCheckConformance, AbsurdTablesAreRefusedWithTheReason) {
     r = Fw("--table " + path + " --dry-run 0.01 --lockstep");
     EXPECT_EQ(r.status, 2) << c.name << ": " << r.output;
   }
-  EXPECT_EQ(Bytes(dest), before);
+  EXPECT_EQ(FileBytes(dest), before);
   EXPECT_FALSE(std::filesystem::exists(dest + ".prev"));
 }
 

@@ -14,7 +14,6 @@
 
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <set>
 #include <string>
 #include <vector>
@@ -38,16 +37,11 @@ std::string Numbered(std::string prefix, std::size_t n) {
   return prefix;
 }
 
-std::string Bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
 // Three distinct valid tables: the compiled-in one with E_max 2.25, 2.0 and 1.75 V.
 std::vector<std::string> Tables(const TempDir& dir) {
   const std::string base = dir.File("base.bin");
   EXPECT_EQ(test::Run(Firmware() + " --write-table " + base).status, 0);
-  const std::string image = Bytes(base);
+  const std::string image = FileBytes(base);
   const auto decoded = DecodeTable(std::span<const std::uint8_t>(
       reinterpret_cast<const std::uint8_t*>(image.data()), image.size()));
   EXPECT_TRUE(decoded.ok());
@@ -98,7 +92,7 @@ std::set<std::string> Entries(const std::string& dir) {
 TEST(TableInstallConformance, ConcurrentInstallsSerialiseAndLoseNothing) {
   TempDir dir;
   const std::vector<std::string> t = Tables(dir);
-  const std::string a = Bytes(t[1]), b = Bytes(t[2]), original = Bytes(t[0]);
+  const std::string a = FileBytes(t[1]), b = FileBytes(t[2]), original = FileBytes(t[0]);
   int failures = 0;
   for (int round = 0; round < 100 && failures < 5; ++round) {
     const std::string folder = dir.File(Numbered("r", round));
@@ -110,8 +104,8 @@ TEST(TableInstallConformance, ConcurrentInstallsSerialiseAndLoseNothing) {
     ASSERT_GT(pa, 0);
     ASSERT_GT(pb, 0);
     const int sa = ExitStatus(pa), sb = ExitStatus(pb);
-    const std::string oa = Bytes(dir.File("a.out")), ob = Bytes(dir.File("b.out"));
-    const std::string now = Bytes(dest), prev = Bytes(dest + ".prev");
+    const std::string oa = FileBytes(dir.File("a.out")), ob = FileBytes(dir.File("b.out"));
+    const std::string now = FileBytes(dest), prev = FileBytes(dest + ".prev");
     // Both said "installed"; the one that ran second is in DEST, the first in DEST.prev.
     const bool ok = sa == 0 && sb == 0 && oa.find("installed as") != std::string::npos &&
                     ob.find("installed as") != std::string::npos &&
@@ -140,10 +134,10 @@ TEST(TableInstallConformance, OneInstallKeepsTheOriginalAsPrevious) {
     // A concurrent check (ExecStartPre) next to the install changes nothing.
     const pid_t install = Spawn({"--install-table", t[1], "--to", dest}, dir.File("i.out"));
     const pid_t check = Spawn({"--check-table", dest, "--rollback"}, dir.File("c.out"));
-    EXPECT_EQ(ExitStatus(install), 0) << Bytes(dir.File("i.out"));
-    EXPECT_EQ(ExitStatus(check), 0) << Bytes(dir.File("c.out"));
-    EXPECT_EQ(Bytes(dest), Bytes(t[1])) << "round " << round;
-    EXPECT_EQ(Bytes(dest + ".prev"), Bytes(t[0])) << "round " << round;
+    EXPECT_EQ(ExitStatus(install), 0) << FileBytes(dir.File("i.out"));
+    EXPECT_EQ(ExitStatus(check), 0) << FileBytes(dir.File("c.out"));
+    EXPECT_EQ(FileBytes(dest), FileBytes(t[1])) << "round " << round;
+    EXPECT_EQ(FileBytes(dest + ".prev"), FileBytes(t[0])) << "round " << round;
   }
 }
 
@@ -157,18 +151,18 @@ TEST(TableInstallConformance, SymlinksAtTheOldStagingNamesAreNotFollowed) {
   fs::create_symlink(victim, dest + ".prev.new");
   const CommandResult r = test::Run(Firmware() + " --install-table " + t[1] + " --to " + dest);
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_EQ(Bytes(victim), "precious\n");
+  EXPECT_EQ(FileBytes(victim), "precious\n");
   EXPECT_FALSE(fs::is_symlink(dest));
-  EXPECT_EQ(Bytes(dest), Bytes(t[1]));
+  EXPECT_EQ(FileBytes(dest), FileBytes(t[1]));
   EXPECT_FALSE(fs::is_symlink(dest + ".prev"));
-  EXPECT_EQ(Bytes(dest + ".prev"), Bytes(t[0]));
+  EXPECT_EQ(FileBytes(dest + ".prev"), FileBytes(t[0]));
   // A destination that is itself a symlink is refused, not written through.
   const std::string link = dir.File("link.bin");
   fs::create_symlink(victim, link);
   const CommandResult s = test::Run(Firmware() + " --install-table " + t[1] + " --to " + link);
   EXPECT_EQ(s.status, 2) << s.output;
   EXPECT_NE(s.output.find("is a symbolic link"), std::string::npos) << s.output;
-  EXPECT_EQ(Bytes(victim), "precious\n");
+  EXPECT_EQ(FileBytes(victim), "precious\n");
 }
 
 // Runs mrd-firmware --write-table out with a file-size limit of limit bytes (SIGXFSZ
@@ -188,7 +182,7 @@ int WriteTableWithSizeLimit(const std::string& out, rlim_t limit, std::string* o
     _exit(127);
   }
   const int status = ExitStatus(pid);
-  *output = Bytes(log);
+  *output = FileBytes(log);
   fs::remove(log);
   return status;
 }
@@ -202,15 +196,15 @@ TEST(TableWriteConformance, AFileSizeLimitFailsTheWriteAndLeavesNoPartialFile) {
   EXPECT_FALSE(fs::exists(out)) << fs::file_size(out) << " bytes left";
   // An existing table stays whole.
   ASSERT_EQ(test::Run(Firmware() + " --write-table " + out).status, 0);
-  const std::string whole = Bytes(out);
+  const std::string whole = FileBytes(out);
   ASSERT_EQ(whole.size(), kTableSize);
   std::ofstream(out, std::ios::binary | std::ios::trunc) << "old content";
   EXPECT_EQ(WriteTableWithSizeLimit(out, 1024, &output), 1) << output;
-  EXPECT_EQ(Bytes(out), "old content");
+  EXPECT_EQ(FileBytes(out), "old content");
   EXPECT_EQ(Entries(dir.File("")), std::set<std::string>{"out.bin"});
   // Without a limit it works.
   EXPECT_EQ(WriteTableWithSizeLimit(out, RLIM_INFINITY, &output), 0) << output;
-  EXPECT_EQ(Bytes(out), whole);
+  EXPECT_EQ(FileBytes(out), whole);
 }
 
 TEST(TableWriteConformance, AFullDeviceIsAnError) {

@@ -32,12 +32,6 @@ constexpr int kReadAttempts = 4;  // seqlock attempts per Read on the tick
 constexpr std::int64_t kLockstepIdleNs = 20'000;             // between reads without a new grant
 constexpr std::int64_t kLockstepCommandWaitNs = 100'000'000;  // for the tick's command
 
-std::int64_t NowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
 void SleepUntil(std::int64_t t_ns) {
   timespec ts{};
   ts.tv_sec = static_cast<time_t>(t_ns / 1'000'000'000);
@@ -55,7 +49,7 @@ void Signal(int fd) {
 // Waits until t_ns or fd's signal (consumed); true when signalled.
 bool WaitEventUntil(int fd, std::int64_t t_ns) {
   while (true) {
-    const std::int64_t left = t_ns - NowNs();
+    const std::int64_t left = t_ns - ModbusNowNs();
     if (left <= 0) return false;
     const timespec ts{static_cast<time_t>(left / 1'000'000'000),
                       static_cast<long>(left % 1'000'000'000)};
@@ -209,7 +203,7 @@ void ModbusDevice::GoodExchange() {
 
 bool ModbusDevice::Connect(Sample* s) {
   if (link_->open()) return true;
-  if (NowNs() < connect_at_ns_) {  // backoff after a failed session or connect
+  if (ModbusNowNs() < connect_at_ns_) {  // backoff after a failed session or connect
     WaitEventUntil(wake_, connect_at_ns_);
     return false;
   }
@@ -219,7 +213,7 @@ bool ModbusDevice::Connect(Sample* s) {
     s->write_failed = config_.outputs != 0;
     s->why = IoError::kDisconnected;
     sample_.Write(*s);
-    connect_at_ns_ = NowNs() + backoff_ns_;
+    connect_at_ns_ = ModbusNowNs() + backoff_ns_;
     backoff_ns_ = backoff_ns_ * 2 > kBackoffMaxNs ? kBackoffMaxNs : backoff_ns_ * 2;
     return false;
   }
@@ -236,7 +230,7 @@ void ModbusDevice::EndSession() {
   link_->Close();
   // Every session that ends is followed by the backoff; it doubles while sessions fail
   // without one good exchange (a peer that accepts and resets is not hammered).
-  connect_at_ns_ = NowNs() + backoff_ns_;
+  connect_at_ns_ = ModbusNowNs() + backoff_ns_;
   backoff_ns_ = backoff_ns_ * 2 > kBackoffMaxNs ? kBackoffMaxNs : backoff_ns_ * 2;
 }
 
@@ -351,7 +345,7 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
     // The reply's values are no older than this request: its stamp (however late the reply).
     // RTU has no transaction id: while an earlier read may still be answered late, the
     // stamp is that read's (the reply taken may be its).
-    const std::int64_t sent_ns = NowNs();
+    const std::int64_t sent_ns = ModbusNowNs();
     const bool rtu = config_.mode == ModbusMode::kRtu;
     const std::int64_t stamp_ns = rtu && unanswered_since_ns_ != 0 ? unanswered_since_ns_ : sent_ns;
     int reply_len = 0;
@@ -416,11 +410,11 @@ void ModbusDevice::Work() {
   const bool writes = config_.outputs != 0;
   Sample s;  // the worker's copy of what it publishes
   int timed_out_cycles = 0;
-  std::int64_t next = NowNs();
+  std::int64_t next = ModbusNowNs();
   while (running_.load(std::memory_order_relaxed)) {
     if (!Connect(&s)) {
       timed_out_cycles = 0;
-      next = NowNs();
+      next = ModbusNowNs();
       continue;
     }
     timed_out_ = false;
@@ -445,14 +439,14 @@ void ModbusDevice::Work() {
       // next cycle). Else read again soon: the harness sets the next grant after our command.
       if (new_grant) {
         Signal(grant_event_);
-        (void)WaitEventUntil(wake_, NowNs() + kLockstepCommandWaitNs);
+        (void)WaitEventUntil(wake_, ModbusNowNs() + kLockstepCommandWaitNs);
       } else {
-        SleepUntil(NowNs() + kLockstepIdleNs);
+        SleepUntil(ModbusNowNs() + kLockstepIdleNs);
       }
       continue;
     }
     next += config_.poll_period_ns;
-    const std::int64_t now = NowNs();
+    const std::int64_t now = ModbusNowNs();
     if (next < now) next = now;  // behind (slow peer): no catch-up burst
     if (!SafePending()) (void)WaitEventUntil(wake_, next);
   }
@@ -522,7 +516,7 @@ void ModbusDevice::PublishStatus(const TelemetrySnapshot& stats) {
 }
 
 bool ModbusDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
-  const std::int64_t until = NowNs() + timeout_ns;
+  const std::int64_t until = ModbusNowNs() + timeout_ns;
   while (true) {
     Sample s;
     bool got = false;
@@ -532,7 +526,7 @@ bool ModbusDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
       *t_ns = granted_ns_;
       return true;
     }
-    const std::int64_t now = NowNs();
+    const std::int64_t now = ModbusNowNs();
     if (now >= until) break;
     // The worker signals every new grant; a signal consumed by an earlier call leaves the
     // sample to be seen on the next pass.

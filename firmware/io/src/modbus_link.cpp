@@ -12,15 +12,12 @@
 #include <ctime>
 
 namespace mrd::firmware {
+
+std::int64_t ModbusNowNs() { return MonotonicClock().Now(); }
+
 namespace {
 
 namespace mb = mrd::protocol::modbus;
-
-std::int64_t NowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 // errno of a failed send/receive on the link.
 IoError Classify(int err) {
@@ -103,10 +100,18 @@ ModbusLink::Result ModbusLink::Broken(IoError e, IoError* why) {
   return Result::kFailed;
 }
 
+ModbusLink::Result ModbusLink::Unfinished(Wait w, bool mid_frame, IoError* why) {
+  if (w == Wait::kHangUp) return Broken(IoError::kDisconnected, why);
+  if (mid_frame) broken_ = true;  // the frame's rest would follow on the stream
+  if (w == Wait::kAbandoned) return Result::kAbandoned;
+  *why = IoError::kTimeout;
+  return Result::kFailed;
+}
+
 ModbusLink::Wait ModbusLink::WaitFor(short events, std::int64_t deadline_ns, Phase phase,
                                      int wake_fd, Interrupt* interrupt) {
   while (true) {
-    const std::int64_t left = deadline_ns - NowNs();
+    const std::int64_t left = deadline_ns - ModbusNowNs();
     if (left <= 0) return Wait::kTimeout;
     const timespec ts{static_cast<time_t>(left / 1'000'000'000),
                       static_cast<long>(left % 1'000'000'000)};
@@ -138,19 +143,9 @@ ModbusLink::Result ModbusLink::Send(const std::uint8_t* adu, int len, std::int64
     }
     if (n < 0 && errno == EINTR) continue;
     if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-      switch (WaitFor(POLLOUT, deadline_ns, Phase::kMidFrame, wake_fd, interrupt)) {
-        case Wait::kReady:
-          continue;
-        case Wait::kTimeout:
-          *why = IoError::kTimeout;
-          if (tcp && sent > 0) broken_ = true;  // half a request on the stream
-          return Result::kFailed;
-        case Wait::kAbandoned:
-          if (tcp && sent > 0) broken_ = true;
-          return Result::kAbandoned;
-        case Wait::kHangUp:
-          return Broken(IoError::kDisconnected, why);
-      }
+      const Wait w = WaitFor(POLLOUT, deadline_ns, Phase::kMidFrame, wake_fd, interrupt);
+      if (w == Wait::kReady) continue;
+      return Unfinished(w, tcp && sent > 0, why);  // TCP: half a request on the stream
     }
     return Broken(n < 0 ? Classify(errno) : IoError::kDisconnected, why);
   }
@@ -172,19 +167,8 @@ ModbusLink::Result ModbusLink::ReadExactly(std::uint8_t* buf, int n, std::int64_
     if (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK) return Broken(Classify(errno), why);
     // Nothing to read yet (a serial line in raw mode with VMIN = 0 reads 0 bytes).
     const Phase now = have > 0 ? Phase::kMidFrame : phase;
-    switch (WaitFor(POLLIN, deadline_ns, now, wake_fd, interrupt)) {
-      case Wait::kReady:
-        break;
-      case Wait::kTimeout:
-        *why = IoError::kTimeout;
-        if (now == Phase::kMidFrame) broken_ = true;  // the frame's rest would follow
-        return Result::kFailed;
-      case Wait::kAbandoned:
-        if (now == Phase::kMidFrame) broken_ = true;
-        return Result::kAbandoned;
-      case Wait::kHangUp:
-        return Broken(IoError::kDisconnected, why);
-    }
+    const Wait w = WaitFor(POLLIN, deadline_ns, now, wake_fd, interrupt);
+    if (w != Wait::kReady) return Unfinished(w, now == Phase::kMidFrame, why);
   }
   return Result::kOk;
 }
@@ -246,18 +230,10 @@ ModbusLink::Result ModbusLink::ReceiveRtu(std::uint8_t function, std::uint8_t* r
     }
     if (r < 0 && errno == EINTR) continue;
     if (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK) return Broken(Classify(errno), why);
-    switch (WaitFor(POLLIN, deadline_ns, have > 0 ? Phase::kMidFrame : Phase::kReply, wake_fd,
-                    interrupt)) {
-      case Wait::kReady:
-        break;
-      case Wait::kTimeout:
-        *why = IoError::kTimeout;
-        return Result::kFailed;
-      case Wait::kAbandoned:
-        return Result::kAbandoned;  // the next request flushes the line first
-      case Wait::kHangUp:
-        return Broken(IoError::kDisconnected, why);
-    }
+    const Wait w = WaitFor(POLLIN, deadline_ns, have > 0 ? Phase::kMidFrame : Phase::kReply,
+                           wake_fd, interrupt);
+    // A torn frame leaves the link usable: the next request flushes the line first.
+    if (w != Wait::kReady) return Unfinished(w, /*mid_frame=*/false, why);
   }
   if (!mb::RtuCrcValid(buf_, len)) {
     *why = IoError::kCrc;
@@ -296,7 +272,7 @@ ModbusLink::Result ModbusLink::Transact(const std::uint8_t* pdu, int len, std::u
     wait_ns += WireNs(n) + WireNs(RtuReplyBytes(pdu));
     tcflush(fd_, TCIFLUSH);  // no transaction id: nothing older may be taken for the reply
   }
-  const std::int64_t deadline = NowNs() + wait_ns;
+  const std::int64_t deadline = ModbusNowNs() + wait_ns;
   const Result r = Send(adu, n, deadline, why, wake_fd, interrupt);
   if (r != Result::kOk) return r;
   return config_.mode == ModbusMode::kTcp
@@ -307,8 +283,8 @@ ModbusLink::Result ModbusLink::Transact(const std::uint8_t* pdu, int len, std::u
 bool ModbusLink::Quiet(int wake_fd, Interrupt* interrupt) {
   for (int round = 0; round < kMaxQuietRounds && fd_ >= 0; ++round) {
     tcflush(fd_, TCIFLUSH);
-    switch (
-        WaitFor(POLLIN, NowNs() + config_.response_timeout_ns, Phase::kQuiet, wake_fd, interrupt)) {
+    switch (WaitFor(POLLIN, ModbusNowNs() + config_.response_timeout_ns, Phase::kQuiet, wake_fd,
+                    interrupt)) {
       case Wait::kTimeout:
         return true;
       case Wait::kAbandoned:

@@ -28,6 +28,9 @@ typedef struct _modbus modbus_t;  // NOLINT: libmodbus's own name
 
 namespace mrd::firmware {
 
+// CLOCK_MONOTONIC now [ns]: the clock of the link's deadlines and of the device's stamps.
+std::int64_t ModbusNowNs();
+
 class ModbusLink {
  public:
   // What a wait was doing when the wake-up descriptor fired.
@@ -94,6 +97,9 @@ class ModbusLink {
   Result ReceiveRtu(std::uint8_t function, std::uint8_t* reply, int* reply_len,
                     std::int64_t deadline_ns, IoError* why, int wake_fd, Interrupt* interrupt);
   Result Broken(IoError e, IoError* why);
+  // A send or read whose wait ended other than ready (w): a hang-up breaks the link; a timeout
+  // (*why) or an abandoned wait breaks it too when mid_frame (part of a frame is on the stream).
+  Result Unfinished(Wait w, bool mid_frame, IoError* why);
   std::int64_t WireNs(int bytes) const;
 
   ModbusConfig config_;
