@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -60,10 +61,19 @@ std::vector<std::string> Tables(const TempDir& dir) {
   return out;
 }
 
+// mrd-firmware's argv with args: the emulator's words first in a cross build (qemu-user).
+std::vector<std::string> FirmwareArgv(const std::vector<std::string>& args) {
+  std::vector<std::string> argv;
+  std::istringstream emulator(MRD_TEST_EMULATOR);
+  for (std::string w; emulator >> w;) argv.push_back(w);
+  argv.push_back(FirmwarePath());
+  argv.insert(argv.end(), args.begin(), args.end());
+  return argv;
+}
+
 // Starts mrd-firmware with args, stdout+stderr to out_path.
 pid_t Spawn(const std::vector<std::string>& args, const std::string& out_path) {
-  std::vector<std::string> argv{FirmwarePath()};
-  argv.insert(argv.end(), args.begin(), args.end());
+  std::vector<std::string> argv = FirmwareArgv(args);
   std::vector<char*> raw;
   for (auto& a : argv) raw.push_back(a.data());
   raw.push_back(nullptr);
@@ -169,6 +179,10 @@ TEST(TableInstallConformance, SymlinksAtTheOldStagingNamesAreNotFollowed) {
 // ignored, so write() fails with EFBIG). Returns the exit status.
 int WriteTableWithSizeLimit(const std::string& out, rlim_t limit, std::string* output) {
   const std::string log = out + ".log";
+  std::vector<std::string> argv = FirmwareArgv({"--write-table", out});
+  std::vector<char*> raw;
+  for (auto& a : argv) raw.push_back(a.data());
+  raw.push_back(nullptr);
   const pid_t pid = fork();
   if (pid == 0) {
     const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -177,8 +191,7 @@ int WriteTableWithSizeLimit(const std::string& out, rlim_t limit, std::string* o
     signal(SIGXFSZ, SIG_IGN);
     const rlimit rl{limit, limit};
     setrlimit(RLIMIT_FSIZE, &rl);
-    const std::string bin = FirmwarePath();
-    execl(bin.c_str(), bin.c_str(), "--write-table", out.c_str(), static_cast<char*>(nullptr));
+    execvp(raw[0], raw.data());
     _exit(127);
   }
   const int status = ExitStatus(pid);

@@ -76,6 +76,8 @@ TEST(ProfileConfigTest, LockstepNeedsTheProfilesGrant) {
   text.replace(text.find("grant = "), std::string("grant = ").size(), "# grant = ");
   const std::string dbc = "dbc = \"test-driver.dbc\"";
   text.replace(text.find(dbc), dbc.size(), "dbc = \"" + kProfiles + "/test-driver.dbc\"");
+  const std::string cal = "calibration = \"test-coil.csv\"";
+  text.replace(text.find(cal), cal.size(), "calibration = \"" + kProfiles + "/test-coil.csv\"");
   std::ofstream(dir + "/nogrant.toml") << text;
   FirmwareConfig c;
   std::string error;

@@ -431,7 +431,7 @@ bool CanDevice::SendCommand(const DriverCommand& cmd, std::int64_t now) {
       set(pf::CanOut::kEcho, static_cast<double>(last_seq_ & EchoMask(p)));
       return fits;
     };
-    if (!fill(setpoint, cmd.enable, cmd.safe)) {
+    if (!std::isfinite(cmd.volts) || !fill(setpoint, cmd.enable, cmd.safe)) {
       // Not representable (never from the loop within the profile's range): the safe state
       // instead, and the write reported as failed.
       Count(IoError::kBadValue);
