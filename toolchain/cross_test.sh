@@ -6,7 +6,8 @@
 # Run by the native CTest tests cross_aarch64 / cross_armhf (label cross).
 # Excluded under emulation: the four tests that run the loop in real time on threads
 # (telemetry reader/writer, real-time dry run, SIGTERM, every terminating signal): qemu-user livelocks them (a 30 s
-# dry run ignored SIGTERM and ran for 30 min). They run in the native build. For the same
+# dry run ignored SIGTERM and ran for 30 min). They run in the native build. So does the death
+# test of a SIGBUS outside any simulated chip: qemu-user never delivers it (the test hangs). For the same
 # reason the bus tests (labels fieldbus, hil: I/O threads, sockets, ptys, child processes on a
 # 1 kHz wall clock) run natively only; their pure parts (codecs, register map, routing config,
 # FieldbusIo, GrantClock) run here too.
@@ -21,7 +22,7 @@ deb_arch="$preset"; [ "$preset" = aarch64 ] && deb_arch=arm64
 sysroot="$(bash toolchain/sysroot.sh "$deb_arch" | tail -n 1)"
 cmake --preset "$preset" "${launcher[@]}" -DMRD_SYSROOT="$sysroot" >/dev/null
 cmake --build --preset "$preset" -j2
-realtime='^(TelemetryTest\.ReaderSeesConsistentSnapshotsWhileWriterRuns|FirmwareCliTest\.RealTimeDryRunRunsAndCountsTime|FirmwareCliTest\.SigtermStopsTheLoopInTheSafeState|FirmwareHardeningTest\.EveryTerminatingSignalEndsInTheSafeState)$'
+realtime='^(TelemetryTest\.ReaderSeesConsistentSnapshotsWhileWriterRuns|FirmwareCliTest\.RealTimeDryRunRunsAndCountsTime|FirmwareCliTest\.SigtermStopsTheLoopInTheSafeState|FirmwareHardeningTest\.EveryTerminatingSignalEndsInTheSafeState|SimChipTruncationDeathTest\..*)$'
 ctest --preset "$preset" -E "$realtime" -LE 'fieldbus|hil' --timeout 300
 ctest --preset "$preset" -R '^(CanCodec|DbcTest|ModbusMap|IoConfigTest|FieldbusIoTest|GrantClockTest)\.' \
   --timeout 300
