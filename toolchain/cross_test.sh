@@ -4,13 +4,13 @@
 # Usage: toolchain/cross_test.sh aarch64|armhf   (build dir: build-aarch64/ or build-armhf/)
 # Then the package test (toolchain/package_test.sh) on this target's package, under qemu-user.
 # Run by the native CTest tests cross_aarch64 / cross_armhf (label cross).
-# Excluded under emulation: the four tests that run the loop in real time on threads
-# (telemetry reader/writer, real-time dry run, SIGTERM, every terminating signal): qemu-user livelocks them (a 30 s
-# dry run ignored SIGTERM and ran for 30 min). They run in the native build. So does the death
-# test of a SIGBUS outside any simulated chip: qemu-user never delivers it (the test hangs). For the same
-# reason the bus tests (labels fieldbus, hil: I/O threads, sockets, ptys, child processes on a
-# 1 kHz wall clock) run natively only; their pure parts (codecs, register map, routing config,
-# FieldbusIo, GrantClock) run here too.
+# Excluded under emulation, run in the native build: the four tests that run the loop in real
+# time on threads (telemetry reader/writer, real-time dry run, SIGTERM, every terminating
+# signal), which qemu-user livelocks (a 30 s dry run ignored SIGTERM and ran for 30 min), and
+# the death test of a SIGBUS outside any simulated chip, which qemu-user never delivers (the
+# test hangs). The bus tests (labels fieldbus, hil: I/O threads, sockets, ptys, child processes
+# on a 1 kHz wall clock) run natively only for the same reason; their pure parts (codecs,
+# register map, routing config, FieldbusIo, GrantClock) run here too.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="${1:?usage: cross_test.sh aarch64|armhf}"
