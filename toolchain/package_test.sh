@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# Package test (issue 11): builds the firmware's Debian package in BUILD_DIR, installs it into a
+# Package test: builds the firmware's Debian package in BUILD_DIR, installs it into a
 # temporary root directory with toolchain/deploy, runs the installed firmware (under qemu-user
-# for Arm): config and table checks, a dry run, a table update, a refused table (nothing
-# changed) and a forced rollback when the installed table is refused at start.
+# for Arm): the service ships unconfigured (--check-config refuses it and names the guide; the
+# demo table is not the service's table and drives no real device), config and table checks, a
+# dry run, a table update, a refused table (nothing changed) and a forced rollback when the
+# installed table is refused at start.
 # Usage: toolchain/package_test.sh BUILD_DIR   (build/, build-aarch64/ or build-armhf/)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,17 +17,20 @@ rm -f "$build"/mrd-firmware_*.deb
 deb="$(ls "$build"/mrd-firmware_*.deb)"
 echo "package: $deb ($(dpkg-deb -f "$deb" Architecture), depends: $(dpkg-deb -f "$deb" Depends))"
 contents="$(dpkg-deb -c "$deb")"
-for f in ./usr/bin/mrd-firmware ./etc/mrd/firmware.toml ./var/lib/mrd/table.bin \
+for f in ./usr/bin/mrd-firmware ./etc/mrd/firmware.toml ./usr/share/mrd/demo-table.bin \
+         ./usr/share/doc/mrd-firmware/devices.md ./usr/share/doc/mrd-firmware/firmware_config.md \
          ./lib/systemd/system/mrd-firmware.service; do
   grep -q " $f\$" <<<"$contents" || fail "package lacks $f"
 done
+! grep -q " ./var/lib/mrd/table.bin\$" <<<"$contents" || fail "package installs the demo table"
 
 root="$(mktemp -d)"
 trap 'rm -rf "$root"' EXIT
 bash toolchain/deploy --root "$root" --package "$deb"
 unit="$root/lib/systemd/system/mrd-firmware.service"
 for key in Type=notify CPUSchedulingPolicy=fifo CPUSchedulingPriority= LimitMEMLOCK=infinity \
-           Restart=on-failure WatchdogSec= "ExecStartPre=/usr/bin/mrd-firmware --check-config" \
+           Restart=on-failure RestartPreventExitStatus=2 WatchdogSec= \
+           "ExecStartPre=/usr/bin/mrd-firmware --check-config" \
            "--check-table /var/lib/mrd/table.bin --config /etc/mrd/firmware.toml --rollback"; do
   grep -q -- "$key" "$unit" || fail "unit lacks $key"
 done
@@ -41,7 +46,26 @@ case "$(od -An -tx1 -j18 -N1 "${fw[0]}" | tr -d ' ')" in
 esac
 cfg="$root/etc/mrd/firmware.toml"
 dest="$root/var/lib/mrd/table.bin"
-"${fw[@]}" --check-config "$cfg" >/dev/null || fail "installed config refused"
+demo="$root/usr/share/mrd/demo-table.bin"
+
+# Unconfigured: the unit's ExecStartPre refuses the shipped config (exit 2: no restart loop)
+# and says where the guide is.
+rc=0; "${fw[@]}" --check-config "$cfg" >/dev/null 2>"$root/err" || rc=$?
+[ "$rc" = 2 ] || fail "unconfigured config: exit $rc, want 2"
+grep -q "no device profile configured.*/usr/share/doc/mrd-firmware/devices.md" "$root/err" ||
+  fail "unconfigured config: no pointer to the guide: $(cat "$root/err")"
+echo "unconfigured: $(head -c 160 "$root/err")"
+# The demo table drives no real device unless told otherwise.
+printf '[can]\ninterface = "can0"\ninputs = ["velocity", "demand"]\noutputs = ["command"]\n' \
+  >"$root/can0.toml"
+"${fw[@]}" --check-config "$root/can0.toml" >/dev/null || fail "configured config refused"
+rc=0; "${fw[@]}" --table "$demo" --config "$root/can0.toml" --duration 0.1 2>"$root/err" || rc=$?
+[ "$rc" = 2 ] && grep -q "demo table" "$root/err" ||
+  fail "demo table not refused on can0 (exit $rc): $(cat "$root/err")"
+echo "demo table on can0: refused"
+
+# The user installs a table (here: the demo one, for the test) and it is checked.
+bash toolchain/deploy --root "$root" --table "$demo" >/dev/null
 "${fw[@]}" --check-table "$dest" --config "$cfg" >/dev/null || fail "installed table refused"
 out="$("${fw[@]}" --table "$dest" --config "$cfg" --dry-run 1 --lockstep --json)" ||
   fail "dry run failed: $out"

@@ -13,6 +13,8 @@ namespace {
 
 constexpr int kOk = 0;
 constexpr int kBadInput = 2;
+// Where the package installs the device-profile guide (docs/devices.md in the source).
+constexpr const char* kDevicesDoc = "/usr/share/doc/mrd-firmware/devices.md";
 
 constexpr const char* kUsage =
     "usage: mrd-firmware --check-config FILE.toml\n"
@@ -57,6 +59,13 @@ int RunMaintenance(int argc, char** argv) {
     if (!LoadConfigFile(config_path, &config, &error)) return Refuse(error);
   }
   if (command == "--check-config") {
+    // The service runs only with a bus to drive; a config without one is for --dry-run.
+    if (!config.io.any()) {
+      return Refuse(std::string(file) +
+                    ": no device profile configured: no [can], [modbus] or [gpio] section, so "
+                    "the firmware has nothing to drive (it would only run --dry-run). Say how "
+                    "your driver and sensors are wired: see " + std::string(kDevicesDoc));
+    }
     std::printf("config %s: ok\n", file);
     return kOk;
   }

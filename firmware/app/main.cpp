@@ -35,6 +35,7 @@
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
 #include "mrd/firmware/table_update.hpp"
+#include "demo_table.hpp"
 #include "summary_json.hpp"
 
 namespace {
@@ -116,6 +117,9 @@ constexpr const char* kHelp =
     "  --lockstep          dry run in simulated time (no sleeping; deterministic, fast)\n"
     "  --json              print the counters as JSON\n"
     "  --write-table OUT   write the table image (e.g. the compiled-in one) and exit\n"
+    "  --allow-demo-table  drive a real device (SocketCAN interface, GPIO chip, Modbus device)\n"
+    "                      with the compiled-in demo table, a model of the reference damper,\n"
+    "                      not of yours (refused without this flag)\n"
     "  --print-config-reference  every config key with default, unit, range (Markdown)\n"
     "  --help              this text\n"
     "\n"
@@ -135,6 +139,7 @@ struct Options {
   bool json = false;
   bool help = false;
   bool print_config_reference = false;
+  bool allow_demo_table = false;
 };
 
 bool ParseArgs(int argc, char** argv, Options* o) {
@@ -179,6 +184,8 @@ bool ParseArgs(int argc, char** argv, Options* o) {
       }
     } else if (a == "--lockstep") {
       o->lockstep = true;
+    } else if (a == "--allow-demo-table") {
+      o->allow_demo_table = true;
     } else if (a == "--json") {
       o->json = true;
     } else {
@@ -408,6 +415,16 @@ int Run(const Options& o) {
   if (!buses && o.dry_run_s <= 0.0) {
     std::fprintf(stderr, "error: nothing to run: give --config FILE with bus sections ([can], "
                  "[modbus], [gpio]) or --dry-run SECONDS (see --help)\n");
+    return kExitBadInput;
+  }
+  if (const std::string device = buses ? RealDeviceOf(cfg.io) : std::string();
+      !device.empty() && !o.allow_demo_table && IsDemoTable(table)) {
+    std::fprintf(stderr,
+                 "error: table %s is the demo table, a model of the reference damper, not of "
+                 "yours: refusing to drive %s with it. Identify your damper (mrd identify, mrd "
+                 "export: see the README) and give its table with --table FILE, or pass "
+                 "--allow-demo-table\n",
+                 mrd::Printable(table_name).c_str(), mrd::Printable(device).c_str());
     return kExitBadInput;
   }
   if (buses && o.lockstep) {

@@ -108,7 +108,9 @@ bool ReadFile(const std::string& path, std::string* out) {
 // The firmware's argv for this run.
 std::vector<std::string> FirmwareArgv(const RunOptions& o, const std::string& config,
                                       const std::string& table, double duration_s) {
-  std::vector<std::string> argv = {o.firmware, "--config", config, "--json"};
+  // The harness is the plant: the demo table may drive it on any interface (vcan on a board).
+  std::vector<std::string> argv = {o.firmware, "--config", config, "--json",
+                                   "--allow-demo-table"};
   if (!table.empty()) {
     argv.push_back("--table");
     argv.push_back(table);

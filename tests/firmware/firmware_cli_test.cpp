@@ -121,6 +121,57 @@ TEST(FirmwareCliTest, WithoutDryRunExplainsMissingBusDriver) {
   EXPECT_NE(r.output.find("--dry-run"), std::string::npos);
 }
 
+// The compiled-in demo table (a model of the reference damper) drives no real device unless
+// --allow-demo-table says so; simulated endpoints (local bus, loopback Modbus) take it.
+TEST(FirmwareCliTest, DemoTableDrivesNoRealDeviceUnlessAllowed) {
+  TempDir dir;
+  const std::string demo = WriteBuiltinTable(dir);
+  const std::string tail = "inputs = [\"velocity\", \"demand\"]\noutputs = [\"command\"]\n";
+  const struct {
+    std::string name, text, device;
+  } real[] = {
+      {"can0.toml", "[can]\ninterface = \"can0\"\n" + tail, "CAN interface can0"},
+      {"tcp.toml", "[modbus]\nhost = \"192.0.2.7\"\n" + tail, "Modbus TCP device 192.0.2.7"},
+      {"rtu.toml", "[modbus]\nmode = \"rtu\"\ndevice = \"/dev/ttyS1\"\n" + tail,
+       "Modbus RTU device /dev/ttyS1"},
+  };
+  for (const auto& c : real) {
+    const std::string cfg = dir.Write(c.name, c.text);
+    for (const std::string& table : {std::string(), " --table " + demo}) {
+      const CommandResult r =
+          test::Run(Firmware() + table + " --config " + cfg + " --duration 0.1");
+      EXPECT_EQ(r.status, 2) << c.name << table << ": " << r.output;
+      EXPECT_NE(r.output.find("is the demo table"), std::string::npos) << r.output;
+      EXPECT_NE(r.output.find("refusing to drive " + c.device), std::string::npos) << r.output;
+      EXPECT_NE(r.output.find("--allow-demo-table"), std::string::npos) << r.output;
+    }
+    // Told otherwise: the run goes on to open the device (which fails here, for its own reason).
+    const CommandResult allowed = test::Run(Firmware() + " --config " + cfg +
+                                            " --duration 0.1 --allow-demo-table");
+    EXPECT_EQ(allowed.output.find("demo table"), std::string::npos) << allowed.output;
+  }
+  // A simulated endpoint (a local CAN bus nobody serves) is not a real device.
+  const std::string local = dir.Write(
+      "local.toml", "[can]\nlocal_bus = \"" + dir.File("none.sock") + "\"\n" + tail);
+  const CommandResult r = test::Run(Firmware() + " --config " + local + " --duration 0.1");
+  EXPECT_EQ(r.output.find("demo table"), std::string::npos) << r.output;
+}
+
+// The packaged service's config ships without buses: --check-config (its ExecStartPre)
+// refuses it and says where the guide is.
+TEST(FirmwareCliTest, CheckConfigRefusesAConfigWithNothingToDrive) {
+  TempDir dir;
+  const std::string cfg = dir.Write("unconfigured.toml", "[control]\nlaw = \"force\"\n");
+  const CommandResult r = test::Run(Firmware() + " --check-config " + cfg);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("unconfigured.toml: no device profile configured"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("/usr/share/doc/mrd-firmware/devices.md"), std::string::npos)
+      << r.output;
+  // The same file still serves a dry run.
+  EXPECT_EQ(test::Run(Firmware() + " --config " + cfg + " --dry-run 0.1 --lockstep").status, 0);
+}
+
 TEST(FirmwareCliTest, SigtermStopsTheLoopInTheSafeState) {
   const CommandResult r =
       test::Run("timeout --preserve-status -s TERM 0.5 " + Firmware() + " --dry-run 30 --json; echo status=$?");
