@@ -1,5 +1,8 @@
 #include "demo_table.hpp"
 
+#include <climits>
+#include <cstdlib>
+
 #include "mrd/firmware/builtin_table.hpp"
 
 namespace mrd::firmware {
@@ -16,6 +19,13 @@ bool Loopback(const std::string& host) {
   return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
 }
 
+// A pseudo-terminal (the harness's or a test's simulated serial line), through symlinks.
+bool PseudoTerminal(const std::string& device) {
+  char resolved[PATH_MAX];
+  const std::string path = realpath(device.c_str(), resolved) != nullptr ? resolved : device;
+  return path.rfind("/dev/pts/", 0) == 0;
+}
+
 }  // namespace
 
 std::string RealDeviceOf(const IoConfig& io) {
@@ -25,7 +35,7 @@ std::string RealDeviceOf(const IoConfig& io) {
     if (io.modbus.mode == ModbusMode::kTcp && !Loopback(io.modbus.host)) {
       return "Modbus TCP device " + io.modbus.host;
     }
-    if (io.modbus.mode == ModbusMode::kRtu && io.modbus.device.rfind("/dev/pts/", 0) != 0) {
+    if (io.modbus.mode == ModbusMode::kRtu && !PseudoTerminal(io.modbus.device)) {
       return "Modbus RTU device " + io.modbus.device;
     }
   }

@@ -63,10 +63,12 @@ class ModbusIntegrationTest : public ::testing::TestWithParam<Transport> {
     EXPECT_TRUE(ready) << hil->Stderr();
     return hil;
   }
+  // --allow-demo-table: with no peer the pty link does not exist, so the firmware cannot tell
+  // that the serial device is a simulation (a missing device may be a real adapter).
   std::unique_ptr<ChildProcess> StartFirmware(double duration_s) {
-    return std::make_unique<ChildProcess>(
-        std::vector<std::string>{kBin + "/mrd-firmware", "--config", dir_ + "/fw.toml",
-                                 "--duration", std::to_string(duration_s), "--json"});
+    return std::make_unique<ChildProcess>(std::vector<std::string>{
+        kBin + "/mrd-firmware", "--config", dir_ + "/fw.toml", "--duration",
+        std::to_string(duration_s), "--json", "--allow-demo-table"});
   }
   static json Parse(ChildProcess& p) {
     const std::string out = p.Stdout();
