@@ -334,6 +334,9 @@ int main(int argc, char** argv) {
   run->add_option("--profile", ro.profile,
                   "CAN device profile (docs/devices.md): the harness plays the driver in its "
                   "messages and the firmware gets the same file (default: mrd-native)");
+  run->add_option("--can-log", ro.can_log,
+                  "write every frame of the local CAN bus, both directions, to FILE in "
+                  "candump -L format (stamped with the run's time: simulated in lockstep)");
   run->add_option("--excitation", ro.excitation,
                   "CSV (header with x, v and the demand column, e.g. an `mrd generate` data "
                   "set) replacing the scenario's excitation");

@@ -1,6 +1,7 @@
 // mrd-hil run: the scenario loop (run.hpp). Scores and fault figures: run_scores.cpp.
 #include "mrd/hil/run.hpp"
 
+#include <linux/can.h>
 #include <sys/prctl.h>
 #include <sys/stat.h>
 
@@ -104,6 +105,37 @@ bool ReadFile(const std::string& path, std::string* out) {
   *out = s.str();
   return true;
 }
+
+// --can-log: frames in candump -L format, stamped with the run's time (lockstep: the step's
+// simulated time; real time and before the first step: CLOCK_MONOTONIC).
+struct CanLog {
+  FILE* file = nullptr;
+  std::int64_t t_ns = -1;
+  bool Open(const std::string& path, std::string* error) {
+    file = std::fopen(path.c_str(), "w");
+    if (file == nullptr) *error = path + ": cannot write the CAN log (" + std::strerror(errno) + ")";
+    return file != nullptr;
+  }
+  static void Write(void* context, const void* frame, bool /*in_process*/) {
+    auto* log = static_cast<CanLog*>(context);
+    can_frame f;
+    std::memcpy(&f, frame, sizeof f);
+    const std::int64_t t = log->t_ns >= 0 ? log->t_ns : NowNs();
+    const bool extended = (f.can_id & CAN_EFF_FLAG) != 0;
+    std::fprintf(log->file, "(%lld.%06lld) mrdbus ", static_cast<long long>(t / 1'000'000'000),
+                 static_cast<long long>(t % 1'000'000'000 / 1000));
+    std::fprintf(log->file, extended ? "%08X#" : "%03X#",
+                 f.can_id & (extended ? CAN_EFF_MASK : CAN_SFF_MASK));
+    for (int i = 0; i < f.len && i < 8; ++i) std::fprintf(log->file, "%02X", f.data[i]);
+    std::fputc('\n', log->file);
+  }
+  CanLog() = default;
+  CanLog(const CanLog&) = delete;
+  CanLog& operator=(const CanLog&) = delete;
+  ~CanLog() {
+    if (file != nullptr) std::fclose(file);
+  }
+};
 
 // The firmware's argv for this run.
 std::vector<std::string> FirmwareArgv(const RunOptions& o, const std::string& config,
@@ -290,6 +322,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   // and come back (kill_plant).
   std::string endpoint;
   canbus::LocalBusRelay relay;
+  CanLog can_log;  // --can-log: closed when the run returns
   std::unique_ptr<PlantPort> port;
   const bool can = o.transport == "can";
   const bool relay_bus = can && o.can_interface.empty();  // else SocketCAN (CAN_RAW)
@@ -300,6 +333,8 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     endpoint = o.work_dir + "/canbus.sock";
     if (!relay.Open(endpoint, error)) return 1;
     port = MakeCanPortOnRelay(relay, can_profile);
+    if (!o.can_log.empty() && !can_log.Open(o.can_log, error)) return 1;
+    if (can_log.file != nullptr) relay.SetLog(&CanLog::Write, &can_log);
   } else if (o.transport == "modbus-rtu") {
     endpoint = o.work_dir + "/modbus-pty";
     port = MakeModbusRtuPort(endpoint);
@@ -472,6 +507,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   std::int64_t deadline = wall0;
   std::uint32_t seq_base = 1000;  // real time: above the start-up publications
   for (std::int64_t k = 0; k < steps; ++k) {
+    can_log.t_ns = lockstep ? k * kPeriodNs : -1;  // -1: stamp with CLOCK_MONOTONIC
     if (const int sig = interrupted()) return end_run(interrupt_text(sig), sig);
     // The fault schedule at step k.
     SensorFault sf = SensorFault::kNone;

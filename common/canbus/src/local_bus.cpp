@@ -125,6 +125,7 @@ void LocalBusRelay::Broadcast(const void* frame) {
 }
 
 void LocalBusRelay::Forward(std::size_t from, const void* frame, std::int64_t stamp_ns) {
+  if (log_ != nullptr) log_(log_context_, frame, from == nodes_.size());
   LocalBusPacket packet;
   std::memcpy(&packet.frame, frame, sizeof(can_frame));
   packet.stamp_ns = stamp_ns;

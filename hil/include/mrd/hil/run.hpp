@@ -47,6 +47,9 @@ struct RunOptions {
   std::string profile;              // CAN device profile file ("": the built-in mrd-native)
   bool attach = false;              // do not start it: wait for one started by hand
   std::string work_dir;             // config, sockets, firmware output (created if absent)
+  // Every frame on the harness's local CAN bus, both directions, in candump -L format
+  // ("(SECONDS) mrdbus ID#DATA"; SECONDS: the run's time, simulated in lockstep). "": none.
+  std::string can_log;
   double command_timeout_s = 10.0;  // lockstep liveness: silence this long ends the run [s]
   double startup_timeout_s = 10.0;  // first sign of life of the firmware [s]
   // Set (to the signal number) by the caller's SIGTERM/SIGINT/SIGHUP handler: the run stops,

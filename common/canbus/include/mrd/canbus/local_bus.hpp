@@ -67,6 +67,13 @@ class LocalBusRelay {
     tap_ = tap;
     tap_context_ = context;
   }
+  // A bus log: called with every frame that enters the bus (from a socket node, or from the
+  // in-process node: in_process true), before it is handed on; on the relay's thread.
+  using Log = void (*)(void* context, const void* frame, bool in_process);
+  void SetLog(Log log, void* context) {
+    log_ = log;
+    log_context_ = context;
+  }
   // Safe to call from another thread while Run is going (each field is read atomically).
   RelayStats stats() const;
 
@@ -78,6 +85,8 @@ class LocalBusRelay {
   std::string path_;
   Tap tap_ = nullptr;
   void* tap_context_ = nullptr;
+  Log log_ = nullptr;
+  void* log_context_ = nullptr;
   int listen_fd_ = -1;
   int spare_fd_ = -1;                // given up to take a connection when out of descriptors
   std::int64_t listen_paused_until_ns_ = 0;  // accept() failing otherwise: listener not polled
