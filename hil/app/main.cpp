@@ -26,6 +26,7 @@
 #include "mrd/hil/run.hpp"
 #include "mrd/hil/scenario.hpp"
 #include "mrd/hil/serve.hpp"
+#include "mrd/profile/can_profile.hpp"
 #include "report.hpp"
 
 namespace {
@@ -41,7 +42,10 @@ constexpr int kExitFailure = 1;
 constexpr int kExitBadInput = 2;
 
 // "TRANSPORT=ENDPOINT" -> a port; nullptr with *error.
-std::unique_ptr<mrd::hil::PlantPort> MakePort(const std::string& spec, std::string* error) {
+// can_profile: the CAN ports' device profile (nullptr: the built-in mrd-native).
+std::unique_ptr<mrd::hil::PlantPort> MakePort(
+    const std::string& spec, std::shared_ptr<const mrd::profile::CanProfile> can_profile,
+    std::string* error) {
   const auto eq = spec.find('=');
   if (eq == std::string::npos || eq == 0 || eq + 1 == spec.size()) {
     *error = "--port '" + spec + "': expected TRANSPORT=ENDPOINT";
@@ -50,7 +54,7 @@ std::unique_ptr<mrd::hil::PlantPort> MakePort(const std::string& spec, std::stri
   const std::string transport = spec.substr(0, eq), endpoint = spec.substr(eq + 1);
   std::unique_ptr<mrd::hil::PlantPort> port;
   if (transport == "can") {
-    port = mrd::hil::MakeCanPort(endpoint);
+    port = mrd::hil::MakeCanPort(endpoint, can_profile);
   } else if (transport == "modbus-tcp") {
     port = mrd::hil::MakeModbusTcpPort(endpoint);
   } else if (transport == "modbus-rtu") {
@@ -315,6 +319,10 @@ int main(int argc, char** argv) {
   serve->add_option("--fault-line", fault_window,
                     "START:END: assert the fault line (GPIO line, Modbus sensor block, CAN "
                     "DriverStatus overcurrent bit) from START to END seconds");
+  std::string serve_profile;
+  serve->add_option("--profile", serve_profile,
+                    "CAN device profile (docs/devices.md) the can= ports speak: the harness "
+                    "plays the driver and sensors in its messages (default: mrd-native)");
   serve->add_flag("--json", json, "print the summary as JSON");
 
   auto* run = app.add_subcommand(
@@ -396,11 +404,21 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   std::signal(SIGPIPE, SIG_IGN);
+  std::shared_ptr<const mrd::profile::CanProfile> can_profile;
+  if (!serve_profile.empty()) {
+    auto p = std::make_shared<mrd::profile::CanProfile>();
+    std::string error;
+    if (!mrd::profile::LoadCanProfile(serve_profile, p.get(), &error)) {
+      std::fprintf(stderr, "error: --profile: %s\n", error.c_str());
+      return kExitBadInput;
+    }
+    can_profile = std::move(p);
+  }
   std::vector<std::unique_ptr<mrd::hil::PlantPort>> ports;
   std::vector<mrd::hil::PlantPort*> raw;
   for (const auto& spec : port_specs) {
     std::string error;
-    auto p = MakePort(spec, &error);
+    auto p = MakePort(spec, can_profile, &error);
     if (p == nullptr) {
       std::fprintf(stderr, "error: %s\n", error.c_str());
       return kExitBadInput;
