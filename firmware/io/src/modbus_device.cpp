@@ -131,6 +131,18 @@ bool ModbusDevice::Activate(std::string* error) {
     return false;
   }
   thread_started_ = true;
+  if (profile_ != nullptr && link_->open()) {
+    // A profile's cycle is several requests: wait (configuration time, bounded) for its first
+    // sample or failure, so the loop's first period does not run on a never-sampled frame.
+    const std::int64_t wait = config_.response_timeout_ns * (config_.retries + 1) *
+                              static_cast<std::int64_t>(1 + profile_->reads.size());
+    const std::int64_t until = ModbusNowNs() + (wait < 2'000'000'000 ? wait : 2'000'000'000);
+    Sample s;
+    while (ModbusNowNs() < until &&
+           !(sample_.TryRead(&s) && (s.accepted > 0 || s.read_failed || s.write_failed))) {
+      SleepUntil(ModbusNowNs() + 100'000);
+    }
+  }
   if (config_.priority > 0) {
     sched_param sp{};
     sp.sched_priority = config_.priority;

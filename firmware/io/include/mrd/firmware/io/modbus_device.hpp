@@ -58,7 +58,9 @@
 // bad_value (the read fails: safe state); a set-point or value the register cannot hold makes
 // that write a safe one (set-point 0, enable 0, safe 1) and counts bad_value. With sensor_seq
 // mapped, a repeated seq is not new data; without it every good read is. driver_faults
-// non-zero sets the fault line, as fault_line does.
+// non-zero sets the fault line, as fault_line does. Activate waits (bounded) for the first
+// cycle's sample or failure, so the loop does not start on a never-sampled frame (whose
+// values are NaN: a non_finite trip at start-up).
 
 #include <pthread.h>
 
