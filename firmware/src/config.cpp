@@ -5,6 +5,7 @@
 
 #include "mrd/common/input_file.hpp"
 #include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/modbus_profile.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -361,6 +362,10 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Integer("data_bits", &io.modbus.data_bits, 5, 8, "", "RTU: data bits."),
         Integer("stop_bits", &io.modbus.stop_bits, 1, 2, "", "RTU: stop bits."),
         Integer("slave", &io.modbus.slave, 1, 247, "", "Unit / slave id of the current driver."),
+        Text("profile", &io.modbus.profile, kMaxPath, "PATH_MAX", "",
+             "Modbus device profile (docs/devices.md): unit, table, address and type of each "
+             "input and output, relative to this file; default: the built-in map "
+             "(docs/modbus_registers.md, unit 'slave')."),
         Duration("response_timeout_ms", &io.modbus.response_timeout_ns, 1e6, 0.1, 1e4, "ms",
                  "A reply must be complete within it (RTU: plus the frames' time on the "
                  "wire); also the TCP connect timeout. A stop takes at most twice it (RTU: plus that "
@@ -586,6 +591,62 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
   return true;
 }
 
+// [modbus] profile: loaded (relative to the configuration file) and checked against the
+// routing: every input and output the [modbus] section names, and the grant in lockstep
+// (grants on Modbus: no [can] bus), must be a role the profile maps. fault_line is served by
+// the profile's fault_line or driver_faults role.
+bool LoadModbusProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,
+                         std::string* error) {
+  ModbusConfig& mb = c->io.modbus;
+  if (mb.profile.empty()) return true;
+  const std::string where = Where(root, source, "modbus", "profile");
+  std::string path = mb.profile;
+  if (path[0] != '/') {
+    const auto slash = source.rfind('/');
+    path = (slash == std::string::npos ? std::string(".") : source.substr(0, slash)) + "/" + path;
+  }
+  auto p = std::make_shared<profile::ModbusProfile>();
+  std::string why;
+  if (!profile::LoadModbusProfile(path, p.get(), &why)) {
+    *error = where + "device profile: " + Printable(why);
+    return false;
+  }
+  const auto in = [&](profile::CanIn r) { return p->In(r).mapped; };
+  const auto out = [&](profile::ModbusOut r) { return p->Out(r).mapped; };
+  for (std::size_t i = 0; i < kNumInputs; ++i) {
+    const auto role = static_cast<profile::CanIn>(i);  // the same order as Input
+    const bool mapped = in(role) || (role == profile::CanIn::kFaultLine &&
+                                     in(profile::CanIn::kDriverFaults));
+    if ((mb.inputs & (1U << i)) != 0 && !mapped) {
+      *error = where + "profile " + p->name + " maps no register to input '" +
+               InputName(static_cast<Input>(i)) + "' ([modbus.inputs] of the profile)";
+      return false;
+    }
+  }
+  const std::pair<Output, bool> needs[] = {
+      {Output::kCommand, out(profile::ModbusOut::kCommand)},
+      {Output::kEnable, out(profile::ModbusOut::kEnable)},
+      {Output::kHeartbeat, out(profile::ModbusOut::kHeartbeat)},
+      {Output::kStatus, out(profile::ModbusOut::kStatusSafe) ||
+                            out(profile::ModbusOut::kStatusCauses) ||
+                            out(profile::ModbusOut::kStatusOverruns) ||
+                            out(profile::ModbusOut::kStatusSafeEntries)}};
+  for (const auto& [output, mapped] : needs) {
+    if ((mb.outputs & Bit(output)) != 0 && !mapped) {
+      *error = where + "profile " + p->name + " maps no register to output '" +
+               OutputName(output) + "' ([modbus.outputs] of the profile)";
+      return false;
+    }
+  }
+  if (c->clock == LoopClock::kGrant && !c->io.can.enabled && !in(profile::CanIn::kGrant)) {
+    *error = where + "clock = \"grant\" needs the profile's 'grant' input (profile " + p->name +
+             " has none)";
+    return false;
+  }
+  mb.modbus_profile = p;
+  return true;
+}
+
 bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c,
            std::string* error) {
   Scratch x{static_cast<double>(c->period_ns) / 1e3,
@@ -621,6 +682,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   }
   if (!CheckIo(root, source, *c, error)) return false;
   if (c->io.can.enabled && !LoadCanProfileOf(root, source, c, error)) return false;
+  if (c->io.modbus.enabled && !LoadModbusProfileOf(root, source, c, error)) return false;
   c->period_ns = static_cast<std::int64_t>(std::llround(x.period_us * 1e3));
   k.watchdog.max_age_ns = static_cast<std::int64_t>(std::llround(x.max_age_ms * 1e6));
   if (x.e_max_set) c->e_max = x.e_max;
@@ -630,6 +692,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   c->io.can.max_age_ns = k.watchdog.max_age_ns;  // the CAN device's last check before sending
   c->io.modbus.priority = c->priority;  // the worker that writes the loop's safe block
   c->io.can.period_ns = c->period_ns;
+  c->io.modbus.period_ns = c->period_ns;
   return true;
 }
 

@@ -27,6 +27,7 @@
 #include "mrd/hil/scenario.hpp"
 #include "mrd/hil/serve.hpp"
 #include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/modbus_profile.hpp"
 #include "report.hpp"
 
 namespace {
@@ -332,16 +333,19 @@ int main(int argc, char** argv) {
   mrd::hil::RunOptions ro;
   bool run_json = false;
   run->add_option("scenario", scenario_path, "scenario TOML (hil/scenarios/)")->required();
-  run->add_option("--transport", ro.transport, "can | modbus-tcp | modbus-rtu")
-      ->capture_default_str();
+  auto* transport_opt = run->add_option("--transport", ro.transport,
+                                        "can | modbus-tcp | modbus-rtu (default: can; "
+                                        "modbus-tcp with a Modbus --profile)")
+                            ->capture_default_str();
   ro.clock = "lockstep";
   run->add_option("--clock", ro.clock,
                   "lockstep (time grants on the bus: deterministic, as fast as both sides "
                   "allow) | realtime (1 kHz wall clock: latency and jitter)");
   run->add_option("--table", ro.table, "coefficient table for the firmware (mrd export)");
   run->add_option("--profile", ro.profile,
-                  "CAN device profile (docs/devices.md): the harness plays the driver in its "
-                  "messages and the firmware gets the same file (default: mrd-native)");
+                  "device profile (docs/devices.md): CAN (the harness plays the driver in its "
+                  "messages) or Modbus (a [modbus] map: the harness serves it); the firmware "
+                  "gets the same file (default: mrd-native)");
   run->add_option("--can-log", ro.can_log,
                   "write every frame of the local CAN bus, both directions, to FILE in "
                   "candump -L format (stamped with the run's time: simulated in lockstep)");
@@ -390,7 +394,14 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? kExitOk : kExitBadInput;
   }
 
-  if (run->parsed()) return RunCommand(scenario_path, ro, out_dir, run_json);
+  if (run->parsed()) {
+    // A Modbus device profile plays over Modbus TCP unless --transport says otherwise.
+    if (transport_opt->count() == 0 && !ro.profile.empty() &&
+        mrd::profile::IsModbusProfileFile(ro.profile)) {
+      ro.transport = "modbus-tcp";
+    }
+    return RunCommand(scenario_path, ro, out_dir, run_json);
+  }
   if (bench->parsed()) return BenchCommand(bench_s, bo, bench_json);
 
   if (!fault_window.empty()) {

@@ -6,12 +6,14 @@
 #include "mrd/hil/gpio_port.hpp"
 #include "mrd/hil/run.hpp"
 #include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/modbus_profile.hpp"
 
 namespace mrd::hil {
 
 std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
                                const std::string& endpoint, const std::string& gpio_chip,
-                               const profile::CanProfile* can_profile) {
+                               const profile::CanProfile* can_profile,
+                               const profile::ModbusProfile* modbus_profile) {
   std::ostringstream c;
   const bool modbus = transport != "can";
   // In real time a Modbus transaction takes a few ms on its worker thread: the CAN defaults
@@ -39,8 +41,36 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
   c << "e_max = " << s.e_max << "\n";
   c << "\n[safety]\nmax_age_ms = " << max_age_ms << "\nrecover_periods = " << s.recover_periods
     << "\nvelocity_limit = " << s.velocity_limit << "\n";
-  const char* inputs = "[\"velocity\", \"displacement\", \"demand\", \"body_velocity\", \"force\"]";
-  const char* outputs = "[\"command\", \"enable\", \"heartbeat\", \"status\"]";
+  std::string inputs = "[\"velocity\", \"displacement\", \"demand\", \"body_velocity\", \"force\"]";
+  std::string outputs = "[\"command\", \"enable\", \"heartbeat\", \"status\"]";
+  std::string unit = "slave = 1";
+  if (modbus && modbus_profile != nullptr) {
+    // Only what the Modbus profile maps travels on Modbus; the profile names the units.
+    const profile::ModbusProfile& p = *modbus_profile;
+    const auto in = [&](profile::CanIn r) { return p.In(r).mapped; };
+    const auto out = [&](profile::ModbusOut r) { return p.Out(r).mapped; };
+    const auto add = [](std::string* list, const char* name) {
+      *list += std::string(list->size() > 1 ? ", " : "") + "\"" + name + "\"";
+    };
+    std::string ins = "[";
+    if (in(profile::CanIn::kVelocity)) add(&ins, "velocity");
+    if (in(profile::CanIn::kDisplacement)) add(&ins, "displacement");
+    if (in(profile::CanIn::kDemand)) add(&ins, "demand");
+    if (in(profile::CanIn::kBodyVelocity)) add(&ins, "body_velocity");
+    if (in(profile::CanIn::kForce)) add(&ins, "force");
+    ins += "]";
+    inputs = std::move(ins);
+    std::string outs = "[\"command\"";
+    if (out(profile::ModbusOut::kEnable)) outs += ", \"enable\"";
+    if (out(profile::ModbusOut::kHeartbeat)) outs += ", \"heartbeat\"";
+    if (out(profile::ModbusOut::kStatusSafe) || out(profile::ModbusOut::kStatusCauses)) {
+      outs += ", \"status\"";
+    }
+    outs += "]";
+    outputs = std::move(outs);
+    unit = "profile = \"";  // appended piecewise: GCC 12's -Wrestrict false positive
+    unit.append(p.path).append("\"");
+  }
   const ScenarioGpio& g = s.gpio;
   if (!modbus) {
     // Signals on GPIO leave CAN: the motion frame's (displacement, velocity) for the encoder,
@@ -77,10 +107,10 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
   } else if (transport == "modbus-tcp") {
     const auto colon = endpoint.rfind(':');
     c << "\n[modbus]\nmode = \"tcp\"\nhost = \"" << endpoint.substr(0, colon)
-      << "\"\nport = " << endpoint.substr(colon + 1) << "\nslave = 1\nresponse_timeout_ms = " << response_ms << "\n"
+      << "\"\nport = " << endpoint.substr(colon + 1) << "\n" << unit << "\nresponse_timeout_ms = " << response_ms << "\n"
       << "retries = 1\ninputs = " << inputs << "\noutputs = " << outputs << "\n";
   } else {
-    c << "\n[modbus]\nmode = \"rtu\"\ndevice = \"" << endpoint << "\"\nbaud = 115200\nslave = 1\n"
+    c << "\n[modbus]\nmode = \"rtu\"\ndevice = \"" << endpoint << "\"\nbaud = 115200\n" << unit << "\n"
       << "response_timeout_ms = " << response_ms << "\nretries = 1\ninputs = " << inputs << "\noutputs = "
       << outputs << "\n";
   }

@@ -53,7 +53,7 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
       regs_[map::kCommandBase + map::kSetPoint] = map::kNoSetPoint;
       regs_[map::kCommandBase + map::kEnable] = map::kEnableNotDriven;
     }
-    if (rtu_ ? !OpenRtu(error) : !OpenTcp(error)) return false;
+    if (!OpenModbusEndpoint(server_, rtu_, endpoint_, &master_fd_, &slave_fd_, error)) return false;
     server_.Start();
     std::lock_guard<std::mutex> lock(mu_);
     open_ = true;
@@ -154,53 +154,10 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
   }
 
  private:
-  bool OpenTcp(std::string* error) {
-    const auto colon = endpoint_.rfind(':');
-    int port = 0;
-    if (colon == std::string::npos || colon == 0) {
-      *error = "modbus-tcp '" + endpoint_ + "': expected HOST:PORT";
-      return false;
-    }
-    const std::string host = endpoint_.substr(0, colon), digits = endpoint_.substr(colon + 1);
-    if (digits.empty() || digits.size() > 5 ||
-        !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }) ||
-        (port = std::stoi(digits)) < 1 || port > 65535) {
-      *error = "modbus-tcp '" + endpoint_ + "': port must be 1-65535";
-      return false;
-    }
-    std::string why;
-    if (!server_.ListenTcp(host, port, &why)) {
-      *error = "modbus-tcp '" + endpoint_ + "': " + why;
-      return false;
-    }
-    return true;
-  }
-
-  bool OpenRtu(std::string* error) {
-    char slave_name[128] = {};
-    if (openpty(&master_fd_, &slave_fd_, slave_name, nullptr, nullptr) != 0) {
-      *error = "modbus-rtu: openpty: " + std::string(std::strerror(errno));
-      return false;
-    }
-    termios t{};
-    if (tcgetattr(slave_fd_, &t) == 0) {
-      cfmakeraw(&t);
-      cfsetspeed(&t, B115200);
-      tcsetattr(slave_fd_, TCSANOW, &t);
-    }
-    unlink(endpoint_.c_str());  // a link left by an earlier run
-    if (symlink(slave_name, endpoint_.c_str()) != 0) {
-      *error = "modbus-rtu: cannot create the link '" + endpoint_ + "' -> " + slave_name + ": " +
-               std::strerror(errno);
-      return false;
-    }
-    server_.ServeRtu(master_fd_);
-    return true;
-  }
-
   // ModbusServer::Bank: one request against a copy of the registers; a write goes back
   // under the lock (the command block and the unused 41..47: the plant never writes them).
-  map::ServerAnswer Answer(const std::uint8_t* pdu, int len, std::uint8_t* reply) override {
+  map::ServerAnswer Answer(std::uint8_t /*unit*/, const std::uint8_t* pdu, int len,
+                           std::uint8_t* reply) override {
     std::uint16_t regs[map::kMapSize];
     {
       std::lock_guard<std::mutex> lock(mu_);

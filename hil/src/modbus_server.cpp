@@ -6,6 +6,9 @@
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
+#include <string>
+#include <termios.h>
+#include <pty.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -197,8 +200,8 @@ void ModbusServer::AnswerTcp(Client& c, const std::uint8_t* frame) {
   std::uint8_t adu[mb::kMaxTcpAdu];
   std::uint8_t* reply = adu + mb::kMbapSize;
   int reply_len = 0;
-  if (h.unit == kUnit || h.unit == mb::kBroadcastUnit || h.unit == mb::kTcpDirectUnit) {
-    reply_len = bank_.Answer(pdu, len, reply).reply_len;
+  if (bank_.Serves(h.unit) || h.unit == mb::kBroadcastUnit || h.unit == mb::kTcpDirectUnit) {
+    reply_len = bank_.Answer(h.unit, pdu, len, reply).reply_len;
   } else {  // another unit: none behind this server
     reply[0] = static_cast<std::uint8_t>(pdu[0] | mb::kExceptionFlag);
     reply[1] = mb::kExGatewayNoResponse;
@@ -252,12 +255,12 @@ void ModbusServer::ReadRtu(std::int64_t now) {
 
 void ModbusServer::AnswerRtu(const std::uint8_t* frame, std::size_t len) {
   const std::uint8_t unit = frame[0];
-  if (unit != kUnit && unit != mb::kBroadcastUnit) {  // addressed to another unit
+  if (!bank_.Serves(unit) && unit != mb::kBroadcastUnit) {  // addressed to another unit
     bank_.CountRejected();
     return;
   }
   std::uint8_t adu[mb::kMaxRtuAdu + 2];
-  const int reply_len = bank_.Answer(frame + 1, static_cast<int>(len) - 3, adu + 1).reply_len;
+  const int reply_len = bank_.Answer(unit, frame + 1, static_cast<int>(len) - 3, adu + 1).reply_len;
   if (unit == mb::kBroadcastUnit) return;  // carried out, never answered
   adu[0] = unit;
   const int n = mb::PutRtuCrc(adu, 1 + reply_len);
@@ -299,6 +302,61 @@ void ModbusServer::Drop(Client& c, bool refused) {
   c.out_len = 0;
   c.request_start_ns = 0;
   if (refused) bank_.CountRefused();
+}
+
+namespace {
+
+bool OpenTcp(ModbusServer& server, const std::string& endpoint, std::string* error) {
+  const auto colon = endpoint.rfind(':');
+  int port = 0;
+  if (colon == std::string::npos || colon == 0) {
+    *error = "modbus-tcp '" + endpoint + "': expected HOST:PORT";
+    return false;
+  }
+  const std::string host = endpoint.substr(0, colon), digits = endpoint.substr(colon + 1);
+  if (digits.empty() || digits.size() > 5 ||
+      !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }) ||
+      (port = std::stoi(digits)) < 1 || port > 65535) {
+    *error = "modbus-tcp '" + endpoint + "': port must be 1-65535";
+    return false;
+  }
+  std::string why;
+  if (!server.ListenTcp(host, port, &why)) {
+    *error = "modbus-tcp '" + endpoint + "': " + why;
+    return false;
+  }
+  return true;
+}
+
+bool OpenRtu(ModbusServer& server, const std::string& endpoint, int* master_fd, int* slave_fd,
+             std::string* error) {
+  char slave_name[128] = {};
+  if (openpty(master_fd, slave_fd, slave_name, nullptr, nullptr) != 0) {
+    *error = "modbus-rtu: openpty: " + std::string(std::strerror(errno));
+    return false;
+  }
+  termios t{};
+  if (tcgetattr(*slave_fd, &t) == 0) {
+    cfmakeraw(&t);
+    cfsetspeed(&t, B115200);
+    tcsetattr(*slave_fd, TCSANOW, &t);
+  }
+  unlink(endpoint.c_str());  // a link left by an earlier run
+  if (symlink(slave_name, endpoint.c_str()) != 0) {
+    *error = "modbus-rtu: cannot create the link '" + endpoint + "' -> " + slave_name + ": " +
+             std::strerror(errno);
+    return false;
+  }
+  server.ServeRtu(*master_fd);
+  return true;
+}
+
+}  // namespace
+
+bool OpenModbusEndpoint(ModbusServer& server, bool rtu, const std::string& endpoint,
+                        int* master_fd, int* slave_fd, std::string* error) {
+  return rtu ? OpenRtu(server, endpoint, master_fd, slave_fd, error)
+             : OpenTcp(server, endpoint, error);
 }
 
 }  // namespace mrd::hil

@@ -12,10 +12,10 @@
 //        kMaxOutput (a client that does not read): the client is dropped (refused); an MBAP
 //        protocol id other than 0: not Modbus, dropped without reply (rejected); a length
 //        field that frames nothing: the stream is lost, the client dropped (rejected); unit id
-//        kUnit, 0 or 0xFF (the Modbus TCP guide: a device addressed by its IP) answered, any
+//        kUnit (a profile's units: Bank::Serves), 0 or 0xFF (the Modbus TCP guide: a device addressed by its IP) answered, any
 //        other unit gets exception 0x0B (rejected).
 //   RTU  a frame is delimited by its function's length, or by kRtuGapNs of silence for a
-//        function without one; a bad CRC or a torn frame is dropped (rejected); unit kUnit is
+//        function without one; a bad CRC or a torn frame is dropped (rejected); unit kUnit (or a profile's) is
 //        answered; unit 0 is a broadcast: a write is carried out, nothing is answered; other
 //        units are not answered (rejected).
 
@@ -39,8 +39,13 @@ class ModbusServer {
   // The registers behind the server (ModbusPort): thread-safe, never blocks for long.
   class Bank {
    public:
-    virtual protocol::modbus::ServerAnswer Answer(const std::uint8_t* pdu, int len,
-                                                  std::uint8_t* reply) = 0;
+    // unit: the request's unit id (0: an RTU broadcast or a TCP request for unit 0; 0xFF:
+    // TCP's "the device at this address").
+    virtual protocol::modbus::ServerAnswer Answer(std::uint8_t unit, const std::uint8_t* pdu,
+                                                  int len, std::uint8_t* reply) = 0;
+    // The unit ids behind this server (besides 0, and 0xFF over TCP): kUnit unless a device
+    // profile names others.
+    virtual bool Serves(std::uint8_t unit) const { return unit == kUnit; }
     virtual void CountRejected() = 0;
     virtual void CountRefused() = 0;
 
@@ -98,5 +103,11 @@ class ModbusServer {
   Client line_;  // the pty master's input, output and (fd) descriptor
   std::int64_t last_byte_ns_ = 0;
 };
+
+// Opens the server's endpoint: TCP "HOST:PORT" (listens), or RTU: a pseudo-terminal whose
+// slave the link `endpoint` points to (*master_fd, *slave_fd: the caller's to close, and the
+// link to unlink). false: *error.
+bool OpenModbusEndpoint(ModbusServer& server, bool rtu, const std::string& endpoint,
+                        int* master_fd, int* slave_fd, std::string* error);
 
 }  // namespace mrd::hil

@@ -26,6 +26,7 @@
 #include "mrd/hil/child.hpp"
 #include "mrd/hil/plant.hpp"
 #include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/modbus_profile.hpp"
 #include "run_gpio.hpp"
 #include "run_internal.hpp"
 
@@ -274,7 +275,29 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   // The CAN device profile: the harness plays the driver in its messages; the firmware gets
   // the same file.
   std::shared_ptr<const profile::CanProfile> can_profile;
-  if (!o.profile.empty()) {
+  std::shared_ptr<const profile::ModbusProfile> modbus_profile;
+  if (!o.profile.empty() && profile::IsModbusProfileFile(o.profile)) {
+    // A Modbus device profile: the harness serves its map; the firmware gets the same file.
+    if (o.transport == "can") {
+      *error = "--profile " + o.profile + ": a Modbus device profile needs --transport "
+               "modbus-tcp or modbus-rtu";
+      return 2;
+    }
+    char resolved[PATH_MAX];
+    auto p = std::make_shared<profile::ModbusProfile>();
+    std::string why;
+    if (realpath(o.profile.c_str(), resolved) == nullptr ||
+        !profile::LoadModbusProfile(resolved, p.get(), &why)) {
+      *error = "--profile: " + (why.empty() ? o.profile + ": " + std::strerror(errno) : why);
+      return 2;
+    }
+    if (lockstep && !p->In(profile::CanIn::kGrant).mapped) {
+      *error = "--profile " + o.profile + ": lockstep needs a 'grant' input in the profile's "
+               "[modbus.inputs] (the simulation's time grant); or --clock realtime";
+      return 2;
+    }
+    modbus_profile = p;
+  } else if (!o.profile.empty()) {
     if (o.transport != "can") {
       *error = "--profile: a CAN device profile needs --transport can";
       return 2;
@@ -337,14 +360,16 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     if (can_log.file != nullptr) relay.SetLog(&CanLog::Write, &can_log);
   } else if (o.transport == "modbus-rtu") {
     endpoint = o.work_dir + "/modbus-pty";
-    port = MakeModbusRtuPort(endpoint);
+    port = modbus_profile != nullptr ? MakeModbusProfilePort(true, endpoint, modbus_profile)
+                                     : MakeModbusRtuPort(endpoint);
   }
   if (o.transport == "modbus-tcp") {
     // A free port near a per-process base.
     const int base = 20000 + static_cast<int>(getpid() % 20000);
     for (int i = 0; i < 50 && port == nullptr; ++i) {
       endpoint = "127.0.0.1:" + std::to_string(base + i * 7);
-      auto p = MakeModbusTcpPort(endpoint);
+      auto p = modbus_profile != nullptr ? MakeModbusProfilePort(false, endpoint, modbus_profile)
+                                         : MakeModbusTcpPort(endpoint);
       std::string e;
       if (p != nullptr && p->Open(&e)) port = std::move(p);
     }
@@ -376,7 +401,8 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   std::string gpio_chip;
   if (!gpio.Open(s, o, &gpio_chip, error)) return 1;
   const std::string config =
-      FirmwareConfigText(s, o.transport, lockstep, endpoint, gpio_chip, can_profile.get());
+      FirmwareConfigText(s, o.transport, lockstep, endpoint, gpio_chip, can_profile.get(),
+                         modbus_profile.get());
   r->config_path = o.work_dir + "/firmware.toml";
   std::ofstream(r->config_path) << config;
 

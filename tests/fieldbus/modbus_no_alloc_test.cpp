@@ -2,7 +2,10 @@
 // FieldbusIo) ticks on CLOCK_MONOTONIC against the device while its worker exchanges the
 // register blocks with a libmodbus server (mrd-hil's port) over TCP and over a pty. The
 // allocation counter sees every thread of this process (the loop, the device's worker, the
-// server's thread), after a warm-up that connects and exchanges the first blocks.
+// server's thread), after a warm-up that connects and exchanges the first blocks. Built a
+// second time with MRD_MODBUS_PROFILE (modbus_profile_no_alloc_tests): the device and the
+// harness's server then run a device profile's map (grouped reads at two unit ids, typed
+// float32 values, coil and register writes, the set-point through the CommandMap).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -16,6 +19,7 @@
 #include "mrd/firmware/io/modbus_device.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/hil/plant_port.hpp"
+#include "mrd/profile/modbus_profile.hpp"
 #include "support/alloc_counter.hpp"
 #include "support/demo_model.hpp"
 
@@ -24,13 +28,21 @@ namespace {
 
 constexpr std::int64_t kPeriod = 1'000'000;
 
-// Warm-up, then 1000 guarded loop periods; rtu: over a pty, else TCP on loopback.
-void LoopPeriodsAllocateNothing(bool rtu) {
+// Warm-up, then 1000 guarded loop periods; rtu: over a pty, else TCP on loopback. profile:
+// a Modbus device profile file for both sides (nullptr: the built-in map).
+void LoopPeriodsAllocateNothing(bool rtu, const char* profile = nullptr) {
   const int tcp_port = test::FreeTcpPort();
   const std::string link = "/tmp/mrd-modbus-alloc-" + std::to_string(getpid());
-  auto port = rtu ? hil::MakeModbusRtuPort(link)
-                  : hil::MakeModbusTcpPort("127.0.0.1:" + std::to_string(tcp_port));
+  std::shared_ptr<profile::ModbusProfile> mp;
   std::string error;
+  if (profile != nullptr) {
+    mp = std::make_shared<profile::ModbusProfile>();
+    ASSERT_TRUE(profile::LoadModbusProfile(profile, mp.get(), &error)) << error;
+  }
+  const std::string tcp = "127.0.0.1:" + std::to_string(tcp_port);
+  auto port = mp != nullptr ? hil::MakeModbusProfilePort(rtu, rtu ? link : tcp, mp)
+              : rtu         ? hil::MakeModbusRtuPort(link)
+                            : hil::MakeModbusTcpPort(tcp);
   ASSERT_TRUE(port->Open(&error)) << error;
 
   ModbusConfig cfg;
@@ -38,6 +50,7 @@ void LoopPeriodsAllocateNothing(bool rtu) {
   cfg.mode = rtu ? ModbusMode::kRtu : ModbusMode::kTcp;
   cfg.port = tcp_port;
   cfg.device = link;
+  cfg.modbus_profile = mp;
   cfg.inputs = Bit(Input::kVelocity) | Bit(Input::kDisplacement) | Bit(Input::kDemand);
   cfg.outputs =
       Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) | Bit(Output::kStatus);
@@ -101,8 +114,17 @@ void LoopPeriodsAllocateNothing(bool rtu) {
 
 // Plain tests (not parameterised: gtest's parameter registry trips GCC's new/delete check
 // against the counting operators).
+#ifdef MRD_MODBUS_PROFILE
+TEST(ModbusProfileNoAllocTest, LoopPeriodsOverTcpAllocateNothing) {
+  LoopPeriodsAllocateNothing(false, MRD_MODBUS_PROFILE);
+}
+TEST(ModbusProfileNoAllocTest, LoopPeriodsOverRtuAllocateNothing) {
+  LoopPeriodsAllocateNothing(true, MRD_MODBUS_PROFILE);
+}
+#else
 TEST(ModbusNoAllocTest, LoopPeriodsOverTcpAllocateNothing) { LoopPeriodsAllocateNothing(false); }
 TEST(ModbusNoAllocTest, LoopPeriodsOverRtuAllocateNothing) { LoopPeriodsAllocateNothing(true); }
+#endif
 
 }  // namespace
 }  // namespace mrd::firmware

@@ -8,16 +8,19 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <memory>
 
 #include "modbus_link.hpp"
+#include "modbus_waker.hpp"
 #include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/telemetry.hpp"
 #include "mrd/protocol/modbus_frame.hpp"
 #include "mrd/protocol/modbus_map.hpp"
+#include "mrd/profile/modbus_profile.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -71,31 +74,19 @@ bool Retriable(IoError e) { return e == IoError::kTimeout || e == IoError::kCrc;
 
 }  // namespace
 
-// The link's wake-up policy. TCP is full duplex (a late reply is told by its transaction id):
-// a stop abandons any wait, a safe block posted after a driven one was written abandons the
-// request in flight. RTU is half duplex: nothing may be sent while a reply can be on its way,
-// so only the quiet-line wait gives way (to both); a request in flight runs to its reply or
-// its deadline.
-class ModbusDevice::Waker final : public ModbusLink::Interrupt {
- public:
-  explicit Waker(ModbusDevice& d) : d_(d) {}
-  bool Abandon(ModbusLink::Phase phase) override {
-    const bool tcp = d_.config_.mode == ModbusMode::kTcp;
-    if (!d_.running_.load(std::memory_order_relaxed)) {
-      return tcp || phase == ModbusLink::Phase::kQuiet;
-    }
-    if (d_.config_.lockstep || d_.writing_safe_ || !d_.SafePending()) return false;
-    return tcp ? phase == ModbusLink::Phase::kReply : phase == ModbusLink::Phase::kQuiet;
-  }
-
- private:
-  ModbusDevice& d_;
-};
-
 ModbusDevice::ModbusDevice(const ModbusConfig& config)
     : config_(config),
+      profile_(config.modbus_profile.get()),
       link_(std::make_unique<ModbusLink>(config)),
-      waker_(std::make_unique<Waker>(*this)) {}
+      waker_(std::make_unique<Waker>(*this)) {
+  if (profile_ != nullptr) {
+    command_map_ = profile_->command;
+    const double sp = command_map_.Calibrate(0.0);
+    safe_setpoint_ = sp < command_map_.min() ? command_map_.min()
+                     : sp > command_map_.max() ? command_map_.max() : sp;
+    words_ = std::make_unique<std::uint16_t[]>(2000);  // the largest request (bits)
+  }
+}
 
 ModbusDevice::~ModbusDevice() {
   Deactivate();
@@ -140,6 +131,18 @@ bool ModbusDevice::Activate(std::string* error) {
     return false;
   }
   thread_started_ = true;
+  if (profile_ != nullptr && link_->open()) {
+    // A profile's cycle is several requests: wait (configuration time, bounded) for its first
+    // sample or failure, so the loop's first period does not run on a never-sampled frame.
+    const std::int64_t wait = config_.response_timeout_ns * (config_.retries + 1) *
+                              static_cast<std::int64_t>(1 + profile_->reads.size());
+    const std::int64_t until = ModbusNowNs() + (wait < 2'000'000'000 ? wait : 2'000'000'000);
+    Sample s;
+    while (ModbusNowNs() < until &&
+           !(sample_.TryRead(&s) && (s.accepted > 0 || s.read_failed || s.write_failed))) {
+      SleepUntil(ModbusNowNs() + 100'000);
+    }
+  }
   if (config_.priority > 0) {
     sched_param sp{};
     sp.sched_priority = config_.priority;
@@ -166,6 +169,7 @@ void ModbusDevice::Deactivate() {
     Command safe;
     safe.tick = command_.Read().tick + 1;
     safe.echo = last_seq_;
+    safe.setpoint = safe_setpoint_;
     IoError why = IoError::kNone;
     // Best effort, one attempt: the peer may be gone.
     if (WriteOnce(safe, &why, /*interruptible=*/false) != Outcome::kOk) {
@@ -247,6 +251,7 @@ bool ModbusDevice::SafePending() const {
 }
 
 ModbusDevice::Outcome ModbusDevice::WriteOnce(const Command& c, IoError* why, bool interruptible) {
+  if (profile_ != nullptr) return WriteProfileOnce(c, why, interruptible);
   map::CommandBlock b;
   b.echo = c.echo;
   b.has_set_point = (config_.outputs & Bit(Output::kCommand)) != 0;
@@ -331,6 +336,7 @@ ModbusDevice::Outcome ModbusDevice::WriteLatest(Sample* s) {
 }
 
 ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
+  if (profile_ != nullptr) return ReadProfile(out, new_grant);
   Sample& s = *out;
   const int count = config_.lockstep ? map::kLockstepSensorCount : map::kSensorCount;
   std::uint8_t pdu[8], reply[map::kMaxPdu];
@@ -490,6 +496,12 @@ IoStatus ModbusDevice::Write(const DriverCommand& cmd, IoError* why) {
   c.enable = cmd.enable;
   c.safe = cmd.safe;
   c.echo = last_seq_;
+  if (profile_ != nullptr) {
+    // The profile's way from E to the set-point; the safe state is not rate-limited.
+    if (cmd.safe) command_map_.Reset();
+    c.setpoint = command_map_.Apply(cmd.volts, static_cast<double>(config_.period_ns) * 1e-9);
+    if (!std::isfinite(cmd.volts)) c.setpoint = cmd.volts;  // refused by the worker: safe
+  }
   command_.Write(c);
   // Entering the safe state: the worker writes this block at once (lockstep: PublishStatus).
   if (c.safe && !posted_safe_ && !config_.lockstep) Signal(wake_);

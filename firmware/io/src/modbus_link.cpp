@@ -31,7 +31,9 @@ IoError Classify(int err) {
 
 // Bytes of the reply to a request PDU (RTU: its time on the wire).
 int RtuReplyBytes(const std::uint8_t* pdu) {
-  if (pdu[0] == mb::kFcReadHolding) return 5 + 2 * ((pdu[3] << 8) | pdu[4]);
+  const int count = (pdu[3] << 8) | pdu[4];
+  if (pdu[0] == mb::kFcReadHolding || pdu[0] == 0x04) return 5 + 2 * count;
+  if (pdu[0] == 0x01 || pdu[0] == 0x02) return 5 + (count + 7) / 8;  // coils, discrete inputs
   return 8;
 }
 
@@ -191,7 +193,7 @@ ModbusLink::Result ModbusLink::ReceiveTcp(std::uint8_t* reply, int* reply_len,
       return Result::kFailed;
     }
     if (h.transaction != transaction_) continue;  // a late reply to an earlier request
-    if (h.unit != config_.slave) {
+    if (h.unit != unit_) {
       *why = IoError::kRejectedFrame;
       return Result::kFailed;
     }
@@ -212,7 +214,7 @@ ModbusLink::Result ModbusLink::ReceiveRtu(std::uint8_t function, std::uint8_t* r
       // earlier request (RTU has no transaction id). Dropped; the wait goes on.
       const bool ours =
           buf_[1] == function || buf_[1] == (function | mb::kExceptionFlag);
-      if (ours || buf_[0] != config_.slave || !mb::RtuCrcValid(buf_, len)) break;
+      if (ours || buf_[0] != unit_ || !mb::RtuCrcValid(buf_, len)) break;
       std::memmove(buf_, buf_ + len, static_cast<std::size_t>(have - len));
       have -= len;
       len = mb::RtuReplyLength(buf_, have);
@@ -239,7 +241,7 @@ ModbusLink::Result ModbusLink::ReceiveRtu(std::uint8_t function, std::uint8_t* r
     *why = IoError::kCrc;
     return Result::kFailed;
   }
-  if (buf_[0] != config_.slave) {  // another unit answered
+  if (buf_[0] != unit_) {  // another unit answered
     *why = IoError::kRejectedFrame;
     return Result::kFailed;
   }
@@ -261,12 +263,12 @@ ModbusLink::Result ModbusLink::Transact(const std::uint8_t* pdu, int len, std::u
   if (config_.mode == ModbusMode::kTcp) {
     ++transaction_;
     mb::PutMbap({transaction_, 0, static_cast<std::uint16_t>(len + 1),
-                 static_cast<std::uint8_t>(config_.slave)},
+                 unit_},
                 adu);
     std::memcpy(adu + mb::kMbapSize, pdu, static_cast<std::size_t>(len));
     n = mb::kMbapSize + len;
   } else {
-    adu[0] = static_cast<std::uint8_t>(config_.slave);
+    adu[0] = unit_;
     std::memcpy(adu + 1, pdu, static_cast<std::size_t>(len));
     n = mb::PutRtuCrc(adu, len + 1);
     wait_ns += WireNs(n) + WireNs(RtuReplyBytes(pdu));

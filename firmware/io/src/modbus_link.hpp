@@ -55,7 +55,8 @@ class ModbusLink {
     kAbandoned,  // Interrupt::Abandon said so; the request may still be answered later
   };
 
-  explicit ModbusLink(const ModbusConfig& config) : config_(config) {}
+  explicit ModbusLink(const ModbusConfig& config)
+      : config_(config), unit_(static_cast<std::uint8_t>(config.slave)) {}
   ~ModbusLink();
   ModbusLink(const ModbusLink&) = delete;
   ModbusLink& operator=(const ModbusLink&) = delete;
@@ -77,6 +78,10 @@ class ModbusLink {
   // check. wake_fd < 0: no wake-ups.
   Result Transact(const std::uint8_t* pdu, int len, std::uint8_t* reply, int* reply_len,
                   IoError* why, int wake_fd, Interrupt* interrupt);
+  // The unit id of the following transactions (a device profile talks to several units on
+  // one link; default: config.slave).
+  void set_unit(std::uint8_t unit) { unit_ = unit; }
+  std::uint8_t unit() const { return unit_; }
   // RTU: discards input until nothing has arrived for one response timeout (at most
   // kMaxQuietRounds waits). false when a wake-up abandoned it.
   bool Quiet(int wake_fd, Interrupt* interrupt);
@@ -107,6 +112,7 @@ class ModbusLink {
   int fd_ = -1;
   bool broken_ = false;
   std::uint16_t transaction_ = 0;
+  std::uint8_t unit_ = 1;
   std::uint8_t buf_[protocol::modbus::kMaxTcpAdu + 8] = {};
 };
 

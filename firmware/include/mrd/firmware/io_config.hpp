@@ -20,6 +20,7 @@
 
 namespace mrd::profile {
 struct CanProfile;
+struct ModbusProfile;
 }  // namespace mrd::profile
 
 namespace mrd::firmware {
@@ -88,7 +89,12 @@ struct ModbusConfig {
   char parity = 'N';               // RTU: N, E or O
   int data_bits = 8;               // RTU
   int stop_bits = 1;               // RTU
-  int slave = 1;                   // unit / slave id (1-247)
+  int slave = 1;                   // unit / slave id (1-247); a profile names its own
+  // The Modbus device profile: the file ("": the built-in map of docs/modbus_registers.md),
+  // loaded and checked with the configuration (the pointer; empty for the built-in map).
+  std::string profile;
+  std::shared_ptr<const profile::ModbusProfile> modbus_profile;
+  std::int64_t period_ns = 1'000'000;  // the control period (the command's slew step) [ns]
   std::int64_t response_timeout_ns = 20'000'000;  // per request [ns]
   int retries = 1;                 // extra attempts per transaction after a timeout or CRC error
   std::int64_t poll_period_ns = 1'000'000;  // worker's read/write cycle [ns]

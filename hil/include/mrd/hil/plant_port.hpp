@@ -15,6 +15,7 @@ class LocalBusRelay;
 }  // namespace mrd::canbus
 namespace mrd::profile {
 struct CanProfile;
+struct ModbusProfile;
 }  // namespace mrd::profile
 
 namespace mrd::hil {
@@ -105,6 +106,10 @@ std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint,
                                        std::shared_ptr<const profile::CanProfile> profile = nullptr);
 std::unique_ptr<PlantPort> MakeModbusTcpPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeModbusRtuPort(const std::string& endpoint);
+// Modbus TCP (rtu false) or RTU on a device profile's map, at every unit id it names
+// (modbus_profile_port.cpp).
+std::unique_ptr<PlantPort> MakeModbusProfilePort(
+    bool rtu, const std::string& endpoint, std::shared_ptr<const profile::ModbusProfile> profile);
 std::unique_ptr<PlantPort> MakeGpioPort(const std::string& endpoint);
 // CAN as an in-process node of a local-bus relay this process runs (mrd-hil run owns the bus):
 // frames go straight to the relay's socket nodes and come back through its tap; Wait steps the

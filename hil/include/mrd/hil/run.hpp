@@ -44,7 +44,8 @@ struct RunOptions {
   std::string table;                // table file for the firmware; "": its compiled-in table
   std::string excitation;           // CSV replacing the scenario's excitation ("": keep it)
   std::string firmware;             // mrd-firmware to start
-  std::string profile;              // CAN device profile file ("": the built-in mrd-native)
+  std::string profile;              // device profile file: CAN ("": the built-in mrd-native) or
+                                    // Modbus (a [modbus] section; --transport modbus-tcp|rtu)
   bool attach = false;              // do not start it: wait for one started by hand
   std::string work_dir;             // config, sockets, firmware output (created if absent)
   // Every frame on the harness's local CAN bus, both directions, in candump -L format
@@ -154,8 +155,10 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
 // are GpioPortConfig's defaults (gpio_port.hpp).
 // can_profile: the CAN device profile (its file written as [can] profile; the inputs and
 // outputs routed to CAN are those it maps); nullptr: the built-in mrd-native one.
+// modbus_profile: the same for Modbus ([modbus] profile; nullptr: the built-in map).
 std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
                                const std::string& endpoint, const std::string& gpio_chip = "",
-                               const profile::CanProfile* can_profile = nullptr);
+                               const profile::CanProfile* can_profile = nullptr,
+                               const profile::ModbusProfile* modbus_profile = nullptr);
 
 }  // namespace mrd::hil

@@ -47,6 +47,20 @@
 // writes them at once, so the harness receives one command block per grant, carrying that
 // tick's status. WaitGrant that times out is a missed grant: the next Read reports kFault
 // (timeout) and the loop commands the safe state, as on CAN.
+//
+// With a device profile (config.modbus_profile, [modbus] profile; docs/devices.md) the worker
+// runs the profile's requests instead of the built-in map's two blocks (same worker, waits,
+// retries, reconnects and wake-ups; src/modbus_device_profile.cpp): each cycle it writes the
+// profile's write requests (each to its unit id, the one carrying the command last) and reads
+// its grouped read requests; a cycle's sample is published only when every read succeeded.
+// The set-point goes through the profile's CommandMap on the loop's Write (slew per control
+// period; the safe state is not rate-limited). A decoded value that is not finite is
+// bad_value (the read fails: safe state); a set-point or value the register cannot hold makes
+// that write a safe one (set-point 0, enable 0, safe 1) and counts bad_value. With sensor_seq
+// mapped, a repeated seq is not new data; without it every good read is. driver_faults
+// non-zero sets the fault line, as fault_line does. Activate waits (bounded) for the first
+// cycle's sample or failure, so the loop does not start on a never-sampled frame (whose
+// values are NaN: a non_finite trip at start-up).
 
 #include <pthread.h>
 
@@ -58,6 +72,11 @@
 #include "mrd/firmware/bus_device.hpp"
 #include "mrd/firmware/grant_clock.hpp"
 #include "mrd/firmware/seqlock.hpp"
+#include "mrd/profile/command_map.hpp"
+
+namespace mrd::profile {
+struct ModbusProfile;
+}  // namespace mrd::profile
 
 namespace mrd::firmware {
 
@@ -103,6 +122,7 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   struct Command {
     std::uint64_t tick = 0;
     double volts = 0.0;
+    double setpoint = 0.0;  // profile: after the CommandMap (driver's unit)
     bool enable = false;
     bool safe = true;
     std::uint32_t echo = 0;
@@ -120,6 +140,9 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   Outcome ReadSensors(Sample* s, bool* new_grant);
   // One write of c (one attempt). why: set on failure.
   Outcome WriteOnce(const Command& c, IoError* why, bool interruptible);
+  // The profile's transactions (modbus_device_profile.cpp).
+  Outcome ReadProfile(Sample* s, bool* new_grant);
+  Outcome WriteProfileOnce(const Command& c, IoError* why, bool interruptible);
   bool LatestCommand(Command* c) const;
   // The loop posted a safe block since the latest block written was a driven one.
   bool SafePending() const;
@@ -131,6 +154,10 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   void GoodExchange();  // a complete exchange on this connection: the backoff restarts
 
   ModbusConfig config_;
+  const profile::ModbusProfile* profile_ = nullptr;  // config_.modbus_profile (null: built-in)
+  profile::CommandMap command_map_;                   // loop side: E -> set-point
+  double safe_setpoint_ = 0.0;                        // set-point of the safe state
+  std::unique_ptr<std::uint16_t[]> words_;            // worker: one write request's words
   std::unique_ptr<ModbusLink> link_;
   std::unique_ptr<Waker> waker_;
   bool configured_ = false;

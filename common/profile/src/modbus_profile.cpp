@@ -1,0 +1,381 @@
+// Loading a Modbus device profile (modbus_profile.hpp) and grouping its requests. toml++
+// reports errors by exception: this file alone is compiled with exceptions and catches them.
+#include "mrd/profile/modbus_profile.hpp"
+
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <tuple>
+
+#include "file_text.hpp"
+
+namespace mrd::profile {
+namespace {
+
+constexpr const char* kInNames[kNumCanIn] = {
+    "velocity", "displacement", "demand", "body_velocity", "force",
+    "fault_line", "sensor_seq", "driver_faults", "driver_current", "grant"};
+constexpr const char* kOutNames[kNumModbusOut] = {
+    "command", "enable", "safe", "echo", "heartbeat",
+    "status_safe", "status_causes", "status_overruns", "status_safe_entries"};
+
+constexpr int kMaxReadRegisters = 125;  // 0x03 / 0x04
+constexpr int kMaxReadBits = 2000;      // 0x01 / 0x02
+constexpr int kMaxWriteRegisters = 123; // 0x10
+constexpr int kMaxWriteBits = 1968;     // 0x0F
+
+struct Ctx {
+  const std::string& path;
+  std::string* error;
+  bool Fail(const toml::node* at, const std::string& why) const {
+    const int line = at != nullptr ? static_cast<int>(at->source().begin.line) : 1;
+    *error = path + ":" + std::to_string(line) + ": " + why;
+    return false;
+  }
+};
+
+std::string Directory(const std::string& path) {
+  const auto slash = path.rfind('/');
+  return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
+}
+
+bool IsBit(ModbusTable t) { return t == ModbusTable::kCoil || t == ModbusTable::kDiscrete; }
+
+std::uint8_t ReadFunction(ModbusTable t) {
+  switch (t) {
+    case ModbusTable::kCoil: return 0x01;
+    case ModbusTable::kDiscrete: return 0x02;
+    case ModbusTable::kHolding: return 0x03;
+    case ModbusTable::kInput: return 0x04;
+  }
+  return 0x03;
+}
+
+// One role's inline table: { unit, table, address, type, scale, offset }.
+bool Point(const Ctx& c, const toml::node& n, const std::string& full, bool output,
+           ModbusPoint* pt) {
+  const toml::table* t = n.as_table();
+  if (t == nullptr) {
+    return c.Fail(&n, full + ": expected { unit = ..., table = ..., address = ..., type = ... }");
+  }
+  *pt = ModbusPoint{};
+  pt->mapped = true;
+  pt->line = static_cast<int>(n.source().begin.line);
+  bool have_unit = false, have_table = false, have_address = false;
+  const toml::node* type_node = nullptr;
+  for (const auto& [k, v] : *t) {
+    const std::string key(k.str());
+    const std::string at = full + "." + key;
+    if (key == "unit") {
+      const auto u = v.value<std::int64_t>();
+      if (!u || *u < 1 || *u > 247) return c.Fail(&v, at + ": unit id outside 1..247");
+      pt->unit = static_cast<std::uint8_t>(*u);
+      have_unit = true;
+    } else if (key == "table") {
+      const auto s = v.value<std::string>();
+      if (s && *s == "holding") {
+        pt->table = ModbusTable::kHolding;
+      } else if (s && *s == "input") {
+        pt->table = ModbusTable::kInput;
+      } else if (s && *s == "coil") {
+        pt->table = ModbusTable::kCoil;
+      } else if (s && *s == "discrete") {
+        pt->table = ModbusTable::kDiscrete;
+      } else {
+        return c.Fail(&v, at + ": unknown table (holding, input, coil, discrete)");
+      }
+      have_table = true;
+    } else if (key == "address") {
+      const auto a = v.value<std::int64_t>();
+      if (!a || *a < 0 || *a > 65535) return c.Fail(&v, at + ": address outside 0..65535");
+      pt->address = static_cast<int>(*a);
+      have_address = true;
+    } else if (key == "type") {
+      const auto s = v.value<std::string>();
+      static const std::pair<const char*, ModbusType> kTypes[] = {
+          {"int16", ModbusType::kInt16}, {"uint16", ModbusType::kUint16},
+          {"int32", ModbusType::kInt32}, {"uint32", ModbusType::kUint32},
+          {"float32", ModbusType::kFloat32}};
+      bool found = false;
+      for (const auto& [name, type] : kTypes) {
+        if (s && *s == name) {
+          pt->type = type;
+          found = true;
+        }
+      }
+      if (!found) return c.Fail(&v, at + ": unknown type (int16, uint16, int32, uint32, float32)");
+      type_node = &v;
+    } else if (key == "scale" || key == "offset") {
+      const auto d = v.value<double>();
+      if (!d || !std::isfinite(*d) || (key == "scale" && *d == 0.0)) {
+        return c.Fail(&v, at + (key == "scale" ? ": expected a finite non-zero number"
+                                               : ": expected a finite number"));
+      }
+      (key == "scale" ? pt->scale : pt->offset) = *d;
+    } else {
+      return c.Fail(&v, at + ": unknown key (unit, table, address, type, scale, offset)");
+    }
+  }
+  if (!have_unit || !have_table || !have_address) {
+    return c.Fail(&n, full + ": needs unit, table and address");
+  }
+  if (IsBit(pt->table)) {
+    if (type_node != nullptr) {
+      return c.Fail(type_node, full + ": a coil or discrete input is one bit: no type");
+    }
+    pt->type = ModbusType::kBit;
+  }
+  if (output && (pt->table == ModbusTable::kInput || pt->table == ModbusTable::kDiscrete)) {
+    return c.Fail(&n, full + ": an output goes to a writable table (holding, coil)");
+  }
+  if (pt->address + pt->count() - 1 > 65535) {
+    return c.Fail(&n, full + ": address " + std::to_string(pt->address) + " + " +
+                          std::to_string(pt->count()) + " registers goes beyond 65535");
+  }
+  return true;
+}
+
+// [command]: unit, calibration (a CSV relative to the profile), min, max, slew_per_s.
+bool Command(const Ctx& c, const toml::table& t, const std::string& dir, ModbusProfile* p) {
+  double min = -1e300, max = 1e300, slew = 0.0;
+  for (const auto& [k, v] : t) {
+    const std::string key(k.str());
+    const std::string full = "command." + key;
+    if (key == "unit") {
+      const auto s = v.value<std::string>();
+      if (!s || s->empty() || s->size() > 16) return c.Fail(&v, full + ": expected a short unit name");
+      p->command_unit = *s;
+    } else if (key == "calibration") {
+      const auto s = v.value<std::string>();
+      if (!s || s->empty()) return c.Fail(&v, full + ": expected the path of a CSV file");
+      const std::string file = (*s)[0] == '/' ? *s : dir + "/" + *s;
+      std::string why;
+      if (!p->command.LoadCalibration(file, &why)) return c.Fail(&v, full + ": " + why);
+    } else if (key == "min" || key == "max" || key == "slew_per_s") {
+      const auto d = v.value<double>();
+      if (!d || !std::isfinite(*d)) return c.Fail(&v, full + ": expected a number");
+      (key == "min" ? min : key == "max" ? max : slew) = *d;
+    } else {
+      return c.Fail(&v, full + ": unknown key (unit, calibration, min, max, slew_per_s)");
+    }
+  }
+  std::string why;
+  if (!p->command.SetRange(min, max, slew, &why)) return c.Fail(&t, why);
+  return true;
+}
+
+// Greedy left-to-right grouping (optimal for intervals on a line under a length cap): sorted
+// points of one unit and table join the open request while the gap to its end is at most
+// max_gap and the request stays within cap.
+template <std::size_t N>
+void Group(std::array<ModbusPoint, N>& points, int max_gap, int cap_registers, int cap_bits,
+           bool single, bool writes, std::vector<ModbusRequest>* out) {
+  std::vector<ModbusPoint*> sorted;
+  for (auto& pt : points) {
+    if (pt.mapped) sorted.push_back(&pt);
+  }
+  std::sort(sorted.begin(), sorted.end(), [](const ModbusPoint* a, const ModbusPoint* b) {
+    return std::tie(a->unit, a->table, a->address) < std::tie(b->unit, b->table, b->address);
+  });
+  for (ModbusPoint* pt : sorted) {
+    const int cap = IsBit(pt->table) ? cap_bits : cap_registers;
+    ModbusRequest* open = out->empty() ? nullptr : &out->back();
+    if (open != nullptr && !single && open->unit == pt->unit && open->table == pt->table) {
+      const int end = open->address + open->count;
+      const int new_count = pt->address + pt->count() - open->address;
+      if (pt->address - end <= max_gap && new_count <= cap) {
+        pt->request = static_cast<int>(out->size()) - 1;
+        pt->index = pt->address - open->address;
+        open->count = std::max(open->count, new_count);
+        continue;
+      }
+    }
+    ModbusRequest r;
+    r.unit = pt->unit;
+    r.table = pt->table;
+    r.address = pt->address;
+    r.count = pt->count();
+    r.function = !writes ? ReadFunction(pt->table)
+                 : IsBit(pt->table) ? (single ? 0x05 : 0x0F)
+                                    : (single ? 0x06 : 0x10);
+    pt->request = static_cast<int>(out->size());
+    pt->index = 0;
+    out->push_back(r);
+  }
+}
+
+}  // namespace
+
+const char* ModbusOutName(ModbusOut role) { return kOutNames[static_cast<std::size_t>(role)]; }
+
+bool LoadModbusProfile(const std::string& path, ModbusProfile* out, std::string* error) {
+  std::string text;
+  if (!ReadTextFile(path, 1u << 20, &text, error)) return false;
+  return ParseModbusProfile(text, path, out, error);
+}
+
+bool IsModbusProfileFile(const std::string& path) {
+  std::string text, error;
+  if (!ReadTextFile(path, 1u << 20, &text, &error)) return false;
+  try {
+    const toml::table root = toml::parse(text, path);
+    return root.get("modbus") != nullptr;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+bool ParseModbusProfile(const std::string& text, const std::string& path, ModbusProfile* out,
+                        std::string* error) {
+  *out = ModbusProfile{};
+  out->path = path;
+  const Ctx c{path, error};
+  toml::table root;
+  try {
+    root = toml::parse(text, path);
+  } catch (const toml::parse_error& e) {
+    *error = path + ":" + std::to_string(e.source().begin.line) + ": " +
+             std::string(e.description());
+    return false;
+  }
+  try {
+    const toml::node* modbus_node = root.get("modbus");
+    const toml::table* modbus = modbus_node != nullptr ? modbus_node->as_table() : nullptr;
+    if (modbus == nullptr) {
+      return c.Fail(modbus_node, "modbus: expected the [modbus] table of the device's map");
+    }
+    for (const auto& [k, v] : root) {
+      const std::string key(k.str());
+      if (key == "name") {
+        const auto s = v.value<std::string>();
+        if (!s || s->empty()) return c.Fail(&v, "name: expected a non-empty string");
+        out->name = *s;
+      } else if (key == "description") {
+        if (!v.is_string()) return c.Fail(&v, "description: expected a string");
+      } else if (key == "command") {
+        const toml::table* t = v.as_table();
+        if (t == nullptr) return c.Fail(&v, "command: expected a table");
+        if (!Command(c, *t, Directory(path), out)) return false;
+      } else if (key != "modbus") {
+        return c.Fail(&v, key + ": unknown key (name, description, modbus, command)");
+      }
+    }
+    if (out->name.empty()) {
+      *error = path + ":1: name: missing (the profile's name, shown in logs and summaries)";
+      return false;
+    }
+    const toml::node* max_read_node = nullptr;
+    for (const auto& [k, v] : *modbus) {
+      const std::string key(k.str());
+      const std::string full = "modbus." + key;
+      if (key == "word_order") {
+        const auto s = v.value<std::string>();
+        if (s && *s == "big") {
+          out->swapped = false;
+        } else if (s && *s == "swapped") {
+          out->swapped = true;
+        } else {
+          return c.Fail(&v, full + ": expected \"big\" (high word first) or \"swapped\"");
+        }
+      } else if (key == "write_function") {
+        const auto n = v.value<std::int64_t>();
+        if (!n || (*n != 16 && *n != 6)) {
+          return c.Fail(&v, full + ": expected 16 (write multiple) or 6 (write single)");
+        }
+        out->write_function = static_cast<int>(*n);
+      } else if (key == "align32") {
+        const auto b = v.value<bool>();
+        if (!b) return c.Fail(&v, full + ": expected true or false");
+        out->align32 = *b;
+      } else if (key == "max_read") {
+        const auto n = v.value<std::int64_t>();
+        if (!n || *n < 1 || *n > kMaxReadRegisters) {
+          return c.Fail(&v, full + ": registers per read outside 1..125 (the Modbus limit)");
+        }
+        out->max_read = static_cast<int>(*n);
+        max_read_node = &v;
+      } else if (key != "inputs" && key != "outputs") {
+        return c.Fail(&v, full + ": unknown key (word_order, write_function, align32, max_read, "
+                                 "inputs, outputs)");
+      }
+    }
+    (void)max_read_node;
+    // Roles, then the overlap of every register (bit) of a unit's table.
+    std::map<std::tuple<int, int, int>, std::string> owner;
+    const auto roles = [&](const char* section, const char* const* names, std::size_t count,
+                           ModbusPoint* points, bool output) {
+      const toml::node* node = modbus->get(section);
+      if (node == nullptr) return true;
+      const toml::table* t = node->as_table();
+      const std::string sec = std::string("modbus.") + section;
+      if (t == nullptr) return c.Fail(node, sec + ": expected a table");
+      // In file order (toml++ keeps keys sorted): an overlap names the later line.
+      std::vector<std::pair<std::string, const toml::node*>> in_order;
+      for (const auto& [k, v] : *t) in_order.emplace_back(std::string(k.str()), &v);
+      std::stable_sort(in_order.begin(), in_order.end(), [](const auto& a, const auto& b) {
+        return a.second->source().begin.line < b.second->source().begin.line;
+      });
+      for (const auto& [key, vp] : in_order) {
+        const toml::node& v = *vp;
+        std::size_t r = 0;
+        while (r < count && key != names[r]) ++r;
+        const std::string full = sec + "." + key;
+        if (r == count) {
+          std::string known;
+          for (std::size_t i = 0; i < count; ++i) known += (i ? ", " : "") + std::string(names[i]);
+          return c.Fail(&v, full + ": unknown role (" + known + ")");
+        }
+        // toml++ refuses a key twice in one table; a role is mapped once by construction.
+        ModbusPoint& pt = points[r];
+        if (!Point(c, v, full, output, &pt)) return false;
+        if (out->align32 && pt.count() == 2 && pt.address % 2 != 0) {
+          return c.Fail(&v, full + ": 32-bit value at odd address " + std::to_string(pt.address) +
+                                " (align32: the device needs even addresses)");
+        }
+        if (output && pt.count() == 2 && out->write_function == 6) {
+          return c.Fail(&v, full + ": a 32-bit value cannot be written with write_function 6 "
+                                   "(one register per request); use 16");
+        }
+        for (int i = 0; i < pt.count(); ++i) {
+          const auto at = std::make_tuple(int{pt.unit}, static_cast<int>(pt.table), pt.address + i);
+          if (const auto it = owner.find(at); it != owner.end()) {
+            return c.Fail(&v, full + ": register " + std::to_string(pt.address + i) + " of unit " +
+                                  std::to_string(pt.unit) + " already carries " + it->second);
+          }
+          owner[at] = full;
+        }
+      }
+      return true;
+    };
+    if (!roles("inputs", kInNames, kNumCanIn, out->inputs.data(), false)) return false;
+    if (!roles("outputs", kOutNames, kNumModbusOut, out->outputs.data(), true)) return false;
+    const bool single = out->write_function == 6;
+    Group(out->inputs, ModbusProfile::kMaxGap, out->max_read, kMaxReadBits, false, false,
+          &out->reads);
+    Group(out->outputs, 0, kMaxWriteRegisters, kMaxWriteBits, single, true, &out->writes);
+    // The request carrying the command goes last (the harness takes it as the cycle's end).
+    ModbusPoint& cmd = out->outputs[static_cast<std::size_t>(ModbusOut::kCommand)];
+    if (cmd.mapped && cmd.request != static_cast<int>(out->writes.size()) - 1) {
+      const int from = cmd.request;
+      const ModbusRequest moved = out->writes[static_cast<std::size_t>(from)];
+      out->writes.erase(out->writes.begin() + from);
+      out->writes.push_back(moved);
+      for (auto& pt : out->outputs) {
+        if (!pt.mapped) continue;
+        if (pt.request == from) {
+          pt.request = static_cast<int>(out->writes.size()) - 1;
+        } else if (pt.request > from) {
+          --pt.request;
+        }
+      }
+    }
+  } catch (const std::exception& e) {
+    *error = path + ": " + e.what();
+    return false;
+  }
+  return true;
+}
+
+}  // namespace mrd::profile

@@ -1,0 +1,160 @@
+// `mrd-hil run --profile` with a Modbus device profile (labels profile, fieldbus, hil): the
+// harness's own server plays the shipped modbus-float32 map (sensors at unit 1, the driver at
+// unit 2, swapped float32 words, the grant register) and the firmware runs the same file. It
+// closes the loop on force-v1 like the native protocol, lockstep over TCP and RTU and in real
+// time; a Modbus profile on the wrong transport, or without a grant in lockstep, is refused.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "support/process.hpp"
+
+namespace {
+
+using mrd::test::ChildProcess;
+using nlohmann::json;
+
+const std::string kBin = MRD_BIN_DIR;
+const std::string kSource = MRD_SOURCE_DIR;
+const std::string kScn = kSource + "/hil/scenarios/";
+const std::string kPaper = MRD_PAPER_DIR;
+const std::string kFloat32 = kSource + "/firmware/profiles/modbus-float32.toml";
+
+struct HilResult {
+  int status = -1;
+  json j;
+  std::string err;
+};
+
+HilResult Hil(std::vector<std::string> args) {
+  args.insert(args.begin(), {kBin + "/mrd-hil", "run"});
+  args.push_back("--json");
+  ChildProcess p(args);
+  HilResult r;
+  r.status = p.Wait(180.0);
+  r.err = p.Stderr();
+  r.j = json::parse(p.Stdout(), nullptr, false);
+  if (r.j.is_discarded()) r.j = json::object();
+  return r;
+}
+
+std::vector<std::string> ForceV1() {
+  return {kScn + "force-v1.toml", "--table", kPaper + "/table.bin", "--excitation",
+          kPaper + "/v1.csv"};
+}
+
+void ExpectClean(const HilResult& r) {
+  EXPECT_EQ(r.j["invariant_violations"], 0);
+  EXPECT_EQ(r.j["commands"], 20000);
+  const json& fw = r.j["firmware"]["summary"];
+  EXPECT_EQ(fw["devices"]["modbus"]["rx_rejected"], 0) << fw.dump();
+  EXPECT_EQ(fw["devices"]["modbus"]["tx_failed"], 0) << fw.dump();
+  EXPECT_EQ(fw["safe_entries"], 0);
+  EXPECT_EQ(fw["clock"]["missed_grants"], 0);
+}
+
+TEST(ModbusProfileRunTest, Float32ProfileTracksLikeTheNativeProtocolInLockstep) {
+  const HilResult native = Hil(ForceV1());
+  std::vector<std::string> args = ForceV1();
+  args.insert(args.end(), {"--profile", kFloat32});  // Modbus TCP: the default for it
+  const HilResult f32 = Hil(args);
+  ASSERT_EQ(native.status, 0) << native.err;
+  ASSERT_EQ(f32.status, 0) << f32.err;
+  EXPECT_EQ(f32.j["transport"], "modbus-tcp");
+  ExpectClean(f32);
+  const double n = native.j["tracking"]["error_reachable"].get<double>();
+  const double d = f32.j["tracking"]["error_reachable"].get<double>();
+  EXPECT_NEAR(d, n, 0.005) << "native " << n << ", modbus-float32 " << d;
+  std::printf("[ figures ] reachable tracking error: native %.6f, modbus-float32 (TCP) %.6f\n", n, d);
+}
+
+TEST(ModbusProfileRunTest, Float32ProfileOverRtuInLockstep) {
+  std::vector<std::string> args = ForceV1();
+  args.insert(args.end(), {"--profile", kFloat32, "--transport", "modbus-rtu"});
+  const HilResult r = Hil(args);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.j["transport"], "modbus-rtu");
+  ExpectClean(r);
+  std::printf("[ figures ] reachable tracking error: modbus-float32 (RTU) %.6f\n",
+              r.j["tracking"]["error_reachable"].get<double>());
+}
+
+// Real time: every request accepted on both sides and no fault but staleness (as the CAN
+// profile's test: a loaded host may delay a period past max_age now and then).
+TEST(ModbusProfileRunTest, Float32ProfileRunsTenSecondsInRealTime) {
+  const std::string scn = ::testing::TempDir() + "/force-v1-10s-modbus.toml";
+  {
+    FILE* f = std::fopen(scn.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fprintf(f,
+                 "name = \"force-v1-10s\"\nduration_s = 10.0\n[excitation]\nkind = \"csv\"\n"
+                 "file = \"%s/v1.csv\"\ndemand_column = \"f\"\n[control]\nlaw = \"force\"\n"
+                 "[pass]\nmax_invariant_violations = 0\n",
+                 kPaper.c_str());
+    std::fclose(f);
+  }
+  const HilResult r = Hil({scn, "--table", kPaper + "/table.bin", "--profile", kFloat32,
+                           "--clock", "realtime"});
+  ASSERT_EQ(r.status, 0) << r.err << r.j.dump();
+  EXPECT_EQ(r.j["clock"], "realtime");
+  EXPECT_EQ(r.j["invariant_violations"], 0);
+  const json& fw = r.j["firmware"]["summary"];
+  EXPECT_EQ(fw["devices"]["modbus"]["rx_rejected"], 0) << fw.dump();
+  EXPECT_EQ(r.j["ports"]["modbus-tcp"]["rejected"], 0);
+  for (const auto& [cause, w] : fw["watchdog"].items()) {
+    if (cause != "stale_sensor") {
+      EXPECT_EQ(w["trips"], 0) << cause;
+    }
+  }
+  EXPECT_GT(r.j["commands"].get<int>(), 9000);
+  std::printf("[ figures ] real time 10 s: safe_entries %d, safe_periods %d, commands %d\n",
+              fw["safe_entries"].get<int>(), fw["safe_periods"].get<int>(),
+              r.j["commands"].get<int>());
+}
+
+TEST(ModbusProfileRunTest, AModbusProfileIsRefusedWhereItCannotRun) {
+  std::vector<std::string> args = ForceV1();
+  args.insert(args.end(), {"--profile", kFloat32, "--transport", "can"});
+  const HilResult can = Hil(args);
+  EXPECT_EQ(can.status, 2);
+  EXPECT_NE(can.err.find("needs --transport modbus-tcp or modbus-rtu"), std::string::npos)
+      << can.err;
+  // Without a grant role there is no lockstep over Modbus.
+  const std::string nogrant = ::testing::TempDir() + "/modbus-nogrant.toml";
+  {
+    FILE* f = std::fopen(nogrant.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fputs("name = \"nogrant\"\n[modbus]\n[modbus.inputs]\n"
+               "velocity = { unit = 1, table = \"input\", address = 0, type = \"float32\" }\n"
+               "[modbus.outputs]\n"
+               "command = { unit = 2, table = \"holding\", address = 0, type = \"float32\" }\n",
+               f);
+    std::fclose(f);
+  }
+  args = ForceV1();
+  args.insert(args.end(), {"--profile", nogrant});
+  const HilResult g = Hil(args);
+  EXPECT_EQ(g.status, 2);
+  EXPECT_NE(g.err.find("lockstep needs a 'grant' input"), std::string::npos) << g.err;
+  // A profile error: its file and line.
+  const std::string bad = ::testing::TempDir() + "/modbus-bad.toml";
+  {
+    FILE* f = std::fopen(bad.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fputs("name = \"bad\"\n[modbus]\n[modbus.inputs]\n"
+               "velocity = { unit = 300, table = \"input\", address = 0 }\n", f);
+    std::fclose(f);
+  }
+  args = ForceV1();
+  args.insert(args.end(), {"--profile", bad});
+  const HilResult b = Hil(args);
+  EXPECT_EQ(b.status, 2);
+  EXPECT_NE(b.err.find("modbus-bad.toml:4: modbus.inputs.velocity.unit: unit id outside 1..247"),
+            std::string::npos)
+      << b.err;
+}
+
+}  // namespace

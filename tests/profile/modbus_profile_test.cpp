@@ -1,0 +1,253 @@
+// Loading a Modbus device profile (mrd::profile, modbus_profile.hpp): the shipped
+// modbus-float32 profile, read grouping (fewest requests), the typed codec with both word
+// orders against values worked out by hand, and every refusal with file, line and reason.
+#include "mrd/profile/modbus_profile.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <string>
+
+namespace mrd::profile {
+namespace {
+
+const std::string kSource = MRD_SOURCE_DIR;
+
+bool Parse(const std::string& text, ModbusProfile* p, std::string* error) {
+  return ParseModbusProfile(text, "/tmp/t.toml", p, error);
+}
+
+// Refused, with this line and a reason containing `why`.
+void ExpectRefused(const std::string& text, int line, const std::string& why) {
+  ModbusProfile p;
+  std::string error;
+  ASSERT_FALSE(Parse(text, &p, &error)) << text;
+  EXPECT_NE(error.find("/tmp/t.toml:" + std::to_string(line) + ":"), std::string::npos) << error;
+  EXPECT_NE(error.find(why), std::string::npos) << error;
+}
+
+const std::string kHead = "name = \"t\"\n[modbus]\n";  // lines 1-2
+
+TEST(ModbusProfile, ShippedFloat32Profile) {
+  ModbusProfile p;
+  std::string error;
+  ASSERT_TRUE(LoadModbusProfile(kSource + "/firmware/profiles/modbus-float32.toml", &p, &error))
+      << error;
+  EXPECT_EQ(p.name, "modbus-float32");
+  EXPECT_TRUE(p.swapped);
+  EXPECT_TRUE(p.align32);
+  const ModbusPoint& v = p.In(CanIn::kVelocity);
+  EXPECT_EQ(v.unit, 1);
+  EXPECT_EQ(v.table, ModbusTable::kInput);
+  EXPECT_EQ(v.type, ModbusType::kFloat32);
+  EXPECT_TRUE(p.In(CanIn::kGrant).mapped);
+  EXPECT_EQ(p.Out(ModbusOut::kCommand).unit, 2);
+  EXPECT_EQ(p.Out(ModbusOut::kEnable).table, ModbusTable::kCoil);
+  // Unit 1's input registers 0..15 in one 0x04 request, unit 2's status register in another.
+  ASSERT_EQ(p.reads.size(), 2u);
+  EXPECT_EQ(p.reads[0].unit, 1);
+  EXPECT_EQ(p.reads[0].function, 0x04);
+  EXPECT_EQ(p.reads[0].address, 0);
+  EXPECT_EQ(p.reads[0].count, 16);
+  EXPECT_EQ(p.reads[1].unit, 2);
+  // The enable coil (0x0F), then the holding block with the command (0x10) last.
+  ASSERT_EQ(p.writes.size(), 2u);
+  EXPECT_EQ(p.writes[0].function, 0x0F);
+  EXPECT_EQ(p.writes[1].function, 0x10);
+  EXPECT_EQ(p.Out(ModbusOut::kCommand).request, 1);
+  EXPECT_EQ(p.writes[1].count, 7);
+  EXPECT_DOUBLE_EQ(p.command.max(), 24.0);
+}
+
+TEST(ModbusProfile, GroupsReadsIntoFewestRequests) {
+  // Unit 1 holding: 0-1, 4 (gap 2: bridged), 30-31 and 33 (gap 25: a new request); the input
+  // table apart;
+  // unit 3 coils 0 and 7 (one request); max_read 10 splits 40..49 from 52.
+  const std::string text = kHead + "max_read = 10\n[modbus.inputs]\n"
+      "velocity = { unit = 1, table = \"holding\", address = 0, type = \"float32\" }\n"
+      "displacement = { unit = 1, table = \"holding\", address = 4, type = \"int16\" }\n"
+      "demand = { unit = 1, table = \"holding\", address = 30, type = \"int32\" }\n"
+      "force = { unit = 1, table = \"input\", address = 0 }\n"
+      "fault_line = { unit = 3, table = \"coil\", address = 0 }\n"
+      "driver_faults = { unit = 3, table = \"coil\", address = 7 }\n"
+      "body_velocity = { unit = 1, table = \"holding\", address = 33 }\n"
+      "sensor_seq = { unit = 4, table = \"holding\", address = 40 }\n"
+      "driver_current = { unit = 4, table = \"holding\", address = 49 }\n"
+      "grant = { unit = 4, table = \"holding\", address = 52, type = \"uint32\" }\n";
+  ModbusProfile p;
+  std::string error;
+  ASSERT_TRUE(Parse(text, &p, &error)) << error;
+  ASSERT_EQ(p.reads.size(), 6u);
+  const auto expect = [&](std::size_t i, int unit, int fc, int address, int count) {
+    EXPECT_EQ(p.reads[i].unit, unit) << i;
+    EXPECT_EQ(p.reads[i].function, fc) << i;
+    EXPECT_EQ(p.reads[i].address, address) << i;
+    EXPECT_EQ(p.reads[i].count, count) << i;
+  };
+  expect(0, 1, 0x03, 0, 5);   // velocity, displacement
+  expect(1, 1, 0x03, 30, 4);  // demand (30-31), body_velocity (33: gap 1)
+  expect(2, 1, 0x04, 0, 1);
+  expect(3, 3, 0x01, 0, 8);
+  expect(4, 4, 0x03, 40, 10);
+  expect(5, 4, 0x03, 52, 2);
+  EXPECT_EQ(p.In(CanIn::kDisplacement).request, 0);
+  EXPECT_EQ(p.In(CanIn::kDisplacement).index, 4);
+  EXPECT_EQ(p.In(CanIn::kDriverFaults).index, 7);
+}
+
+TEST(ModbusProfile, WritesSingleRegisterWithFunction6) {
+  const std::string text = kHead + "write_function = 6\n[modbus.outputs]\n"
+      "command = { unit = 2, table = \"holding\", address = 0, type = \"int16\", scale = 0.001 }\n"
+      "heartbeat = { unit = 2, table = \"holding\", address = 1 }\n"
+      "enable = { unit = 2, table = \"coil\", address = 3 }\n";
+  ModbusProfile p;
+  std::string error;
+  ASSERT_TRUE(Parse(text, &p, &error)) << error;
+  ASSERT_EQ(p.writes.size(), 3u);
+  EXPECT_EQ(p.writes[0].function, 0x05);  // the coil
+  EXPECT_EQ(p.writes[1].function, 0x06);  // heartbeat
+  EXPECT_EQ(p.writes[2].function, 0x06);  // command last
+  EXPECT_EQ(p.writes[2].address, 0);
+  EXPECT_EQ(p.Out(ModbusOut::kCommand).request, 2);
+  EXPECT_EQ(p.Out(ModbusOut::kHeartbeat).request, 1);
+  std::uint16_t words[1] = {};
+  ASSERT_TRUE(PutModbusPoint(p, p.Out(ModbusOut::kCommand), -1.5, words));
+  std::uint8_t pdu[8];
+  ASSERT_EQ(PutModbusWrite(p.writes[2], words, pdu), 5);
+  const std::uint8_t want[5] = {0x06, 0x00, 0x00, 0xFA, 0x24};  // -1500 = 0xFA24
+  EXPECT_EQ(std::memcmp(pdu, want, 5), 0);
+  std::uint16_t on[1] = {1};
+  ASSERT_EQ(PutModbusWrite(p.writes[0], on, pdu), 5);
+  const std::uint8_t coil[5] = {0x05, 0x00, 0x03, 0xFF, 0x00};
+  EXPECT_EQ(std::memcmp(pdu, coil, 5), 0);
+  // The reply echoes the request; anything else is malformed.
+  std::uint8_t ex = 0;
+  EXPECT_EQ(CheckModbusWrite(p.writes[0], coil, coil, 5, &ex), ModbusReply::kOk);
+  const std::uint8_t other[5] = {0x05, 0x00, 0x04, 0xFF, 0x00};
+  EXPECT_EQ(CheckModbusWrite(p.writes[0], coil, other, 5, &ex), ModbusReply::kMalformed);
+  const std::uint8_t exc[2] = {0x85, 0x02};
+  EXPECT_EQ(CheckModbusWrite(p.writes[0], coil, exc, 2, &ex), ModbusReply::kException);
+  EXPECT_EQ(ex, 0x02);
+}
+
+TEST(ModbusProfile, Float32BothWordOrders) {
+  for (const bool swapped : {false, true}) {
+    const std::string text = kHead + (swapped ? "word_order = \"swapped\"\n" : "") +
+        "[modbus.inputs]\nvelocity = { unit = 1, table = \"input\", address = 0, type = \"float32\" }\n"
+        "demand = { unit = 1, table = \"input\", address = 2, type = \"int32\", scale = 0.01, offset = 5 }\n";
+    ModbusProfile p;
+    std::string error;
+    ASSERT_TRUE(Parse(text, &p, &error)) << error;
+    ASSERT_EQ(p.reads.size(), 1u);
+    std::uint8_t req[5];
+    ASSERT_EQ(PutModbusRead(p.reads[0], req), 5);
+    const std::uint8_t want_req[5] = {0x04, 0, 0, 0, 4};
+    EXPECT_EQ(std::memcmp(req, want_req, 5), 0);
+    // 1.5f = 0x3FC00000; -100 raw = 0xFFFFFF9C.
+    std::uint8_t reply[10] = {0x04, 8};
+    const std::uint8_t abcd[8] = {0x3F, 0xC0, 0x00, 0x00, 0xFF, 0xFF, 0xFF, 0x9C};
+    const std::uint8_t cdab[8] = {0x00, 0x00, 0x3F, 0xC0, 0xFF, 0x9C, 0xFF, 0xFF};
+    std::memcpy(reply + 2, swapped ? cdab : abcd, 8);
+    std::uint8_t ex = 0;
+    ASSERT_EQ(CheckModbusRead(p.reads[0], reply, 10, &ex), ModbusReply::kOk);
+    EXPECT_EQ(CheckModbusRead(p.reads[0], reply, 9, &ex), ModbusReply::kMalformed);
+    EXPECT_DOUBLE_EQ(ModbusPointValue(p, p.In(CanIn::kVelocity), reply), 1.5);
+    EXPECT_DOUBLE_EQ(ModbusPointValue(p, p.In(CanIn::kDemand), reply), -1.0 + 5.0);
+    std::uint16_t store[4] = {};
+    ASSERT_TRUE(StoreModbusPoint(p, p.In(CanIn::kVelocity), 1.5, store));
+    EXPECT_EQ(store[0], swapped ? 0x0000 : 0x3FC0);
+    EXPECT_EQ(store[1], swapped ? 0x3FC0 : 0x0000);
+    EXPECT_DOUBLE_EQ(LoadModbusPoint(p, p.In(CanIn::kVelocity), store), 1.5);
+    // Never wrapped: a value its type cannot hold, or a non-finite one, is refused.
+    EXPECT_FALSE(StoreModbusPoint(p, p.In(CanIn::kDemand), 5.0 + 0.01 * 2147483648.0, store));
+    EXPECT_FALSE(StoreModbusPoint(p, p.In(CanIn::kVelocity), NAN, store));
+    EXPECT_FALSE(StoreModbusPoint(p, p.In(CanIn::kVelocity), 1e39, store));
+  }
+}
+
+TEST(ModbusProfile, CoilsPackedLsbFirst) {
+  const std::string text = kHead + "[modbus.outputs]\n"
+      "enable = { unit = 2, table = \"coil\", address = 8 }\n"
+      "safe = { unit = 2, table = \"coil\", address = 9 }\n";
+  ModbusProfile p;
+  std::string error;
+  ASSERT_TRUE(Parse(text, &p, &error)) << error;
+  ASSERT_EQ(p.writes.size(), 1u);
+  std::uint16_t words[2] = {};
+  ASSERT_TRUE(PutModbusPoint(p, p.Out(ModbusOut::kSafe), 1.0, words));
+  std::uint8_t pdu[16];
+  ASSERT_EQ(PutModbusWrite(p.writes[0], words, pdu), 7);
+  const std::uint8_t want[7] = {0x0F, 0, 8, 0, 2, 1, 0x02};
+  EXPECT_EQ(std::memcmp(pdu, want, 7), 0);
+}
+
+TEST(ModbusProfile, Refusals) {
+  const std::string in = kHead + "[modbus.inputs]\n";    // roles from line 4
+  const std::string out = kHead + "[modbus.outputs]\n";
+  ExpectRefused(kHead + "colour = 1\n", 3, "unknown key");
+  ExpectRefused("name = \"t\"\nflavour = 1\n[modbus]\n", 2, "unknown key");
+  ExpectRefused("name = \"t\"\n", 1, "[modbus]");
+  ExpectRefused("[modbus]\n", 1, "name: missing");
+  ExpectRefused(in + "speed = { unit = 1, table = \"input\", address = 0 }\n", 4, "unknown role");
+  ExpectRefused(out + "velocity = { unit = 1, table = \"holding\", address = 0 }\n", 4,
+                "unknown role");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"file\", address = 0 }\n", 4, "unknown table");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0, type = \"f64\" }\n", 4,
+                "unknown type");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0, colour = 1 }\n", 4,
+                "unknown key");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0 }\n"
+                     "velocity = { unit = 1, table = \"input\", address = 4 }\n", 5, "velocity");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0, type = \"float32\" }\n"
+                     "demand = { unit = 1, table = \"input\", address = 1 }\n", 5,
+                "register 1 of unit 1 already carries modbus.inputs.velocity");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"holding\", address = 6 }\n" + "[modbus.outputs]\n" +
+                     "command = { unit = 1, table = \"holding\", address = 5, type = \"int32\" }\n", 6,
+                "already carries");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 65535, type = \"int32\" }\n", 4,
+                "beyond 65535");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 65536 }\n", 4,
+                "address outside 0..65535");
+  ExpectRefused(in + "velocity = { unit = 0, table = \"input\", address = 0 }\n", 4, "outside 1..247");
+  ExpectRefused(in + "velocity = { unit = 248, table = \"input\", address = 0 }\n", 4, "outside 1..247");
+  ExpectRefused(kHead + "align32 = true\n[modbus.inputs]\n"
+                "velocity = { unit = 1, table = \"input\", address = 3, type = \"float32\" }\n", 5,
+                "odd address 3");
+  ExpectRefused(kHead + "write_function = 6\n[modbus.outputs]\n"
+                "command = { unit = 1, table = \"holding\", address = 0, type = \"float32\" }\n", 5,
+                "write_function 6");
+  ExpectRefused(kHead + "write_function = 5\n", 3, "expected 16");
+  ExpectRefused(kHead + "max_read = 126\n", 3, "outside 1..125");
+  ExpectRefused(kHead + "max_read = 0\n", 3, "outside 1..125");
+  ExpectRefused(kHead + "word_order = \"little\"\n", 3, "swapped");
+  ExpectRefused(out + "command = { unit = 1, table = \"input\", address = 0 }\n", 4, "writable table");
+  ExpectRefused(in + "fault_line = { unit = 1, table = \"coil\", address = 0, type = \"uint16\" }\n", 4,
+                "no type");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0, scale = 0.0 }\n", 4,
+                "non-zero");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"input\" }\n", 4, "needs unit, table and address");
+  ExpectRefused(in + "velocity = 3\n", 4, "expected {");
+  ExpectRefused(kHead + "[command]\nmin = 2\nmax = 1\n", 3, "");
+  ExpectRefused(kHead + "[command]\ncalibration = \"/nonexistent.csv\"\n", 4, "calibration");
+  ExpectRefused(kHead + "x = [\n", 3, "");  // TOML syntax: toml++'s own reason and line
+}
+
+TEST(ModbusProfile, NonMonotonicCalibrationRefused) {
+  const std::string csv = "/tmp/mrd-modbus-profile-test-cal.csv";
+  FILE* f = std::fopen(csv.c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  std::fputs("E,A\n0,0\n1,1\n2,0.5\n", f);
+  std::fclose(f);
+  ExpectRefused(kHead + "[command]\ncalibration = \"" + csv + "\"\n", 4, "monoton");
+  std::remove(csv.c_str());
+}
+
+TEST(ModbusProfile, IsModbusProfileFileTellsTheKinds) {
+  EXPECT_TRUE(IsModbusProfileFile(kSource + "/firmware/profiles/modbus-float32.toml"));
+  EXPECT_FALSE(IsModbusProfileFile(kSource + "/firmware/profiles/mrd-native.toml"));
+  EXPECT_FALSE(IsModbusProfileFile("/nonexistent.toml"));
+}
+
+}  // namespace
+}  // namespace mrd::profile
