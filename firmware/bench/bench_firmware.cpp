@@ -3,9 +3,7 @@
 //   BM_ModelStepAndInversion: Begin + Inverter::Solve + Finish (the model/inversion core)
 //   BM_ModelStep:             Begin + Finish (forward model only)
 //   BM_ControllerUpdate:      watchdog + law + inversion + model (Controller::Update)
-//   BM_ProfileCanPeriod:      one period's CAN frames through a device profile's codec: the two
-//                             sensor messages found, checked and decoded, the command message
-//                             built and sealed (mrd-native; MRD_BENCH_PROFILE=FILE adds another)
+//   BM_Profile*Period/NAME:   one period's wire work of each device profile (bench_profiles.cpp)
 // MRD_BENCH_TABLE=FILE adds BM_ModelStepAndInversion/file on that exported table (e.g. the
 // NEES model with its low-pass command regressor).
 #include <benchmark/benchmark.h>
@@ -22,8 +20,6 @@
 #include "mrd/firmware/inverter.hpp"
 #include "mrd/firmware/model_runtime.hpp"
 #include "mrd/firmware/table_file.hpp"
-#include "mrd/profile/can_profile.hpp"
-#include "mrd/profile/frame_codec.hpp"
 
 namespace {
 
@@ -99,52 +95,6 @@ void BM_ControllerUpdate(benchmark::State& state) {
 }
 BENCHMARK(BM_ControllerUpdate);
 
-void ProfilePeriod(benchmark::State& state, const mrd::profile::CanProfile& p) {
-  using mrd::profile::CanIn;
-  using mrd::profile::CanOut;
-  mrd::profile::FrameCodec tx(p), rx(p);
-  const auto in = [&](CanIn r) { return p.inputs[static_cast<std::size_t>(r)]; };
-  const auto out = [&](CanOut r) { return p.outputs[static_cast<std::size_t>(r)]; };
-  // The sensor frames of kSamples periods, built once.
-  std::vector<can_frame> motion(kSamples), force(kSamples);
-  for (int k = 0; k < kSamples; ++k) {
-    tx.Begin(in(CanIn::kVelocity).message, &motion[k]);
-    (void)tx.Set(&motion[k], in(CanIn::kVelocity), 10.0 * std::sin(0.01 * k));
-    (void)tx.Set(&motion[k], in(CanIn::kDisplacement), 0.5 * std::cos(0.01 * k));
-    tx.Seal(in(CanIn::kVelocity).message, &motion[k]);
-    tx.Begin(in(CanIn::kDemand).message, &force[k]);
-    (void)tx.Set(&force[k], in(CanIn::kDemand), 500.0 * std::sin(0.003 * k));
-    tx.Seal(in(CanIn::kDemand).message, &force[k]);
-  }
-  const int cmd = out(CanOut::kCommand).message;
-  int k = 0;
-  double sum = 0.0;
-  for (auto _ : state) {
-    for (const can_frame* f : {&motion[k], &force[k]}) {
-      const int m = rx.Find(*f);
-      if (rx.Check(m, *f) == mrd::protocol::can::Reject::kNone) {
-        double v = 0.0;
-        (void)rx.Get(*f, m == in(CanIn::kVelocity).message ? in(CanIn::kVelocity) : in(CanIn::kDemand), &v);
-        sum += v;
-      }
-    }
-    can_frame c{};
-    tx.Begin(cmd, &c);
-    (void)tx.Set(&c, out(CanOut::kCommand), 1.0 + 0.5 * std::sin(0.002 * k));
-    if (out(CanOut::kEnable).mapped()) (void)tx.Set(&c, out(CanOut::kEnable), 1.0);
-    if (out(CanOut::kEcho).mapped()) (void)tx.Set(&c, out(CanOut::kEcho), k & 255);
-    tx.Seal(cmd, &c);
-    benchmark::DoNotOptimize(c);
-    k = (k + 1) % kSamples;
-    rx.ResetCounters();  // frames of the table repeat every kSamples periods
-  }
-  benchmark::DoNotOptimize(sum);
-}
-
-void BM_ProfileCanPeriod(benchmark::State& state) {
-  ProfilePeriod(state, mrd::profile::NativeCanProfile());
-}
-BENCHMARK(BM_ProfileCanPeriod);
 
 // One HIL plant period of the quarter car on a class C road (10 RK4 substeps; the budget of the
 // harness's lockstep speed): real time is 1 ms per step.
@@ -159,20 +109,6 @@ void BM_QuarterCarStep(benchmark::State& state) {
 }
 BENCHMARK(BM_QuarterCarStep);
 
-// MRD_BENCH_PROFILE=FILE: the same period on another profile (e.g. the test driver's).
-[[maybe_unused]] const bool kProfileFromEnv = [] {
-  const char* path = std::getenv("MRD_BENCH_PROFILE");
-  if (path == nullptr) return false;
-  static mrd::profile::CanProfile profile;
-  std::string error;
-  if (!mrd::profile::LoadCanProfile(path, &profile, &error)) {
-    std::fprintf(stderr, "MRD_BENCH_PROFILE: %s\n", error.c_str());
-    return false;
-  }
-  benchmark::RegisterBenchmark("BM_ProfileCanPeriod/file",
-                               [](benchmark::State& st) { ProfilePeriod(st, profile); });
-  return true;
-}();
 
 }  // namespace
 
