@@ -25,7 +25,9 @@
 #include "mrd/hil/child.hpp"
 #include "mrd/hil/plant.hpp"
 #include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/pwm_profile.hpp"
 #include "run_gpio.hpp"
+#include "run_pwm.hpp"
 #include "run_internal.hpp"
 
 namespace mrd::hil {
@@ -192,7 +194,13 @@ int RunCorruptTable(const Scenario& s, const RunOptions& o, PlantPort& port,
 
 }  // namespace
 
-int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::string* error) {
+int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std::string* error) {
+  // A profile with a PWM output (run_pwm.hpp): the driver's enable is a GPIO line, and so is the
+  // heartbeat (the watchdog that drops the enable when the firmware stops).
+  const bool pwm_profile = !o.profile.empty() && profile::ProfileHasPwm(o.profile);
+  Scenario with_lines = scenario;
+  if (pwm_profile) with_lines.gpio.enable = with_lines.gpio.heartbeat = true;
+  const Scenario& s = with_lines;
   r->transport = o.transport;
   r->clock = !o.clock.empty() ? o.clock : "lockstep";
   const bool lockstep = r->clock == "lockstep";
@@ -256,6 +264,14 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     if (lockstep && !p->inputs[static_cast<std::size_t>(profile::CanIn::kGrant)].mapped()) {
       *error = "--profile " + o.profile + ": lockstep needs a 'grant' input in the profile (the "
                "simulation's time grant, e.g. the native TimeGrant message); or --clock realtime";
+      return 2;
+    }
+    if (pwm_profile && lockstep &&
+        !p->outputs[static_cast<std::size_t>(profile::CanOut::kStatusSafe)].mapped() &&
+        !p->outputs[static_cast<std::size_t>(profile::CanOut::kStatusCauses)].mapped()) {
+      *error = "--profile " + o.profile + ": lockstep with a [pwm] output needs a firmware status "
+               "message in the profile (status_safe or status_causes): the harness reads each "
+               "tick's duty after it; or --clock realtime";
       return 2;
     }
     can_profile = p;
@@ -338,8 +354,11 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   RunGpio gpio;  // the scenario's [gpio] lines (none without)
   std::string gpio_chip;
   if (!gpio.Open(s, o, &gpio_chip, error)) return 1;
-  const std::string config =
-      FirmwareConfigText(s, o.transport, lockstep, endpoint, gpio_chip, can_profile.get());
+  RunPwm pwm;  // the profile's PWM output (none without [pwm])
+  std::string pwm_sysfs;
+  if (pwm_profile && !pwm.Open(can_profile->path, o.work_dir, &pwm_sysfs, error)) return 2;
+  const std::string config = FirmwareConfigText(s, o.transport, lockstep, endpoint, gpio_chip,
+                                                can_profile.get(), pwm_sysfs);
   r->config_path = o.work_dir + "/firmware.toml";
   std::ofstream(r->config_path) << config;
 
@@ -443,6 +462,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       publish(out);
       DriverInput fresh = in;
       port->Poll(&fresh);
+      pwm.Poll(&fresh);  // the channel enabled: the firmware is up
       in = fresh;
       if (in.heartbeat_ns != 0 || in.has_command) break;
       if (const int sig = interrupted()) return end_run(interrupt_text(sig), sig);
@@ -559,6 +579,8 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
         std::int64_t resend = NowNs() + 50'000'000;
         while (true) {
           port->Poll(&fresh);
+          // PWM: the tick's status frame says its duty is written (run_pwm.hpp).
+          if (pwm.active() && fresh.has_status) pwm.Poll(&fresh);
           if (fresh.has_command && (fresh.has_status || !port->CarriesStatus())) break;
           if (!firmware_alive()) break;  // exited mid-step: no command for this step
           const std::int64_t now = NowNs();
@@ -586,6 +608,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     } else if (port_open) {
       pump(0);
       port->Poll(&fresh);
+      pwm.Poll(&fresh);
     }
     gpio.Poll(&fresh);  // written in the same firmware tick as the command heard above
     if (fresh.has_command) {
@@ -699,6 +722,10 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   if (gpio.active()) {
     gpio.Close();
     r->ports.emplace_back(gpio.name(), gpio.counters());
+  }
+  if (pwm.active()) {
+    r->ports.emplace_back(pwm.name(), pwm.counters());
+    pwm.Close();
   }
   ScoreRun(s, r);
   EvaluatePass(s, r);
