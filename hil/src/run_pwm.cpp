@@ -4,7 +4,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -93,6 +95,14 @@ void RunPwm::Poll(DriverInput* in) {
   ++received_;
   duty_ns_ = duty;
   in->volts = profile_.DutyToVolts(duty);
+}
+
+double RunPwm::QuantumVolts(double e) const {
+  if (!active_) return 0.0;
+  const profile::PwmProfile& p = profile_;
+  const std::int64_t d = p.DutyNs(p.SetpointToDuty(p.command.Calibrate(e)));
+  const double a = p.DutyToVolts(d), b = p.DutyToVolts(d + 1), c = p.DutyToVolts(d - 1);
+  return std::max(std::fabs(b - a), std::fabs(a - c));
 }
 
 void RunPwm::Close() {

@@ -45,6 +45,10 @@ class RunPwm {
   void Close();
   const char* name() const { return "pwm"; }
   PortCounters counters() const { return {0, received_, rejected_}; }
+  // The E step [V] one ns of duty makes near command e [V] (the channel's resolution there): a
+  // duty rounded to the nearest ns may stand for up to half of it beyond e (the invariant's
+  // bound e_max is checked with that tolerance; run.cpp).
+  double QuantumVolts(double e) const;
   // The latest duty read [ns] (-1: none).
   std::int64_t duty_ns() const { return duty_ns_; }
 
