@@ -333,7 +333,9 @@ int main(int argc, char** argv) {
   run->add_option("--table", ro.table, "coefficient table for the firmware (mrd export)");
   run->add_option("--profile", ro.profile,
                   "CAN device profile (docs/devices.md): the harness plays the driver in its "
-                  "messages and the firmware gets the same file (default: mrd-native)");
+                  "messages and the firmware gets the same file (default: mrd-native); with "
+                  "a [pwm] section, the set-point is read as a PWM duty from a sysfs-ABI tree "
+                  "in the run's directory and the enable from the GPIO chip");
   run->add_option("--excitation", ro.excitation,
                   "CSV (header with x, v and the demand column, e.g. an `mrd generate` data "
                   "set) replacing the scenario's excitation");

@@ -109,29 +109,26 @@ TEST(PwmDeviceTest, SetsUpTheChannelAndWritesTheDutyOfEachCommand) {
   EXPECT_EQ(chip.Attr("duty_cycle"), "0");
 }
 
-// The kernel refuses a duty above the period and a polarity change while enabled: the set-up
-// writes duty 0 before the period and the polarity while disabled; the first real duty comes
-// after both. Seen through inotify (one IN_MODIFY per write, in order).
-TEST(PwmDeviceTest, WritesThePeriodBeforeAnyDutyAndThePolarityWhileDisabled) {
-  FakePwmChip chip(true);
-  // An earlier user left a short period and a long duty.
-  std::ofstream(chip.chip() + "/pwm0/period") << "1000\n";
-  std::ofstream(chip.chip() + "/pwm0/duty_cycle") << "900\n";
-  std::ofstream(chip.chip() + "/pwm0/enable") << "1\n";
+// The channel starts at the safe voltage's duty: 5 V of [0, 100] -> 5 %.
+PwmConfig SafeAtFive(const std::string& chip) {
+  PwmConfig cfg = Config(chip);
+  cfg.safe_volts = 5.0;
+  return cfg;
+}
+
+// The order of the attribute writes Configure and Activate make, seen through inotify (one
+// IN_MODIFY per write, in order).
+std::vector<std::string> SetUpWrites(const FakePwmChip& chip, PwmDevice* pwm, std::string* error) {
   const int in = inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
-  ASSERT_GE(in, 0);
+  EXPECT_GE(in, 0);
   std::vector<std::string> names;
   std::vector<int> wds;
   for (const char* f : {"period", "duty_cycle", "enable", "polarity"}) {
     wds.push_back(inotify_add_watch(in, (chip.chip() + "/pwm0/" + f).c_str(), IN_MODIFY));
     names.emplace_back(f);
   }
-  PwmConfig cfg = Config(chip.chip());
-  cfg.safe_volts = 5.0;  // the channel starts at the safe voltage's duty: 5 %
-  PwmDevice pwm(cfg);
-  std::string error;
-  ASSERT_TRUE(pwm.Configure(&error)) << error;
-  ASSERT_TRUE(pwm.Activate(&error)) << error;
+  EXPECT_TRUE(pwm->Configure(error)) << *error;
+  EXPECT_TRUE(pwm->Activate(error)) << *error;
   std::vector<std::string> order;
   alignas(inotify_event) char buf[4096];
   for (ssize_t n; (n = read(in, buf, sizeof buf)) > 0;) {
@@ -144,12 +141,36 @@ TEST(PwmDeviceTest, WritesThePeriodBeforeAnyDutyAndThePolarityWhileDisabled) {
     }
   }
   close(in);
+  return order;
+}
+
+// The kernel refuses a write that leaves duty > period or period 0, and a polarity change
+// while enabled. A channel an earlier user left with a short period and a long duty: disabled,
+// duty 0, then the period and polarity; the first real duty after both.
+TEST(PwmDeviceTest, ALeftOverChannelIsDisabledAndZeroedBeforeTheNewPeriod) {
+  FakePwmChip chip(true);
+  std::ofstream(chip.chip() + "/pwm0/period") << "1000\n";
+  std::ofstream(chip.chip() + "/pwm0/duty_cycle") << "900\n";
+  std::ofstream(chip.chip() + "/pwm0/enable") << "1\n";
+  std::string error;
+  PwmDevice pwm(SafeAtFive(chip.chip()));
   const std::vector<std::string> want = {"enable", "duty_cycle", "period", "polarity",
                                          "duty_cycle", "enable"};
-  EXPECT_EQ(order, want);
+  EXPECT_EQ(SetUpWrites(chip, &pwm, &error), want);
   EXPECT_EQ(chip.Attr("period"), "40000");
   EXPECT_EQ(chip.Attr("duty_cycle"), "2000");
   EXPECT_EQ(chip.Attr("enable"), "1");
+}
+
+// A freshly exported channel (period 0, disabled): the period comes before any other write.
+TEST(PwmDeviceTest, AFreshChannelGetsItsPeriodFirst) {
+  FakePwmChip chip(true);  // every attribute 0
+  std::string error;
+  PwmDevice pwm(SafeAtFive(chip.chip()));
+  const std::vector<std::string> want = {"period", "polarity", "duty_cycle", "enable"};
+  EXPECT_EQ(SetUpWrites(chip, &pwm, &error), want);
+  EXPECT_EQ(chip.Attr("period"), "40000");
+  EXPECT_EQ(chip.Attr("duty_cycle"), "2000");
 }
 
 // The profile's duty range and slew limit: [0, 2] A onto [5 %, 95 %], 1 A per ms at most; the

@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <memory>
@@ -33,6 +34,23 @@ bool WriteAttr(const std::string& path, const char* text, std::string* error) {
   close(fd);
   if (!ok) *error = "pwm: cannot write '" + std::string(text) + "' to " + path + ": " + std::strerror(e);
   return ok;
+}
+
+// Reads a numeric sysfs attribute (a decimal number and a newline); false with *error.
+bool ReadAttr(const std::string& path, std::int64_t* value, std::string* error) {
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  char buf[32] = {};
+  const ssize_t n = fd >= 0 ? read(fd, buf, sizeof buf - 1) : -1;
+  const int e = errno;
+  if (fd >= 0) close(fd);
+  char* end = nullptr;
+  const long long v = n > 0 ? std::strtoll(buf, &end, 10) : -1;
+  if (n <= 0 || end == buf || (*end != '\n' && *end != '\0') || v < 0) {
+    *error = "pwm: cannot read a number from " + path + (n < 0 ? ": " + std::string(std::strerror(e)) : "");
+    return false;
+  }
+  *value = v;
+  return true;
 }
 
 std::int64_t NowNs() {
@@ -76,9 +94,16 @@ bool PwmDevice::Configure(std::string* error) {
       usleep(5000);
     }
   }
+  // The kernel applies each attribute write as a whole state and refuses one with period 0
+  // or duty > period. A fresh channel (period 0, disabled) takes the period first; one an
+  // earlier user left running is disabled and its duty zeroed before the new period.
+  std::int64_t old_period = 0;
+  if (!ReadAttr(dir_ + "/period", &old_period, error)) return false;
+  if (old_period != 0) {
+    if (!WriteAttr(dir_ + "/enable", "0", error)) return false;
+    if (!WriteAttr(dir_ + "/duty_cycle", "0", error)) return false;
+  }
   char buf[32];
-  if (!WriteAttr(dir_ + "/enable", "0", error)) return false;
-  if (!WriteAttr(dir_ + "/duty_cycle", "0", error)) return false;
   std::snprintf(buf, sizeof buf, "%lld", static_cast<long long>(p.period_ns));
   if (!WriteAttr(dir_ + "/period", buf, error)) return false;
   if (!WriteAttr(dir_ + "/polarity", p.inversed ? "inversed" : "normal", error)) return false;

@@ -9,8 +9,10 @@
 //   CHIP/pwmN/enable       0 | 1
 //
 // Configure exports the channel when needed (waiting up to 1 s for the kernel, or udev, to make
-// its files writable), disables it, writes duty 0, the period (so duty <= period always holds,
-// whatever the old period was), then the polarity (only allowed while disabled). Activate
+// its files writable). The kernel refuses any write that leaves period 0 or duty > period, and
+// a polarity change while enabled: a fresh channel (period 0) gets the period, then the
+// polarity; one an earlier user left with a period is disabled, its duty zeroed, then the
+// period and polarity written. Activate
 // writes the duty of the safe voltage and enables the channel. Per period Write maps the
 // command E [V] through the profile's [command] map (calibration, range, slew; the safe state
 // is not slew-limited, as on CAN) and the duty range (pwm_profile.hpp) to duty [ns] and writes
