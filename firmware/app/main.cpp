@@ -107,7 +107,7 @@ constexpr const char* kHelp =
     "  --table FILE        coefficient table (docs/table_format.md); default: the compiled-in\n"
     "                      table (firmware/include/mrd/firmware/builtin_table.hpp)\n"
     "  --config FILE       TOML configuration: period, E_max, safe state, control law, limits,\n"
-    "                      and the buses ([can], [modbus], [gpio]: where each signal comes\n"
+    "                      and the buses ([can], [modbus], [gpio], [pwm]: where each signal comes\n"
     "                      from, where the command goes; keys: docs/firmware_config.md, or\n"
     "                      --print-config-reference)\n"
     "  --duration SECONDS  with bus sections: stop after this long (default: run until\n"
@@ -408,13 +408,13 @@ int Run(const Options& o) {
   const bool buses = cfg.io.any();
   if (buses && o.dry_run_s > 0.0) {
     std::fprintf(stderr, "error: --dry-run runs the simulated damper; %s has bus sections "
-                 "([can], [modbus], [gpio]): drop --dry-run, or use a config without them\n",
+                 "([can], [modbus], [gpio], [pwm]): drop --dry-run, or use a config without them\n",
                  o.config);
     return kExitBadInput;
   }
   if (!buses && o.dry_run_s <= 0.0) {
     std::fprintf(stderr, "error: nothing to run: give --config FILE with bus sections ([can], "
-                 "[modbus], [gpio]) or --dry-run SECONDS (see --help)\n");
+                 "[modbus], [gpio], [pwm]) or --dry-run SECONDS (see --help)\n");
     return kExitBadInput;
   }
   if (const std::string device = buses ? RealDeviceOf(cfg.io) : std::string();

@@ -6,6 +6,7 @@
 #include "mrd/common/input_file.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
+#include "mrd/profile/pwm_profile.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -391,6 +392,17 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Bool("fault_active_low", &io.gpio.fault_active_low, "The fault input is active low."),
         Number("counts_per_cm", &io.gpio.counts_per_cm, 1e-3, 1e9, "1/cm",
                "Quadrature counts (4 per line cycle) per cm of displacement.")}},
+      {"pwm",
+       {Names("outputs", &io.pwm.outputs, OutputNames({Output::kCommand}),
+              "Signals driven as a PWM duty (the set-point; docs/devices.md)."),
+        Text("sysfs", &io.pwm.sysfs, kMaxPath, "PATH_MAX", "",
+             "The sysfs PWM class directory (a tree of the same ABI in tests and mrd-hil)."),
+        Integer("chip", &io.pwm.chip, 0, 1023, "", "PWM chip: SYSFS/pwmchipN."),
+        Integer("channel", &io.pwm.channel, 0, 1023, "",
+                "PWM channel of the chip: pwmchipN/pwmM (exported when absent)."),
+        Text("profile", &io.pwm.profile, kMaxPath, "PATH_MAX", "",
+             "Device profile with the [pwm] section (period, polarity, duty range) and the "
+             "[command] map, relative to this file; default: the [can] section's profile.")}},
   };
 }
 
@@ -422,13 +434,16 @@ bool CheckIo(const toml::table& root, const std::string& source, const FirmwareC
   };
   const Bus buses[] = {{"can", io.can.enabled, io.can.inputs, io.can.outputs},
                        {"modbus", io.modbus.enabled, io.modbus.inputs, io.modbus.outputs},
-                       {"gpio", io.gpio.enabled, io.gpio.inputs, io.gpio.outputs}};
+                       {"gpio", io.gpio.enabled, io.gpio.inputs, io.gpio.outputs},
+                       {"pwm", io.pwm.enabled, 0U, io.pwm.outputs}};
   std::uint32_t inputs = 0, outputs = 0;
   for (const Bus& b : buses) {
     if (!b.enabled) continue;
     if (b.inputs == 0 && b.outputs == 0) {
       *error = Where(root, source, b.name, "inputs") + "[" + b.name +
-               "] serves no input and drives no output (give 'inputs' and/or 'outputs')";
+               (b.name == std::string("pwm")
+                    ? "] drives no output (give outputs = [\"command\"])"
+                    : "] serves no input and drives no output (give 'inputs' and/or 'outputs')");
       return false;
     }
     for (std::size_t i = 0; i < kNumInputs; ++i) {
@@ -647,6 +662,36 @@ bool LoadModbusProfileOf(const toml::table& root, const std::string& source, Fir
   return true;
 }
 
+// [pwm] profile: the file the key names (relative to the configuration file), else the [can]
+// section's profile file; it must have a [pwm] section (pwm_profile.hpp).
+bool LoadPwmProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,
+                      std::string* error) {
+  PwmOutputConfig& pwm = c->io.pwm;
+  std::string where = Where(root, source, "pwm", "profile");
+  std::string file = pwm.profile;
+  if (file.empty()) {
+    file = c->io.can.profile;
+    where = Where(root, source, "pwm", "outputs");
+    if (file.empty()) {
+      *error = where + "[pwm] needs a device profile with a [pwm] section: give 'profile' (or a "
+                       "[can] profile that has one)";
+      return false;
+    }
+  }
+  if (file[0] != '/') {
+    const auto slash = source.rfind('/');
+    file = (slash == std::string::npos ? std::string(".") : source.substr(0, slash)) + "/" + file;
+  }
+  auto loaded = std::make_shared<profile::PwmProfile>();
+  std::string why;
+  if (!profile::LoadPwmProfile(file, loaded.get(), &why)) {
+    *error = where + "device profile: " + Printable(why);
+    return false;
+  }
+  pwm.pwm_profile = loaded;
+  return true;
+}
+
 bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c,
            std::string* error) {
   Scratch x{static_cast<double>(c->period_ns) / 1e3,
@@ -668,6 +713,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
     if (name.str() == "can") c->io.can.enabled = true;
     if (name.str() == "modbus") c->io.modbus.enabled = true;
     if (name.str() == "gpio") c->io.gpio.enabled = true;
+    if (name.str() == "pwm") c->io.pwm.enabled = true;
     for (const auto& [key, value] : *tbl) {
       const auto entry = std::find_if(section->second.begin(), section->second.end(),
                                        [&](const Key& e) { return key.str() == e.name; });
@@ -683,6 +729,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   if (!CheckIo(root, source, *c, error)) return false;
   if (c->io.can.enabled && !LoadCanProfileOf(root, source, c, error)) return false;
   if (c->io.modbus.enabled && !LoadModbusProfileOf(root, source, c, error)) return false;
+  if (c->io.pwm.enabled && !LoadPwmProfileOf(root, source, c, error)) return false;
   c->period_ns = static_cast<std::int64_t>(std::llround(x.period_us * 1e3));
   k.watchdog.max_age_ns = static_cast<std::int64_t>(std::llround(x.max_age_ms * 1e6));
   if (x.e_max_set) c->e_max = x.e_max;
@@ -693,6 +740,8 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   c->io.modbus.priority = c->priority;  // the worker that writes the loop's safe block
   c->io.can.period_ns = c->period_ns;
   c->io.modbus.period_ns = c->period_ns;
+  c->io.pwm.period_ns = c->period_ns;
+  c->io.pwm.safe_volts = k.safe_voltage;
   return true;
 }
 

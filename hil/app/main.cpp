@@ -344,8 +344,10 @@ int main(int argc, char** argv) {
   run->add_option("--table", ro.table, "coefficient table for the firmware (mrd export)");
   run->add_option("--profile", ro.profile,
                   "device profile (docs/devices.md): CAN (the harness plays the driver in its "
-                  "messages) or Modbus (a [modbus] map: the harness serves it); the firmware "
-                  "gets the same file (default: mrd-native)");
+                  "messages), Modbus (a [modbus] map: the harness serves it) or CAN sensors "
+                  "with a [pwm] set-point (read as a duty from a sysfs-ABI tree in the run's "
+                  "directory, the enable from the GPIO chip); the firmware gets the same file "
+                  "(default: mrd-native)");
   run->add_option("--can-log", ro.can_log,
                   "write every frame of the local CAN bus, both directions, to FILE in "
                   "candump -L format (stamped with the run's time: simulated in lockstep)");

@@ -13,7 +13,8 @@ namespace mrd::hil {
 std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
                                const std::string& endpoint, const std::string& gpio_chip,
                                const profile::CanProfile* can_profile,
-                               const profile::ModbusProfile* modbus_profile) {
+                               const profile::ModbusProfile* modbus_profile,
+                               const std::string& pwm_sysfs) {
   std::ostringstream c;
   const bool modbus = transport != "can";
   // In real time a Modbus transaction takes a few ms on its worker thread: the CAN defaults
@@ -92,11 +93,13 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
     if (in(profile::CanIn::kBodyVelocity)) add(&can_inputs, "body_velocity");
     if (in(profile::CanIn::kForce)) add(&can_inputs, "force");
     can_inputs += "]";
-    std::string can_outputs = "[\"command\"";
-    if (!g.enable && out(profile::CanOut::kEnable)) can_outputs += ", \"enable\"";
-    if (!g.heartbeat && out(profile::CanOut::kHeartbeatSafe)) can_outputs += ", \"heartbeat\"";
+    // With a PWM output the command leaves CAN ([pwm] below).
+    std::string can_outputs = "[";
+    if (pwm_sysfs.empty()) add(&can_outputs, "command");
+    if (!g.enable && out(profile::CanOut::kEnable)) add(&can_outputs, "enable");
+    if (!g.heartbeat && out(profile::CanOut::kHeartbeatSafe)) add(&can_outputs, "heartbeat");
     if (out(profile::CanOut::kStatusSafe) || out(profile::CanOut::kStatusCauses)) {
-      can_outputs += ", \"status\"";
+      add(&can_outputs, "status");
     }
     can_outputs += "]";
     const bool local = endpoint.find('/') != std::string::npos;
@@ -104,6 +107,11 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
       << "\"\ninputs = " << can_inputs << "\noutputs = " << can_outputs
       << "\nstatus_period_ms = 1\nheartbeat_period_ms = 10\n";
     if (can_profile != nullptr) c << "profile = \"" << can_profile->path << "\"\n";
+    if (!pwm_sysfs.empty()) {
+      // The set-point as a PWM duty into the harness's sysfs-ABI tree; the profile is [can]'s.
+      c << "\n[pwm]\nsysfs = \"" << pwm_sysfs << "\"\nchip = 0\nchannel = 0\n"
+        << "outputs = [\"command\"]\n";
+    }
   } else if (transport == "modbus-tcp") {
     const auto colon = endpoint.rfind(':');
     c << "\n[modbus]\nmode = \"tcp\"\nhost = \"" << endpoint.substr(0, colon)

@@ -27,7 +27,9 @@
 #include "mrd/hil/plant.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
+#include "mrd/profile/pwm_profile.hpp"
 #include "run_gpio.hpp"
+#include "run_pwm.hpp"
 #include "run_internal.hpp"
 
 namespace mrd::hil {
@@ -227,7 +229,13 @@ int RunCorruptTable(const Scenario& s, const RunOptions& o, PlantPort& port,
 
 }  // namespace
 
-int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::string* error) {
+int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std::string* error) {
+  // A profile with a PWM output (run_pwm.hpp): the driver's enable is a GPIO line, and so is the
+  // heartbeat (the watchdog that drops the enable when the firmware stops).
+  const bool pwm_profile = !o.profile.empty() && profile::ProfileHasPwm(o.profile);
+  Scenario with_lines = scenario;
+  if (pwm_profile) with_lines.gpio.enable = with_lines.gpio.heartbeat = true;
+  const Scenario& s = with_lines;
   r->transport = o.transport;
   r->clock = !o.clock.empty() ? o.clock : "lockstep";
   const bool lockstep = r->clock == "lockstep";
@@ -315,6 +323,14 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
                "simulation's time grant, e.g. the native TimeGrant message); or --clock realtime";
       return 2;
     }
+    if (pwm_profile && lockstep &&
+        !p->outputs[static_cast<std::size_t>(profile::CanOut::kStatusSafe)].mapped() &&
+        !p->outputs[static_cast<std::size_t>(profile::CanOut::kStatusCauses)].mapped()) {
+      *error = "--profile " + o.profile + ": lockstep with a [pwm] output needs a firmware status "
+               "message in the profile (status_safe or status_causes): the harness reads each "
+               "tick's duty after it; or --clock realtime";
+      return 2;
+    }
     can_profile = p;
   }
   if (s.quarter_car && !o.excitation.empty()) {
@@ -400,9 +416,12 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   RunGpio gpio;  // the scenario's [gpio] lines (none without)
   std::string gpio_chip;
   if (!gpio.Open(s, o, &gpio_chip, error)) return 1;
+  RunPwm pwm;  // the profile's PWM output (none without [pwm])
+  std::string pwm_sysfs;
+  if (pwm_profile && !pwm.Open(can_profile->path, o.work_dir, &pwm_sysfs, error)) return 2;
   const std::string config =
       FirmwareConfigText(s, o.transport, lockstep, endpoint, gpio_chip, can_profile.get(),
-                         modbus_profile.get());
+                         modbus_profile.get(), pwm_sysfs);
   r->config_path = o.work_dir + "/firmware.toml";
   std::ofstream(r->config_path) << config;
 
@@ -460,6 +479,8 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     return std::string("interrupted by ") + strsignal(sig);
   };
 
+  // A PWM duty is rounded to the nearest ns: E_max may come back up to half a step above.
+  const double e_tolerance = pwm.active() ? 0.5 * pwm.QuantumVolts(s.e_max) + 1e-12 : 0.0;
   // Per-step state.
   DriverInput in;
   double set_point = 0.0;
@@ -506,6 +527,7 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
       publish(out);
       DriverInput fresh = in;
       port->Poll(&fresh);
+      pwm.Poll(&fresh);  // the channel enabled: the firmware is up
       in = fresh;
       if (in.heartbeat_ns != 0 || in.has_command) break;
       if (const int sig = interrupted()) return end_run(interrupt_text(sig), sig);
@@ -623,6 +645,8 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
         std::int64_t resend = NowNs() + 50'000'000;
         while (true) {
           port->Poll(&fresh);
+          // PWM: the tick's status frame says its duty is written (run_pwm.hpp).
+          if (pwm.active() && fresh.has_status) pwm.Poll(&fresh);
           if (fresh.has_command && (fresh.has_status || !port->CarriesStatus())) break;
           if (!firmware_alive()) break;  // exited mid-step: no command for this step
           const std::int64_t now = NowNs();
@@ -650,12 +674,13 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
     } else if (port_open) {
       pump(0);
       port->Poll(&fresh);
+      pwm.Poll(&fresh);
     }
     gpio.Poll(&fresh);  // written in the same firmware tick as the command heard above
     if (fresh.has_command) {
       ++r->commands;
       set_point = fresh.volts;
-      if (!std::isfinite(fresh.volts) || fresh.volts < 0.0 || fresh.volts > s.e_max) {
+      if (!std::isfinite(fresh.volts) || fresh.volts < 0.0 || fresh.volts > s.e_max + e_tolerance) {
         ++r->invariant_violations;
       }
       // The safe flag where the transport carries it (CAN); else the enable (Modbus).
@@ -763,6 +788,10 @@ int RunScenario(const Scenario& s, const RunOptions& o, RunResult* r, std::strin
   if (gpio.active()) {
     gpio.Close();
     r->ports.emplace_back(gpio.name(), gpio.counters());
+  }
+  if (pwm.active()) {
+    r->ports.emplace_back(pwm.name(), pwm.counters());
+    pwm.Close();
   }
   ScoreRun(s, r);
   EvaluatePass(s, r);

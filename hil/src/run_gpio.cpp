@@ -19,6 +19,7 @@ std::int64_t NowNs() {
 bool RunGpio::Open(const Scenario& s, const RunOptions& o, std::string* firmware_chip,
                    std::string* error) {
   if (!s.gpio.any()) return true;
+  encoder_ = s.gpio.displacement;
   GpioPortConfig c;
   c.counts_per_cm = s.gpio.counts_per_cm;
   if (o.gpio_sim.empty()) {
@@ -43,7 +44,8 @@ void RunGpio::Publish(const SensorOutput& out, bool lockstep) {
   if (port_ == nullptr) return;
   const std::uint64_t before = port_->counters().published;
   port_->Publish(out);
-  if (!lockstep || port_->counters().published == before) return;
+  // Without the encoder routed the firmware counts no edges: nothing to settle.
+  if (!lockstep || !encoder_ || port_->counters().published == before) return;
   const std::int64_t until = NowNs() + settle_ns_;
   const timespec ts{static_cast<time_t>(until / 1'000'000'000),
                     static_cast<long>(until % 1'000'000'000)};

@@ -41,6 +41,7 @@ class RunGpio {
  private:
   std::unique_ptr<PlantPort> port_;
   std::int64_t settle_ns_ = kEdgeSettleSimChipNs;
+  bool encoder_ = false;  // the scenario routes the displacement over the encoder lines
 };
 
 }  // namespace mrd::hil

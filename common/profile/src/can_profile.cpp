@@ -318,9 +318,10 @@ bool ParseCanProfile(const std::string& text, const std::string& path,
         if (!Command(c, *t, dbc_text != nullptr ? std::string(".") : Directory(path), out)) {
           return false;
         }
-      } else if (key != "dbc" && key != "inputs" && key != "outputs" && key != "description") {
+      } else if (key != "dbc" && key != "inputs" && key != "outputs" && key != "description" &&
+                 key != "pwm") {  // [pwm]: the PWM output's part (pwm_profile.cpp)
         return c.Fail(&v, key + ": unknown key (name, description, dbc, inputs, outputs, "
-                                "messages, command)");
+                                "messages, command, pwm)");
       }
     }
     if (out->name.empty()) {

@@ -16,6 +16,9 @@ bool MakeDevices(const IoConfig& io, std::vector<std::unique_ptr<BusDevice>>* ou
   if (io.can.enabled && !add(MakeCanDevice(io.can), "can")) return false;
   if (io.modbus.enabled && !add(MakeModbusDevice(io.modbus), "modbus")) return false;
   if (io.gpio.enabled && !add(MakeGpioDevice(io.gpio), "gpio")) return false;
+  // Written after the other buses in each period (FieldbusIo's order); the CAN status frame
+  // of a period goes out after all of them (Loop::Tick: Write, then PublishStatus).
+  if (io.pwm.enabled && !add(MakePwmDevice(io.pwm), "pwm")) return false;
   return true;
 }
 

@@ -7,8 +7,12 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
+#include <memory>
+
+#include "mrd/firmware/io/devices.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -32,6 +36,23 @@ bool WriteAttr(const std::string& path, const char* text, std::string* error) {
   return ok;
 }
 
+// Reads a numeric sysfs attribute (a decimal number and a newline); false with *error.
+bool ReadAttr(const std::string& path, std::int64_t* value, std::string* error) {
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  char buf[32] = {};
+  const ssize_t n = fd >= 0 ? read(fd, buf, sizeof buf - 1) : -1;
+  const int e = errno;
+  if (fd >= 0) close(fd);
+  char* end = nullptr;
+  const long long v = n > 0 ? std::strtoll(buf, &end, 10) : -1;
+  if (n <= 0 || end == buf || (*end != '\n' && *end != '\0') || v < 0) {
+    *error = "pwm: cannot read a number from " + path + (n < 0 ? ": " + std::string(std::strerror(e)) : "");
+    return false;
+  }
+  *value = v;
+  return true;
+}
+
 std::int64_t NowNs() {
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -40,7 +61,7 @@ std::int64_t NowNs() {
 
 }  // namespace
 
-PwmDevice::PwmDevice(const PwmConfig& config) : config_(config) {
+PwmDevice::PwmDevice(const PwmConfig& config) : config_(config), map_(config.profile.command) {
   dir_ = config_.chip + "/pwm" + std::to_string(config_.channel);
 }
 
@@ -52,9 +73,11 @@ bool PwmDevice::Configure(std::string* error) {
     *error = "pwm: chip '" + config_.chip + "' is not a sysfs PWM chip directory";
     return false;
   }
-  if (config_.channel < 0 || config_.period_ns <= 0 || !(config_.safe_duty_percent >= 0.0) ||
-      config_.safe_duty_percent > 100.0) {
-    *error = "pwm: channel >= 0, period > 0 and safe duty in [0, 100] % required";
+  const profile::PwmProfile& p = config_.profile;
+  if (config_.channel < 0 || p.period_ns <= 0 || !(p.min_duty >= 0.0) || !(p.max_duty <= 1.0) ||
+      !(p.min_duty < p.max_duty) || !(p.command.min() < p.command.max())) {
+    *error = "pwm: channel >= 0, period > 0, 0 <= min_duty < max_duty <= 1 and a command range "
+             "required";
     return false;
   }
   if (stat(dir_.c_str(), &st) != 0) {
@@ -71,12 +94,19 @@ bool PwmDevice::Configure(std::string* error) {
       usleep(5000);
     }
   }
+  // The kernel applies each attribute write as a whole state and refuses one with period 0
+  // or duty > period. A fresh channel (period 0, disabled) takes the period first; one an
+  // earlier user left running is disabled and its duty zeroed before the new period.
+  std::int64_t old_period = 0;
+  if (!ReadAttr(dir_ + "/period", &old_period, error)) return false;
+  if (old_period != 0) {
+    if (!WriteAttr(dir_ + "/enable", "0", error)) return false;
+    if (!WriteAttr(dir_ + "/duty_cycle", "0", error)) return false;
+  }
   char buf[32];
-  if (!WriteAttr(dir_ + "/enable", "0", error)) return false;
-  if (!WriteAttr(dir_ + "/duty_cycle", "0", error)) return false;
-  std::snprintf(buf, sizeof buf, "%lld", static_cast<long long>(config_.period_ns));
+  std::snprintf(buf, sizeof buf, "%lld", static_cast<long long>(p.period_ns));
   if (!WriteAttr(dir_ + "/period", buf, error)) return false;
-  if (!WriteAttr(dir_ + "/polarity", config_.inversed ? "inversed" : "normal", error)) return false;
+  if (!WriteAttr(dir_ + "/polarity", p.inversed ? "inversed" : "normal", error)) return false;
   duty_fd_ = open((dir_ + "/duty_cycle").c_str(), O_WRONLY | O_CLOEXEC);
   enable_fd_ = open((dir_ + "/enable").c_str(), O_WRONLY | O_CLOEXEC);
   if (duty_fd_ < 0 || enable_fd_ < 0) {
@@ -102,10 +132,15 @@ bool PwmDevice::WriteDuty(std::int64_t duty_ns) {
   return true;
 }
 
+std::int64_t PwmDevice::DutyOf(double volts, bool safe) {
+  if (safe) map_.Reset();  // the safe state is never rate-limited
+  const double u = map_.Apply(volts, config_.period_s);
+  return config_.profile.DutyNs(config_.profile.SetpointToDuty(u));
+}
+
 bool PwmDevice::Activate(std::string* error) {
-  const auto safe = static_cast<std::int64_t>(
-      std::llround(config_.safe_duty_percent / 100.0 * static_cast<double>(config_.period_ns)));
-  if (!WriteDuty(safe) || pwrite(enable_fd_, "1\n", 2, 0) != 2) {
+  last_duty_ns_ = -1;
+  if (!WriteDuty(DutyOf(config_.safe_volts, true)) || pwrite(enable_fd_, "1\n", 2, 0) != 2) {
     *error = "pwm: cannot start " + dir_ + ": " + std::strerror(errno);
     return false;
   }
@@ -131,16 +166,25 @@ IoStatus PwmDevice::Read(SensorFrame* frame, IoError* why) {
 }
 
 IoStatus PwmDevice::Write(const DriverCommand& cmd, IoError* why) {
-  double duty = cmd.safe ? config_.safe_duty_percent : config_.map.Apply(cmd.volts, config_.period_s);
-  if (!std::isfinite(duty) || duty < 0.0) duty = 0.0;
-  if (duty > 100.0) duty = 100.0;
-  const auto ns = static_cast<std::int64_t>(
-      std::llround(duty / 100.0 * static_cast<double>(config_.period_ns)));
+  // A non-finite command maps to the range's low end (CommandMap::Apply); never wrapped.
+  const std::int64_t ns = DutyOf(cmd.volts, cmd.safe);
   if (!active_ || !WriteDuty(ns)) {
     *why = IoError::kSystem;
     return IoStatus::kFault;
   }
   return IoStatus::kOk;
+}
+
+std::unique_ptr<BusDevice> MakePwmDevice(const PwmOutputConfig& config) {
+  if (config.pwm_profile == nullptr) return nullptr;
+  PwmConfig c;
+  c.enabled = config.enabled;
+  c.chip = config.sysfs + "/pwmchip" + std::to_string(config.chip);
+  c.channel = config.channel;
+  c.profile = *config.pwm_profile;
+  c.safe_volts = config.safe_volts;
+  c.period_s = static_cast<double>(config.period_ns) * 1e-9;
+  return std::make_unique<PwmDevice>(c);
 }
 
 }  // namespace mrd::firmware

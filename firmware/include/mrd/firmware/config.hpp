@@ -34,7 +34,7 @@ struct FirmwareConfig {
   std::optional<double> e_max;  // [V]; unset: the table's
   ControllerConfig controller;
   SimulationConfig simulation;
-  IoConfig io;  // [can], [modbus], [gpio]; none: dry run on the simulated damper
+  IoConfig io;  // [can], [modbus], [gpio], [pwm]; none: dry run on the simulated damper
 };
 
 // Parses TOML text (source names it in messages). Unknown keys, wrong types and out-of-range

@@ -10,6 +10,7 @@
 //             outputs command enable heartbeat status
 //   [gpio]    inputs  fault_line displacement (quadrature encoder)
 //             outputs enable heartbeat
+//   [pwm]     outputs command   (sysfs PWM; the duty through the profile's [pwm] section)
 // An input served by two buses, an output driven by two (heartbeat and status excepted: they
 // may go out on several), a required input that no bus serves, or no command output: refused.
 // With no bus section the loop runs the built-in simulated damper (dry run).
@@ -21,6 +22,7 @@
 namespace mrd::profile {
 struct CanProfile;
 struct ModbusProfile;
+struct PwmProfile;
 }  // namespace mrd::profile
 
 namespace mrd::firmware {
@@ -123,12 +125,30 @@ struct GpioConfig {
   double counts_per_cm = 400.0;  // quadrature counts (4 per encoder line cycle) per cm
 };
 
+// The set-point as a PWM duty through the kernel's sysfs PWM interface (docs/devices.md).
+struct PwmOutputConfig {
+  bool enabled = false;
+  std::uint32_t outputs = 0;  // Bit(Output::kCommand) only
+  std::string sysfs = "/sys/class/pwm";  // the class directory (tests: a tree of the same ABI)
+  int chip = 0;     // pwmchipN
+  int channel = 0;  // pwmM of that chip
+  // The device profile with the [pwm] section ("": the [can] section's profile file), loaded
+  // with the configuration.
+  std::string profile;
+  std::shared_ptr<const profile::PwmProfile> pwm_profile;
+  // Not [pwm] keys: the control period (the command's slew step) and [safety] safe_voltage
+  // (the duty the channel starts with).
+  std::int64_t period_ns = 1'000'000;
+  double safe_volts = 0.0;
+};
+
 struct IoConfig {
   CanConfig can;
   ModbusConfig modbus;
   GpioConfig gpio;
+  PwmOutputConfig pwm;
   // True when any bus section is present (else: the simulated damper).
-  bool any() const { return can.enabled || modbus.enabled || gpio.enabled; }
+  bool any() const { return can.enabled || modbus.enabled || gpio.enabled || pwm.enabled; }
 };
 
 }  // namespace mrd::firmware

@@ -156,9 +156,12 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
 // can_profile: the CAN device profile (its file written as [can] profile; the inputs and
 // outputs routed to CAN are those it maps); nullptr: the built-in mrd-native one.
 // modbus_profile: the same for Modbus ([modbus] profile; nullptr: the built-in map).
+// pwm_sysfs: non-empty for a profile with a [pwm] section: the command leaves CAN for a
+// [pwm] section on that sysfs-ABI tree (chip 0, channel 0; the profile is [can]'s).
 std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
                                const std::string& endpoint, const std::string& gpio_chip = "",
                                const profile::CanProfile* can_profile = nullptr,
-                               const profile::ModbusProfile* modbus_profile = nullptr);
+                               const profile::ModbusProfile* modbus_profile = nullptr,
+                               const std::string& pwm_sysfs = "");
 
 }  // namespace mrd::hil

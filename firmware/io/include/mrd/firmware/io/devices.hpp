@@ -15,9 +15,11 @@ namespace mrd::firmware {
 bool MakeDevices(const IoConfig& io, std::vector<std::unique_ptr<BusDevice>>* out,
                  std::string* error);
 
-// Per bus (can_device.cpp, modbus_device.cpp, gpio_device.cpp).
+// Per bus (can_device.cpp, modbus_device.cpp, gpio_device.cpp, pwm_device.cpp).
 std::unique_ptr<BusDevice> MakeCanDevice(const CanConfig& config);
 std::unique_ptr<BusDevice> MakeModbusDevice(const ModbusConfig& config);
 std::unique_ptr<BusDevice> MakeGpioDevice(const GpioConfig& config);
+// nullptr without a loaded profile (pwm_device.cpp).
+std::unique_ptr<BusDevice> MakePwmDevice(const PwmOutputConfig& config);
 
 }  // namespace mrd::firmware

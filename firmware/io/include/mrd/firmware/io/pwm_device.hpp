@@ -8,31 +8,35 @@
 //   CHIP/pwmN/polarity     "normal" | "inversed" (written while disabled)
 //   CHIP/pwmN/enable       0 | 1
 //
-// Activate exports the channel when needed (waiting up to 1 s for the kernel, or udev, to make
-// its files writable), disables it, sets polarity, duty 0, period, then the safe duty, and
-// enables it. Per period Write maps the command (the safe duty in the safe state) through the
-// CommandMap (E [V] -> duty [%]) and writes duty_cycle only when it changed: one pwrite of the
-// value and a newline on a descriptor opened at Activate (no allocation). A failed write is kFault
-// (system: the gpio_bus watchdog cause, as the board's other local I/O). Deactivate writes duty
-// 0 and disables the channel. Reads nothing (no inputs); no reconnection (a PWM chip does not
-// come and go).
+// Configure exports the channel when needed (waiting up to 1 s for the kernel, or udev, to make
+// its files writable). The kernel refuses any write that leaves period 0 or duty > period, and
+// a polarity change while enabled: a fresh channel (period 0) gets the period, then the
+// polarity; one an earlier user left with a period is disabled, its duty zeroed, then the
+// period and polarity written. Activate
+// writes the duty of the safe voltage and enables the channel. Per period Write maps the
+// command E [V] through the profile's [command] map (calibration, range, slew; the safe state
+// is not slew-limited, as on CAN) and the duty range (pwm_profile.hpp) to duty [ns] and writes
+// duty_cycle only when it changed: one pwrite of the value and a newline on a descriptor
+// opened at Configure (no allocation). The enable line is not here: it is a [gpio] output (low
+// in the safe state). A failed write is kFault (system: the gpio_bus watchdog cause, as the
+// board's other local I/O). Deactivate writes duty 0 and disables the channel. Reads nothing
+// (no inputs); no reconnection (a PWM chip does not come and go). A firmware that dies leaves
+// the channel running at its last duty (the kernel keeps it): see docs/devices.md.
 
 #include <cstdint>
 #include <string>
 
 #include "mrd/firmware/bus_device.hpp"
-#include "mrd/profile/command_map.hpp"
+#include "mrd/profile/pwm_profile.hpp"
 
 namespace mrd::firmware {
 
 struct PwmConfig {
   bool enabled = false;
   std::string chip;                 // sysfs directory, e.g. /sys/class/pwm/pwmchip0
-  int channel = 0;                  // N of pwmN
-  std::int64_t period_ns = 50'000;  // PWM period (20 kHz)
-  bool inversed = false;            // polarity
-  double safe_duty_percent = 0.0;   // duty in the safe state (0: coil off; shutdown is 0)
-  profile::CommandMap map;          // E [V] -> duty [%], clamped to [0, 100]
+  int channel = 0;                  // M of pwmM
+  profile::PwmProfile profile;      // period, polarity, duty range, E -> set-point map
+  double safe_volts = 0.0;          // [V] the duty the channel starts with
   double period_s = 1e-3;           // the control period (the map's slew-limit step) [s]
 };
 
@@ -56,8 +60,11 @@ class PwmDevice final : public BusDevice {
 
  private:
   bool WriteDuty(std::int64_t duty_ns);
+  // The duty [ns] for a command (the map's state advances).
+  std::int64_t DutyOf(double volts, bool safe);
 
   PwmConfig config_;
+  profile::CommandMap map_;  // config_.profile.command's copy with its slew state
   std::string dir_;  // CHIP/pwmN
   int duty_fd_ = -1;
   int enable_fd_ = -1;
