@@ -207,7 +207,6 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
   mb::ServerAnswer Answer(std::uint8_t unit, const std::uint8_t* pdu, int len,
                           std::uint8_t* reply) override {
     mb::ServerAnswer a;
-    if (units_.count(unit) == 0) unit = units_.begin()->first;  // 0 or 0xFF: the first unit
     const std::uint8_t fc = len > 0 ? pdu[0] : 0;
     const auto fail = [&](std::uint8_t code) {
       a.reply_len = Exception(pdu, code, reply);
@@ -216,6 +215,8 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
       ++counters_.rejected;
       return a;
     };
+    if (units_.empty()) return fail(mb::kExGatewayNoResponse);  // a profile mapping nothing
+    if (units_.count(unit) == 0) unit = units_.begin()->first;  // 0 or 0xFF: the first unit
     const auto u16 = [&](int at) { return (pdu[at] << 8) | pdu[at + 1]; };
     int table = -1, max = 0;
     switch (fc) {
