@@ -334,6 +334,9 @@ int main(int argc, char** argv) {
   run->add_option("--profile", ro.profile,
                   "CAN device profile (docs/devices.md): the harness plays the driver in its "
                   "messages and the firmware gets the same file (default: mrd-native)");
+  run->add_option("--sdo-refuse", ro.sdo_refuse,
+                  "CANopen profiles (test hook): INDEX[:SUBINDEX]=ABORT_CODE, e.g. "
+                  "0x6060=0x06090030: the simulated drive refuses that SDO download");
   run->add_option("--excitation", ro.excitation,
                   "CSV (header with x, v and the demand column, e.g. an `mrd generate` data "
                   "set) replacing the scenario's excitation");

@@ -64,7 +64,10 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
     can_inputs += "]";
     std::string can_outputs = "[\"command\"";
     if (!g.enable && out(profile::CanOut::kEnable)) can_outputs += ", \"enable\"";
-    if (!g.heartbeat && out(profile::CanOut::kHeartbeatSafe)) can_outputs += ", \"heartbeat\"";
+    const bool canopen_heartbeat = p.canopen && p.canopen->heartbeat_ns > 0;
+    if (!g.heartbeat && (out(profile::CanOut::kHeartbeatSafe) || canopen_heartbeat)) {
+      can_outputs += ", \"heartbeat\"";
+    }
     if (out(profile::CanOut::kStatusSafe) || out(profile::CanOut::kStatusCauses)) {
       can_outputs += ", \"status\"";
     }

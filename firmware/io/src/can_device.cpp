@@ -102,6 +102,7 @@ void CanDevice::Index() {
     filters_.push_back({pf::WireId(msg), (msg.extended ? CAN_EFF_MASK : CAN_SFF_MASK) |
                                              CAN_EFF_FLAG | CAN_RTR_FLAG});
   }
+  IndexCanopen();
 }
 
 int CanDevice::Open(std::string* error) const {
@@ -126,13 +127,18 @@ std::int64_t CanDevice::Now() const {
 }
 
 bool CanDevice::Activate(std::string* error) {
-  (void)error;
+  if (canopen_ != nullptr && !StartCanopen(error)) return false;
   const std::int64_t now = Now();
   next_heartbeat_ns_ = now;
   next_status_ns_ = now;
   next_reconnect_ns_ = now;
   driver_status_ns_ = now;
+  drive_heartbeat_ns_ = now;  // the drive's heartbeat is watched from here
+  next_own_heartbeat_ns_ = now;
+  next_sync_ns_ = now;
   active_ = true;
+  // A drive that booted during the start-up missed it: configure and start it again.
+  if (canopen_ != nullptr && drive_state_ == 0x00) ReconfigureNext(canbus::MonotonicNs());
   return true;
 }
 
@@ -183,8 +189,10 @@ void CanDevice::Grant(double time_us) {
 }
 
 bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
+  if (canopen_ != nullptr && HandleCanopen(f)) return false;
   const int m = codec_.Find(f);
   if (m < 0) {
+    if (canopen_ != nullptr && IsCanopenManagement(f)) return false;  // another node's
     Reject(pc::Reject::kUnknownId);
     return false;
   }
@@ -300,6 +308,8 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
         profile_->specs[static_cast<std::size_t>(status_driver_msg_)].timeout_ns;
     if (timeout > 0 && Now() - driver_status_ns_ > timeout) frame->fault_line = true;
   }
+  // A CANopen drive whose heartbeat stopped or says other than operational.
+  if (canopen_ != nullptr && active_ && DriveFault()) frame->fault_line = true;
   Publish();
   if (fault != IoError::kNone) {
     *why = fault;
@@ -376,6 +386,7 @@ IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
       ok = Send(f, now) && ok;
     }
   }
+  if (canopen_ != nullptr) ok = ProduceCanopen(now, t) && ok;
   Publish();
   if (!ok) {
     *why = counters_.last_error;

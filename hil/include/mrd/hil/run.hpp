@@ -45,6 +45,8 @@ struct RunOptions {
   std::string excitation;           // CSV replacing the scenario's excitation ("": keep it)
   std::string firmware;             // mrd-firmware to start
   std::string profile;              // CAN device profile file ("": the built-in mrd-native)
+  std::string sdo_refuse;           // CANopen profiles, a test hook: "INDEX[:SUB]=ABORT" (hex
+                                    // or decimal): the drive refuses that SDO download
   bool attach = false;              // do not start it: wait for one started by hand
   std::string work_dir;             // config, sockets, firmware output (created if absent)
   double command_timeout_s = 10.0;  // lockstep liveness: silence this long ends the run [s]
