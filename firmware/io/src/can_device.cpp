@@ -185,6 +185,8 @@ void CanDevice::Grant(double time_us) {
     if ((unstamped_ >> r) & 1U) values_[r].stamp_ns = granted_ns_;
   }
   unstamped_ = 0;
+  if (drive_heartbeat_unstamped_) drive_heartbeat_ns_ = granted_ns_;  // CANopen: as the samples
+  drive_heartbeat_unstamped_ = false;
   got_grant_ = true;
 }
 

@@ -126,6 +126,8 @@ bool CanDevice::HandleCanopen(const can_frame& f) {
     }
     ++counters_.rx_ok;
     drive_heartbeat_ns_ = Now();
+    // Lockstep: the heartbeat belongs to the step whose grant follows it (as sensor values).
+    drive_heartbeat_unstamped_ = config_.lockstep;
     const auto state = static_cast<std::uint8_t>(f.data[0] & 0x7FU);
     drive_state_ = state;
     if (state == co::kStateBootUp && active_) {

@@ -206,6 +206,7 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   std::vector<can_frame> sdo_frames_;  // the SDO list's requests, in order
   std::uint8_t drive_state_ = kDriveStateUnknown;
   std::int64_t drive_heartbeat_ns_ = 0;  // device time of the drive's latest heartbeat
+  bool drive_heartbeat_unstamped_ = false;  // lockstep: stamped by the grant that follows
   std::int64_t next_own_heartbeat_ns_ = 0, next_sync_ns_ = 0;
   // Re-configuration after a boot-up: the SDO entry awaiting its answer (-1: none), since.
   int reconfig_sdo_ = -1;
