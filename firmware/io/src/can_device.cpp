@@ -144,8 +144,9 @@ bool CanDevice::Activate(std::string* error) {
 
 void CanDevice::Deactivate() {
   if (iface_.is_open()) {
-    // Last word on the bus: 0 V, enable low, safe.
-    if ((config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
+    // Last word on the bus: 0 V, enable low, safe. Not from a device that never started
+    // (a refused CANopen start-up): it never drove, and a command would read as a sign of life.
+    if (active_ && (config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
       const std::int64_t now = canbus::MonotonicNs();
       (void)SendCommand(DriverCommand{0.0, false, true, 0}, now);
       iface_.Flush(now);
