@@ -278,6 +278,32 @@ TEST_F(CanopenDeviceTest, ABootUpReconfiguresAndRestartsTheDriveSafeUntilOperati
   EXPECT_FALSE(Period(7, co::kStateOperational));    // operational: the fault clears
 }
 
+TEST_F(CanopenDeviceTest, ARefusedReconfigurationHoldsTheFaultUntilTheNextBootUp) {
+  std::string error;
+  ASSERT_TRUE(Start(Routed(LoadProfile(), true), &error)) << error;
+  EXPECT_FALSE(Period(1, co::kStateOperational));
+  EXPECT_TRUE(Period(2, co::kStateBootUp));
+  can_frame abort = Frame(co::SdoResponseId(5), {0, 0, 0, 0, 0, 0, 0, 0});
+  co::EncodeSdoAbort(0x6060, 0, 0x06090030, abort.data);
+  PeerSend(abort);
+  EXPECT_TRUE(Period(3, -1));
+  EXPECT_TRUE(Management().empty());  // no further SDO, no NMT start
+  // A drive that starts itself anyway is not configured: still a fault.
+  EXPECT_TRUE(Period(4, co::kStateOperational));
+  EXPECT_TRUE(Period(14, co::kStateOperational));
+  // The next boot-up tries again; answered, started, operational: driving.
+  EXPECT_TRUE(Period(15, co::kStateBootUp));
+  const std::uint16_t index[] = {0x6060, 0x1016, 0x1017};
+  const std::uint8_t sub[] = {0, 1, 0};
+  for (int i = 0; i < 3; ++i) {
+    can_frame ack = Frame(co::SdoResponseId(5), {0, 0, 0, 0, 0, 0, 0, 0});
+    co::EncodeSdoDownloadAck(index[i], sub[i], ack.data);
+    PeerSend(ack);
+    EXPECT_TRUE(Period(16 + i, -1));
+  }
+  EXPECT_FALSE(Period(19, co::kStateOperational));
+}
+
 TEST(CanopenNoAllocation, GuardSeesAnAllocation) {
   test::AllocationGuard guard;
   std::string s(100, 'x');

@@ -135,6 +135,7 @@ bool CanDevice::HandleCanopen(const can_frame& f) {
       // then NMT start (the fault holds until it reports operational).
       ++drive_boot_ups_;
       reconfig_sdo_ = -1;
+      reconfig_failed_ = false;
       ReconfigureNext(canbus::MonotonicNs());
     }
     return true;
@@ -149,6 +150,7 @@ bool CanDevice::HandleCanopen(const can_frame& f) {
         ReconfigureNext(canbus::MonotonicNs());
       } else if (reply == co::SdoReply::kAbort) {
         reconfig_sdo_ = -1;  // refused: no NMT start; the fault holds until the next boot-up
+        reconfig_failed_ = true;
         Count(IoError::kRejectedFrame);
       }
     }
@@ -180,8 +182,11 @@ bool CanDevice::DriveFault() {
   const std::int64_t now = Now();
   if (reconfig_sdo_ >= 0 && now - reconfig_sent_ns_ > canopen_->sdo_timeout_ns) {
     reconfig_sdo_ = -1;  // no answer: the fault holds until the next boot-up
+    reconfig_failed_ = true;
     Count(IoError::kTimeout);
   }
+  // Not configured (yet): whatever the drive says (one that starts itself included).
+  if (reconfig_sdo_ >= 0 || reconfig_failed_) return true;
   if (drive_state_ != kDriveStateUnknown && drive_state_ != co::kStateOperational) return true;
   const std::int64_t timeout = canopen_->drive_heartbeat_timeout_ns;
   return timeout > 0 && now - drive_heartbeat_ns_ > timeout;

@@ -211,6 +211,7 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   // Re-configuration after a boot-up: the SDO entry awaiting its answer (-1: none), since.
   int reconfig_sdo_ = -1;
   std::int64_t reconfig_sent_ns_ = 0;
+  bool reconfig_failed_ = false;  // refused or unanswered: a fault until the next boot-up
   std::uint64_t drive_boot_ups_ = 0, sdo_downloads_ = 0;
 };
 
