@@ -12,6 +12,8 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <thread>
@@ -302,6 +304,41 @@ TEST_F(CanopenDeviceTest, ARefusedReconfigurationHoldsTheFaultUntilTheNextBootUp
     EXPECT_TRUE(Period(16 + i, -1));
   }
   EXPECT_FALSE(Period(19, co::kStateOperational));
+}
+
+// The shipped profile with SYNC every 2 ms, no SDO list and no NMT start (a drive that keeps
+// its settings and starts itself).
+std::shared_ptr<const profile::CanProfile> SyncProfile() {
+  std::ifstream in(kProfile);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text = text.substr(0, text.find("[[canopen.sdo]]"));
+  const std::string dir = std::string(MRD_SOURCE_DIR) + "/firmware/profiles/";
+  for (const std::string file : {"canopen-drive.dbc", "canopen-coil.csv"}) {
+    text.replace(text.find("\"" + file + "\""), file.size() + 2, "\"" + dir + file + "\"");
+  }
+  text.replace(text.find("sync_period_ms = 0"), 18, "sync_period_ms = 2");
+  text.replace(text.find("nmt_start = true"), 16, "nmt_start = false");
+  const std::string path = ::testing::TempDir() + "/canopen-sync.toml";
+  std::ofstream(path) << text;
+  return LoadProfile(path);
+}
+
+TEST_F(CanopenDeviceTest, SyncEveryPeriodAndNoStartUpFramesWhenNoneAreConfigured) {
+  std::string error;
+  ASSERT_TRUE(Start(Routed(SyncProfile(), true), &error)) << error;
+  EXPECT_TRUE(startup_.empty());  // no NMT start, no SDO
+  std::vector<int> syncs;
+  for (int t = 1; t <= 10; ++t) {
+    EXPECT_FALSE(Period(t, co::kStateOperational));
+    for (const can_frame& f : sent_) {
+      if (f.can_id == co::kSyncId) {
+        EXPECT_EQ(f.len, 0);
+        syncs.push_back(t);
+      }
+    }
+  }
+  // At the first period, then on the 2 ms grid of granted time from the activation (t = 0).
+  EXPECT_EQ(syncs, (std::vector<int>{1, 2, 4, 6, 8, 10}));
 }
 
 TEST(CanopenNoAllocation, GuardSeesAnAllocation) {
