@@ -592,6 +592,8 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
     if ((can.outputs & Bit(n.output)) == 0) continue;
     bool any = false;
     for (const profile::CanOut r : n.any) any = any || mapped_out(r);
+    // A CANopen drive watches the firmware's CANopen heartbeat (0x700 + own node).
+    if (n.output == Output::kHeartbeat && p->canopen && p->canopen->heartbeat_ns > 0) any = true;
     if (!any) {
       *error = where + "profile " + p->name + " maps no signal to output '" +
                OutputName(n.output) + "' ([outputs] of the profile)";

@@ -351,6 +351,9 @@ int main(int argc, char** argv) {
   run->add_option("--can-log", ro.can_log,
                   "write every frame of the local CAN bus, both directions, to FILE in "
                   "candump -L format (stamped with the run's time: simulated in lockstep)");
+  run->add_option("--sdo-refuse", ro.sdo_refuse,
+                  "CANopen profiles (test hook): INDEX[:SUBINDEX]=ABORT_CODE, e.g. "
+                  "0x6060=0x06090030: the simulated drive refuses that SDO download");
   run->add_option("--excitation", ro.excitation,
                   "CSV (header with x, v and the demand column, e.g. an `mrd generate` data "
                   "set) replacing the scenario's excitation");

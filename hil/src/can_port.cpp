@@ -11,6 +11,13 @@
 // path (contains '/') or a SocketCAN interface. On a local bus path nobody serves yet (no socket, or one left by a dead relay),
 // the port runs the relay itself on a thread: the harness then owns the bus, and the firmware
 // loses it when the harness exits (the peer-restart test relies on that).
+// With a CANopen profile ([canopen]) the simulated driver is a CiA 301 node: it boots into
+// pre-operational, follows NMT (start -> operational, stop, pre-operational, resets -> boot-up
+// frame), answers expedited SDO downloads (accepted; RefuseSdo makes it abort one), produces
+// its heartbeat (0x700 + node, 0x05) in operational state every producer period (the SDO to
+// 0x1017 sets it; default kDriveHeartbeatSteps), unless the step's drive_heartbeat_loss fault
+// holds, and sends its status PDO only in operational. The firmware's CANopen heartbeat
+// (0x700 + own node) is the heartbeat the driver watches.
 #include <linux/can.h>
 #include <poll.h>
 
@@ -28,6 +35,7 @@
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/canbus/socket.hpp"
 #include "mrd/hil/plant_port.hpp"
+#include "mrd/profile/canopen_codec.hpp"
 #include "mrd/profile/frame_codec.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
@@ -41,6 +49,9 @@ constexpr std::int64_t kTxDeadlineNs = 1'000'000;  // one plant period
 constexpr std::int64_t kReconnectNs = 100'000'000;
 constexpr std::uint32_t kStatusPeriodSteps = 100;  // DriverStatus period: 100 ms (docs/mrd.dbc)
 constexpr double kCoilOhms = 5.0;  // simulated coil (e.g. a Lord RD-1005-3: about 5 ohm)
+constexpr std::uint32_t kDriveHeartbeatSteps = 10;  // CANopen drive: default producer period
+
+namespace co = profile::canopen;
 
 namespace pf = profile;
 using pf::CanIn;
@@ -118,6 +129,7 @@ class CanPort final : public PlantPort {
     const std::int64_t now = canbus::MonotonicNs();
     if (!IsOpen()) Reconnect(now);
     if (!IsOpen()) return;
+    if (canopen_ != nullptr) PublishDriveHeartbeat(out, now);
     PublishDriverStatus(out, now);  // the driver's node: not subject to the sensors' faults
     if (out.fault == SensorFault::kDrop) return;
     if (out.fault == SensorFault::kStall) {
@@ -229,17 +241,47 @@ class CanPort final : public PlantPort {
   void SetLockstep(bool on) override { lockstep_ = on; }
   bool CarriesStatus() const override { return !status_msgs_.empty(); }
   void PeerRestarted() override { codec_.ResetCounters(); }
+  bool RefuseSdo(int index, int subindex, std::uint32_t abort_code) override {
+    if (canopen_ == nullptr) return false;
+    refuse_index_ = index;
+    refuse_subindex_ = subindex;
+    refuse_code_ = abort_code;
+    return true;
+  }
+
+  // The CANopen drive's heartbeat: every producer period in operational state (counted in
+  // published steps: plant time in lockstep).
+  void PublishDriveHeartbeat(const SensorOutput& out, std::int64_t now) {
+    if (drive_state_ != co::kStateOperational || out.drive_heartbeat_loss) {
+      steps_since_drive_hb_ = drive_hb_steps_;  // the next one goes out at once
+      return;
+    }
+    if (++steps_since_drive_hb_ < drive_hb_steps_) return;
+    steps_since_drive_hb_ = 0;
+    SendDriveHeartbeat(co::kStateOperational, now);
+  }
+
+  void SendDriveHeartbeat(std::uint8_t state, std::int64_t now) {
+    can_frame f{};
+    f.can_id = co::HeartbeatId(canopen_->node_id);
+    f.len = 1;
+    f.data[0] = state;
+    SendFrame(f, now);
+  }
 
   // The simulated driver's DriverStatus: every kStatusPeriodSteps published steps, and at once
   // when the fault bits change (so a fault reaches the firmware in the step it appears).
   void PublishDriverStatus(const SensorOutput& out, std::int64_t now) {
     const std::uint32_t faults = out.fault_line ? pc::kFaultOvercurrent : 0U;
+    // A CANopen drive sends PDOs in operational state only.
+    if (canopen_ != nullptr && drive_state_ != co::kStateOperational) return;
     if (driver_msgs_.empty() ||
         (status_sent_ && faults == status_faults_ && ++steps_since_status_ < kStatusPeriodSteps)) {
       return;
     }
     const double volts = std::isfinite(command_volts_) ? command_volts_ : 0.0;
-    const double amps = command_drives_ ? std::max(volts, 0.0) / kCoilOhms : 0.0;
+    double amps = command_drives_ ? std::max(volts, 0.0) / kCoilOhms : 0.0;
+    if (current_in_ma_) amps *= 1000.0;
     for (const int m : driver_msgs_) {
       can_frame f{};
       codec_.Begin(m, &f);
@@ -364,7 +406,82 @@ class CanPort final : public PlantPort {
                                                  CAN_EFF_FLAG | CAN_RTR_FLAG});
       }
     }
+    const pf::SignalRef current = p.inputs[static_cast<std::size_t>(CanIn::kDriverCurrent)];
+    current_in_ma_ = current.mapped() &&
+                     p.dbc.messages[static_cast<std::size_t>(current.message)]
+                             .signals[static_cast<std::size_t>(current.signal)]
+                             .unit == "mA";
+    if (p.canopen) {
+      canopen_ = &*p.canopen;
+      drive_state_ = co::kStatePreOperational;  // booted before the firmware came
+      for (const std::uint32_t id : {co::kNmtId, co::kSyncId, co::SdoRequestId(canopen_->node_id),
+                                     co::HeartbeatId(canopen_->own_node_id)}) {
+        filters_.push_back({id, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG});
+      }
+    }
     last_.resize(p.dbc.messages.size());
+  }
+
+  // The firmware's CANopen frames to the drive: NMT, SDO requests, its heartbeat, SYNC. true:
+  // one of them (handled).
+  bool HandleCanopen(const can_frame& f, std::int64_t stamp, DriverInput* in) {
+    if ((f.can_id & CAN_EFF_FLAG) != 0) return false;
+    const std::uint32_t id = f.can_id & CAN_SFF_MASK;
+    const int node = canopen_->node_id;
+    const std::int64_t now = canbus::MonotonicNs();
+    if (id == co::kNmtId) {
+      if (f.len < 2 || (f.data[1] != node && f.data[1] != 0)) return true;  // another node's
+      ++received_;
+      switch (f.data[0]) {
+        case co::kNmtStart: drive_state_ = co::kStateOperational; break;
+        case co::kNmtStop: drive_state_ = co::kStateStopped; break;
+        case co::kNmtPreOperational: drive_state_ = co::kStatePreOperational; break;
+        case co::kNmtResetNode:
+        case co::kNmtResetCommunication:
+          SendDriveHeartbeat(co::kStateBootUp, now);  // boot-up, then pre-operational
+          drive_state_ = co::kStatePreOperational;
+          break;
+        default: ++rejected_; break;
+      }
+      return true;
+    }
+    if (id == co::SdoRequestId(node)) {
+      ++received_;
+      ++sdo_requests_;
+      can_frame r{};
+      r.can_id = co::SdoResponseId(node);
+      r.len = 8;
+      std::uint16_t index = 0;
+      std::uint8_t sub = 0;
+      int size = 0;
+      std::uint32_t raw = 0;
+      if (!co::DecodeSdoDownloadRequest(f.data, f.len, &index, &sub, &size, &raw)) {
+        // Only expedited downloads are played: command specifier not valid.
+        co::EncodeSdoAbort(static_cast<std::uint16_t>(f.data[1] | f.data[2] << 8), f.data[3],
+                           0x05040001, r.data);
+      } else if (static_cast<int>(index) == refuse_index_ &&
+                 (refuse_subindex_ < 0 || refuse_subindex_ == sub)) {
+        co::EncodeSdoAbort(index, sub, refuse_code_, r.data);
+      } else {
+        if (index == 0x1017 && sub == 0 && raw > 0) drive_hb_steps_ = raw;  // producer time [ms]
+        co::EncodeSdoDownloadAck(index, sub, r.data);
+      }
+      SendFrame(r, now);
+      return true;
+    }
+    if (id == co::HeartbeatId(canopen_->own_node_id)) {
+      ++received_;
+      if (f.len >= 1 && (f.data[0] & 0x7FU) == co::kStateOperational) {
+        in->heartbeat_ns = stamp;
+        ++in->heartbeats;
+      }
+      return true;
+    }
+    if (id == co::kSyncId) {
+      ++received_;
+      return true;
+    }
+    return false;
   }
 
   // The IDs the harness listens to (filters_), for the relay's tap: what the sockets' receive
@@ -377,6 +494,7 @@ class CanPort final : public PlantPort {
   }
 
   void Handle(const can_frame& f, std::int64_t stamp, DriverInput* in) {
+    if (canopen_ != nullptr && HandleCanopen(f, stamp, in)) return;
     const int m = codec_.Find(f);
     const bool command = IsIn(command_msgs_, m), heartbeat = IsIn(heartbeat_msgs_, m),
                status = IsIn(status_msgs_, m);
@@ -457,6 +575,15 @@ class CanPort final : public PlantPort {
   bool status_sent_ = false;
   std::uint32_t status_faults_ = 0;
   std::uint32_t steps_since_status_ = 0;
+  bool current_in_ma_ = false;  // the driver_current signal's unit is mA (else A)
+  // The CANopen drive ([canopen]; nullptr without): NMT state, heartbeat schedule [steps],
+  // the SDO refusal test hook (index -1: none).
+  const pf::CanopenConfig* canopen_ = nullptr;
+  std::uint8_t drive_state_ = co::kStatePreOperational;
+  std::uint32_t drive_hb_steps_ = kDriveHeartbeatSteps, steps_since_drive_hb_ = 0;
+  int refuse_index_ = -1, refuse_subindex_ = -1;
+  std::uint32_t refuse_code_ = 0;
+  std::uint64_t sdo_requests_ = 0;
   std::vector<can_frame> last_;  // per message: the latest sensor frame sent (stall)
   bool have_last_ = false;
   std::uint32_t last_published_ = 0;

@@ -97,7 +97,10 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
     std::string can_outputs = "[";
     if (pwm_sysfs.empty()) add(&can_outputs, "command");
     if (!g.enable && out(profile::CanOut::kEnable)) add(&can_outputs, "enable");
-    if (!g.heartbeat && out(profile::CanOut::kHeartbeatSafe)) add(&can_outputs, "heartbeat");
+    const bool canopen_heartbeat = p.canopen && p.canopen->heartbeat_ns > 0;
+    if (!g.heartbeat && (out(profile::CanOut::kHeartbeatSafe) || canopen_heartbeat)) {
+      add(&can_outputs, "heartbeat");
+    }
     if (out(profile::CanOut::kStatusSafe) || out(profile::CanOut::kStatusCauses)) {
       add(&can_outputs, "status");
     }

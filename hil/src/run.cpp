@@ -227,6 +227,36 @@ int RunCorruptTable(const Scenario& s, const RunOptions& o, PlantPort& port,
   return 0;
 }
 
+// --sdo-refuse "INDEX[:SUB]=ABORT" (C integer syntax: 0x6060, 24672).
+struct SdoRefusal {
+  int index = -1, subindex = -1;
+  std::uint32_t code = 0;
+};
+bool ParseSdoRefusal(const std::string& text, SdoRefusal* r) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos) return false;
+  const auto number = [](const std::string& t, unsigned long long max, unsigned long long* v) {
+    char* end = nullptr;
+    errno = 0;
+    *v = std::strtoull(t.c_str(), &end, 0);
+    return !t.empty() && errno == 0 && end != nullptr && *end == '\0' && *v <= max;
+  };
+  std::string object = text.substr(0, eq);
+  unsigned long long index = 0, sub = 0, code = 0;
+  const auto colon = object.find(':');
+  if (colon != std::string::npos) {
+    if (!number(object.substr(colon + 1), 255, &sub)) return false;
+    r->subindex = static_cast<int>(sub);
+    object.resize(colon);
+  }
+  if (!number(object, 0xFFFF, &index) || !number(text.substr(eq + 1), 0xFFFFFFFFULL, &code)) {
+    return false;
+  }
+  r->index = static_cast<int>(index);
+  r->code = static_cast<std::uint32_t>(code);
+  return true;
+}
+
 }  // namespace
 
 int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std::string* error) {
@@ -333,6 +363,21 @@ int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std
     }
     can_profile = p;
   }
+  const bool canopen = can_profile != nullptr && can_profile->canopen.has_value();
+  for (const Fault& f : s.faults) {
+    if (f.kind == FaultKind::kDriveHeartbeatLoss && !canopen) {
+      *error = s.path + ":" + std::to_string(f.line) + ": fault 'drive_heartbeat_loss' needs a "
+               "CANopen device profile (--profile with a [canopen] section)";
+      return 2;
+    }
+  }
+  SdoRefusal refusal;
+  if (!o.sdo_refuse.empty() && (!canopen || !ParseSdoRefusal(o.sdo_refuse, &refusal))) {
+    *error = "--sdo-refuse '" + o.sdo_refuse + "': " +
+             (canopen ? "expected INDEX[:SUBINDEX]=ABORT_CODE (e.g. 0x6060=0x06090030)"
+                      : "needs a CANopen device profile (--profile with a [canopen] section)");
+    return 2;
+  }
   if (s.quarter_car && !o.excitation.empty()) {
     *error = "--excitation: " + s.path + " is a quarter car, excited by its [road]";
     return 2;
@@ -399,6 +444,7 @@ int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std
   }
   bool port_open = true;
   port->SetLockstep(lockstep);
+  if (refusal.index >= 0) port->RefuseSdo(refusal.index, refusal.subindex, refusal.code);
   // Waits up to timeout_ns for the firmware: on CAN by relaying the bus meanwhile (returns when
   // something moved), else on the port.
   const std::function<void(std::int64_t)> pump = [&](std::int64_t timeout_ns) {
@@ -560,6 +606,7 @@ int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std
     // The fault schedule at step k.
     SensorFault sf = SensorFault::kNone;
     bool delay_active = false, implausible = false, plant_dead = false, fault_line = false;
+    bool drive_hb_loss = false;
     int delay_periods = 0;
     for (const Fault& f : s.faults) {
       const auto k0 = static_cast<std::int64_t>(std::llround(f.at_s / 1e-3));
@@ -586,6 +633,7 @@ int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std
       if (f.kind == FaultKind::kImplausible) implausible = true;
       if (f.kind == FaultKind::kKillPlant) plant_dead = true;
       if (f.kind == FaultKind::kFaultLine) fault_line = true;
+      if (f.kind == FaultKind::kDriveHeartbeatLoss) drive_hb_loss = true;
     }
     // Real time: the plant's bus node goes away. Lockstep: the harness is also the clock, so
     // time goes on (grants) while the plant's node is silent (no sensor data).
@@ -606,6 +654,7 @@ int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std
     out.seq = static_cast<std::uint32_t>(k + 1) + (lockstep ? 0 : seq_base);
     out.fault = sf;
     out.fault_line = fault_line;
+    out.drive_heartbeat_loss = drive_hb_loss;
     if (!lockstep) {
       SleepUntil(deadline);
       const std::int64_t now = NowNs();
@@ -648,6 +697,12 @@ int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std
           // PWM: the tick's status frame says its duty is written (run_pwm.hpp).
           if (pwm.active() && fresh.has_status) pwm.Poll(&fresh);
           if (fresh.has_command && (fresh.has_status || !port->CarriesStatus())) break;
+          if (!firmware_alive() && awaiting_start && !o.attach) {
+            // Exited before its first command: it refused to start (its stderr says why).
+            return end_run("the firmware exited during start-up (exit " +
+                               std::to_string(fw.status()) + ")",
+                           0);
+          }
           if (!firmware_alive()) break;  // exited mid-step: no command for this step
           const std::int64_t now = NowNs();
           if (const int sig = interrupted()) return end_run(interrupt_text(sig), sig);

@@ -48,7 +48,8 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 quadrature encoder the plant drives, velocity differentiated by the firmware);
                 counts_per_cm (400), velocity_cutoff_hz (50)
   [[fault]]     kind (required) = drop | delay | corrupt | stall | out_of_range | nan |
-                implausible | kill_plant | kill_firmware | corrupt_table | fault_line;
+                implausible | kill_plant | kill_firmware | corrupt_table | fault_line |
+                drive_heartbeat_loss (CANopen profiles: the drive's heartbeat stops);
                 at_s (onset), duration_s (0: to the end), delay_periods (delay, 10)
 )";
 
@@ -141,7 +142,8 @@ bool ParseFaultKind(const std::string& s, FaultKind* k) {
       {"out_of_range", FaultKind::kOutOfRange}, {"nan", FaultKind::kNan},
       {"implausible", FaultKind::kImplausible}, {"kill_plant", FaultKind::kKillPlant},
       {"kill_firmware", FaultKind::kKillFirmware}, {"corrupt_table", FaultKind::kCorruptTable},
-      {"fault_line", FaultKind::kFaultLine}};
+      {"fault_line", FaultKind::kFaultLine},
+      {"drive_heartbeat_loss", FaultKind::kDriveHeartbeatLoss}};
   const auto it = kinds.find(s);
   if (it == kinds.end()) return false;
   *k = it->second;
@@ -168,6 +170,7 @@ const char* FaultKindName(FaultKind kind) {
     case FaultKind::kKillFirmware: return "kill_firmware";
     case FaultKind::kCorruptTable: return "corrupt_table";
     case FaultKind::kFaultLine: return "fault_line";
+    case FaultKind::kDriveHeartbeatLoss: return "drive_heartbeat_loss";
   }
   return "?";
 }

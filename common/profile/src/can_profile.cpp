@@ -9,6 +9,7 @@
 #include <set>
 #include <string_view>
 
+#include "canopen_section.hpp"
 #include "file_text.hpp"
 
 namespace mrd::profile {
@@ -318,10 +319,14 @@ bool ParseCanProfile(const std::string& text, const std::string& path,
         if (!Command(c, *t, dbc_text != nullptr ? std::string(".") : Directory(path), out)) {
           return false;
         }
+      } else if (key == "canopen") {
+        const toml::table* t = v.as_table();
+        if (t == nullptr) return c.Fail(&v, "canopen: expected a table");
+        if (!ParseCanopenSection(*t, path, out, error)) return false;
       } else if (key != "dbc" && key != "inputs" && key != "outputs" && key != "description" &&
                  key != "pwm") {  // [pwm]: the PWM output's part (pwm_profile.cpp)
         return c.Fail(&v, key + ": unknown key (name, description, dbc, inputs, outputs, "
-                                "messages, command, pwm)");
+                                "messages, command, canopen, pwm)");
       }
     }
     if (out->name.empty()) {

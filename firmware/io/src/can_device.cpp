@@ -102,6 +102,7 @@ void CanDevice::Index() {
     filters_.push_back({pf::WireId(msg), (msg.extended ? CAN_EFF_MASK : CAN_SFF_MASK) |
                                              CAN_EFF_FLAG | CAN_RTR_FLAG});
   }
+  IndexCanopen();
 }
 
 int CanDevice::Open(std::string* error) const {
@@ -126,20 +127,26 @@ std::int64_t CanDevice::Now() const {
 }
 
 bool CanDevice::Activate(std::string* error) {
-  (void)error;
+  if (canopen_ != nullptr && !StartCanopen(error)) return false;
   const std::int64_t now = Now();
   next_heartbeat_ns_ = now;
   next_status_ns_ = now;
   next_reconnect_ns_ = now;
   driver_status_ns_ = now;
+  drive_heartbeat_ns_ = now;  // the drive's heartbeat is watched from here
+  next_own_heartbeat_ns_ = now;
+  next_sync_ns_ = now;
   active_ = true;
+  // A drive that booted during the start-up missed it: configure and start it again.
+  if (canopen_ != nullptr && drive_state_ == 0x00) ReconfigureNext(canbus::MonotonicNs());
   return true;
 }
 
 void CanDevice::Deactivate() {
   if (iface_.is_open()) {
-    // Last word on the bus: 0 V, enable low, safe.
-    if ((config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
+    // Last word on the bus: 0 V, enable low, safe. Not from a device that never started
+    // (a refused CANopen start-up): it never drove, and a command would read as a sign of life.
+    if (active_ && (config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
       const std::int64_t now = canbus::MonotonicNs();
       (void)SendCommand(DriverCommand{0.0, false, true, 0}, now);
       iface_.Flush(now);
@@ -179,12 +186,16 @@ void CanDevice::Grant(double time_us) {
     if ((unstamped_ >> r) & 1U) values_[r].stamp_ns = granted_ns_;
   }
   unstamped_ = 0;
+  if (drive_heartbeat_unstamped_) drive_heartbeat_ns_ = granted_ns_;  // CANopen: as the samples
+  drive_heartbeat_unstamped_ = false;
   got_grant_ = true;
 }
 
 bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
+  if (canopen_ != nullptr && HandleCanopen(f)) return false;
   const int m = codec_.Find(f);
   if (m < 0) {
+    if (canopen_ != nullptr && IsCanopenManagement(f)) return false;  // another node's
     Reject(pc::Reject::kUnknownId);
     return false;
   }
@@ -300,6 +311,8 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
         profile_->specs[static_cast<std::size_t>(status_driver_msg_)].timeout_ns;
     if (timeout > 0 && Now() - driver_status_ns_ > timeout) frame->fault_line = true;
   }
+  // A CANopen drive whose heartbeat stopped or says other than operational.
+  if (canopen_ != nullptr && active_ && DriveFault()) frame->fault_line = true;
   Publish();
   if (fault != IoError::kNone) {
     *why = fault;
@@ -376,6 +389,7 @@ IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
       ok = Send(f, now) && ok;
     }
   }
+  if (canopen_ != nullptr) ok = ProduceCanopen(now, t) && ok;
   Publish();
   if (!ok) {
     *why = counters_.last_error;

@@ -37,6 +37,7 @@ struct SensorOutput {
   std::uint32_t seq = 0;      // step number (CAN rolling counter / Modbus sequence register)
   std::int64_t t_ns = 0;      // CLOCK_MONOTONIC when published
   bool fault_line = false;    // fault input asserted (GPIO / status register)
+  bool drive_heartbeat_loss = false;  // CANopen: the drive's heartbeat not sent this step
 };
 
 // What arrived from the firmware since the last Poll; each port sets only what it carries.
@@ -92,6 +93,15 @@ class PlantPort {
   // A new firmware instance is starting (the harness restarted it): forget the previous
   // sender's rolling counters, so its first frames are not taken for repeated or stale ones.
   virtual void PeerRestarted() {}
+  // CANopen drives (a profile with [canopen]), a test hook: the drive refuses SDO downloads to
+  // index:subindex (subindex -1: any) with this abort code. false: this port plays no
+  // CANopen drive.
+  virtual bool RefuseSdo(int index, int subindex, std::uint32_t abort_code) {
+    (void)index;
+    (void)subindex;
+    (void)abort_code;
+    return false;
+  }
   // Waits up to timeout_ns for something from the firmware (then Poll). Default: sleeps a
   // little (transports without a pollable fd).
   virtual void Wait(std::int64_t timeout_ns);

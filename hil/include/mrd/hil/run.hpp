@@ -46,6 +46,8 @@ struct RunOptions {
   std::string firmware;             // mrd-firmware to start
   std::string profile;              // device profile file: CAN ("": the built-in mrd-native) or
                                     // Modbus (a [modbus] section; --transport modbus-tcp|rtu)
+  std::string sdo_refuse;           // CANopen profiles, a test hook: "INDEX[:SUB]=ABORT" (hex
+                                    // or decimal): the drive refuses that SDO download
   bool attach = false;              // do not start it: wait for one started by hand
   std::string work_dir;             // config, sockets, firmware output (created if absent)
   // Every frame on the harness's local CAN bus, both directions, in candump -L format

@@ -26,6 +26,7 @@ enum class FaultKind : std::uint8_t {
   kKillFirmware,  // SIGKILL to mrd-firmware; restarted when the fault clears (duration > 0)
   kCorruptTable,  // the firmware is offered a table with a flipped byte: it must refuse (exit 2)
   kFaultLine,     // the driver's fault line asserted (GPIO; needs [gpio] inputs fault_line)
+  kDriveHeartbeatLoss,  // a CANopen drive stops its heartbeat (needs a [canopen] profile)
 };
 const char* FaultKindName(FaultKind kind);
 

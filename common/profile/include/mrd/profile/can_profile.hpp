@@ -11,12 +11,15 @@
 //   [messages.Msg]  counter = "Signal"  checksum = "Signal"  checksum_kind = "crc8"|"sum8"
 //                   crc_poly crc_init crc_xor  checksum_covers_id  period_ms  timeout_ms
 //   [command]  unit = "A"  calibration = "coil.csv"  min  max  slew_per_s   (command_map.hpp)
+//   [canopen]  node_id  own_node_id  ...  [[canopen.sdo]]   (a CiA 301 drive: canopen_profile.hpp)
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "mrd/profile/canopen_profile.hpp"
 #include "mrd/profile/command_map.hpp"
 #include "mrd/profile/dbc.hpp"
 
@@ -88,6 +91,9 @@ struct CanProfile {
   // E [V] -> the driver's set-point ([command]; identity without it).
   std::string command_unit = "V";
   CommandMap command;
+  // [canopen]: the driver is a CiA 301 node (NMT, heartbeats, SYNC, start-up SDOs); absent
+  // for a plain CAN driver.
+  std::optional<CanopenConfig> canopen;
   const protocol::SignalLayout& Layout(SignalRef r) const {
     return dbc.messages[static_cast<std::size_t>(r.message)]
         .signals[static_cast<std::size_t>(r.signal)]

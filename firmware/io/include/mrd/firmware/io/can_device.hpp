@@ -47,6 +47,24 @@
 // carry is never wrapped: the command message then says safe (0, enable low) and the write is
 // kFault (bad_value).
 //
+// CANopen (the profile's [canopen]: a CiA 301 drive; can_device_canopen.cpp):
+//   Activate  sends NMT "start remote node" to the drive (nmt_start), then each start-up SDO
+//          download in order, each waiting for the drive's answer (sdo_timeout_ms; at least
+//          2 s in lockstep, where the harness answers on wall time): an abort or no answer
+//          fails Activate with the entry, index:subindex, value, abort code and its CiA 301
+//          meaning, and the firmware does not start.
+//   Read   consumes the drive's heartbeat (0x700 + node): no heartbeat for
+//          drive_heartbeat_timeout_ms (device time), or a state other than operational, sets
+//          the frame's fault_line (the watchdog's fault_line cause, as a driver status fault
+//          does). A boot-up (state 0x00: the drive restarted and lost its configuration) makes
+//          the device download the SDO list again, one request per answer (frames built at
+//          construction, no allocation), then send NMT start; the fault holds until the drive
+//          reports operational. Other nodes' NMT, SYNC, EMCY, SDO and heartbeat frames are
+//          read over (not counted as refused).
+//   Write  produces the firmware's heartbeat (0x700 + own node, state operational) every
+//          heartbeat_ms and SYNC (0x080) every sync_period_ms, after the command (device time).
+//          Both stop when the firmware dies: the drive's heartbeat consumer then acts.
+//
 // Lockstep (config.lockstep, [loop] clock = "grant"): the device is also the loop's
 // TimeGrantSource (grant_clock.hpp). WaitGrant handles frames as they come (one ppoll on the
 // fd with the remaining timeout, then non-blocking reads) and returns at the first valid
@@ -113,6 +131,12 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   std::uint32_t driver_faults() const { return driver_faults_; }
   double driver_current() const { return driver_current_; }  // [driver unit], latest status
   const profile::CanProfile& can_profile() const { return *profile_; }
+  // CANopen: the drive's NMT state from its latest heartbeat (kDriveStateUnknown before one),
+  // boot-ups seen since start, SDO downloads done (start-up and after boot-ups).
+  static constexpr std::uint8_t kDriveStateUnknown = 0xFF;
+  std::uint8_t drive_state() const { return drive_state_; }
+  std::uint64_t drive_boot_ups() const { return drive_boot_ups_; }
+  std::uint64_t sdo_downloads() const { return sdo_downloads_; }
 
  private:
   void Index();  // role and message tables of the profile, receive filters (construction)
@@ -131,6 +155,21 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   // Encodes and queues the command messages; false when a send failed or a value was refused.
   bool SendCommand(const DriverCommand& cmd, std::int64_t now);
   void Publish() { published_.Write(counters_); }
+  // CANopen (can_device_canopen.cpp). The SDO frames and filters (construction).
+  void IndexCanopen();
+  // NMT start and the SDO list, each answered (Activate; waits, allocates the error text).
+  bool StartCanopen(std::string* error);
+  // A frame of the drive's heartbeat or SDO answer (true: consumed).
+  bool HandleCanopen(const can_frame& f);
+  // Another node's CANopen management frame (NMT, SYNC, EMCY, SDO, heartbeat id ranges).
+  bool IsCanopenManagement(const can_frame& f) const;
+  void SendNmtStart(std::int64_t now);
+  // The in-loop re-configuration after a boot-up: the next SDO request, or NMT start.
+  void ReconfigureNext(std::int64_t now);
+  // The heartbeat and SYNC schedules (Write).
+  bool ProduceCanopen(std::int64_t now, std::int64_t t);
+  // fault_line from the drive's heartbeat; the re-configuration's answer timeout (Read).
+  bool DriveFault();
 
   CanConfig config_;
   std::shared_ptr<const profile::CanProfile> profile_;
@@ -162,6 +201,18 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   std::int64_t next_heartbeat_ns_ = 0, next_status_ns_ = 0, next_reconnect_ns_ = 0;
   DeviceCounters counters_;
   Seqlock<DeviceCounters> published_;
+  // CANopen ([canopen] of the profile; nullptr without).
+  const profile::CanopenConfig* canopen_ = nullptr;
+  std::vector<can_frame> sdo_frames_;  // the SDO list's requests, in order
+  std::uint8_t drive_state_ = kDriveStateUnknown;
+  std::int64_t drive_heartbeat_ns_ = 0;  // device time of the drive's latest heartbeat
+  bool drive_heartbeat_unstamped_ = false;  // lockstep: stamped by the grant that follows
+  std::int64_t next_own_heartbeat_ns_ = 0, next_sync_ns_ = 0;
+  // Re-configuration after a boot-up: the SDO entry awaiting its answer (-1: none), since.
+  int reconfig_sdo_ = -1;
+  std::int64_t reconfig_sent_ns_ = 0;
+  bool reconfig_failed_ = false;  // refused or unanswered: a fault until the next boot-up
+  std::uint64_t drive_boot_ups_ = 0, sdo_downloads_ = 0;
 };
 
 }  // namespace mrd::firmware
