@@ -9,6 +9,7 @@
 #include <map>
 #include <tuple>
 
+#include "command_section.hpp"
 #include "file_text.hpp"
 
 namespace mrd::profile {
@@ -139,28 +140,14 @@ bool Point(const Ctx& c, const toml::node& n, const std::string& full, bool outp
 
 // [command]: unit, calibration (a CSV relative to the profile), min, max, slew_per_s.
 bool Command(const Ctx& c, const toml::table& t, const std::string& dir, ModbusProfile* p) {
-  double min = -1e300, max = 1e300, slew = 0.0;
-  for (const auto& [k, v] : t) {
-    const std::string key(k.str());
-    const std::string full = "command." + key;
-    if (key == "unit") {
-      const auto s = v.value<std::string>();
-      if (!s || s->empty() || s->size() > 16) return c.Fail(&v, full + ": expected a short unit name");
-      p->command_unit = *s;
-    } else if (key == "calibration") {
-      const auto s = v.value<std::string>();
-      if (!s || s->empty()) return c.Fail(&v, full + ": expected the path of a CSV file");
-      const std::string file = (*s)[0] == '/' ? *s : dir + "/" + *s;
-      std::string why;
-      if (!p->command.LoadCalibration(file, &why)) return c.Fail(&v, full + ": " + why);
-    } else if (key == "min" || key == "max" || key == "slew_per_s") {
-      const auto d = v.value<double>();
-      if (!d || !std::isfinite(*d)) return c.Fail(&v, full + ": expected a number");
-      (key == "min" ? min : key == "max" ? max : slew) = *d;
-    } else {
-      return c.Fail(&v, full + ": unknown key (unit, calibration, min, max, slew_per_s)");
-    }
+  CommandSection cmd{p->command_unit, -1e300, 1e300, 0.0};
+  const toml::node* bad = nullptr;
+  std::string reason;
+  if (!ReadCommandSection(t, dir, &cmd, &p->command, &bad, &reason)) {
+    return c.Fail(bad, reason);
   }
+  p->command_unit = cmd.unit;
+  const double min = cmd.min, max = cmd.max, slew = cmd.slew_per_s;
   std::string why;
   if (!p->command.SetRange(min, max, slew, &why)) return c.Fail(&t, why);
   return true;

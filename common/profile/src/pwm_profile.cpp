@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "command_section.hpp"
 #include "file_text.hpp"
 
 namespace mrd::profile {
@@ -77,28 +78,14 @@ bool Command(const Ctx& c, const toml::node* node, const std::string& dir, PwmPr
     return c.Fail(node, "command: a [pwm] profile needs a [command] table with min and max (the "
                         "driver's input range that min_duty..max_duty stands for)");
   }
-  double min = NAN, max = NAN, slew = 0.0;
-  for (const auto& [k, v] : *t) {
-    const std::string key(k.str());
-    const std::string full = "command." + key;
-    if (key == "unit") {
-      const auto s = v.value<std::string>();
-      if (!s || s->empty() || s->size() > 16) return c.Fail(&v, full + ": expected a short unit name");
-      p->command_unit = *s;
-    } else if (key == "calibration") {
-      const auto s = v.value<std::string>();
-      if (!s || s->empty()) return c.Fail(&v, full + ": expected the path of a CSV file");
-      const std::string file = (*s)[0] == '/' ? *s : dir + "/" + *s;
-      std::string why;
-      if (!p->command.LoadCalibration(file, &why)) return c.Fail(&v, full + ": " + why);
-    } else if (key == "min" || key == "max" || key == "slew_per_s") {
-      const auto d = v.value<double>();
-      if (!d || !std::isfinite(*d)) return c.Fail(&v, full + ": expected a number");
-      (key == "min" ? min : key == "max" ? max : slew) = *d;
-    } else {
-      return c.Fail(&v, full + ": unknown key (unit, calibration, min, max, slew_per_s)");
-    }
+  CommandSection cmd{p->command_unit, NAN, NAN, 0.0};
+  const toml::node* bad = nullptr;
+  std::string reason;
+  if (!ReadCommandSection(*t, dir, &cmd, &p->command, &bad, &reason)) {
+    return c.Fail(bad, reason);
   }
+  p->command_unit = cmd.unit;
+  const double min = cmd.min, max = cmd.max, slew = cmd.slew_per_s;
   if (std::isnan(min) || std::isnan(max)) {
     return c.Fail(t, "command: a [pwm] profile needs min and max (the driver's input range)");
   }
