@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "hil/hil_run.hpp"
 #include "support/process.hpp"
 
 namespace {
@@ -23,28 +24,9 @@ const std::string kSource = MRD_SOURCE_DIR;
 const std::string kPaper = MRD_PAPER_DIR;
 const std::string kCanopen = kSource + "/firmware/profiles/canopen-drive.toml";
 
-struct HilResult {
-  int status = -1;
-  json j;
-  std::string err;
-};
-
-HilResult Hil(std::vector<std::string> args) {
-  args.insert(args.begin(), {kBin + "/mrd-hil", "run"});
-  args.push_back("--json");
-  ChildProcess p(args);
-  HilResult r;
-  r.status = p.Wait(180.0);
-  r.err = p.Stderr();
-  r.j = json::parse(p.Stdout(), nullptr, false);
-  if (r.j.is_discarded()) r.j = json::object();
-  return r;
-}
-
-std::vector<std::string> ForceV1() {
-  return {kSource + "/hil/scenarios/force-v1.toml", "--table", kPaper + "/table.bin",
-          "--excitation", kPaper + "/v1.csv"};
-}
+using mrd::test::ForceV1;
+using mrd::test::Hil;
+using mrd::test::HilResult;
 
 // A force-v1 scenario of `seconds` on the paper's v1 excitation, with extra TOML (faults).
 std::string Scenario(const std::string& name, double seconds, const std::string& extra) {

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "hil/hil_run.hpp"
 #include "support/process.hpp"
 
 namespace {
@@ -23,28 +24,9 @@ const std::string kScn = kSource + "/hil/scenarios/";
 const std::string kPaper = MRD_PAPER_DIR;
 const std::string kFloat32 = kSource + "/firmware/profiles/modbus-float32.toml";
 
-struct HilResult {
-  int status = -1;
-  json j;
-  std::string err;
-};
-
-HilResult Hil(std::vector<std::string> args) {
-  args.insert(args.begin(), {kBin + "/mrd-hil", "run"});
-  args.push_back("--json");
-  ChildProcess p(args);
-  HilResult r;
-  r.status = p.Wait(180.0);
-  r.err = p.Stderr();
-  r.j = json::parse(p.Stdout(), nullptr, false);
-  if (r.j.is_discarded()) r.j = json::object();
-  return r;
-}
-
-std::vector<std::string> ForceV1() {
-  return {kScn + "force-v1.toml", "--table", kPaper + "/table.bin", "--excitation",
-          kPaper + "/v1.csv"};
-}
+using mrd::test::ForceV1;
+using mrd::test::Hil;
+using mrd::test::HilResult;
 
 void ExpectClean(const HilResult& r) {
   EXPECT_EQ(r.j["invariant_violations"], 0);

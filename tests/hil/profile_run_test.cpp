@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "hil/hil_run.hpp"
 #include "support/process.hpp"
 
 namespace {
@@ -27,28 +28,9 @@ const std::string kPaper = MRD_PAPER_DIR;
 const std::string kTestDriver = kSource + "/tests/data/profiles/test-driver.toml";
 const std::string kPwmEnable = kSource + "/firmware/profiles/pwm-enable.toml";
 
-struct HilResult {
-  int status = -1;
-  json j;
-  std::string err;
-};
-
-HilResult Hil(std::vector<std::string> args) {
-  args.insert(args.begin(), {kBin + "/mrd-hil", "run"});
-  args.push_back("--json");
-  ChildProcess p(args);
-  HilResult r;
-  r.status = p.Wait(180.0);
-  r.err = p.Stderr();
-  r.j = json::parse(p.Stdout(), nullptr, false);
-  if (r.j.is_discarded()) r.j = json::object();
-  return r;
-}
-
-std::vector<std::string> ForceV1() {
-  return {kScn + "force-v1.toml", "--table", kPaper + "/table.bin", "--excitation",
-          kPaper + "/v1.csv"};
-}
+using mrd::test::ForceV1;
+using mrd::test::Hil;
+using mrd::test::HilResult;
 
 TEST(ProfileRunTest, TestDriverProfileTracksLikeTheNativeProtocolInLockstep) {
   const HilResult native = Hil(ForceV1());
