@@ -43,10 +43,11 @@ constexpr int kExitFailure = 1;
 constexpr int kExitBadInput = 2;
 
 // "TRANSPORT=ENDPOINT" -> a port; nullptr with *error.
-// can_profile: the CAN ports' device profile (nullptr: the built-in mrd-native).
+// can_profile: the CAN ports' device profile (nullptr: the built-in mrd-native); modbus_profile:
+// the Modbus ports' register map (nullptr: the built-in one).
 std::unique_ptr<mrd::hil::PlantPort> MakePort(
     const std::string& spec, std::shared_ptr<const mrd::profile::CanProfile> can_profile,
-    std::string* error) {
+    std::shared_ptr<const mrd::profile::ModbusProfile> modbus_profile, std::string* error) {
   const auto eq = spec.find('=');
   if (eq == std::string::npos || eq == 0 || eq + 1 == spec.size()) {
     *error = "--port '" + spec + "': expected TRANSPORT=ENDPOINT";
@@ -56,10 +57,13 @@ std::unique_ptr<mrd::hil::PlantPort> MakePort(
   std::unique_ptr<mrd::hil::PlantPort> port;
   if (transport == "can") {
     port = mrd::hil::MakeCanPort(endpoint, can_profile);
-  } else if (transport == "modbus-tcp") {
-    port = mrd::hil::MakeModbusTcpPort(endpoint);
-  } else if (transport == "modbus-rtu") {
-    port = mrd::hil::MakeModbusRtuPort(endpoint);
+  } else if (transport == "modbus-tcp" || transport == "modbus-rtu") {
+    const bool rtu = transport == "modbus-rtu";
+    if (modbus_profile != nullptr) {
+      port = mrd::hil::MakeModbusProfilePort(rtu, endpoint, modbus_profile);
+    } else {
+      port = rtu ? mrd::hil::MakeModbusRtuPort(endpoint) : mrd::hil::MakeModbusTcpPort(endpoint);
+    }
   } else if (transport == "gpio") {
     mrd::hil::GpioPortConfig gpio;
     if (!mrd::hil::ParseGpioEndpoint(endpoint, &gpio, error)) return nullptr;
@@ -322,8 +326,10 @@ int main(int argc, char** argv) {
                     "DriverStatus overcurrent bit) from START to END seconds");
   std::string serve_profile;
   serve->add_option("--profile", serve_profile,
-                    "CAN device profile (docs/devices.md) the can= ports speak: the harness "
-                    "plays the driver and sensors in its messages (default: mrd-native)");
+                    "device profile (docs/devices.md): a CAN profile for the can= ports (the "
+                    "harness plays the driver and sensors in its messages) or a Modbus profile "
+                    "for the modbus-tcp=/modbus-rtu= ports (the harness serves its map); "
+                    "default: the built-in protocols");
   serve->add_flag("--json", json, "print the summary as JSON");
 
   auto* run = app.add_subcommand(
@@ -421,7 +427,16 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, OnSignal);
   std::signal(SIGPIPE, SIG_IGN);
   std::shared_ptr<const mrd::profile::CanProfile> can_profile;
-  if (!serve_profile.empty()) {
+  std::shared_ptr<const mrd::profile::ModbusProfile> modbus_profile;
+  if (!serve_profile.empty() && mrd::profile::IsModbusProfileFile(serve_profile)) {
+    auto p = std::make_shared<mrd::profile::ModbusProfile>();
+    std::string error;
+    if (!mrd::profile::LoadModbusProfile(serve_profile, p.get(), &error)) {
+      std::fprintf(stderr, "error: --profile: %s\n", error.c_str());
+      return kExitBadInput;
+    }
+    modbus_profile = std::move(p);
+  } else if (!serve_profile.empty()) {
     auto p = std::make_shared<mrd::profile::CanProfile>();
     std::string error;
     if (!mrd::profile::LoadCanProfile(serve_profile, p.get(), &error)) {
@@ -434,7 +449,7 @@ int main(int argc, char** argv) {
   std::vector<mrd::hil::PlantPort*> raw;
   for (const auto& spec : port_specs) {
     std::string error;
-    auto p = MakePort(spec, can_profile, &error);
+    auto p = MakePort(spec, can_profile, modbus_profile, &error);
     if (p == nullptr) {
       std::fprintf(stderr, "error: %s\n", error.c_str());
       return kExitBadInput;

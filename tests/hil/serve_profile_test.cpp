@@ -57,6 +57,31 @@ TEST(ServeProfileTest, FirmwareAndHarnessCloseTheLoopInTheTestDriversMessages) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(ServeProfileTest, FirmwareAndHarnessCloseTheLoopOnTheModbusFloat32Map) {
+  const std::string dir = RunDir("modbus");
+  const std::string profile = kSource + "/firmware/profiles/modbus-float32.toml";
+  const int port = 20000 + static_cast<int>(getpid() % 20000) + 3;
+  const std::string config = dir + "/firmware.toml";
+  std::ofstream(config) << "[control]\nlaw = \"force\"\n[safety]\nmax_age_ms = 20\n\n[modbus]\n"
+                           "host = \"127.0.0.1\"\nport = " << port << "\nprofile = \"" << profile
+                        << "\"\ninputs = [\"velocity\", \"displacement\", \"demand\"]\n"
+                           "outputs = [\"command\", \"enable\", \"heartbeat\"]\n";
+  ChildProcess hil({kBin + "/mrd-hil", "serve", "--port",
+                    "modbus-tcp=127.0.0.1:" + std::to_string(port), "--profile", profile,
+                    "--duration", "4", "--json"});
+  ASSERT_TRUE(mrd::test::TcpReady(port, 10.0)) << hil.Stderr();
+  ChildProcess fw({kBin + "/mrd-firmware", "--config", config, "--duration", "3", "--json"});
+  ASSERT_EQ(fw.Wait(30.0), 0) << fw.Stdout() << fw.Stderr();
+  ASSERT_EQ(hil.Wait(30.0), 0) << hil.Stderr();
+  const json f = Parse(fw), h = Parse(hil);
+  ASSERT_TRUE(f.contains("devices") && h.contains("commands")) << f.dump() << h.dump();
+  // The firmware read the harness's float32 registers and the harness heard its set-point.
+  EXPECT_GT(h["commands"].get<long long>(), 500) << h.dump();
+  EXPECT_EQ(h["invariant_violations"], 0) << h.dump();
+  EXPECT_EQ(f["devices"]["modbus"]["rx_rejected"], 0) << f.dump();
+  std::filesystem::remove_all(dir);
+}
+
 TEST(ServeProfileTest, ABadProfileIsRefusedWithFileAndLine) {
   const std::string dir = RunDir("bad");
   const std::string bad = dir + "/bad.toml";
