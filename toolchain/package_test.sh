@@ -60,8 +60,9 @@ printf '[can]\ninterface = "can0"\ninputs = ["velocity", "demand"]\noutputs = ["
   >"$root/can0.toml"
 "${fw[@]}" --check-config "$root/can0.toml" >/dev/null || fail "configured config refused"
 rc=0; "${fw[@]}" --table "$demo" --config "$root/can0.toml" --duration 0.1 2>"$root/err" || rc=$?
-[ "$rc" = 2 ] && grep -q "demo table" "$root/err" ||
+if [ "$rc" != 2 ] || ! grep -q "demo table" "$root/err"; then
   fail "demo table not refused on can0 (exit $rc): $(cat "$root/err")"
+fi
 echo "demo table on can0: refused"
 
 # The user installs a table (here: the demo one, for the test) and it is checked.
