@@ -14,6 +14,8 @@ Loop::Loop(Clock& clock, SensorSource& source, CurrentDriver& driver, Controller
       period_ns_(period_ns) {}
 
 void Loop::Tick(std::int64_t now_ns) {
+  // A period boundary: pending parameter changes and reloads apply here.
+  if (hook_ != nullptr) hook_->BeforePeriod(controller_, now_ns);
   // Read inputs.
   frame_ = SensorFrame{};
   const IoStatus read = source_.Read(&frame_);
@@ -63,6 +65,26 @@ void Loop::Tick(std::int64_t now_ns) {
   }
   telemetry_.Write(stats_);
   driver_.PublishStatus(stats_);
+
+  // The period's record (timing filled in by Run).
+  record_.period = stats_.ticks - 1;
+  record_.t_ns = now_ns;
+  record_.latency_ns = 0;
+  record_.exec_ns = 0;
+  record_.frame = frame_;
+  record_.read = read;
+  record_.write = write;
+  record_.model_force = out.model_force;
+  record_.force_demand = out.force_demand;
+  // A failed command was followed by the safe voltage (above).
+  record_.command_v =
+      !out.safe && write == IoStatus::kFault ? controller_.config().safe_voltage : out.volts;
+  record_.force_law = out.force_law;
+  record_.reachable = out.reachable;
+  record_.safe = out.safe;
+  record_.causes = out.causes;
+  record_.param_version = hook_ != nullptr ? hook_->version() : 0;
+  if (observer_ != nullptr && !in_run_) observer_->OnPeriod(record_);
 }
 
 void Loop::Shutdown() {
@@ -84,9 +106,16 @@ void Loop::Run(const std::atomic<bool>& stop, std::int64_t duration_ns) {
     const std::int64_t wake = clock_.Now();
     const std::int64_t latency = wake - deadline;
     if (latency > stats_.worst_latency_ns) stats_.worst_latency_ns = latency;
+    in_run_ = true;
     Tick(wake);
+    in_run_ = false;
     const std::int64_t end = clock_.Now();
     stats_.last_exec_ns = end - wake;
+    if (observer_ != nullptr) {
+      record_.latency_ns = latency;
+      record_.exec_ns = stats_.last_exec_ns;
+      observer_->OnPeriod(record_);
+    }
     if (stats_.last_exec_ns > stats_.worst_exec_ns) stats_.worst_exec_ns = stats_.last_exec_ns;
     deadline += period_ns_;
     // A clock behind its deadline re-aligns on its own time (never with CLOCK_MONOTONIC,

@@ -11,6 +11,7 @@
 
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/io.hpp"
+#include "mrd/firmware/period_hooks.hpp"
 #include "mrd/firmware/telemetry.hpp"
 
 namespace mrd::firmware {
@@ -32,6 +33,9 @@ class Loop {
   void Shutdown();
 
   const TelemetrySnapshot& stats() const { return stats_; }
+  // Optional services (period_hooks.hpp); nullptr: none. Set before Run; they outlive the loop.
+  void SetHook(PeriodHook* hook) { hook_ = hook; }
+  void SetObserver(PeriodObserver* observer) { observer_ = observer; }
 
  private:
   Clock& clock_;
@@ -45,6 +49,10 @@ class Loop {
   bool driver_fault_ = false;
   SensorFrame frame_;
   TelemetrySnapshot stats_;
+  PeriodHook* hook_ = nullptr;
+  PeriodObserver* observer_ = nullptr;
+  PeriodRecord record_;
+  bool in_run_ = false;  // Run publishes the record after timing the period; a bare Tick at once
 };
 
 }  // namespace mrd::firmware
