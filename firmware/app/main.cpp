@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "check.hpp"
+#include "ctl_client.hpp"
 #include "mrd/common/input_file.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/builtin_table.hpp"
@@ -31,6 +32,8 @@
 #include "mrd/firmware/grant_clock.hpp"
 #include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/loop.hpp"
+#include "mrd/firmware/params_server.hpp"
+#include "mrd/firmware/runtime_params.hpp"
 #include "mrd/firmware/sd_notify.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
@@ -47,19 +50,27 @@ constexpr int kExitFailure = 1;
 constexpr int kExitBadInput = 2;
 
 std::atomic<bool> g_stop{false};
+std::atomic<bool> g_reload{false};  // SIGHUP: reload config and table (ReloadNow)
 
 extern "C" void OnSignal(int) { g_stop.store(true); }
+extern "C" void OnReload(int) { g_reload.store(true); }
 
-// Every terminating signal that can be caught stops the loop through its safe-state shutdown
-// (SIGKILL and SIGSTOP cannot be caught). Installed first thing in main.
+// Every other terminating signal that can be caught stops the loop through its safe-state
+// shutdown (SIGKILL and SIGSTOP cannot be caught); SIGHUP asks for a reload. Installed first
+// thing in main.
 void InstallStopHandlers() {
   struct sigaction sa {};
   sa.sa_handler = OnSignal;
   sigemptyset(&sa.sa_mask);
-  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM,
+  for (const int sig : {SIGINT, SIGTERM, SIGQUIT, SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM,
                         SIGVTALRM, SIGPROF, SIGXCPU, SIGXFSZ, SIGPWR, SIGSTKFLT}) {
     sigaction(sig, &sa, nullptr);
   }
+  struct sigaction hup {};
+  hup.sa_handler = OnReload;
+  sigemptyset(&hup.sa_mask);
+  hup.sa_flags = SA_RESTART;
+  sigaction(SIGHUP, &hup, nullptr);
 }
 
 // Longest dry run [s]: its duration in ns must fit std::int64_t (~292 years).
@@ -101,6 +112,7 @@ constexpr const char* kHelp =
     "  mrd-firmware --print-config-reference\n"
     "  mrd-firmware --check-config FILE.toml | --check-table FILE [--config F] [--rollback]\n"
     "  mrd-firmware --install-table NEW --to DEST [--config FILE.toml]\n"
+    "  mrd-firmware ctl [--socket PATH] list | get NAME | set NAME VALUE | save\n"
     "  mrd-firmware --help\n"
     "\n"
     "Options:\n"
@@ -120,19 +132,28 @@ constexpr const char* kHelp =
     "  --allow-demo-table  drive a real device (SocketCAN interface, GPIO chip, Modbus device)\n"
     "                      with the compiled-in demo table, a model of the reference damper,\n"
     "                      not of yours (refused without this flag)\n"
+    "  --ctl-socket PATH   serve the control socket there (mode 0600; overrides [ctl]): list,\n"
+    "                      read and change runtime parameters while the loop runs with\n"
+    "                      mrd-firmware ctl (docs/tuning.md); a path a live firmware serves\n"
+    "                      is refused, a stale socket file replaced\n"
     "  --print-config-reference  every config key with default, unit, range (Markdown)\n"
     "  --help              this text\n"
     "\n"
     "Real time: SCHED_FIFO and mlockall are requested when the config allows; without the\n"
     "privilege a warning is printed and the loop runs at normal priority.\n"
-    "SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE and the other catchable terminating signals stop\n"
-    "the loop and leave the driver in the safe state.\n"
+    "SIGINT, SIGTERM, SIGQUIT, SIGPIPE and the other catchable terminating signals stop the\n"
+    "loop and leave the driver in the safe state.\n"
+    "SIGHUP reloads the config and the table (the same paths): both are checked first (a bad\n"
+    "one, or a changed key that needs a restart, is refused with the reason on stderr and the\n"
+    "firmware keeps running on the old ones); otherwise a fresh controller takes over at a\n"
+    "period boundary (model state reset; counted as reloads in the summary).\n"
     "Exit status: 0 ok, 1 failure, 2 bad input (arguments, config, refused table).\n";
 
 struct Options {
   const char* table = nullptr;
   const char* config = nullptr;
   const char* write_table = nullptr;
+  const char* ctl_socket = nullptr;
   double dry_run_s = -1.0;
   double duration_s = -1.0;
   bool lockstep = false;
@@ -161,6 +182,8 @@ bool ParseArgs(int argc, char** argv, Options* o) {
       if (!value(&o->table)) return false;
     } else if (a == "--config") {
       if (!value(&o->config)) return false;
+    } else if (a == "--ctl-socket") {
+      if (!value(&o->ctl_socket)) return false;
     } else if (a == "--write-table") {
       if (!value(&o->write_table)) return false;
     } else if (a == "--dry-run") {
@@ -228,7 +251,8 @@ struct ClockInfo {
 
 void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareConfig& cfg,
                   const RealTime& rt, const char* table_name,
-                  const std::vector<std::unique_ptr<BusDevice>>& devices, const ClockInfo& ci) {
+                  const std::vector<std::unique_ptr<BusDevice>>& devices, const ClockInfo& ci,
+                  const RuntimeParams& params) {
   const bool buses = !devices.empty();
   const char* mode = buses ? "bus" : (o.lockstep ? "lockstep" : "realtime");
   const double seconds = buses ? static_cast<double>(s.ticks) * static_cast<double>(cfg.period_ns) * 1e-9
@@ -255,6 +279,8 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
     info.clock = ci.mode;
     info.grants = ci.grants;
     info.missed_grants = ci.missed;
+    info.param_changes = params.changes();
+    info.reloads = params.reloads();
     std::fputs(SummaryJson(s, info).c_str(), stdout);
     return;
   }
@@ -288,6 +314,9 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
               static_cast<unsigned long long>(s.envelope_excursions),
               static_cast<unsigned long long>(s.force_excursions));
   std::printf("  last command:     %.6g V, model force %.6g N\n", s.last_command_v, s.model_force_n);
+  std::printf("  parameters:       %llu changes, %llu reloads\n",
+              static_cast<unsigned long long>(params.changes()),
+              static_cast<unsigned long long>(params.reloads()));
   std::printf("  RMS errors:       model vs plant %.6g N, demand vs plant %.6g N\n", rms_model,
               rms_tracking);
   if (buses) {
@@ -305,7 +334,7 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
 // (<= 0: until g_stop). The calling thread reads the telemetry meanwhile.
 void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver& driver,
                  Controller& controller, Telemetry& telemetry, std::int64_t duration_ns,
-                 RealTime* rt, Clock* lockstep_clock = nullptr) {
+                 RealTime* rt, PeriodHook* hook, Clock* lockstep_clock = nullptr) {
   if (cfg.lock_memory) {
     if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
       rt->memory_locked = true;
@@ -318,6 +347,7 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
   MonotonicClock monotonic;
   Clock& clock = lockstep_clock != nullptr ? *lockstep_clock : monotonic;
   Loop loop(clock, source, driver, controller, telemetry, cfg.period_ns);
+  loop.SetHook(hook);
   std::atomic<bool> done{false};
   std::thread worker([&] {
     if (cfg.priority > 0) {
@@ -348,6 +378,63 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
   }
   notifier.Send("STOPPING=1");
   worker.join();
+}
+
+// The application's checks of a reload (as at start-up): "" or why it is refused.
+std::string ReloadCheck(const Options& o, std::uint32_t served, bool buses,
+                        const FirmwareConfig& /*next*/, const mrd::CoefficientTable& table,
+                        const Controller& controller) {
+  if (buses && controller.runtime().reads_displacement() &&
+      (served & Bit(Input::kDisplacement)) == 0) {
+    return "the model of the new table reads the displacement, but no bus serves input "
+           "'displacement'";
+  }
+  if (buses && !o.allow_demo_table && IsDemoTable(table)) {
+    return "the new table is the demo table, a model of the reference damper, not of yours "
+           "(start with --allow-demo-table to drive a device with it)";
+  }
+  return "";
+}
+
+// SIGHUP: reads the config and the table again from the paths the firmware started with and
+// hands them to the loop (RuntimeParams::Reload); says on stderr what happened. Runs on the
+// control thread, never the loop's.
+void ReloadNow(const Options& o, RuntimeParams& params, const RuntimeParams::ReloadCheck& check) {
+  const char* keep = "mrd-firmware: reload refused, still running on the old config and table:";
+  FirmwareConfig next;
+  std::string error;
+  if (o.config != nullptr && !LoadConfigFile(o.config, &next, &error)) {
+    std::fprintf(stderr, "%s %s\n", keep, error.c_str());
+    return;
+  }
+  if (o.ctl_socket != nullptr) {
+    next.ctl_socket = o.ctl_socket;
+    next.ctl_enable = true;
+  }
+  mrd::CoefficientTable table = kBuiltinTable;
+  if (o.table != nullptr) {
+    std::string reason;
+    const auto loaded = LoadTableFile(o.table, &reason);
+    if (!loaded.ok()) {
+      std::fprintf(stderr, "%s table %s %s: %s\n", keep, mrd::Printable(o.table).c_str(),
+                   loaded.error() == mrd::Error::kIo ? "cannot be read" : "refused",
+                   reason.c_str());
+      return;
+    }
+    table = loaded.value();
+  }
+  next.controller.e_max = next.e_max.value_or(table.e_max);
+  const RuntimeParams::Result r = params.Reload(next, table, check);
+  if (r.status != RuntimeParams::Status::kOk) {
+    std::fprintf(stderr, "%s %s\n", keep, r.message.c_str());
+    return;
+  }
+  std::fprintf(stderr, "mrd-firmware: reloaded config %s and table %s at period %llu "
+               "(parameter version %u, reload %llu; model state reset)\n",
+               o.config != nullptr ? mrd::Printable(o.config).c_str() : "(none)",
+               o.table != nullptr ? mrd::Printable(o.table).c_str() : "compiled-in",
+               static_cast<unsigned long long>(r.period), r.version,
+               static_cast<unsigned long long>(params.reloads()));
 }
 
 int Run(const Options& o) {
@@ -391,6 +478,10 @@ int Run(const Options& o) {
     }
   }
   cfg.controller.e_max = cfg.e_max.value_or(table.e_max);
+  if (o.ctl_socket != nullptr) {
+    cfg.ctl_socket = o.ctl_socket;
+    cfg.ctl_enable = true;
+  }
   Controller controller;
   const mrd::Error e = controller.Configure(table, cfg.controller);
   if (e != mrd::Error::kOk) {
@@ -441,6 +532,26 @@ int Run(const Options& o) {
 
   if (!buses && !CheckDryRun(o.dry_run_s, cfg.period_ns)) return kExitBadInput;
 
+  // Runtime parameters, the control socket and the SIGHUP reload watch (a thread of their
+  // own, off the loop's; docs/tuning.md).
+  RuntimeParams params(table, cfg);
+  ParamsServer server(params, o.config != nullptr ? o.config : "");
+  if (cfg.ctl_enable) {
+    const std::string path = !cfg.ctl_socket.empty() ? cfg.ctl_socket : DefaultCtlSocket();
+    const std::string why = server.Open(path);
+    if (!why.empty()) {
+      std::fprintf(stderr, "error: %s\n", why.c_str());
+      return kExitBadInput;
+    }
+  }
+  const RuntimeParams::ReloadCheck reload_check = [&o, served, buses](
+      const FirmwareConfig& next, const mrd::CoefficientTable& t, const Controller& c) {
+    return ReloadCheck(o, served, buses, next, t, c);
+  };
+  server.Start([&] {
+    if (g_reload.exchange(false)) ReloadNow(o, params, reload_check);
+  });
+
   Telemetry telemetry;
   RealTime rt;
   std::vector<std::unique_ptr<BusDevice>> devices;
@@ -476,7 +587,7 @@ int Run(const Options& o) {
         return kExitBadInput;
       }
       GrantClock clock(*grants, cfg.grant_timeout_ns, &g_stop);
-      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt, &clock);
+      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt, &params, &clock);
       clock_info = {"grant", clock.grants(), clock.gave_up() ? 1U : 0U};
       if (clock.gave_up()) {
         std::fprintf(stderr, "error: no time grant for %.6g s (clock = \"grant\"): the harness "
@@ -485,7 +596,7 @@ int Run(const Options& o) {
         grant_lost = true;
       }
     } else {
-      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt);
+      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt, &params);
     }
     for (auto& d : devices) d->Deactivate();
   } else if (o.lockstep) {
@@ -493,21 +604,27 @@ int Run(const Options& o) {
     LockstepClock clock;
     SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
     Loop loop(clock, plant, plant, controller, telemetry, cfg.period_ns);
+    loop.SetHook(&params);
     loop.Run(g_stop, duration_ns);
   } else {
     const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
     MonotonicClock clock;
     SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
-    RunRealTime(cfg, plant, plant, controller, telemetry, duration_ns, &rt);
+    RunRealTime(cfg, plant, plant, controller, telemetry, duration_ns, &rt, &params);
   }
+  params.LoopEnded();
+  server.Stop();
   const TelemetrySnapshot s = telemetry.Read();
-  PrintSummary(s, o, cfg, rt, table_name, devices, clock_info);
+  PrintSummary(s, o, params.config(), rt, table_name, devices, clock_info, params);
   return s.safe && !grant_lost ? kExitOk : kExitFailure;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc >= 2 && std::strcmp(argv[1], "ctl") == 0) {
+    return FinishOutput(mrd::firmware::RunCtl(argc - 1, argv + 1));
+  }
   if (const int status = RunMaintenance(argc, argv); status >= 0) return status;
   InstallStopHandlers();
   Options o;

@@ -73,6 +73,7 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
     }
     j["devices"] = devices;
     j["final_safe_state"] = s.safe;
+    j["parameters"] = {{"changes", info.param_changes}, {"reloads", info.reloads}};
     j["clock"] = {{"mode", info.clock}, {"grants", info.grants},
                   {"missed_grants", info.missed_grants}};
     // One key per line (the layout scripts and tests read), nested objects inline.

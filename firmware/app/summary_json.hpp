@@ -28,6 +28,8 @@ struct SummaryInfo {
   std::vector<Device> devices;
   const char* clock = "monotonic";  // bus mode: "monotonic" | "grant" (lockstep)
   std::uint64_t grants = 0;         // lockstep: time grants received
+  std::uint64_t param_changes = 0;  // runtime parameter changes applied (mrd-firmware ctl set)
+  std::uint64_t reloads = 0;        // reloads applied (SIGHUP)
   std::uint64_t missed_grants = 0;  // lockstep: 1 when no grant came within grant_timeout_ms (stopped)  // bus mode: per field device (empty in a dry run)
 };
 

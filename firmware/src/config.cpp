@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <sstream>
@@ -30,7 +31,21 @@ struct Key {
   std::string accepts;                // accepted values in words
   const char* unit;                   // "" when none
   const char* description;
+  const char* type = "";              // "float", "integer", "bool", "choice", "string", "list"
+  Tunable tunable = Tunable::kRestart;  // when a change takes effect (params.hpp)
 };
+
+// The key, marked as changeable while the loop runs (mrd-firmware ctl set, SIGHUP).
+Key Runtime(Key key) {
+  key.tunable = Tunable::kRuntime;
+  return key;
+}
+
+// The key, marked as changeable by a reload (SIGHUP; a fresh controller).
+Key Reload(Key key) {
+  key.tunable = Tunable::kReload;
+  return key;
+}
 
 std::string Show(double v) {
   std::ostringstream s;
@@ -51,7 +66,7 @@ Key Number(const char* name, double* out, double lo, double hi, const char* unit
     *out = *v;
     return true;
   };
-  return {name, set, [out] { return Show(*out); }, Range(lo, hi), unit, description};
+  return {name, set, [out] { return Show(*out); }, Range(lo, hi), unit, description, "float"};
 }
 
 template <typename Int>
@@ -66,7 +81,7 @@ Key Integer(const char* name, Int* out, std::int64_t lo, std::int64_t hi, const 
     return true;
   };
   return {name, set, [out] { return std::to_string(*out); }, range + " (integer)", unit,
-          description};
+          description, "integer"};
 }
 
 template <typename E>
@@ -90,7 +105,7 @@ Key Choice(const char* name, E* out, std::vector<std::pair<std::string, E>> choi
     }
     return std::string();
   };
-  return {name, set, show, names, "", description};
+  return {name, set, show, names, "", description, "choice"};
 }
 
 Key Bool(const char* name, bool* out, const char* description) {
@@ -101,7 +116,7 @@ Key Bool(const char* name, bool* out, const char* description) {
     return true;
   };
   return {name, set, [out] { return std::string(*out ? "true" : "false"); }, "true | false", "",
-          description};
+          description, "bool"};
 }
 
 // A string the firmware hands to the system (an interface, host or path): 1 ... max_len bytes,
@@ -142,7 +157,7 @@ Key Text(const char* name, std::string* out, std::size_t max_len, const char* li
     return true;
   };
   return {name, set, [out] { return out->empty() ? std::string("(none)") : "\"" + *out + "\""; },
-          accepts, "", description};
+          accepts, "", description, "string"};
 }
 
 // A duration given in a unit of unit_ns nanoseconds (1e3: us, 1e6: ms), kept in ns.
@@ -156,7 +171,7 @@ Key Duration(const char* name, std::int64_t* out_ns, double unit_ns, double lo, 
     return true;
   };
   return {name, set, [=] { return Show(static_cast<double>(*out_ns) / unit_ns); }, Range(lo, hi),
-          unit, description};
+          unit, description, "float"};
 }
 
 // A GPIO line offset; -1 (the default) is "not wired".
@@ -199,7 +214,7 @@ Key Names(const char* name, std::uint32_t* mask, std::vector<std::string> allowe
     }
     return "[" + list + "]";
   };
-  return {name, set, show, "a list of: " + names, "", description};
+  return {name, set, show, "a list of: " + names, "", description, "list"};
 }
 
 std::vector<std::string> InputNames(std::initializer_list<Input> inputs) {
@@ -220,6 +235,21 @@ constexpr std::size_t kMaxInterface = 15;
 constexpr std::size_t kMaxSocketPath = 107;
 constexpr std::size_t kMaxHost = 253;
 constexpr std::size_t kMaxPath = 4095;
+
+// [ctl] socket: a path; shown as its default when unset (the default depends on the
+// environment, so the reference names the rule).
+Key CtlSocket(std::string* out) {
+  Key key = Text("socket", out, kMaxSocketPath, "a UNIX socket path", "",
+                 "Path of the control socket (owner-only, mode 0600); setting it serves the "
+                 "socket. A stale socket file is replaced; one a live firmware serves is "
+                 "refused. Overridden by --ctl-socket.");
+  key.show = [out] {
+    return out->empty() ? std::string("($XDG_RUNTIME_DIR/mrd-firmware.sock, else "
+                                      "/run/mrd-firmware/ctl.sock)")
+                        : "\"" + *out + "\"";
+  };
+  return key;
+}
 
 // Values kept in other units than the config's while the table is in use.
 struct Scratch {
@@ -261,48 +291,52 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                  "wall time the harness is taken for gone and the firmware stops in the safe "
                  "state (exit 1, clock.missed_grants 1).")}},
       {"control",
-       {Choice("law", &k.law.mode,
+       {Runtime(Choice("law", &k.law.mode,
                {{"force", ControlMode::kForceTracking},
                 {"constant", ControlMode::kConstantVoltage},
                 {"skyhook-on-off", ControlMode::kSkyhookOnOff},
                 {"skyhook", ControlMode::kSkyhookContinuous}},
                "Control law: track a force demand through the inverted model, a constant "
-               "voltage, or skyhook (on-off or continuous)."),
-        e_max,
-        Number("constant_voltage", &k.law.constant_voltage, -1e3, 1e3, "V",
-               "Command of law = \"constant\" (passive-off 0, passive-on E_max)."),
-        Number("skyhook_gain", &k.law.skyhook_gain, 0.0, 1e6, "N s/cm",
-               "Gain of law = \"skyhook\"."),
-        Number("force_limit", &k.law.force_limit, 1e-9, 1e9, "N",
-               "Limit of the force demand's magnitude.")}},
+               "voltage, or skyhook (on-off or continuous).")),
+        Runtime(e_max),
+        Runtime(Number("constant_voltage", &k.law.constant_voltage, -1e3, 1e3, "V",
+                       "Command of law = \"constant\" (passive-off 0, passive-on E_max).")),
+        Runtime(Number("skyhook_gain", &k.law.skyhook_gain, 0.0, 1e6, "N s/cm",
+                       "Gain of law = \"skyhook\".")),
+        Runtime(Number("force_limit", &k.law.force_limit, 1e-9, 1e9, "N",
+                       "Limit of the force demand's magnitude."))}},
       {"velocity",
-       {Choice("source", &k.velocity_source,
-               {{"measured", VelocitySource::kMeasured},
-                {"displacement", VelocitySource::kDisplacement}},
-               "Velocity from the sensor, or differentiated from the displacement through a "
-               "low-pass."),
-        Number("cutoff_hz", &k.cutoff_hz, 1e-3, 1e5, "Hz",
-               "Cut-off of the displacement differentiator.")}},
+       {Reload(Choice("source", &k.velocity_source,
+                      {{"measured", VelocitySource::kMeasured},
+                       {"displacement", VelocitySource::kDisplacement}},
+                      "Velocity from the sensor, or differentiated from the displacement "
+                      "through a low-pass.")),
+        Runtime(Number("cutoff_hz", &k.cutoff_hz, 1e-3, 1e5, "Hz",
+                       "Cut-off of the displacement differentiator."))}},
       {"safety",
        {Number("safe_voltage", &k.safe_voltage, -1e3, 1e3, "V",
                "Command in the safe state; must lie in the table's range."),
         Number("max_age_ms", &x->max_age_ms, 1e-3, 1e4, "ms",
                "Sensor data older than this is stale (safe state)."),
-        Integer("recover_periods", &k.watchdog.recover_periods, 1, 1'000'000, "",
-                "Clean periods before leaving the safe state."),
-        Number("velocity_limit", &k.velocity_limit, 0.0, 1e6, "cm/s",
-               "|v| above this is implausible (safe state); 0 = no limit."),
-        Number("displacement_limit", &k.displacement_limit, 0.0, 1e6, "cm",
-               "|x| above this is implausible (safe state), whenever a displacement is "
-               "measured, whether the model and the velocity use it or not; 0 = no limit. "
-               "With bus sections, a limit needs a bus serving input 'displacement' (the dry "
-               "run's simulated damper always measures it).")}},
+        Runtime(Integer("recover_periods", &k.watchdog.recover_periods, 1, 1'000'000, "",
+                        "Clean periods before leaving the safe state.")),
+        Runtime(Number("velocity_limit", &k.velocity_limit, 0.0, 1e6, "cm/s",
+                       "|v| above this is implausible (safe state); 0 = no limit.")),
+        Runtime(Number("displacement_limit", &k.displacement_limit, 0.0, 1e6, "cm",
+                       "|x| above this is implausible (safe state), whenever a displacement is "
+                       "measured, whether the model and the velocity use it or not; 0 = no "
+                       "limit. With bus sections, a limit needs a bus serving input "
+                       "'displacement' (the dry run's simulated damper always measures it)."))}},
       {"envelope",
-       {Bool("hold", &k.envelope,
-             "Hold the model's v, x and fed-back force to the table's operating envelope "
-             "(table v2; counted as excursions); false = evaluate any input."),
-        Number("margin", &k.envelope_margin, 0.0, 100.0, "",
-               "Envelope widened on each side by this fraction of its range.")}},
+       {Runtime(Bool("hold", &k.envelope,
+                     "Hold the model's v, x and fed-back force to the table's operating "
+                     "envelope (table v2; counted as excursions); false = evaluate any input.")),
+        Runtime(Number("margin", &k.envelope_margin, 0.0, 100.0, "",
+                       "Envelope widened on each side by this fraction of its range."))}},
+      {"ctl",
+       {Bool("enable", &c->ctl_enable,
+             "Serve the control socket (mrd-firmware ctl; docs/tuning.md) at 'socket'."),
+        CtlSocket(&c->ctl_socket)}},
       {"simulation",
        {Number("amplitude_cm", &s.amplitude_cm, 0.0, 100.0, "cm",
                "Dry-run plant: displacement amplitude."),
@@ -735,6 +769,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   c->period_ns = static_cast<std::int64_t>(std::llround(x.period_us * 1e3));
   k.watchdog.max_age_ns = static_cast<std::int64_t>(std::llround(x.max_age_ms * 1e6));
   if (x.e_max_set) c->e_max = x.e_max;
+  if (!c->ctl_socket.empty()) c->ctl_enable = true;
   // Grants travel on CAN when there is a CAN bus, else on Modbus.
   c->io.can.lockstep = c->clock == LoopClock::kGrant;
   c->io.modbus.lockstep = c->clock == LoopClock::kGrant && !c->io.can.enabled;
@@ -764,10 +799,14 @@ std::string ConfigReference() {
         "bytes as `\\xNN` and cut at 400 characters). The file must be a regular file of at most\n"
         "1 MiB (a directory, FIFO or device is refused without reading it). `--check-config`\n"
         "refuses every value the start would refuse for its form (routing, lengths,\n"
-        "characters); an interface, host or device that is missing shows only at start.\n";
+        "characters); an interface, host or device that is missing shows only at start.\n\n"
+        "Column *set*: `runtime` keys can change while the firmware runs (`mrd-firmware ctl\n"
+        "set`, applied at a period boundary; docs/tuning.md) and on a reload (SIGHUP);\n"
+        "`reload` keys on a reload only; `restart` keys need a restart (a reload that changes\n"
+        "one is refused).\n";
     for (const auto& [section, keys] : KeyTable(&c, &x)) {
       out += "\n## [" + section + "]\n\n";
-      out += "| key | default | unit | accepts | meaning |\n|---|---|---|---|---|\n";
+      out += "| key | default | unit | accepts | set | meaning |\n|---|---|---|---|---|---|\n";
       for (const Key& key : keys) {
         const std::string def = key.show();
         std::string accepts;  // '|' would end the Markdown cell
@@ -775,13 +814,153 @@ std::string ConfigReference() {
         out += std::string("| `") + key.name + "` | " + (def.empty()       ? std::string("table's")
                                            : def[0] == '(' ? def.substr(1, def.size() - 2)
                                                            : "`" + def + "`") +
-               " | " + key.unit + " | " + accepts + " | " + key.description + " |\n";
+               " | " + key.unit + " | " + accepts + " | " + TunableName(key.tunable) + " | " +
+               key.description + " |\n";
       }
     }
     return out;
   } catch (const std::exception&) {
     return "";
   }
+}
+
+const char* TunableName(Tunable t) {
+  switch (t) {
+    case Tunable::kRestart: return "restart";
+    case Tunable::kReload: return "reload";
+    case Tunable::kRuntime: return "runtime";
+  }
+  return "restart";
+}
+
+std::string DefaultCtlSocket() {
+  const char* xdg = std::getenv("XDG_RUNTIME_DIR");
+  if (xdg != nullptr && xdg[0] == '/') return std::string(xdg) + "/mrd-firmware.sock";
+  return "/run/mrd-firmware/ctl.sock";
+}
+
+namespace {
+
+Scratch ScratchOf(const FirmwareConfig& c) {
+  return Scratch{static_cast<double>(c.period_ns) / 1e3,
+                 static_cast<double>(c.controller.watchdog.max_age_ns) / 1e6,
+                 c.controller.e_max};
+}
+
+}  // namespace
+
+std::vector<ParamInfo> ListParams(const FirmwareConfig& config) {
+  std::vector<ParamInfo> out;
+  try {
+    FirmwareConfig c = config;
+    Scratch x = ScratchOf(c);
+    for (const auto& [section, keys] : KeyTable(&c, &x)) {
+      for (const Key& key : keys) {
+        ParamInfo p;
+        p.name = section + "." + key.name;
+        p.value = p.name == "control.e_max" ? Show(c.controller.e_max) : key.show();
+        p.type = key.type;
+        p.unit = key.unit;
+        p.accepts = key.accepts;
+        p.tunable = key.tunable;
+        out.push_back(std::move(p));
+      }
+    }
+  } catch (const std::exception&) {  // std::bad_alloc: what was listed
+  }
+  return out;
+}
+
+bool SetParam(FirmwareConfig* config, std::string_view name, std::string_view value,
+              std::string* why) {
+  try {
+    FirmwareConfig c = *config;
+    Scratch x = ScratchOf(c);
+    const Sections sections = KeyTable(&c, &x);
+    const Key* key = nullptr;
+    for (const auto& [section, keys] : sections) {
+      for (const Key& k : keys) {
+        if (name == section + "." + k.name) key = &k;
+      }
+    }
+    const std::string shown = Printable(name);
+    if (key == nullptr) {
+      *why = "unknown parameter '" + shown + "' (mrd-firmware ctl list names them)";
+      return false;
+    }
+    if (key->tunable != Tunable::kRuntime) {
+      *why = shown + " is not tunable at runtime: " +
+             (key->tunable == Tunable::kReload ? "change it in the config file and reload (SIGHUP)"
+                                               : "it needs a restart");
+      return false;
+    }
+    // The value as TOML; a bare word (not TOML) as a string.
+    toml::table doc;
+    bool parsed = false;
+    if (value.find_first_of("\n\r") == std::string_view::npos) {
+      try {
+        doc = toml::parse("v = " + std::string(value));
+        parsed = doc.size() == 1;
+      } catch (const toml::parse_error&) {
+      }
+    }
+    if (!parsed) {
+      doc = toml::table{};
+      doc.insert_or_assign("v", std::string(value));
+    }
+    std::string reason;
+    if (!key->set(*doc.get("v"), &reason)) {
+      *why = shown + " = " + Printable(value) + ": " + Printable(reason);
+      return false;
+    }
+    if (x.e_max_set) {
+      c.e_max = x.e_max;
+      c.controller.e_max = x.e_max;
+    }
+    // The bus routing must still serve what the value needs (e.g. a law's inputs).
+    const toml::table none;
+    if (!CheckIo(none, "", c, &reason)) {
+      for (const char* prefix : {":0: ", ": "}) {
+        if (reason.rfind(prefix, 0) == 0) reason.erase(0, std::strlen(prefix));
+      }
+      *why = shown + " = " + Printable(value) + ": " + reason;
+      return false;
+    }
+    *config = c;
+    return true;
+  } catch (const std::exception& e) {  // std::bad_alloc
+    *why = e.what();
+    return false;
+  }
+}
+
+std::vector<std::string> RestartKeysChanged(const FirmwareConfig& running,
+                                            const FirmwareConfig& next) {
+  std::vector<std::string> out;
+  try {
+    FirmwareConfig a = running, b = next;
+    Scratch xa = ScratchOf(a), xb = ScratchOf(b);
+    const Sections ka = KeyTable(&a, &xa), kb = KeyTable(&b, &xb);
+    for (std::size_t s = 0; s < ka.size() && s < kb.size(); ++s) {
+      for (std::size_t i = 0; i < ka[s].second.size() && i < kb[s].second.size(); ++i) {
+        const Key& k = ka[s].second[i];
+        if (k.tunable == Tunable::kRestart && k.show() != kb[s].second[i].show()) {
+          out.push_back(ka[s].first + "." + k.name);
+        }
+      }
+    }
+    const std::pair<const char*, bool> buses[] = {
+        {"[can]", a.io.can.enabled != b.io.can.enabled},
+        {"[modbus]", a.io.modbus.enabled != b.io.modbus.enabled},
+        {"[gpio]", a.io.gpio.enabled != b.io.gpio.enabled},
+        {"[pwm]", a.io.pwm.enabled != b.io.pwm.enabled}};
+    for (const auto& [section, changed] : buses) {
+      if (changed) out.emplace_back(section);
+    }
+  } catch (const std::exception&) {
+    out.emplace_back("(out of memory comparing the configs)");
+  }
+  return out;
 }
 
 bool ParseConfig(std::string_view text, const std::string& source, FirmwareConfig* config,

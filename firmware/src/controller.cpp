@@ -47,6 +47,8 @@ Error Controller::Configure(const CoefficientTable& table, const ControllerConfi
   }
   if (!differentiator_.Configure(config.cutoff_hz)) return Error::kOutOfRange;
   config_ = config;
+  table_e_min_ = table.e_min;
+  table_e_max_ = table.e_max;
   e_min_ = static_cast<Real>(table.e_min);
   e_max_ = static_cast<Real>(config.e_max);
   safe_voltage_ = static_cast<Real>(config.safe_voltage);
@@ -55,6 +57,33 @@ Error Controller::Configure(const CoefficientTable& table, const ControllerConfi
   law_.Configure(config.law, table.e_min, config.e_max);
   watchdog_.Configure(config.watchdog);
   Reset();
+  return Error::kOk;
+}
+
+Error Controller::Retune(const ControllerConfig& config) {
+  if (config.velocity_source != config_.velocity_source ||
+      config.safe_voltage != config_.safe_voltage ||
+      config.watchdog.max_age_ns != config_.watchdog.max_age_ns) {
+    return Error::kInvalidArgument;
+  }
+  // Configure's checks, before anything changes.
+  if (!std::isfinite(config.e_max) || !(table_e_min_ < config.e_max) ||
+      config.e_max > table_e_max_ || !std::isfinite(config.envelope_margin) ||
+      config.envelope_margin < 0.0 || !(config.velocity_limit >= 0.0) ||
+      !(config.displacement_limit >= 0.0) || !config.law.IsValid(table_e_min_, config.e_max) ||
+      config.watchdog.recover_periods == 0 || !std::isfinite(config.cutoff_hz) ||
+      !(config.cutoff_hz > 0.0)) {
+    return Error::kOutOfRange;
+  }
+  (void)inverter_.SetRange(table_e_min_, config.e_max);
+  (void)runtime_.SetEnvelope(config.envelope, config.envelope_margin);
+  (void)differentiator_.SetCutoff(config.cutoff_hz);
+  config_ = config;
+  e_max_ = static_cast<Real>(config.e_max);
+  velocity_limit_ = static_cast<Real>(config.velocity_limit);
+  displacement_limit_ = static_cast<Real>(config.displacement_limit);
+  law_.Configure(config.law, table_e_min_, config.e_max);
+  watchdog_.Configure(config.watchdog);
   return Error::kOk;
 }
 

@@ -9,13 +9,29 @@ Loop::Loop(Clock& clock, SensorSource& source, CurrentDriver& driver, Controller
     : clock_(clock),
       source_(source),
       driver_(driver),
-      controller_(controller),
+      controller_(&controller),
       telemetry_(telemetry),
       period_ns_(period_ns) {}
 
 void Loop::Tick(std::int64_t now_ns) {
   // A period boundary: pending parameter changes and reloads apply here.
-  if (hook_ != nullptr) hook_->BeforePeriod(controller_, now_ns);
+  if (hook_ != nullptr) {
+    Controller* next = hook_->BeforePeriod(*controller_, stats_.ticks, now_ns);
+    if (next != nullptr && next != controller_) {
+      // A reload: the old controller's counters are carried into the totals.
+      base_model_resets_ += controller_->model_resets();
+      base_input_excursions_ += controller_->input_excursions();
+      base_force_excursions_ += controller_->force_excursions();
+      const WatchdogCounters& w = controller_->watchdog().counters();
+      for (std::size_t i = 0; i < kNumFaultCauses; ++i) {
+        base_watchdog_.active_periods[i] += w.active_periods[i];
+        base_watchdog_.trips[i] += w.trips[i];
+      }
+      base_watchdog_.safe_periods += w.safe_periods;
+      base_watchdog_.entries += w.entries;
+      controller_ = next;
+    }
+  }
   // Read inputs.
   frame_ = SensorFrame{};
   const IoStatus read = source_.Read(&frame_);
@@ -30,23 +46,29 @@ void Loop::Tick(std::int64_t now_ns) {
 
   // Update.
   const ControllerOutput out =
-      controller_.Update(frame_, read, driver_fault_, now_ns, static_cast<double>(clamped) * 1e-9);
+      controller_->Update(frame_, read, driver_fault_, now_ns, static_cast<double>(clamped) * 1e-9);
 
   // Write; a failed command falls back to the safe state at once.
   IoStatus write = out.safe ? driver_.EnterSafeState(out.volts) : driver_.Command(out.volts);
   if (write == IoStatus::kFault) {
     ++stats_.write_faults;
-    if (!out.safe) (void)driver_.EnterSafeState(controller_.config().safe_voltage);
+    if (!out.safe) (void)driver_.EnterSafeState(controller_->config().safe_voltage);
   }
   driver_fault_ = write == IoStatus::kFault;
 
   // Count and publish.
   ++stats_.ticks;
   if (out.force_law && !out.reachable) ++stats_.unreachable;
-  stats_.model_resets = controller_.model_resets();
-  stats_.envelope_excursions = controller_.input_excursions();
-  stats_.force_excursions = controller_.force_excursions();
-  stats_.watchdog = controller_.watchdog().counters();
+  stats_.model_resets = base_model_resets_ + controller_->model_resets();
+  stats_.envelope_excursions = base_input_excursions_ + controller_->input_excursions();
+  stats_.force_excursions = base_force_excursions_ + controller_->force_excursions();
+  stats_.watchdog = controller_->watchdog().counters();
+  for (std::size_t i = 0; i < kNumFaultCauses; ++i) {
+    stats_.watchdog.active_periods[i] += base_watchdog_.active_periods[i];
+    stats_.watchdog.trips[i] += base_watchdog_.trips[i];
+  }
+  stats_.watchdog.safe_periods += base_watchdog_.safe_periods;
+  stats_.watchdog.entries += base_watchdog_.entries;
   stats_.active_causes = out.causes;
   stats_.safe = out.safe;
   stats_.last_command_v = out.volts;
@@ -78,7 +100,7 @@ void Loop::Tick(std::int64_t now_ns) {
   record_.force_demand = out.force_demand;
   // A failed command was followed by the safe voltage (above).
   record_.command_v =
-      !out.safe && write == IoStatus::kFault ? controller_.config().safe_voltage : out.volts;
+      !out.safe && write == IoStatus::kFault ? controller_->config().safe_voltage : out.volts;
   record_.force_law = out.force_law;
   record_.reachable = out.reachable;
   record_.safe = out.safe;
@@ -88,11 +110,11 @@ void Loop::Tick(std::int64_t now_ns) {
 }
 
 void Loop::Shutdown() {
-  if (driver_.EnterSafeState(controller_.config().safe_voltage) == IoStatus::kFault) {
+  if (driver_.EnterSafeState(controller_->config().safe_voltage) == IoStatus::kFault) {
     ++stats_.write_faults;
   }
   stats_.safe = true;
-  stats_.last_command_v = controller_.config().safe_voltage;
+  stats_.last_command_v = controller_->config().safe_voltage;
   telemetry_.Write(stats_);
 }
 

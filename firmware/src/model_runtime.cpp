@@ -56,7 +56,6 @@ Error BasicModelRuntime<T>::Configure(const CoefficientTable& table) {
 template <class T>
 Error BasicModelRuntime<T>::SetEnvelope(bool use, double margin) {
   if (!std::isfinite(margin) || margin < 0.0) return Error::kOutOfRange;
-  ClearExcursions();
   envelope_ = use && table_.has_envelope;
   if (!envelope_) return Error::kOk;
   for (std::size_t c = 0; c < table_.model.num_channels; ++c) {

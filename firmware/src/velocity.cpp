@@ -6,10 +6,15 @@
 namespace mrd::firmware {
 
 bool DisplacementDifferentiator::Configure(double cutoff_hz) {
+  if (!SetCutoff(cutoff_hz)) return false;
+  Reset();
+  return true;
+}
+
+bool DisplacementDifferentiator::SetCutoff(double cutoff_hz) {
   if (!std::isfinite(cutoff_hz) || !(cutoff_hz > 0.0)) return false;
   cutoff_hz_ = cutoff_hz;
   minus_wc_ = static_cast<Real>(-2.0 * std::numbers::pi * cutoff_hz);
-  Reset();
   return true;
 }
 

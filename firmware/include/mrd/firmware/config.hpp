@@ -14,6 +14,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/io_config.hpp"
@@ -35,7 +36,42 @@ struct FirmwareConfig {
   ControllerConfig controller;
   SimulationConfig simulation;
   IoConfig io;  // [can], [modbus], [gpio], [pwm]; none: dry run on the simulated damper
+  bool ctl_enable = false;  // [ctl]: serve the control socket (params_server.hpp)
+  std::string ctl_socket;   // its path; "": DefaultCtlSocket()
 };
+
+// When a change of a key takes effect: at the next start only; on a reload (SIGHUP: a fresh
+// controller, model state reset); or while the loop runs (mrd-firmware ctl set, at a period
+// boundary, model state kept; also on a reload).
+enum class Tunable : std::uint8_t { kRestart = 0, kReload, kRuntime };
+const char* TunableName(Tunable t);  // "restart", "reload", "runtime"
+
+// One key of the table as a parameter, "section.key", its current value as TOML.
+struct ParamInfo {
+  std::string name;
+  std::string value;
+  std::string type;     // "float", "integer", "bool", "choice", "string", "list"
+  std::string unit;     // "" when none
+  std::string accepts;  // range or choices in words
+  Tunable tunable = Tunable::kRestart;
+};
+
+// Every key of the table with its value in config (e_max: the effective one). Not real-time.
+std::vector<ParamInfo> ListParams(const FirmwareConfig& config);
+// Sets the runtime-tunable key `name` ("section.key") from `value` (a TOML value; a bare word
+// is taken as a string) with the setter and range of ParseConfig, then the cross-checks
+// against the buses. False with *why (unknown name, wrong type, out of range, not tunable at
+// runtime, a bus that does not serve what the value needs); *config unchanged then.
+// Not real-time.
+bool SetParam(FirmwareConfig* config, std::string_view name, std::string_view value,
+              std::string* why);
+// Names of the keys that need a restart ("section.key", or "[section]" for a bus section
+// added or removed) whose values differ between the running and the next config.
+std::vector<std::string> RestartKeysChanged(const FirmwareConfig& running,
+                                            const FirmwareConfig& next);
+// The control socket's default path: $XDG_RUNTIME_DIR/mrd-firmware.sock, else
+// /run/mrd-firmware/ctl.sock.
+std::string DefaultCtlSocket();
 
 // Parses TOML text (source names it in messages). Unknown keys, wrong types and out-of-range
 // values are errors: returns false with *error = "SOURCE:LINE: reason" (source and reason

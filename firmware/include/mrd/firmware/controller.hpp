@@ -76,6 +76,12 @@ class Controller {
   // (channel the firmware does not provide), kNotInvertible, kOutOfRange (e_max or the safe
   // voltage outside the table's range, a bad law/watchdog/cut-off setting). Not real-time.
   Error Configure(const CoefficientTable& table, const ControllerConfig& config);
+  // Retunes a configured controller to `config` (law, E_max, limits, recovery, cut-off,
+  // envelope) keeping the model's history, the filter and the watchdog's state and counters.
+  // The same checks as Configure against the bound table; kOutOfRange (a value Configure would
+  // refuse) or kInvalidArgument (a key a retune cannot change: velocity source, safe voltage,
+  // sensor max age) change nothing. Real-time safe (a period boundary).
+  Error Retune(const ControllerConfig& config);
   // Clears model history, filter and watchdog. Real-time safe.
   void Reset();
   // One period. frame: latest sensor values; read_status: what Read returned; driver_fault:
@@ -100,6 +106,8 @@ class Controller {
   Watchdog watchdog_;
   DisplacementDifferentiator differentiator_;
   ControllerConfig config_;
+  double table_e_min_ = 0.0;  // the bound table's command range [V]
+  double table_e_max_ = 0.0;
   Real e_min_ = Real(0);  // config_ in Real
   Real e_max_ = Real(0);
   Real safe_voltage_ = Real(0);

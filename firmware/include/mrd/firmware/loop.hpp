@@ -33,6 +33,8 @@ class Loop {
   void Shutdown();
 
   const TelemetrySnapshot& stats() const { return stats_; }
+  // The controller running now (another one after a reload).
+  const Controller& controller() const { return *controller_; }
   // Optional services (period_hooks.hpp); nullptr: none. Set before Run; they outlive the loop.
   void SetHook(PeriodHook* hook) { hook_ = hook; }
   void SetObserver(PeriodObserver* observer) { observer_ = observer; }
@@ -41,7 +43,12 @@ class Loop {
   Clock& clock_;
   SensorSource& source_;
   CurrentDriver& driver_;
-  Controller& controller_;
+  Controller* controller_;  // a reload (PeriodHook) swaps it at a period boundary
+  // Counters of the controllers swapped out (a reload), so the totals run on.
+  std::uint64_t base_model_resets_ = 0;
+  std::uint64_t base_input_excursions_ = 0;
+  std::uint64_t base_force_excursions_ = 0;
+  WatchdogCounters base_watchdog_;
   Telemetry& telemetry_;
   std::int64_t period_ns_;
   std::int64_t last_tick_ns_ = 0;

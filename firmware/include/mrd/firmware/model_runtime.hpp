@@ -41,7 +41,8 @@ class BasicModelRuntime {
   Error Configure(const CoefficientTable& table);
   // Uses the table's envelope with margin (fraction of each channel's range, >= 0) when use is
   // true and the table has one; otherwise evaluates the inputs as they are. kOutOfRange for a
-  // negative or non-finite margin. Counters are cleared. Not real-time.
+  // negative or non-finite margin. The excursion counters are kept (ClearExcursions). Real-time
+  // safe (a retune at a period boundary).
   Error SetEnvelope(bool use, double margin);
   // Clears the history (all channels at normalised 0). Real-time safe.
   void Reset() { runner_.Reset(); }

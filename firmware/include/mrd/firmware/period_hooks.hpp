@@ -40,8 +40,12 @@ struct PeriodRecord {
 class PeriodHook {
  public:
   virtual ~PeriodHook() = default;
-  // Start of the period at now_ns: apply what is pending to the controller. Real-time safe.
-  virtual void BeforePeriod(Controller& controller, std::int64_t now_ns) = 0;
+  // Start of period `period` (tick number, from 0) at now_ns: applies what is pending to the
+  // controller. Returns the controller to run from this period on (a reload: a fresh one,
+  // prepared off the loop's thread, model state reset), or nullptr to keep `controller`.
+  // Real-time safe.
+  virtual Controller* BeforePeriod(Controller& controller, std::uint64_t period,
+                                   std::int64_t now_ns) = 0;
   // Applied changes so far (PeriodRecord::param_version).
   virtual std::uint32_t version() const = 0;
 };

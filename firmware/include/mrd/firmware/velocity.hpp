@@ -15,6 +15,8 @@ class DisplacementDifferentiator {
  public:
   // cutoff_hz > 0 (finite); returns false (unchanged) otherwise. Not real-time.
   bool Configure(double cutoff_hz);
+  // As Configure, keeping the filter's state (a retune while running). Real-time safe.
+  bool SetCutoff(double cutoff_hz);
   // Forgets the previous displacement. Real-time safe.
   void Reset() {
     primed_ = false;

@@ -1,0 +1,158 @@
+#include "mrd/firmware/runtime_params.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <thread>
+
+namespace mrd::firmware {
+namespace {
+
+std::string Num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+// Why Configure refused (the values it checks, in words).
+std::string ConfigureWhy(Error e, const CoefficientTable& table, const ControllerConfig& c) {
+  if (e == Error::kOutOfRange) {
+    return "out of range for the table: E_max " + Num(c.e_max) + " V and the safe voltage " +
+           Num(c.safe_voltage) + " V must lie in its [" + Num(table.e_min) + ", " +
+           Num(table.e_max) + "] V, a constant voltage in [E_min, E_max]";
+  }
+  return std::string("the table does not configure a controller: ") + ErrorName(e);
+}
+
+}  // namespace
+
+RuntimeParams::RuntimeParams(const CoefficientTable& table, const FirmwareConfig& config)
+    : table_(table), config_(config) {}
+
+std::vector<ParamInfo> RuntimeParams::List() const {
+  const std::lock_guard<std::mutex> lock(mu_);
+  return ListParams(config_);
+}
+
+FirmwareConfig RuntimeParams::config() const {
+  const std::lock_guard<std::mutex> lock(mu_);
+  return config_;
+}
+
+RuntimeParams::Result RuntimeParams::Set(std::string_view name, std::string_view value,
+                                         std::int64_t timeout_ms) {
+  const std::lock_guard<std::mutex> lock(mu_);
+  Result r;
+  FirmwareConfig next = config_;
+  if (!SetParam(&next, name, value, &r.message)) {
+    r.status = Status::kRefused;
+    return r;
+  }
+  // The same check as at start-up: a fresh controller on the running table.
+  auto probe = std::make_unique<Controller>();
+  if (const Error e = probe->Configure(table_, next.controller); e != Error::kOk) {
+    r.status = Status::kRefused;
+    r.message = std::string(name) + " = " + std::string(value) + ": " +
+                ConfigureWhy(e, table_, next.controller);
+    return r;
+  }
+  slot_config_ = next.controller;
+  slot_controller_ = nullptr;
+  r = PostAndWait(timeout_ms);
+  if (r.status == Status::kOk) config_ = next;
+  return r;
+}
+
+RuntimeParams::Result RuntimeParams::Reload(const FirmwareConfig& config,
+                                            const CoefficientTable& table,
+                                            const ReloadCheck& check, std::int64_t timeout_ms) {
+  const std::lock_guard<std::mutex> lock(mu_);
+  Result r;
+  r.status = Status::kRefused;
+  const std::vector<std::string> restart = RestartKeysChanged(config_, config);
+  if (!restart.empty()) {
+    r.message = "keys that need a restart changed:";
+    for (const std::string& k : restart) r.message += " " + k;
+    return r;
+  }
+  auto fresh = std::make_unique<Controller>();
+  if (const Error e = fresh->Configure(table, config.controller); e != Error::kOk) {
+    r.message = ConfigureWhy(e, table, config.controller);
+    return r;
+  }
+  if (check) {
+    r.message = check(config, table, *fresh);
+    if (!r.message.empty()) return r;
+  }
+  prepared_ = std::move(fresh);
+  slot_config_ = config.controller;
+  slot_controller_ = prepared_.get();
+  r = PostAndWait(timeout_ms);
+  if (r.status == Status::kOk) {
+    // The loop runs the fresh controller now; the one it left is no longer touched.
+    running_ = std::move(prepared_);
+    config_ = config;
+    table_ = table;
+  }
+  prepared_.reset();
+  return r;
+}
+
+RuntimeParams::Result RuntimeParams::PostAndWait(std::int64_t timeout_ms) {
+  Result r;
+  if (loop_ended_.load(std::memory_order_acquire)) {
+    r.status = Status::kFailed;
+    r.message = "the loop has stopped";
+    return r;
+  }
+  state_.store(kPending, std::memory_order_release);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+  for (;;) {
+    if (state_.load(std::memory_order_acquire) == kDone) break;
+    const bool ended = loop_ended_.load(std::memory_order_acquire);
+    if (ended || std::chrono::steady_clock::now() > deadline) {
+      int expected = kPending;
+      if (state_.compare_exchange_strong(expected, kIdle, std::memory_order_acq_rel)) {
+        r.status = Status::kFailed;
+        r.message = ended ? "the loop has stopped; nothing changed"
+                          : "no period ran within " + std::to_string(timeout_ms) +
+                                " ms (is the loop waiting for time grants?); nothing changed";
+        return r;
+      }
+      // The loop has taken it: it finishes within this period.
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  const bool ok = slot_ok_.load(std::memory_order_acquire);
+  r.period = slot_period_.load(std::memory_order_acquire);
+  r.version = version_.load(std::memory_order_acquire);
+  state_.store(kIdle, std::memory_order_release);
+  if (!ok) {
+    r.status = Status::kRefused;
+    r.message = "the controller refused the values; nothing changed";
+  }
+  return r;
+}
+
+Controller* RuntimeParams::BeforePeriod(Controller& controller, std::uint64_t period,
+                                        std::int64_t /*now_ns*/) {
+  if (state_.load(std::memory_order_acquire) != kPending) return nullptr;
+  int expected = kPending;
+  if (!state_.compare_exchange_strong(expected, kTaken, std::memory_order_acq_rel)) {
+    return nullptr;  // withdrawn meanwhile
+  }
+  Controller* next = slot_controller_;
+  bool ok = true;
+  if (next != nullptr) {
+    reloads_.fetch_add(1, std::memory_order_relaxed);
+  } else {
+    ok = controller.Retune(slot_config_) == Error::kOk;
+    if (ok) changes_.fetch_add(1, std::memory_order_relaxed);
+  }
+  if (ok) version_.fetch_add(1, std::memory_order_relaxed);
+  slot_ok_.store(ok, std::memory_order_relaxed);
+  slot_period_.store(period, std::memory_order_relaxed);
+  state_.store(kDone, std::memory_order_release);
+  return next;
+}
+
+}  // namespace mrd::firmware
