@@ -41,7 +41,34 @@ FirmwareConfig RuntimeParams::config() const {
 RuntimeParams::Result RuntimeParams::Set(std::string_view name, std::string_view value,
                                          std::int64_t timeout_ms) {
   const std::lock_guard<std::mutex> lock(mu_);
+  const Result r = PostSetLocked(name, value);
+  return r.status == Status::kOk ? WaitLocked(timeout_ms) : r;
+}
+
+RuntimeParams::Result RuntimeParams::PostSet(std::string_view name, std::string_view value) {
+  const std::lock_guard<std::mutex> lock(mu_);
+  return PostSetLocked(name, value);
+}
+
+RuntimeParams::Result RuntimeParams::PostReload(const FirmwareConfig& config,
+                                                const CoefficientTable& table,
+                                                const ReloadCheck& check) {
+  const std::lock_guard<std::mutex> lock(mu_);
+  return PostReloadLocked(config, table, check);
+}
+
+RuntimeParams::Result RuntimeParams::Finish(std::int64_t timeout_ms) {
+  const std::lock_guard<std::mutex> lock(mu_);
+  return WaitLocked(timeout_ms);
+}
+
+RuntimeParams::Result RuntimeParams::PostSetLocked(std::string_view name, std::string_view value) {
   Result r;
+  if (state_.load(std::memory_order_acquire) != kIdle) {
+    r.status = Status::kFailed;
+    r.message = "another change is pending";
+    return r;
+  }
   FirmwareConfig next = config_;
   if (!SetParam(&next, name, value, &r.message)) {
     r.status = Status::kRefused;
@@ -55,10 +82,16 @@ RuntimeParams::Result RuntimeParams::Set(std::string_view name, std::string_view
                 ConfigureWhy(e, table_, next.controller);
     return r;
   }
+  if (loop_ended_.load(std::memory_order_acquire)) {
+    r.status = Status::kFailed;
+    r.message = "the loop has stopped; nothing changed";
+    return r;
+  }
+  next_config_ = next;
+  next_table_ = table_;
   slot_config_ = next.controller;
   slot_controller_ = nullptr;
-  r = PostAndWait(timeout_ms);
-  if (r.status == Status::kOk) config_ = next;
+  state_.store(kPending, std::memory_order_release);
   return r;
 }
 
@@ -66,7 +99,19 @@ RuntimeParams::Result RuntimeParams::Reload(const FirmwareConfig& config,
                                             const CoefficientTable& table,
                                             const ReloadCheck& check, std::int64_t timeout_ms) {
   const std::lock_guard<std::mutex> lock(mu_);
+  const Result r = PostReloadLocked(config, table, check);
+  return r.status == Status::kOk ? WaitLocked(timeout_ms) : r;
+}
+
+RuntimeParams::Result RuntimeParams::PostReloadLocked(const FirmwareConfig& config,
+                                                      const CoefficientTable& table,
+                                                      const ReloadCheck& check) {
   Result r;
+  if (state_.load(std::memory_order_acquire) != kIdle) {
+    r.status = Status::kFailed;
+    r.message = "another change is pending";
+    return r;
+  }
   r.status = Status::kRefused;
   const std::vector<std::string> restart = RestartKeysChanged(config_, config);
   if (!restart.empty()) {
@@ -83,28 +128,28 @@ RuntimeParams::Result RuntimeParams::Reload(const FirmwareConfig& config,
     r.message = check(config, table, *fresh);
     if (!r.message.empty()) return r;
   }
+  if (loop_ended_.load(std::memory_order_acquire)) {
+    r.status = Status::kFailed;
+    r.message = "the loop has stopped; nothing changed";
+    return r;
+  }
   prepared_ = std::move(fresh);
+  next_config_ = config;
+  next_table_ = table;
   slot_config_ = config.controller;
   slot_controller_ = prepared_.get();
-  r = PostAndWait(timeout_ms);
-  if (r.status == Status::kOk) {
-    // The loop runs the fresh controller now; the one it left is no longer touched.
-    running_ = std::move(prepared_);
-    config_ = config;
-    table_ = table;
-  }
-  prepared_.reset();
+  state_.store(kPending, std::memory_order_release);
+  r.status = Status::kOk;
   return r;
 }
 
-RuntimeParams::Result RuntimeParams::PostAndWait(std::int64_t timeout_ms) {
+RuntimeParams::Result RuntimeParams::WaitLocked(std::int64_t timeout_ms) {
   Result r;
-  if (loop_ended_.load(std::memory_order_acquire)) {
+  if (state_.load(std::memory_order_acquire) == kIdle) {
     r.status = Status::kFailed;
-    r.message = "the loop has stopped";
+    r.message = "nothing pending";
     return r;
   }
-  state_.store(kPending, std::memory_order_release);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
   for (;;) {
     if (state_.load(std::memory_order_acquire) == kDone) break;
@@ -116,6 +161,7 @@ RuntimeParams::Result RuntimeParams::PostAndWait(std::int64_t timeout_ms) {
         r.message = ended ? "the loop has stopped; nothing changed"
                           : "no period ran within " + std::to_string(timeout_ms) +
                                 " ms (is the loop waiting for time grants?); nothing changed";
+        prepared_.reset();
         return r;
       }
       // The loop has taken it: it finishes within this period.
@@ -129,6 +175,14 @@ RuntimeParams::Result RuntimeParams::PostAndWait(std::int64_t timeout_ms) {
   if (!ok) {
     r.status = Status::kRefused;
     r.message = "the controller refused the values; nothing changed";
+    prepared_.reset();
+    return r;
+  }
+  config_ = next_config_;
+  table_ = next_table_;
+  if (prepared_ != nullptr) {
+    // A reload: the loop runs the fresh controller now and no longer touches the old one.
+    running_ = std::move(prepared_);
   }
   return r;
 }

@@ -10,9 +10,15 @@
 
 #include "fakes.hpp"
 #include "mrd/firmware/loop.hpp"
+#include "mrd/firmware/runtime_params.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "reference_models.hpp"
+// GCC 12 takes the counting operator delete's free() for a mismatch with the counting new
+// once a std::string or unique_ptr release (RuntimeParams) is inlined here: a false positive.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
 #include "support/alloc_counter.hpp"  // replaces the allocator of this executable
+#pragma GCC diagnostic pop
 #include "support/demo_model.hpp"
 
 namespace mrd::firmware {
@@ -109,6 +115,54 @@ TEST(NoAllocationTest, LockstepRunAllocatesNothing) {
   loop.Run(stop, 3'000'000'000);
   EXPECT_EQ(guard.count(), 0U);
   EXPECT_EQ(loop.stats().ticks, 3000U);
+}
+
+// A parameter change and a reload applied through the period hook (RuntimeParams): checked
+// and prepared before the guard, applied by the loop inside it.
+TEST(NoAllocationTest, ParameterChangeAndReloadAtAPeriodBoundaryAllocateNothing) {
+  LockstepClock clock;
+  SimulatedDamper plant(SpencerParams::Paper(), SimulationConfig{}, clock, kPeriod);
+  FirmwareConfig config;
+  config.controller.law.mode = ControlMode::kSkyhookContinuous;
+  config.controller.e_max = test::DemoDamperTable().e_max;
+  Controller controller;
+  ASSERT_EQ(controller.Configure(test::DemoDamperTable(), config.controller), Error::kOk);
+  Telemetry telemetry;
+  Loop loop(clock, plant, plant, controller, telemetry, kPeriod);
+  RuntimeParams params(test::DemoDamperTable(), config);
+  loop.SetHook(&params);
+  const auto ticks = [&](int n) {
+    for (int k = 0; k < n; ++k) {
+      clock.Advance(kPeriod);
+      loop.Tick(clock.Now());
+    }
+  };
+  ticks(100);
+  ASSERT_EQ(params.PostSet("control.skyhook_gain", "40").status, RuntimeParams::Status::kOk);
+  {
+    AllocationGuard guard;
+    ticks(100);
+    EXPECT_EQ(guard.count(), 0U);
+  }
+  RuntimeParams::Result r = params.Finish(1000);
+  ASSERT_EQ(r.status, RuntimeParams::Status::kOk) << r.message;
+  EXPECT_EQ(r.period, 100U);
+  EXPECT_EQ(loop.controller().config().law.skyhook_gain, 40.0);
+  FirmwareConfig next = params.config();
+  next.controller.law.mode = ControlMode::kForceTracking;
+  ASSERT_EQ(params.PostReload(next, test::DemoDamperTable(), nullptr).status,
+            RuntimeParams::Status::kOk);
+  {
+    AllocationGuard guard;
+    ticks(100);
+    EXPECT_EQ(guard.count(), 0U);
+  }
+  r = params.Finish(1000);
+  ASSERT_EQ(r.status, RuntimeParams::Status::kOk) << r.message;
+  EXPECT_EQ(r.period, 200U);
+  EXPECT_NE(&loop.controller(), &controller);
+  EXPECT_EQ(loop.controller().config().law.mode, ControlMode::kForceTracking);
+  EXPECT_EQ(params.version(), 2U);
 }
 
 }  // namespace

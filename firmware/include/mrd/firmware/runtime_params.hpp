@@ -58,6 +58,12 @@ class RuntimeParams : public PeriodHook {
   // the fresh controller runs from the next period on.
   Result Reload(const FirmwareConfig& config, const CoefficientTable& table,
                 const ReloadCheck& check, std::int64_t timeout_ms = 5000);
+  // Set and Reload in two steps, for a single thread that also ticks the loop (tests):
+  // PostSet / PostReload check and post (kOk: posted), Finish waits for the loop and commits.
+  Result PostSet(std::string_view name, std::string_view value);
+  Result PostReload(const FirmwareConfig& config, const CoefficientTable& table,
+                    const ReloadCheck& check);
+  Result Finish(std::int64_t timeout_ms);
   // The loop has ended: requests fail at once from now on (call after Loop::Run).
   void LoopEnded() { loop_ended_.store(true, std::memory_order_release); }
 
@@ -71,14 +77,20 @@ class RuntimeParams : public PeriodHook {
 
  private:
   enum State : int { kIdle = 0, kPending, kTaken, kDone };
-  // Posts the slot and waits; the slot holds the change. Caller holds mu_.
-  Result PostAndWait(std::int64_t timeout_ms);
+  // Caller holds mu_. PostSetLocked checks a change and posts it; ReloadLocked a reload;
+  // WaitLocked waits for the loop and commits next_* (or drops them).
+  Result PostSetLocked(std::string_view name, std::string_view value);
+  Result PostReloadLocked(const FirmwareConfig& config, const CoefficientTable& table,
+                          const ReloadCheck& check);
+  Result WaitLocked(std::int64_t timeout_ms);
 
   mutable std::mutex mu_;  // writers only; the loop never takes it
   CoefficientTable table_;
   FirmwareConfig config_;
   std::unique_ptr<Controller> running_;   // the running controller once a reload made it
   std::unique_ptr<Controller> prepared_;  // a reload's, until the loop has taken it
+  FirmwareConfig next_config_;            // what config_ becomes once applied
+  CoefficientTable next_table_;
   // The slot: written by the writer while idle, read by the loop while taken.
   ControllerConfig slot_config_;
   Controller* slot_controller_ = nullptr;  // non-null: a reload
