@@ -90,10 +90,12 @@ int RunAndSignal(int sig, const std::string& out) {
   return status;
 }
 
-// Defect 11: every catchable terminating signal ends in the safe-state shutdown.
+// Defect 11: every catchable terminating signal ends in the safe-state shutdown (SIGHUP is
+// a reload: below).
 TEST(FirmwareHardeningTest, EveryTerminatingSignalEndsInTheSafeState) {
   TempDir dir;
-  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM}) {
+  for (const int sig : {SIGINT, SIGTERM, SIGQUIT, SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM,
+                        SIGPROF, SIGXCPU, SIGXFSZ, SIGPWR}) {
     const std::string out = dir.File("out.json");
     const int status = RunAndSignal(sig, out);
     ASSERT_TRUE(WIFEXITED(status)) << "signal " << sig << " killed it (status " << status << ")";
@@ -102,6 +104,42 @@ TEST(FirmwareHardeningTest, EveryTerminatingSignalEndsInTheSafeState) {
     EXPECT_EQ(j["final_safe_state"], true) << "signal " << sig;
     EXPECT_LT(j["ticks"].get<long long>(), 30000) << "signal " << sig << " did not stop it";
   }
+}
+
+// SIGHUP reloads (config and table) and does not stop the loop; a later SIGTERM stops it in
+// the safe state with the reload counted.
+TEST(FirmwareHardeningTest, SighupReloadsAndKeepsRunning) {
+  TempDir dir;
+  const std::string out = dir.File("out.json"), err = dir.File("err.txt");
+  const std::string bin = Firmware();
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  char* argv[] = {const_cast<char*>(bin.c_str()), const_cast<char*>("--dry-run"),
+                  const_cast<char*>("30"), const_cast<char*>("--json"), nullptr};
+  pid_t pid = 0;
+  ASSERT_EQ(posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv, environ), 0);
+  posix_spawn_file_actions_destroy(&fa);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  kill(pid, SIGHUP);
+  // Upper bound only (the reload message comes within a few periods).
+  for (int i = 0; i < 2000 && Slurp(err).find("reloaded") == std::string::npos; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_NE(Slurp(err).find("mrd-firmware: reloaded config (none) and table compiled-in"),
+            std::string::npos)
+      << Slurp(err);
+  int status = 0;
+  EXPECT_EQ(waitpid(pid, &status, WNOHANG), 0) << "SIGHUP stopped the firmware";
+  kill(pid, SIGTERM);
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status)) << status;
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  const nlohmann::json j = nlohmann::json::parse(Slurp(out));
+  EXPECT_EQ(j["final_safe_state"], true);
+  EXPECT_EQ(j["parameters"]["reloads"], 1);
+  EXPECT_LT(j["ticks"].get<long long>(), 30000);
 }
 
 // Defect 11: a result that cannot be written is an error.

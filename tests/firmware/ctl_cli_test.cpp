@@ -1,0 +1,254 @@
+// mrd-firmware ctl and SIGHUP reloads end to end: a real-time dry-run firmware with a control
+// socket, driven by the ctl client (labels firmware, observe).
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+
+#include <chrono>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "host/test_util.hpp"
+#include "support/process.hpp"
+
+namespace mrd::test {
+namespace {
+
+std::string Firmware() { return Bin("mrd-firmware"); }
+
+std::string Ctl(const std::string& socket, const std::string& args) {
+  return Firmware() + " ctl --socket " + socket + " " + args;
+}
+
+std::string Slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Polls until pred holds (an upper bound so a broken firmware cannot hang the test).
+bool Eventually(const std::function<bool()>& pred, double limit_s = 20.0) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(limit_s);
+  while (!pred()) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+
+// A dry-run firmware in real time (30 s; stopped by the test) serving socket.
+struct Running {
+  Running(const std::vector<std::string>& extra, const std::string& socket)
+      : child([&] {
+          std::vector<std::string> argv{Firmware(), "--dry-run", "30", "--json",
+                                        "--ctl-socket", socket};
+          argv.insert(argv.end(), extra.begin(), extra.end());
+          return argv;
+        }()) {
+    ready = WaitForPath(socket, 20.0);
+  }
+  ChildProcess child;
+  bool ready = false;
+};
+
+TEST(CtlCliTest, ListGetSetSaveAndRefusals) {
+  TempDir dir;
+  const std::string cfg = dir.Write("fw.toml",
+                                    "# tuned by hand\n[loop]\nperiod_us = 1000\n[control]\n"
+                                    "law = \"skyhook\"  # the law\nskyhook_gain = 40.0\n");
+  const std::string sock = dir.File("ctl.sock");
+  Running fw({"--config", cfg}, sock);
+  ASSERT_TRUE(fw.ready) << fw.child.Stderr();
+  struct stat st {};
+  ASSERT_EQ(lstat(sock.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISSOCK(st.st_mode));
+  EXPECT_EQ(st.st_mode & 0777, 0600U);
+
+  CommandResult r = test::Run(Ctl(sock, "list"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("NAME"), std::string::npos) << r.output;
+  for (const char* row : {"control.skyhook_gain", "40.0", "N s/cm", "runtime", "[0.0, 1e+06]",
+                          "loop.period_us", "restart", "control.law", "\"skyhook\""}) {
+    EXPECT_NE(r.output.find(row), std::string::npos) << row << "\n" << r.output;
+  }
+  r = test::Run(Ctl(sock, "get control.skyhook_gain"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output, "control.skyhook_gain = 40.0 N s/cm (float, [0.0, 1e+06]; runtime)\n");
+
+  r = test::Run(Ctl(sock, "set control.skyhook_gain 55"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("control.skyhook_gain = 55.0: applied at period "), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("(parameter version 1)"), std::string::npos) << r.output;
+  EXPECT_EQ(test::Run(Ctl(sock, "get control.skyhook_gain")).output.find("control.skyhook_gain = 55.0 "), 0U);
+
+  struct Refusal {
+    const char* args;
+    const char* says;
+  };
+  const Refusal refusals[] = {
+      {"set control.skyhook_gain -5", "must be in [0.0, 1e+06]"},
+      {"set control.skyhook_gain abc", "must be a number"},
+      {"set control.nope 1", "unknown parameter 'control.nope'"},
+      {"get control.nope", "unknown parameter 'control.nope'"},
+      {"set loop.period_us 500", "not tunable at runtime"},
+      {"set control.e_max 9", "out of range for the table"},
+      {"set control.law fast", "must be one of"},
+      {"frobnicate", "usage"},
+      {"set control.skyhook_gain", "usage"},
+  };
+  for (const Refusal& f : refusals) {
+    r = test::Run(Ctl(sock, f.args));
+    EXPECT_EQ(r.status, 2) << f.args << ": " << r.output;
+    EXPECT_NE(r.output.find(f.says), std::string::npos) << f.args << ": " << r.output;
+  }
+  // Nothing changed.
+  EXPECT_EQ(test::Run(Ctl(sock, "get control.skyhook_gain")).output.find("control.skyhook_gain = 55.0 "), 0U);
+  EXPECT_NE(test::Run(Ctl(sock, "get control.e_max")).output.find("= 2.25 V"), std::string::npos);
+
+  r = test::Run(Ctl(sock, "set envelope.margin 0.25"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::Run(Ctl(sock, "save"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("saved " + cfg), std::string::npos) << r.output;
+  const std::string saved = Slurp(cfg);
+  EXPECT_EQ(saved,
+            "# tuned by hand\n[loop]\nperiod_us = 1000\n[control]\n"
+            "law = \"skyhook\"  # the law\nskyhook_gain = 55.0\n\n[envelope]\nmargin = 0.25\n");
+  r = test::Run(Firmware() + " --config " + cfg + " --dry-run 0.01 --lockstep --json");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("\"law\": \"skyhook\""), std::string::npos) << r.output;
+
+  // A second firmware on the same socket is refused; the first keeps it.
+  r = test::Run(Firmware() + " --dry-run 1 --ctl-socket " + sock);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("is in use by a running firmware"), std::string::npos) << r.output;
+  EXPECT_EQ(test::Run(Ctl(sock, "get control.skyhook_gain")).status, 0);
+
+  fw.child.Signal(SIGTERM);
+  ASSERT_EQ(fw.child.Wait(20.0), 0) << fw.child.Stderr();
+  const std::string out = fw.child.Stdout();
+  EXPECT_NE(out.find("\"parameters\": {\"changes\": 2, \"reloads\": 0}"), std::string::npos) << out;
+  EXPECT_NE(out.find("\"final_safe_state\": true"), std::string::npos) << out;
+  EXPECT_NE(access(sock.c_str(), F_OK), 0);  // removed at exit
+  r = test::Run(Ctl(sock, "list"));
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("no firmware at " + sock), std::string::npos) << r.output;
+}
+
+TEST(CtlCliTest, SaveWithoutAConfigFileIsRefused) {
+  TempDir dir;
+  const std::string sock = dir.File("ctl.sock");
+  Running fw({}, sock);
+  ASSERT_TRUE(fw.ready) << fw.child.Stderr();
+  const CommandResult r = test::Run(Ctl(sock, "save"));
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("started without --config"), std::string::npos) << r.output;
+  fw.child.Signal(SIGTERM);
+  EXPECT_EQ(fw.child.Wait(20.0), 0);
+}
+
+TEST(CtlCliTest, StaleSocketIsReplacedBadPathsAreRefused) {
+  TempDir dir;
+  // A socket file nobody serves (its firmware was killed).
+  const std::string sock = dir.File("ctl.sock");
+  {
+    const int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    sockaddr_un a{};
+    a.sun_family = AF_UNIX;
+    std::strncpy(a.sun_path, sock.c_str(), sizeof a.sun_path - 1);
+    ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    close(fd);
+  }
+  {
+    Running fw({}, sock);
+    ASSERT_TRUE(fw.ready);
+    ASSERT_TRUE(Eventually([&] { return test::Run(Ctl(sock, "get control.law")).status == 0; }))
+        << fw.child.Stderr();
+    fw.child.Signal(SIGTERM);
+    EXPECT_EQ(fw.child.Wait(20.0), 0);
+  }
+  // Not writable: the folder is a file. Not a socket: a file at the path. Too long.
+  const std::string file = dir.Write("plain.txt", "x");
+  struct Bad {
+    std::string path;
+    const char* says;
+  };
+  const Bad bad[] = {{file + "/ctl.sock", "cannot create it: Not a directory"},
+                     {file, "exists and is not a socket"},
+                     {dir.File(std::string(120, 'a')), "must be 1 to 107 bytes"}};
+  for (const Bad& b : bad) {
+    const CommandResult r = test::Run(Firmware() + " --dry-run 1 --lockstep --ctl-socket " + b.path);
+    EXPECT_EQ(r.status, 2) << b.path << ": " << r.output;
+    EXPECT_NE(r.output.find(b.says), std::string::npos) << r.output;
+  }
+  EXPECT_EQ(Slurp(file), "x");  // never replaced
+  // The config key does the same as the flag.
+  const std::string cfg = dir.Write("c.toml", "[ctl]\nsocket = \"" + file + "\"\n");
+  const CommandResult r = test::Run(Firmware() + " --config " + cfg + " --dry-run 1 --lockstep");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("exists and is not a socket"), std::string::npos) << r.output;
+}
+
+TEST(CtlCliTest, SighupWithABadTableKeepsTheOldOneAGoodOneSwitches) {
+  TempDir dir;
+  const std::string table = dir.File("t.bin");
+  ASSERT_EQ(test::Run(Firmware() + " --write-table " + table).status, 0);
+  const std::string good = Slurp(table);
+  const std::string cfg = dir.Write("fw.toml", "[control]\nlaw = \"skyhook\"\nskyhook_gain = 40.0\n");
+  const std::string sock = dir.File("ctl.sock");
+  Running fw({"--config", cfg, "--table", table}, sock);
+  ASSERT_TRUE(fw.ready) << fw.child.Stderr();
+
+  // A corrupt table: refused, the firmware runs on.
+  std::string bad = good;
+  bad[bad.size() / 2] = static_cast<char>(bad[bad.size() / 2] ^ 0x5a);
+  dir.Write("t.bin", bad);
+  dir.Write("fw.toml", "[control]\nlaw = \"skyhook\"\nskyhook_gain = 70.0\n");
+  fw.child.Signal(SIGHUP);
+  ASSERT_TRUE(Eventually([&] { return fw.child.Stderr().find("reload refused") != std::string::npos; }))
+      << fw.child.Stderr();
+  EXPECT_NE(fw.child.Stderr().find("still running on the old config and table: table " + table +
+                                   " refused: CRC mismatch"),
+            std::string::npos)
+      << fw.child.Stderr();
+  EXPECT_TRUE(fw.child.running());
+  CommandResult r = test::Run(Ctl(sock, "get control.skyhook_gain"));
+  EXPECT_EQ(r.status, 0);
+  EXPECT_NE(r.output.find("= 40.0 "), std::string::npos) << r.output;
+
+  // A key that needs a restart: refused, says which.
+  dir.Write("t.bin", good);
+  dir.Write("fw.toml", "[loop]\nperiod_us = 500\n[control]\nlaw = \"skyhook\"\n");
+  fw.child.Signal(SIGHUP);
+  ASSERT_TRUE(Eventually([&] {
+    return fw.child.Stderr().find("keys that need a restart changed: loop.period_us") !=
+           std::string::npos;
+  })) << fw.child.Stderr();
+
+  // A good table and config: switched at a period boundary, counted.
+  dir.Write("fw.toml", "[control]\nlaw = \"skyhook\"\nskyhook_gain = 70.0\n");
+  fw.child.Signal(SIGHUP);
+  ASSERT_TRUE(Eventually([&] { return fw.child.Stderr().find("reloaded config") != std::string::npos; }))
+      << fw.child.Stderr();
+  EXPECT_NE(fw.child.Stderr().find("(parameter version 1, reload 1; model state reset)"),
+            std::string::npos)
+      << fw.child.Stderr();
+  r = test::Run(Ctl(sock, "get control.skyhook_gain"));
+  EXPECT_NE(r.output.find("= 70.0 "), std::string::npos) << r.output;
+
+  fw.child.Signal(SIGTERM);
+  ASSERT_EQ(fw.child.Wait(20.0), 0) << fw.child.Stderr();
+  const std::string out = fw.child.Stdout();
+  EXPECT_NE(out.find("\"parameters\": {\"changes\": 0, \"reloads\": 1}"), std::string::npos) << out;
+  EXPECT_NE(out.find("\"final_safe_state\": true"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace mrd::test
