@@ -465,9 +465,17 @@ int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std
   RunPwm pwm;  // the profile's PWM output (none without [pwm])
   std::string pwm_sysfs;
   if (pwm_profile && !pwm.Open(can_profile->path, o.work_dir, &pwm_sysfs, error)) return 2;
-  const std::string config =
+  std::string config =
       FirmwareConfigText(s, o.transport, lockstep, endpoint, gpio_chip, can_profile.get(),
                          modbus_profile.get(), pwm_sysfs);
+  // The firmware's control socket in the run's folder (mrd-firmware ctl --socket
+  // WORK_DIR/ctl.sock; docs/tuning.md), when the path fits a UNIX socket address.
+  if (const std::string ctl = o.work_dir + "/ctl.sock";
+      ctl.size() <= 107 && std::none_of(ctl.begin(), ctl.end(), [](char ch) {
+        return ch == '"' || ch == '\\' || static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f;
+      })) {
+    config += "\n[ctl]\nsocket = \"" + ctl + "\"\n";
+  }
   r->config_path = o.work_dir + "/firmware.toml";
   std::ofstream(r->config_path) << config;
 
