@@ -17,6 +17,7 @@
 
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/io_config.hpp"
+#include "mrd/firmware/log_config.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 
 namespace mrd::firmware {
@@ -35,6 +36,7 @@ struct FirmwareConfig {
   ControllerConfig controller;
   SimulationConfig simulation;
   IoConfig io;  // [can], [modbus], [gpio], [pwm]; none: dry run on the simulated damper
+  LogConfig log;  // [log]: the per-period log (period_log.hpp)
 };
 
 // Parses TOML text (source names it in messages). Unknown keys, wrong types and out-of-range
