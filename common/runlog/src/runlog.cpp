@@ -131,17 +131,13 @@ std::string EncodeHeader(const Header& h) {
 void EncodeBlock(std::uint32_t sequence, std::uint64_t dropped, const std::uint8_t* records,
                  std::uint32_t count, std::uint32_t record_bytes, std::string* out) {
   const std::size_t payload = static_cast<std::size_t>(count) * record_bytes;
-  std::string head;
-  head.reserve(kBlockHeaderBytes);
-  AppendU32(&head, kBlockMagic);
-  AppendU32(&head, sequence);
-  AppendU32(&head, count);
-  AppendU32(&head, 0);  // CRC, below
-  AppendU64(&head, dropped);
-  std::uint32_t crc = Crc(head.data(), head.size());
-  crc = Crc(records, payload, crc);
-  for (int i = 0; i < 4; ++i) head[12 + i] = static_cast<char>((crc >> (8 * i)) & 0xFFU);
-  out->append(head);
+  std::uint8_t head[kBlockHeaderBytes] = {};  // no allocation: out's capacity may suffice
+  PutU32(head, kBlockMagic);
+  PutU32(head + 4, sequence);
+  PutU32(head + 8, count);
+  PutU64(head + 16, dropped);  // CRC (12..15) 0 while computed
+  PutU32(head + 12, Crc(records, payload, Crc(head, sizeof head)));
+  out->append(reinterpret_cast<const char*>(head), sizeof head);
   out->append(reinterpret_cast<const char*>(records), payload);
 }
 

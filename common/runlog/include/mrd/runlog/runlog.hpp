@@ -57,7 +57,8 @@ struct Header {
 // The header's bytes (CRC included). Names or units longer than 255 bytes, more than
 // kMaxFields fields or a source beyond 65535 bytes are cut (the writer's table has none).
 std::string EncodeHeader(const Header& header);
-// One block of count records (record_bytes each, packed) with its header.
+// Appends one block of count records (record_bytes each, packed) with its header to *out;
+// allocates nothing when out's capacity holds it.
 void EncodeBlock(std::uint32_t sequence, std::uint64_t dropped, const std::uint8_t* records,
                  std::uint32_t count, std::uint32_t record_bytes, std::string* out);
 
