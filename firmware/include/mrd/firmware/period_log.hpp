@@ -58,6 +58,10 @@ class PeriodLog final : public PeriodObserver {
   // Counters (after Stop: final).
   PeriodLogStats stats() const;
   const std::string& path() const { return config_.path; }
+  // Records in the ring not yet taken by the writer.
+  std::uint64_t backlog() const {
+    return head_.load(std::memory_order_acquire) - tail_.load(std::memory_order_acquire);
+  }
   std::uint32_t capacity() const { return static_cast<std::uint32_t>(mask_ + 1); }
 
   // Tests and benchmarks: a paused writer drains nothing (the ring fills up, then drops).
