@@ -8,6 +8,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "host/test_util.hpp"
 #include "mrd/runlog/runlog.hpp"
@@ -39,19 +40,34 @@ TEST(HilLogTest, RunWritesTheFirmwareLogOnTheTraceTimeBase) {
     EXPECT_EQ(runlog::Value(log, off, r, field("period")), static_cast<double>(r));
     by_time[static_cast<std::int64_t>(runlog::Value(log, off, r, field("t_ns")))] = r;
   }
-  // Every trace row (t [s]) has the firmware's period of that time.
+  // Every trace row (t [s]) has the firmware's period of that time, whose command is the row's
+  // command (as sent on mrd-native's wire: 1 mV resolution).
   std::ifstream trace(out + "/trace.csv");
   std::string line;
   std::getline(trace, line);
   ASSERT_EQ(line.rfind("t,", 0), 0U) << line;
-  std::uint64_t rows = 0, matched = 0;
+  std::size_t command_col = 0;
+  for (std::size_t at = 0; line.substr(at, line.find(',', at) - at) != "command"; ++command_col) {
+    at = line.find(',', at);
+    ASSERT_NE(at, std::string::npos) << "no command column: " << line;
+    ++at;
+  }
+  std::uint64_t rows = 0, matched = 0, same_command = 0;
   while (std::getline(trace, line)) {
     ++rows;
-    const double t = std::stod(line.substr(0, line.find(',')));
-    if (by_time.count(std::llround(t * 1e9)) != 0) ++matched;
+    std::vector<std::string> cells;
+    std::stringstream cells_in(line);
+    for (std::string c; std::getline(cells_in, c, ',');) cells.push_back(c);
+    ASSERT_GT(cells.size(), command_col) << line;
+    const auto it = by_time.find(std::llround(std::stod(cells[0]) * 1e9));
+    if (it == by_time.end()) continue;
+    ++matched;
+    const double fw = runlog::Value(log, off, it->second, field("command"));
+    if (std::fabs(fw - std::stod(cells[command_col])) <= 0.0005 + 1e-9) ++same_command;
   }
   EXPECT_GE(rows, 1999U);
   EXPECT_EQ(matched, rows);
+  EXPECT_EQ(same_command, rows);
   EXPECT_GE(log.num_records, rows);
 }
 
