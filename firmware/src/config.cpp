@@ -415,7 +415,8 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Integer("max_bytes", &lg.max_bytes, 65536, std::int64_t{1} << 40, "bytes",
                 "Size limit of one file; the next block goes to a new file (rotation)."),
         Integer("files", &lg.files, 1, 1000, "",
-                "Files kept, the current one included (1: the file restarts when full)."),
+                "Files kept, the current one included (1: the file restarts when full). A "
+                "non-empty log from an earlier start becomes PATH.1 (files > 1)."),
         Integer("ring_records", &lg.ring_records, 16, 1 << 22, "",
                 "Records the ring between the loop and the writer thread holds (rounded up "
                 "to a power of two; preallocated and locked); a full ring drops records "

@@ -1,6 +1,7 @@
 #include "mrd/firmware/period_log.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <bit>
@@ -119,6 +120,13 @@ void PeriodLog::Start(const LogConfig& config, std::int64_t period_ns, const std
   for (std::uint64_t i = 0; i < capacity; ++i) ring_[i].period = i;  // and written
   pending_.assign(static_cast<std::size_t>(config_.block_records) * record_bytes_, 0);
   block_.reserve(runlog::kBlockHeaderBytes + pending_.size());
+  // A log from an earlier start (a restart after a crash) is kept as PATH.1 (a regular file
+  // only: /dev/null or a FIFO stays where it is).
+  struct stat st {};
+  if (config_.files > 1 && ::stat(config_.path.c_str(), &st) == 0 && S_ISREG(st.st_mode) &&
+      st.st_size > 0 && !ShiftFiles()) {
+    return;
+  }
   if (!OpenFile()) return;
   writing_ = true;
   running_.store(true);
@@ -187,15 +195,9 @@ bool PeriodLog::WriteAll(const std::string& bytes) {
   return true;
 }
 
-// PATH.<files-2> -> PATH.<files-1>, ..., PATH -> PATH.1, then a new PATH (files = 1: the new
-// PATH replaces the old).
-bool PeriodLog::Rotate() {
-  if (::close(fd_) != 0) {
-    fd_ = -1;
-    Fail(std::string("close failed (") + std::strerror(errno) + ")");
-    return false;
-  }
-  fd_ = -1;
+// PATH.<files-2> -> PATH.<files-1>, ..., PATH -> PATH.1 (files = 1: nothing; the new PATH
+// replaces the old). false (and the log failed) when a rename fails.
+bool PeriodLog::ShiftFiles() {
   for (std::uint32_t k = config_.files - 1; k >= 1; --k) {
     const std::string from = k == 1 ? config_.path : config_.path + "." + std::to_string(k - 1);
     const std::string to = config_.path + "." + std::to_string(k);
@@ -204,6 +206,18 @@ bool PeriodLog::Rotate() {
       return false;
     }
   }
+  return true;
+}
+
+// The current file is full: shift the files, start a new PATH.
+bool PeriodLog::Rotate() {
+  if (::close(fd_) != 0) {
+    fd_ = -1;
+    Fail(std::string("close failed (") + std::strerror(errno) + ")");
+    return false;
+  }
+  fd_ = -1;
+  if (!ShiftFiles()) return false;
   ++file_index_;
   return OpenFile();
 }

@@ -342,6 +342,40 @@ TEST(PeriodLogTest, UnwritableDirectoryStopsTheLogAtStart) {
   EXPECT_NE(err.find("cannot create the file"), std::string::npos) << err;
 }
 
+TEST(PeriodLogTest, ARestartKeepsTheEarlierLogAsPathDotOne) {
+  test::TempDir dir;
+  LogConfig config;
+  config.path = dir.File("restart.mrdlog");
+  std::atomic<bool> stop{false};
+  {
+    LoggedLoop first(config);
+    first.loop.Run(stop, 300'000'000);
+    first.log.Stop();
+  }
+  {
+    LoggedLoop second(config);
+    second.loop.Run(stop, 200'000'000);
+    second.log.Stop();
+  }
+  runlog::Log older, newer;
+  std::string error;
+  ASSERT_TRUE(runlog::ReadLog(config.path + ".1", &older, &error)) << error;
+  ASSERT_TRUE(runlog::ReadLog(config.path, &newer, &error)) << error;
+  EXPECT_EQ(older.num_records, 300U);
+  EXPECT_EQ(newer.num_records, 200U);
+  // files = 1: the new log replaces the old one.
+  config.files = 1;
+  {
+    LoggedLoop third(config);
+    third.loop.Run(stop, 100'000'000);
+    third.log.Stop();
+  }
+  ASSERT_TRUE(runlog::ReadLog(config.path, &newer, &error)) << error;
+  EXPECT_EQ(newer.num_records, 100U);
+  ASSERT_TRUE(runlog::ReadLog(config.path + ".1", &older, &error)) << error;
+  EXPECT_EQ(older.num_records, 300U);  // untouched
+}
+
 TEST(PeriodLogTest, RotationKeepsFilesWithContinuedSequences) {
   test::TempDir dir;
   LogConfig config;

@@ -44,7 +44,8 @@ class PeriodLog final : public PeriodObserver {
   PeriodLog(const PeriodLog&) = delete;
   PeriodLog& operator=(const PeriodLog&) = delete;
 
-  // Allocates and touches the ring (so mlockall holds it resident), opens config.path and
+  // Allocates and touches the ring (so mlockall holds it resident), shifts a non-empty
+  // regular file at config.path from an earlier start to PATH.1 (files > 1), opens config.path and
   // writes the header (period_ns and source go into it), starts the writer thread. A file that
   // cannot be opened is a failed log (stats().failed, one line on stderr): the loop runs
   // without it (OnPeriod then only counts). Not real-time. Call once.
@@ -71,6 +72,7 @@ class PeriodLog final : public PeriodObserver {
   void WriterMain();
   void Fail(const std::string& why);       // writer thread: stop logging, say so once
   bool OpenFile();                          // writer thread (and Start): PATH + header
+  bool ShiftFiles();
   bool Rotate();
   bool WriteAll(const std::string& bytes);
   void WriteBlock();
