@@ -26,7 +26,8 @@ std::string FieldList(const runlog::Header& h) {
 
 std::uint64_t Raw(const runlog::Log& log, const std::vector<std::uint32_t>& off, std::uint64_t r,
                   std::size_t i) {
-  const std::uint8_t* p = log.records.data() + r * log.header.record_bytes() + off[i];
+  const std::uint8_t* p =
+      log.records.data() + static_cast<std::size_t>(r * log.header.record_bytes() + off[i]);
   const std::size_t n = runlog::TypeSize(log.header.fields[i].type);
   std::uint64_t v = 0;
   for (std::size_t k = n; k-- > 0;) v = (v << 8) | p[k];

@@ -259,7 +259,8 @@ bool DecodeLog(std::string_view bytes, Log* log, std::string* error) {
     std::uint8_t head[kBlockHeaderBytes];
     std::memcpy(head, b, sizeof head);
     std::memset(head + 12, 0, 4);
-    const std::uint32_t want = Crc(b + kBlockHeaderBytes, payload, Crc(head, sizeof head));
+    const std::uint32_t want =
+        Crc(b + kBlockHeaderBytes, static_cast<std::size_t>(payload), Crc(head, sizeof head));
     if (want != crc) {
       damaged(Damage::kCorrupt, "CRC mismatch");
       break;
@@ -271,7 +272,8 @@ bool DecodeLog(std::string_view bytes, Log* log, std::string* error) {
     }
     log->last_sequence = seq;
     log->dropped = dropped;
-    log->records.insert(log->records.end(), b + kBlockHeaderBytes, b + kBlockHeaderBytes + payload);
+    const auto n = static_cast<std::size_t>(payload);  // fits: within the file's bytes
+    log->records.insert(log->records.end(), b + kBlockHeaderBytes, b + kBlockHeaderBytes + n);
     log->num_records += count;
     ++log->blocks;
     ++index;
@@ -324,8 +326,8 @@ bool ReadLog(const std::string& path, Log* log, std::string* error, std::uint64_
 
 double Value(const Log& log, const std::vector<std::uint32_t>& offsets, std::uint64_t r,
              std::size_t i) {
-  const std::uint8_t* p =
-      log.records.data() + r * log.header.record_bytes() + offsets[i];
+  const std::uint8_t* p = log.records.data() +
+                          static_cast<std::size_t>(r * log.header.record_bytes() + offsets[i]);
   switch (log.header.fields[i].type) {
     case Type::kU8: return p[0];
     case Type::kU32: return static_cast<double>(Get(p, 4));
