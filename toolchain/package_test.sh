@@ -19,6 +19,7 @@ echo "package: $deb ($(dpkg-deb -f "$deb" Architecture), depends: $(dpkg-deb -f 
 contents="$(dpkg-deb -c "$deb")"
 for f in ./usr/bin/mrd-firmware ./etc/mrd/firmware.toml ./usr/share/mrd/demo-table.bin \
          ./usr/share/doc/mrd-firmware/devices.md ./usr/share/doc/mrd-firmware/firmware_config.md \
+         ./usr/share/doc/mrd-firmware/logging.md \
          ./lib/systemd/system/mrd-firmware.service; do
   grep -q " $f\$" <<<"$contents" || fail "package lacks $f"
 done
@@ -68,9 +69,11 @@ echo "demo table on can0: refused"
 # The user installs a table (here: the demo one, for the test) and it is checked.
 bash toolchain/deploy --root "$root" --table "$demo" >/dev/null
 "${fw[@]}" --check-table "$dest" --config "$cfg" >/dev/null || fail "installed table refused"
-out="$("${fw[@]}" --table "$dest" --config "$cfg" --dry-run 1 --lockstep --json)" ||
-  fail "dry run failed: $out"
+# The shipped config logs into /var/log/mrd: here into the test root instead (--log).
+out="$("${fw[@]}" --table "$dest" --config "$cfg" --dry-run 1 --lockstep --json \
+  --log "$root/periods.mrdlog")" || fail "dry run failed: $out"
 grep -q '"ticks": 1000,' <<<"$out" || fail "dry run did not run 1000 ticks: $out"
+grep -q '"records_written": 1000, "dropped": 0' <<<"$out" || fail "per-period log: $out"
 grep -q "\"safe_entries\": 0," <<<"$out" || fail "dry run entered the safe state: $out"
 grep -q "\"final_safe_state\": true" <<<"$out" || fail "driver not left in the safe state: $out"
 echo "dry run: 1000 ticks at 1 kHz, installed table and config"
@@ -103,7 +106,8 @@ printf '\x5a' | dd of="$dest" bs=1 seek=64 conv=notrunc status=none
 grep -q "rolled back" "$root/err" || fail "rollback not reported"
 [ "$(sha256sum <"$dest")" = "$before" ] || fail "rollback did not restore the previous table"
 [ -e "$dest.refused" ] || fail "refused table not kept"
-"${fw[@]}" --table "$dest" --config "$cfg" --dry-run 0.2 --lockstep >/dev/null ||
+"${fw[@]}" --table "$dest" --config "$cfg" --dry-run 0.2 --lockstep \
+  --log "$root/periods.mrdlog" >/dev/null ||
   fail "dry run after rollback failed"
 echo "forced rollback: damaged table refused at start, previous table restored, dry run ok"
 echo "package_test: ok"

@@ -34,6 +34,7 @@
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/params_server.hpp"
 #include "mrd/firmware/runtime_params.hpp"
+#include "mrd/firmware/period_log.hpp"
 #include "mrd/firmware/sd_notify.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
@@ -106,8 +107,9 @@ constexpr const char* kHelp =
     "mrd-firmware: MR damper controller (polynomial NARX model + analytic voltage inversion).\n"
     "\n"
     "Usage:\n"
-    "  mrd-firmware [--table FILE] --config FILE.toml [--duration SECONDS] [--json]\n"
-    "  mrd-firmware [--table FILE] [--config FILE.toml] --dry-run SECONDS [--lockstep] [--json]\n"
+    "  mrd-firmware [--table FILE] --config FILE.toml [--duration SECONDS] [--log FILE] [--json]\n"
+    "  mrd-firmware [--table FILE] [--config FILE.toml] --dry-run SECONDS [--lockstep]\n"
+    "               [--log FILE] [--json]\n"
     "  mrd-firmware [--table FILE] --write-table OUT.bin\n"
     "  mrd-firmware --print-config-reference\n"
     "  mrd-firmware --check-config FILE.toml | --check-table FILE [--config F] [--rollback]\n"
@@ -128,6 +130,9 @@ constexpr const char* kHelp =
     "                      Spencer damper, then print the counters\n"
     "  --lockstep          dry run in simulated time (no sleeping; deterministic, fast)\n"
     "  --json              print the counters as JSON\n"
+    "  --log FILE          write the per-period log to FILE (docs/logging.md; read it with\n"
+    "                      `mrd log info FILE`); overrides [log] path; default: [log] path,\n"
+    "                      else no log\n"
     "  --write-table OUT   write the table image (e.g. the compiled-in one) and exit\n"
     "  --allow-demo-table  drive a real device (SocketCAN interface, GPIO chip, Modbus device)\n"
     "                      with the compiled-in demo table, a model of the reference damper,\n"
@@ -154,6 +159,7 @@ struct Options {
   const char* config = nullptr;
   const char* write_table = nullptr;
   const char* ctl_socket = nullptr;
+  const char* log = nullptr;
   double dry_run_s = -1.0;
   double duration_s = -1.0;
   bool lockstep = false;
@@ -184,6 +190,12 @@ bool ParseArgs(int argc, char** argv, Options* o) {
       if (!value(&o->config)) return false;
     } else if (a == "--ctl-socket") {
       if (!value(&o->ctl_socket)) return false;
+    } else if (a == "--log") {
+      if (!value(&o->log)) return false;
+      if (*o->log == '\0') {
+        std::fprintf(stderr, "error: --log needs a file name\n");
+        return false;
+      }
     } else if (a == "--write-table") {
       if (!value(&o->write_table)) return false;
     } else if (a == "--dry-run") {
@@ -252,7 +264,7 @@ struct ClockInfo {
 void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareConfig& cfg,
                   const RealTime& rt, const char* table_name,
                   const std::vector<std::unique_ptr<BusDevice>>& devices, const ClockInfo& ci,
-                  const RuntimeParams& params) {
+                  const RuntimeParams& params, const PeriodLogStats* log) {
   const bool buses = !devices.empty();
   const char* mode = buses ? "bus" : (o.lockstep ? "lockstep" : "realtime");
   const double seconds = buses ? static_cast<double>(s.ticks) * static_cast<double>(cfg.period_ns) * 1e-9
@@ -281,6 +293,8 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
     info.missed_grants = ci.missed;
     info.param_changes = params.changes();
     info.reloads = params.reloads();
+    info.log = log;
+    info.log_path = cfg.log.path.c_str();
     std::fputs(SummaryJson(s, info).c_str(), stdout);
     return;
   }
@@ -326,6 +340,16 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
     std::printf("  devices:\n");
   }
   PrintDevices(devices);
+  if (log != nullptr) {
+    const auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
+    std::printf("  log:              %s: %llu records written (%llu blocks, %u file%s), %llu "
+                "dropped", cfg.log.path.c_str(), u(log->written), u(log->blocks), log->files,
+                log->files == 1 ? "" : "s", u(log->dropped));
+    if (log->failed) {
+      std::printf("; STOPPED: %s (%llu records not written)", log->error.c_str(), u(log->lost));
+    }
+    std::printf("\n");
+  }
   std::printf("  final state:      %s\n", s.safe ? "safe" : "NOT SAFE");
 }
 
@@ -334,7 +358,8 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
 // (<= 0: until g_stop). The calling thread reads the telemetry meanwhile.
 void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver& driver,
                  Controller& controller, Telemetry& telemetry, std::int64_t duration_ns,
-                 RealTime* rt, PeriodHook* hook, Clock* lockstep_clock = nullptr) {
+                 RealTime* rt, PeriodHook* hook, PeriodObserver* observer,
+                 Clock* lockstep_clock = nullptr) {
   if (cfg.lock_memory) {
     if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
       rt->memory_locked = true;
@@ -348,6 +373,7 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
   Clock& clock = lockstep_clock != nullptr ? *lockstep_clock : monotonic;
   Loop loop(clock, source, driver, controller, telemetry, cfg.period_ns);
   loop.SetHook(hook);
+  loop.SetObserver(observer);
   std::atomic<bool> done{false};
   std::thread worker([&] {
     if (cfg.priority > 0) {
@@ -532,6 +558,19 @@ int Run(const Options& o) {
 
   if (!buses && !CheckDryRun(o.dry_run_s, cfg.period_ns)) return kExitBadInput;
 
+  if (o.log != nullptr) {
+    cfg.log.path = o.log;
+    cfg.log.enabled = true;
+  }
+  // The per-period log: started (ring allocated before mlockall) just before the loop runs.
+  PeriodLog period_log;
+  PeriodObserver* observer = nullptr;
+  const auto start_log = [&](const char* mode) {
+    if (!cfg.log.enabled || cfg.log.path.empty()) return;
+    period_log.Start(cfg.log, cfg.period_ns,
+                     std::string("mrd-firmware ") + mode + ", table " + table_name);
+    observer = &period_log;
+  };
   // Runtime parameters, the control socket and the SIGHUP reload watch (a thread of their
   // own, off the loop's; docs/tuning.md).
   RuntimeParams params(table, cfg);
@@ -587,7 +626,9 @@ int Run(const Options& o) {
         return kExitBadInput;
       }
       GrantClock clock(*grants, cfg.grant_timeout_ns, &g_stop);
-      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt, &params, &clock);
+      start_log("bus run, clock grant");
+      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt, &params, observer,
+                  &clock);
       clock_info = {"grant", clock.grants(), clock.gave_up() ? 1U : 0U};
       if (clock.gave_up()) {
         std::fprintf(stderr, "error: no time grant for %.6g s (clock = \"grant\"): the harness "
@@ -596,7 +637,8 @@ int Run(const Options& o) {
         grant_lost = true;
       }
     } else {
-      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt, &params);
+      start_log("bus run, clock monotonic");
+      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt, &params, observer);
     }
     for (auto& d : devices) d->Deactivate();
   } else if (o.lockstep) {
@@ -605,17 +647,23 @@ int Run(const Options& o) {
     SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
     Loop loop(clock, plant, plant, controller, telemetry, cfg.period_ns);
     loop.SetHook(&params);
+    start_log("dry run, lockstep");
+    loop.SetObserver(observer);
     loop.Run(g_stop, duration_ns);
   } else {
     const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
     MonotonicClock clock;
     SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
-    RunRealTime(cfg, plant, plant, controller, telemetry, duration_ns, &rt, &params);
+    start_log("dry run, real time");
+    RunRealTime(cfg, plant, plant, controller, telemetry, duration_ns, &rt, &params, observer);
   }
   params.LoopEnded();
   server.Stop();
+  period_log.Stop();
+  const PeriodLogStats log_stats = period_log.stats();
   const TelemetrySnapshot s = telemetry.Read();
-  PrintSummary(s, o, params.config(), rt, table_name, devices, clock_info, params);
+  PrintSummary(s, o, params.config(), rt, table_name, devices, clock_info, params,
+               observer != nullptr ? &log_stats : nullptr);
   return s.safe && !grant_lost ? kExitOk : kExitFailure;
 }
 

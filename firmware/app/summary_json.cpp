@@ -76,6 +76,16 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
     j["parameters"] = {{"changes", info.param_changes}, {"reloads", info.reloads}};
     j["clock"] = {{"mode", info.clock}, {"grants", info.grants},
                   {"missed_grants", info.missed_grants}};
+    if (info.log != nullptr) {
+      const PeriodLogStats& l = *info.log;
+      j["log"] = {{"path", info.log_path},   {"records_written", l.written},
+                  {"dropped", l.dropped},     {"lost", l.lost},
+                  {"blocks", l.blocks},      {"bytes", l.bytes},
+                  {"files", l.files},        {"stopped", l.failed},
+                  {"error", l.error}};
+    } else {
+      j["log"] = nullptr;
+    }
     // One key per line (the layout scripts and tests read), nested objects inline.
     std::string out = "{\n";
     for (auto it = j.begin(); it != j.end(); ++it) {

@@ -4,6 +4,7 @@
 #include <toml++/toml.h>
 
 #include "mrd/common/input_file.hpp"
+#include "mrd/firmware/period_log.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "mrd/profile/pwm_profile.hpp"
@@ -266,6 +267,7 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
   ControllerConfig& k = c->controller;
   SimulationConfig& s = c->simulation;
   IoConfig& io = c->io;
+  LogConfig& lg = c->log;
   Key e_max = Number("e_max", &x->e_max, 0.0, 1e3, "V",
                      "Highest command; must lie in the table's range. Default: the table's "
                      "E_max.");
@@ -437,6 +439,29 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Text("profile", &io.pwm.profile, kMaxPath, "PATH_MAX", "",
              "Device profile with the [pwm] section (period, polarity, duty range) and the "
              "[command] map, relative to this file; default: the [can] section's profile.")}},
+      {"log",
+       {Bool("enabled", &lg.enabled,
+             "Write the per-period log (docs/logging.md) when a path is given (here or "
+             "--log FILE); false = no log even with a path."),
+        Text("path", &lg.path, kMaxPath, "PATH_MAX", "",
+             "The log file, relative to this file; rotated files are PATH.1, PATH.2, ... "
+             "(newest first). Default: none, no log (mrd-firmware --log FILE sets it)."),
+        Integer("max_bytes", &lg.max_bytes, 65536, std::int64_t{1} << 40, "bytes",
+                "Size limit of one file; the next block goes to a new file (rotation)."),
+        Integer("files", &lg.files, 1, 1000, "",
+                "Files kept, the current one included (1: the file restarts when full). A "
+                "non-empty log from an earlier start becomes PATH.1 (files > 1)."),
+        Integer("ring_records", &lg.ring_records, 16, 1 << 22, "",
+                "Records the ring between the loop and the writer thread holds (rounded up "
+                "to a power of two; preallocated and locked); a full ring drops records "
+                "(counted)."),
+        Integer("block_records", &lg.block_records, 1, 65536, "",
+                "Records per block (each block has its CRC; a power cut loses at most the "
+                "block being written)."),
+        Duration("flush_ms", &lg.flush_ns, 1e6, 1.0, 60000.0, "ms",
+                 "A partial block is written after this long (bounds what a crash loses)."),
+        Bool("sync", &lg.sync,
+             "fdatasync after every block (survives a power cut; more writes to flash).")}},
   };
 }
 
@@ -766,6 +791,21 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   if (c->io.can.enabled && !LoadCanProfileOf(root, source, c, error)) return false;
   if (c->io.modbus.enabled && !LoadModbusProfileOf(root, source, c, error)) return false;
   if (c->io.pwm.enabled && !LoadPwmProfileOf(root, source, c, error)) return false;
+  if (!c->log.path.empty() && c->log.path[0] != '/') {  // relative to the config file
+    const auto slash = source.rfind('/');
+    if (slash != std::string::npos) c->log.path = source.substr(0, slash) + "/" + c->log.path;
+  }
+  runlog::Header log_header;
+  log_header.fields = PeriodLogFields();
+  const std::uint64_t block_bytes =
+      runlog::kBlockHeaderBytes + std::uint64_t{c->log.block_records} * log_header.record_bytes();
+  if (runlog::EncodeHeader(log_header).size() + block_bytes > c->log.max_bytes) {
+    *error = Where(root, source, "log", "max_bytes") + "[log] max_bytes " +
+             std::to_string(c->log.max_bytes) + " is smaller than the header and one block of " +
+             std::to_string(c->log.block_records) + " records (" + std::to_string(block_bytes) +
+             " bytes)";
+    return false;
+  }
   c->period_ns = static_cast<std::int64_t>(std::llround(x.period_us * 1e3));
   k.watchdog.max_age_ns = static_cast<std::int64_t>(std::llround(x.max_age_ms * 1e6));
   if (x.e_max_set) c->e_max = x.e_max;

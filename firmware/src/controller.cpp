@@ -165,15 +165,18 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
   out.safe = watchdog_.Update(causes);
   runtime_.Begin(v_, x_);
   Real volts = safe_voltage_;
+  law_volts_ = std::numeric_limits<double>::quiet_NaN();
   if (!out.safe) {
     const ControlOutput law = law_.Update({v_, demand, body_velocity});
     if (law.is_force) {
       const Inverter::Solution s = inverter_.Solve(runtime_.history(), law.value, E_prev_);
       volts = s.E;
+      law_volts_ = static_cast<double>(s.E);
       out.force_demand = static_cast<double>(law.value);
       out.force_law = true;
       out.reachable = s.reachable;
     } else {
+      law_volts_ = static_cast<double>(law.value);
       volts = std::fmin(std::fmax(law.value, e_min_), e_max_);
     }
   }

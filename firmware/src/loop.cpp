@@ -96,6 +96,9 @@ void Loop::Tick(std::int64_t now_ns) {
   record_.frame = frame_;
   record_.read = read;
   record_.write = write;
+  record_.v_used = controller_->v_used();
+  record_.x_used = controller_->x_used();
+  record_.e_law = controller_->law_volts();
   record_.model_force = out.model_force;
   record_.force_demand = out.force_demand;
   // A failed command was followed by the safe voltage (above).

@@ -81,6 +81,8 @@ void BasicModelRuntime<T>::Begin(T v, T x) {
     }
     if (held) ++input_excursions_;
   }
+  held_v_ = v;
+  held_x_ = x;
   if (v_channel_ >= 0) raw_[static_cast<std::size_t>(v_channel_)] = v;
   if (x_channel_ >= 0) raw_[static_cast<std::size_t>(x_channel_)] = x;
   raw_[table_.input_channel] = T(0);

@@ -179,6 +179,7 @@ int RunCommand(const std::string& scenario_path, mrd::hil::RunOptions o, const s
   std::string temp;
   if (!out.empty()) {
     o.work_dir = out;
+    o.firmware_log = "firmware.mrdlog";  // beside trace.csv (mrd log info/export/plot)
   } else {
     char dir[] = "/tmp/mrd-hil-XXXXXX";
     if (mkdtemp(dir) == nullptr) {
@@ -223,7 +224,7 @@ int RunCommand(const std::string& scenario_path, mrd::hil::RunOptions o, const s
     std::cout << j.dump(2) << std::endl;
   } else {
     std::cout << mrd::hil::SummaryText(s, r);
-    if (!out.empty()) std::cout << "  files: " << out << "/summary.json, trace.csv, firmware.toml, tracking.png, command.png" << (r.ride ? ", ride.png" : "") << "\n";
+    if (!out.empty()) std::cout << "  files: " << out << "/summary.json, trace.csv, firmware.toml, firmware.mrdlog, tracking.png, command.png" << (r.ride ? ", ride.png" : "") << "\n";
   }
   if (!std::cout) return kExitFailure;
   return r.pass ? kExitOk : kExitFailure;
@@ -369,7 +370,8 @@ int main(int argc, char** argv) {
                 "do not start the firmware: print the generated config and wait for one "
                 "started by hand")->excludes(fw_opt);
   run->add_option("--out", out_dir,
-                  "write summary.json, trace.csv, firmware.toml and plots (gnuplot) here");
+                  "write summary.json, trace.csv, firmware.toml, the firmware's per-period log "
+                  "firmware.mrdlog (mrd log) and plots (gnuplot) here");
   ro.startup_timeout_s = 0.0;  // default: 10 s, 120 s with --attach
   run->add_option("--startup-timeout", ro.startup_timeout_s,
                   "seconds to wait for the firmware's first answer (default 10, 120 with "

@@ -477,7 +477,10 @@ int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std
     config += "\n[ctl]\nsocket = \"" + ctl + "\"\n";
   }
   r->config_path = o.work_dir + "/firmware.toml";
-  std::ofstream(r->config_path) << config;
+  std::ofstream(r->config_path) << config
+                                << (o.firmware_log.empty()
+                                        ? std::string()
+                                        : "\n[log]\npath = \"" + o.firmware_log + "\"\n");
 
   if (corrupt_table) {
     const int rc = RunCorruptTable(s, o, *port, pump, r->config_path, r, error);

@@ -9,6 +9,7 @@ namespace mrd::host::cli {
 void RegisterExport(CLI::App& app);
 void RegisterGenerate(CLI::App& app);
 void RegisterImport(CLI::App& app);
+void RegisterLog(CLI::App& app);
 void RegisterReport(CLI::App& app);
 void RegisterSlice(CLI::App& app);
 void RegisterIdentify(CLI::App& app);

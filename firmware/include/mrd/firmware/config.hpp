@@ -18,6 +18,7 @@
 
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/io_config.hpp"
+#include "mrd/firmware/log_config.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 
 namespace mrd::firmware {
@@ -38,6 +39,7 @@ struct FirmwareConfig {
   IoConfig io;  // [can], [modbus], [gpio], [pwm]; none: dry run on the simulated damper
   bool ctl_enable = false;  // [ctl]: serve the control socket (params_server.hpp)
   std::string ctl_socket;   // its path; "": DefaultCtlSocket()
+  LogConfig log;  // [log]: the per-period log (period_log.hpp)
 };
 
 // When a change of a key takes effect: at the next start only; on a reload (SIGHUP: a fresh

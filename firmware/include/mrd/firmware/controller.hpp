@@ -98,6 +98,13 @@ class Controller {
   // was held to the force envelope.
   std::uint64_t input_excursions() const { return runtime_.input_excursions(); }
   std::uint64_t force_excursions() const { return runtime_.force_excursions(); }
+  // The last period's v [cm/s] and x [cm] as the model ran on them (last valid, held to the
+  // envelope), and the law's command before the safe state: the inverse of the model at the
+  // force demand (force laws), or the law's voltage before clamping to [E_min, E_max] [V];
+  // NaN in the safe state (the law did not run).
+  double v_used() const { return static_cast<double>(runtime_.held_v()); }
+  double x_used() const { return static_cast<double>(runtime_.held_x()); }
+  double law_volts() const { return law_volts_; }
 
  private:
   ModelRuntime runtime_;
@@ -118,6 +125,7 @@ class Controller {
   Real E_prev_ = Real(0);
   std::uint64_t model_resets_ = 0;
   bool model_diverged_ = false;  // the model force was non-finite last period
+  double law_volts_ = 0.0;       // law_volts()
 };
 
 }  // namespace mrd::firmware

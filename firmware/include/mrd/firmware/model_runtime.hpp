@@ -71,6 +71,10 @@ class BasicModelRuntime {
   bool reads_displacement() const { return x_channel_ >= 0; }
   bool reads_velocity() const { return v_channel_ >= 0; }
   bool envelope_active() const { return envelope_; }
+  // v [cm/s] and x [cm] of the current (last begun) sample as the model got them: held to the
+  // envelope when it is active (x as given when the model does not read it).
+  T held_v() const { return held_v_; }
+  T held_x() const { return held_x_; }
   std::uint64_t input_excursions() const { return input_excursions_; }
   std::uint64_t force_excursions() const { return force_excursions_; }
   void ClearExcursions() {
@@ -90,6 +94,8 @@ class BasicModelRuntime {
   std::array<T, kMaxChannels> hi_{};
   std::uint64_t input_excursions_ = 0;
   std::uint64_t force_excursions_ = 0;
+  T held_v_ = T(0);
+  T held_x_ = T(0);
 };
 
 using ModelRuntime = BasicModelRuntime<Real>;

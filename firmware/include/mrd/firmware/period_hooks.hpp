@@ -29,6 +29,9 @@ struct PeriodRecord {
   double x_used = 0.0;               // [cm]
   double model_force = 0.0;          // [N]
   double force_demand = 0.0;         // [N] (0 for a voltage law)
+  double e_law = 0.0;                // the law's command before clamping/safe state: the
+                                     // inverse at the demand (force laws) or the law's voltage
+                                     // [V]; NaN in the safe state (Controller::law_volts)
   double command_v = 0.0;            // command written [V] (safe voltage when safe)
   bool force_law = false;
   bool reachable = true;

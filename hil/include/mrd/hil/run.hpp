@@ -53,6 +53,9 @@ struct RunOptions {
   // Every frame on the harness's local CAN bus, both directions, in candump -L format
   // ("(SECONDS) mrdbus ID#DATA"; SECONDS: the run's time, simulated in lockstep). "": none.
   std::string can_log;
+  // The firmware's per-period log (docs/logging.md) in work_dir under this name (the
+  // generated config's [log] path); "": none. Lockstep: its t_ns is the run's time.
+  std::string firmware_log;
   double command_timeout_s = 10.0;  // lockstep liveness: silence this long ends the run [s]
   double startup_timeout_s = 10.0;  // first sign of life of the firmware [s]
   // Set (to the signal number) by the caller's SIGTERM/SIGINT/SIGHUP handler: the run stops,
