@@ -65,7 +65,7 @@ std::string PlotScript(const std::string& dir, const SweepGrid& g, bool ride,
                        const std::vector<std::string>& titles, const std::string& png) {
   std::ostringstream o;
   const std::string data = "'" + dir + "/sweep.dat'";
-  o << "set terminal pngcairo size 1000,600\nset grid\nset key outside below\n"
+  o << "set terminal pngcairo noenhanced size 1000,600\nset grid\nset key outside below\n"
     << "set output '" << png << "'\nset xlabel '" << g.axes[0].key << "'\n";
   const auto name = [&](std::size_t b, const char* what) {
     return std::string(what) + (titles[b].empty() ? "" : " (" + titles[b] + ")");
