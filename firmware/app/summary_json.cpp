@@ -57,6 +57,7 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
     j["watchdog"] = wd;
     j["last_command_v"] = s.last_command_v;
     j["model_force_n"] = s.model_force_n;
+    j["force_demand_n"] = s.force_demand_n;
     j["rms_model_error_n"] = info.rms_model_error_n;  // NaN/inf (diverging plant) -> null
     j["rms_tracking_error_n"] = info.rms_tracking_error_n;
     Json devices = Json::object();

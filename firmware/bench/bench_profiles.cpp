@@ -31,6 +31,25 @@ using mrd::profile::CanOut;
 using mrd::profile::ModbusOut;
 constexpr int kSamples = 1024;
 
+// The live telemetry message of a period (status_model_force, _demand, _command): begun,
+// three signals set, sealed (the work PublishStatus adds per status period).
+void CanTelemetry(benchmark::State& state, const mrd::profile::CanProfile& p) {
+  mrd::profile::FrameCodec tx(p);
+  const auto out = [&](CanOut r) { return p.outputs[static_cast<std::size_t>(r)]; };
+  const int m = out(CanOut::kStatusModelForce).message;
+  int k = 0;
+  for (auto _ : state) {
+    can_frame f{};
+    tx.Begin(m, &f);
+    for (const CanOut r : {CanOut::kStatusModelForce, CanOut::kStatusDemand, CanOut::kStatusCommand}) {
+      if (out(r).message == m) (void)tx.Set(&f, out(r), 100.0 * std::sin(0.01 * k) + 200.0);
+    }
+    tx.Seal(m, &f);
+    benchmark::DoNotOptimize(f);
+    k = (k + 1) & (kSamples - 1);
+  }
+}
+
 void CanPeriod(benchmark::State& state, const mrd::profile::CanProfile& p) {
   mrd::profile::FrameCodec tx(p), rx(p);
   const auto in = [&](CanIn r) { return p.inputs[static_cast<std::size_t>(r)]; };
@@ -175,6 +194,10 @@ void RegisterProfile(const std::string& path) {
   }
   benchmark::RegisterBenchmark(("BM_ProfileCanPeriod/" + name).c_str(),
                                [p](benchmark::State& st) { CanPeriod(st, *p); });
+  if (p->outputs[static_cast<std::size_t>(CanOut::kStatusModelForce)].mapped()) {
+    benchmark::RegisterBenchmark(("BM_ProfileCanTelemetry/" + name).c_str(),
+                                 [p](benchmark::State& st) { CanTelemetry(st, *p); });
+  }
 }
 
 [[maybe_unused]] const bool kRegistered = [] {

@@ -375,7 +375,8 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Duration("tx_deadline_us", &io.can.tx_deadline_ns, 1e3, 1.0, 1e6, "us",
                  "A frame not sent by then is dropped (counted)."),
         Duration("status_period_ms", &io.can.status_period_ns, 1e6, 1.0, 1e4, "ms",
-                 "Period of the status frame."),
+                 "Period of the status messages: FirmwareStatus and the live telemetry "
+                 "FirmwareTelemetry (model force, demand, command; docs/telemetry.md)."),
         Duration("heartbeat_period_ms", &io.can.heartbeat_period_ns, 1e6, 1.0, 1e4, "ms",
                  "Period of the heartbeat frame.")}},
       {"modbus",

@@ -29,6 +29,7 @@
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "report.hpp"
+#include "sweep_command.hpp"
 
 namespace {
 
@@ -159,11 +160,11 @@ std::string ScenarioList() {
   return out;
 }
 
-int RunCommand(const std::string& scenario_path, mrd::hil::RunOptions o, const std::string& out,
-               bool json) {
+int RunCommand(const std::string& scenario_path, const std::vector<std::string>& sets,
+               mrd::hil::RunOptions o, const std::string& out, bool json) {
   mrd::hil::Scenario s;
   std::string error;
-  if (!mrd::hil::LoadScenario(scenario_path, &s, &error)) {
+  if (!mrd::hil::LoadScenario(scenario_path, sets, &s, &error)) {
     std::fprintf(stderr, "error: %s\n", error.c_str());
     return kExitBadInput;
   }
@@ -340,6 +341,12 @@ int main(int argc, char** argv) {
   mrd::hil::RunOptions ro;
   bool run_json = false;
   run->add_option("scenario", scenario_path, "scenario TOML (hil/scenarios/)")->required();
+  std::vector<std::string> run_sets;
+  run->add_option("--set", run_sets,
+                  "KEY=VALUE, repeatable: override a scenario key (dotted path, e.g. "
+                  "control.skyhook_gain=40, duration_s=5, control.law=passive-on) before the "
+                  "scenario is read; VALUE typed as TOML, a bare word is a string")
+      ->allow_extra_args(false);
   auto* transport_opt = run->add_option("--transport", ro.transport,
                                         "can | modbus-tcp | modbus-rtu (default: can; "
                                         "modbus-tcp with a Modbus --profile)")
@@ -400,6 +407,29 @@ int main(int argc, char** argv) {
   bench->add_option("--firmware", bo.firmware, "mrd-firmware (default: beside mrd-hil)");
   bench->add_option("--table", bo.table, "coefficient table for the firmware");
   bench->add_flag("--json", bench_json, "print the figures as JSON");
+  auto* sweep = app.add_subcommand(
+      "sweep", "Run a scenario once per point of a grid of key values (lockstep, "
+               "deterministic) and tabulate its scores: reachable tracking error, ride figures "
+               "of a quarter car, pass/fail; writes sweep.csv and sweep.png (gnuplot).");
+  std::string sweep_path, sweep_out;
+  std::vector<std::string> sweep_sets;
+  mrd::hil::RunOptions so;
+  sweep->add_option("scenario", sweep_path, "scenario TOML (hil/scenarios/)")->required();
+  sweep->add_option("--set", sweep_sets,
+                    "KEY=FROM:TO:STEP (a swept key; FROM, FROM+STEP, ... up to TO) or "
+                    "KEY=VALUE (fixed), repeatable; the grid is the product of the swept keys "
+                    "(at most 1000 points)")
+      ->required()->allow_extra_args(false);
+  sweep->add_option("--out", sweep_out,
+                    "directory for sweep.csv, sweep.png, sweep.dat, sweep.gp (created; default "
+                    "sweep-NAME, NAME the scenario file's stem)");
+  auto* sweep_transport = sweep->add_option("--transport", so.transport,
+                                            "can | modbus-tcp | modbus-rtu (as run)")
+                              ->capture_default_str();
+  sweep->add_option("--table", so.table, "coefficient table for the firmware (mrd export)");
+  sweep->add_option("--profile", so.profile, "device profile (as run)");
+  sweep->add_option("--firmware", so.firmware,
+                    "mrd-firmware to start (default: the one beside mrd-hil)");
   app.footer(ScenarioList() + "\n" + mrd::hil::ScenarioKeysHelp());
   try {
     app.parse(argc, argv);
@@ -413,7 +443,21 @@ int main(int argc, char** argv) {
         mrd::profile::IsModbusProfileFile(ro.profile)) {
       ro.transport = "modbus-tcp";
     }
-    return RunCommand(scenario_path, ro, out_dir, run_json);
+    return RunCommand(scenario_path, run_sets, ro, out_dir, run_json);
+  }
+  if (sweep->parsed()) {
+    if (sweep_transport->count() == 0 && !so.profile.empty() &&
+        mrd::profile::IsModbusProfileFile(so.profile)) {
+      so.transport = "modbus-tcp";
+    }
+    if (so.firmware.empty()) so.firmware = SelfDir() + "/mrd-firmware";
+    if (sweep_out.empty()) sweep_out = "sweep-" + std::filesystem::path(sweep_path).stem().string();
+    struct sigaction sa {};
+    sa.sa_handler = OnRunSignal;
+    sigemptyset(&sa.sa_mask);
+    for (const int sig : {SIGTERM, SIGINT, SIGHUP}) sigaction(sig, &sa, nullptr);
+    so.interrupt = &g_interrupt;
+    return mrd::hil::SweepCommand(sweep_path, sweep_sets, so, sweep_out);
   }
   if (bench->parsed()) return BenchCommand(bench_s, bo, bench_json);
 

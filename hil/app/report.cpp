@@ -22,7 +22,8 @@ nlohmann::json Opt(const std::optional<std::int64_t>& v) {
   return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
 }
 
-// Runs gnuplot on script; 0 on success.
+}  // namespace
+
 int Gnuplot(const std::string& script, const std::string& log) {
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
@@ -38,8 +39,6 @@ int Gnuplot(const std::string& script, const std::string& log) {
   waitpid(pid, &st, 0);
   return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
-
-}  // namespace
 
 nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
   nlohmann::json j;

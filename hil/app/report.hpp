@@ -14,6 +14,8 @@ namespace mrd::hil {
 nlohmann::json SummaryJson(const Scenario& s, const RunResult& r);
 // A short text summary.
 std::string SummaryText(const Scenario& s, const RunResult& r);
+// Runs gnuplot on script (its stderr to log); 0 on success, -1 without gnuplot.
+int Gnuplot(const std::string& script, const std::string& log);
 // Writes the files; false with *error. Plot failures are warnings (*warning).
 bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const RunResult& r,
                   std::string* error, std::string* warning);

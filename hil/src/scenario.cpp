@@ -9,6 +9,7 @@
 
 #include "mrd/common/input_file.hpp"
 #include "mrd/common/spencer_damper.hpp"
+#include "scenario_set.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -59,7 +60,9 @@ struct Ctx {
   const std::string& path;
   std::string* error;
   bool Fail(const toml::node& n, const std::string& why) {  // why may echo input
-    *error = Printable(path) + ":" + std::to_string(n.source().begin.line) + ": " + Printable(why);
+    const auto& from = n.source().path;  // "--set KEY=VALUE" for an override's node
+    *error = from && *from != path ? *from + ": " + Printable(why)
+             : Printable(path) + ":" + std::to_string(n.source().begin.line) + ": " + Printable(why);
     return false;
   }
 };
@@ -178,12 +181,18 @@ const char* FaultKindName(FaultKind kind) {
 const char* ScenarioKeysHelp() { return kHelp; }
 
 bool LoadScenario(const std::string& path, Scenario* scenario, std::string* error) {
+  return LoadScenario(path, {}, scenario, error);
+}
+
+bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
+                  Scenario* scenario, std::string* error) {
   Ctx c{path, error};
   try {
     // A regular file of at most kMaxScenarioBytes: a directory, FIFO or device is refused.
     std::string text;
     if (!ReadInputFile(path, kMaxScenarioBytes, &text, error)) return false;
-    const toml::table root = toml::parse(text, path);
+    toml::table root = toml::parse(text, path);
+    if (!ApplyScenarioSets(sets, &root, error)) return false;
     Scenario s;
     s.path = path;
     double hb_ms = s.heartbeat_timeout_s * 1e3;

@@ -297,6 +297,9 @@ def frames_lockstep(a, dec, procs, tmp, out, errors):
             motion[last_seq] = v
         elif n == "SensorForce" and last_seq is not None:
             force_after[last_seq] = v
+            # The next SensorForce belongs to a later SensorMotion: when the capture lost that
+            # one (capture_gaps), the force frame is not taken for this step's.
+            last_seq = None
         elif n == "DriverCommand":
             # Several ticks may echo one sample (e.g. one without a grant in between).
             commands.setdefault(int(v["EchoSeq"]), []).append(v["VoltageSetpoint"])

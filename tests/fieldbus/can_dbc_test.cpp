@@ -102,7 +102,12 @@ class DbcTest : public ::testing::Test {
 };
 std::map<std::string, DbcMessage> DbcTest::dbc_;
 
-TEST_F(DbcTest, TheDbcHoldsExactlyTheCodecsMessages) { EXPECT_EQ(dbc_.size(), 7U); }
+// The built-in codec's seven messages, and FirmwareTelemetry (live telemetry, sent through the
+// mrd-native profile's codec; its values are checked by tests/fieldbus/telemetry_test.py).
+TEST_F(DbcTest, TheDbcHoldsExactlyTheCodecsMessages) {
+  EXPECT_EQ(dbc_.size(), 8U);
+  EXPECT_EQ(dbc_.count("FirmwareTelemetry"), 1U);
+}
 
 // Issue 10: the lockstep time grant (48-bit microseconds).
 TEST_F(DbcTest, TimeGrantMatches) {

@@ -18,6 +18,7 @@
 
 #include "modbus_test_peers.hpp"
 #include "mrd/firmware/io/modbus_device.hpp"
+#include "mrd/firmware/telemetry.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "support/process.hpp"
 
@@ -106,6 +107,13 @@ TEST_P(ModbusProfilePymodbusTest, ReadsUnit1AndWritesUnit2OfThePymodbusServer) {
   EXPECT_NEAR(f.force.value, -321.09, 1e-4);
   EXPECT_FALSE(f.fault_line);
 
+  // Live telemetry of a period (status_model_force, _demand, _command at unit 2, 8..13).
+  firmware::TelemetrySnapshot stats;
+  stats.safe = false;
+  stats.model_force_n = 321.5;
+  stats.force_demand_n = -45.25;
+  stats.last_command_v = 1.234;
+  device.PublishStatus(stats);
   // Commands until pymodbus has seen two heartbeats with the set-point and the enable on.
   std::uint64_t tick = 0;
   while (server->Stdout().empty() && std::chrono::steady_clock::now() < until) {
@@ -122,15 +130,21 @@ TEST_P(ModbusProfilePymodbusTest, ReadsUnit1AndWritesUnit2OfThePymodbusServer) {
   EXPECT_EQ(c["safe"].get<int>(), 0);
   EXPECT_GE(c["echo"].get<std::uint32_t>(), 1U);  // a seq pymodbus served
   EXPECT_LE(c["echo"].get<std::uint32_t>(), c["seq"].get<std::uint32_t>());
+  // pymodbus decoded the telemetry registers as the firmware's figures (float32, swapped words).
+  ASSERT_TRUE(c["telemetry"].is_object()) << server->Stdout();
+  EXPECT_NEAR(c["telemetry"]["model_force"].get<double>(), 321.5, 1e-4);
+  EXPECT_NEAR(c["telemetry"]["demand"].get<double>(), -45.25, 1e-4);
+  EXPECT_NEAR(c["telemetry"]["command"].get<double>(), 1.234, 1e-6);
   // As pymodbus decoded the requests: input registers of unit 1 in one read of 16, unit 2's
-  // driver_faults, the enable coil with 0x0F and the command block with 0x10, nothing else.
+  // driver_faults, the enable coil with 0x0F, the telemetry block and the command block with
+  // 0x10, nothing else.
   std::set<std::vector<int>> seen;
   for (const auto& r : c["requests"]) {
     seen.insert({r[0].get<int>(), r[1].get<int>(), r[2].get<int>(),
                  r[3].is_null() ? -1 : r[3].get<int>()});
   }
   const std::set<std::vector<int>> want = {
-      {1, 0x04, 0, 16}, {2, 0x04, 0, 1}, {2, 0x0F, 0, 1}, {2, 0x10, 0, 7}};
+      {1, 0x04, 0, 16}, {2, 0x04, 0, 1}, {2, 0x0F, 0, 1}, {2, 0x10, 8, 6}, {2, 0x10, 0, 7}};
   EXPECT_EQ(seen, want) << c["requests"].dump();
   const firmware::DeviceCounters n = device.counters();
   EXPECT_EQ(n.rx_rejected, 0U);

@@ -9,7 +9,8 @@ and decoded here with Python's struct.
           12 fault_line (uint16), 14-15 grant (uint32, 0: no lockstep)
   unit 2, input register 0 driver_faults (uint16, 0)
   unit 2, holding registers: 0-1 set-point [V] (float32), 2-3 echo (uint32), 4 heartbeat,
-          5 status causes, 6 status safe (uint16)
+          5 status causes, 6 status safe (uint16), 8-9 model force [N], 10-11 force demand
+          [N], 12-13 command [V] (float32: live telemetry)
   unit 2, coil 0: enable
 
   pymodbus_float32.py tcp PORT|rtu LINK [--seconds S] [--nan]
@@ -83,6 +84,12 @@ class Driver(ModbusSequentialDataBlock):
 
     def setValues(self, address, values):
         super().setValues(address, values)
+        if address == 8 and len(values) == 6:  # the live telemetry block, written whole
+            r = super().getValues(8, 6)
+            state["telemetry"] = {"model_force": from_f32_swapped(r[0], r[1]),
+                                  "demand": from_f32_swapped(r[2], r[3]),
+                                  "command": from_f32_swapped(r[4], r[5])}
+            return
         if address != 0 or len(values) != 7:
             return
         r = super().getValues(0, 7)
@@ -98,6 +105,7 @@ class Driver(ModbusSequentialDataBlock):
 
 def finish():
     out = dict(state["last"] or {})
+    out["telemetry"] = state.get("telemetry")
     out["requests"] = writes[:50]
     print(json.dumps(out), flush=True)
     os._exit(0)

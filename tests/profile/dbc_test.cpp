@@ -16,7 +16,17 @@ TEST(DbcTest, ParsesTheNativeFrameSet) {
   Dbc dbc;
   std::string error;
   ASSERT_TRUE(LoadDbc(kSource + "/docs/mrd.dbc", &dbc, &error)) << error;
-  ASSERT_EQ(dbc.messages.size(), 7U);
+  ASSERT_EQ(dbc.messages.size(), 8U);
+  // Live telemetry (docs/telemetry.md): signed 0.5 N forces, a 1 mV command, 100 ms.
+  const DbcMessage* tel = dbc.Find("FirmwareTelemetry");
+  ASSERT_NE(tel, nullptr);
+  EXPECT_EQ(tel->id, 0x301U);
+  EXPECT_EQ(tel->cycle_time_ms, 100);
+  ASSERT_NE(tel->Find("ModelForce"), nullptr);
+  EXPECT_TRUE(tel->Find("ModelForce")->layout.is_signed);
+  EXPECT_DOUBLE_EQ(tel->Find("ForceDemand")->layout.factor, 0.5);
+  EXPECT_EQ(tel->Find("CommandVoltage")->layout.start_bit, 32);
+  EXPECT_DOUBLE_EQ(tel->Find("CommandVoltage")->layout.factor, 0.001);
   const DbcMessage* cmd = dbc.Find("DriverCommand");
   ASSERT_NE(cmd, nullptr);
   EXPECT_EQ(cmd->id, 0x080U);

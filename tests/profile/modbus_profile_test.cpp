@@ -51,12 +51,18 @@ TEST(ModbusProfile, ShippedFloat32Profile) {
   EXPECT_EQ(p.reads[0].address, 0);
   EXPECT_EQ(p.reads[0].count, 16);
   EXPECT_EQ(p.reads[1].unit, 2);
-  // The enable coil (0x0F), then the holding block with the command (0x10) last.
-  ASSERT_EQ(p.writes.size(), 2u);
+  // The enable coil (0x0F), the live telemetry block (8..13: model force, demand, command),
+  // then the holding block with the command (0x10) last.
+  ASSERT_EQ(p.writes.size(), 3u);
   EXPECT_EQ(p.writes[0].function, 0x0F);
   EXPECT_EQ(p.writes[1].function, 0x10);
-  EXPECT_EQ(p.Out(ModbusOut::kCommand).request, 1);
-  EXPECT_EQ(p.writes[1].count, 7);
+  EXPECT_EQ(p.writes[1].address, 8);
+  EXPECT_EQ(p.writes[1].count, 6);
+  EXPECT_EQ(p.Out(ModbusOut::kStatusModelForce).request, 1);
+  EXPECT_EQ(p.Out(ModbusOut::kStatusCommand).index, 4);
+  EXPECT_EQ(p.writes[2].function, 0x10);
+  EXPECT_EQ(p.Out(ModbusOut::kCommand).request, 2);
+  EXPECT_EQ(p.writes[2].count, 7);
   EXPECT_DOUBLE_EQ(p.command.max(), 24.0);
 }
 

@@ -21,7 +21,8 @@ constexpr const char* kCanInNames[kNumCanIn] = {
     "fault_line", "sensor_seq", "driver_faults", "driver_current", "grant"};
 constexpr const char* kCanOutNames[kNumCanOut] = {
     "command", "enable", "enable_valid", "safe", "echo", "heartbeat_safe",
-    "status_safe", "status_causes", "status_overruns", "status_safe_entries"};
+    "status_safe", "status_causes", "status_overruns", "status_safe_entries",
+    "status_model_force", "status_demand", "status_command"};
 
 struct Ctx {
   const std::string& path;

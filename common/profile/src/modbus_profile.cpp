@@ -20,7 +20,8 @@ constexpr const char* kInNames[kNumCanIn] = {
     "fault_line", "sensor_seq", "driver_faults", "driver_current", "grant"};
 constexpr const char* kOutNames[kNumModbusOut] = {
     "command", "enable", "safe", "echo", "heartbeat",
-    "status_safe", "status_causes", "status_overruns", "status_safe_entries"};
+    "status_safe", "status_causes", "status_overruns", "status_safe_entries",
+    "status_model_force", "status_demand", "status_command"};
 
 constexpr int kMaxReadRegisters = 125;  // 0x03 / 0x04
 constexpr int kMaxReadBits = 2000;      // 0x01 / 0x02

@@ -91,7 +91,9 @@ void CanDevice::Index() {
   }
   add(&heartbeat_msgs_, Out(p, pf::CanOut::kHeartbeatSafe).message);
   for (const pf::CanOut r : {pf::CanOut::kStatusSafe, pf::CanOut::kStatusCauses,
-                            pf::CanOut::kStatusOverruns, pf::CanOut::kStatusSafeEntries}) {
+                            pf::CanOut::kStatusOverruns, pf::CanOut::kStatusSafeEntries,
+                            pf::CanOut::kStatusModelForce, pf::CanOut::kStatusDemand,
+                            pf::CanOut::kStatusCommand}) {
     add(&status_msgs_, Out(p, r).message);
   }
   status_driver_msg_ = In(p, pf::CanIn::kDriverFaults).message;
@@ -416,6 +418,10 @@ void CanDevice::PublishStatus(const TelemetrySnapshot& stats) {
     set(pf::CanOut::kStatusCauses, static_cast<double>(stats.active_causes & 0xFFFFU));
     set(pf::CanOut::kStatusOverruns, Saturate16(stats.overruns));
     set(pf::CanOut::kStatusSafeEntries, Saturate16(stats.watchdog.entries));
+    // Live telemetry (a value beyond its signal's range is not sent: the signal stays 0).
+    set(pf::CanOut::kStatusModelForce, stats.model_force_n);
+    set(pf::CanOut::kStatusDemand, stats.force_demand_n);
+    set(pf::CanOut::kStatusCommand, stats.last_command_v);
     codec_.Seal(m, &f);
     Send(f, now);
   }

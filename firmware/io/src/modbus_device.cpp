@@ -523,6 +523,9 @@ void ModbusDevice::PublishStatus(const TelemetrySnapshot& stats) {
                        std::memory_order_relaxed);
   status_ticks_.store(static_cast<std::uint32_t>(stats.ticks & 0xFFFFFFFFU),
                       std::memory_order_relaxed);
+  status_model_force_.store(stats.model_force_n, std::memory_order_relaxed);
+  status_demand_.store(stats.force_demand_n, std::memory_order_relaxed);
+  status_command_.store(stats.last_command_v, std::memory_order_relaxed);
   // Lockstep: the tick's command and status are posted; the worker writes them now.
   if (config_.lockstep) Signal(wake_);
 }

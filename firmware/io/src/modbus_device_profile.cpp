@@ -161,6 +161,18 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
         status ? static_cast<double>(status_causes_.load(std::memory_order_relaxed)) : 0.0;
     v[static_cast<std::size_t>(pf::ModbusOut::kStatusOverruns)] = 0.0;     // not carried
     v[static_cast<std::size_t>(pf::ModbusOut::kStatusSafeEntries)] = 0.0;  // not carried
+    // Live telemetry; a value its point cannot hold (NaN into an integer) is written as 0.
+    const auto live = [&](pf::ModbusOut role, const std::atomic<double>& a) {
+      const double x = status ? a.load(std::memory_order_relaxed) : 0.0;
+      std::uint16_t scratch[2];
+      pf::ModbusPoint at = p.Out(role);
+      at.index = 0;
+      v[static_cast<std::size_t>(role)] =
+          !at.mapped || pf::PutModbusPoint(p, at, x, scratch) ? x : 0.0;
+    };
+    live(pf::ModbusOut::kStatusModelForce, status_model_force_);
+    live(pf::ModbusOut::kStatusDemand, status_demand_);
+    live(pf::ModbusOut::kStatusCommand, status_command_);
   };
   // Every point must fit before anything is sent; one that does not (a non-finite set-point,
   // a value beyond its type) makes the whole cycle's write the safe one, counted bad_value.

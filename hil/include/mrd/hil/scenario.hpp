@@ -96,6 +96,12 @@ struct Scenario {
 
 // false: *error = "FILE:LINE: reason".
 bool LoadScenario(const std::string& path, Scenario* scenario, std::string* error);
+// The same with overrides applied to the file's TOML before it is read (scenario_set.hpp):
+// each "KEY=VALUE", KEY a dotted path (control.skyhook_gain), VALUE typed as TOML (a word that
+// is no TOML value is a string). The same checks apply; an error caused by an override names
+// it ("--set KEY=VALUE: reason").
+bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
+                  Scenario* scenario, std::string* error);
 // Every key with its meaning (for --help).
 const char* ScenarioKeysHelp();
 

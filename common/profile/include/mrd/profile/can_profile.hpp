@@ -53,8 +53,11 @@ enum class CanOut : std::uint8_t {
   kStatusCauses,    // firmware status: active watchdog causes (bit i = cause i)
   kStatusOverruns,  // firmware status: loop overruns, saturating
   kStatusSafeEntries,  // firmware status: normal -> safe transitions, saturating
+  kStatusModelForce,   // live telemetry: the model's force of the period [N]
+  kStatusDemand,       // live telemetry: the force demand of the period [N]
+  kStatusCommand,      // live telemetry: the command voltage E of the period [V]
 };
-inline constexpr std::size_t kNumCanOut = 10;
+inline constexpr std::size_t kNumCanOut = 13;
 
 const char* CanInName(CanIn role);
 const char* CanOutName(CanOut role);

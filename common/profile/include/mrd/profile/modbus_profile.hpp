@@ -41,8 +41,11 @@ enum class ModbusOut : std::uint8_t {
   kStatusCauses,      // firmware status: active watchdog causes (bit i = cause i)
   kStatusOverruns,    // firmware status: loop overruns (not carried by the Modbus device: 0)
   kStatusSafeEntries, // firmware status: normal -> safe transitions (not carried: 0)
+  kStatusModelForce,  // live telemetry: the model's force of the period [N]
+  kStatusDemand,      // live telemetry: the force demand of the period [N]
+  kStatusCommand,     // live telemetry: the command voltage E of the period [V]
 };
-inline constexpr std::size_t kNumModbusOut = 9;
+inline constexpr std::size_t kNumModbusOut = 12;
 const char* ModbusOutName(ModbusOut role);
 
 struct ModbusPoint {

@@ -173,6 +173,9 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   Seqlock<Sample> sample_;
   Seqlock<Command> command_;
   std::atomic<std::uint16_t> status_causes_{0};
+  // Live telemetry of the last published period (profile roles status_model_force, _demand,
+  // _command) [N], [N], [V].
+  std::atomic<double> status_model_force_{0.0}, status_demand_{0.0}, status_command_{0.0};
   std::atomic<std::uint32_t> status_ticks_{0};
 
   // Worker side.
