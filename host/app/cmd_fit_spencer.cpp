@@ -95,7 +95,6 @@ void RunFit(FitOptions o) {
   };
   for (const FitRun& r : runs) report("fit on", r);
   for (const FitRun& r : held) report("held out", r);
-  params::ParamsError check;
   std::string why;
   if (!params::CheckPhysical(res.params, &why)) throw std::runtime_error("fit result: " + why);
   WriteFileAtomic(o.out, params::SpencerParamsText(res.params, header.str()));

@@ -62,7 +62,7 @@ struct SimResidual {
     d.Reset(x[0], 0.0);
     residual[0] = d.Force(x[0], v[0]) - run->f[0];
     for (std::size_t k = 0; k + 1 < n; ++k) {
-      const double e = std::clamp(run->E[k], 0.0, e_max);
+      const double e = std::clamp(run->E[k + 1], 0.0, e_max);  // as mrd generate
       const double f = d.Step(run->dt, x[k], v[k], x[k + 1], v[k + 1], e);
       if (!std::isfinite(f) || std::fabs(f) > 1e9) return false;
       residual[k + 1] = f - run->f[k + 1];

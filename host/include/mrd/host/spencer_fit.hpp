@@ -3,8 +3,9 @@
 // damper data by nonlinear least squares (Ceres Solver, trust-region Levenberg-Marquardt,
 // forward-difference Jacobians of the simulator). The simulator is the harness's plant:
 // SpencerDamper (common/) stepped one sample at a time with RK4 sub-steps, the measured x and v
-// interpolated as TracePlant does, the measured E held per sample (clamped to [0, e_max] as
-// the firmware's driver clamps it), started at rest at the first row with u = 0 V.
+// interpolated as TracePlant does, the measured E of the interval's end held over it (as `mrd
+// generate` and the harness's replay hold it; clamped to [0, e_max] as the firmware clamps
+// it), started at rest at the first row with u = 0 V.
 // Residual: simulated - measured force [N] at every sample.
 //
 // Multi-start: the presets paper and spencer1997 plus a deterministic scatter of starts
