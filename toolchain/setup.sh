@@ -11,7 +11,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config clang
-  libeigen3-dev gpiod linux-libc-dev
+  libeigen3-dev libceres-dev gpiod linux-libc-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libtomlplusplus-dev libfmt-dev libspdlog-dev
   libmodbus5 libmodbus-dev libgpiod2 libgpiod-dev

@@ -297,9 +297,11 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                {{"force", ControlMode::kForceTracking},
                 {"constant", ControlMode::kConstantVoltage},
                 {"skyhook-on-off", ControlMode::kSkyhookOnOff},
-                {"skyhook", ControlMode::kSkyhookContinuous}},
+                {"skyhook", ControlMode::kSkyhookContinuous},
+                {"open-loop", ControlMode::kOpenLoop}},
                "Control law: track a force demand through the inverted model, a constant "
-               "voltage, or skyhook (on-off or continuous).")),
+               "voltage, skyhook (on-off or continuous), or open-loop (the demand input is a "
+               "voltage command in mV, clamped to [E_min, E_max]: the harness's replay).")),
         Runtime(e_max),
         Runtime(Number("constant_voltage", &k.law.constant_voltage, -1e3, 1e3, "V",
                        "Command of law = \"constant\" (passive-off 0, passive-on E_max).")),
@@ -536,6 +538,9 @@ bool CheckIo(const toml::table& root, const std::string& source, const FirmwareC
     return false;
   }
   if (k.law.mode == ControlMode::kForceTracking && !need(Input::kDemand, "law \"force\"")) {
+    return false;
+  }
+  if (k.law.mode == ControlMode::kOpenLoop && !need(Input::kDemand, "law \"open-loop\"")) {
     return false;
   }
   if ((k.law.mode == ControlMode::kSkyhookOnOff || k.law.mode == ControlMode::kSkyhookContinuous) &&

@@ -14,7 +14,7 @@ bool ControlLawConfig::IsValid(double e_min, double e_max) const {
     return false;
   }
   return skyhook_gain >= 0.0 && force_limit > 0.0 &&
-         static_cast<std::uint8_t>(mode) <= static_cast<std::uint8_t>(ControlMode::kSkyhookContinuous);
+         static_cast<std::uint8_t>(mode) <= static_cast<std::uint8_t>(ControlMode::kOpenLoop);
 }
 
 ControlOutput ControlLaw::Update(const ControlInputs& in) const {
@@ -29,6 +29,8 @@ ControlOutput ControlLaw::Update(const ControlInputs& in) const {
       const Real f = in.body_velocity * in.v > Real(0) ? skyhook_gain_ * in.body_velocity : Real(0);
       return {true, std::fmin(std::fmax(f, -force_limit_), force_limit_)};
     }
+    case ControlMode::kOpenLoop:  // mV on the demand input; the controller clamps the volts
+      return {false, in.demand * Real(1e-3)};
   }
   return {false, e_min_};
 }
@@ -39,6 +41,7 @@ const char* ControlModeName(ControlMode mode) {
     case ControlMode::kConstantVoltage: return "constant";
     case ControlMode::kSkyhookOnOff: return "skyhook-on-off";
     case ControlMode::kSkyhookContinuous: return "skyhook";
+    case ControlMode::kOpenLoop: return "open-loop";
   }
   return "unknown";
 }

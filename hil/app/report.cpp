@@ -67,6 +67,11 @@ nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
       {"passive_on", {{"error_all", t.on_all}, {"error_reachable", t.on_reachable}}},
       {"rms_force_n", t.rms_force_n},
       {"rms_demand_n", t.rms_demand_n}};
+  if (r.replay) {
+    j["replay"] = {{"samples", r.replay->samples},
+                   {"fit_percent", r.replay->fit_percent},
+                   {"rmse_n", r.replay->rmse_n}};
+  }
   if (r.ride) {
     const auto fig = [](const RideFigures& f) {
       return nlohmann::json{{"samples", f.samples},
@@ -126,7 +131,11 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
   o << "  steps " << r.steps << ", commands " << r.commands << ", invariant violations "
     << r.invariant_violations << ", command timeouts " << r.command_timeouts
     << ", heartbeat timeouts " << r.heartbeat_timeouts << "\n";
-  if (!r.ride || s.law == "force") {
+  if (r.replay) {
+    o << "  replay: plant force vs measured f over " << r.replay->samples << " steps: fit "
+      << r.replay->fit_percent << " %, RMSE " << r.replay->rmse_n << " N\n";
+  }
+  if ((!r.ride || s.law == "force") && s.law != "open-loop") {
   o << "  tracking ||f-d||/||d|| over " << t.steps << " controlled steps (" << t.reachable_steps
     << " reachable): all " << t.error_all << ", reachable " << t.error_reachable << "\n";
   o << "    passive-off (0 V): all " << t.off_all << ", reachable " << t.off_reachable

@@ -32,6 +32,8 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
   c << "\n[control]\n";
   if (s.law == "force") {
     c << "law = \"force\"\n";
+  } else if (s.law == "open-loop") {
+    c << "law = \"open-loop\"\n";  // the demand carries the replayed E in mV (replay.hpp)
   } else if (s.law == "skyhook") {
     c << "law = \"skyhook\"\nskyhook_gain = " << s.skyhook_gain << "\n";
   } else {

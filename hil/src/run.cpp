@@ -259,7 +259,12 @@ bool ParseSdoRefusal(const std::string& text, SdoRefusal* r) {
 
 }  // namespace
 
-int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std::string* error) {
+int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* r,
+                std::string* error) {
+  // The scenario's [firmware] table unless --table names one.
+  RunOptions with_table = options;
+  if (with_table.table.empty()) with_table.table = scenario.table_file;
+  const RunOptions& o = with_table;
   // A profile with a PWM output (run_pwm.hpp): the driver's enable is a GPIO line, and so is the
   // heartbeat (the watchdog that drops the enable when the firmware stops).
   const bool pwm_profile = !o.profile.empty() && profile::ProfileHasPwm(o.profile);
@@ -382,12 +387,16 @@ int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std
     *error = "--excitation: " + s.path + " is a quarter car, excited by its [road]";
     return 2;
   }
-  SpencerParams params;
-  SpencerParams::FromPreset(s.preset, &params);
+  const SpencerParams params = s.damper;  // preset, params file, overrides (scenario.cpp)
   Trace trace;
-  const bool csv = !s.quarter_car && (s.excitation == ExcitationKind::kCsv || !o.excitation.empty());
-  if (csv && !LoadTrace(o.excitation.empty() ? s.csv_file : o.excitation, s.demand_column, &trace,
-                        error)) {
+  const bool replaying = !s.quarter_car && s.excitation == ExcitationKind::kReplay;
+  ReplayRun replay;  // the measured force (replay.hpp)
+  const bool csv = !s.quarter_car && (s.excitation == ExcitationKind::kCsv || replaying ||
+                                      !o.excitation.empty());
+  const std::string csv_path = o.excitation.empty() ? s.csv_file : o.excitation;
+  if (replaying ? !LoadReplay(csv_path, s.law == "open-loop", s.demand_column, &trace, &replay,
+                              error)
+                : csv && !LoadTrace(csv_path, s.demand_column, &trace, error)) {
     return 2;
   }
   const Trace* tp = csv ? &trace : nullptr;
@@ -860,6 +869,7 @@ int RunScenario(const Scenario& scenario, const RunOptions& o, RunResult* r, std
     pwm.Close();
   }
   ScoreRun(s, r);
+  if (replaying && o.keep_trace) r->replay = ScoreReplay(r->trace, replay);
   EvaluatePass(s, r);
   return 0;
 }

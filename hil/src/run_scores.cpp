@@ -167,6 +167,11 @@ void EvaluatePass(const Scenario& s, RunResult* r) {
     if (!fr.ok) f.push_back(std::string("fault ") + FaultKindName(fr.fault.kind) + " at " +
                             Fmt(fr.fault.at_s) + " s: " + fr.why);
   }
+  if (s.min_replay_fit && (!r->replay || r->replay->fit_percent < *s.min_replay_fit)) {
+    f.push_back(r->replay ? "replay fit " + Fmt(r->replay->fit_percent) + " % < " +
+                                Fmt(*s.min_replay_fit) + " %"
+                          : std::string("no replay figures (needs the trace)"));
+  }
   r->pass = f.empty();
 }
 

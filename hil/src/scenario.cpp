@@ -2,6 +2,8 @@
 
 #include <toml++/toml.h>
 
+#include <sys/stat.h>
+
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -10,6 +12,8 @@
 #include "mrd/common/input_file.hpp"
 #include "mrd/common/spencer_damper.hpp"
 #include "scenario_set.hpp"
+#include "plant_params.hpp"
+#include "replay_scenario.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -19,28 +23,40 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
   duration_s               plant time to run [s] (default 5)
   e_max                    highest admissible command [V] (2.25); the invariant's bound
   heartbeat_timeout_ms     simulated driver drops the coil to 0 V without a heartbeat (50)
-  [plant]       preset = "paper" | "spencer1997"; substeps (RK4 steps per period, 20);
+  [plant]       preset = "paper" | "spencer1997", or params = "FILE.toml" (a Spencer
+                parameter file as `mrd generate --params` reads and `mrd fit-spencer` writes,
+                relative to the scenario); substeps (RK4 steps per period, 20);
                 model = "damper" (default: the damper alone on [excitation]) | "quarter-car"
                 (the damper between body and wheel of a quarter car on an ISO 8608 road; the
                 road is the excitation; ride figures scored next to passive-off and -on)
+  [plant.spencer] c0a c0b k0 c1a c1b k1 x0 alpha_a alpha_b gamma beta A n eta: overrides
+                of single damper parameters on top of preset or params (damper and quarter car)
   [quarter_car] sprung_mass_kg (300), unsprung_mass_kg (40), spring_n_per_m (20000),
                 tyre_n_per_m (180000), motion_ratio (0.7, damper / wheel travel),
                 speed_m_s (20), substeps (10), settle_s (2: ride figures scored after it)
   [road]        class = "A" .. "H" ("C"), seed (1), n_min (0.011), n_max (2.83) [cycles/m],
                 components (256)
-  [excitation]  kind = "periodic" | "csv"
+  [excitation]  kind = "periodic" | "csv" | "replay"
                 periodic: amplitude_cm, frequency_hz, demand_amplitude_n, demand_frequency_hz,
                           body_amplitude, body_frequency_hz, body_phase_rad
                 csv: file (header naming x and v; relative to the scenario file),
                      demand_column (default "f": an `mrd generate` data set's force, reachable
                      by construction)
-  [control]     law = "force" | "passive-off" | "passive-on" | "constant" | "skyhook";
+                replay: file (a measured run with columns x, v, E, f: `mrd import` or `mrd
+                     generate`); the plant follows the measured x, v; law "force" tracks f,
+                     law "open-loop" commands the measured E; the summary scores the plant's
+                     force against the measured f (fit %, RMSE)
+  [control]     law = "force" | "passive-off" | "passive-on" | "constant" | "skyhook" |
+                "open-loop" (replay only: the firmware passes the measured E through);
                 constant_voltage [V]; skyhook_gain [N s/cm]
   [firmware]    max_age_ms (5), recover_periods (5), velocity_limit [cm/s] (250),
                 grant_timeout_ms (10000: lockstep, the firmware stops when no grant came
-                for this long): written into the generated mrd-firmware config
+                for this long): written into the generated mrd-firmware config;
+                table = "FILE.bin" (the firmware's table, `mrd export`, relative to the
+                scenario; --table overrides; default: the compiled-in table)
   [pass]        max_invariant_violations (0), max_error_reachable, max_error_all,
                 max_missed_grants, max_detection_to_safe_periods (2), require_recovery (true),
+                min_replay_fit (replay: least fit % of plant force vs measured f),
                 expect_firmware_exit (e.g. 2 with a corrupt_table fault),
                 body_accel_below_passive (quarter car: the controlled run's body acceleration
                 RMS below both passive-off and passive-on; false)
@@ -199,11 +215,17 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
     std::string excitation = "periodic";
     PlantExcitation& p = s.periodic;
     int pass_max_viol = 0;
-    double max_missed = -1.0, err_reach = -1.0, err_all = -1.0;
+    double max_missed = -1.0, err_reach = -1.0, err_all = -1.0, replay_fit = -HUGE_VAL;
     int expect_exit = -1;
     std::string model = "damper", road_class = "C";
+    const toml::table* spencer = nullptr;  // [plant.spencer] overrides
     const std::map<std::string, Setter> plant = {
         {"preset", Str(&s.preset, "preset")},
+        {"params", Str(&s.params_file, "params")},
+        {"spencer", [&spencer](const toml::node& n, Ctx& cx) {
+           spencer = n.as_table();
+           return spencer != nullptr || cx.Fail(n, "[plant.spencer] must be a table");
+         }},
         {"substeps", Int(&s.substeps, 1, 1000, "substeps")},
         {"model", Str(&model, "model")}};
     QuarterCarParams& car = s.car;
@@ -242,11 +264,13 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
         {"max_age_ms", Num(&s.max_age_ms, 0.01, 1e4, "max_age_ms")},
         {"recover_periods", Int(&s.recover_periods, 1, 1000000, "recover_periods")},
         {"velocity_limit", Num(&s.velocity_limit, 0.0, 1e6, "velocity_limit")},
-        {"grant_timeout_ms", Num(&s.grant_timeout_ms, 100.0, 3.6e6, "grant_timeout_ms")}};
+        {"grant_timeout_ms", Num(&s.grant_timeout_ms, 100.0, 3.6e6, "grant_timeout_ms")},
+        {"table", Str(&s.table_file, "table")}};
     const std::map<std::string, Setter> pass = {
         {"max_invariant_violations", Int(&pass_max_viol, 0, 1000000000, "max_invariant_violations")},
         {"max_error_reachable", Num(&err_reach, 0.0, 1e6, "max_error_reachable")},
         {"max_error_all", Num(&err_all, 0.0, 1e6, "max_error_all")},
+        {"min_replay_fit", Num(&replay_fit, -1e9, 100.0, "min_replay_fit")},
         {"max_missed_grants", Num(&max_missed, 0.0, 1e12, "max_missed_grants")},
         {"max_detection_to_safe_periods",
          Int(&s.max_detection_to_safe_periods, 0, 1000000, "max_detection_to_safe_periods")},
@@ -310,16 +334,26 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
       if (!ok) return false;
     }
     s.heartbeat_timeout_s = hb_ms * 1e-3;
-    SpencerParams params;
-    if (!SpencerParams::FromPreset(s.preset, &params)) {
-      const toml::node* n = root.at_path("plant.preset").node();
-      return c.Fail(n != nullptr ? *n : static_cast<const toml::node&>(root),
-                    "unknown plant preset '" + s.preset + "' (paper, spencer1997)");
+    if (!s.params_file.empty() && root.at_path("plant.preset").node() != nullptr) {
+      return c.Fail(*root.at_path("plant.params").node(),
+                    "[plant] params and preset exclude each other (the file may name a preset)");
     }
+    if (!s.params_file.empty() && s.params_file[0] != '/') {
+      s.params_file = Folder(path) + "/" + s.params_file;
+    }
+    if (!ResolvePlantDamper(path, root, spencer, &s, error)) return false;
     const auto at = [&](const char* key) -> const toml::node& {
       const toml::node* n = root.at_path(key).node();
       return n != nullptr ? *n : static_cast<const toml::node&>(root);
     };
+    if (!s.table_file.empty()) {
+      if (s.table_file[0] != '/') s.table_file = Folder(path) + "/" + s.table_file;
+      struct stat st {};
+      if (stat(s.table_file.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
+        return c.Fail(at("firmware.table"), "[firmware] table '" + s.table_file +
+                                                "': not a readable file");
+      }
+    }
     if (model != "damper" && model != "quarter-car") {
       return c.Fail(at("plant.model"), "plant model must be \"damper\" or \"quarter-car\"");
     }
@@ -354,14 +388,21 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
         return c.Fail(*root.at_path("excitation.kind").node(), "kind = \"csv\" needs 'file'");
       }
       if (s.csv_file[0] != '/') s.csv_file = Folder(path) + "/" + s.csv_file;
+    } else if (excitation == "replay") {
+      if (!CheckReplay(path, root, &s, error)) return false;  // replay.cpp
     } else {
       return c.Fail(*root.at_path("excitation.kind").node(),
-                    "excitation kind must be \"periodic\" or \"csv\"");
+                    "excitation kind must be \"periodic\", \"csv\" or \"replay\"");
     }
     if (s.law != "force" && s.law != "passive-off" && s.law != "passive-on" &&
-        s.law != "constant" && s.law != "skyhook") {
+        s.law != "constant" && s.law != "skyhook" && s.law != "open-loop") {
       return c.Fail(*root.at_path("control.law").node(),
-                    "law must be force | passive-off | passive-on | constant | skyhook");
+                    "law must be force | passive-off | passive-on | constant | skyhook | "
+                    "open-loop");
+    }
+    if (s.law == "open-loop" && s.excitation != ExcitationKind::kReplay) {
+      return c.Fail(*root.at_path("control.law").node(),
+                    "law \"open-loop\" needs [excitation] kind = \"replay\" (the measured E)");
     }
     if (s.law == "constant" && s.constant_voltage > s.e_max) {
       return c.Fail(*root.at_path("control.constant_voltage").node(),
@@ -370,6 +411,18 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
     s.max_invariant_violations = static_cast<std::uint64_t>(pass_max_viol);
     if (err_reach >= 0.0) s.max_error_reachable = err_reach;
     if (err_all >= 0.0) s.max_error_all = err_all;
+    if (replay_fit > -HUGE_VAL) {
+      if (s.excitation != ExcitationKind::kReplay) {
+        return c.Fail(*root.at_path("pass.min_replay_fit").node(),
+                      "min_replay_fit needs [excitation] kind = \"replay\"");
+      }
+      s.min_replay_fit = replay_fit;
+    }
+    if (s.law == "open-loop" && (s.max_error_reachable || s.max_error_all)) {
+      return c.Fail(root.contains("pass") ? *root.get("pass") : static_cast<const toml::node&>(root),
+                    "law \"open-loop\" tracks no force: score it with min_replay_fit, not "
+                    "max_error_*");
+    }
     if (max_missed >= 0.0) s.max_missed_grants = static_cast<std::uint64_t>(max_missed);
     if (expect_exit >= 0) s.expect_firmware_exit = expect_exit;
     for (const Fault& f : s.faults) {

@@ -7,6 +7,7 @@
 namespace mrd::host::cli {
 
 void RegisterExport(CLI::App& app);
+void RegisterFitSpencer(CLI::App& app);
 void RegisterGenerate(CLI::App& app);
 void RegisterImport(CLI::App& app);
 void RegisterLog(CLI::App& app);

@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   mrd::host::cli::RegisterSimulate(app);
   mrd::host::cli::RegisterReport(app);
   mrd::host::cli::RegisterLog(app);
+  mrd::host::cli::RegisterFitSpencer(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

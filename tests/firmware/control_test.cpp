@@ -134,3 +134,25 @@ TEST(WatchdogTest, CountsEachCauseSeparately) {
 
 }  // namespace
 }  // namespace mrd::firmware
+
+namespace mrd::firmware {
+namespace {
+
+// law "open-loop": the demand input is a voltage command in mV, passed through as a voltage
+// (the controller clamps it to [E_min, E_max]); it needs a fresh demand like law "force".
+TEST(ControlLawOpenLoop, PassesTheDemandThroughAsVolts) {
+  ControlLawConfig c;
+  c.mode = ControlMode::kOpenLoop;
+  ASSERT_TRUE(c.IsValid(0.0, 2.25));
+  ControlLaw law;
+  law.Configure(c, 0.0, 2.25);
+  EXPECT_TRUE(law.needs_demand());
+  EXPECT_FALSE(law.needs_body_velocity());
+  const ControlOutput out = law.Update({Real(5), Real(1250), Real(0)});
+  EXPECT_FALSE(out.is_force);
+  EXPECT_NEAR(static_cast<double>(out.value), 1.25, 1e-6);
+  EXPECT_STREQ(ControlModeName(ControlMode::kOpenLoop), "open-loop");
+}
+
+}  // namespace
+}  // namespace mrd::firmware

@@ -9,6 +9,10 @@
 //   kSkyhookOnOff:       E = E_max when vb v > 0, else E_min           (two-state skyhook)
 //   kSkyhookContinuous:  f_d = c_sky vb when vb v > 0, else 0           (then inverted, so
 //                        the command saturates to the least force the damper can give)
+//   kOpenLoop:           E = demand / 1000: the demand input carries a voltage command in mV
+//                        (the CAN demand signal's 0.5 count resolution is 0.5 mV then),
+//                        clamped to [E_min, E_max] like every voltage; no model, no inversion
+//                        (replaying a measured run's E: the harness's replay scenarios)
 //
 // vb: absolute body velocity [cm/s]; c_sky: skyhook gain [N s/cm].
 // Per-sample arithmetic in Real (real.hpp); the configuration is double.
@@ -24,6 +28,7 @@ enum class ControlMode : std::uint8_t {
   kConstantVoltage,
   kSkyhookOnOff,
   kSkyhookContinuous,
+  kOpenLoop,
 };
 
 struct ControlLawConfig {
@@ -60,7 +65,9 @@ class ControlLaw {
   // Real-time safe.
   ControlOutput Update(const ControlInputs& in) const;
   const ControlLawConfig& config() const { return config_; }
-  bool needs_demand() const { return config_.mode == ControlMode::kForceTracking; }
+  bool needs_demand() const {
+    return config_.mode == ControlMode::kForceTracking || config_.mode == ControlMode::kOpenLoop;
+  }
   bool needs_body_velocity() const {
     return config_.mode == ControlMode::kSkyhookOnOff ||
            config_.mode == ControlMode::kSkyhookContinuous;
@@ -75,7 +82,7 @@ class ControlLaw {
   Real e_max_ = Real(2.25);
 };
 
-// Name for logs and telemetry ("force", "constant", "skyhook-on-off", "skyhook").
+// Name for logs and telemetry ("force", "constant", "skyhook-on-off", "skyhook", "open-loop").
 const char* ControlModeName(ControlMode mode);
 
 }  // namespace mrd::firmware

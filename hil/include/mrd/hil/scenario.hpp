@@ -51,7 +51,7 @@ struct ScenarioGpio {
   bool any() const { return displacement || fault_line || enable || heartbeat; }
 };
 
-enum class ExcitationKind : std::uint8_t { kPeriodic, kCsv };
+enum class ExcitationKind : std::uint8_t { kPeriodic, kCsv, kReplay };
 
 struct Scenario {
   std::string path, name, description;
@@ -60,6 +60,9 @@ struct Scenario {
   double heartbeat_timeout_s = 0.05;  // simulated driver: coil to 0 V without a heartbeat
   // [plant]
   std::string preset = "paper";
+  std::string params_file;            // [plant] params (resolved against the scenario's folder)
+  SpencerParams damper;               // the plant's damper: preset or params file, then the
+                                      // [plant.spencer] overrides (plant_params.cpp)
   int substeps = 20;
   bool quarter_car = false;           // model = "quarter-car": the damper in a quarter car on
                                       // an ISO 8608 road ([quarter_car], [road]); else the
@@ -73,7 +76,8 @@ struct Scenario {
   std::string csv_file;               // resolved against the scenario's folder
   std::string demand_column = "f";
   // [control]
-  std::string law = "force";          // force | passive-off | passive-on | constant | skyhook
+  std::string law = "force";          // force | passive-off | passive-on | constant | skyhook |
+                                      // open-loop (replay: the measured E, replay.hpp)
   double constant_voltage = 0.0;
   double skyhook_gain = 50.0;
   // [firmware] settings of the generated configuration
@@ -81,10 +85,13 @@ struct Scenario {
   int recover_periods = 5;
   double velocity_limit = 250.0;
   double grant_timeout_ms = 10000.0;  // lockstep: the firmware stops without grants this long
+  std::string table_file;             // [firmware] table: the firmware's table (relative to
+                                      // the scenario; --table overrides); "": compiled-in
   // [pass]
   std::uint64_t max_invariant_violations = 0;
   std::optional<double> max_error_reachable;  // ||f - d|| / ||d|| over reachable demands
   std::optional<double> max_error_all;
+  std::optional<double> min_replay_fit;       // replay: plant force vs measured f [%]
   std::optional<std::uint64_t> max_missed_grants;
   int max_detection_to_safe_periods = 2;
   bool require_recovery = true;
