@@ -15,7 +15,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 mode=all
 case "${1:-}" in
-  --from-model) mode=export; shift ;;
+  --from-model) mode="export"; shift ;;
   --check) mode=check; shift ;;
   -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
   -*) echo "gen_builtin_table: unknown option $1 (see --help)" >&2; exit 2 ;;
