@@ -86,6 +86,15 @@ nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
                  {"passive_off", fig(r.ride->passive_off)},
                  {"passive_on", fig(r.ride->passive_on)}};
   }
+  if (s.plant_model != nullptr) {
+    const PlantModel& pm = *s.plant_model;
+    j["plant_model"] = {{"file", pm.file},
+                        {"iteration", pm.iteration},
+                        {"terms", pm.model.num_terms},
+                        {"envelope", pm.has_envelope},
+                        {"input_holds", r.plant_holds ? r.plant_holds->input_holds : 0},
+                        {"force_holds", r.plant_holds ? r.plant_holds->force_holds : 0}};
+  }
   nlohmann::json faults = nlohmann::json::array();
   for (const FaultResult& f : r.faults) {
     faults.push_back({{"kind", FaultKindName(f.fault.kind)},
@@ -140,6 +149,14 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
     << " reachable): all " << t.error_all << ", reachable " << t.error_reachable << "\n";
   o << "    passive-off (0 V): all " << t.off_all << ", reachable " << t.off_reachable
     << "; passive-on (E_max): all " << t.on_all << ", reachable " << t.on_reachable << "\n";
+  }
+  if (s.plant_model != nullptr) {
+    const PlantModel& pm = *s.plant_model;
+    o << "  plant: model " << pm.file << " iteration " << pm.iteration << " ("
+      << static_cast<int>(pm.model.num_terms) << " terms), envelope "
+      << (pm.has_envelope ? "held" : "none in the file") << ": samples with v, x or E held "
+      << (r.plant_holds ? r.plant_holds->input_holds : 0) << ", force held "
+      << (r.plant_holds ? r.plant_holds->force_holds : 0) << "\n";
   }
   if (r.ride) {
     const auto line = [&](const char* name, const RideFigures& f) {

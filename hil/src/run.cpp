@@ -24,6 +24,8 @@
 
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/hil/child.hpp"
+#include "mrd/hil/excitation_profile.hpp"
+#include "mrd/hil/model_plant.hpp"
 #include "mrd/hil/plant.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
@@ -77,6 +79,11 @@ bool MakeDirs(const std::string& dir) {
 }
 
 std::unique_ptr<Plant> MakePlant(const Scenario& s, const SpencerParams& p, const Trace* trace) {
+  if (s.plant_model != nullptr) {  // the model on the Spencer plant's motion (model_plant.hpp)
+    Scenario motion = s;
+    motion.plant_model = nullptr;
+    return std::make_unique<ModelPlant>(s.plant_model, MakePlant(motion, p, trace));
+  }
   if (s.quarter_car) return std::make_unique<QuarterCarAdapter>(p, s.car, s.road, 1e-3);
   if (trace != nullptr) return std::make_unique<TracePlant>(p, *trace, 1e-3, s.substeps);
   PlantExcitation e = s.periodic;
@@ -391,15 +398,18 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
   Trace trace;
   const bool replaying = !s.quarter_car && s.excitation == ExcitationKind::kReplay;
   ReplayRun replay;  // the measured force (replay.hpp)
-  const bool csv = !s.quarter_car && (s.excitation == ExcitationKind::kCsv || replaying ||
-                                      !o.excitation.empty());
+  const bool generated = !s.quarter_car && o.excitation.empty() &&
+                         s.excitation == ExcitationKind::kProfile;
+  const bool csv = !s.quarter_car && !generated &&
+                   (s.excitation == ExcitationKind::kCsv || replaying || !o.excitation.empty());
   const std::string csv_path = o.excitation.empty() ? s.csv_file : o.excitation;
   if (replaying ? !LoadReplay(csv_path, s.law == "open-loop", s.demand_column, &trace, &replay,
                               error)
                 : csv && !LoadTrace(csv_path, s.demand_column, &trace, error)) {
     return 2;
   }
-  const Trace* tp = csv ? &trace : nullptr;
+  if (generated && !ProfileTrace(s.profile, s.profile_seed, params, &trace, error)) return 2;
+  const Trace* tp = csv || generated ? &trace : nullptr;
   auto plant = MakePlant(s, params, tp);
   auto plant_off = MakePlant(s, params, tp);
   auto plant_on = MakePlant(s, params, tp);
@@ -860,6 +870,7 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
   if (port_open) port->Close();
   r->ports.emplace_back(port->name(), port->counters());
   if (score_ride) r->ride = RideScores{Figures(ride), Figures(ride_off), Figures(ride_on)};
+  if (plant->Holds() != nullptr) r->plant_holds = *plant->Holds();
   if (gpio.active()) {
     gpio.Close();
     r->ports.emplace_back(gpio.name(), gpio.counters());

@@ -2,8 +2,9 @@
 // break docs/table_format.md: a normalisation that makes every period's force non-finite,
 // bytes the encoder writes as zero that are not (reserved fields, unused slots), two channels
 // of one name, an input range outside the set-point range of the buses [0, 24] V. Images are
-// patched byte by byte from the compiled-in table's and resealed (CRC), as a tool or a
-// corrupted store would make them.
+// patched byte by byte from the demo table's (tests/support/demo_model.hpp: 8 terms, 5
+// regressors, no envelope; the offsets below are its layout) and resealed (CRC), as a tool or
+// a corrupted store would make them.
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -13,13 +14,13 @@
 
 #include "mrd/common/crc32.hpp"
 #include "mrd/common/table.hpp"
-#include "mrd/firmware/builtin_table.hpp"
+#include "support/demo_model.hpp"
 
 namespace mrd {
 namespace {
 
 TableBytes Builtin() {
-  const auto image = EncodeTable(firmware::kBuiltinTable);
+  const auto image = EncodeTable(test::DemoDamperTable());
   EXPECT_TRUE(image.ok());
   return image.value();
 }
@@ -113,13 +114,13 @@ TEST(TableRulesConformance, InputRangeOutsideTheBusesSetPointRangeIsRefused) {
 }
 
 TEST(TableRulesConformance, EncoderRefusesWhatTheDecoderRefuses) {
-  CoefficientTable t = firmware::kBuiltinTable;
+  CoefficientTable t = test::DemoDamperTable();
   t.e_max = 1000.0;
   EXPECT_EQ(EncodeTable(t).error(), Error::kOutOfRange);
-  t = firmware::kBuiltinTable;
+  t = test::DemoDamperTable();
   t.model.scales[0].offset = 1e308;
   EXPECT_EQ(EncodeTable(t).error(), Error::kOutOfRange);
-  t = firmware::kBuiltinTable;
+  t = test::DemoDamperTable();
   std::strcpy(t.model.channel_names[2].data(), "E");
   EXPECT_EQ(EncodeTable(t).error(), Error::kInvalidArgument);
 }

@@ -11,6 +11,7 @@
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/config.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "support/demo_model.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -83,11 +84,12 @@ TEST(DisplacementLimitConformance, ConfigRefusesALimitNoBusCanMeasure) {
   EXPECT_TRUE(parse("[safety]\ndisplacement_limit = 5\n", &error)) << error;
 }
 
-// The compiled-in model with its f(k-1) coefficient 0.85 -> 1e6: the force grows by 1e6 per
-// period until it overflows (about 50 periods in double, 6 in float), the model is reset and
-// it starts over: non-finite again and again.
+// The demo model (tests/support/demo_model.hpp, no envelope to hold the force) with its f(k-1)
+// coefficient 0.85 -> 1e6: the force grows by 1e6 per period until it overflows (about 50
+// periods in double, 6 in float), the model is reset and it starts over: non-finite again and
+// again.
 TEST(ModelDivergenceConformance, ANonFiniteModelForceIsAWatchdogCause) {
-  CoefficientTable table = kBuiltinTable;
+  CoefficientTable table = mrd::test::DemoDamperTable();
   table.model.coefficients[0] = 1e6;
   ControllerConfig config;
   config.law.mode = ControlMode::kConstantVoltage;

@@ -57,7 +57,10 @@ def main():
         golden = f.read().splitlines()
     with tempfile.TemporaryDirectory() as tmp:
         log = os.path.join(tmp, "frames.log")
+        # The table the capture ran on (the compiled-in table of that build, written by its
+        # `mrd-firmware --write-table`): the compiled-in table is now the paper run's model.
         cmd = [hil, "run", os.path.join(data, "mrd-native-frames.toml"), "--can-log", log,
+               "--table", os.path.join(data, "mrd-native-frames.table.bin"),
                "--out", os.path.join(tmp, "run")]
         if profile:
             cmd += ["--profile", profile]

@@ -1,6 +1,7 @@
 #pragma once
-// A hand-written, plausible MR-damper model for tests, benchmarks and the firmware's
-// compiled-in table (firmware/include/mrd/firmware/builtin_table.hpp is generated from it).
+// A hand-written, plausible MR-damper model for tests and benchmarks (the firmware's compiled-in
+// table was generated from it until it became the paper run's model; tests/data/profiles/
+// mrd-native-frames.table.bin is its image, the table that frame capture ran on).
 // Normalised signals (v / 15 cm/s, E / 2.25 V, f / 1500 N):
 //
 //   f(k) = 0.85 f(k-1) - 0.02 f(k-1)^2 + 0.03 sign(v(k)) + 0.02 v(k)

@@ -15,6 +15,8 @@
 
 namespace mrd::hil {
 
+struct PlantHolds;  // model_plant.hpp
+
 class Plant {
  public:
   virtual ~Plant() = default;
@@ -28,6 +30,8 @@ class Plant {
   virtual PlantSample Probe(double volts) const = 0;
   // A vehicle plant's ride outputs at the present sample; nullptr for a damper alone.
   virtual const QuarterCarSample* Ride() const { return nullptr; }
+  // A model plant's envelope holds so far (model_plant.hpp); nullptr for the others.
+  virtual const PlantHolds* Holds() const { return nullptr; }
 };
 
 // The reference damper on its periodic excitation (damper_plant.hpp).

@@ -32,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "mrd/hil/model_plant.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/hil/replay.hpp"
 #include "mrd/hil/scenario.hpp"
@@ -128,6 +129,7 @@ struct RunResult {
   TrackingScores tracking;
   std::optional<RideScores> ride;       // quarter-car scenarios (needs keep_trace)
   std::optional<ReplayScores> replay;   // replay scenarios: plant force vs measured f
+  std::optional<PlantHolds> plant_holds;  // [plant] model = "narx": envelope holds
   std::vector<FaultResult> faults;
   int firmware_exit = -1;               // -1: still running / not started by us
   int interrupted = 0;                  // the signal that stopped the run (RunOptions::interrupt)

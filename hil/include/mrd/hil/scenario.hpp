@@ -4,6 +4,7 @@
 // `mrd-hil --help`). Start-up only (allocates; toml++ exceptions are caught inside).
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -51,7 +52,11 @@ struct ScenarioGpio {
   bool any() const { return displacement || fault_line || enable || heartbeat; }
 };
 
-enum class ExcitationKind : std::uint8_t { kPeriodic, kCsv, kReplay };
+// kProfile: a reference profile of `mrd generate` (common/reference_profiles.hpp), generated
+// by the harness: motion x, v and the demand (the preset damper's force on it).
+enum class ExcitationKind : std::uint8_t { kPeriodic, kCsv, kProfile, kReplay };
+
+struct PlantModel;  // model_plant.hpp: an identified NARX model playing the damper
 
 struct Scenario {
   std::string path, name, description;
@@ -70,11 +75,16 @@ struct Scenario {
   QuarterCarParams car;
   RoadParams road;
   double ride_settle_s = 2.0;         // quarter car: ride figures scored after this [s]
+  // model = "narx": an identified model (file, iteration) plays the damper on the excitation's
+  // motion; loaded and checked by LoadScenario (model_plant.hpp). nullptr: the Spencer damper.
+  std::shared_ptr<const PlantModel> plant_model;
   // [excitation]
   ExcitationKind excitation = ExcitationKind::kPeriodic;
   PlantExcitation periodic;
   std::string csv_file;               // resolved against the scenario's folder
   std::string demand_column = "f";
+  std::string profile;                // kProfile: v1, v2, ... (ReferenceProfileNames)
+  std::uint64_t profile_seed = 1;
   // [control]
   std::string law = "force";          // force | passive-off | passive-on | constant | skyhook |
                                       // open-loop (replay: the measured E, replay.hpp)

@@ -1,37 +1,23 @@
 #pragma once
-// Reference experiments (docs/design.md §4): excitation profiles and the data sets they produce
-// when they drive the Spencer reference damper. Deterministic for a given seed.
+// Reference experiments (docs/design.md §4) for the host: the common definitions
+// (mrd/common/reference_profiles.hpp, shared with the harness's generated excitations) with
+// exceptions for bad arguments.
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
-#include "mrd/common/spencer_damper.hpp"
+#include "mrd/common/reference_profiles.hpp"
 
 namespace mrd::host {
 
-// Sampled excitation. Row k: time t[k] [s], displacement x[k] [cm], velocity v[k] [cm/s]
-// (exact derivative of the displacement profile), and E[k] [V], the voltage applied over
-// (t[k-1], t[k]] so that it acts on the force f[k] at t[k].
-struct Excitation {
-  std::vector<double> t, x, v, E;
-};
+using Excitation = mrd::ReferenceExcitation;
 
 // Profile names accepted by MakeExcitation.
 const std::vector<std::string>& ProfileNames();
 
-// identification: 40 s, eight 5 s sinusoid segments (0.4-4 Hz, peak velocity 3-15 cm/s,
-//   order shuffled by seed), voltage steps every 0.5 s over 0 ... 2.25 V (both ends
-//   present).
-// v1: 20 s composite: filtered random (multisine), saturated and non-saturated ramps, a
-//   chirp; voltage a chirp for 2 s then random piecewise constant.
-// v2: 20 s ramps at 2, 5, 10, 15 cm/s; 0 V in the first half, 2.25 V in the second.
-// v3: 20 s earthquake-like (Kanai-Tajimi shaped multisine, Shinozuka-Sato envelope,
-//   peak velocity 15 cm/s) at constant 2.25 V.
-// wide: 20 s beyond the identification set: 2 cm sines at 1-4 Hz, then a random multisine;
-//   velocity to about +-50 cm/s, displacement to about +-2 cm; voltage random levels over
-//   0 ... 2.25 V (held 0.1-0.5 s).
-// Throws std::invalid_argument for an unknown name or dt <= 0.
+// The profile's excitation (reference_profiles.hpp). Throws std::invalid_argument for an
+// unknown name or dt <= 0.
 Excitation MakeExcitation(const std::string& profile, std::uint64_t seed, double dt = 1e-3);
 
 // Drives the damper with the excitation; returns the force f[k] [N] at each t[k].
