@@ -50,18 +50,20 @@ std::string PatchedTable(const TempDir& dir, const std::string& name,
 TEST(TableCheckConformance, AbsurdTablesAreRefusedWithTheReason) {
   TempDir dir;
   const std::size_t ch0 = kTableChannelsOffset, ch1 = ch0 + kTableChannelRecord;
+  // Offsets and names as laid out in the compiled-in table (the paper run's model: channels f,
+  // E, v; 10 terms).
   const struct {
     std::string name;
     std::vector<std::pair<std::size_t, double>> f64;
     std::vector<std::pair<std::size_t, std::uint8_t>> u8;
     std::string reason;
   } cases[] = {
-      {"offset.bin", {{ch0 + 16, 1e308}}, {}, "channel 'v' normalisation offset 1e+308"},
+      {"offset.bin", {{ch0 + 16, 1e308}}, {}, "channel 'f' normalisation offset 1e+308"},
       {"scale.bin", {{ch1 + 24, 5e-324}}, {}, "channel 'E' normalisation"},
       {"reserved.bin", {}, {{17, 1}}, "byte 17 (header, reserved) is 0x01, must be 0"},
       {"nan.bin", {{kTableCoefficientsOffset + 8 * 20, std::nan("")}}, {},
-       "(coefficient 20 (unused: the table has 8 terms))"},
-      {"names.bin", {}, {{ch1, 'v'}}, "channels 0 and 1 are both named 'v'"},
+       "(coefficient 20 (unused: the table has 10 terms))"},
+      {"names.bin", {}, {{ch1, 'v'}}, "channels 1 and 2 are both named 'v'"},
       {"emin.bin", {{kTableRangeOffset, -5.0}}, {}, "input range [-5, 2.25] V"},
       {"emax.bin", {{kTableRangeOffset + 8, 1000.0}}, {}, "input range [0, 1000] V"},
   };
