@@ -78,9 +78,13 @@ for line in open(log):
 tele = [(t, d) for t, i, d in frames if i == tel_id]
 # One per period, and one with the safe-state status the firmware sends when it stops (which
 # the log has when it reached the bus before the harness closed it).
-check(len(tele) in (summary["steps"], summary["steps"] + 1),
-      f"one FirmwareTelemetry frame per period ({len(tele)} for {summary['steps']} steps)")
-stopped = len(tele) == summary["steps"] + 1
+# Periods are the firmware's ticks (the harness's steps, or one more when the firmware ticked on
+# the grant the harness sent as it ended).
+ticks = fw["ticks"]
+check(len(tele) in (ticks, ticks + 1) and ticks in (summary["steps"], summary["steps"] + 1),
+      f"one FirmwareTelemetry frame per period ({len(tele)} for {ticks} ticks, "
+      f"{summary['steps']} steps)")
+stopped = len(tele) == ticks + 1
 seq = [decode(d, tel["TelemetrySequence"]) for _, d in tele]
 check(all((b - a) % 256 == 1 for a, b in zip(seq, seq[1:])), "the sequence counts +1 mod 256")
 

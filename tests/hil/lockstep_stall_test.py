@@ -5,7 +5,7 @@ likewise, gives the same summary and trace, byte for byte (sha256).
 
 The summary is compared without the figures that measure wall time by definition (wall_s,
 speed_x, the sensor->command latency, the wake-up jitter, the firmware's worst latency and
-execution time); everything else, every trace column and every counter, must be identical.
+execution time, the per-period log's path, block count and size); everything else, every trace column and every counter, must be identical.
 
 Usage: lockstep_stall_test.py BIN_DIR SOURCE_DIR PAPER_DIR WORK_DIR [SCENARIO[@TRANSPORT] ...]
   SCENARIO: force-v1 (with PAPER_DIR/v1.csv) or quarter-car-skyhook (default: both, on CAN);
@@ -26,6 +26,10 @@ STALL_S = 0.150
 MOMENTS = (0.1, 0.25, 0.4)
 WALL_KEYS = {"wall_s", "speed_x", "latency_us", "wake_jitter_us"}  # under "timing"
 FIRMWARE_WALL_KEYS = {"worst_latency_us", "worst_exec_us"}
+# The firmware's per-period log: its path names the run's folder; its block count and size
+# depend on when the writer flushed a partial block (flush_ms of wall time). The records
+# written and dropped are compared.
+LOG_WALL_KEYS = {"path", "blocks", "bytes"}
 
 
 def children(pid):
@@ -48,6 +52,9 @@ def strip_wall(summary):
     if isinstance(fw, dict):
         s["firmware"] = dict(s["firmware"])
         s["firmware"]["summary"] = {k: v for k, v in fw.items() if k not in FIRMWARE_WALL_KEYS}
+        if isinstance(fw.get("log"), dict):
+            s["firmware"]["summary"]["log"] = {
+                k: v for k, v in fw["log"].items() if k not in LOG_WALL_KEYS}
     return s
 
 

@@ -34,6 +34,7 @@ constexpr int kReadAttempts = 4;  // seqlock attempts per Read on the tick
 
 constexpr std::int64_t kLockstepIdleNs = 20'000;             // between reads without a new grant
 constexpr std::int64_t kLockstepCommandWaitNs = 100'000'000;  // for the tick's command
+constexpr std::int64_t kLockstepHandOverNs = 100'000'000;  // the worker writing a published tick
 
 void SleepUntil(std::int64_t t_ns) {
   timespec ts{};
@@ -164,7 +165,12 @@ void ModbusDevice::Deactivate() {
     thread_started_ = false;
   }
   if (!configured_) return;
-  if (link_->open() && !link_->broken() &&
+  // The worker (stopped now) may already have had the driver acknowledge the safe block the
+  // loop posted last (its shutdown): that is the final safe state. Writing it again would only
+  // make the request count depend on whether the worker got there before it stopped.
+  const Command last = command_.version() != 0 ? command_.Read() : Command{};
+  const bool acknowledged = safe_acknowledged_ && last.safe && last.tick == safe_acknowledged_tick_;
+  if (!acknowledged && link_->open() && !link_->broken() &&
       (config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
     Command safe;
     safe.tick = command_.Read().tick + 1;
@@ -318,8 +324,14 @@ ModbusDevice::Outcome ModbusDevice::WriteLatest(Sample* s) {
     if (!running_.load(std::memory_order_relaxed)) return Outcome::kAbandoned;
     (void)LatestCommand(&c);  // the newest block, at the moment it is written
     const Outcome o = WriteOnce(c, &why, /*interruptible=*/true);
+    if (o != Outcome::kAbandoned) {
+      handled_tick_.store(c.tick, std::memory_order_release);
+      handled_any_.store(true, std::memory_order_release);
+    }
     if (o == Outcome::kOk) {
       s->write_failed = false;
+      safe_acknowledged_ = c.safe;
+      safe_acknowledged_tick_ = c.tick;
       return o;
     }
     if (o == Outcome::kAbandoned) {
@@ -375,6 +387,12 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
           *new_grant = grant > s.grant_ns;
           if (*new_grant) s.grant_ns = grant;
           stamp = s.grant_ns;
+        }
+        // Lockstep: a block from before the first grant belongs to no step (whether the worker
+        // reads one depends on when it connected): not data.
+        if (config_.lockstep && s.grant_ns == 0) {
+          s.read_failed = false;
+          return Outcome::kOk;
         }
         map::SensorBlock b;
         if (map::DecodeSensors(regs, &b) != map::MapError::kOk) {
@@ -490,6 +508,19 @@ IoStatus ModbusDevice::Read(SensorFrame* frame, IoError* why) {
 }
 
 IoStatus ModbusDevice::Write(const DriverCommand& cmd, IoError* why) {
+  // Lockstep: the published tick's command goes out before a later one replaces it in the
+  // one-slot mailbox (only the shutdown's safe block follows a tick without a grant between;
+  // otherwise the harness's next grant already came after that command). Bounded wait; in
+  // simulated time only.
+  if (config_.lockstep && published_) {
+    const std::int64_t until = ModbusNowNs() + kLockstepHandOverNs;
+    while (running_.load(std::memory_order_relaxed) &&
+           !(handled_any_.load(std::memory_order_acquire) &&
+             handled_tick_.load(std::memory_order_acquire) >= published_tick_) &&
+           ModbusNowNs() < until) {
+      SleepUntil(ModbusNowNs() + kLockstepIdleNs);
+    }
+  }
   Command c;
   c.tick = cmd.tick;
   c.volts = cmd.volts;
@@ -527,7 +558,13 @@ void ModbusDevice::PublishStatus(const TelemetrySnapshot& stats) {
   status_demand_.store(stats.force_demand_n, std::memory_order_relaxed);
   status_command_.store(stats.last_command_v, std::memory_order_relaxed);
   // Lockstep: the tick's command and status are posted; the worker writes them now.
-  if (config_.lockstep) Signal(wake_);
+  if (config_.lockstep) {
+    if (command_.version() != 0) {
+      published_tick_ = command_.Read().tick;
+      published_ = true;
+    }
+    Signal(wake_);
+  }
 }
 
 bool ModbusDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {

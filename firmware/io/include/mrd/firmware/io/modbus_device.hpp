@@ -187,6 +187,8 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   std::uint64_t written_tick_ = 0;
   bool written_safe_ = true;      // the latest block written was a safe one
   bool writing_safe_ = false;     // the write in flight carries the safe state
+  bool safe_acknowledged_ = false;          // the last acknowledged block was a safe one...
+  std::uint64_t safe_acknowledged_tick_ = 0;  // ...of this tick
   bool have_seq_ = false;
   std::int64_t backoff_ns_ = 0;
   std::int64_t connect_at_ns_ = 0;
@@ -197,6 +199,12 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   std::uint32_t last_seq_ = 0;
   bool last_write_failed_ = false;
   bool posted_safe_ = true;       // the latest command posted was a safe one
+  // Lockstep: the tick of the last command followed by PublishStatus (loop side), and the tick
+  // of the last command the worker wrote or failed to write (worker side).
+  std::uint64_t published_tick_ = 0;
+  bool published_ = false;
+  std::atomic<std::uint64_t> handled_tick_{0};
+  std::atomic<bool> handled_any_{false};
   std::int64_t granted_ns_ = 0;   // the latest grant WaitGrant returned
   IoError last_why_ = IoError::kNone;
 
