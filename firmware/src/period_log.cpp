@@ -116,8 +116,8 @@ void PeriodLog::Start(const LogConfig& config, std::int64_t period_ns, const std
   record_bytes_ = h.record_bytes();
   const std::uint64_t capacity = RoundUpPow2(config_.ring_records < 2 ? 2 : config_.ring_records);
   mask_ = capacity - 1;
-  ring_ = std::make_unique<PeriodRecord[]>(capacity);  // value-initialised: every page touched
-  for (std::uint64_t i = 0; i < capacity; ++i) ring_[i].period = i;  // and written
+  ring_ = std::make_unique<PeriodRecord[]>(static_cast<std::size_t>(capacity));  // value-initialised: every page touched
+  for (std::uint64_t i = 0; i < capacity; ++i) ring_[static_cast<std::size_t>(i)].period = i;  // and written
   pending_.assign(static_cast<std::size_t>(config_.block_records) * record_bytes_, 0);
   block_.reserve(runlog::kBlockHeaderBytes + pending_.size());
   // A log from an earlier start (a restart after a crash) is kept as PATH.1 (a regular file
@@ -146,7 +146,7 @@ void PeriodLog::OnPeriod(const PeriodRecord& record) {
       return;
     }
   }
-  ring_[h & mask_] = record;
+  ring_[static_cast<std::size_t>(h & mask_)] = record;
   head_.store(h + 1, std::memory_order_release);
 }
 
@@ -261,7 +261,7 @@ void PeriodLog::WriterMain() {
       std::uint64_t t = tail_.load(std::memory_order_relaxed);
       const std::uint64_t h = head_.load(std::memory_order_acquire);
       while (t != h) {
-        EncodePeriodRecord(ring_[t & mask_],
+        EncodePeriodRecord(ring_[static_cast<std::size_t>(t & mask_)],
                            pending_.data() + static_cast<std::size_t>(pending_count_) * record_bytes_);
         ++t;
         tail_.store(t, std::memory_order_release);

@@ -344,8 +344,8 @@ TEST(ParamMailboxTest, SetFromAnotherThreadWaitsForTheLoop) {
   setter.join();
   ASSERT_EQ(r.status, RuntimeParams::Status::kOk) << r.message;
   ASSERT_GT(rig.records().size(), r.period);
-  EXPECT_EQ(rig.records()[r.period].param_version, 1U);
-  EXPECT_EQ(rig.records()[r.period - 1].param_version, 0U);
+  EXPECT_EQ(rig.records()[static_cast<std::size_t>(r.period)].param_version, 1U);
+  EXPECT_EQ(rig.records()[static_cast<std::size_t>(r.period - 1)].param_version, 0U);
   rig.Ticks(5);
   EXPECT_FALSE(rig.records().back().safe);
   EXPECT_DOUBLE_EQ(rig.records().back().command_v, 2.0);
@@ -395,8 +395,8 @@ TEST(ParamMailboxTest, AReloadSwapsAFreshControllerAtABoundaryAndCountsOn) {
   EXPECT_EQ(rig.params.reloads(), 1U);
   EXPECT_NE(&rig.loop.controller(), &rig.controller);  // a fresh one runs
   EXPECT_EQ(rig.loop.controller().config().velocity_source, VelocitySource::kDisplacement);
-  EXPECT_EQ(rig.records()[r.period].param_version, 1U);
-  EXPECT_EQ(rig.records()[r.period - 1].param_version, 0U);
+  EXPECT_EQ(rig.records()[static_cast<std::size_t>(r.period)].param_version, 1U);
+  EXPECT_EQ(rig.records()[static_cast<std::size_t>(r.period - 1)].param_version, 0U);
   rig.Ticks(10);
   EXPECT_GE(rig.loop.stats().watchdog.safe_periods, safe_periods);  // totals run on
   EXPECT_DOUBLE_EQ(rig.records().back().command_v, 1.0);

@@ -156,8 +156,9 @@ TEST(RunlogCodecTest, CorruptBlockIsFoundByItsCrcAndStopsTheReading) {
   runlog::Log full;
   std::string error;
   ASSERT_TRUE(runlog::DecodeLog(whole, &full, &error));
-  const std::size_t header = full.valid_bytes - full.blocks * runlog::kBlockHeaderBytes -
-                             full.num_records * full.header.record_bytes();
+  const auto header = static_cast<std::size_t>(
+      full.valid_bytes - full.blocks * runlog::kBlockHeaderBytes -
+      full.num_records * full.header.record_bytes());
   const std::size_t block1 = header + runlog::kBlockHeaderBytes + 5 * full.header.record_bytes();
   // Every byte of block 1 (header or payload), flipped, is caught.
   for (std::size_t at = block1; at < block1 + runlog::kBlockHeaderBytes + 5 * full.header.record_bytes();

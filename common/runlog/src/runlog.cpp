@@ -277,7 +277,7 @@ bool DecodeLog(std::string_view bytes, Log* log, std::string* error) {
     log->num_records += count;
     ++log->blocks;
     ++index;
-    at += kBlockHeaderBytes + payload;
+    at += kBlockHeaderBytes + n;
     log->valid_bytes = at;
   }
   return true;
