@@ -1,8 +1,10 @@
 #include "mrd/host/plot.hpp"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -47,7 +49,9 @@ int RunGnuplot(const std::string& script, const std::string& log, std::string* e
   const int rc = posix_spawnp(&pid, "gnuplot", &actions, nullptr, argv, environ);
   posix_spawn_file_actions_destroy(&actions);
   if (rc != 0) {
-    *err = "cannot run gnuplot (install the Debian package gnuplot-nox)";
+    // ENOENT: not on PATH; otherwise the system's reason (e.g. the log file cannot be opened).
+    *err = rc == ENOENT ? "cannot run gnuplot (install the Debian package gnuplot-nox)"
+                        : fmt::format("cannot run gnuplot: {} (log {})", std::strerror(rc), log);
     return -1;
   }
   int status = 0;

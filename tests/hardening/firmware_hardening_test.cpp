@@ -20,6 +20,7 @@
 #include "firmware/app/summary_json.hpp"
 #include "mrd/firmware/config.hpp"
 #include "host/test_util.hpp"
+#include "support/process.hpp"
 
 extern char** environ;
 
@@ -75,15 +76,18 @@ TEST(FirmwareHardeningTest, JsonSummaryWritesNonFiniteFiguresAsNull) {
 // Runs mrd-firmware --dry-run 30 --json, sends sig after 300 ms; returns the wait status.
 int RunAndSignal(int sig, const std::string& out) {
   const std::string bin = Firmware();
+  // Appears once the signal handlers are installed (one per run: a fresh path to wait for).
+  const std::string sock = out + "." + std::to_string(sig) + ".sock";
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   char* argv[] = {const_cast<char*>(bin.c_str()), const_cast<char*>("--dry-run"),
-                  const_cast<char*>("30"), const_cast<char*>("--json"), nullptr};
+                  const_cast<char*>("30"),        const_cast<char*>("--json"),
+                  const_cast<char*>("--ctl-socket"), const_cast<char*>(sock.c_str()), nullptr};
   pid_t pid = 0;
   if (posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv, environ) != 0) return -1;
   posix_spawn_file_actions_destroy(&fa);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  test::WaitForPath(sock, 20.0);  // on a timeout the signal still goes (the test then fails)
   kill(pid, sig);
   int status = 0;
   waitpid(pid, &status, 0);
@@ -116,12 +120,20 @@ TEST(FirmwareHardeningTest, SighupReloadsAndKeepsRunning) {
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  // The control socket appears after the signal handlers are installed: it marks "ready for
+  // SIGHUP" (a fixed sleep raced a slow start: SIGHUP's default action killed the process).
+  const std::string sock = dir.File("ctl.sock");
   char* argv[] = {const_cast<char*>(bin.c_str()), const_cast<char*>("--dry-run"),
-                  const_cast<char*>("30"), const_cast<char*>("--json"), nullptr};
+                  const_cast<char*>("30"),        const_cast<char*>("--json"),
+                  const_cast<char*>("--ctl-socket"), const_cast<char*>(sock.c_str()), nullptr};
   pid_t pid = 0;
   ASSERT_EQ(posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv, environ), 0);
   posix_spawn_file_actions_destroy(&fa);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  if (!test::WaitForPath(sock, 20.0)) {
+    kill(pid, SIGKILL);
+    waitpid(pid, nullptr, 0);
+    FAIL() << "the firmware did not open its control socket: " << Slurp(err);
+  }
   kill(pid, SIGHUP);
   // Upper bound only (the reload message comes within a few periods).
   for (int i = 0; i < 2000 && Slurp(err).find("reloaded") == std::string::npos; ++i) {
