@@ -8,6 +8,7 @@
 
 #include "mrd/common/shear_frame.hpp"
 #include "mrd/firmware/clipped_optimal.hpp"
+#include "mrd/firmware/control_law.hpp"
 #include "mrd/structure/design.hpp"
 #include "mrd/structure/study.hpp"
 
@@ -134,6 +135,19 @@ TEST(ClippedRuleTest, SwitchesOnOnlyWhenTheForceMustGrowTowardsTheDesiredForce) 
   EXPECT_EQ(ClippedRule(Real(500), Real(0), vmax, vmin), vmin);      // f = 0: H(0) = 0
   EXPECT_EQ(ClippedRule(Real(100), Real(100), vmax, vmin), vmin);    // f = fc
   EXPECT_EQ(ClippedRule(Real(500), Real(100), Real(1.5), Real(0.2)), Real(1.5));
+}
+
+TEST(ClippedOptimalTest, TheControlModeIsNamedAndNotYetAConfigurableLaw) {
+  using firmware::ControlMode;
+  EXPECT_STREQ(firmware::ControlModeName(ControlMode::kClippedOptimal), "clipped-optimal");
+  firmware::ControlLawConfig c;
+  c.mode = ControlMode::kClippedOptimal;
+  EXPECT_FALSE(c.IsValid(0.0, 2.25));  // the loop has no routed floor accelerations yet
+  firmware::ControlLaw law;
+  law.Configure(c, 0.25, 2.25);
+  const firmware::ControlOutput out = law.Update({});
+  EXPECT_FALSE(out.is_force);
+  EXPECT_EQ(out.value, Real(0.25));  // the stateless law holds E_min
 }
 
 TEST(ClippedOptimalTest, GainsValidation) {
