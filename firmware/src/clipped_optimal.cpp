@@ -1,12 +1,13 @@
 #include "mrd/firmware/clipped_optimal.hpp"
 
 #include <cmath>
+#include <cstddef>
 
 namespace mrd::firmware {
 
 namespace {
 
-template <int N>
+template <std::size_t N>
 bool AllFinite(const double (&a)[N]) {
   for (double v : a) {
     if (!std::isfinite(v)) return false;
@@ -14,9 +15,9 @@ bool AllFinite(const double (&a)[N]) {
   return true;
 }
 
-template <int N>
+template <std::size_t N>
 void ToReal(const double (&in)[N], Real (&out)[N]) {
-  for (int i = 0; i < N; ++i) out[i] = static_cast<Real>(in[i]);
+  for (std::size_t i = 0; i < N; ++i) out[i] = static_cast<Real>(in[i]);
 }
 
 }  // namespace
