@@ -31,6 +31,8 @@ ControlOutput ControlLaw::Update(const ControlInputs& in) const {
     }
     case ControlMode::kOpenLoop:  // mV on the demand input; the controller clamps the volts
       return {false, in.demand * Real(1e-3)};
+    case ControlMode::kClippedOptimal:  // decided by ClippedOptimal (clipped_optimal.hpp)
+      return {false, e_min_};
   }
   return {false, e_min_};
 }
@@ -42,6 +44,7 @@ const char* ControlModeName(ControlMode mode) {
     case ControlMode::kSkyhookOnOff: return "skyhook-on-off";
     case ControlMode::kSkyhookContinuous: return "skyhook";
     case ControlMode::kOpenLoop: return "open-loop";
+    case ControlMode::kClippedOptimal: return "clipped-optimal";
   }
   return "unknown";
 }

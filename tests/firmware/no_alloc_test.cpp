@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "fakes.hpp"
+#include "mrd/firmware/clipped_optimal.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/runtime_params.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
@@ -163,6 +164,28 @@ TEST(NoAllocationTest, ParameterChangeAndReloadAtAPeriodBoundaryAllocateNothing)
   EXPECT_NE(&loop.controller(), &controller);
   EXPECT_EQ(loop.controller().config().law.mode, ControlMode::kForceTracking);
   EXPECT_EQ(params.version(), 2U);
+}
+
+// The clipped-optimal law (observer update, optimal force, clipped rule) per period.
+TEST(NoAllocationTest, ClippedOptimalUpdatesAllocateNothing) {
+  ClippedOptimalGains gains;
+  for (int i = 0; i < ClippedOptimalGains::kStates; ++i) {
+    gains.ad[i * ClippedOptimalGains::kStates + i] = 0.999;
+    gains.bd[i] = 1e-6;
+    gains.k[i] = 100.0 * (i + 1);
+  }
+  for (double& l : gains.l) l = 1e-3;
+  for (double& c : gains.cy) c = -10.0;
+  ClippedOptimal law;
+  law.Configure(gains);
+  int high = 0;
+  AllocationGuard guard;
+  for (int k = 0; k < 5000; ++k) {
+    const Real accel[3] = {Real(0.01 * (k % 17)), Real(-0.02 * (k % 5)), Real(0.3)};
+    if (law.Update(accel, Real((k % 40) - 20)) > Real(0)) ++high;
+  }
+  EXPECT_EQ(guard.count(), 0U);
+  EXPECT_GT(high, 0);  // the rule really switched
 }
 
 }  // namespace

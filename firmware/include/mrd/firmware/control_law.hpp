@@ -29,6 +29,10 @@ enum class ControlMode : std::uint8_t {
   kSkyhookOnOff,
   kSkyhookContinuous,
   kOpenLoop,
+  // Clipped-optimal (clipped_optimal.hpp): a stateful observer-based law run by its own
+  // object; the stateless ControlLaw holds E_min for it. Not yet a configurable [control] law
+  // (ControlLawConfig::IsValid refuses it): the structure study runs it in process.
+  kClippedOptimal,
 };
 
 struct ControlLawConfig {
@@ -82,7 +86,8 @@ class ControlLaw {
   Real e_max_ = Real(2.25);
 };
 
-// Name for logs and telemetry ("force", "constant", "skyhook-on-off", "skyhook", "open-loop").
+// Name for logs and telemetry ("force", "constant", "skyhook-on-off", "skyhook", "open-loop",
+// "clipped-optimal").
 const char* ControlModeName(ControlMode mode);
 
 }  // namespace mrd::firmware

@@ -1,0 +1,164 @@
+// mrd-structure — the three-story structure of Dyke, Spencer, Sain & Carlson (1996) with an MR
+// damper between the ground and the first floor: modal check, off-line LQG design of the
+// clipped-optimal law, and the in-process El Centro study (docs/structure.md).
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include "mrd/structure/design.hpp"
+#include "mrd/structure/study.hpp"
+
+namespace {
+
+using mrd::structure::Case;
+
+// temp + fsync + rename; false with *error on failure (nothing half-written).
+bool WriteAtomically(const std::string& path, const std::string& text, std::string* error) {
+  const std::string tmp = path + ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd < 0) {
+    *error = path + ": cannot write";
+    return false;
+  }
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n <= 0) break;
+    done += static_cast<std::size_t>(n);
+  }
+  const bool ok = done == text.size() && ::fsync(fd) == 0;
+  ::close(fd);
+  if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
+    ::unlink(tmp.c_str());
+    *error = path + ": cannot write";
+    return false;
+  }
+  return true;
+}
+
+void AddDesignOptions(CLI::App* cmd, mrd::structure::DesignOptions* d) {
+  cmd->add_option("--period", d->period_s, "Control period T [s]")->capture_default_str();
+  cmd->add_option("--q-displacement", d->q_displacement,
+                  "LQR weight on each floor displacement [1/m^2]")->capture_default_str();
+  cmd->add_option("--q-drift", d->q_drift, "LQR weight on each inter-story drift [1/m^2]")
+      ->capture_default_str();
+  cmd->add_option("--r-force", d->r_force, "LQR weight on the damper force [1/N^2]")
+      ->capture_default_str();
+  cmd->add_option("--noise-ratio", d->noise_ratio,
+                  "Ground-acceleration / measurement-noise PSD ratio")->capture_default_str();
+  cmd->add_option("--v-max", d->v_max, "Clipped rule's (and passive-on) voltage [V]")
+      ->capture_default_str();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"mrd-structure: three-story structure with an MR damper (Dyke et al. 1996): "
+               "modes, clipped-optimal design, El Centro study"};
+  app.require_subcommand(1);
+  mrd::structure::DesignOptions design;
+  mrd::structure::StudyOptions study;
+
+  auto* modes = app.add_subcommand("modes", "Modal frequencies and damping of the bare frame");
+  auto* design_cmd = app.add_subcommand(
+      "design", "Discrete LQG design of the clipped-optimal law; prints the gains as TOML");
+  std::string design_out;
+  AddDesignOptions(design_cmd, &design);
+  design_cmd->add_option("--out", design_out, "Write the gains TOML here (atomically)");
+
+  auto* study_cmd = app.add_subcommand(
+      "study", "Uncontrolled, passive-off, passive-on and clipped-optimal under the record: "
+               "peak and RMS response table");
+  std::string record_path = MRD_STRUCTURE_RECORD;
+  std::string preset = "spencer1997";
+  std::string study_out;
+  AddDesignOptions(study_cmd, &study.design);
+  study_cmd->add_option("--record", record_path, "Ground motion CSV (t_s,ag_g)")
+      ->capture_default_str();
+  study_cmd->add_option("--time-scale", study.time_scale, "Record played this many times faster")
+      ->capture_default_str();
+  study_cmd->add_option("--amplitude", study.amplitude, "Factor on the record's acceleration")
+      ->capture_default_str();
+  study_cmd->add_option("--substeps", study.substeps, "Plant RK4 steps per control period")
+      ->capture_default_str();
+  study_cmd->add_option("--tail", study.tail_s, "Free vibration after the record [s]")
+      ->capture_default_str();
+  study_cmd->add_option("--damper", preset, "Damper preset: spencer1997 (Dyke 1996) or paper")
+      ->capture_default_str();
+  study_cmd->add_option("--out", study_out, "Also write the table here (atomically)");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  const mrd::ShearFrameParams frame;
+  std::string error;
+
+  if (*modes) {
+    const auto m = mrd::structure::FrameModes(frame);
+    for (std::size_t i = 0; i < 3; ++i) {
+      std::printf("mode %zu: %.3f Hz, damping %.4f\n", i + 1, m.frequency_hz[i],
+                  m.damping_ratio[i]);
+    }
+    return 0;
+  }
+  if (*design_cmd) {
+    mrd::firmware::ClippedOptimalGains gains;
+    if (!mrd::structure::DesignClippedOptimal(frame, design, &gains, &error)) {
+      std::fprintf(stderr, "%s\n", error.c_str());
+      return 2;
+    }
+    const std::string toml = mrd::structure::GainsToml(gains, design);
+    if (!design_out.empty()) {
+      if (!WriteAtomically(design_out, toml, &error)) {
+        std::fprintf(stderr, "%s\n", error.c_str());
+        return 1;
+      }
+    } else {
+      std::fputs(toml.c_str(), stdout);
+    }
+    return 0;
+  }
+  // study
+  mrd::SpencerParams damper;
+  if (!mrd::SpencerParams::FromPreset(preset, &damper)) {
+    std::fprintf(stderr, "--damper: unknown preset '%s' (spencer1997, paper)\n", preset.c_str());
+    return 2;
+  }
+  mrd::structure::GroundMotion record;
+  if (!mrd::structure::LoadGroundMotion(record_path, &record, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return 2;
+  }
+  mrd::firmware::ClippedOptimalGains gains;
+  std::fprintf(stderr, "designing the clipped-optimal law ...\n");
+  if (!mrd::structure::DesignClippedOptimal(frame, study.design, &gains, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return 2;
+  }
+  std::vector<mrd::structure::Response> rows;
+  for (Case c : {Case::kUncontrolled, Case::kPassiveOff, Case::kPassiveOn,
+                 Case::kClippedOptimal}) {
+    std::fprintf(stderr, "running %s ...\n", mrd::structure::CaseName(c));
+    mrd::structure::Response r;
+    if (!mrd::structure::RunCase(c, record, frame, damper, gains, study, &r, &error)) {
+      std::fprintf(stderr, "%s\n", error.c_str());
+      return 2;
+    }
+    rows.push_back(r);
+  }
+  const std::string table = mrd::structure::ResponseTable(rows);
+  std::fputs(table.c_str(), stdout);
+  if (!study_out.empty() && !WriteAtomically(study_out, table, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,188 @@
+#include "mrd/structure/study.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "mrd/firmware/clipped_optimal.hpp"
+
+namespace mrd::structure {
+
+bool LoadGroundMotion(const std::string& path, GroundMotion* out, std::string* error) {
+  std::ifstream in(path);
+  if (!in) {
+    *error = path + ": cannot open";
+    return false;
+  }
+  std::vector<double> t, a;
+  std::string line;
+  int number = 0;
+  bool header = false;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty() || line[0] == '#') continue;
+    if (!header) {
+      header = true;
+      if (line.rfind("t_s,ag_g", 0) != 0) {
+        *error = path + ":" + std::to_string(number) + ": expected the header t_s,ag_g";
+        return false;
+      }
+      continue;
+    }
+    const char* s = line.c_str();
+    char* end = nullptr;
+    const double tv = std::strtod(s, &end);
+    if (end == s || *end != ',') {
+      *error = path + ":" + std::to_string(number) + ": expected 't_s,ag_g' numbers";
+      return false;
+    }
+    const char* s2 = end + 1;
+    const double av = std::strtod(s2, &end);
+    while (*end == ' ' || *end == '\r') ++end;
+    if (end == s2 || *end != '\0' || !std::isfinite(tv) || !std::isfinite(av)) {
+      *error = path + ":" + std::to_string(number) + ": expected 't_s,ag_g' numbers";
+      return false;
+    }
+    if (t.size() >= 2) {
+      const double dt = t[1] - t[0];
+      if (std::fabs((tv - t.back()) - dt) > 1e-6 * (1.0 + dt)) {
+        *error = path + ":" + std::to_string(number) + ": samples are not equally spaced";
+        return false;
+      }
+    } else if (!t.empty() && !(tv > t.back())) {
+      *error = path + ":" + std::to_string(number) + ": time does not increase";
+      return false;
+    }
+    t.push_back(tv);
+    a.push_back(av);
+  }
+  if (t.size() < 2) {
+    *error = path + ": fewer than 2 samples";
+    return false;
+  }
+  out->ag_g = std::move(a);
+  out->dt_s = t[1] - t[0];
+  return true;
+}
+
+const char* CaseName(Case c) {
+  switch (c) {
+    case Case::kUncontrolled: return "uncontrolled";
+    case Case::kPassiveOff: return "passive-off";
+    case Case::kPassiveOn: return "passive-on";
+    case Case::kClippedOptimal: return "clipped-optimal";
+  }
+  return "unknown";
+}
+
+bool RunCase(Case which, const GroundMotion& record, const ShearFrameParams& frame_params,
+             const SpencerParams& damper, const firmware::ClippedOptimalGains& gains,
+             const StudyOptions& o, Response* out, std::string* error) {
+  if (!(o.time_scale > 0.0) || !std::isfinite(o.amplitude) || !(o.design.period_s > 0.0) ||
+      o.substeps < 1 || !(o.tail_s >= 0.0) || record.ag_g.size() < 2) {
+    *error = "study: time_scale, period must be > 0, substeps >= 1, tail >= 0";
+    return false;
+  }
+  ShearFrameParams fp = frame_params;
+  fp.with_damper = which != Case::kUncontrolled;
+  const char* reason = nullptr;
+  if (!fp.IsValid(&reason)) {
+    *error = std::string("study: invalid frame parameter ") + reason;
+    return false;
+  }
+  const double T = o.design.period_s;
+  const double dt_rec = record.dt_s / o.time_scale;  // scaled record spacing [s]
+  const double record_s = dt_rec * static_cast<double>(record.ag_g.size() - 1);
+  const auto ag_at = [&](double t) {  // [m/s^2], linear, 0 after the record
+    if (t >= record_s) return 0.0;
+    const double pos = t / dt_rec;
+    const auto i = static_cast<std::size_t>(pos);
+    const double w = pos - static_cast<double>(i);
+    return o.amplitude * o.g * (record.ag_g[i] * (1.0 - w) + record.ag_g[i + 1] * w);
+  };
+  const long steps = std::lround((record_s + o.tail_s) / T);
+
+  double e_const = 0.0;
+  if (which == Case::kPassiveOn) e_const = o.design.v_max;
+  ShearFrame frame(fp, damper, o.substeps);
+  frame.Reset(e_const, ag_at(0.0));
+  firmware::ClippedOptimal law;
+  law.Configure(gains);
+
+  Response r;
+  r.which = which;
+  double sum_x2[3] = {}, sum_d2[3] = {}, sum_a2[3] = {}, sum_f2 = 0.0, sum_e = 0.0;
+  ShearFrameSample s = frame.sample();
+  for (long k = 0; k < steps; ++k) {
+    double E = e_const;
+    if (which == Case::kClippedOptimal) {
+      firmware::Real accel[3];
+      for (int i = 0; i < 3; ++i) accel[i] = static_cast<firmware::Real>(s.xa[i]);
+      E = static_cast<double>(law.Update(accel, static_cast<firmware::Real>(s.force)));
+    }
+    sum_e += E;
+    const double t0 = static_cast<double>(k) * T;
+    s = frame.Step(T, ag_at(t0), ag_at(t0 + T), E);
+    for (int i = 0; i < 3; ++i) {
+      const double x = 100.0 * s.x[i];
+      const double d = 100.0 * (s.x[i] - (i > 0 ? s.x[i - 1] : 0.0));
+      const double a = 100.0 * s.xa[i];
+      r.peak_x_cm[i] = std::fmax(r.peak_x_cm[i], std::fabs(x));
+      r.peak_d_cm[i] = std::fmax(r.peak_d_cm[i], std::fabs(d));
+      r.peak_xa_cm_s2[i] = std::fmax(r.peak_xa_cm_s2[i], std::fabs(a));
+      sum_x2[i] += x * x;
+      sum_d2[i] += d * d;
+      sum_a2[i] += a * a;
+    }
+    r.peak_force_n = std::fmax(r.peak_force_n, std::fabs(s.force));
+    sum_f2 += s.force * s.force;
+    if (!std::isfinite(s.x[2]) || !std::isfinite(s.force)) {
+      *error = std::string("study: ") + CaseName(which) + " diverged at t = " +
+               std::to_string(t0) + " s";
+      return false;
+    }
+  }
+  const double n = static_cast<double>(steps);
+  for (int i = 0; i < 3; ++i) {
+    r.rms_x_cm[i] = std::sqrt(sum_x2[i] / n);
+    r.rms_d_cm[i] = std::sqrt(sum_d2[i] / n);
+    r.rms_xa_cm_s2[i] = std::sqrt(sum_a2[i] / n);
+  }
+  r.rms_force_n = std::sqrt(sum_f2 / n);
+  r.mean_voltage = sum_e / n;
+  *out = r;
+  return true;
+}
+
+std::string ResponseTable(const std::vector<Response>& rows) {
+  std::ostringstream out;
+  char buf[512];
+  out << "Peak responses (x, d [cm]; xa [cm/s^2]; f [N]):\n\n"
+         "| case | x1 | x2 | x3 | d1 | d2 | d3 | xa1 | xa2 | xa3 | f |\n"
+         "|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Response& r : rows) {
+    std::snprintf(buf, sizeof buf,
+                  "| %s | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.0f | %.0f | %.0f | %.0f |\n",
+                  CaseName(r.which), r.peak_x_cm[0], r.peak_x_cm[1], r.peak_x_cm[2],
+                  r.peak_d_cm[0], r.peak_d_cm[1], r.peak_d_cm[2], r.peak_xa_cm_s2[0],
+                  r.peak_xa_cm_s2[1], r.peak_xa_cm_s2[2], r.peak_force_n);
+    out << buf;
+  }
+  out << "\nRMS responses (same units; mean command E [V]):\n\n"
+         "| case | x1 | x2 | x3 | d1 | d2 | d3 | xa1 | xa2 | xa3 | f | mean E |\n"
+         "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Response& r : rows) {
+    std::snprintf(
+        buf, sizeof buf,
+        "| %s | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.0f | %.0f | %.0f | %.0f | %.2f |\n",
+        CaseName(r.which), r.rms_x_cm[0], r.rms_x_cm[1], r.rms_x_cm[2], r.rms_d_cm[0],
+        r.rms_d_cm[1], r.rms_d_cm[2], r.rms_xa_cm_s2[0], r.rms_xa_cm_s2[1], r.rms_xa_cm_s2[2],
+        r.rms_force_n, r.mean_voltage);
+    out << buf;
+  }
+  return out.str();
+}
+
+}  // namespace mrd::structure
