@@ -20,8 +20,8 @@ line of the block and the output's last lines. Shell variables do not carry from
 the next: each block sets what it uses.
 
 `flags`: every command line (fenced block or inline code) that starts with mrd, mrd-firmware,
-mrd-hil or mrd-canbus (a build/bin/ prefix allowed) has each of its --flags in the --help of
-that program and subcommand (`mrd identify --help`, `mrd log export --help`); a bare inline
+mrd-hil or mrd-canbus (a build/bin/ prefix allowed) or a toolchain/ script has each of its
+--flags in the --help of that program and subcommand (`mrd identify --help`, `mrd log export --help`); a bare inline
 `--flag` must be in the --help of a program or subcommand the page uses.
 Exit 0 when everything holds, 1 otherwise (each failure printed), 2 on bad arguments.
 """
@@ -115,11 +115,14 @@ def run_page(page, source, bindir, timeout, keep):
 _help_cache = {}
 
 
-def help_text(bindir, argv):
+def help_text(bindir, argv, source=None):
     key = tuple(argv)
     if key not in _help_cache:
+        exe = [os.path.join(bindir, argv[0])]
+        if argv[0].startswith("toolchain/"):  # a script of the tree: its own --help
+            exe = ["bash", os.path.join(source or ".", argv[0])]
         try:
-            p = subprocess.run([os.path.join(bindir, argv[0])] + argv[1:] + ["--help"],
+            p = subprocess.run(exe + argv[1:] + ["--help"],
                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=30)
             _help_cache[key] = p.stdout.decode(errors="replace") if p.returncode == 0 else None
         except (OSError, subprocess.TimeoutExpired):
@@ -159,7 +162,7 @@ def split_commands(text):
             yield words
 
 
-def check_flags(page, bindir):
+def check_flags(page, bindir, source):
     failures, used = [], set()
     bare = []
     for n, text in command_lines(page):
@@ -170,16 +173,19 @@ def check_flags(page, bindir):
             continue
         for words in split_commands(text):
             prog = os.path.basename(words[0])
-            if prog not in PROGRAMS:
+            if re.fullmatch(r"(\./)?toolchain/[\w.-]+", words[0]) and \
+                    os.path.isfile(os.path.join(source, words[0])):
+                prog = os.path.normpath(words[0])  # toolchain/deploy: checked against its --help
+            elif prog not in PROGRAMS:
                 continue
             argv = [prog]
-            for w in words[1:3]:
+            for w in ([] if prog.startswith("toolchain/") else words[1:3]):
                 if re.fullmatch(r"[a-z][a-z-]*", w) and help_text(bindir, argv + [w]) is not None \
                         and help_text(bindir, argv + [w]) != help_text(bindir, argv):
                     argv.append(w)
                 else:
                     break
-            h = help_text(bindir, argv)
+            h = help_text(bindir, argv, source)
             if h is None:
                 failures.append(f"{where}: `{' '.join(argv)} --help` fails")
                 continue
@@ -188,7 +194,7 @@ def check_flags(page, bindir):
                 m = re.fullmatch(r"(--[a-z][a-z0-9-]*)(=.*)?", w)
                 if m and not re.search(r"(?<![\w-])" + re.escape(m.group(1)) + r"(?![\w-])", h):
                     failures.append(f"{where}: {m.group(1)} is not in `{' '.join(argv)} --help`")
-    helps = [help_text(bindir, list(a)) or "" for a in used]
+    helps = [help_text(bindir, list(a), source) or "" for a in used]
     for where, flag in bare:
         if not any(re.search(r"(?<![\w-])" + re.escape(flag) + r"(?![\w-])", h) for h in helps):
             failures.append(f"{where}: {flag} is in the --help of no command the page uses")
@@ -213,7 +219,7 @@ def main():
         if a.mode == "run":
             failures += run_page(page, source, bindir, a.timeout, a.keep)
         else:
-            failures += check_flags(page, bindir)
+            failures += check_flags(page, bindir, source)
     for f in failures:
         print("FAIL: " + f)
     print(f"doc_blocks {a.mode}: {len(a.pages)} page(s), {len(failures)} failure(s)")
