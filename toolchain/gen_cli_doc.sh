@@ -21,6 +21,7 @@ subcommands() {  # the first word of each line of the "Subcommands:" list
   helpof "$@" | awk '/^Subcommands:/ { on = 1; next } on && /^$/ { exit } on { print $1 }'
 }
 section() {  # section PROGRAM [SUB...]
+  # shellcheck disable=SC2016  # Markdown backticks, not a command substitution
   printf '## `%s`\n\n```text\n' "$*"
   helpof "$@"
   printf '```\n\n'

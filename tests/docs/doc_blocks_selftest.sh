@@ -5,12 +5,13 @@ set -uo pipefail
 runner="$1" src="$2" bin="$3"
 work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
 failures=0
+indent() { while IFS= read -r line; do printf '    %s\n' "$line"; done <<<"$out"; }
 expect() {  # expect STATUS DESCRIPTION MODE PAGE
   local want="$1" what="$2" mode="$3" page="$4" got
   out="$(python3 "$runner" "$mode" --source "$src" --bin "$bin" --timeout 60 "$page" 2>&1)"
   got=$?
   if [ "$got" -eq "$want" ]; then echo "ok: $what"; else
-    echo "FAIL: $what: exit $got, expected $want"; sed 's/^/    /' <<<"$out"; failures=$((failures + 1)); fi
+    echo "FAIL: $what: exit $got, expected $want"; indent; failures=$((failures + 1)); fi
 }
 fence='```'
 cat >"$work/good.md" <<P
@@ -25,8 +26,8 @@ P
 expect 0 "blocks that work pass, in order, in one scratch directory" run "$work/good.md"
 sed 's/--profile v2/--profile v9/' "$work/good.md" >"$work/bad.md"
 expect 1 "a failing command fails the page" run "$work/bad.md"
-grep -q 'bad.md:1: block failed' <<<"$out" && echo "ok: the failure names page and line" ||
-  { echo "FAIL: no 'bad.md:1: block failed' in:"; sed 's/^/    /' <<<"$out"; failures=$((failures + 1)); }
+if grep -q 'bad.md:1: block failed' <<<"$out"; then echo "ok: the failure names page and line"; else
+  echo "FAIL: no 'bad.md:1: block failed' in:"; indent; failures=$((failures + 1)); fi
 printf '%s\n' "${fence}sh" "echo not runnable" "${fence}" >"$work/none.md"
 expect 1 "a page without a runnable block fails" run "$work/none.md"
 expect 0 "flags of the good page exist" flags "$work/good.md"
