@@ -15,7 +15,8 @@ in its own `bash -euo pipefail`, in one scratch directory per page that holds a 
 every top-level entry of the source tree but .git, out/ and build folders, and build/bin of the
 build under test (so `host/specs/paper.toml` and `build/bin/mrd` resolve as in a clone); files the blocks write stay in the scratch directory, which is
 removed afterwards (kept with --keep). build/bin is first on PATH. A block that exits non-zero
-or runs past --timeout seconds (default 120) fails the page; the message names the page, the
+or runs past --timeout seconds (default 120) fails the page (processes a block leaves in the
+background are killed when it ends); the message names the page, the
 line of the block and the output's last lines. Shell variables do not carry from one block to
 the next: each block sets what it uses.
 
@@ -30,6 +31,7 @@ import os
 import re
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -91,14 +93,21 @@ def run_page(page, source, bindir, timeout, keep):
         for n, text in runnable:
             print(f"{page}:{n}: running\n" + "".join("    " + l + "\n" for l in text.splitlines()),
                   flush=True)
+            p = subprocess.Popen(["bash", "-euo", "pipefail", "-c", text], cwd=scratch, env=env,
+                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                 start_new_session=True)
             try:
-                p = subprocess.run(["bash", "-euo", "pipefail", "-c", text], cwd=scratch, env=env,
-                                   stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                   timeout=timeout, start_new_session=True)
-                out, status = p.stdout.decode(errors="replace"), p.returncode
-            except subprocess.TimeoutExpired as e:
-                out = (e.stdout or b"").decode(errors="replace")
+                out, status = p.communicate(timeout=timeout)[0], p.returncode
+            except subprocess.TimeoutExpired:
                 status = f"timeout after {timeout} s"
+                os.killpg(p.pid, signal.SIGKILL)
+                out = p.communicate()[0]
+            finally:
+                try:  # whatever the block left running in the background goes with it
+                    os.killpg(p.pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+            out = out.decode(errors="replace")
             if status != 0:
                 tail = "\n".join("    | " + l for l in out.splitlines()[-25:])
                 failures.append(f"{page}:{n}: block failed (exit {status}):\n{tail}")

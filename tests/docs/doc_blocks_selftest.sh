@@ -28,6 +28,13 @@ sed 's/--profile v2/--profile v9/' "$work/good.md" >"$work/bad.md"
 expect 1 "a failing command fails the page" run "$work/bad.md"
 if grep -q 'bad.md:1: block failed' <<<"$out"; then echo "ok: the failure names page and line"; else
   echo "FAIL: no 'bad.md:1: block failed' in:"; indent; failures=$((failures + 1)); fi
+printf '%s\n' "${fence}sh run" "sleep 300 &" "sleep 30" "${fence}" >"$work/slow.md"
+out="$(python3 "$runner" run --source "$src" --bin "$bin" --timeout 2 "$work/slow.md" 2>&1)"
+if [ $? -eq 1 ] && grep -q 'timeout after 2' <<<"$out"; then echo "ok: a block past its time limit fails"; else
+  echo "FAIL: a block past its time limit:"; indent; failures=$((failures + 1)); fi
+if pgrep -f '^sleep 300$' >/dev/null; then
+  echo "FAIL: a process the block left in the background still runs"; failures=$((failures + 1))
+else echo "ok: what a block leaves running is killed"; fi
 printf '%s\n' "${fence}sh" "echo not runnable" "${fence}" >"$work/none.md"
 expect 1 "a page without a runnable block fails" run "$work/none.md"
 expect 0 "flags of the good page exist" flags "$work/good.md"
