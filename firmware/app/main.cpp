@@ -539,7 +539,7 @@ int Run(const Options& o) {
     std::fprintf(stderr,
                  "error: table %s is the demo table, a model of the reference damper, not of "
                  "yours: refusing to drive %s with it. Identify your damper (mrd identify, mrd "
-                 "export: see the README) and give its table with --table FILE, or pass "
+                 "export: see docs/guide/identify.md) and give its table with --table FILE, or pass "
                  "--allow-demo-table\n",
                  mrd::Printable(table_name).c_str(), mrd::Printable(device).c_str());
     return kExitBadInput;

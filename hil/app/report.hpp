@@ -1,5 +1,5 @@
 #pragma once
-// The run's summary (JSON; keys in the README) and its files in --out: summary.json,
+// The run's summary (JSON; keys in docs/hil_summary.md) and its files in --out: summary.json,
 // trace.csv, firmware.toml (the generated config) and gnuplot plots (tracking.png,
 // command.png, and ride.png for a quarter car; skipped with a warning without gnuplot).
 

@@ -43,7 +43,7 @@ TEST(RealDataFamilyTest, NeesFamilyChoosesByCrossValidationAndFitsHeldOutSegment
   // The model file's spec holds the chosen member.
   const auto& u2 = mf.spec.regressors[static_cast<std::size_t>(mf.spec.RegressorIndex("u2"))];
   EXPECT_EQ(u2.transform, f.combinations[static_cast<std::size_t>(f.chosen)].members[0].transform);
-  // Held-out fit: the bar of realdata_sem_test (measured 90.9 %, README).
+  // Held-out fit: the bar of realdata_sem_test (measured 90.9 %, docs/results.md).
   const auto h = SimulateJson(model, held);
   ASSERT_FALSE(h["diverged"].get<bool>());
   EXPECT_GE(h["fit_percent"].get<double>(), 90.0);

@@ -32,7 +32,7 @@ TEST(RealDataSemTest, NeesSpecFitsHeldOutSegment) {
 
   const auto h = SimulateJson(model, held);
   ASSERT_FALSE(h["diverged"].get<bool>());
-  // Measured 91.0 % (README); the Spencer 1997 model reaches about 51 % on this run.
+  // Measured 91.0 % (docs/results.md); the Spencer 1997 model reaches about 51 % on this run.
   EXPECT_GE(h["fit_percent"].get<double>(), 90.0);
   EXPECT_LE(h["rrse"].get<double>(), 0.10);
   // No sign of over-fitting: the held-out fit is within 2 points of the identification fit.

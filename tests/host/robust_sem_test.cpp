@@ -305,7 +305,7 @@ TEST(WideProfileTest, DeterministicAndBeyondTheIdentificationSet) {
 
 // The reference damper identified with the saturating spec on the identification set, run
 // on `wide` (velocity 3.3x, voltage random): no divergence, fit >= 85 %; the validation
-// sets stay above 90 %. Measured: wide 92.9 %, V1 95.9 %, V2 91.6 %, V3 95.5 % (README).
+// sets stay above 90 %. Measured: wide 92.9 %, V1 95.9 %, V2 91.6 %, V3 95.5 % (docs/results.md).
 TEST(ExtrapolationTest, SaturatingSpecHoldsOnWide) {
   TempDir dir;
   for (const std::string p : {"identification", "v1", "v2", "v3", "wide"}) {

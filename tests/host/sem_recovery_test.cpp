@@ -48,7 +48,7 @@ TEST_P(SemRecoveryTest, DefaultSettingsNoValidationRecoverTheTrueStructure) {
 
 // Measured (default settings: first improvement with exchange moves, a second start from
 // one-step forward regression, output-error refined coefficients, cross-validated extended-BIC
-// selection; counts in the README, issue 15 section): these reach the target.
+// selection; counts in docs/results.md, "Structure recovery"): these reach the target.
 INSTANTIATE_TEST_SUITE_P(Meets, SemRecoveryTest,
                          testing::Values(Case{0, Noise::kEquation, 1000},
                                          Case{0, Noise::kOutput, 1000},
@@ -80,7 +80,7 @@ INSTANTIATE_TEST_SUITE_P(DISABLED_BelowTarget, SemRecoveryTest,
 // The same targets as rates over 200 seeds (1 ... 200, the suite's 20 among them): 190/200 at
 // N = 1000, 170/200 at N = 500. Run here for the case below target on seeds 1-20 (185/200
 // measured) and for the case closest to its rate (billings OE 1000, 193/200); every case:
-// build/tests/sem_recovery --seeds 200 --case SYSTEM EE|OE N (README, issue 15 section).
+// build/tests/sem_recovery --seeds 200 --case SYSTEM EE|OE N (docs/results.md, "Structure recovery").
 class SemRecoveryRateTest : public testing::TestWithParam<Case> {};
 
 TEST_P(SemRecoveryRateTest, DefaultSettingsRecoverAtTheTargetRateOver200Seeds) {

@@ -13,39 +13,9 @@
 // add a hand-over (and its latency and scheduling jitter) without removing any wait. (Modbus is
 // different: libmodbus blocks for a whole request/reply, so it lives on a thread.)
 //
-// Per period:
-//   Read   flushes queued frames, drains the received ones to the newest (at most
-//          kMaxFramesPerRead): each is matched to a profile message, checked (length, checksum,
-//          rolling counter) and its roles decoded (range); rejects are counted (rejected_frame / crc / bad_value) and change
-//          nothing. Accepted sensor values keep their arrival stamps (CanIface: the relay's
-//          or the kernel's, not the read's), so data that waited in the socket (a stalled
-//          process, a backlog) show their true age to the watchdog. A flood — more than
-//          kMaxRejectsPerRead frames refused since the last Read (a babbling node), or a
-//          budget of frames that arrived within kFloodSpanNs with more still waiting — is
-//          kFault (overflow, counted per period): the can_bus cause, the safe state; after
-//          refused frames it holds for kFloodHoldNs after the last such period. A backlog a
-//          stall of the firmware left is no flood: its samples are just old. A lost bus (EOF, reset, network down, bus-off)
-//          is kFault (disconnected / bus_off) — the can_bus cause too — and the device
-//          reopens its fd every kReconnectInterval from the tick (socket + connect/bind: no
-//          allocation, no wait). Silence (a sender that stopped) is kNoData: the stamps go
-//          stale and the watchdog's stale-sensor cause takes over. A driver status with any
-//          fault bit (the driver_faults role) sets the frame's fault_line (the watchdog's
-//          fault_line cause, as the Modbus sensor block's driver-fault bit does) until a status
-//          without one; so does the fault_line role when non-zero, and a driver-status message
-//          with a timeout_ms that has not come for that long (device time).
-//   Write  queues the command messages (set-point through the profile's CommandMap, enable,
-//          enable-valid, safe flag, echo of the latest sensor seq) with the deadline
-//          tx_deadline every period, and the heartbeat messages at heartbeat_period; a frame
-//          not written by its deadline is dropped (timeout). In real time a driving (non-safe)
-//          command is not sent either when the SensorMotion sample it echoes is older than
-//          max_age by then (a tick held up after the watchdog's check: preempted, stopped):
-//          timeout, and the loop commands the safe state instead. A failed or dropped send is
-//          kFault.
-//   PublishStatus  the status messages at status_period.
-// Frames of the messages the firmware sends, heard from another node, are ignored; so are
-// messages of the profile's DBC that carry no role. A set-point the profile's signal cannot
-// carry is never wrapped: the command message then says safe (0, enable low) and the write is
-// kFault (bad_value).
+// Per period (Read, Write, PublishStatus, Deactivate): what is read, refused, counted and
+// sent, floods, reconnects and deadlines are documented in one place, docs/can_bus.md,
+// "The firmware's CAN device"; keep it current with this code.
 //
 // CANopen (the profile's [canopen]: a CiA 301 drive; can_device_canopen.cpp):
 //   Activate  sends NMT "start remote node" to the drive (nmt_start), then each start-up SDO

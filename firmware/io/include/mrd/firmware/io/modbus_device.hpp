@@ -2,51 +2,10 @@
 // The Modbus field device: a Modbus TCP or RTU client for the register map of
 // docs/modbus_registers.md (mrd/protocol/modbus_map.hpp).
 //
-// Why a worker thread and not non-blocking I/O in the tick: a transaction waits for its reply
-// (an RTU read of the sensor block takes 3.4 ms on a 115200 Bd line, the command write 3.0 ms),
-// longer than the 1 ms period. So one thread per device owns the link (src/modbus_link.hpp:
-// libmodbus opens it, the frames are built and checked there): each poll_period it writes the
-// latest posted command block (one 0x10 request, only when the loop posted a new one) and
-// reads the sensor block (one 0x03 request), stamps the sample with CLOCK_MONOTONIC when the
-// request was sent (the values are no older than the request, whenever the reply arrives;
-// RTU, after a read that got no reply: when that read was sent, since RTU cannot tell its
-// late reply from the next one), and publishes it through a seqlock. The tick only copies memory: Read takes the latest
-// sample (a bounded number of seqlock attempts, kNoData if the worker is mid-write every
-// time), Write posts the command into another seqlock. Nothing on the tick allocates, locks
-// or waits on the bus; Write signals an eventfd when the loop enters the safe state.
-//
-// The latest block, at once: every write encodes the block the loop posted last, at the
-// moment it is written (a retry, or a write after a quiet-line wait, sends the newest block,
-// never an older one). When the loop posts a safe block after a driven one was written, the
-// worker wakes from its sleep or quiet-line wait and writes it at once; over TCP it also
-// abandons a request in flight (its late reply is recognised by its transaction id and
-// dropped). RTU is half duplex: the safe block waits for the reply or the timeout of the
-// request in flight.
-//
-// Failures (per attempt, counted in errors[]): timeout (no complete reply by the deadline),
-// crc (RTU), exception (the server answered with a Modbus exception), rejected_frame (reply
-// malformed, wrong unit id, MBAP protocol id not 0), bad_value (reserved fault bits set),
-// disconnected (reset, refused, EIO on the serial line). A timeout or CRC error is retried
-// `retries` times in the same cycle. Only link failures reconnect: a disconnect, a TCP stream
-// out of step, or 3 cycles in a row with a timeout; a protocol-level failure (exception,
-// rejected frame, CRC, bad value) keeps the link. Every connection that fails, or ends
-// without one good exchange, is followed by a backoff (5 ms doubling to 200 ms; a good
-// exchange resets it). While the latest transaction failed, Read reports kFault with the
-// reason (the loop raises the modbus_bus watchdog cause) and the sample stamps age, so the
-// stale-sensor cause trips as well. A sensor block whose seq did not change since the last
-// accepted one is not new data (a frozen server goes stale). Every wait of the worker watches
-// the stop request (RTU lets a request in flight finish: half duplex): Deactivate returns
-// within two response timeouts (a TCP connect or an RTU request in flight, then its final
-// safe write).
-//
-// Lockstep (config.lockstep: [loop] clock = "grant" and no [can] bus): the device is the loop's
-// TimeGrantSource. The worker reads the sensor block and the grant register in one request
-// (kLockstepSensorCount registers) back to back; a read that brings a new grant publishes the
-// sample stamped with the granted time and wakes WaitGrant (an eventfd); the worker then waits
-// (eventfd, bounded) for the loop's tick to post its command and status (PublishStatus) and
-// writes them at once, so the harness receives one command block per grant, carrying that
-// tick's status. WaitGrant that times out is a missed grant: the next Read reports kFault
-// (timeout) and the loop commands the safe state, as on CAN.
+// Why a worker thread and not the tick, what it reads and writes each cycle, the latest block
+// at once, failures and their counters, retries, reconnects, backoff, stopping and lockstep:
+// docs/modbus_registers.md ("Timing", "Errors and counters", the grant register), the one
+// place; keep it current with this code.
 //
 // With a device profile (config.modbus_profile, [modbus] profile; docs/devices.md) the worker
 // runs the profile's requests instead of the built-in map's two blocks (same worker, waits,
