@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# docs/cli.md from the programs' own --help: mrd, mrd-firmware, mrd-hil, mrd-canbus and every
-# subcommand (found in each CLI11 "Subcommands:" list; mrd-firmware's ctl by name).
+# docs/cli.md from the programs' own --help: mrd, mrd-firmware, mrd-hil, mrd-structure,
+# mrd-canbus and every subcommand (found in each CLI11 "Subcommands:" list; mrd-firmware's ctl
+# by name).
 # Usage: toolchain/gen_cli_doc.sh [BIN_DIR]           rewrite docs/cli.md (default BIN_DIR build/bin)
 #        toolchain/gen_cli_doc.sh --check [BIN_DIR]   exit 1 with a diff when docs/cli.md differs
 # Paths that name this checkout are printed relative to it, so the page is the same everywhere.
@@ -9,7 +10,7 @@ src="$(cd "$(dirname "$0")/.." && pwd)"
 check=0
 if [ "${1:-}" = --check ]; then check=1; shift; fi
 bin="$(cd "${1:-$src/build/bin}" && pwd)" || { echo "gen_cli_doc: error: no bin folder ${1:-build/bin}" >&2; exit 2; }
-for p in mrd mrd-firmware mrd-hil mrd-canbus; do
+for p in mrd mrd-firmware mrd-hil mrd-structure mrd-canbus; do
   [ -x "$bin/$p" ] || { echo "gen_cli_doc: error: $bin/$p not built" >&2; exit 2; }
 done
 export PATH="$bin:$PATH"
@@ -37,7 +38,7 @@ fails when this page and the programs disagree (run the script again after chang
 text). How to use them: [the guides](guide/).
 
 HEAD
-  for p in mrd mrd-hil; do
+  for p in mrd mrd-hil mrd-structure; do
     section "$p"
     for s in $(subcommands "$p"); do
       section "$p" "$s"
