@@ -259,7 +259,7 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
         << ComfortPanels(dir + "/passive.dat", {{"controlled", r.passive->controlled}}, "")
         << "unset multiplot\n"
         << "set terminal pngcairo noenhanced size 1000,600\nset output '" << dir << "/psd.png'\n"
-        << "set logscale xy\nset xlabel 'f [Hz]'\nset ylabel 'body acceleration PSD [(m/s^2)^2/Hz]'\n"
+        << "set logscale xy\nset format y '%.0e'\nset xlabel 'f [Hz]'\nset ylabel 'body acceleration PSD [(m/s^2)^2/Hz]'\n"
         << "set title 'Body acceleration PSD (Welch, Hann, 50 % overlap)'\nset xrange [0.2:100]\n"
         << "plot '" << dir << "/psd.dat' using 1:2 with lines dt 2 title 'passive-off (0 V)', "
         << "'' using 1:3 with lines title 'best passive (" << r.passive->comparison.best[0].volts

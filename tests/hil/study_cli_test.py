@@ -80,8 +80,17 @@ check("comfort at equal road holding" in p.stdout and "best passive" in p.stdout
       "text summary names the best passive and the comfort at equal road holding")
 
 # --- study ------------------------------------------------------------------------------
-SHORT = ["--scenario", SCENARIO, "--classes", "B,C", "--speeds", "10,20", "--duration", "3",
-         "--passive-step", "0.25"]
+SHORT_FLAGS = {"--scenario": SCENARIO, "--classes": "B,C", "--speeds": "10,20", "--duration": "3",
+               "--passive-step": "0.25"}
+
+
+def short(**override):
+    flags = dict(SHORT_FLAGS)
+    flags.update(override)
+    return [x for kv in flags.items() for x in kv]
+
+
+SHORT = short()
 outs = []
 for n in (1, 2):
     d = os.path.join(WORK, f"study{n}")
@@ -128,14 +137,14 @@ for args, words in [
         (["--classes", "B,B"], ["--classes", "twice"]),
         (["--speeds", "0"], ["--speeds", "(0, 100]"]),
         (["--speeds", "ten"], ["--speeds", "'ten'"]),
-        (["--laws", "nosuch"], ["--laws 'nosuch'", "allowed"]),
+        (["--laws", "nosuch"], ["--laws 'nosuch'", "must be one of", "skyhook"]),
         (["--laws", "force"], ["--laws 'force'", "force demand"]),
         (["--laws", "skyhook:skyhook_gain"], ["--laws", "KEY=VALUE"]),
         (["--laws", "skyhook:skyhook_gain=-3"], ["--laws", "skyhook_gain"]),
         (["--laws", "skyhook:no_such_key=1"], ["--laws", "no_such_key"]),
         (["--passive-step", "0"], ["--passive-step", "step > 0"]),
         (["--duration", "1"], ["--duration", "settle"])]:
-    p = hil("study", *SHORT, *args, "--out", bad_dir)
+    p = hil("study", *short(**{args[0]: args[1]}), "--out", bad_dir)
     check(p.returncode == 2 and all(w in p.stderr for w in words),
           f"study {' '.join(args)}: exit 2 naming it ({p.returncode}: {p.stderr.strip()[:200]})")
 check(not os.path.exists(bad_dir), "refused studies wrote nothing")
