@@ -15,6 +15,15 @@ nlohmann::json RidePointJson(const RidePoint& p) {
           {"lift_off", p.lift_off}};
 }
 
+nlohmann::json WkAtHoldingJson(const std::vector<RidePoint>& grid, const PassiveComparison& c) {
+  if (!c.wk_at_holding) return nullptr;
+  const RidePoint& p = grid[c.wk_at_holding->index];
+  return {{"volts", p.volts},
+          {"body_accel_wk_rms", p.body_accel_wk_rms},
+          {"tyre_load_rms_n", p.tyre_load_rms_n},
+          {"improvement_percent", *c.wk_at_holding_improvement}};
+}
+
 nlohmann::json PassiveJson(const PassiveBaseline& b, double e_max) {
   nlohmann::json j;
   j["step_v"] = b.step_v;
@@ -41,6 +50,7 @@ nlohmann::json PassiveJson(const PassiveBaseline& b, double e_max) {
   } else {
     j["comfort_at_equal_road_holding"] = nullptr;
   }
+  j["wk_comfort_at_equal_road_holding"] = WkAtHoldingJson(b.grid, c);
   return j;
 }
 
@@ -62,7 +72,13 @@ std::string PassiveText(const PassiveBaseline& b) {
       << b.controlled.tyre_load_rms_n << " N is " << p.volts << " V (body acc "
       << p.body_accel_rms << " m/s^2, tyre load " << p.tyre_load_rms_n
       << " N); controlled body acc RMS improvement " << std::showpos
-      << *c.comfort_at_holding_improvement << std::noshowpos << " %\n";
+      << *c.comfort_at_holding_improvement << std::noshowpos << " %";
+    if (c.wk_at_holding) {
+      o << "; Wk weighted: vs " << c.wk_at_holding->value << " m/s^2 at "
+        << c.wk_at_holding->volts << " V, " << std::showpos << *c.wk_at_holding_improvement
+        << std::noshowpos << " %";
+    }
+    o << "\n";
   } else {
     o << "    comfort at equal road holding: none (every constant setting loads the tyre more "
          "than the controlled run's "

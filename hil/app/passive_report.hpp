@@ -14,6 +14,8 @@
 namespace mrd::hil {
 
 nlohmann::json RidePointJson(const RidePoint& p);
+// The Wk-weighted comfort at equal road holding (null when no setting qualifies).
+nlohmann::json WkAtHoldingJson(const std::vector<RidePoint>& grid, const PassiveComparison& c);
 nlohmann::json PassiveJson(const PassiveBaseline& b, double e_max);
 std::string PassiveText(const PassiveBaseline& b);
 

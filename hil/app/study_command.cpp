@@ -107,7 +107,7 @@ std::string Table(const std::vector<StudyCase>& cases, const std::vector<Firmwar
       if (l.cmp.comfort_at_holding) {
         o << "**" << Signed(*l.cmp.comfort_at_holding_improvement) << "** (vs "
           << Num(l.cmp.comfort_at_holding->value) << " at " << Num(l.cmp.comfort_at_holding->volts, 3)
-          << " V)";
+          << " V); Wk " << Signed(*l.cmp.wk_at_holding_improvement);
       } else {
         o << "none (tyre load below every passive setting)";
       }
@@ -124,7 +124,8 @@ std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareL
        "best_body_accel_wk_rms,best_body_accel_wk_v,best_tyre_load_rms_n,best_tyre_load_v,"
        "best_travel_rms_cm,best_travel_v,law_body_accel_rms,law_body_accel_wk_rms,"
        "law_tyre_load_rms_n,law_travel_rms_cm,law_mean_v,law_violations,"
-       "equal_holding_v,equal_holding_body_accel_rms,comfort_improvement_percent\n";
+       "equal_holding_v,equal_holding_body_accel_rms,comfort_improvement_percent,"
+       "equal_holding_wk_v,equal_holding_body_accel_wk_rms,wk_comfort_improvement_percent\n";
   for (const StudyCase& c : cases) {
     for (std::size_t i = 0; i < laws.size(); ++i) {
       const LawResult& l = c.laws[i];
@@ -136,9 +137,10 @@ std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareL
         << p.travel_rms_cm << ',' << p.volts << ',' << l.run.violations;
       if (l.cmp.comfort_at_holding) {
         o << ',' << l.cmp.comfort_at_holding->volts << ',' << l.cmp.comfort_at_holding->value << ','
-          << *l.cmp.comfort_at_holding_improvement << '\n';
+          << *l.cmp.comfort_at_holding_improvement << ',' << l.cmp.wk_at_holding->volts << ','
+          << l.cmp.wk_at_holding->value << ',' << *l.cmp.wk_at_holding_improvement << '\n';
       } else {
-        o << ",none,none,none\n";
+        o << ",none,none,none,none,none,none\n";
       }
     }
   }
@@ -190,6 +192,7 @@ nlohmann::json Json(const Scenario& s, double step, const std::vector<StudyCase>
       } else {
         jl["comfort_at_equal_road_holding"] = nullptr;
       }
+      jl["wk_comfort_at_equal_road_holding"] = WkAtHoldingJson(c.grid, l.cmp);
       jc["laws"].push_back(jl);
     }
     j["cases"].push_back(jc);

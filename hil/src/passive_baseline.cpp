@@ -128,13 +128,12 @@ PassiveBest BestOf(const std::vector<RidePoint>& points, RideMetric m) {
 }
 
 std::optional<PassiveBest> BestComfortAtRoadHolding(const std::vector<RidePoint>& points,
-                                                    double tyre_limit_n) {
+                                                    double tyre_limit_n, RideMetric m) {
   std::optional<PassiveBest> b;
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!(points[i].tyre_load_rms_n <= tyre_limit_n)) continue;
-    if (!b || points[i].body_accel_rms < b->value) {
-      b = PassiveBest{i, points[i].volts, points[i].body_accel_rms};
-    }
+    const double v = MetricOf(points[i], m);
+    if (!b || v < b->value) b = PassiveBest{i, points[i].volts, v};
   }
   return b;
 }
@@ -153,6 +152,12 @@ PassiveComparison Compare(const std::vector<RidePoint>& grid, const RidePoint& c
   if (c.comfort_at_holding) {
     c.comfort_at_holding_improvement =
         ImprovementPercent(c.comfort_at_holding->value, controlled.body_accel_rms);
+  }
+  c.wk_at_holding =
+      BestComfortAtRoadHolding(grid, controlled.tyre_load_rms_n, RideMetric::kBodyAccelWk);
+  if (c.wk_at_holding) {
+    c.wk_at_holding_improvement =
+        ImprovementPercent(c.wk_at_holding->value, controlled.body_accel_wk_rms);
   }
   return c;
 }

@@ -68,10 +68,16 @@ TEST(PassiveGridTest, FindsTheKnownMinimumOfASyntheticCase) {
   EXPECT_NEAR(cmp.comfort_at_holding->volts, 1.10, 1e-9);  // the lowest V with tyre <= 725
   EXPECT_NEAR(cmp.comfort_at_holding->value, 1.0625, 1e-9);
   EXPECT_NEAR(*cmp.comfort_at_holding_improvement, 100.0 * (1.0625 - 0.9) / 1.0625, 1e-9);
+  // The Wk-weighted figure at equal road holding: (V - 0.4)^2 + 0.5 over V in [1.1, 2.1].
+  ASSERT_TRUE(cmp.wk_at_holding.has_value());
+  EXPECT_NEAR(cmp.wk_at_holding->volts, 1.10, 1e-9);
+  EXPECT_NEAR(cmp.wk_at_holding->value, 0.99, 1e-9);
+  EXPECT_NEAR(*cmp.wk_at_holding_improvement, 100.0 * (0.99 - 0.55) / 0.99, 1e-9);
   // Below every passive tyre load: no comparison at equal road holding.
   c.tyre_load_rms_n = 650.0;
   EXPECT_FALSE(Compare(grid, c).comfort_at_holding.has_value());
   EXPECT_FALSE(Compare(grid, c).comfort_at_holding_improvement.has_value());
+  EXPECT_FALSE(Compare(grid, c).wk_at_holding.has_value());
 }
 
 Scenario ShortQuarterCar() {

@@ -65,6 +65,10 @@ if pas:
         best = min(ok, key=lambda g: g["body_accel_rms"])
         check(eq is not None and eq["volts"] == best["volts"],
               "comfort at equal road holding: the best body acc among no-worse tyre loads")
+        wk = pas["wk_comfort_at_equal_road_holding"]
+        best_wk = min(ok, key=lambda g: g["body_accel_wk_rms"])
+        check(wk is not None and wk["volts"] == best_wk["volts"],
+              "Wk comfort at equal road holding: the best Wk among no-worse tyre loads")
     else:
         check(eq is None, "no passive point with a tyre load this low: null")
 for f in ("comfort.png", "psd.png", "passive.dat", "psd.dat"):

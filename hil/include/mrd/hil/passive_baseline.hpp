@@ -88,9 +88,11 @@ struct PassiveBest {
 };
 // The point with the lowest metric (the first of equal ones). points must not be empty.
 PassiveBest BestOf(const std::vector<RidePoint>& points, RideMetric m);
-// The lowest body-acceleration RMS among points with tyre_load_rms_n <= tyre_limit_n.
+// The lowest body-acceleration RMS (or another metric) among points with
+// tyre_load_rms_n <= tyre_limit_n.
 std::optional<PassiveBest> BestComfortAtRoadHolding(const std::vector<RidePoint>& points,
-                                                    double tyre_limit_n);
+                                                    double tyre_limit_n,
+                                                    RideMetric m = RideMetric::kBodyAccel);
 // 100 (best - value) / best; 0 when best is 0.
 double ImprovementPercent(double best, double value);
 
@@ -99,6 +101,8 @@ struct PassiveComparison {
   std::array<double, kNumRideMetrics> improvement{};   // controlled vs best, [%]
   std::optional<PassiveBest> comfort_at_holding;       // BestComfortAtRoadHolding
   std::optional<double> comfort_at_holding_improvement;  // body acc, [%]
+  std::optional<PassiveBest> wk_at_holding;            // the same for the Wk-weighted RMS
+  std::optional<double> wk_at_holding_improvement;     // [%]
 };
 PassiveComparison Compare(const std::vector<RidePoint>& grid, const RidePoint& controlled);
 
