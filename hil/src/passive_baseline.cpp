@@ -178,6 +178,7 @@ std::vector<RidePoint> RunPassiveGrid(const Scenario& s, double step_v,
     const double v = volts[i];
     points.push_back(RunRide(&plant, s.duration_s, s.ride_settle_s,
                              [v](const PlantSample&, std::int64_t) { return v; }));
+    points.back().volts = v;  // exact (the mean of the held command rounds)
     if (progress && !progress(i + 1, volts.size())) return {};
   }
   return points;
