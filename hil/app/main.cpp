@@ -485,10 +485,12 @@ int main(int argc, char** argv) {
                     "(e.g. skyhook:skyhook_gain=40; default gain: the scenario's)")
       ->capture_default_str();
   study->add_option("--duration", study_o.duration_s,
-                    "seconds per run (default: the scenario's duration_s)");
+                    "seconds per run (default: the scenario's duration_s)")
+      ->check(CLI::Range(0.0, 1e5));
   study->add_option("--passive-step", study_o.passive_step_v,
                     "passive grid step over 0 .. E_max [V] (default: the scenario's "
-                    "quarter_car.passive_step_v, 0.05)");
+                    "quarter_car.passive_step_v, 0.05)")
+      ->check(CLI::Range(0.0, 1e3));
   study->add_option("--out", study_o.out_dir,
                     "directory for study.txt, study.csv, study.json, study.png, "
                     "comfort-CLASS-SPEED.png (default study-NAME, NAME the scenario's stem)");

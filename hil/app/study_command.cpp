@@ -305,6 +305,8 @@ int StudyCommand(const StudyOptions& o) {
     }
     speeds.push_back(x);
   }
+  if (classes.empty()) return bad("--classes: no road class given");
+  if (speeds.empty()) return bad("--speeds: no speed given");
   std::vector<FirmwareLaw> laws;
   for (const std::string& spec : Split(o.laws)) {
     FirmwareLaw law;
@@ -314,6 +316,7 @@ int StudyCommand(const StudyOptions& o) {
     }
     laws.push_back(law);
   }
+  if (laws.empty()) return bad("--laws: no law given");
   const std::string dir =
       o.out_dir.empty() ? "study-" + std::filesystem::path(o.scenario).stem().string() : o.out_dir;
   std::error_code ec;

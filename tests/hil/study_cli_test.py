@@ -147,7 +147,11 @@ for args, words in [
         (["--laws", "skyhook:skyhook_gain=-3"], ["--laws", "skyhook_gain"]),
         (["--laws", "skyhook:no_such_key=1"], ["--laws", "no_such_key"]),
         (["--passive-step", "0"], ["--passive-step", "step > 0"]),
-        (["--duration", "1"], ["--duration", "settle"])]:
+        (["--duration", "1"], ["--duration", "settle"]),
+        (["--duration", "-5"], ["--duration"]),
+        (["--classes", ""], ["--classes"]),
+        (["--speeds", ""], ["--speeds"]),
+        (["--laws", ""], ["--laws"])]:
     p = hil("study", *short(**{args[0]: args[1]}), "--out", bad_dir)
     check(p.returncode == 2 and all(w in p.stderr for w in words),
           f"study {' '.join(args)}: exit 2 naming it ({p.returncode}: {p.stderr.strip()[:200]})")
