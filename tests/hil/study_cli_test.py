@@ -14,6 +14,7 @@ import csv
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 
@@ -82,6 +83,21 @@ p = hil("run", SCENARIO, "--set", "duration_s=3", "--set", "quarter_car.settle_s
         "--passive-step", "0.5")
 check("comfort at equal road holding" in p.stdout and "best passive" in p.stdout,
       "text summary names the best passive and the comfort at equal road holding")
+
+# SIGTERM during the grid (after the run): the grid stops, exit 128 + 15, no summary.
+proc = subprocess.Popen([HIL, "run", SCENARIO, "--set", "duration_s=4", "--set",
+                         "quarter_car.settle_s=1", "--passive-step", "0.01", "--json"],
+                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+seen = False
+for line in proc.stderr:
+    if line.startswith("passive grid: 10/226"):
+        seen = True
+        proc.send_signal(signal.SIGTERM)
+        break
+out_text, err_text = proc.communicate(timeout=120)
+check(seen and proc.returncode == 128 + signal.SIGTERM and out_text == ""
+      and "interrupted" in err_text,
+      f"SIGTERM during the passive grid: exit 143, no summary ({proc.returncode})")
 
 # --- study ------------------------------------------------------------------------------
 SHORT_FLAGS = {"--scenario": SCENARIO, "--classes": "B,C", "--speeds": "10,20", "--duration": "3",
