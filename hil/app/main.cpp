@@ -29,6 +29,7 @@
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "report.hpp"
+#include "study_command.hpp"
 #include "sweep_command.hpp"
 
 namespace {
@@ -161,12 +162,24 @@ std::string ScenarioList() {
 }
 
 int RunCommand(const std::string& scenario_path, const std::vector<std::string>& sets,
-               mrd::hil::RunOptions o, const std::string& out, bool json) {
+               mrd::hil::RunOptions o, const std::string& out, bool json, double passive_step) {
   mrd::hil::Scenario s;
   std::string error;
   if (!mrd::hil::LoadScenario(scenario_path, sets, &s, &error)) {
     std::fprintf(stderr, "error: %s\n", error.c_str());
     return kExitBadInput;
+  }
+  if (passive_step >= 0.0) {  // --passive-step
+    if (!s.quarter_car) {
+      std::fprintf(stderr, "error: --passive-step: %s is not a quarter car\n", s.path.c_str());
+      return kExitBadInput;
+    }
+    if (passive_step > 0.0 && s.e_max / passive_step > 10000.0) {
+      std::fprintf(stderr, "error: --passive-step %g: more than 10000 grid points over 0 .. %g V\n",
+                   passive_step, s.e_max);
+      return kExitBadInput;
+    }
+    s.passive_step_v = passive_step;
   }
   if (o.firmware.empty()) o.firmware = SelfDir() + "/mrd-firmware";
   if (access(o.firmware.c_str(), X_OK) != 0 && !o.attach) {
@@ -209,6 +222,24 @@ int RunCommand(const std::string& scenario_path, const std::vector<std::string>&
     if (r.interrupted != 0) return 128 + r.interrupted;
     return rc == 2 ? kExitBadInput : kExitFailure;
   }
+  if (r.ride && s.passive_step_v > 0.0) {  // the best passive baseline (in process)
+    mrd::hil::PassiveBaseline b;
+    if (mrd::hil::ComputePassiveBaseline(s, r, s.passive_step_v, &b,
+                                         [](std::size_t i, std::size_t n) {
+                                           if (i % 10 == 0 || i == n) {
+                                             std::fprintf(stderr, "passive grid: %zu/%zu\n", i, n);
+                                           }
+                                           return g_interrupt.load() == 0;
+                                         })) {
+      r.passive = std::move(b);
+    }
+    if (const int sig = g_interrupt.load(); sig != 0) {
+      std::fprintf(stderr, "error: interrupted by signal %d during the passive grid\n", sig);
+      std::error_code ec;
+      if (!temp.empty()) std::filesystem::remove_all(temp, ec);
+      return 128 + sig;
+    }
+  }
   const nlohmann::json j = mrd::hil::SummaryJson(s, r);
   if (!out.empty()) {
     std::string warning;
@@ -225,7 +256,7 @@ int RunCommand(const std::string& scenario_path, const std::vector<std::string>&
     std::cout << j.dump(2) << std::endl;
   } else {
     std::cout << mrd::hil::SummaryText(s, r);
-    if (!out.empty()) std::cout << "  files: " << out << "/summary.json, trace.csv, firmware.toml, firmware.mrdlog, tracking.png, command.png" << (r.ride ? ", ride.png" : "") << "\n";
+    if (!out.empty()) std::cout << "  files: " << out << "/summary.json, trace.csv, firmware.toml, firmware.mrdlog, tracking.png, command.png" << (r.ride ? ", ride.png" : "") << (r.passive ? ", comfort.png, psd.png, passive.dat, psd.dat" : "") << "\n";
   }
   if (!std::cout) return kExitFailure;
   return r.pass ? kExitOk : kExitFailure;
@@ -396,6 +427,11 @@ int main(int argc, char** argv) {
                   "its sysfs pull/value, firmware through libgpiod) instead of a simulated chip "
                   "file");
   run->add_flag("--json", run_json, "print the summary as JSON");
+  double passive_step = -1.0;
+  run->add_option("--passive-step", passive_step,
+                  "quarter car: step of the best-passive grid over 0 .. E_max [V] (default: the "
+                  "scenario's quarter_car.passive_step_v, 0.05); 0: no grid")
+      ->check(CLI::Range(0.0, 1e3));
   auto* bench = app.add_subcommand(
       "bench", "Benchmark: lockstep speed over the local CAN bus (x real time) and the real-time "
                "mode's wake-up jitter (median, p99, max), closed loop with mrd-firmware.");
@@ -430,6 +466,35 @@ int main(int argc, char** argv) {
   sweep->add_option("--profile", so.profile, "device profile (as run)");
   sweep->add_option("--firmware", so.firmware,
                     "mrd-firmware to start (default: the one beside mrd-hil)");
+  auto* study = app.add_subcommand(
+      "study", "Comfort / road-holding study of a quarter-car scenario, in process and "
+               "deterministic: per road class x speed the best passive constant voltage (grid "
+               "over 0 .. E_max) and each firmware law (its Controller at 1 kHz); one table "
+               "(text, CSV, JSON) and plots in --out (docs/study.md). Exit 0 done, 1 write "
+               "error, 2 bad input.");
+  mrd::hil::StudyOptions study_o;
+  study->add_option("--scenario", study_o.scenario, "quarter-car scenario TOML "
+                    "(e.g. hil/scenarios/quarter-car-skyhook.toml)")->required();
+  study->add_option("--classes", study_o.classes, "ISO 8608 road classes, comma-separated")
+      ->capture_default_str();
+  study->add_option("--speeds", study_o.speeds, "vehicle speeds [m/s], comma-separated")
+      ->capture_default_str();
+  study->add_option("--laws", study_o.laws,
+                    "firmware laws ([control] law names of the firmware's config), comma-"
+                    "separated; NAME:KEY=VALUE[:KEY=VALUE] sets [control] keys of that law "
+                    "(e.g. skyhook:skyhook_gain=40; default gain: the scenario's)")
+      ->capture_default_str();
+  study->add_option("--duration", study_o.duration_s,
+                    "seconds per run (default: the scenario's duration_s)")
+      ->check(CLI::Range(0.0, 1e5));
+  study->add_option("--passive-step", study_o.passive_step_v,
+                    "passive grid step over 0 .. E_max [V] (default: the scenario's "
+                    "quarter_car.passive_step_v, 0.05)")
+      ->check(CLI::Range(0.0, 1e3));
+  study->add_option("--out", study_o.out_dir,
+                    "directory for study.txt, study.csv, study.json, study.png, "
+                    "comfort-CLASS-SPEED.png (default study-NAME, NAME the scenario's stem)");
+  study->add_flag("--json", study_o.json, "print the study as JSON instead of the table");
   app.footer(ScenarioList() + "\n" + mrd::hil::ScenarioKeysHelp());
   try {
     app.parse(argc, argv);
@@ -443,7 +508,7 @@ int main(int argc, char** argv) {
         mrd::profile::IsModbusProfileFile(ro.profile)) {
       ro.transport = "modbus-tcp";
     }
-    return RunCommand(scenario_path, run_sets, ro, out_dir, run_json);
+    return RunCommand(scenario_path, run_sets, ro, out_dir, run_json, passive_step);
   }
   if (sweep->parsed()) {
     if (sweep_transport->count() == 0 && !so.profile.empty() &&
@@ -460,6 +525,7 @@ int main(int argc, char** argv) {
     return mrd::hil::SweepCommand(sweep_path, sweep_sets, so, sweep_out);
   }
   if (bench->parsed()) return BenchCommand(bench_s, bo, bench_json);
+  if (study->parsed()) return mrd::hil::StudyCommand(study_o);
 
   if (!fault_window.empty()) {
     std::string error;

@@ -9,6 +9,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "passive_report.hpp"
+
 extern char** environ;
 
 namespace mrd::hil {
@@ -86,6 +88,7 @@ nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
                  {"passive_off", fig(r.ride->passive_off)},
                  {"passive_on", fig(r.ride->passive_on)}};
   }
+  if (r.passive) j["passive"] = PassiveJson(*r.passive, s.e_max);
   if (s.plant_model != nullptr) {
     const PlantModel& pm = *s.plant_model;
     j["plant_model"] = {{"file", pm.file},
@@ -169,6 +172,7 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
     line("passive-off", r.ride->passive_off);
     line("passive-on ", r.ride->passive_on);
   }
+  if (r.passive) o << PassiveText(*r.passive);
   for (const FaultResult& f : r.faults) {
     const auto p = [](const std::optional<std::int64_t>& v) {
       return v ? std::to_string(*v) : std::string("-");
@@ -244,6 +248,22 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
         << "plot '" << dir << "/trace.csv' every ::1 using 1:17 with lines dt 3 title 'passive-on', "
         << "'' every ::1 using 1:16 with lines dt 2 title 'passive-off', "
         << "'' every ::1 using 1:15 with lines lw 2 title 'controlled'\n";
+    }
+    if (r.passive) {
+      // The passive grid with the controlled run, and the body-acceleration PSDs.
+      std::ofstream(dir + "/passive.dat") << GridData(r.passive->grid);
+      std::ofstream(dir + "/psd.dat") << PsdData(*r.passive);
+      g << "set datafile separator whitespace\nunset y2label\nunset y2tics\nset key inside\n"
+        << "set terminal pngcairo noenhanced size 1400,600\nset output '" << dir << "/comfort.png'\n"
+        << "set multiplot layout 1,2\n"
+        << ComfortPanels(dir + "/passive.dat", {{"controlled", r.passive->controlled}}, "")
+        << "unset multiplot\n"
+        << "set terminal pngcairo noenhanced size 1000,600\nset output '" << dir << "/psd.png'\n"
+        << "set logscale xy\nset format y '%.0e'\nset xlabel 'f [Hz]'\nset ylabel 'body acceleration PSD [(m/s^2)^2/Hz]'\n"
+        << "set title 'Body acceleration PSD (Welch, Hann, 50 % overlap)'\nset xrange [0.2:100]\n"
+        << "plot '" << dir << "/psd.dat' using 1:2 with lines dt 2 title 'passive-off (0 V)', "
+        << "'' using 1:3 with lines title 'best passive (" << r.passive->comparison.best[0].volts
+        << " V)', '' using 1:4 with lines lw 2 title 'controlled'\n";
     }
   }
   const int rc = Gnuplot(script, dir + "/gnuplot.log");

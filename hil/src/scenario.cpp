@@ -41,7 +41,9 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 of single damper parameters on top of preset or params (damper and quarter car)
   [quarter_car] sprung_mass_kg (300), unsprung_mass_kg (40), spring_n_per_m (20000),
                 tyre_n_per_m (180000), motion_ratio (0.7, damper / wheel travel),
-                speed_m_s (20), substeps (10), settle_s (2: ride figures scored after it)
+                speed_m_s (20), substeps (10), settle_s (2: ride figures scored after it),
+                passive_step_v (0.05: the best-passive grid's step over 0 .. E_max [V], each
+                constant voltage run on the same road in process; 0: no grid)
   [road]        class = "A" .. "H" ("C"), seed (1), n_min (0.011), n_max (2.83) [cycles/m],
                 components (256)
   [excitation]  kind = "periodic" | "csv" | "profile" | "replay"
@@ -254,7 +256,8 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
         {"motion_ratio", Num(&car.motion_ratio, 0.01, 1.0, "motion_ratio")},
         {"speed_m_s", Num(&car.speed_m_s, 0.0, 100.0, "speed_m_s")},
         {"substeps", Int(&car.substeps, 1, 10000, "substeps")},
-        {"settle_s", Num(&s.ride_settle_s, 0.0, 1e6, "settle_s")}};
+        {"settle_s", Num(&s.ride_settle_s, 0.0, 1e6, "settle_s")},
+        {"passive_step_v", Num(&s.passive_step_v, 0.0, 1e3, "passive_step_v")}};
     RoadParams& road = s.road;
     const std::map<std::string, Setter> road_keys = {
         {"class", Str(&road_class, "class")},
@@ -418,6 +421,10 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
       }
       if (s.ride_settle_s >= s.duration_s) {
         return c.Fail(at("quarter_car.settle_s"), "settle_s must be shorter than duration_s");
+      }
+      if (s.passive_step_v > 0.0 && s.e_max / s.passive_step_v > 10000.0) {
+        return c.Fail(at("quarter_car.passive_step_v"),
+                      "passive_step_v gives more than 10000 grid points over 0 .. e_max");
       }
     } else if (s.body_accel_below_passive) {
       return c.Fail(at("pass.body_accel_below_passive"),

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "mrd/hil/model_plant.hpp"
+#include "mrd/hil/passive_baseline.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/hil/replay.hpp"
 #include "mrd/hil/scenario.hpp"
@@ -128,6 +129,8 @@ struct RunResult {
   std::uint64_t late_steps = 0;         // realtime: wake-ups after the next deadline
   TrackingScores tracking;
   std::optional<RideScores> ride;       // quarter-car scenarios (needs keep_trace)
+  std::optional<PassiveBaseline> passive;  // quarter car: the best passive baseline (filled by
+                                           // ComputePassiveBaseline, not by RunScenario)
   std::optional<ReplayScores> replay;   // replay scenarios: plant force vs measured f
   std::optional<PlantHolds> plant_holds;  // [plant] model = "narx": envelope holds
   std::vector<FaultResult> faults;

@@ -75,6 +75,8 @@ struct Scenario {
   QuarterCarParams car;
   RoadParams road;
   double ride_settle_s = 2.0;         // quarter car: ride figures scored after this [s]
+  double passive_step_v = 0.05;       // quarter car: passive grid step over [0, e_max] [V];
+                                      // 0: no passive grid (passive_baseline.hpp)
   // model = "narx": an identified model (file, iteration) plays the damper on the excitation's
   // motion; loaded and checked by LoadScenario (model_plant.hpp). nullptr: the Spencer damper.
   std::shared_ptr<const PlantModel> plant_model;

@@ -1,0 +1,393 @@
+#include "study_command.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <set>
+#include <sstream>
+
+#include "firmware_law.hpp"
+#include "mrd/hil/passive_baseline.hpp"
+#include "mrd/hil/scenario.hpp"
+#include "passive_report.hpp"
+#include "report.hpp"
+
+namespace mrd::hil {
+namespace {
+
+constexpr int kBadInput = 2;
+
+struct LawResult {
+  LawRun run;
+  PassiveComparison cmp;
+};
+
+struct StudyCase {
+  char road_class = 'C';
+  double speed = 20.0;
+  std::vector<RidePoint> grid;
+  std::vector<LawResult> laws;
+};
+
+std::vector<std::string> Split(const std::string& s) {
+  std::vector<std::string> out;
+  std::string item;
+  std::stringstream ss(s);
+  while (std::getline(ss, item, ',')) out.push_back(item);
+  if (!s.empty() && s.back() == ',') out.push_back("");
+  return out;
+}
+
+// Temporary in the same directory, fsync, rename over path; false with *error.
+bool WriteAtomically(const std::string& path, const std::string& text, std::string* error) {
+  std::string temp = path + ".XXXXXX";
+  const int fd = mkstemp(temp.data());
+  if (fd < 0) return *error = path + ": cannot create a temporary file", false;
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = write(fd, text.data() + done, text.size() - done);
+    if (n <= 0) break;
+    done += static_cast<std::size_t>(n);
+  }
+  const bool ok = done == text.size() && fchmod(fd, 0644) == 0 && fsync(fd) == 0;
+  if (close(fd) != 0 || !ok || std::rename(temp.c_str(), path.c_str()) != 0) {
+    unlink(temp.c_str());
+    return *error = path + ": cannot write", false;
+  }
+  return true;
+}
+
+std::string Num(double v, int digits = 4) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+
+std::string Signed(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%+.1f %%", v);
+  return buf;
+}
+
+std::string CaseName(const StudyCase& c) {
+  return std::string(1, c.road_class) + "-" + Num(c.speed);
+}
+
+// The Markdown table: one row per case.
+std::string Table(const std::vector<StudyCase>& cases, const std::vector<FirmwareLaw>& laws) {
+  std::ostringstream o;
+  o << "| class | speed [m/s] | passive-off body acc [m/s^2] | best passive body acc [m/s^2] "
+       "| best passive Wk [m/s^2] | best passive tyre load [N]";
+  for (const FirmwareLaw& l : laws) {
+    o << " | " << l.spec << ": body acc [m/s^2], tyre load [N] | " << l.spec
+      << ": vs best passive at no-worse tyre load";
+  }
+  o << " |\n|---|---|---|---|---|---";
+  for (std::size_t i = 0; i < laws.size(); ++i) o << "|---|---";
+  o << "|\n";
+  for (const StudyCase& c : cases) {
+    const PassiveBest b = BestOf(c.grid, RideMetric::kBodyAccel);
+    const PassiveBest w = BestOf(c.grid, RideMetric::kBodyAccelWk);
+    const PassiveBest t = BestOf(c.grid, RideMetric::kTyreLoad);
+    o << "| " << c.road_class << " | " << Num(c.speed) << " | " << Num(c.grid[0].body_accel_rms)
+      << " | " << Num(b.value) << " (" << Num(b.volts, 3) << " V) | " << Num(w.value) << " ("
+      << Num(w.volts, 3) << " V) | " << Num(t.value) << " (" << Num(t.volts, 3) << " V)";
+    for (const LawResult& l : c.laws) {
+      o << " | " << Num(l.run.ride.body_accel_rms) << ", " << Num(l.run.ride.tyre_load_rms_n)
+        << " | ";
+      if (l.cmp.comfort_at_holding) {
+        o << "**" << Signed(*l.cmp.comfort_at_holding_improvement) << "** (vs "
+          << Num(l.cmp.comfort_at_holding->value) << " at " << Num(l.cmp.comfort_at_holding->volts, 3)
+          << " V); Wk " << Signed(*l.cmp.wk_at_holding_improvement);
+      } else {
+        o << "none (tyre load below every passive setting)";
+      }
+    }
+    o << " |\n";
+  }
+  return o.str();
+}
+
+std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareLaw>& laws) {
+  std::ostringstream o;
+  o.precision(9);
+  o << "class,speed_m_s,law,passive_off_body_accel_rms,best_body_accel_rms,best_body_accel_v,"
+       "best_body_accel_wk_rms,best_body_accel_wk_v,best_tyre_load_rms_n,best_tyre_load_v,"
+       "best_travel_rms_cm,best_travel_v,law_body_accel_rms,law_body_accel_wk_rms,"
+       "law_tyre_load_rms_n,law_travel_rms_cm,law_mean_v,law_violations,"
+       "equal_holding_v,equal_holding_body_accel_rms,comfort_improvement_percent,"
+       "equal_holding_wk_v,equal_holding_body_accel_wk_rms,wk_comfort_improvement_percent\n";
+  for (const StudyCase& c : cases) {
+    for (std::size_t i = 0; i < laws.size(); ++i) {
+      const LawResult& l = c.laws[i];
+      o << c.road_class << ',' << c.speed << ',' << laws[i].spec << ','
+        << c.grid[0].body_accel_rms;
+      for (const PassiveBest& b : l.cmp.best) o << ',' << b.value << ',' << b.volts;
+      const RidePoint& p = l.run.ride;
+      o << ',' << p.body_accel_rms << ',' << p.body_accel_wk_rms << ',' << p.tyre_load_rms_n << ','
+        << p.travel_rms_cm << ',' << p.volts << ',' << l.run.violations;
+      if (l.cmp.comfort_at_holding) {
+        o << ',' << l.cmp.comfort_at_holding->volts << ',' << l.cmp.comfort_at_holding->value << ','
+          << *l.cmp.comfort_at_holding_improvement << ',' << l.cmp.wk_at_holding->volts << ','
+          << l.cmp.wk_at_holding->value << ',' << *l.cmp.wk_at_holding_improvement << '\n';
+      } else {
+        o << ",none,none,none,none,none,none\n";
+      }
+    }
+  }
+  return o.str();
+}
+
+nlohmann::json Json(const Scenario& s, double step, const std::vector<StudyCase>& cases,
+                    const std::vector<FirmwareLaw>& laws) {
+  nlohmann::json j;
+  j["scenario"] = s.name;
+  j["file"] = s.path;
+  j["duration_s"] = s.duration_s;
+  j["settle_s"] = s.ride_settle_s;
+  j["road_seed"] = s.road.seed;
+  j["passive_step_v"] = step;
+  j["e_min"] = 0.0;
+  j["e_max"] = s.e_max;
+  for (const FirmwareLaw& l : laws) j["laws"].push_back(l.spec);
+  j["cases"] = nlohmann::json::array();
+  for (const StudyCase& c : cases) {
+    nlohmann::json jc;
+    jc["class"] = std::string(1, c.road_class);
+    jc["speed_m_s"] = c.speed;
+    jc["passive_off"] = RidePointJson(c.grid[0]);
+    for (const RideMetric m : kRideMetrics) {
+      const PassiveBest b = BestOf(c.grid, m);
+      jc["best_passive"][RideMetricKey(m)] = {{"volts", b.volts}, {"value", b.value}};
+    }
+    jc["grid"] = nlohmann::json::array();
+    for (const RidePoint& p : c.grid) jc["grid"].push_back(RidePointJson(p));
+    jc["laws"] = nlohmann::json::array();
+    for (std::size_t i = 0; i < laws.size(); ++i) {
+      const LawResult& l = c.laws[i];
+      nlohmann::json jl;
+      jl["law"] = laws[i].spec;
+      jl["ride"] = RidePointJson(l.run.ride);
+      jl["violations"] = l.run.violations;
+      jl["safe_periods"] = l.run.safe_periods;
+      for (std::size_t m = 0; m < kNumRideMetrics; ++m) {
+        jl["improvement_percent"][RideMetricKey(kRideMetrics[m])] = l.cmp.improvement[m];
+      }
+      if (l.cmp.comfort_at_holding) {
+        const RidePoint& p = c.grid[l.cmp.comfort_at_holding->index];
+        jl["comfort_at_equal_road_holding"] = {
+            {"volts", p.volts},
+            {"body_accel_rms", p.body_accel_rms},
+            {"tyre_load_rms_n", p.tyre_load_rms_n},
+            {"improvement_percent", *l.cmp.comfort_at_holding_improvement}};
+      } else {
+        jl["comfort_at_equal_road_holding"] = nullptr;
+      }
+      jl["wk_comfort_at_equal_road_holding"] = WkAtHoldingJson(c.grid, l.cmp);
+      jc["laws"].push_back(jl);
+    }
+    j["cases"].push_back(jc);
+  }
+  return j;
+}
+
+// Plots: comfort-CLASS-SPEED.png per case, study.png (improvement against speed).
+bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
+                const std::vector<FirmwareLaw>& laws, std::string* error, std::string* warning) {
+  std::ostringstream gp;
+  gp << "set grid\nset key inside\n";
+  for (const StudyCase& c : cases) {
+    const std::string name = CaseName(c);
+    const std::string dat = dir + "/grid-" + name + ".dat";
+    if (!WriteAtomically(dat, GridData(c.grid), error)) return false;
+    std::vector<PlotPoint> points;
+    for (std::size_t i = 0; i < laws.size(); ++i) points.push_back({laws[i].spec, c.laws[i].run.ride});
+    gp << "set terminal pngcairo noenhanced size 1400,600\nset output '" << dir << "/comfort-"
+       << name << ".png'\nset multiplot layout 1,2\n"
+       << ComfortPanels(dat, points,
+                        "class " + std::string(1, c.road_class) + ", " + Num(c.speed) + " m/s")
+       << "unset multiplot\n";
+  }
+  // Improvement at equal road holding against speed: one block per class x law.
+  std::ostringstream dat;
+  dat.precision(9);
+  std::vector<std::string> titles;
+  std::set<char> classes;
+  for (const StudyCase& c : cases) classes.insert(c.road_class);
+  for (const char cls : classes) {
+    for (std::size_t i = 0; i < laws.size(); ++i) {
+      if (!titles.empty()) dat << "\n\n";
+      titles.push_back("class " + std::string(1, cls) + ", " + laws[i].spec);
+      for (const StudyCase& c : cases) {
+        if (c.road_class != cls) continue;
+        const auto& imp = c.laws[i].cmp.comfort_at_holding_improvement;
+        dat << c.speed << ' ' << (imp ? Num(*imp, 9) : std::string("NaN")) << '\n';
+      }
+    }
+  }
+  if (!WriteAtomically(dir + "/study.dat", dat.str(), error)) return false;
+  gp << "set terminal pngcairo noenhanced size 1000,600\nset output '" << dir << "/study.png'\n"
+     << "set key outside below\nset xlabel 'speed [m/s]'\n"
+     << "set ylabel 'body acc RMS improvement [%]'\n"
+     << "set title 'Comfort gain over the best passive setting with no worse tyre-load RMS'\n"
+     << "plot ";
+  for (std::size_t b = 0; b < titles.size(); ++b) {
+    gp << (b ? ", " : "") << "'" << dir << "/study.dat' index " << b
+       << " using 1:2 with linespoints lw 2 title '" << titles[b] << "'";
+  }
+  gp << "\n";
+  const std::string script = dir + "/study.gp";
+  if (!WriteAtomically(script, gp.str(), error)) return false;
+  const int rc = Gnuplot(script, dir + "/gnuplot.log");
+  if (rc != 0) {
+    *warning = rc < 0 ? "gnuplot not found (install gnuplot-nox): plots skipped"
+                      : "gnuplot failed (see " + dir + "/gnuplot.log): plots incomplete";
+  }
+  return true;
+}
+
+}  // namespace
+
+int StudyCommand(const StudyOptions& o) {
+  const auto bad = [](const std::string& what) {
+    std::fprintf(stderr, "error: %s\n", what.c_str());
+    return kBadInput;
+  };
+  Scenario base;
+  std::string error;
+  if (!LoadScenario(o.scenario, &base, &error)) return bad(error);
+  if (!base.quarter_car) {
+    return bad("--scenario: " + o.scenario + " is not a quarter car ([plant] model = \"quarter-car\")");
+  }
+  if (o.duration_s >= 0.0) {
+    if (!(o.duration_s > base.ride_settle_s) || o.duration_s > 1e5) {
+      return bad("--duration " + Num(o.duration_s) + ": must be longer than the settle time " +
+                 Num(base.ride_settle_s) + " s (and at most 1e5 s)");
+    }
+    base.duration_s = o.duration_s;
+  }
+  const double step = o.passive_step_v >= 0.0 ? o.passive_step_v : base.passive_step_v;
+  std::vector<double> volts;
+  if (!GridVoltages(0.0, base.e_max, step, &volts, &error)) {
+    return bad("--passive-step " + Num(step) + ": " + error);
+  }
+  if (volts.size() > 10000) return bad("--passive-step " + Num(step) + ": more than 10000 points");
+  std::vector<char> classes;
+  for (const std::string& c : Split(o.classes)) {
+    RoadClass rc{};
+    if (c.size() != 1 || !RoadClassFromChar(c[0], &rc)) {
+      return bad("--classes '" + o.classes + "': '" + c + "' is not a road class A .. H");
+    }
+    const char upper = static_cast<char>(c[0] & ~0x20);
+    for (const char k : classes) {
+      if (k == upper) return bad("--classes '" + o.classes + "': names " + c + " twice");
+    }
+    classes.push_back(upper);
+  }
+  std::vector<double> speeds;
+  for (const std::string& v : Split(o.speeds)) {
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str(), &end);
+    if (v.empty() || end != v.c_str() + v.size() || !(x > 0.0 && x <= 100.0)) {
+      return bad("--speeds '" + o.speeds + "': '" + v + "' is not a speed in (0, 100] m/s");
+    }
+    for (const double k : speeds) {
+      if (k == x) return bad("--speeds '" + o.speeds + "': names " + v + " twice");
+    }
+    speeds.push_back(x);
+  }
+  if (classes.empty()) return bad("--classes: no road class given");
+  if (speeds.empty()) return bad("--speeds: no speed given");
+  std::vector<FirmwareLaw> laws;
+  for (const std::string& spec : Split(o.laws)) {
+    FirmwareLaw law;
+    if (!MakeFirmwareLaw(spec, base.skyhook_gain, base.e_max, &law, &error)) return bad(error);
+    for (const FirmwareLaw& k : laws) {
+      if (k.spec == spec) return bad("--laws '" + o.laws + "': names " + spec + " twice");
+    }
+    laws.push_back(law);
+  }
+  if (laws.empty()) return bad("--laws: no law given");
+  const std::string dir =
+      o.out_dir.empty() ? "study-" + std::filesystem::path(o.scenario).stem().string() : o.out_dir;
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec || !std::filesystem::is_directory(dir)) {
+    std::fprintf(stderr, "error: --out %s: cannot create the directory\n", dir.c_str());
+    return 1;
+  }
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto wall = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  std::vector<StudyCase> cases;
+  const std::size_t n_cases = classes.size() * speeds.size();
+  for (const char cls : classes) {
+    for (const double speed : speeds) {
+      StudyCase c;
+      c.road_class = cls;
+      c.speed = speed;
+      Scenario s = base;
+      RoadClassFromChar(cls, &s.road.road_class);
+      s.car.speed_m_s = speed;
+      std::fprintf(stderr, "[%zu/%zu] class %c, %g m/s: passive grid (%zu settings)...\n",
+                   cases.size() + 1, n_cases, cls, speed, volts.size());
+      c.grid = RunPassiveGrid(s, step);
+      const PassiveBest best = BestOf(c.grid, RideMetric::kBodyAccel);
+      std::fprintf(stderr, "[%zu/%zu]   best passive body acc RMS %.4f m/s^2 at %.3g V (%.1f s)\n",
+                   cases.size() + 1, n_cases, best.value, best.volts, wall());
+      QuarterCarPlant plant = MakeQuarterCar(s);
+      for (const FirmwareLaw& law : laws) {
+        LawResult lr;
+        if (!RunFirmwareLaw(law, &plant, s.duration_s, s.ride_settle_s, &lr.run, &error)) {
+          return bad(error);
+        }
+        lr.cmp = Compare(c.grid, lr.run.ride);
+        std::fprintf(stderr, "[%zu/%zu]   %s: body acc RMS %.4f m/s^2, tyre load RMS %.1f N, %s\n",
+                     cases.size() + 1, n_cases, law.spec.c_str(), lr.run.ride.body_accel_rms,
+                     lr.run.ride.tyre_load_rms_n,
+                     lr.cmp.comfort_at_holding_improvement
+                         ? (Signed(*lr.cmp.comfort_at_holding_improvement) +
+                            " vs the best passive at no-worse tyre load").c_str()
+                         : "no passive setting with a tyre load this low");
+        c.laws.push_back(lr);
+      }
+      cases.push_back(std::move(c));
+    }
+  }
+  const std::string table = Table(cases, laws);
+  const nlohmann::json j = Json(base, step, cases, laws);
+  std::string warning;
+  if (!WriteAtomically(dir + "/study.txt", table, &error) ||
+      !WriteAtomically(dir + "/study.csv", Csv(cases, laws), &error) ||
+      !WriteAtomically(dir + "/study.json", j.dump(2) + "\n", &error) ||
+      !WritePlots(dir, cases, laws, &error, &warning)) {
+    std::fprintf(stderr, "error: %s\n", error.c_str());
+    return 1;
+  }
+  if (!warning.empty()) std::fprintf(stderr, "warning: %s\n", warning.c_str());
+  if (o.json) {
+    std::cout << j.dump(2) << std::endl;
+  } else {
+    std::cout << "mrd-hil study " << base.name << ": " << base.duration_s << " s per run (scored after "
+              << base.ride_settle_s << " s), road seed " << base.road.seed << ", passive grid "
+              << volts.size() << " settings (0 .. " << base.e_max << " V, step " << step
+              << " V)\n"
+              << table << "files: " << dir << "/study.txt, study.csv, study.json, study.png, "
+              << "comfort-CLASS-SPEED.png (" << cases.size() * (volts.size() + laws.size())
+              << " runs, " << Num(wall(), 3) << " s wall)\n";
+  }
+  return std::cout ? 0 : 1;
+}
+
+}  // namespace mrd::hil
