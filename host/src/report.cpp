@@ -257,7 +257,7 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
     fmt::format_to(out, "    {}", res);
   }
   fmt::format_to(out,
-                 "\nJ per iteration ('-': not finite, diverged or not runnable; "
+                 "\nJ per iteration (J: {}; '-': not finite, diverged or not runnable; "
                  "'<': reported):\n", CostWeightingName(mf));
   std::vector<std::string> heads = {"iteration", "terms", "identification"};
   std::size_t num_val = 0;
