@@ -1,6 +1,7 @@
 #include "mrd/host/residuals.hpp"
 
 #include <array>
+#include <cstddef>
 #include <cmath>
 #include <stdexcept>
 
@@ -148,7 +149,7 @@ ResidualAnalysis AnalyseResiduals(const ModelFile& m, int k, const DataSet& data
     if (!data.Has(name)) continue;
     a.inputs.push_back(name);
     const std::vector<double>& col = data.Column(name);
-    const std::vector<double> u(col.begin() + static_cast<long>(d0), col.end());
+    const std::vector<double> u(col.begin() + static_cast<std::ptrdiff_t>(d0), col.end());
     a.correlations.push_back(CrossCorrelation(u, a.free_run, max_lag, a.band));
     a.correlations.back().name = fmt::format("free-run residual: cross-correlation with {}", name);
     a.correlations.push_back(CrossCorrelation(u, a.one_step, max_lag, a.band));
