@@ -4,6 +4,7 @@
 #include <string>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "commands.hpp"
 #include "mrd/host/csv.hpp"
@@ -44,7 +45,7 @@ void RegisterGenerate(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "generate", "Simulate the Spencer reference damper on a reference profile; write CSV "
                   "t,x,v,E,f at 1 ms.");
-  cmd->add_option("--profile", o->profile, "identification | v1 | v2 | v3")
+  cmd->add_option("--profile", o->profile, fmt::format("{}", fmt::join(ProfileNames(), " | ")))
       ->required()
       ->check(CLI::IsMember(ProfileNames()));
   cmd->add_option("--seed", o->seed, "Seed of the random parts (deterministic)")

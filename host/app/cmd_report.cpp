@@ -28,10 +28,13 @@ void RegisterReport(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "report",
       "PNG plots and a summary of a model on data files: force-displacement and "
-      "force-velocity loops, force and error vs time, J per iteration; J, MSE, RRSE, fit %.");
+      "force-velocity loops (points), force, error and inputs vs time, residual correlations, J "
+      "per iteration; J (weighting named), MSE, RMSE [N], RRSE/NRMSE, fit %, residual lags "
+      "outside the 99 % band, inputs outside the identification envelope (also on stderr).");
   cmd->footer(
       "Writes DIR/<stem>_force_displacement.png (when the data has x), "
-      "DIR/<stem>_force_velocity.png (when it has v), DIR/<stem>_time.png per data file, "
+      "DIR/<stem>_force_velocity.png (when it has v), DIR/<stem>_time.png (output, error, "
+      "inputs), DIR/<stem>_residuals.png (residual correlations, as mrd resid) per data file, "
       "DIR/J_iterations.png and DIR/summary.txt; the summary is also printed on stdout, "
       "progress on stderr. The files are built in a temporary directory beside DIR (inside DIR "
       "when DIR's parent is not writable), then moved into place (the whole directory when DIR is absent or empty, else file by "
@@ -42,6 +45,9 @@ void RegisterReport(CLI::App& app) {
       ->delimiter(',');
   cmd->add_option("--out", o->out_dir, "Output directory (its parent must exist)")->required();
   cmd->add_option("--iteration", o->iteration, "Iteration to report (default: selected)");
+  cmd->add_option("--max-lag", o->max_lag, "Largest lag of the residual correlations [samples]")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
   cmd->callback([o] { RunReport(*o); });
 }
 

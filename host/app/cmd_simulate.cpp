@@ -9,6 +9,7 @@
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
+#include "mrd/host/model_judge.hpp"
 
 namespace mrd::host::cli {
 namespace {
@@ -31,26 +32,26 @@ void RunSimulate(const SimulateOptions& o) {
     WriteCsv(o.out, {"t", mf.spec.output, mf.spec.output + "_sim"},
              {data.Column("t"), data.Column(mf.spec.output), ysim});
   }
+  const std::vector<EnvelopeCheck> env = CheckEnvelope(mf, data);
+  for (const auto& w : EnvelopeWarnings(o.model, o.data, env)) fmt::print(stderr, "{}\n", w);
   if (o.json) {
-    const nlohmann::json j = {{"iteration", k},
-                              {"terms", mf.Iteration(k).terms.size()},
-                              {"samples", m.samples},
-                              {"J", m.j},
-                              {"mse", m.mse},
-                              {"mse_physical", m.mse_physical},
-                              {"rmse_physical", m.rmse_physical},
-                              {"rrse", m.rrse},
-                              {"fit_percent", m.fit_percent},
-                              {"diverged", m.diverged}};
+    nlohmann::json j = MetricsJson(mf, m);
+    j["iteration"] = k;
+    j["terms"] = mf.Iteration(k).terms.size();
+    j["envelope"] = EnvelopeJson(env);
+    j["outside_envelope"] = AnyOutside(env);
     fmt::print("{}\n", j.dump());
     return;
   }
+  const std::string& y = mf.spec.output;
+  const std::string unit = SignalUnit(y).empty() ? y : SignalUnit(y);
   fmt::print("{} on {}: iteration {} ({} terms), {} samples{}\n", o.model, o.data, k,
              mf.Iteration(k).terms.size(), m.samples, m.diverged ? ", DIVERGED" : "");
-  fmt::print("  normalised: J {:.6g}  MSE {:.6g}\n", m.j, m.mse);
-  fmt::print("  physical:   MSE {:.6g} {}^2  RMSE {:.6g} {}\n", m.mse_physical, mf.spec.output,
-             m.rmse_physical, mf.spec.output);
-  fmt::print("  RRSE {:.6g}  fit {:.3f} %\n", m.rrse, m.fit_percent);
+  fmt::print("  physical:   MSE {:.6g} {}^2  RMSE {:.6g} {}\n", m.mse_physical, unit,
+             m.rmse_physical, unit);
+  fmt::print("  unweighted: RRSE {:.6g}  fit {:.3f} %  (NRMSE = RRSE = ||{} - sim|| / ||{} - mean||)\n",
+             m.rrse, m.fit_percent, y, y);
+  fmt::print("  normalised: J {:.6g} ({})  MSE {:.6g}\n", m.j, CostWeightingName(mf), m.mse);
 }
 
 }  // namespace
@@ -58,12 +59,13 @@ void RunSimulate(const SimulateOptions& o) {
 void RegisterSimulate(CLI::App& app) {
   auto o = std::make_shared<SimulateOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "simulate", "Free-run simulation of a model file on a data set: J, MSE, RRSE, fit %.");
+      "simulate", "Free-run simulation of a model file on a data set: RMSE (output unit), NRMSE, fit %, J "
+      "with its weighting; inputs outside the model's identification envelope warned on stderr.");
   cmd->add_option("--model", o->model, "Model file (JSON) from mrd identify")->required();
   cmd->add_option("--data", o->data, "Data file (CSV)")->required();
   cmd->add_option("--iteration", o->iteration, "Iteration to simulate (default: selected)");
   cmd->add_option("--out", o->out, "Write t, measured and simulated output (CSV)");
-  cmd->add_flag("--json", o->json, "Print one JSON object (J, mse, rrse, fit_percent, ...)");
+  cmd->add_flag("--json", o->json, "Print one JSON object (J, J_weighting, rmse, rmse_unit, nrmse, fit_percent, envelope, ...)");
   cmd->callback([o] { RunSimulate(*o); });
 }
 

@@ -6,12 +6,14 @@
 
 namespace mrd::host::cli {
 
+void RegisterCompare(CLI::App& app);
 void RegisterExport(CLI::App& app);
 void RegisterFitSpencer(CLI::App& app);
 void RegisterGenerate(CLI::App& app);
 void RegisterImport(CLI::App& app);
 void RegisterLog(CLI::App& app);
 void RegisterReport(CLI::App& app);
+void RegisterResid(CLI::App& app);
 void RegisterSlice(CLI::App& app);
 void RegisterIdentify(CLI::App& app);
 void RegisterSimulate(CLI::App& app);

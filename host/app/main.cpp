@@ -14,7 +14,7 @@
 int main(int argc, char** argv) {
   CLI::App app{
       "mrd: identify control-oriented NARX models of magneto-rheological dampers.\n"
-      "Data flow: generate | import -> identify -> simulate/report -> export (table for "
+      "Data flow: generate | import -> identify -> simulate/report/compare/resid -> export (table for "
       "mrd-firmware)."};
   mrd::host::InstallCleanupHandlers();
   app.require_subcommand(1);
@@ -25,6 +25,8 @@ int main(int argc, char** argv) {
   mrd::host::cli::RegisterIdentify(app);
   mrd::host::cli::RegisterSimulate(app);
   mrd::host::cli::RegisterReport(app);
+  mrd::host::cli::RegisterCompare(app);
+  mrd::host::cli::RegisterResid(app);
   mrd::host::cli::RegisterLog(app);
   mrd::host::cli::RegisterFitSpencer(app);
   try {

@@ -17,7 +17,10 @@
 #include "mrd/host/atomic_write.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
+#include "mrd/host/model_judge.hpp"
 #include "mrd/host/plot.hpp"
+#include "mrd/host/residuals.hpp"
+#include "mrd/host/staging_dir.hpp"
 
 namespace mrd::host {
 namespace {
@@ -29,6 +32,11 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr const char* kDataStyle = "lines linewidth 2 linecolor rgb '#1f77b4'";
 constexpr const char* kModelStyle = "lines linewidth 1.2 linecolor rgb '#ff7f0e'";
 constexpr const char* kErrorStyle = "lines linewidth 1 linecolor rgb '#d62728'";
+// Loops (force against x or v) as points: data that are not periodic (random or measured
+// excitation) would draw as a scribble of lines.
+constexpr const char* kDataPoints = "points pointtype 7 pointsize 0.35 linecolor rgb '#1f77b4'";
+constexpr const char* kModelPoints = "points pointtype 7 pointsize 0.2 linecolor rgb '#ff7f0e'";
+constexpr const char* kInputStyle = "lines linewidth 1 linecolor rgb '#2ca02c'";
 
 // One data file with its simulation of the reported iteration.
 struct DataReport {
@@ -37,6 +45,9 @@ struct DataReport {
   std::string stem;          // unique file-name stem of its plots
   std::vector<double> ysim;  // simulated output, raw units (measured in the seed rows)
   SimMetrics metrics;
+  std::vector<EnvelopeCheck> envelope;  // inputs against the model's identification range
+  std::vector<std::string> warnings;    // envelope warnings
+  ResidualAnalysis residuals;
   std::vector<double> j_per_iteration;  // NaN: diverged or not runnable
 };
 
@@ -60,77 +71,6 @@ std::string Unit(const std::string& name) {
 
 std::string FormatJ(double j) { return std::isfinite(j) ? fmt::format("{:.6g}", j) : "-"; }
 
-// Output directory checks, before anything is computed or written.
-void CheckOutDir(const std::string& out_dir) {
-  if (out_dir.empty()) throw InputError("", 0, "--out: empty directory name");
-  const fs::path out = fs::absolute(fs::path(out_dir)).lexically_normal();
-  std::error_code ec;
-  if (fs::exists(out, ec) && !fs::is_directory(out, ec)) {
-    throw InputError("", 0, fmt::format("--out {}: exists and is not a directory", out_dir));
-  }
-  const fs::path parent = out.has_filename() ? out.parent_path() : out.parent_path().parent_path();
-  if (!fs::is_directory(parent, ec)) {
-    throw InputError(
-        "", 0,
-        fmt::format("--out {}: parent directory {} does not exist", out_dir, parent.string()));
-  }
-}
-
-// The staging directory: beside the output directory (so an absent or empty DIR is replaced
-// whole), or inside DIR when its parent is not writable. Removed (also on a terminating
-// signal) unless committed.
-class StagingDir {
- public:
-  explicit StagingDir(const std::string& out_dir) {
-    fs::path out = fs::absolute(fs::path(out_dir)).lexically_normal();
-    if (!out.has_filename()) out = out.parent_path();
-    out_ = out;
-    const std::string stem = "." + out.filename().string() + ".report";
-    try {
-      dir_ = std::make_unique<TempDir>(out.parent_path().string(), stem);
-    } catch (const std::runtime_error& beside) {
-      std::error_code ec;
-      if (!fs::is_directory(out_, ec)) throw;
-      inside_ = true;
-      dir_ = std::make_unique<TempDir>(out_.string(), ".report");
-    }
-    path_ = dir_->path();
-  }
-  StagingDir(const StagingDir&) = delete;
-  StagingDir& operator=(const StagingDir&) = delete;
-
-  std::string File(const std::string& name) const { return (path_ / name).string(); }
-
-  // Moves the files into the output directory: the whole directory when the output
-  // directory is absent or empty (and staging is beside it), else file by file.
-  void Commit(const std::vector<std::string>& names) {
-    std::error_code ec;
-    const bool empty_dir = fs::is_directory(out_, ec) && fs::is_empty(out_, ec);
-    if (!inside_ && (!fs::exists(out_, ec) || empty_dir)) {
-      if (empty_dir) fs::remove(out_, ec);
-      fs::permissions(path_,
-                      fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
-                          fs::perms::others_read | fs::perms::others_exec,
-                      ec);
-      fs::rename(path_, out_, ec);
-      if (ec) throw std::runtime_error(fmt::format("{}: {}", out_.string(), ec.message()));
-      dir_->Release();
-      return;
-    }
-    for (const std::string& name : names) {
-      CheckOutputPath((out_ / name).string());
-      fs::rename(path_ / name, out_ / name, ec);
-      if (ec) throw std::runtime_error(fmt::format("{}: {}", (out_ / name).string(), ec.message()));
-    }
-  }
-
- private:
-  fs::path out_;
-  fs::path path_;
-  bool inside_ = false;  // staged inside the output directory
-  std::unique_ptr<TempDir> dir_;
-};
-
 PlotSeries Series(std::string title, std::vector<double> x, std::vector<double> y,
                   std::string style) {
   PlotSeries s;
@@ -151,14 +91,15 @@ PlotSpec LoopPlot(const ModelFile& mf, int k, const DataReport& r, const std::st
   p.xlabel = SignalLabel(signal);
   p.ylabel = SignalLabel(out);
   const auto& x = r.data.Column(signal);
-  p.series.push_back(Series("measured (data file)", x, r.data.Column(out), kDataStyle));
-  p.series.push_back(Series("model (free run)", x, r.ysim, kModelStyle));
+  p.series.push_back(Series("measured (data file)", x, r.data.Column(out), kDataPoints));
+  p.series.push_back(Series("model (free run)", x, r.ysim, kModelPoints));
   p.width = 900;
   p.height = 700;
   return p;
 }
 
-// Output against time (data, model) above the error against time.
+// Output against time (data, model) above the error against time, then each input of the
+// model (E, v, ...) present in the data.
 PlotFigure TimePlot(const ModelFile& mf, int k, const DataReport& r) {
   const std::string& out = mf.spec.output;
   const auto& t = r.data.Column("t");
@@ -168,9 +109,13 @@ PlotFigure TimePlot(const ModelFile& mf, int k, const DataReport& r) {
   PlotFigure f;
   f.title = fmt::format("{}: model iteration {} ({} terms), fit {:.3f} %", r.name, k,
                         mf.Iteration(k).terms.size(), r.metrics.fit_percent);
-  f.rows = 2;
+  std::vector<std::string> inputs;
+  for (std::size_t c = 1; c < mf.channels.size(); ++c) {
+    if (r.data.Has(mf.channels[c].name)) inputs.push_back(mf.channels[c].name);
+  }
+  f.rows = 2 + static_cast<int>(inputs.size());
   f.width = 1400;
-  f.height = 950;
+  f.height = 950 + 300 * static_cast<int>(inputs.size());
   PlotSpec a;
   a.title = fmt::format("{} vs time", out);
   a.xlabel = SignalLabel("t");
@@ -184,6 +129,14 @@ PlotFigure TimePlot(const ModelFile& mf, int k, const DataReport& r) {
   b.ylabel = "error " + SignalLabel(out);
   b.series.push_back(Series("measured - model", t, std::move(e), kErrorStyle));
   f.panels = {std::move(a), std::move(b)};
+  for (const std::string& u : inputs) {
+    PlotSpec p;
+    p.title = fmt::format("input {} vs time", u);
+    p.xlabel = SignalLabel("t");
+    p.ylabel = SignalLabel(u);
+    p.series.push_back(Series(u + " (data file)", t, r.data.Column(u), kInputStyle));
+    f.panels.push_back(std::move(p));
+  }
   return f;
 }
 
@@ -285,13 +238,27 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
     const SimMetrics& m = r.metrics;
     fmt::format_to(out, "  {}: {} samples scored{}\n", r.data.path, m.samples,
                    m.diverged ? ", DIVERGED" : "");
-    fmt::format_to(out, "    J {:.6g}  MSE {:.6g} (normalised)  MSE {:.6g} {}^2  RMSE {:.6g} {}\n",
-                   m.j, m.mse, m.mse_physical, Unit(y), m.rmse_physical, Unit(y));
-    fmt::format_to(out, "    RRSE {:.6g}  fit {:.3f} %\n", m.rrse, m.fit_percent);
+    fmt::format_to(out, "    J {:.6g}  MSE {:.6g} (normalised)  MSE {:.6g} {}^2  RMSE {:.6g} {}  (J: {})\n",
+                   m.j, m.mse, m.mse_physical, Unit(y), m.rmse_physical, Unit(y),
+                   CostWeightingName(mf));
+    fmt::format_to(out, "    RRSE {:.6g}  fit {:.3f} %  (unweighted; NRMSE = RRSE)\n", m.rrse,
+                   m.fit_percent);
+    if (r.envelope.empty()) {
+      fmt::format_to(out, "    range check: the model file records no envelope\n");
+    } else if (!AnyOutside(r.envelope)) {
+      fmt::format_to(out, "    range check: every input inside the identification envelope\n");
+    }
+    for (const std::string& w : r.warnings) fmt::format_to(out, "    {}\n", w);
+    std::string res = ResidualSummary(r.residuals, SignalUnit(y));
+    for (std::size_t p = 0; (p = res.find('\n', p)) != std::string::npos && p + 1 < res.size();) {
+      res.insert(p + 1, "    ");
+      p += 5;
+    }
+    fmt::format_to(out, "    {}", res);
   }
   fmt::format_to(out,
-                 "\nJ per iteration ('-': not finite, diverged or not runnable; "
-                 "'<': reported):\n");
+                 "\nJ per iteration (J: {}; '-': not finite, diverged or not runnable; "
+                 "'<': reported):\n", CostWeightingName(mf));
   std::vector<std::string> heads = {"iteration", "terms", "identification"};
   std::size_t num_val = 0;
   for (const SemIteration& s : mf.iterations) num_val = std::max(num_val, s.validation_j.size());
@@ -368,6 +335,15 @@ ReportResult WriteReport(const ReportOptions& o) {
     progress(fmt::format("report: simulating iteration {} ({} terms) on {}", k, chosen.terms.size(),
                          r.name));
     r.metrics = SimulateModel(mf, k, r.data, &r.ysim);
+    r.envelope = CheckEnvelope(mf, r.data);
+    r.warnings = EnvelopeWarnings(o.model, r.data.path, r.envelope);
+    for (const std::string& w : r.warnings) progress(w);
+    progress(fmt::format("report: residual analysis on {}", r.name));
+    try {
+      r.residuals = AnalyseResiduals(mf, k, r.data, o.max_lag);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(r.data.path, 0, e.what());
+    }
   }
   if (!GnuplotAvailable()) {
     throw std::runtime_error(
@@ -402,7 +378,7 @@ ReportResult WriteReport(const ReportOptions& o) {
   }
 
   // Plots into the staging directory.
-  StagingDir staging(o.out_dir);
+  StagingDir staging(o.out_dir, "report");
   std::vector<std::string> names;
   const auto plot = [&](const auto& spec, const std::string& name) {
     progress(fmt::format("report: plotting {}", name));
@@ -421,6 +397,9 @@ ReportResult WriteReport(const ReportOptions& o) {
       notes.push_back(fmt::format("{}: no column 'v': force-velocity loop skipped", r.name));
     }
     plot(TimePlot(mf, k, r), r.stem + "_time.png");
+    plot(ResidualPlot(r.residuals, fmt::format("{}: residual correlations, model iteration {}",
+                                               r.name, k)),
+         r.stem + "_residuals.png");
   }
   plot(IterationPlot(mf, k, reports), "J_iterations.png");
   names.push_back("summary.txt");

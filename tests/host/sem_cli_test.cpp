@@ -70,7 +70,8 @@ TEST(SemCliTest, IdentifyThenSimulateJson) {
   const auto s = test::Run(test::Bin("mrd") + " simulate --model " + model + " --data " + val +
                            " --iteration 3 --json --out " + dir.File("sim.csv"));
   ASSERT_EQ(s.status, 0) << s.output;
-  const auto j = nlohmann::json::parse(s.output);
+  // stderr (merged) may start with a range warning line: the JSON object follows.
+  const auto j = nlohmann::json::parse(s.output.substr(s.output.find('{')));
   for (const char* key : {"J", "mse", "rrse", "fit_percent"}) EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_NEAR(j["fit_percent"].get<double>(), 100.0, 1e-6);
   EXPECT_NEAR(j["J"].get<double>(), mf.Iteration(3).validation_j[0], 1e-12);

@@ -5,7 +5,8 @@
 // code path of `mrd simulate`), plotted against the data as force-displacement and
 // force-velocity loops (a loop is skipped, with a note, when the file has no `x` / `v`
 // column) and as time series with the error; the cost J of every iteration of the model on
-// the file. For the model: J per iteration (identification, each validation set of the model
+// the file; the residual correlations (residuals.hpp, <stem>_residuals.png) and the range
+// check of the inputs (model_judge.hpp; warnings also through progress). For the model: J per iteration (identification, each validation set of the model
 // file, each data file) on a log axis with the selected iteration marked. The summary lists
 // the model's terms and coefficients, per data file J, MSE, RMSE, RRSE and fit %, the J per
 // iteration table, notes (skipped plots, diverged iterations) and the files written.
@@ -29,6 +30,7 @@ struct ReportOptions {
   std::vector<std::string> data;  // data files (CSV), at least one
   std::string out_dir;            // output directory; its parent must exist
   std::optional<int> iteration;   // iteration to report (unset: the model's selected one)
+  int max_lag = 50;               // residual correlations up to this lag [samples]
   std::function<void(const std::string&)> progress;  // one line per step, no newline
 };
 
