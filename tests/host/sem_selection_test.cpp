@@ -20,27 +20,44 @@
 namespace mrd::host {
 namespace {
 
-// The TOML between "// BEGIN EXAMPLE" and "// END EXAMPLE" of sem_spec.hpp, comment marks off.
-std::string DocumentedExample() {
-  std::ifstream in(std::string(MRD_SOURCE_DIR) + "/host/include/mrd/host/sem_spec.hpp");
-  std::string line, out;
+// Every ```toml block of docs/spec.md, in order.
+std::vector<std::string> DocumentedBlocks() {
+  std::ifstream in(std::string(MRD_SOURCE_DIR) + "/docs/spec.md");
+  std::vector<std::string> blocks;
+  std::string line;
   bool inside = false;
   while (std::getline(in, line)) {
-    if (line == "// BEGIN EXAMPLE") {
+    if (!inside && line == "```toml") {
       inside = true;
-    } else if (line == "// END EXAMPLE") {
-      break;
+      blocks.emplace_back();
+    } else if (inside && line == "```") {
+      inside = false;
     } else if (inside) {
-      out += (line.size() > 2 ? line.substr(2) : std::string()) + "\n";
+      blocks.back() += line + "\n";
     }
   }
-  return out;
+  return blocks;
+}
+
+// The complete example: the first block.
+std::string DocumentedExample() {
+  const std::vector<std::string> blocks = DocumentedBlocks();
+  return blocks.empty() ? std::string() : blocks.front();
+}
+
+TEST(SemSpecDocTest, EveryExampleOfTheSpecPageParses) {
+  const std::vector<std::string> blocks = DocumentedBlocks();
+  ASSERT_FALSE(blocks.empty()) << "no toml block in docs/spec.md";
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    EXPECT_NO_THROW(ParseSemSpec(blocks[i], "docs/spec.md block " + std::to_string(i + 1)))
+        << blocks[i];
+  }
 }
 
 TEST(SemSpecDocTest, DocumentedExampleParsesAsWritten) {
   const std::string text = DocumentedExample();
   ASSERT_NE(text.find("[algorithm]"), std::string::npos) << "example block not found";
-  const SemSpec s = ParseSemSpec(text, "sem_spec.hpp");
+  const SemSpec s = ParseSemSpec(text, "docs/spec.md");
   ASSERT_EQ(s.regressors.size(), 6u);
   EXPECT_EQ(s.output, "f");
   EXPECT_EQ(s.regressors[1].transform, Transform::kAbsPow);
