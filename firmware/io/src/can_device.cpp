@@ -303,6 +303,10 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
   if ((in & Bit(Input::kDemand)) != 0) frame->demand = value(Input::kDemand);
   if ((in & Bit(Input::kBodyVelocity)) != 0) frame->body_velocity = value(Input::kBodyVelocity);
   if ((in & Bit(Input::kForce)) != 0) frame->force = value(Input::kForce);
+  if ((in & Bit(Input::kBodyAcceleration)) != 0) {
+    frame->body_acceleration = value(Input::kBodyAcceleration);
+  }
+  if ((in & Bit(Input::kWheelVelocity)) != 0) frame->wheel_velocity = value(Input::kWheelVelocity);
   if ((in & Bit(Input::kFaultLine)) != 0 && fault_input_) frame->fault_line = true;
   // A fault the current driver reports (any fault bit), or a driver status that stopped coming
   // (its message's timeout), is the driver's fault line, as the Modbus sensor block's

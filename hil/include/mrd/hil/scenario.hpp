@@ -90,6 +90,10 @@ struct Scenario {
                                       // open-loop (replay: the measured E, replay.hpp)
   double constant_voltage = 0.0;
   double skyhook_gain = 50.0;
+  double groundhook_gain = 50.0;  // [N s/cm]
+  double hybrid_gain = 50.0;      // [N s/cm]
+  double hybrid_alpha = 0.5;      // [0, 1]
+  double sh_add_alpha = 9.42;     // [rad/s]
   // [firmware] settings of the generated configuration
   double max_age_ms = 5.0;
   int recover_periods = 5;
@@ -121,5 +125,8 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
                   Scenario* scenario, std::string* error);
 // Every key with its meaning (for --help).
 const char* ScenarioKeysHelp();
+// The laws that read body acceleration or wheel velocity (groundhook, groundhook-on-off,
+// hybrid, add, sh-add): quarter car only.
+bool IsChassisLaw(const std::string& law);
 
 }  // namespace mrd::hil
