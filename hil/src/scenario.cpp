@@ -73,7 +73,9 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 min_replay_fit (replay: least fit % of plant force vs measured f),
                 expect_firmware_exit (e.g. 2 with a corrupt_table fault),
                 body_accel_below_passive (quarter car: the controlled run's body acceleration
-                RMS below both passive-off and passive-on; false)
+                RMS below both passive-off and passive-on; false),
+                tyre_load_below_passive_off (quarter car: the controlled run's tyre load RMS
+                below passive-off's, the road-holding score of groundhook and hybrid; false)
   [gpio]        inputs = list of displacement | fault_line; outputs = list of enable |
                 heartbeat (routed over GPIO lines instead of CAN; displacement from a
                 quadrature encoder the plant drives, velocity differentiated by the firmware);
@@ -303,7 +305,9 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
         {"require_recovery", Flag(&s.require_recovery, "require_recovery")},
         {"expect_firmware_exit", Int(&expect_exit, 0, 255, "expect_firmware_exit")},
         {"body_accel_below_passive",
-         Flag(&s.body_accel_below_passive, "body_accel_below_passive")}};
+         Flag(&s.body_accel_below_passive, "body_accel_below_passive")},
+        {"tyre_load_below_passive_off",
+         Flag(&s.tyre_load_below_passive_off, "tyre_load_below_passive_off")}};
     ScenarioGpio& g = s.gpio;
     const std::map<std::string, Setter> gpio = {
         {"inputs", Names({{"displacement", &g.displacement}, {"fault_line", &g.fault_line}},
@@ -429,6 +433,9 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
     } else if (s.body_accel_below_passive) {
       return c.Fail(at("pass.body_accel_below_passive"),
                     "body_accel_below_passive needs [plant] model = \"quarter-car\"");
+    } else if (s.tyre_load_below_passive_off) {
+      return c.Fail(at("pass.tyre_load_below_passive_off"),
+                    "tyre_load_below_passive_off needs [plant] model = \"quarter-car\"");
     }
     if (excitation == "periodic") {
       s.excitation = ExcitationKind::kPeriodic;

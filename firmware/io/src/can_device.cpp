@@ -220,8 +220,9 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
   const auto has = [roles](pf::CanIn role) { return ((roles >> static_cast<unsigned>(role)) & 1U) != 0; };
   if (config_.lockstep) stamp = granted_ns_;
   bool fresh = false;
-  for (std::size_t i = 0; i <= static_cast<std::size_t>(pf::CanIn::kForce); ++i) {
-    if (((roles >> i) & 1U) == 0) continue;
+  for (std::size_t i = 0; i <= static_cast<std::size_t>(pf::CanIn::kWheelVelocity); ++i) {
+    // The sampled signals (velocity .. force, body_acceleration, wheel_velocity).
+    if (((roles >> i) & 1U) == 0 || i == static_cast<std::size_t>(pf::CanIn::kFaultLine)) continue;
     values_[i] = {v[i], stamp};
     if (config_.lockstep) unstamped_ = static_cast<std::uint16_t>(unstamped_ | (1U << i));
     fresh = fresh || (config_.inputs & (1U << i)) != 0;

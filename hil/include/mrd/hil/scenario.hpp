@@ -111,6 +111,7 @@ struct Scenario {
   bool require_recovery = true;
   std::optional<int> expect_firmware_exit;    // e.g. 2 for a refused table
   bool body_accel_below_passive = false;      // quarter car: controlled < passive-off and -on
+  bool tyre_load_below_passive_off = false;   // quarter car: tyre load RMS < passive-off's
   std::vector<Fault> faults;
   ScenarioGpio gpio;
 };
