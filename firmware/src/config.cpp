@@ -322,8 +322,9 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Runtime(Number("hybrid_alpha", &k.law.hybrid_alpha, 0.0, 1.0, "",
                        "Blend of law = \"hybrid\": 1 skyhook only, 0 groundhook only.")),
         Runtime(Number("sh_add_alpha", &k.law.sh_add_alpha, 1e-3, 1e4, "rad/s",
-                       "Crossover of law = \"sh-add\": skyhook when |body acceleration| <= "
-                       "alpha |body velocity|, ADD above (default 2 pi 1.5 Hz).")),
+                       "Crossover of law = \"sh-add\": the skyhook rule while the body "
+                       "acceleration's magnitude is at most alpha times the body velocity's, "
+                       "the ADD rule above (default 2 pi 1.5 Hz).")),
         Runtime(Number("force_limit", &k.law.force_limit, 1e-9, 1e9, "N",
                        "Limit of the force demand's magnitude."))}},
       {"velocity",
