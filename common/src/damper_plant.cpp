@@ -49,6 +49,10 @@ PlantSample DamperPlant::Sample() const {
   s.demand = excitation_.demand_amplitude_n * level * std::tanh(s.v / 2.0);
   s.body_velocity = excitation_.body_amplitude *
                     std::sin(kTwoPi * excitation_.body_frequency_hz * t + excitation_.body_phase_rad);
+  s.body_acceleration = kTwoPi * excitation_.body_frequency_hz * excitation_.body_amplitude *
+                        std::cos(kTwoPi * excitation_.body_frequency_hz * t +
+                                 excitation_.body_phase_rad);
+  s.wheel_velocity = s.body_velocity - s.v;
   s.force = force_;
   return s;
 }

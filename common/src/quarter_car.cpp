@@ -143,6 +143,9 @@ void QuarterCarPlant::UpdateDetail(double zr) {
   o.plant.body_velocity = 100.0 * s.vs;
   o.plant.force = f.damper;
   o.body_accel = f.susp / car_.sprung_mass_kg;
+  o.plant.body_acceleration = 100.0 * o.body_accel;
+  o.plant.wheel_velocity = 100.0 * s.vu;
+  o.plant.has_chassis = true;
   o.travel_cm = 100.0 * (s.zs - s.zu);
   o.tyre_load_n = f.tyre;
   o.road_m = zr;

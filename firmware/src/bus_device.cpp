@@ -26,6 +26,8 @@ const char* InputName(Input input) {
     case Input::kBodyVelocity: return "body_velocity";
     case Input::kForce: return "force";
     case Input::kFaultLine: return "fault_line";
+    case Input::kBodyAcceleration: return "body_acceleration";
+    case Input::kWheelVelocity: return "wheel_velocity";
   }
   return "unknown";
 }

@@ -298,15 +298,33 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                 {"constant", ControlMode::kConstantVoltage},
                 {"skyhook-on-off", ControlMode::kSkyhookOnOff},
                 {"skyhook", ControlMode::kSkyhookContinuous},
-                {"open-loop", ControlMode::kOpenLoop}},
+                {"open-loop", ControlMode::kOpenLoop},
+                {"groundhook", ControlMode::kGroundhook},
+                {"groundhook-on-off", ControlMode::kGroundhookOnOff},
+                {"hybrid", ControlMode::kHybrid},
+                {"add", ControlMode::kAdd},
+                {"sh-add", ControlMode::kSkyhookAdd}},
                "Control law: track a force demand through the inverted model, a constant "
-               "voltage, skyhook (on-off or continuous), or open-loop (the demand input is a "
-               "voltage command in mV, clamped to [E_min, E_max]: the harness's replay).")),
+               "voltage, skyhook (on-off or continuous), open-loop (the demand input is a "
+               "voltage command in mV, clamped to [E_min, E_max]: the harness's replay), "
+               "groundhook (continuous or on-off), hybrid skyhook-groundhook, add "
+               "(acceleration-driven damper) or sh-add (mixed skyhook-ADD); "
+               "docs/control_laws.md.")),
         Runtime(e_max),
         Runtime(Number("constant_voltage", &k.law.constant_voltage, -1e3, 1e3, "V",
                        "Command of law = \"constant\" (passive-off 0, passive-on E_max).")),
         Runtime(Number("skyhook_gain", &k.law.skyhook_gain, 0.0, 1e6, "N s/cm",
                        "Gain of law = \"skyhook\".")),
+        Runtime(Number("groundhook_gain", &k.law.groundhook_gain, 0.0, 1e6, "N s/cm",
+                       "Gain of law = \"groundhook\" (force per wheel velocity).")),
+        Runtime(Number("hybrid_gain", &k.law.hybrid_gain, 0.0, 1e6, "N s/cm",
+                       "Gain of law = \"hybrid\".")),
+        Runtime(Number("hybrid_alpha", &k.law.hybrid_alpha, 0.0, 1.0, "",
+                       "Blend of law = \"hybrid\": 1 skyhook only, 0 groundhook only.")),
+        Runtime(Number("sh_add_alpha", &k.law.sh_add_alpha, 1e-3, 1e4, "rad/s",
+                       "Crossover of law = \"sh-add\": the skyhook rule while the body "
+                       "acceleration's magnitude is at most alpha times the body velocity's, "
+                       "the ADD rule above (default 2 pi 1.5 Hz).")),
         Runtime(Number("force_limit", &k.law.force_limit, 1e-9, 1e9, "N",
                        "Limit of the force demand's magnitude."))}},
       {"velocity",
@@ -361,7 +379,8 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
       {"can",
        {Names("inputs", &io.can.inputs,
               InputNames({Input::kVelocity, Input::kDisplacement, Input::kDemand,
-                          Input::kBodyVelocity, Input::kForce, Input::kFaultLine}),
+                          Input::kBodyVelocity, Input::kForce, Input::kFaultLine,
+                          Input::kBodyAcceleration, Input::kWheelVelocity}),
               "Signals read from CAN (in the profile's messages; docs/can_bus.md)."),
         Names("outputs", &io.can.outputs,
               OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
@@ -384,7 +403,8 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
       {"modbus",
        {Names("inputs", &io.modbus.inputs,
               InputNames({Input::kVelocity, Input::kDisplacement, Input::kDemand,
-                          Input::kBodyVelocity, Input::kForce, Input::kFaultLine}),
+                          Input::kBodyVelocity, Input::kForce, Input::kFaultLine,
+                          Input::kBodyAcceleration, Input::kWheelVelocity}),
               "Signals read over Modbus (docs/modbus_registers.md)."),
         Names("outputs", &io.modbus.outputs,
               OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
@@ -543,8 +563,23 @@ bool CheckIo(const toml::table& root, const std::string& source, const FirmwareC
   if (k.law.mode == ControlMode::kOpenLoop && !need(Input::kDemand, "law \"open-loop\"")) {
     return false;
   }
-  if ((k.law.mode == ControlMode::kSkyhookOnOff || k.law.mode == ControlMode::kSkyhookContinuous) &&
-      !need(Input::kBodyVelocity, "skyhook laws")) {
+  const ControlMode m = k.law.mode;
+  if (ControlLaw::NeedsBodyVelocity(m) &&
+      !need(Input::kBodyVelocity, m == ControlMode::kSkyhookOnOff ||
+                                          m == ControlMode::kSkyhookContinuous
+                                      ? "skyhook laws"
+                                      : m == ControlMode::kHybrid ? "law \"hybrid\""
+                                                                  : "law \"sh-add\"")) {
+    return false;
+  }
+  if (ControlLaw::NeedsWheelVelocity(m) &&
+      !need(Input::kWheelVelocity, m == ControlMode::kHybrid ? "law \"hybrid\""
+                                                             : "groundhook laws")) {
+    return false;
+  }
+  if (ControlLaw::NeedsBodyAcceleration(m) &&
+      !need(Input::kBodyAcceleration, m == ControlMode::kAdd ? "law \"add\""
+                                                             : "law \"sh-add\"")) {
     return false;
   }
   if (k.displacement_limit > 0.0 && (inputs & Bit(Input::kDisplacement)) == 0) {
@@ -680,7 +715,17 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
 bool LoadModbusProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,
                          std::string* error) {
   ModbusConfig& mb = c->io.modbus;
-  if (mb.profile.empty()) return true;
+  if (mb.profile.empty()) {
+    // The built-in register map (docs/modbus_registers.md) has no chassis registers.
+    for (const Input i : {Input::kBodyAcceleration, Input::kWheelVelocity}) {
+      if ((mb.inputs & Bit(i)) != 0) {
+        *error = Where(root, source, "modbus", "inputs") + "input '" + InputName(i) +
+                 "' needs a Modbus device profile (the built-in register map has none)";
+        return false;
+      }
+    }
+    return true;
+  }
   const std::string where = Where(root, source, "modbus", "profile");
   std::string path = mb.profile;
   if (path[0] != '/') {

@@ -106,6 +106,8 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
   const Real displacement = static_cast<Real>(frame.displacement.value);
   const Real demand = static_cast<Real>(frame.demand.value);
   const Real body_velocity = static_cast<Real>(frame.body_velocity.value);
+  const Real wheel_velocity = static_cast<Real>(frame.wheel_velocity.value);
+  const Real body_acceleration = static_cast<Real>(frame.body_acceleration.value);
   std::uint32_t causes = 0;
   constexpr std::uint32_t kBusBits = Watchdog::Bit(FaultCause::kCanBus) |
                                       Watchdog::Bit(FaultCause::kModbusBus) |
@@ -155,6 +157,12 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
   if (law_.needs_body_velocity()) {
     causes |= Check(frame.body_velocity, body_velocity, now_ns, max_age);
   }
+  if (law_.needs_wheel_velocity()) {
+    causes |= Check(frame.wheel_velocity, wheel_velocity, now_ns, max_age);
+  }
+  if (law_.needs_body_acceleration()) {
+    causes |= Check(frame.body_acceleration, body_acceleration, now_ns, max_age);
+  }
 
   // The model's force was non-finite last period (it was reset): its next inversions start
   // from a cleared history, and a model that diverges every period would do so for ever.
@@ -167,7 +175,7 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
   Real volts = safe_voltage_;
   law_volts_ = std::numeric_limits<double>::quiet_NaN();
   if (!out.safe) {
-    const ControlOutput law = law_.Update({v_, demand, body_velocity});
+    const ControlOutput law = law_.Update({v_, demand, body_velocity, wheel_velocity, body_acceleration});
     if (law.is_force) {
       const Inverter::Solution s = inverter_.Solve(runtime_.history(), law.value, E_prev_);
       volts = s.E;

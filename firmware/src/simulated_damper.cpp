@@ -32,6 +32,8 @@ IoStatus SimulatedDamper::Read(SensorFrame* frame) {
   frame->demand = {sample_.demand, plant_ns_};
   frame->body_velocity = {sample_.body_velocity, plant_ns_};
   frame->force = {sample_.force, plant_ns_};
+  frame->body_acceleration = {sample_.body_acceleration, plant_ns_};
+  frame->wheel_velocity = {sample_.wheel_velocity, plant_ns_};
   frame->fault_line = false;
   return IoStatus::kOk;
 }

@@ -135,13 +135,20 @@ class CanPort final : public PlantPort {
     if (out.fault == SensorFault::kStall) {
       // The same frames again: counters repeat, the firmware refuses them.
       if (have_last_) {
-        for (const int m : sensor_msgs_) SendFrame(last_[static_cast<std::size_t>(m)], now);
+        for (const int m : sensor_msgs_) {
+          if (out.sample.has_chassis || !IsIn(chassis_msgs_, m)) {
+            SendFrame(last_[static_cast<std::size_t>(m)], now);
+          }
+        }
       }
       return;
     }
     const pf::SignalRef velocity = profile_->inputs[static_cast<std::size_t>(CanIn::kVelocity)];
     bool all_ok = true;
     for (const int m : sensor_msgs_) {
+      // Chassis-only messages when the plant has a chassis (the damper plant has none: its
+      // runs keep the frame set they always had).
+      if (!out.sample.has_chassis && IsIn(chassis_msgs_, m)) continue;
       can_frame f{};
       codec_.Begin(m, &f);
       bool ok = true;
@@ -156,6 +163,8 @@ class CanPort final : public PlantPort {
       set(CanIn::kBodyVelocity, out.sample.body_velocity);
       set(CanIn::kForce, out.sample.force);
       set(CanIn::kFaultLine, out.fault_line ? 1.0 : 0.0);
+      set(CanIn::kBodyAcceleration, out.sample.body_acceleration);
+      set(CanIn::kWheelVelocity, out.sample.wheel_velocity);
       const pf::SignalRef seq = profile_->inputs[static_cast<std::size_t>(CanIn::kSensorSeq)];
       if (seq.message == m) {
         protocol::InsertRaw(f.data, profile_->Layout(seq),
@@ -395,6 +404,11 @@ class CanPort final : public PlantPort {
       const int m = p.inputs[static_cast<std::size_t>(r)].message;
       if (m != grant) add(&sensor_msgs_, m);
     }
+    for (const CanIn r : {CanIn::kBodyAcceleration, CanIn::kWheelVelocity}) {
+      const int m = p.inputs[static_cast<std::size_t>(r)].message;
+      if (m >= 0 && m != grant && !IsIn(sensor_msgs_, m)) add(&chassis_msgs_, m);
+      if (m != grant) add(&sensor_msgs_, m);
+    }
     for (const CanIn r : {CanIn::kDriverFaults, CanIn::kDriverCurrent}) {
       const int m = p.inputs[static_cast<std::size_t>(r)].message;
       if (!IsIn(sensor_msgs_, m) && m != grant) add(&driver_msgs_, m);
@@ -569,6 +583,7 @@ class CanPort final : public PlantPort {
   std::vector<can_filter> filters_;
   // Profile messages by kind: the firmware's (heard) and the plant's and driver's (sent).
   std::vector<int> command_msgs_, heartbeat_msgs_, status_msgs_, sensor_msgs_, driver_msgs_;
+  std::vector<int> chassis_msgs_;  // sensor messages carrying only chassis roles
   // The simulated driver: the latest command heard, the DriverStatus schedule.
   double command_volts_ = 0.0;
   bool command_drives_ = false;

@@ -36,6 +36,10 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
     c << "law = \"open-loop\"\n";  // the demand carries the replayed E in mV (replay.hpp)
   } else if (s.law == "skyhook") {
     c << "law = \"skyhook\"\nskyhook_gain = " << s.skyhook_gain << "\n";
+  } else if (IsChassisLaw(s.law)) {
+    c << "law = \"" << s.law << "\"\ngroundhook_gain = " << s.groundhook_gain
+      << "\nhybrid_gain = " << s.hybrid_gain << "\nhybrid_alpha = " << s.hybrid_alpha
+      << "\nsh_add_alpha = " << s.sh_add_alpha << "\n";
   } else {
     const double v = s.law == "passive-on" ? s.e_max : s.law == "passive-off" ? 0.0
                                                                               : s.constant_voltage;
@@ -61,6 +65,10 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
     if (in(profile::CanIn::kDemand)) add(&ins, "demand");
     if (in(profile::CanIn::kBodyVelocity)) add(&ins, "body_velocity");
     if (in(profile::CanIn::kForce)) add(&ins, "force");
+    if (IsChassisLaw(s.law) && in(profile::CanIn::kBodyAcceleration)) {
+      add(&ins, "body_acceleration");
+    }
+    if (IsChassisLaw(s.law) && in(profile::CanIn::kWheelVelocity)) add(&ins, "wheel_velocity");
     ins += "]";
     inputs = std::move(ins);
     std::string outs = "[\"command\"";
@@ -94,6 +102,13 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
     if (in(profile::CanIn::kDemand)) add(&can_inputs, "demand");
     if (in(profile::CanIn::kBodyVelocity)) add(&can_inputs, "body_velocity");
     if (in(profile::CanIn::kForce)) add(&can_inputs, "force");
+    // The chassis signals only for the laws that read them (other runs keep their frame set).
+    if (IsChassisLaw(s.law) && in(profile::CanIn::kBodyAcceleration)) {
+      add(&can_inputs, "body_acceleration");
+    }
+    if (IsChassisLaw(s.law) && in(profile::CanIn::kWheelVelocity)) {
+      add(&can_inputs, "wheel_velocity");
+    }
     can_inputs += "]";
     // With a PWM output the command leaves CAN ([pwm] below).
     std::string can_outputs = "[";

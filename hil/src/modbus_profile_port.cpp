@@ -75,6 +75,8 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     set(pf::CanIn::kDemand, out.sample.demand);
     set(pf::CanIn::kBodyVelocity, out.sample.body_velocity);
     set(pf::CanIn::kForce, out.sample.force);
+    set(pf::CanIn::kBodyAcceleration, out.sample.body_acceleration);
+    set(pf::CanIn::kWheelVelocity, out.sample.wheel_velocity);
     set(pf::CanIn::kFaultLine, out.fault_line ? 1.0 : 0.0);
     set(pf::CanIn::kSensorSeq, static_cast<double>(out.seq));
     std::lock_guard<std::mutex> lock(mu_);

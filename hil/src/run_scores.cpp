@@ -163,6 +163,14 @@ void EvaluatePass(const Scenario& s, RunResult* r) {
       }
     }
   }
+  if (s.tyre_load_below_passive_off && !table_only) {
+    if (!r->ride || r->ride->controlled.samples == 0) {
+      f.push_back("no ride figures to compare (quarter car)");
+    } else if (!(r->ride->controlled.tyre_load_rms_n < r->ride->passive_off.tyre_load_rms_n)) {
+      f.push_back("tyre load RMS " + Fmt(r->ride->controlled.tyre_load_rms_n) +
+                  " N not below passive-off's " + Fmt(r->ride->passive_off.tyre_load_rms_n));
+    }
+  }
   for (const FaultResult& fr : r->faults) {
     if (!fr.ok) f.push_back(std::string("fault ") + FaultKindName(fr.fault.kind) + " at " +
                             Fmt(fr.fault.at_s) + " s: " + fr.why);

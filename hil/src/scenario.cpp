@@ -60,8 +60,11 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                      law "open-loop" commands the measured E; the summary scores the plant's
                      force against the measured f (fit %, RMSE)
   [control]     law = "force" | "passive-off" | "passive-on" | "constant" | "skyhook" |
-                "open-loop" (replay only: the firmware passes the measured E through);
-                constant_voltage [V]; skyhook_gain [N s/cm]
+                "open-loop" (replay only: the firmware passes the measured E through) |
+                "groundhook" | "groundhook-on-off" | "hybrid" | "add" | "sh-add" (quarter car
+                only: body acceleration and wheel velocity on the bus; docs/control_laws.md);
+                constant_voltage [V]; skyhook_gain, groundhook_gain, hybrid_gain [N s/cm];
+                hybrid_alpha [0, 1]; sh_add_alpha [rad/s]
   [firmware]    max_age_ms (5), recover_periods (5), velocity_limit [cm/s] (250),
                 grant_timeout_ms (10000: lockstep, the firmware stops when no grant came
                 for this long): written into the generated mrd-firmware config;
@@ -72,7 +75,9 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 min_replay_fit (replay: least fit % of plant force vs measured f),
                 expect_firmware_exit (e.g. 2 with a corrupt_table fault),
                 body_accel_below_passive (quarter car: the controlled run's body acceleration
-                RMS below both passive-off and passive-on; false)
+                RMS below both passive-off and passive-on; false),
+                tyre_load_below_passive_off (quarter car: the controlled run's tyre load RMS
+                below passive-off's, the road-holding score of groundhook and hybrid; false)
   [gpio]        inputs = list of displacement | fault_line; outputs = list of enable |
                 heartbeat (routed over GPIO lines instead of CAN; displacement from a
                 quadrature encoder the plant drives, velocity differentiated by the firmware);
@@ -281,7 +286,11 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
     const std::map<std::string, Setter> control = {
         {"law", Str(&s.law, "law")},
         {"constant_voltage", Num(&s.constant_voltage, 0.0, 24.0, "constant_voltage")},
-        {"skyhook_gain", Num(&s.skyhook_gain, 0.0, 1e6, "skyhook_gain")}};
+        {"skyhook_gain", Num(&s.skyhook_gain, 0.0, 1e6, "skyhook_gain")},
+        {"groundhook_gain", Num(&s.groundhook_gain, 0.0, 1e6, "groundhook_gain")},
+        {"hybrid_gain", Num(&s.hybrid_gain, 0.0, 1e6, "hybrid_gain")},
+        {"hybrid_alpha", Num(&s.hybrid_alpha, 0.0, 1.0, "hybrid_alpha")},
+        {"sh_add_alpha", Num(&s.sh_add_alpha, 1e-3, 1e4, "sh_add_alpha")}};
     const std::map<std::string, Setter> firmware = {
         {"max_age_ms", Num(&s.max_age_ms, 0.01, 1e4, "max_age_ms")},
         {"recover_periods", Int(&s.recover_periods, 1, 1000000, "recover_periods")},
@@ -299,7 +308,9 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
         {"require_recovery", Flag(&s.require_recovery, "require_recovery")},
         {"expect_firmware_exit", Int(&expect_exit, 0, 255, "expect_firmware_exit")},
         {"body_accel_below_passive",
-         Flag(&s.body_accel_below_passive, "body_accel_below_passive")}};
+         Flag(&s.body_accel_below_passive, "body_accel_below_passive")},
+        {"tyre_load_below_passive_off",
+         Flag(&s.tyre_load_below_passive_off, "tyre_load_below_passive_off")}};
     ScenarioGpio& g = s.gpio;
     const std::map<std::string, Setter> gpio = {
         {"inputs", Names({{"displacement", &g.displacement}, {"fault_line", &g.fault_line}},
@@ -429,6 +440,9 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
     } else if (s.body_accel_below_passive) {
       return c.Fail(at("pass.body_accel_below_passive"),
                     "body_accel_below_passive needs [plant] model = \"quarter-car\"");
+    } else if (s.tyre_load_below_passive_off) {
+      return c.Fail(at("pass.tyre_load_below_passive_off"),
+                    "tyre_load_below_passive_off needs [plant] model = \"quarter-car\"");
     }
     if (excitation == "periodic") {
       s.excitation = ExcitationKind::kPeriodic;
@@ -460,11 +474,17 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
                                                                 : "excitation.seed"),
                     "'profile' and 'seed' need [excitation] kind = \"profile\"");
     }
+    const bool chassis_law = IsChassisLaw(s.law);
     if (s.law != "force" && s.law != "passive-off" && s.law != "passive-on" &&
-        s.law != "constant" && s.law != "skyhook" && s.law != "open-loop") {
+        s.law != "constant" && s.law != "skyhook" && s.law != "open-loop" && !chassis_law) {
       return c.Fail(*root.at_path("control.law").node(),
                     "law must be force | passive-off | passive-on | constant | skyhook | "
-                    "open-loop");
+                    "open-loop | groundhook | groundhook-on-off | hybrid | add | sh-add");
+    }
+    if (chassis_law && !s.quarter_car) {
+      return c.Fail(*root.at_path("control.law").node(),
+                    "law \"" + s.law + "\" needs [plant] model = \"quarter-car\" (the body "
+                    "acceleration and wheel velocity it reads)");
     }
     if (s.law == "open-loop" && s.excitation != ExcitationKind::kReplay) {
       return c.Fail(*root.at_path("control.law").node(),
@@ -513,6 +533,11 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
     *error = Printable(path) + ": " + e.what();
     return false;
   }
+}
+
+bool IsChassisLaw(const std::string& law) {
+  return law == "groundhook" || law == "groundhook-on-off" || law == "hybrid" || law == "add" ||
+         law == "sh-add";
 }
 
 }  // namespace mrd::hil

@@ -102,11 +102,13 @@ class DbcTest : public ::testing::Test {
 };
 std::map<std::string, DbcMessage> DbcTest::dbc_;
 
-// The built-in codec's seven messages, and FirmwareTelemetry (live telemetry, sent through the
-// mrd-native profile's codec; its values are checked by tests/fieldbus/telemetry_test.py).
+// The built-in codec's seven messages, FirmwareTelemetry (live telemetry, sent through the
+// mrd-native profile's codec; its values are checked by tests/fieldbus/telemetry_test.py) and
+// SensorChassis (the chassis laws' inputs, through the profile's codec only).
 TEST_F(DbcTest, TheDbcHoldsExactlyTheCodecsMessages) {
-  EXPECT_EQ(dbc_.size(), 8U);
+  EXPECT_EQ(dbc_.size(), 9U);
   EXPECT_EQ(dbc_.count("FirmwareTelemetry"), 1U);
+  EXPECT_EQ(dbc_.count("SensorChassis"), 1U);
 }
 
 // Issue 10: the lockstep time grant (48-bit microseconds).

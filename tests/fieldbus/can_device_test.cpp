@@ -21,6 +21,8 @@
 #include "mrd/canbus/socket.hpp"
 #include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/telemetry.hpp"
+#include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/frame_codec.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
 namespace mrd::firmware {
@@ -52,6 +54,38 @@ TEST_F(CanDeviceTest, AcceptedSensorFramesFillTheRoutedSignalsWithReceiveStamps)
   const std::int64_t stamp = frame.velocity.stamp_ns;
   EXPECT_EQ(Read(&frame), IoStatus::kNoData);
   EXPECT_EQ(frame.velocity.stamp_ns, stamp);
+}
+
+// The chassis signals (mrd-native SensorChassis, 0x103) reach the frame when routed.
+TEST_F(CanDeviceTest, SensorChassisFillsBodyAccelerationAndWheelVelocity) {
+  CanConfig c = AllRouted();
+  c.inputs |= Bit(Input::kBodyAcceleration) | Bit(Input::kWheelVelocity);
+  Make(c);
+  const profile::CanProfile& p = profile::NativeCanProfile();
+  const profile::SignalRef acc = p.inputs[static_cast<std::size_t>(profile::CanIn::kBodyAcceleration)];
+  const profile::SignalRef wheel = p.inputs[static_cast<std::size_t>(profile::CanIn::kWheelVelocity)];
+  ASSERT_TRUE(acc.mapped());
+  ASSERT_EQ(acc.message, wheel.message);
+  profile::FrameCodec codec(p);
+  can_frame f{};
+  codec.Begin(acc.message, &f);
+  ASSERT_EQ(codec.Set(&f, acc, -123.4), protocol::SignalError::kNone);
+  ASSERT_EQ(codec.Set(&f, wheel, 56.78), protocol::SignalError::kNone);
+  codec.Seal(acc.message, &f);
+  EXPECT_EQ(f.can_id, 0x103U);
+  PeerSend(f);
+  SensorFrame frame;
+  ASSERT_EQ(Read(&frame), IoStatus::kOk);
+  EXPECT_NEAR(frame.body_acceleration.value, -123.4, 0.05);
+  EXPECT_NEAR(frame.wheel_velocity.value, 56.78, 0.005);
+  EXPECT_NE(frame.body_acceleration.stamp_ns, std::numeric_limits<std::int64_t>::min());
+  // Not routed: left alone.
+  Make(AllRouted());
+  codec.Seal(acc.message, &f);  // the next counter
+  PeerSend(f);
+  SensorFrame other;
+  (void)Read(&other);
+  EXPECT_EQ(other.wheel_velocity.stamp_ns, std::numeric_limits<std::int64_t>::min());
 }
 
 TEST_F(CanDeviceTest, OnlyRoutedInputsAreMerged) {

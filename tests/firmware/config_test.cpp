@@ -62,7 +62,9 @@ TEST(ConfigTest, ErrorsNameSourceLineAndReason) {
   FirmwareConfig c;
   std::string error;
   EXPECT_FALSE(ParseConfig("[control]\nlaw = \"pid\"\n", "fw.toml", &c, &error));
-  EXPECT_EQ(error, "fw.toml:2: 'law' must be one of force | constant | skyhook-on-off | skyhook | open-loop");
+  EXPECT_EQ(error,
+            "fw.toml:2: 'law' must be one of force | constant | skyhook-on-off | skyhook | "
+            "open-loop | groundhook | groundhook-on-off | hybrid | add | sh-add");
   EXPECT_FALSE(ParseConfig("[loop]\nperiod_us = \"fast\"\n", "fw.toml", &c, &error));
   EXPECT_EQ(error, "fw.toml:2: 'period_us' must be a number");
   EXPECT_FALSE(ParseConfig("[nope]\n", "fw.toml", &c, &error));

@@ -102,6 +102,30 @@ TEST(FirmwareCliTest, ConfigSelectsLawAndPeriod) {
   EXPECT_NE(r.output.find("\"last_command_v\": 0.2,"), std::string::npos) << r.output;
 }
 
+// The chassis laws run on the dry-run plant (it serves body acceleration and wheel velocity);
+// with a bus that serves neither, start-up refuses them (exit 2).
+TEST(FirmwareCliTest, ChassisLawsRunDryAndAreRefusedWithoutTheirInputs) {
+  TempDir dir;
+  for (const char* law : {"groundhook", "groundhook-on-off", "hybrid", "add", "sh-add"}) {
+    const std::string cfg = dir.Write("fw.toml", std::string("[control]\nlaw = \"") + law +
+                                                      "\"\ngroundhook_gain = 20\n");
+    const CommandResult r =
+        test::Run(Firmware() + " --config " + cfg + " --dry-run 1 --lockstep --json");
+    ASSERT_EQ(r.status, 0) << law << ": " << r.output;
+    EXPECT_NE(r.output.find(std::string("\"law\": \"") + law + "\""), std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("\"safe_entries\": 0"), std::string::npos) << law << ": " << r.output;
+  }
+  const std::string bus = dir.Write("bus.toml",
+                                    "[control]\nlaw = \"add\"\n[can]\nlocal_bus = \"/tmp/none\"\n"
+                                    "inputs = [\"velocity\"]\noutputs = [\"command\"]\n");
+  const CommandResult r = test::Run(Firmware() + " --check-config " + bus);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("bus.toml: no bus serves input 'body_acceleration' (law \"add\")"),
+            std::string::npos)
+      << r.output;
+}
+
 TEST(FirmwareCliTest, BadConfigNamesFileLineAndKey) {
   TempDir dir;
   const std::string cfg = dir.Write("bad.toml", "[control]\nlaw = \"force\"\nfoo = 1\n");

@@ -104,6 +104,20 @@ TEST(NoAllocationTest, DisplacementVelocityAndSkyhookStepsAllocateNothing) {
   EXPECT_EQ(AllocationsInSteps(config, 5000), 0U);
 }
 
+// Every law, on the dry-run plant (it serves body and wheel velocity and body acceleration).
+TEST(NoAllocationTest, EveryControlLawStepsAllocateNothing) {
+  for (const ControlMode mode :
+       {ControlMode::kForceTracking, ControlMode::kConstantVoltage, ControlMode::kSkyhookOnOff,
+        ControlMode::kSkyhookContinuous, ControlMode::kOpenLoop, ControlMode::kGroundhook,
+        ControlMode::kGroundhookOnOff, ControlMode::kHybrid, ControlMode::kAdd,
+        ControlMode::kSkyhookAdd}) {
+    SCOPED_TRACE(ControlModeName(mode));
+    ControllerConfig config;
+    config.law.mode = mode;
+    EXPECT_EQ(AllocationsInSteps(config, 5000), 0U);
+  }
+}
+
 TEST(NoAllocationTest, LockstepRunAllocatesNothing) {
   LockstepClock clock;
   SimulatedDamper plant(SpencerParams::Paper(), SimulationConfig{}, clock, kPeriod);

@@ -103,6 +103,13 @@ TEST(ScenarioTest, BadInputNamesFileAndLine) {
       {"duration_s = 1\n[plant]\nmodel = \"quarter-car\"\n[quarter_car]\nsettle_s = 2\n",
        ":5: settle_s must be shorter"},
       {"[pass]\nbody_accel_below_passive = true\n", ":2: body_accel_below_passive needs"},
+      {"[pass]\ntyre_load_below_passive_off = true\n", ":2: tyre_load_below_passive_off needs"},
+      {"[control]\nlaw = \"groundhook\"\n", ":2: law \"groundhook\" needs [plant] model"},
+      {"[control]\nlaw = \"sh-add\"\n", ":2: law \"sh-add\" needs [plant] model"},
+      {"[plant]\nmodel = \"quarter-car\"\n[control]\nlaw = \"hybrid\"\nhybrid_alpha = 1.5\n",
+       ":5: 'hybrid_alpha' must be"},
+      {"[plant]\nmodel = \"quarter-car\"\n[control]\nlaw = \"sh-add\"\nsh_add_alpha = 0\n",
+       ":5: 'sh_add_alpha' must be"},
   };
   for (const Case& c : cases) {
     const auto path = Write("bad.toml", c.text);

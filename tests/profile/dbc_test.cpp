@@ -16,7 +16,18 @@ TEST(DbcTest, ParsesTheNativeFrameSet) {
   Dbc dbc;
   std::string error;
   ASSERT_TRUE(LoadDbc(kSource + "/docs/mrd.dbc", &dbc, &error)) << error;
-  ASSERT_EQ(dbc.messages.size(), 8U);
+  ASSERT_EQ(dbc.messages.size(), 9U);
+  // The chassis sensors (groundhook, hybrid, add, sh-add laws): 0.1 cm/s^2, 0.01 cm/s, 1 ms.
+  const DbcMessage* chassis = dbc.Find("SensorChassis");
+  ASSERT_NE(chassis, nullptr);
+  EXPECT_EQ(chassis->id, 0x103U);
+  EXPECT_EQ(chassis->cycle_time_ms, 1);
+  ASSERT_NE(chassis->Find("BodyAcceleration"), nullptr);
+  EXPECT_TRUE(chassis->Find("BodyAcceleration")->layout.is_signed);
+  EXPECT_DOUBLE_EQ(chassis->Find("BodyAcceleration")->layout.factor, 0.1);
+  ASSERT_NE(chassis->Find("WheelVelocity"), nullptr);
+  EXPECT_EQ(chassis->Find("WheelVelocity")->layout.start_bit, 16);
+  EXPECT_DOUBLE_EQ(chassis->Find("WheelVelocity")->layout.factor, 0.01);
   // Live telemetry (docs/telemetry.md): signed 0.5 N forces, a 1 mV command, 100 ms.
   const DbcMessage* tel = dbc.Find("FirmwareTelemetry");
   ASSERT_NE(tel, nullptr);

@@ -102,6 +102,25 @@ TEST(ModbusProfile, GroupsReadsIntoFewestRequests) {
   EXPECT_EQ(p.In(CanIn::kDriverFaults).index, 7);
 }
 
+// The chassis roles (groundhook, hybrid, add, sh-add laws) map like any input; a firmware
+// [modbus] section routes them through the profile (the built-in map has none).
+TEST(ModbusProfile, MapsTheChassisRoles) {
+  const std::string text = kHead + "[modbus.inputs]\n"
+      "velocity = { unit = 1, table = \"input\", address = 0, type = \"float32\" }\n"
+      "body_acceleration = { unit = 1, table = \"input\", address = 2, type = \"float32\" }\n"
+      "wheel_velocity = { unit = 1, table = \"input\", address = 4, type = \"float32\" }\n";
+  ModbusProfile p;
+  std::string error;
+  ASSERT_TRUE(Parse(text, &p, &error)) << error;
+  EXPECT_TRUE(p.In(CanIn::kBodyAcceleration).mapped);
+  EXPECT_EQ(p.In(CanIn::kBodyAcceleration).index, 2);
+  EXPECT_TRUE(p.In(CanIn::kWheelVelocity).mapped);
+  EXPECT_EQ(p.In(CanIn::kWheelVelocity).index, 4);
+  EXPECT_FALSE(p.In(CanIn::kSensorSeq).mapped);
+  ASSERT_EQ(p.reads.size(), 1u);
+  EXPECT_EQ(p.reads[0].count, 6);
+}
+
 TEST(ModbusProfile, WritesSingleRegisterWithFunction6) {
   const std::string text = kHead + "write_function = 6\n[modbus.outputs]\n"
       "command = { unit = 2, table = \"holding\", address = 0, type = \"int16\", scale = 0.001 }\n"

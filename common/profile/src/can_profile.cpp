@@ -18,7 +18,8 @@ namespace {
 
 constexpr const char* kCanInNames[kNumCanIn] = {
     "velocity", "displacement", "demand", "body_velocity", "force",
-    "fault_line", "sensor_seq", "driver_faults", "driver_current", "grant"};
+    "fault_line", "body_acceleration", "wheel_velocity", "sensor_seq", "driver_faults",
+    "driver_current", "grant"};
 constexpr const char* kCanOutNames[kNumCanOut] = {
     "command", "enable", "enable_valid", "safe", "echo", "heartbeat_safe",
     "status_safe", "status_causes", "status_overruns", "status_safe_entries",

@@ -17,7 +17,8 @@ namespace {
 
 constexpr const char* kInNames[kNumCanIn] = {
     "velocity", "displacement", "demand", "body_velocity", "force",
-    "fault_line", "sensor_seq", "driver_faults", "driver_current", "grant"};
+    "fault_line", "body_acceleration", "wheel_velocity", "sensor_seq", "driver_faults",
+    "driver_current", "grant"};
 constexpr const char* kOutNames[kNumModbusOut] = {
     "command", "enable", "safe", "echo", "heartbeat",
     "status_safe", "status_causes", "status_overruns", "status_safe_entries",

@@ -220,8 +220,9 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
   const auto has = [roles](pf::CanIn role) { return ((roles >> static_cast<unsigned>(role)) & 1U) != 0; };
   if (config_.lockstep) stamp = granted_ns_;
   bool fresh = false;
-  for (std::size_t i = 0; i <= static_cast<std::size_t>(pf::CanIn::kForce); ++i) {
-    if (((roles >> i) & 1U) == 0) continue;
+  for (std::size_t i = 0; i <= static_cast<std::size_t>(pf::CanIn::kWheelVelocity); ++i) {
+    // The sampled signals (velocity .. force, body_acceleration, wheel_velocity).
+    if (((roles >> i) & 1U) == 0 || i == static_cast<std::size_t>(pf::CanIn::kFaultLine)) continue;
     values_[i] = {v[i], stamp};
     if (config_.lockstep) unstamped_ = static_cast<std::uint16_t>(unstamped_ | (1U << i));
     fresh = fresh || (config_.inputs & (1U << i)) != 0;
@@ -303,6 +304,10 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
   if ((in & Bit(Input::kDemand)) != 0) frame->demand = value(Input::kDemand);
   if ((in & Bit(Input::kBodyVelocity)) != 0) frame->body_velocity = value(Input::kBodyVelocity);
   if ((in & Bit(Input::kForce)) != 0) frame->force = value(Input::kForce);
+  if ((in & Bit(Input::kBodyAcceleration)) != 0) {
+    frame->body_acceleration = value(Input::kBodyAcceleration);
+  }
+  if ((in & Bit(Input::kWheelVelocity)) != 0) frame->wheel_velocity = value(Input::kWheelVelocity);
   if ((in & Bit(Input::kFaultLine)) != 0 && fault_input_) frame->fault_line = true;
   // A fault the current driver reports (any fault bit), or a driver status that stopped coming
   // (its message's timeout), is the driver's fault line, as the Modbus sensor block's

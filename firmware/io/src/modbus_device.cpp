@@ -497,6 +497,12 @@ IoStatus ModbusDevice::Read(SensorFrame* frame, IoError* why) {
     if ((in & Bit(Input::kDemand)) != 0) frame->demand = {s.demand, s.stamp_ns};
     if ((in & Bit(Input::kBodyVelocity)) != 0) frame->body_velocity = {s.body_velocity, s.stamp_ns};
     if ((in & Bit(Input::kForce)) != 0) frame->force = {s.force, s.stamp_ns};
+    if ((in & Bit(Input::kBodyAcceleration)) != 0) {
+      frame->body_acceleration = {s.body_acceleration, s.stamp_ns};
+    }
+    if ((in & Bit(Input::kWheelVelocity)) != 0) {
+      frame->wheel_velocity = {s.wheel_velocity, s.stamp_ns};
+    }
     // OR, not overwrite: a CAN driver's fault bits may have set it already this period.
     if ((in & Bit(Input::kFaultLine)) != 0) frame->fault_line = frame->fault_line || s.fault_line;
   }

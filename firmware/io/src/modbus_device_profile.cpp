@@ -130,6 +130,8 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
     s.demand = value(pf::CanIn::kDemand);
     s.body_velocity = value(pf::CanIn::kBodyVelocity);
     s.force = value(pf::CanIn::kForce);
+    s.body_acceleration = value(pf::CanIn::kBodyAcceleration);
+    s.wheel_velocity = value(pf::CanIn::kWheelVelocity);
     s.fault_line = value(pf::CanIn::kFaultLine) != 0.0 || value(pf::CanIn::kDriverFaults) != 0.0;
     ++s.accepted;
     rx_ok_.fetch_add(1, std::memory_order_relaxed);

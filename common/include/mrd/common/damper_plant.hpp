@@ -10,6 +10,8 @@
 //   d(t)  = D (0.65 + 0.35 sin(2 pi f_d t)) tanh(v / 2 cm/s) force demand [N] (dissipative,
 //           as a semi-active damper can deliver)
 //   vb(t) = B sin(2 pi f_b t + phi)                          body velocity [cm/s]
+//   ab(t) = 2 pi f_b B cos(2 pi f_b t + phi)                 body acceleration [cm/s^2]
+//   vw(t) = vb(t) - v(t)                                     wheel velocity [cm/s]
 // Pure and allocation-free; Step is real-time safe.
 
 #include <cstdint>
@@ -37,6 +39,11 @@ struct PlantSample {
   double demand = 0.0;         // [N]
   double body_velocity = 0.0;  // [cm/s]
   double force = 0.0;          // damper force [N]
+  double body_acceleration = 0.0;  // absolute body acceleration [cm/s^2]
+  double wheel_velocity = 0.0;     // absolute wheel (unsprung) velocity [cm/s]
+  // The plant has a body and a wheel (the quarter car): the harness serves the two above on
+  // the buses. False: the dry-run values stand in (the firmware's simulated damper only).
+  bool has_chassis = false;
 };
 
 class DamperPlant {

@@ -48,7 +48,8 @@ struct QuarterCarParams {
 // The quarter car's own outputs at one instant.
 struct QuarterCarSample {
   PlantSample plant;         // x, v: damper [cm, cm/s]; body_velocity [cm/s]; force:
-                             // damper [N]; demand: 0 (the law makes its own)
+                             // damper [N]; demand: 0 (the law makes its own);
+                             // body_acceleration zs'' [cm/s^2]; wheel_velocity zu' [cm/s]
   double body_accel = 0.0;   // zs'' [m/s^2]
   double travel_cm = 0.0;    // suspension (wheel) travel zs - zu [cm]
   double tyre_load_n = 0.0;  // tyre load variation Ft [N] (-W: wheel off the ground)

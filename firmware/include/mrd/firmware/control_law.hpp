@@ -13,8 +13,24 @@
 //                        (the CAN demand signal's 0.5 count resolution is 0.5 mV then),
 //                        clamped to [E_min, E_max] like every voltage; no model, no inversion
 //                        (replaying a measured run's E: the harness's replay scenarios)
+//   kGroundhook:         f_d = -c_gnd vw when -vw v > 0, else 0        (inverted like skyhook)
+//   kGroundhookOnOff:    E = E_max when -vw v > 0, else E_min
+//   kHybrid:             f_d = c_hyb (alpha s_sky + (1 - alpha) s_gnd)   (Ahmadian's hybrid;
+//                        s_sky = vb when vb v > 0 else 0, s_gnd = -vw when -vw v > 0 else 0;
+//                        inverted like skyhook)
+//   kAdd:                E = E_max when ab v > 0, else E_min  (acceleration-driven damper,
+//                        Savaresi, Silani & Bittanti 2005)
+//   kSkyhookAdd:         E = E_max when  (ab^2 - a^2 vb^2 <= 0 and vb v > 0)
+//                                     or (ab^2 - a^2 vb^2 >  0 and ab v > 0), else E_min
+//                        (mixed SH-ADD, Savaresi & Spelta 2007, ASME J. Dyn. Sys. Meas.
+//                        Control 129(4): skyhook below the crossover frequency a, ADD above)
 //
-// vb: absolute body velocity [cm/s]; c_sky: skyhook gain [N s/cm].
+// vb: absolute body velocity [cm/s]; vw: absolute wheel (unsprung) velocity [cm/s]; ab: body
+// acceleration [cm/s^2]; all up positive, v = body minus wheel (times the motion ratio), so the
+// damper pulls the body down and the wheel up when f > 0. Skyhook wants -c vb on the body,
+// groundhook -c vw on the wheel: the damper gives either only when its sign is f's passive one.
+// c_sky, c_gnd, c_hyb: gains [N s/cm]; alpha: hybrid blend in [0, 1] (1 = skyhook, 0 =
+// groundhook); a: SH-ADD crossover [rad/s] (the units of ab / vb).
 // Per-sample arithmetic in Real (real.hpp); the configuration is double.
 
 #include <cstdint>
@@ -29,6 +45,11 @@ enum class ControlMode : std::uint8_t {
   kSkyhookOnOff,
   kSkyhookContinuous,
   kOpenLoop,
+  kGroundhook,
+  kGroundhookOnOff,
+  kHybrid,
+  kAdd,
+  kSkyhookAdd,
   // Clipped-optimal (clipped_optimal.hpp): a stateful observer-based law run by its own
   // object; the stateless ControlLaw holds E_min for it. Not yet a configurable [control] law
   // (ControlLawConfig::IsValid refuses it): the structure study runs it in process.
@@ -40,6 +61,10 @@ struct ControlLawConfig {
   double constant_voltage = 0.0;  // [V], kConstantVoltage
   double skyhook_gain = 100.0;    // [N s/cm], kSkyhookContinuous
   double force_limit = 5000.0;    // [N], |force demand| limit, > 0
+  double groundhook_gain = 100.0;  // [N s/cm], kGroundhook
+  double hybrid_gain = 100.0;      // [N s/cm], kHybrid
+  double hybrid_alpha = 0.5;       // kHybrid blend in [0, 1]: 1 skyhook, 0 groundhook
+  double sh_add_alpha = 9.42;      // [rad/s], kSkyhookAdd crossover (2 pi 1.5 Hz), > 0
   // True when the values are finite and in range (constant voltage in [e_min, e_max]).
   bool IsValid(double e_min, double e_max) const;
 };
@@ -47,7 +72,9 @@ struct ControlLawConfig {
 struct ControlInputs {
   Real v = Real(0);              // relative (damper) velocity [cm/s]
   Real demand = Real(0);         // force demand [N] (kForceTracking)
-  Real body_velocity = Real(0);  // [cm/s] (skyhook)
+  Real body_velocity = Real(0);  // [cm/s] (skyhook, hybrid, SH-ADD)
+  Real wheel_velocity = Real(0);  // [cm/s] (groundhook, hybrid)
+  Real body_acceleration = Real(0);  // [cm/s^2] (ADD, SH-ADD)
 };
 
 struct ControlOutput {
@@ -63,6 +90,10 @@ class ControlLaw {
     constant_voltage_ = static_cast<Real>(config.constant_voltage);
     skyhook_gain_ = static_cast<Real>(config.skyhook_gain);
     force_limit_ = static_cast<Real>(config.force_limit);
+    groundhook_gain_ = static_cast<Real>(config.groundhook_gain);
+    hybrid_gain_ = static_cast<Real>(config.hybrid_gain);
+    hybrid_alpha_ = static_cast<Real>(config.hybrid_alpha);
+    sh_add_alpha2_ = static_cast<Real>(config.sh_add_alpha * config.sh_add_alpha);
     e_min_ = static_cast<Real>(e_min);
     e_max_ = static_cast<Real>(e_max);
   }
@@ -72,9 +103,19 @@ class ControlLaw {
   bool needs_demand() const {
     return config_.mode == ControlMode::kForceTracking || config_.mode == ControlMode::kOpenLoop;
   }
-  bool needs_body_velocity() const {
-    return config_.mode == ControlMode::kSkyhookOnOff ||
-           config_.mode == ControlMode::kSkyhookContinuous;
+  bool needs_body_velocity() const { return NeedsBodyVelocity(config_.mode); }
+  bool needs_wheel_velocity() const { return NeedsWheelVelocity(config_.mode); }
+  bool needs_body_acceleration() const { return NeedsBodyAcceleration(config_.mode); }
+  static bool NeedsBodyVelocity(ControlMode m) {
+    return m == ControlMode::kSkyhookOnOff || m == ControlMode::kSkyhookContinuous ||
+           m == ControlMode::kHybrid || m == ControlMode::kSkyhookAdd;
+  }
+  static bool NeedsWheelVelocity(ControlMode m) {
+    return m == ControlMode::kGroundhook || m == ControlMode::kGroundhookOnOff ||
+           m == ControlMode::kHybrid;
+  }
+  static bool NeedsBodyAcceleration(ControlMode m) {
+    return m == ControlMode::kAdd || m == ControlMode::kSkyhookAdd;
   }
 
  private:
@@ -82,12 +123,16 @@ class ControlLaw {
   Real constant_voltage_ = Real(0);  // config_ in Real
   Real skyhook_gain_ = Real(100);
   Real force_limit_ = Real(5000);
+  Real groundhook_gain_ = Real(100);
+  Real hybrid_gain_ = Real(100);
+  Real hybrid_alpha_ = Real(0.5);
+  Real sh_add_alpha2_ = Real(88.7);  // a^2 [rad^2/s^2]
   Real e_min_ = Real(0);
   Real e_max_ = Real(2.25);
 };
 
 // Name for logs and telemetry ("force", "constant", "skyhook-on-off", "skyhook", "open-loop",
-// "clipped-optimal").
+// "groundhook", "groundhook-on-off", "hybrid", "add", "sh-add", "clipped-optimal").
 const char* ControlModeName(ControlMode mode);
 
 }  // namespace mrd::firmware

@@ -29,6 +29,8 @@ struct SensorFrame {
   Stamped demand;         // force demand [N]
   Stamped body_velocity;  // absolute body velocity [cm/s] (skyhook)
   Stamped force;          // measured damper force [N] (test rigs only; telemetry)
+  Stamped body_acceleration;  // absolute body acceleration [cm/s^2] (ADD, SH-ADD)
+  Stamped wheel_velocity;     // absolute wheel (unsprung) velocity [cm/s] (groundhook, hybrid)
   bool fault_line = false;  // external fault input asserted
   // Watchdog::Bit(FaultCause::kCanBus / kModbusBus / kGpioBus) of each bus whose device
   // faulted this period (0 from sources that name no bus).

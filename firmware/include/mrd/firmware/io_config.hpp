@@ -5,8 +5,10 @@
 //
 // Each bus section lists the inputs it serves and the outputs it drives:
 //   [can]     inputs  velocity displacement demand body_velocity force fault_line
+//                     body_acceleration wheel_velocity
 //             outputs command enable heartbeat status   (in the device profile's messages)
 //   [modbus]  inputs  velocity displacement demand body_velocity force fault_line
+//                     body_acceleration wheel_velocity (through a profile only)
 //             outputs command enable heartbeat status
 //   [gpio]    inputs  fault_line displacement (quadrature encoder)
 //             outputs enable heartbeat
@@ -35,8 +37,10 @@ enum class Input : std::uint8_t {
   kBodyVelocity,
   kForce,
   kFaultLine,
+  kBodyAcceleration,  // [cm/s^2] (ADD, SH-ADD)
+  kWheelVelocity,     // [cm/s] (groundhook, hybrid)
 };
-inline constexpr std::size_t kNumInputs = 6;
+inline constexpr std::size_t kNumInputs = 8;  // the order of profile::CanIn's first roles
 // Outputs a device can drive.
 enum class Output : std::uint8_t {
   kCommand = 0,  // voltage set-point to the current driver
@@ -47,7 +51,8 @@ enum class Output : std::uint8_t {
 inline constexpr std::size_t kNumOutputs = 4;
 constexpr std::uint32_t Bit(Input i) { return 1U << static_cast<unsigned>(i); }
 constexpr std::uint32_t Bit(Output o) { return 1U << static_cast<unsigned>(o); }
-// Config names ("velocity", "displacement", "demand", "body_velocity", "force", "fault_line";
+// Config names ("velocity", "displacement", "demand", "body_velocity", "force", "fault_line",
+// "body_acceleration", "wheel_velocity";
 // "command", "enable", "heartbeat", "status").
 const char* InputName(Input input);
 const char* OutputName(Output output);

@@ -92,6 +92,10 @@ struct Scenario {
                                       // open-loop (replay: the measured E, replay.hpp)
   double constant_voltage = 0.0;
   double skyhook_gain = 50.0;
+  double groundhook_gain = 50.0;  // [N s/cm]
+  double hybrid_gain = 50.0;      // [N s/cm]
+  double hybrid_alpha = 0.5;      // [0, 1]
+  double sh_add_alpha = 9.42;     // [rad/s]
   // [firmware] settings of the generated configuration
   double max_age_ms = 5.0;
   int recover_periods = 5;
@@ -109,6 +113,7 @@ struct Scenario {
   bool require_recovery = true;
   std::optional<int> expect_firmware_exit;    // e.g. 2 for a refused table
   bool body_accel_below_passive = false;      // quarter car: controlled < passive-off and -on
+  bool tyre_load_below_passive_off = false;   // quarter car: tyre load RMS < passive-off's
   std::vector<Fault> faults;
   ScenarioGpio gpio;
 };
@@ -123,5 +128,8 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
                   Scenario* scenario, std::string* error);
 // Every key with its meaning (for --help).
 const char* ScenarioKeysHelp();
+// The laws that read body acceleration or wheel velocity (groundhook, groundhook-on-off,
+// hybrid, add, sh-add): quarter car only.
+bool IsChassisLaw(const std::string& law);
 
 }  // namespace mrd::hil
