@@ -90,6 +90,8 @@ bool RunFirmwareLaw(const FirmwareLaw& law, QuarterCarPlant* plant, double durat
     frame.velocity = {s.v, now};
     frame.displacement = {s.x, now};
     frame.body_velocity = {s.body_velocity, now};
+    frame.body_acceleration = {s.body_acceleration, now};
+    frame.wheel_velocity = {s.wheel_velocity, now};
     frame.force = {s.force, now};
     const firmware::ControllerOutput o =
         controller.Update(frame, firmware::IoStatus::kOk, false, now, period);
