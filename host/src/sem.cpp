@@ -287,9 +287,10 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     }
     return vj;
   };
-  // The refinement of a recorded iteration does not feed the search: with two or more threads
-  // it runs beside the search of the next iteration (one at a time, so the iterations are
-  // completed, reported and stored in order). Its results are the same either way.
+  // The stress check, validation and refinement of a recorded iteration do not feed the search:
+  // with two or more threads they run beside the search of the next iteration (one iteration at
+  // a time, so the iterations are completed, reported and stored in order). The results are
+  // the same either way.
   std::future<void> refining;
   auto finish_recorded = [&refining] {
     if (refining.valid()) refining.get();
@@ -302,11 +303,12 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     for (int t : model) it.terms.push_back(eng.cand(t).term);
     it.coefficients = theta;
     it.j = j;
-    it.stress = stress_of(model, theta);
-    it.validation_j = validate(it.terms, theta);
-    // Output-error refinement, kept when it lowers J, passes the stress check as the least
-    // squares did, and (with validation data) makes no validation set's J worse.
+    // Stress check, validation runs and output-error refinement (kept when it lowers J, passes
+    // the stress check as the least squares did, and, with validation data, makes no
+    // validation set's J worse): beside the next search step with two or more threads.
     auto complete = [&, it = std::move(it), terms = model]() mutable {
+      it.stress = stress_of(terms, it.coefficients);
+      it.validation_j = validate(it.terms, it.coefficients);
       if (spec.refine && !terms.empty()) {
         std::vector<double> refined = it.coefficients;
         const double jr = internal::RefineFreeRun(evaluators, it.terms, &refined);
@@ -327,7 +329,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       res.iterations.push_back(std::move(it));
     };
     finish_recorded();
-    if (spec.refine && o.threads > 1) {
+    if (o.threads > 1) {
       refining = std::async(std::launch::async, std::move(complete));
     } else {
       complete();
@@ -336,21 +338,9 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
   // Pruning: drop the term whose removal gives the lowest J while that J is below j_prev.
   auto prune = [&](double j_prev) {
     while (model.size() > 1) {
-      double best = kInf;
       std::size_t drop = 0;
       std::vector<double> best_theta;
-      for (std::size_t i = 0; i < model.size(); ++i) {
-        std::vector<int> reduced = model;
-        reduced.erase(reduced.begin() + static_cast<std::ptrdiff_t>(i));
-        std::vector<double> th;
-        if (!eng.Solve(reduced, &th)) continue;
-        const double jr = search.CostWith(reduced, th, std::min(best, j_prev));
-        if (jr < best) {
-          best = jr;
-          drop = i;
-          best_theta = th;
-        }
-      }
+      const double best = search.BestDrop(model, j_prev, &drop, &best_theta);
       if (!(best < j_prev)) break;
       if (accept) {  // a pruned model must pass the stress check too
         std::vector<int> reduced = model;

@@ -37,6 +37,16 @@ class Search {
   // candidate it refuses is skipped (counted in stress_rejected) for the next best.
   // limit > 0: simulate only the `limit` candidates of best one-step rank. bound0: only
   // candidates whose J is below it are admissible (early stop from the start).
+  // Best single-term drop (sem.cpp's pruning, sem_prune.cpp): the index in model of the term
+  // whose removal gives the lowest free-run J (least squares of the reduced model), that J and
+  // the reduced model's coefficients (theta). Only reduced models with J <= bound count; none:
+  // returns kInf (drop and theta unchanged). Ties: the lowest index. The reduced models run in
+  // parallel under a shared early-stop bound (the lowest J completed so far): exact, since a
+  // partial cost only grows, so the run stopped never has the lowest J; the result is the
+  // same for every thread count.
+  double BestDrop(const std::vector<int>& model, double bound, std::size_t* drop,
+                  std::vector<double>* theta);
+
   using Accept = std::function<bool(int cand, const std::vector<double>& theta)>;
   Trial TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
                double j_threshold, int* rejected, const Accept& accept = {},
