@@ -16,53 +16,27 @@
 #include "mrd/common/quarter_car.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "quarter_car_law_run.hpp"
 
 namespace mrd {
 namespace {
 
 using firmware::ControlMode;
 
-constexpr double kPeriod = 1e-3;       // [s]
-constexpr double kDuration = 25.0;     // [s]
-constexpr double kSettle = 2.0;        // [s]
 constexpr double kSkyhookGain = 60.0;  // [N s/cm]
 
-struct LawRun {
-  RideMetrics ride;
-  std::uint64_t violations = 0;    // command non-finite or outside [0, E_max]
-  std::uint64_t safe_periods = 0;  // watchdog safe state after the first period
-  double mean_volts = 0.0;         // [V]
-};
+constexpr double kPeriod = test::kLawPeriod;      // [s]
+constexpr double kDuration = test::kLawDuration;  // [s]
+constexpr double kSettle = test::kLawSettle;      // [s]
+
+using test::LawRun;
 
 // Runs a firmware law on the plant from Reset.
 LawRun RunLaw(QuarterCarPlant* plant, ControlMode mode, double gain) {
-  firmware::ControllerConfig config;
-  config.law.mode = mode;
-  config.law.skyhook_gain = gain;
-  firmware::Controller controller;
-  EXPECT_EQ(controller.Configure(firmware::kBuiltinTable, config), Error::kOk);
-  plant->Reset();
-  LawRun run;
-  const auto steps = static_cast<std::int64_t>(std::llround(kDuration / kPeriod));
-  for (std::int64_t k = 0; k < steps; ++k) {
-    const PlantSample s = plant->Sample();
-    const std::int64_t now = k * 1'000'000;  // [ns]
-    firmware::SensorFrame frame;
-    frame.velocity = {s.v, now};
-    frame.displacement = {s.x, now};
-    frame.body_velocity = {s.body_velocity, now};
-    frame.force = {s.force, now};
-    const firmware::ControllerOutput out =
-        controller.Update(frame, firmware::IoStatus::kOk, false, now, kPeriod);
-    if (!std::isfinite(out.volts) || out.volts < 0.0 || out.volts > config.e_max) {
-      ++run.violations;
-    }
-    if (out.safe && k > 0) ++run.safe_periods;
-    run.mean_volts += out.volts / static_cast<double>(steps);
-    plant->Step(out.volts);
-    if (plant->Detail().plant.t_s > kSettle) run.ride.Add(plant->Detail());
-  }
-  return run;
+  firmware::ControlLawConfig law;
+  law.mode = mode;
+  law.skyhook_gain = gain;
+  return test::RunLaw(plant, law);
 }
 
 void Print(const char* name, const RideMetrics& m) {
