@@ -9,6 +9,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <memory>
 #include <stdexcept>
@@ -16,6 +17,8 @@
 #include <vector>
 
 #include <dirent.h>
+#include <pthread.h>
+#include <sched.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -364,6 +367,12 @@ int main(int argc, char** argv) {
                     "for the modbus-tcp=/modbus-rtu= ports (the harness serves its map); "
                     "default: the built-in protocols");
   serve->add_flag("--json", json, "print the summary as JSON");
+  int rt_priority = 0;
+  serve->add_option("--rt-priority", rt_priority,
+                    "SCHED_FIFO priority (1-99) of the plant and its bus servers, so they "
+                    "answer in time on a loaded host as a drive's own processor does; 0: normal "
+                    "priority. Refused (no privilege): a warning, normal priority")
+      ->check(CLI::Range(0, 99))->capture_default_str();
 
   auto* run = app.add_subcommand(
       "run", "Run a scenario against mrd-firmware (started as a child process, or --attach): "
@@ -557,6 +566,17 @@ int main(int argc, char** argv) {
     }
     can_profile = std::move(p);
   }
+  // Before the ports open: their server threads inherit the policy.
+  bool sched_fifo = false;
+  if (rt_priority > 0) {
+    sched_param sp{};
+    sp.sched_priority = rt_priority;
+    const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+    sched_fifo = err == 0;
+    if (!sched_fifo)
+      std::fprintf(stderr, "warning: --rt-priority %d refused (%s); serving at normal priority\n",
+                   rt_priority, std::strerror(err));
+  }
   std::vector<std::unique_ptr<mrd::hil::PlantPort>> ports;
   std::vector<mrd::hil::PlantPort*> raw;
   for (const auto& spec : port_specs) {
@@ -576,7 +596,8 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "mrd-hil: serving on %zu port(s)\n", ports.size());
   const mrd::hil::ServeResult r = mrd::hil::Serve(o, raw, g_stop);
   for (auto& p : ports) p->Close();
-  const nlohmann::json j = ToJson(r);
+  nlohmann::json j = ToJson(r);
+  j["sched_fifo"] = sched_fifo;
   std::cout << j.dump(json ? 2 : -1) << std::endl;
   if (!std::cout) return kExitFailure;
   return kExitOk;

@@ -55,7 +55,7 @@ json Parse(const ChildProcess& p, const char* who) {
 
 ChildProcess Hil(const RunFiles& s, double seconds) {
   return ChildProcess({kBin + "/mrd-hil", "serve", "--port", "can=" + s.socket, "--duration",
-                       std::to_string(seconds), "--json"});
+                       std::to_string(seconds), "--json", "--rt-priority", "70"});
 }
 
 ChildProcess Firmware(const RunFiles& s, double seconds) {

@@ -69,7 +69,8 @@ ChildProcess Hil(const RunFiles& s, double seconds, const std::string& gpio_opti
                  const std::string& fault_window) {
   std::vector<std::string> argv{kBin + "/mrd-hil", "serve",  "--port",
                                 "can=" + s.socket,  "--port", "gpio=" + s.chip + gpio_options,
-                                "--duration",       std::to_string(seconds), "--json"};
+                                "--duration",       std::to_string(seconds), "--json",
+                                "--rt-priority",    "70"};
   if (!fault_window.empty()) {
     argv.push_back("--fault-line");
     argv.push_back(fault_window);

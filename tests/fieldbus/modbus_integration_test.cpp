@@ -58,7 +58,7 @@ class ModbusIntegrationTest : public ::testing::TestWithParam<Transport> {
     if (GetParam().rtu) unlink(link_.c_str());
     auto hil = std::make_unique<ChildProcess>(
         std::vector<std::string>{kBin + "/mrd-hil", "serve", "--port", endpoint, "--duration",
-                                 std::to_string(duration_s), "--json"});
+                                 std::to_string(duration_s), "--json", "--rt-priority", "70"});
     const bool ready = GetParam().rtu ? WaitForPath(link_, 5.0) : TcpReady(port_, 5.0);
     EXPECT_TRUE(ready) << hil->Stderr();
     return hil;
@@ -195,6 +195,25 @@ TEST(ModbusHilEndpointTest, MalformedEndpointsAreRefusedWithAReason) {
     EXPECT_NE(hil.Stderr().find(reason), std::string::npos) << spec << hil.Stderr();
     EXPECT_EQ(hil.Stdout(), "") << spec;
   }
+}
+
+// --rt-priority: out of range is bad input; in range the summary says whether SCHED_FIFO was
+// granted (refused without the privilege: a warning, normal priority, still serving).
+TEST(ModbusHilEndpointTest, RtPriorityIsCheckedAndReported) {
+  ChildProcess bad({kBin + "/mrd-hil", "serve", "--port", "modbus-tcp=127.0.0.1:1", "--duration",
+                    "0.1", "--rt-priority", "100"});
+  EXPECT_EQ(bad.Wait(10.0), 2) << bad.Stderr();
+  EXPECT_NE(bad.Stderr().find("--rt-priority"), std::string::npos) << bad.Stderr();
+  EXPECT_EQ(bad.Stdout(), "");
+  ChildProcess ok({kBin + "/mrd-hil", "serve", "--port",
+                   "modbus-tcp=127.0.0.1:" + std::to_string(FreeTcpPort()), "--duration", "0.1",
+                   "--json", "--rt-priority", "10"});
+  ASSERT_EQ(ok.Wait(10.0), 0) << ok.Stderr();
+  const json j = json::parse(ok.Stdout(), nullptr, false);
+  ASSERT_TRUE(j.contains("sched_fifo")) << ok.Stdout();
+  const bool granted = j["sched_fifo"].get<bool>();
+  EXPECT_EQ(granted, ok.Stderr().find("warning: --rt-priority 10 refused") == std::string::npos)
+      << ok.Stderr();
 }
 
 }  // namespace
