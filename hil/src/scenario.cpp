@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <functional>
 #include <limits>
 #include <map>
@@ -558,6 +559,11 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
       if (stat(s.clipped_gains.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
         return c.Fail(at("control.gains"),
                       "[control] gains '" + s.clipped_gains + "': not a readable file");
+      }
+      // Absolute: the firmware reads it relative to its generated config elsewhere.
+      if (char* abs = realpath(s.clipped_gains.c_str(), nullptr)) {
+        s.clipped_gains = abs;
+        std::free(abs);
       }
     } else if (has("control.gains") || has("control.clipped_command")) {
       return c.Fail(at(has("control.gains") ? "control.gains" : "control.clipped_command"),
