@@ -17,6 +17,7 @@
 #include "mrd/firmware/config.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "support/demo_model.hpp"
+#include "support/process.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -222,6 +223,30 @@ TEST(ClippedConfigTest, CtlSetSwitchesToTheLawOnlyWithGainsAndRoutedInputs) {
   EXPECT_EQ(c.controller.law.clipped_command, ClippedCommand::kInverse);
   EXPECT_FALSE(SetParam(&c, "clipped_optimal.gains", "other.toml", &why));
   EXPECT_NE(why.find("reload"), std::string::npos) << why;
+}
+
+// mrd-firmware itself: a dry run of the law, and a bad gains file stops the start (exit 2).
+TEST(ClippedConfigTest, TheFirmwareRunsTheLawAndRefusesABadGainsFileWithExit2) {
+  TempDir dir;
+  const std::string good = dir.Write(
+      "fw.toml", "[control]\nlaw = \"clipped-optimal\"\n[clipped_optimal]\ngains = \"" +
+                     kGainsFile + "\"\ncommand = \"inverse\"\n");
+  test::ChildProcess ok({std::string(MRD_BIN_DIR) + "/mrd-firmware", "--config", good,
+                         "--dry-run", "0.5", "--lockstep", "--json"});
+  ASSERT_EQ(ok.Wait(60.0), 0) << ok.Stderr();
+  EXPECT_NE(ok.Stdout().find("\"law\": \"clipped-optimal\""), std::string::npos) << ok.Stdout();
+  EXPECT_NE(ok.Stdout().find("\"ticks\": 500"), std::string::npos) << ok.Stdout();
+  dir.Write("bad.toml", WithLine("cy", "cy = [1, 2]"));
+  const std::string bad = dir.Write(
+      "fw2.toml", "[control]\nlaw = \"clipped-optimal\"\n[clipped_optimal]\ngains = \"bad.toml\"\n");
+  test::ChildProcess refused({std::string(MRD_BIN_DIR) + "/mrd-firmware", "--config", bad,
+                              "--dry-run", "0.5", "--lockstep"});
+  EXPECT_EQ(refused.Wait(60.0), 2);
+  EXPECT_NE(refused.Stderr().find("fw2.toml:4: [clipped_optimal] gains: "), std::string::npos)
+      << refused.Stderr();
+  EXPECT_NE(refused.Stderr().find("bad.toml:5: 'cy' must be a list of 18 numbers (has 2)"),
+            std::string::npos)
+      << refused.Stderr();
 }
 
 // ---- Through the Controller ------------------------------------------------------------------
