@@ -53,6 +53,7 @@ PlantSample DamperPlant::Sample() const {
                         std::cos(kTwoPi * excitation_.body_frequency_hz * t +
                                  excitation_.body_phase_rad);
   s.wheel_velocity = s.body_velocity - s.v;
+  for (int i = 0; i < 3; ++i) s.floor_acceleration[i] = 0.01 * s.body_acceleration * (1.0 + 0.5 * i);
   s.force = force_;
   return s;
 }

@@ -2,6 +2,7 @@
 //   BM_ControlLaw/NAME:           ControlLaw::Update alone (the decision rule)
 //   BM_ControllerUpdateLaw/NAME:  Controller::Update with that law (watchdog, input checks,
 //                                 law, inversion for the force laws, model)
+// Every [control] law but clipped-optimal (bench_clipped_optimal.cpp: it needs its gains).
 // The inputs follow a quarter-car-like excitation: body 1.2 Hz, wheel 11 Hz, so every branch
 // of each rule is taken.
 #include <benchmark/benchmark.h>
@@ -32,12 +33,15 @@ struct ChassisExcitation {
       body_acceleration.push_back(ab);
       wheel_velocity.push_back(vw);
       v.push_back(0.7 * (vb - vw));  // damper velocity through a 0.7 motion ratio [cm/s]
+      // A dissipative force demand [N] (force law); read as mV by the open-loop law.
+      demand.push_back(300.0 * std::tanh(v.back() / 2.0) + 600.0);
     }
   }
-  std::vector<double> v, body_velocity, body_acceleration, wheel_velocity;
+  std::vector<double> v, body_velocity, body_acceleration, wheel_velocity, demand;
 };
 
-const ControlMode kModes[] = {ControlMode::kConstantVoltage, ControlMode::kSkyhookOnOff,
+const ControlMode kModes[] = {ControlMode::kForceTracking, ControlMode::kOpenLoop,
+                              ControlMode::kConstantVoltage, ControlMode::kSkyhookOnOff,
                               ControlMode::kSkyhookContinuous, ControlMode::kGroundhook,
                               ControlMode::kGroundhookOnOff, ControlMode::kHybrid,
                               ControlMode::kAdd, ControlMode::kSkyhookAdd};
@@ -52,6 +56,7 @@ void BM_ControlLaw(benchmark::State& state, ControlMode mode) {
   for (auto _ : state) {
     ControlInputs in;
     in.v = static_cast<Real>(ex.v[static_cast<std::size_t>(k)]);
+    in.demand = static_cast<Real>(ex.demand[static_cast<std::size_t>(k)]);
     in.body_velocity = static_cast<Real>(ex.body_velocity[static_cast<std::size_t>(k)]);
     in.wheel_velocity = static_cast<Real>(ex.wheel_velocity[static_cast<std::size_t>(k)]);
     in.body_acceleration = static_cast<Real>(ex.body_acceleration[static_cast<std::size_t>(k)]);
@@ -76,6 +81,7 @@ void BM_ControllerUpdateLaw(benchmark::State& state, ControlMode mode) {
     now += 1'000'000;
     const auto i = static_cast<std::size_t>(k);
     frame.velocity = {ex.v[i], now};
+    frame.demand = {ex.demand[i], now};
     frame.body_velocity = {ex.body_velocity[i], now};
     frame.wheel_velocity = {ex.wheel_velocity[i], now};
     frame.body_acceleration = {ex.body_acceleration[i], now};

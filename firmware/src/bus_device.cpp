@@ -28,6 +28,9 @@ const char* InputName(Input input) {
     case Input::kFaultLine: return "fault_line";
     case Input::kBodyAcceleration: return "body_acceleration";
     case Input::kWheelVelocity: return "wheel_velocity";
+    case Input::kFloorAcceleration1: return "floor_acceleration_1";
+    case Input::kFloorAcceleration2: return "floor_acceleration_2";
+    case Input::kFloorAcceleration3: return "floor_acceleration_3";
   }
   return "unknown";
 }

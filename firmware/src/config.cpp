@@ -4,6 +4,7 @@
 #include <toml++/toml.h>
 
 #include "mrd/common/input_file.hpp"
+#include "mrd/firmware/clipped_optimal_file.hpp"
 #include "mrd/firmware/period_log.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
@@ -303,13 +304,15 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                 {"groundhook-on-off", ControlMode::kGroundhookOnOff},
                 {"hybrid", ControlMode::kHybrid},
                 {"add", ControlMode::kAdd},
-                {"sh-add", ControlMode::kSkyhookAdd}},
+                {"sh-add", ControlMode::kSkyhookAdd},
+                {"clipped-optimal", ControlMode::kClippedOptimal}},
                "Control law: track a force demand through the inverted model, a constant "
                "voltage, skyhook (on-off or continuous), open-loop (the demand input is a "
                "voltage command in mV, clamped to [E_min, E_max]: the harness's replay), "
                "groundhook (continuous or on-off), hybrid skyhook-groundhook, add "
-               "(acceleration-driven damper) or sh-add (mixed skyhook-ADD); "
-               "docs/control_laws.md.")),
+               "(acceleration-driven damper), sh-add (mixed skyhook-ADD) or clipped-optimal "
+               "(Dyke et al. 1996, on three floor accelerations and the measured force; "
+               "[clipped_optimal]); docs/control_laws.md.")),
         Runtime(e_max),
         Runtime(Number("constant_voltage", &k.law.constant_voltage, -1e3, 1e3, "V",
                        "Command of law = \"constant\" (passive-off 0, passive-on E_max).")),
@@ -327,6 +330,19 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                        "the ADD rule above (default 2 pi 1.5 Hz).")),
         Runtime(Number("force_limit", &k.law.force_limit, 1e-9, 1e9, "N",
                        "Limit of the force demand's magnitude."))}},
+      {"clipped_optimal",
+       {Reload(Text("gains", &c->clipped_gains_path, kMaxPath, "PATH_MAX", "",
+                    "Gains of law = \"clipped-optimal\": the TOML file `mrd-structure design "
+                    "--out` writes ([control.clipped_optimal]: ad, bd, cy, dy, l, k, v_max, "
+                    "v_min), relative to this file; read and checked at start-up and on a "
+                    "reload. The law needs it.")),
+        Runtime(Choice("command", &k.law.clipped_command,
+                       {{"clipped", ClippedCommand::kClipped},
+                        {"inverse", ClippedCommand::kInverse}},
+                       "What law = \"clipped-optimal\" commands: the clipped rule's voltage "
+                       "(the gains' v_max when the damper force must grow towards the desired "
+                       "force, else v_min; clamped to [E_min, E_max]), or the model's inverse "
+                       "at the desired force (limited to force_limit)."))}},
       {"velocity",
        {Reload(Choice("source", &k.velocity_source,
                       {{"measured", VelocitySource::kMeasured},
@@ -380,7 +396,9 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
        {Names("inputs", &io.can.inputs,
               InputNames({Input::kVelocity, Input::kDisplacement, Input::kDemand,
                           Input::kBodyVelocity, Input::kForce, Input::kFaultLine,
-                          Input::kBodyAcceleration, Input::kWheelVelocity}),
+                          Input::kBodyAcceleration, Input::kWheelVelocity,
+                          Input::kFloorAcceleration1, Input::kFloorAcceleration2,
+                          Input::kFloorAcceleration3}),
               "Signals read from CAN (in the profile's messages; docs/can_bus.md)."),
         Names("outputs", &io.can.outputs,
               OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
@@ -404,7 +422,9 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
        {Names("inputs", &io.modbus.inputs,
               InputNames({Input::kVelocity, Input::kDisplacement, Input::kDemand,
                           Input::kBodyVelocity, Input::kForce, Input::kFaultLine,
-                          Input::kBodyAcceleration, Input::kWheelVelocity}),
+                          Input::kBodyAcceleration, Input::kWheelVelocity,
+                          Input::kFloorAcceleration1, Input::kFloorAcceleration2,
+                          Input::kFloorAcceleration3}),
               "Signals read over Modbus (docs/modbus_registers.md)."),
         Names("outputs", &io.modbus.outputs,
               OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
@@ -502,6 +522,12 @@ std::string Where(const toml::table& root, const std::string& source, const char
 bool CheckIo(const toml::table& root, const std::string& source, const FirmwareConfig& c,
              std::string* error) {
   const IoConfig& io = c.io;
+  if (c.controller.law.mode == ControlMode::kClippedOptimal && c.clipped_gains_path.empty()) {
+    *error = Where(root, source, "control", "law") +
+             "law \"clipped-optimal\" needs [clipped_optimal] gains (the file mrd-structure "
+             "design --out writes)";
+    return false;
+  }
   if (!io.any()) {
     if (c.clock != LoopClock::kGrant) return true;
     *error = Where(root, source, "loop", "clock") +
@@ -582,6 +608,13 @@ bool CheckIo(const toml::table& root, const std::string& source, const FirmwareC
                                                              : "law \"sh-add\"")) {
     return false;
   }
+  if (ControlLaw::NeedsFloorAccelerations(m)) {
+    for (const Input i : {Input::kFloorAcceleration1, Input::kFloorAcceleration2,
+                          Input::kFloorAcceleration3}) {
+      if (!need(i, "law \"clipped-optimal\"")) return false;
+    }
+  }
+  if (ControlLaw::NeedsForce(m) && !need(Input::kForce, "law \"clipped-optimal\"")) return false;
   if (k.displacement_limit > 0.0 && (inputs & Bit(Input::kDisplacement)) == 0) {
     *error = Where(root, source, "safety", "displacement_limit") +
              "displacement_limit needs a measured displacement: no bus serves input "
@@ -716,8 +749,11 @@ bool LoadModbusProfileOf(const toml::table& root, const std::string& source, Fir
                          std::string* error) {
   ModbusConfig& mb = c->io.modbus;
   if (mb.profile.empty()) {
-    // The built-in register map (docs/modbus_registers.md) has no chassis registers.
-    for (const Input i : {Input::kBodyAcceleration, Input::kWheelVelocity}) {
+    // The built-in register map (docs/modbus_registers.md) has no chassis or structure
+    // registers.
+    for (const Input i : {Input::kBodyAcceleration, Input::kWheelVelocity,
+                          Input::kFloorAcceleration1, Input::kFloorAcceleration2,
+                          Input::kFloorAcceleration3}) {
       if ((mb.inputs & Bit(i)) != 0) {
         *error = Where(root, source, "modbus", "inputs") + "input '" + InputName(i) +
                  "' needs a Modbus device profile (the built-in register map has none)";
@@ -839,6 +875,20 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
     }
   }
   if (!CheckIo(root, source, *c, error)) return false;
+  if (!c->clipped_gains_path.empty()) {  // relative to the config file
+    std::string path = c->clipped_gains_path;
+    if (path[0] != '/') {
+      const auto slash = source.rfind('/');
+      path = (slash == std::string::npos ? std::string(".") : source.substr(0, slash)) + "/" + path;
+    }
+    std::string why;
+    if (!LoadClippedOptimalGains(path, &k.clipped_gains, &why)) {
+      *error = Where(root, source, "clipped_optimal", "gains") + "[clipped_optimal] gains: " +
+               Printable(why);
+      return false;
+    }
+    k.clipped_gains_loaded = true;
+  }
   if (c->io.can.enabled && !LoadCanProfileOf(root, source, c, error)) return false;
   if (c->io.modbus.enabled && !LoadModbusProfileOf(root, source, c, error)) return false;
   if (c->io.pwm.enabled && !LoadPwmProfileOf(root, source, c, error)) return false;

@@ -19,7 +19,9 @@ bool ControlLawConfig::IsValid(double e_min, double e_max) const {
     return false;
   }
   return skyhook_gain >= 0.0 && force_limit > 0.0 &&
-         static_cast<std::uint8_t>(mode) <= static_cast<std::uint8_t>(ControlMode::kSkyhookAdd);
+         static_cast<std::uint8_t>(mode) <= static_cast<std::uint8_t>(ControlMode::kClippedOptimal) &&
+         static_cast<std::uint8_t>(clipped_command) <=
+             static_cast<std::uint8_t>(ClippedCommand::kInverse);
 }
 
 ControlOutput ControlLaw::Update(const ControlInputs& in) const {

@@ -20,6 +20,12 @@ std::uint32_t Check(const Stamped& s, Real value, std::int64_t now_ns, std::int6
 // True once the signal has been sampled (a bus serves it).
 bool Measured(const Stamped& s) { return s.stamp_ns != std::numeric_limits<std::int64_t>::min(); }
 
+// Gains the clipped-optimal law can run on: loaded and valid, when the law is selected.
+bool ClippedGainsOk(const ControllerConfig& c) {
+  return c.law.mode != ControlMode::kClippedOptimal ||
+         (c.clipped_gains_loaded && c.clipped_gains.IsValid(nullptr));
+}
+
 // True when a finite value exceeds a limit (limit 0: none).
 bool Implausible(Real value, Real limit) { return limit > Real(0) && std::fabs(value) > limit; }
 
@@ -42,6 +48,7 @@ Error Controller::Configure(const CoefficientTable& table, const ControllerConfi
     return Error::kOutOfRange;
   }
   if (!config.law.IsValid(table.e_min, config.e_max)) return Error::kOutOfRange;
+  if (!ClippedGainsOk(config)) return Error::kOutOfRange;
   if (config.watchdog.max_age_ns <= 0 || config.watchdog.recover_periods == 0) {
     return Error::kOutOfRange;
   }
@@ -55,6 +62,7 @@ Error Controller::Configure(const CoefficientTable& table, const ControllerConfi
   velocity_limit_ = static_cast<Real>(config.velocity_limit);
   displacement_limit_ = static_cast<Real>(config.displacement_limit);
   law_.Configure(config.law, table.e_min, config.e_max);
+  if (config.clipped_gains_loaded) clipped_.Configure(config.clipped_gains);
   watchdog_.Configure(config.watchdog);
   Reset();
   return Error::kOk;
@@ -71,6 +79,7 @@ Error Controller::Retune(const ControllerConfig& config) {
       config.e_max > table_e_max_ || !std::isfinite(config.envelope_margin) ||
       config.envelope_margin < 0.0 || !(config.velocity_limit >= 0.0) ||
       !(config.displacement_limit >= 0.0) || !config.law.IsValid(table_e_min_, config.e_max) ||
+      !ClippedGainsOk(config) ||
       config.watchdog.recover_periods == 0 || !std::isfinite(config.cutoff_hz) ||
       !(config.cutoff_hz > 0.0)) {
     return Error::kOutOfRange;
@@ -78,6 +87,12 @@ Error Controller::Retune(const ControllerConfig& config) {
   (void)inverter_.SetRange(table_e_min_, config.e_max);
   (void)runtime_.SetEnvelope(config.envelope, config.envelope_margin);
   (void)differentiator_.SetCutoff(config.cutoff_hz);
+  // Switched to the clipped-optimal law: its estimate starts from rest (the gains' arrays are
+  // copied into the object: no allocation).
+  if (config.law.mode == ControlMode::kClippedOptimal &&
+      config_.law.mode != ControlMode::kClippedOptimal) {
+    clipped_.Configure(config.clipped_gains);
+  }
   config_ = config;
   e_max_ = static_cast<Real>(config.e_max);
   velocity_limit_ = static_cast<Real>(config.velocity_limit);
@@ -90,6 +105,7 @@ Error Controller::Retune(const ControllerConfig& config) {
 void Controller::Reset() {
   runtime_.Reset();
   differentiator_.Reset();
+  clipped_.Reset();
   watchdog_.Reset();
   v_ = Real(0);
   x_ = Real(0);
@@ -164,6 +180,33 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
     causes |= Check(frame.body_acceleration, body_acceleration, now_ns, max_age);
   }
 
+  // Clipped-optimal: the observer runs on fresh, finite inputs (safe or not); otherwise its
+  // estimate restarts from rest. An estimate that turns non-finite is reset and counted.
+  Real clipped_volts = e_min_;
+  if (config_.law.mode == ControlMode::kClippedOptimal) {
+    Real accel[3];
+    std::uint32_t c = 0;
+    for (int i = 0; i < 3; ++i) {
+      accel[i] = static_cast<Real>(frame.floor_acceleration[i].value);
+      c |= Check(frame.floor_acceleration[i], accel[i], now_ns, max_age);
+    }
+    const Real force = static_cast<Real>(frame.force.value);
+    c |= Check(frame.force, force, now_ns, max_age);
+    if (c == 0) {
+      clipped_volts = clipped_.Update(accel, force);
+      const Real* xh = clipped_.estimate();
+      bool finite = std::isfinite(clipped_.desired_force());
+      for (int i = 0; i < ClippedOptimal::kStates; ++i) finite = finite && std::isfinite(xh[i]);
+      if (!finite) {
+        clipped_.Reset();
+        c |= Watchdog::Bit(FaultCause::kNonFinite);
+      }
+    } else {
+      clipped_.Reset();
+    }
+    causes |= c;
+  }
+
   // The model's force was non-finite last period (it was reset): its next inversions start
   // from a cleared history, and a model that diverges every period would do so for ever.
   if (model_diverged_) causes |= Watchdog::Bit(FaultCause::kNonFinite);
@@ -174,7 +217,22 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
   runtime_.Begin(v_, x_);
   Real volts = safe_voltage_;
   law_volts_ = std::numeric_limits<double>::quiet_NaN();
-  if (!out.safe) {
+  if (!out.safe && config_.law.mode == ControlMode::kClippedOptimal) {
+    const Real fc = clipped_.desired_force();
+    out.force_demand = static_cast<double>(fc);
+    if (config_.law.clipped_command == ClippedCommand::kInverse) {
+      const Real limit = static_cast<Real>(config_.law.force_limit);
+      const Inverter::Solution s =
+          inverter_.Solve(runtime_.history(), std::fmin(std::fmax(fc, -limit), limit), E_prev_);
+      volts = s.E;
+      law_volts_ = static_cast<double>(s.E);
+      out.force_law = true;
+      out.reachable = s.reachable;
+    } else {
+      law_volts_ = static_cast<double>(clipped_volts);
+      volts = std::fmin(std::fmax(clipped_volts, e_min_), e_max_);
+    }
+  } else if (!out.safe) {
     const ControlOutput law = law_.Update({v_, demand, body_velocity, wheel_velocity, body_acceleration});
     if (law.is_force) {
       const Inverter::Solution s = inverter_.Solve(runtime_.history(), law.value, E_prev_);

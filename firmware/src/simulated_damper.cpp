@@ -34,6 +34,7 @@ IoStatus SimulatedDamper::Read(SensorFrame* frame) {
   frame->force = {sample_.force, plant_ns_};
   frame->body_acceleration = {sample_.body_acceleration, plant_ns_};
   frame->wheel_velocity = {sample_.wheel_velocity, plant_ns_};
+  for (int i = 0; i < 3; ++i) frame->floor_acceleration[i] = {sample_.floor_acceleration[i], plant_ns_};
   frame->fault_line = false;
   return IoStatus::kOk;
 }

@@ -88,6 +88,23 @@ nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
                  {"passive_off", fig(r.ride->passive_off)},
                  {"passive_on", fig(r.ride->passive_on)}};
   }
+  if (r.structure) {
+    const auto fig = [](const StructureFigures& f) {
+      const auto three = [](const double (&v)[3]) { return nlohmann::json{v[0], v[1], v[2]}; };
+      return nlohmann::json{{"samples", f.samples},
+                            {"peak_x_cm", three(f.peak_x_cm)},
+                            {"rms_x_cm", three(f.rms_x_cm)},
+                            {"peak_drift_cm", three(f.peak_d_cm)},
+                            {"rms_drift_cm", three(f.rms_d_cm)},
+                            {"peak_accel_cm_s2", three(f.peak_xa_cm_s2)},
+                            {"rms_accel_cm_s2", three(f.rms_xa_cm_s2)},
+                            {"peak_force_n", f.peak_force_n},
+                            {"rms_force_n", f.rms_force_n}};
+    };
+    j["structure"] = {{"controlled", fig(r.structure->controlled)},
+                      {"passive_off", fig(r.structure->passive_off)},
+                      {"passive_on", fig(r.structure->passive_on)}};
+  }
   if (r.passive) j["passive"] = PassiveJson(*r.passive, s.e_max);
   if (s.plant_model != nullptr) {
     const PlantModel& pm = *s.plant_model;
@@ -147,7 +164,7 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
     o << "  replay: plant force vs measured f over " << r.replay->samples << " steps: fit "
       << r.replay->fit_percent << " %, RMSE " << r.replay->rmse_n << " N\n";
   }
-  if ((!r.ride || s.law == "force") && s.law != "open-loop") {
+  if ((!r.ride || s.law == "force") && s.law != "open-loop" && !r.structure) {
   o << "  tracking ||f-d||/||d|| over " << t.steps << " controlled steps (" << t.reachable_steps
     << " reachable): all " << t.error_all << ", reachable " << t.error_reachable << "\n";
   o << "    passive-off (0 V): all " << t.off_all << ", reachable " << t.off_reachable
@@ -171,6 +188,34 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
     line("controlled ", r.ride->controlled);
     line("passive-off", r.ride->passive_off);
     line("passive-on ", r.ride->passive_on);
+  }
+  if (r.structure) {
+    // The in-process study's table (docs/structure.md): x, d [cm]; xa [cm/s^2]; f [N].
+    char buf[256];
+    o << "  structure, peak | x1 x2 x3 [cm] | d1 d2 d3 [cm] | xa1 xa2 xa3 [cm/s^2] | f [N]:\n";
+    const auto peak = [&](const char* name, const StructureFigures& f) {
+      std::snprintf(buf, sizeof buf,
+                    "    %-15s %.4f %.4f %.4f | %.4f %.4f %.4f | %.0f %.0f %.0f | %.0f\n", name,
+                    f.peak_x_cm[0], f.peak_x_cm[1], f.peak_x_cm[2], f.peak_d_cm[0],
+                    f.peak_d_cm[1], f.peak_d_cm[2], f.peak_xa_cm_s2[0], f.peak_xa_cm_s2[1],
+                    f.peak_xa_cm_s2[2], f.peak_force_n);
+      o << buf;
+    };
+    peak(s.law.c_str(), r.structure->controlled);
+    peak("passive-off", r.structure->passive_off);
+    peak("passive-on", r.structure->passive_on);
+    o << "  structure, RMS (same units):\n";
+    const auto rms = [&](const char* name, const StructureFigures& f) {
+      std::snprintf(buf, sizeof buf,
+                    "    %-15s %.4f %.4f %.4f | %.4f %.4f %.4f | %.0f %.0f %.0f | %.0f\n", name,
+                    f.rms_x_cm[0], f.rms_x_cm[1], f.rms_x_cm[2], f.rms_d_cm[0], f.rms_d_cm[1],
+                    f.rms_d_cm[2], f.rms_xa_cm_s2[0], f.rms_xa_cm_s2[1], f.rms_xa_cm_s2[2],
+                    f.rms_force_n);
+      o << buf;
+    };
+    rms(s.law.c_str(), r.structure->controlled);
+    rms("passive-off", r.structure->passive_off);
+    rms("passive-on", r.structure->passive_on);
   }
   if (r.passive) o << PassiveText(*r.passive);
   for (const FaultResult& f : r.faults) {

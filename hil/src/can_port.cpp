@@ -136,7 +136,8 @@ class CanPort final : public PlantPort {
       // The same frames again: counters repeat, the firmware refuses them.
       if (have_last_) {
         for (const int m : sensor_msgs_) {
-          if (out.sample.has_chassis || !IsIn(chassis_msgs_, m)) {
+          if ((out.sample.has_chassis || !IsIn(chassis_msgs_, m)) &&
+              (out.sample.has_structure || !IsIn(structure_msgs_, m))) {
             SendFrame(last_[static_cast<std::size_t>(m)], now);
           }
         }
@@ -149,6 +150,7 @@ class CanPort final : public PlantPort {
       // Chassis-only messages when the plant has a chassis (the damper plant has none: its
       // runs keep the frame set they always had).
       if (!out.sample.has_chassis && IsIn(chassis_msgs_, m)) continue;
+      if (!out.sample.has_structure && IsIn(structure_msgs_, m)) continue;  // likewise
       can_frame f{};
       codec_.Begin(m, &f);
       bool ok = true;
@@ -165,6 +167,9 @@ class CanPort final : public PlantPort {
       set(CanIn::kFaultLine, out.fault_line ? 1.0 : 0.0);
       set(CanIn::kBodyAcceleration, out.sample.body_acceleration);
       set(CanIn::kWheelVelocity, out.sample.wheel_velocity);
+      set(CanIn::kFloorAcceleration1, out.sample.floor_acceleration[0]);
+      set(CanIn::kFloorAcceleration2, out.sample.floor_acceleration[1]);
+      set(CanIn::kFloorAcceleration3, out.sample.floor_acceleration[2]);
       const pf::SignalRef seq = profile_->inputs[static_cast<std::size_t>(CanIn::kSensorSeq)];
       if (seq.message == m) {
         protocol::InsertRaw(f.data, profile_->Layout(seq),
@@ -409,6 +414,12 @@ class CanPort final : public PlantPort {
       if (m >= 0 && m != grant && !IsIn(sensor_msgs_, m)) add(&chassis_msgs_, m);
       if (m != grant) add(&sensor_msgs_, m);
     }
+    for (const CanIn r : {CanIn::kFloorAcceleration1, CanIn::kFloorAcceleration2,
+                          CanIn::kFloorAcceleration3}) {
+      const int m = p.inputs[static_cast<std::size_t>(r)].message;
+      if (m >= 0 && m != grant && !IsIn(sensor_msgs_, m)) add(&structure_msgs_, m);
+      if (m != grant) add(&sensor_msgs_, m);
+    }
     for (const CanIn r : {CanIn::kDriverFaults, CanIn::kDriverCurrent}) {
       const int m = p.inputs[static_cast<std::size_t>(r)].message;
       if (!IsIn(sensor_msgs_, m) && m != grant) add(&driver_msgs_, m);
@@ -584,6 +595,7 @@ class CanPort final : public PlantPort {
   // Profile messages by kind: the firmware's (heard) and the plant's and driver's (sent).
   std::vector<int> command_msgs_, heartbeat_msgs_, status_msgs_, sensor_msgs_, driver_msgs_;
   std::vector<int> chassis_msgs_;  // sensor messages carrying only chassis roles
+  std::vector<int> structure_msgs_;  // sensor messages carrying only floor accelerations
   // The simulated driver: the latest command heard, the DriverStatus schedule.
   double command_volts_ = 0.0;
   bool command_drives_ = false;

@@ -40,12 +40,18 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
     c << "law = \"" << s.law << "\"\ngroundhook_gain = " << s.groundhook_gain
       << "\nhybrid_gain = " << s.hybrid_gain << "\nhybrid_alpha = " << s.hybrid_alpha
       << "\nsh_add_alpha = " << s.sh_add_alpha << "\n";
+  } else if (s.law == "clipped-optimal") {
+    c << "law = \"clipped-optimal\"\n";
   } else {
     const double v = s.law == "passive-on" ? s.e_max : s.law == "passive-off" ? 0.0
                                                                               : s.constant_voltage;
     c << "law = \"constant\"\nconstant_voltage = " << v << "\n";
   }
   c << "e_max = " << s.e_max << "\n";
+  if (s.law == "clipped-optimal") {
+    c << "\n[clipped_optimal]\ngains = \"" << s.clipped_gains << "\"\ncommand = \""
+      << s.clipped_command << "\"\n";
+  }
   c << "\n[safety]\nmax_age_ms = " << max_age_ms << "\nrecover_periods = " << s.recover_periods
     << "\nvelocity_limit = " << s.velocity_limit << "\n";
   std::string inputs = "[\"velocity\", \"displacement\", \"demand\", \"body_velocity\", \"force\"]";
@@ -69,6 +75,11 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
       add(&ins, "body_acceleration");
     }
     if (IsChassisLaw(s.law) && in(profile::CanIn::kWheelVelocity)) add(&ins, "wheel_velocity");
+    if (s.law == "clipped-optimal") {
+      if (in(profile::CanIn::kFloorAcceleration1)) add(&ins, "floor_acceleration_1");
+      if (in(profile::CanIn::kFloorAcceleration2)) add(&ins, "floor_acceleration_2");
+      if (in(profile::CanIn::kFloorAcceleration3)) add(&ins, "floor_acceleration_3");
+    }
     ins += "]";
     inputs = std::move(ins);
     std::string outs = "[\"command\"";
@@ -108,6 +119,12 @@ std::string FirmwareConfigText(const Scenario& s, const std::string& transport, 
     }
     if (IsChassisLaw(s.law) && in(profile::CanIn::kWheelVelocity)) {
       add(&can_inputs, "wheel_velocity");
+    }
+    // The floor accelerations only for the clipped-optimal law (structure plant).
+    if (s.law == "clipped-optimal") {
+      if (in(profile::CanIn::kFloorAcceleration1)) add(&can_inputs, "floor_acceleration_1");
+      if (in(profile::CanIn::kFloorAcceleration2)) add(&can_inputs, "floor_acceleration_2");
+      if (in(profile::CanIn::kFloorAcceleration3)) add(&can_inputs, "floor_acceleration_3");
     }
     can_inputs += "]";
     // With a PWM output the command leaves CAN ([pwm] below).

@@ -77,6 +77,9 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     set(pf::CanIn::kForce, out.sample.force);
     set(pf::CanIn::kBodyAcceleration, out.sample.body_acceleration);
     set(pf::CanIn::kWheelVelocity, out.sample.wheel_velocity);
+    set(pf::CanIn::kFloorAcceleration1, out.sample.floor_acceleration[0]);
+    set(pf::CanIn::kFloorAcceleration2, out.sample.floor_acceleration[1]);
+    set(pf::CanIn::kFloorAcceleration3, out.sample.floor_acceleration[2]);
     set(pf::CanIn::kFaultLine, out.fault_line ? 1.0 : 0.0);
     set(pf::CanIn::kSensorSeq, static_cast<double>(out.seq));
     std::lock_guard<std::mutex> lock(mu_);

@@ -27,6 +27,7 @@
 #include "mrd/hil/excitation_profile.hpp"
 #include "mrd/hil/model_plant.hpp"
 #include "mrd/hil/plant.hpp"
+#include "mrd/hil/structure_plant.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "mrd/profile/pwm_profile.hpp"
@@ -85,6 +86,7 @@ std::unique_ptr<Plant> MakePlant(const Scenario& s, const SpencerParams& p, cons
     return std::make_unique<ModelPlant>(s.plant_model, MakePlant(motion, p, trace));
   }
   if (s.quarter_car) return std::make_unique<QuarterCarAdapter>(p, s.car, s.road, 1e-3);
+  if (s.structure) return std::make_unique<StructurePlant>(s.structure_setup, p, 1e-3, s.substeps);
   if (trace != nullptr) return std::make_unique<TracePlant>(p, *trace, 1e-3, s.substeps);
   PlantExcitation e = s.periodic;
   e.substeps = s.substeps;
@@ -394,6 +396,10 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
     *error = "--excitation: " + s.path + " is a quarter car, excited by its [road]";
     return 2;
   }
+  if (s.structure && !o.excitation.empty()) {
+    *error = "--excitation: " + s.path + " is a structure, excited by its [structure] record";
+    return 2;
+  }
   const SpencerParams params = s.damper;  // preset, params file, overrides (scenario.cpp)
   Trace trace;
   const bool replaying = !s.quarter_car && s.excitation == ExcitationKind::kReplay;
@@ -580,6 +586,9 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
   // Quarter car: ride figures of the run and of its passive twins after the settle time.
   RideMetrics ride, ride_off, ride_on;
   const bool score_ride = o.keep_trace && plant->Ride() != nullptr;
+  // Structure: floor figures of the run and of its passive twins over every step.
+  StructureMetrics floors, floors_off, floors_on;
+  const bool score_floors = o.keep_trace && plant->Structure() != nullptr;
 
   PlantSample sample = plant->Sample();
   const auto publish = [&](SensorOutput out) {
@@ -825,6 +834,11 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
       ride_off.Add(*plant_off->Ride());
       ride_on.Add(*plant_on->Ride());
     }
+    if (score_floors) {
+      floors.Add(*plant->Structure());
+      floors_off.Add(*plant_off->Structure());
+      floors_on.Add(*plant_on->Structure());
+    }
     if (o.keep_trace) {
       const double lo = std::min(reach_a, reach_b), hi = std::max(reach_a, reach_b);
       r->trace.push_back({sample.t_s, sample.x, v_seen, sample.demand, sample.force, f_off, f_on,
@@ -870,6 +884,9 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
   if (port_open) port->Close();
   r->ports.emplace_back(port->name(), port->counters());
   if (score_ride) r->ride = RideScores{Figures(ride), Figures(ride_off), Figures(ride_on)};
+  if (score_floors) {
+    r->structure = StructureScores{floors.Figures(), floors_off.Figures(), floors_on.Figures()};
+  }
   if (plant->Holds() != nullptr) r->plant_holds = *plant->Holds();
   if (gpio.active()) {
     gpio.Close();

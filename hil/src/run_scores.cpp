@@ -171,6 +171,29 @@ void EvaluatePass(const Scenario& s, RunResult* r) {
                   " N not below passive-off's " + Fmt(r->ride->passive_off.tyre_load_rms_n));
     }
   }
+  const bool floors_needed =
+      s.peak_drift_below_passive_on || s.peak_accel_below_passive_on || s.max_peak_force_n;
+  if (floors_needed && !table_only) {
+    if (!r->structure || r->structure->controlled.samples == 0) {
+      f.push_back("no structure figures to compare (structure)");
+    } else {
+      const StructureScores& st = *r->structure;
+      if (s.peak_drift_below_passive_on &&
+          !(st.controlled.peak_drift_cm() <= st.passive_on.peak_drift_cm())) {
+        f.push_back("peak drift " + Fmt(st.controlled.peak_drift_cm()) +
+                    " cm above passive-on's " + Fmt(st.passive_on.peak_drift_cm()));
+      }
+      if (s.peak_accel_below_passive_on &&
+          !(st.controlled.peak_accel_cm_s2() <= st.passive_on.peak_accel_cm_s2())) {
+        f.push_back("peak floor acceleration " + Fmt(st.controlled.peak_accel_cm_s2()) +
+                    " cm/s^2 above passive-on's " + Fmt(st.passive_on.peak_accel_cm_s2()));
+      }
+      if (s.max_peak_force_n && !(st.controlled.peak_force_n <= *s.max_peak_force_n)) {
+        f.push_back("peak damper force " + Fmt(st.controlled.peak_force_n) + " N > " +
+                    Fmt(*s.max_peak_force_n));
+      }
+    }
+  }
   for (const FaultResult& fr : r->faults) {
     if (!fr.ok) f.push_back(std::string("fault ") + FaultKindName(fr.fault.kind) + " at " +
                             Fmt(fr.fault.at_s) + " s: " + fr.why);

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <functional>
 #include <limits>
 #include <map>
@@ -17,6 +18,7 @@
 #include "plant_params.hpp"
 #include "replay_scenario.hpp"
 #include "mrd/hil/model_plant.hpp"
+#include "mrd/hil/structure_plant.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -36,7 +38,11 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                   file (required: an `mrd identify` model file, relative to the scenario),
                   iteration (default: the file's selected one), envelope_margin (0.1: the
                   model's v, x, E and fed-back force held to its identification range
-                  widened by this fraction; every hold counted in the summary)
+                  widened by this fraction; every hold counted in the summary) |
+                "structure" (the three-story frame of Dyke et al. 1996 with the damper
+                between ground and first floor, under [structure]'s ground motion; floor
+                displacements, drifts, accelerations and the damper force scored next to
+                passive-off and -on; docs/structure.md)
   [plant.spencer] c0a c0b k0 c1a c1b k1 x0 alpha_a alpha_b gamma beta A n eta: overrides
                 of single damper parameters on top of preset or params (damper and quarter car)
   [quarter_car] sprung_mass_kg (300), unsprung_mass_kg (40), spring_n_per_m (20000),
@@ -46,6 +52,10 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 constant voltage run on the same road in process; 0: no grid)
   [road]        class = "A" .. "H" ("C"), seed (1), n_min (0.011), n_max (2.83) [cycles/m],
                 components (256)
+  [structure]   record (required: a `t_s,ag_g` CSV of ground acceleration [g], e.g.
+                ../data/el_centro_1940_ns.csv, relative to the scenario), time_scale (5: played
+                this many times faster), amplitude (1: factor on the record); after the
+                record the ground is still (duration_s may run past it)
   [excitation]  kind = "periodic" | "csv" | "profile" | "replay"
                 periodic: amplitude_cm, frequency_hz, demand_amplitude_n, demand_frequency_hz,
                           body_amplitude, body_frequency_hz, body_phase_rad
@@ -62,9 +72,12 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
   [control]     law = "force" | "passive-off" | "passive-on" | "constant" | "skyhook" |
                 "open-loop" (replay only: the firmware passes the measured E through) |
                 "groundhook" | "groundhook-on-off" | "hybrid" | "add" | "sh-add" (quarter car
-                only: body acceleration and wheel velocity on the bus; docs/control_laws.md);
+                only: body acceleration and wheel velocity on the bus; docs/control_laws.md) |
+                "clipped-optimal" (structure only: floor accelerations and force on the bus);
                 constant_voltage [V]; skyhook_gain, groundhook_gain, hybrid_gain [N s/cm];
-                hybrid_alpha [0, 1]; sh_add_alpha [rad/s]
+                hybrid_alpha [0, 1]; sh_add_alpha [rad/s]; clipped-optimal: gains (required:
+                the file `mrd-structure design --out` writes, relative to the scenario),
+                clipped_command = "clipped" (default) | "inverse"
   [firmware]    max_age_ms (5), recover_periods (5), velocity_limit [cm/s] (250),
                 grant_timeout_ms (10000: lockstep, the firmware stops when no grant came
                 for this long): written into the generated mrd-firmware config;
@@ -77,7 +90,10 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 body_accel_below_passive (quarter car: the controlled run's body acceleration
                 RMS below both passive-off and passive-on; false),
                 tyre_load_below_passive_off (quarter car: the controlled run's tyre load RMS
-                below passive-off's, the road-holding score of groundhook and hybrid; false)
+                below passive-off's, the road-holding score of groundhook and hybrid; false),
+                peak_drift_below_passive_on, peak_accel_below_passive_on (structure: the
+                largest peak inter-story drift / absolute floor acceleration not above
+                passive-on's; false), max_peak_force_n (structure: the peak damper force [N])
   [gpio]        inputs = list of displacement | fault_line; outputs = list of enable |
                 heartbeat (routed over GPIO lines instead of CAN; displacement from a
                 quadrature encoder the plant drives, velocity differentiated by the firmware);
@@ -240,6 +256,13 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
     std::string model_file;
     int model_iteration = -1;
     double envelope_margin = 0.1;
+    auto structure = std::make_shared<StructureSetup>();
+    std::string record_file;
+    const std::map<std::string, Setter> structure_keys = {
+        {"record", Str(&record_file, "record")},
+        {"time_scale", Num(&structure->time_scale, 0.01, 1000.0, "time_scale")},
+        {"amplitude", Num(&structure->amplitude, 0.0, 100.0, "amplitude")}};
+    double max_peak_force = -1.0;
     const std::map<std::string, Setter> plant = {
         {"preset", Str(&s.preset, "preset")},
         {"params", Str(&s.params_file, "params")},
@@ -290,7 +313,9 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
         {"groundhook_gain", Num(&s.groundhook_gain, 0.0, 1e6, "groundhook_gain")},
         {"hybrid_gain", Num(&s.hybrid_gain, 0.0, 1e6, "hybrid_gain")},
         {"hybrid_alpha", Num(&s.hybrid_alpha, 0.0, 1.0, "hybrid_alpha")},
-        {"sh_add_alpha", Num(&s.sh_add_alpha, 1e-3, 1e4, "sh_add_alpha")}};
+        {"sh_add_alpha", Num(&s.sh_add_alpha, 1e-3, 1e4, "sh_add_alpha")},
+        {"gains", Str(&s.clipped_gains, "gains")},
+        {"clipped_command", Str(&s.clipped_command, "clipped_command")}};
     const std::map<std::string, Setter> firmware = {
         {"max_age_ms", Num(&s.max_age_ms, 0.01, 1e4, "max_age_ms")},
         {"recover_periods", Int(&s.recover_periods, 1, 1000000, "recover_periods")},
@@ -310,7 +335,12 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
         {"body_accel_below_passive",
          Flag(&s.body_accel_below_passive, "body_accel_below_passive")},
         {"tyre_load_below_passive_off",
-         Flag(&s.tyre_load_below_passive_off, "tyre_load_below_passive_off")}};
+         Flag(&s.tyre_load_below_passive_off, "tyre_load_below_passive_off")},
+        {"peak_drift_below_passive_on",
+         Flag(&s.peak_drift_below_passive_on, "peak_drift_below_passive_on")},
+        {"peak_accel_below_passive_on",
+         Flag(&s.peak_accel_below_passive_on, "peak_accel_below_passive_on")},
+        {"max_peak_force_n", Num(&max_peak_force, 0.0, 1e7, "max_peak_force_n")}};
     ScenarioGpio& g = s.gpio;
     const std::map<std::string, Setter> gpio = {
         {"inputs", Names({{"displacement", &g.displacement}, {"fault_line", &g.fault_line}},
@@ -332,13 +362,14 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
       } else if (key == "heartbeat_timeout_ms") {
         ok = Num(&hb_ms, 1.0, 1e4, "heartbeat_timeout_ms")(v, c);
       } else if (key == "plant" || key == "excitation" || key == "control" || key == "firmware" ||
-                 key == "pass" || key == "quarter_car" || key == "road" || key == "gpio") {
+                 key == "pass" || key == "quarter_car" || key == "road" || key == "gpio" ||
+                 key == "structure") {
         const toml::table* t = v.as_table();
         if (t == nullptr) return c.Fail(v, "[" + key + "] must be a table");
         const auto& keys = key == "plant" ? plant : key == "excitation" ? exc
                          : key == "control" ? control : key == "firmware" ? firmware
                          : key == "quarter_car" ? quarter_car : key == "road" ? road_keys
-                         : key == "gpio" ? gpio : pass;
+                         : key == "gpio" ? gpio : key == "structure" ? structure_keys : pass;
         ok = ApplyTable(*t, keys, " in [" + key + "]", c);
       } else if (key == "fault") {
         const toml::array* a = v.as_array();
@@ -388,10 +419,39 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
       }
     }
     const auto has = [&](const char* key) { return root.at_path(key).node() != nullptr; };
-    if (model != "damper" && model != "quarter-car" && model != "narx") {
-      return c.Fail(at("plant.model"),
-                    "plant model must be \"damper\", \"quarter-car\" or \"narx\"");
+    if (model != "damper" && model != "quarter-car" && model != "narx" && model != "structure") {
+      return c.Fail(at("plant.model"), "plant model must be \"damper\", \"quarter-car\", "
+                                       "\"narx\" or \"structure\"");
     }
+    s.structure = model == "structure";
+    if (!s.structure && root.contains("structure")) {
+      return c.Fail(at("structure"), "[structure] needs [plant] model = \"structure\"");
+    }
+    if (s.structure) {
+      if (record_file.empty()) {
+        return c.Fail(root.contains("structure") ? at("structure") : at("plant.model"),
+                      "model = \"structure\" needs [structure] record (a t_s,ag_g CSV, e.g. "
+                      "../data/el_centro_1940_ns.csv)");
+      }
+      if (record_file[0] != '/') record_file = Folder(path) + "/" + record_file;
+      std::string why;
+      if (!LoadGroundRecord(record_file, &structure->record, &why)) {
+        return c.Fail(at("structure.record"), "[structure] record: " + why);
+      }
+      if (root.contains("excitation")) {
+        return c.Fail(at("excitation"),
+                      "a structure is excited by its [structure] record, not [excitation]");
+      }
+      s.structure_setup = structure;
+    } else if (s.peak_drift_below_passive_on || s.peak_accel_below_passive_on ||
+               max_peak_force >= 0.0) {
+      const char* key = s.peak_drift_below_passive_on   ? "pass.peak_drift_below_passive_on"
+                        : s.peak_accel_below_passive_on ? "pass.peak_accel_below_passive_on"
+                                                        : "pass.max_peak_force_n";
+      return c.Fail(at(key), std::string("'") + (key + 5) +
+                                 "' needs [plant] model = \"structure\"");
+    }
+    if (max_peak_force >= 0.0) s.max_peak_force_n = max_peak_force;
     if (model != "narx" && (!model_file.empty() || has("plant.iteration") ||
                             has("plant.envelope_margin"))) {
       const char* key = !model_file.empty() ? "plant.file"
@@ -476,10 +536,42 @@ bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
     }
     const bool chassis_law = IsChassisLaw(s.law);
     if (s.law != "force" && s.law != "passive-off" && s.law != "passive-on" &&
-        s.law != "constant" && s.law != "skyhook" && s.law != "open-loop" && !chassis_law) {
+        s.law != "constant" && s.law != "skyhook" && s.law != "open-loop" && !chassis_law &&
+        s.law != "clipped-optimal") {
       return c.Fail(*root.at_path("control.law").node(),
                     "law must be force | passive-off | passive-on | constant | skyhook | "
-                    "open-loop | groundhook | groundhook-on-off | hybrid | add | sh-add");
+                    "open-loop | groundhook | groundhook-on-off | hybrid | add | sh-add | "
+                    "clipped-optimal");
+    }
+    if (s.law == "clipped-optimal") {
+      if (!s.structure) {
+        return c.Fail(*root.at_path("control.law").node(),
+                      "law \"clipped-optimal\" needs [plant] model = \"structure\" (the floor "
+                      "accelerations it reads)");
+      }
+      if (s.clipped_gains.empty()) {
+        return c.Fail(*root.at_path("control.law").node(),
+                      "law \"clipped-optimal\" needs [control] gains (the file mrd-structure "
+                      "design --out writes)");
+      }
+      if (s.clipped_gains[0] != '/') s.clipped_gains = Folder(path) + "/" + s.clipped_gains;
+      struct stat st {};
+      if (stat(s.clipped_gains.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
+        return c.Fail(at("control.gains"),
+                      "[control] gains '" + s.clipped_gains + "': not a readable file");
+      }
+      // Absolute: the firmware reads it relative to its generated config elsewhere.
+      if (char* abs = realpath(s.clipped_gains.c_str(), nullptr)) {
+        s.clipped_gains = abs;
+        std::free(abs);
+      }
+    } else if (has("control.gains") || has("control.clipped_command")) {
+      return c.Fail(at(has("control.gains") ? "control.gains" : "control.clipped_command"),
+                    "'gains' and 'clipped_command' need law = \"clipped-optimal\"");
+    }
+    if (s.clipped_command != "clipped" && s.clipped_command != "inverse") {
+      return c.Fail(at("control.clipped_command"),
+                    "clipped_command must be \"clipped\" or \"inverse\"");
     }
     if (chassis_law && !s.quarter_car) {
       return c.Fail(*root.at_path("control.law").node(),

@@ -104,11 +104,13 @@ std::map<std::string, DbcMessage> DbcTest::dbc_;
 
 // The built-in codec's seven messages, FirmwareTelemetry (live telemetry, sent through the
 // mrd-native profile's codec; its values are checked by tests/fieldbus/telemetry_test.py) and
-// SensorChassis (the chassis laws' inputs, through the profile's codec only).
+// SensorChassis (the chassis laws' inputs) and SensorStructure (the clipped-optimal law's floor
+// accelerations), through the profile's codec only.
 TEST_F(DbcTest, TheDbcHoldsExactlyTheCodecsMessages) {
-  EXPECT_EQ(dbc_.size(), 9U);
+  EXPECT_EQ(dbc_.size(), 10U);
   EXPECT_EQ(dbc_.count("FirmwareTelemetry"), 1U);
   EXPECT_EQ(dbc_.count("SensorChassis"), 1U);
+  EXPECT_EQ(dbc_.count("SensorStructure"), 1U);
 }
 
 // Issue 10: the lockstep time grant (48-bit microseconds).

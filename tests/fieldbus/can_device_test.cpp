@@ -88,6 +88,43 @@ TEST_F(CanDeviceTest, SensorChassisFillsBodyAccelerationAndWheelVelocity) {
   EXPECT_EQ(other.wheel_velocity.stamp_ns, std::numeric_limits<std::int64_t>::min());
 }
 
+// The floor accelerations (mrd-native SensorStructure, 0x104) reach the frame when routed.
+TEST_F(CanDeviceTest, SensorStructureFillsTheFloorAccelerations) {
+  CanConfig c = AllRouted();
+  c.inputs |= Bit(Input::kFloorAcceleration1) | Bit(Input::kFloorAcceleration2) |
+              Bit(Input::kFloorAcceleration3);
+  Make(c);
+  const profile::CanProfile& p = profile::NativeCanProfile();
+  const profile::CanIn roles[3] = {profile::CanIn::kFloorAcceleration1,
+                                   profile::CanIn::kFloorAcceleration2,
+                                   profile::CanIn::kFloorAcceleration3};
+  const double values[3] = {-1.234, 5.678, 29.5};  // [m/s^2], 0.001 resolution
+  profile::FrameCodec codec(p);
+  can_frame f{};
+  const int m = p.inputs[static_cast<std::size_t>(roles[0])].message;
+  ASSERT_GE(m, 0);
+  codec.Begin(m, &f);
+  for (int i = 0; i < 3; ++i) {
+    const profile::SignalRef r = p.inputs[static_cast<std::size_t>(roles[i])];
+    ASSERT_EQ(r.message, m);
+    ASSERT_EQ(codec.Set(&f, r, values[i]), protocol::SignalError::kNone);
+  }
+  codec.Seal(m, &f);
+  EXPECT_EQ(f.can_id, 0x104U);
+  PeerSend(f);
+  SensorFrame frame;
+  ASSERT_EQ(Read(&frame), IoStatus::kOk);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(frame.floor_acceleration[i].value, values[i], 0.0005) << i;
+    EXPECT_NE(frame.floor_acceleration[i].stamp_ns, std::numeric_limits<std::int64_t>::min());
+  }
+  // Beyond the DBC's range (+-30 m/s^2): not encodable.
+  can_frame g{};
+  codec.Begin(m, &g);
+  EXPECT_NE(codec.Set(&g, p.inputs[static_cast<std::size_t>(roles[2])], 31.0),
+            protocol::SignalError::kNone);
+}
+
 TEST_F(CanDeviceTest, OnlyRoutedInputsAreMerged) {
   CanConfig c = AllRouted();
   c.inputs = Bit(Input::kVelocity);

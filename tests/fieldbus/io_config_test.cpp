@@ -140,7 +140,8 @@ TEST(IoConfigTest, RefusesNoCommandOutput) {
 TEST(IoConfigTest, RefusesUnknownAndRepeatedNames) {
   EXPECT_EQ(ErrorOf("[can]\nlocal_bus = \"/b\"\ninputs = [\"speed\"]\n"),
             "fw.toml:3: 'inputs' has 'speed'; allowed: velocity, displacement, demand, "
-            "body_velocity, force, fault_line, body_acceleration, wheel_velocity");
+            "body_velocity, force, fault_line, body_acceleration, wheel_velocity, "
+            "floor_acceleration_1, floor_acceleration_2, floor_acceleration_3");
   EXPECT_EQ(ErrorOf("[gpio]\nchip = \"c\"\ninputs = [\"velocity\"]\n"),
             "fw.toml:3: 'inputs' has 'velocity'; allowed: displacement, fault_line");
   EXPECT_EQ(ErrorOf("[can]\nlocal_bus = \"/b\"\noutputs = [\"command\", \"command\"]\n"),

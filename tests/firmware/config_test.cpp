@@ -64,7 +64,7 @@ TEST(ConfigTest, ErrorsNameSourceLineAndReason) {
   EXPECT_FALSE(ParseConfig("[control]\nlaw = \"pid\"\n", "fw.toml", &c, &error));
   EXPECT_EQ(error,
             "fw.toml:2: 'law' must be one of force | constant | skyhook-on-off | skyhook | "
-            "open-loop | groundhook | groundhook-on-off | hybrid | add | sh-add");
+            "open-loop | groundhook | groundhook-on-off | hybrid | add | sh-add | clipped-optimal");
   EXPECT_FALSE(ParseConfig("[loop]\nperiod_us = \"fast\"\n", "fw.toml", &c, &error));
   EXPECT_EQ(error, "fw.toml:2: 'period_us' must be a number");
   EXPECT_FALSE(ParseConfig("[nope]\n", "fw.toml", &c, &error));

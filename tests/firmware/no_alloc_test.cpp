@@ -6,10 +6,12 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "fakes.hpp"
 #include "mrd/firmware/clipped_optimal.hpp"
+#include "mrd/firmware/clipped_optimal_file.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/runtime_params.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
@@ -178,6 +180,24 @@ TEST(NoAllocationTest, ParameterChangeAndReloadAtAPeriodBoundaryAllocateNothing)
   EXPECT_NE(&loop.controller(), &controller);
   EXPECT_EQ(loop.controller().config().law.mode, ControlMode::kForceTracking);
   EXPECT_EQ(params.version(), 2U);
+}
+
+// The clipped-optimal law through the loop (Controller: observer, clipped rule or the model's
+// inverse at the desired force, watchdog on its inputs), with the designed gains on the
+// dry-run plant (it serves the stand-in floor accelerations and the force).
+TEST(NoAllocationTest, ClippedOptimalLoopStepsAllocateNothing) {
+  ControllerConfig config;
+  config.law.mode = ControlMode::kClippedOptimal;
+  std::string error;
+  ASSERT_TRUE(LoadClippedOptimalGains(
+      std::string(MRD_SOURCE_DIR) + "/hil/data/clipped_optimal_gains.toml",
+      &config.clipped_gains, &error))
+      << error;
+  config.clipped_gains_loaded = true;
+  for (const ClippedCommand command : {ClippedCommand::kClipped, ClippedCommand::kInverse}) {
+    config.law.clipped_command = command;
+    EXPECT_EQ(AllocationsInSteps(config, 5000), 0U);
+  }
 }
 
 // The clipped-optimal law (observer update, optimal force, clipped rule) per period.

@@ -16,7 +16,18 @@ TEST(DbcTest, ParsesTheNativeFrameSet) {
   Dbc dbc;
   std::string error;
   ASSERT_TRUE(LoadDbc(kSource + "/docs/mrd.dbc", &dbc, &error)) << error;
-  ASSERT_EQ(dbc.messages.size(), 9U);
+  ASSERT_EQ(dbc.messages.size(), 10U);
+  // The structure sensors (clipped-optimal law): three floor accelerations, 0.001 m/s^2, 1 ms.
+  const DbcMessage* structure = dbc.Find("SensorStructure");
+  ASSERT_NE(structure, nullptr);
+  EXPECT_EQ(structure->id, 0x104U);
+  EXPECT_EQ(structure->cycle_time_ms, 1);
+  for (const char* name : {"FloorAcceleration1", "FloorAcceleration2", "FloorAcceleration3"}) {
+    ASSERT_NE(structure->Find(name), nullptr) << name;
+    EXPECT_TRUE(structure->Find(name)->layout.is_signed) << name;
+    EXPECT_DOUBLE_EQ(structure->Find(name)->layout.factor, 0.001) << name;
+  }
+  EXPECT_EQ(structure->Find("FloorAcceleration3")->layout.start_bit, 32);
   // The chassis sensors (groundhook, hybrid, add, sh-add laws): 0.1 cm/s^2, 0.01 cm/s, 1 ms.
   const DbcMessage* chassis = dbc.Find("SensorChassis");
   ASSERT_NE(chassis, nullptr);

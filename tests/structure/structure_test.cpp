@@ -137,12 +137,15 @@ TEST(ClippedRuleTest, SwitchesOnOnlyWhenTheForceMustGrowTowardsTheDesiredForce) 
   EXPECT_EQ(ClippedRule(Real(500), Real(100), Real(1.5), Real(0.2)), Real(1.5));
 }
 
-TEST(ClippedOptimalTest, TheControlModeIsNamedAndNotYetAConfigurableLaw) {
+TEST(ClippedOptimalTest, TheControlModeIsNamedAndAConfigurableLaw) {
   using firmware::ControlMode;
   EXPECT_STREQ(firmware::ControlModeName(ControlMode::kClippedOptimal), "clipped-optimal");
   firmware::ControlLawConfig c;
   c.mode = ControlMode::kClippedOptimal;
-  EXPECT_FALSE(c.IsValid(0.0, 2.25));  // the loop has no routed floor accelerations yet
+  EXPECT_TRUE(c.IsValid(0.0, 2.25));  // selectable; the Controller needs its gains
+  c.clipped_command = static_cast<firmware::ClippedCommand>(7);
+  EXPECT_FALSE(c.IsValid(0.0, 2.25));
+  c.clipped_command = firmware::ClippedCommand::kInverse;
   firmware::ControlLaw law;
   law.Configure(c, 0.25, 2.25);
   const firmware::ControlOutput out = law.Update({});

@@ -18,7 +18,8 @@ namespace {
 
 constexpr const char* kCanInNames[kNumCanIn] = {
     "velocity", "displacement", "demand", "body_velocity", "force",
-    "fault_line", "body_acceleration", "wheel_velocity", "sensor_seq", "driver_faults",
+    "fault_line", "body_acceleration", "wheel_velocity", "floor_acceleration_1",
+    "floor_acceleration_2", "floor_acceleration_3", "sensor_seq", "driver_faults",
     "driver_current", "grant"};
 constexpr const char* kCanOutNames[kNumCanOut] = {
     "command", "enable", "enable_valid", "safe", "echo", "heartbeat_safe",

@@ -220,8 +220,8 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
   const auto has = [roles](pf::CanIn role) { return ((roles >> static_cast<unsigned>(role)) & 1U) != 0; };
   if (config_.lockstep) stamp = granted_ns_;
   bool fresh = false;
-  for (std::size_t i = 0; i <= static_cast<std::size_t>(pf::CanIn::kWheelVelocity); ++i) {
-    // The sampled signals (velocity .. force, body_acceleration, wheel_velocity).
+  for (std::size_t i = 0; i <= static_cast<std::size_t>(pf::CanIn::kFloorAcceleration3); ++i) {
+    // The sampled signals (velocity .. force, body_acceleration .. floor_acceleration_3).
     if (((roles >> i) & 1U) == 0 || i == static_cast<std::size_t>(pf::CanIn::kFaultLine)) continue;
     values_[i] = {v[i], stamp};
     if (config_.lockstep) unstamped_ = static_cast<std::uint16_t>(unstamped_ | (1U << i));
@@ -308,6 +308,10 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
     frame->body_acceleration = value(Input::kBodyAcceleration);
   }
   if ((in & Bit(Input::kWheelVelocity)) != 0) frame->wheel_velocity = value(Input::kWheelVelocity);
+  for (int i = 0; i < 3; ++i) {
+    const auto floor = static_cast<Input>(static_cast<int>(Input::kFloorAcceleration1) + i);
+    if ((in & Bit(floor)) != 0) frame->floor_acceleration[i] = value(floor);
+  }
   if ((in & Bit(Input::kFaultLine)) != 0 && fault_input_) frame->fault_line = true;
   // A fault the current driver reports (any fault bit), or a driver status that stopped coming
   // (its message's timeout), is the driver's fault line, as the Modbus sensor block's

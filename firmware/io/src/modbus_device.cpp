@@ -503,6 +503,11 @@ IoStatus ModbusDevice::Read(SensorFrame* frame, IoError* why) {
     if ((in & Bit(Input::kWheelVelocity)) != 0) {
       frame->wheel_velocity = {s.wheel_velocity, s.stamp_ns};
     }
+    for (int i = 0; i < 3; ++i) {
+      if ((in & Bit(static_cast<Input>(static_cast<int>(Input::kFloorAcceleration1) + i))) != 0) {
+        frame->floor_acceleration[i] = {s.floor_acceleration[i], s.stamp_ns};
+      }
+    }
     // OR, not overwrite: a CAN driver's fault bits may have set it already this period.
     if ((in & Bit(Input::kFaultLine)) != 0) frame->fault_line = frame->fault_line || s.fault_line;
   }

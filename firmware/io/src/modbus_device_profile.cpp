@@ -132,6 +132,9 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
     s.force = value(pf::CanIn::kForce);
     s.body_acceleration = value(pf::CanIn::kBodyAcceleration);
     s.wheel_velocity = value(pf::CanIn::kWheelVelocity);
+    s.floor_acceleration[0] = value(pf::CanIn::kFloorAcceleration1);
+    s.floor_acceleration[1] = value(pf::CanIn::kFloorAcceleration2);
+    s.floor_acceleration[2] = value(pf::CanIn::kFloorAcceleration3);
     s.fault_line = value(pf::CanIn::kFaultLine) != 0.0 || value(pf::CanIn::kDriverFaults) != 0.0;
     ++s.accepted;
     rx_ok_.fetch_add(1, std::memory_order_relaxed);

@@ -12,6 +12,7 @@
 //   vb(t) = B sin(2 pi f_b t + phi)                          body velocity [cm/s]
 //   ab(t) = 2 pi f_b B cos(2 pi f_b t + phi)                 body acceleration [cm/s^2]
 //   vw(t) = vb(t) - v(t)                                     wheel velocity [cm/s]
+//   xa_i(t) = 0.01 ab(t) (1, 1.5, 2)_i                        floor accelerations [m/s^2] (stand-in)
 // Pure and allocation-free; Step is real-time safe.
 
 #include <cstdint>
@@ -44,6 +45,11 @@ struct PlantSample {
   // The plant has a body and a wheel (the quarter car): the harness serves the two above on
   // the buses. False: the dry-run values stand in (the firmware's simulated damper only).
   bool has_chassis = false;
+  // Absolute floor accelerations of a structure [m/s^2] (the structure plant; the dry run's
+  // stand-in: the body acceleration in m/s^2 times 1, 1.5, 2).
+  double floor_acceleration[3] = {};
+  // The plant is the three-story structure: the harness serves the floor accelerations.
+  bool has_structure = false;
 };
 
 class DamperPlant {

@@ -40,6 +40,9 @@ struct FirmwareConfig {
   bool ctl_enable = false;  // [ctl]: serve the control socket (params_server.hpp)
   std::string ctl_socket;   // its path; "": DefaultCtlSocket()
   LogConfig log;  // [log]: the per-period log (period_log.hpp)
+  // [clipped_optimal] gains: the gains file as given (relative to the config file); loaded
+  // into controller.clipped_gains by the parse (clipped_optimal_file.hpp).
+  std::string clipped_gains_path;
 };
 
 // When a change of a key takes effect: at the next start only; on a reload (SIGHUP: a fresh

@@ -24,6 +24,11 @@
 //                                     or (ab^2 - a^2 vb^2 >  0 and ab v > 0), else E_min
 //                        (mixed SH-ADD, Savaresi & Spelta 2007, ASME J. Dyn. Sys. Meas.
 //                        Control 129(4): skyhook below the crossover frequency a, ADD above)
+//   kClippedOptimal:     Dyke et al. 1996 (clipped_optimal.hpp), run by the Controller's
+//                        ClippedOptimal object on the floor accelerations and the measured
+//                        force: E = the clipped rule's v_max / v_min (clamped to [E_min,
+//                        E_max]; clipped_command kClipped), or the inverse of the model at the
+//                        desired force f_c (kInverse)
 //
 // vb: absolute body velocity [cm/s]; vw: absolute wheel (unsprung) velocity [cm/s]; ab: body
 // acceleration [cm/s^2]; all up positive, v = body minus wheel (times the motion ratio), so the
@@ -50,11 +55,15 @@ enum class ControlMode : std::uint8_t {
   kHybrid,
   kAdd,
   kSkyhookAdd,
-  // Clipped-optimal (clipped_optimal.hpp): a stateful observer-based law run by its own
-  // object; the stateless ControlLaw holds E_min for it. Not yet a configurable [control] law
-  // (ControlLawConfig::IsValid refuses it): the structure study runs it in process.
+  // Clipped-optimal (clipped_optimal.hpp): a stateful observer-based law run by the
+  // Controller's own ClippedOptimal object with the gains of ControllerConfig; the stateless
+  // ControlLaw holds E_min for it.
   kClippedOptimal,
 };
+
+// What the clipped-optimal law commands: the clipped rule's voltage (Dyke et al.), or the
+// model's inverse at the desired force f_c.
+enum class ClippedCommand : std::uint8_t { kClipped = 0, kInverse };
 
 struct ControlLawConfig {
   ControlMode mode = ControlMode::kForceTracking;
@@ -65,6 +74,7 @@ struct ControlLawConfig {
   double hybrid_gain = 100.0;      // [N s/cm], kHybrid
   double hybrid_alpha = 0.5;       // kHybrid blend in [0, 1]: 1 skyhook, 0 groundhook
   double sh_add_alpha = 9.42;      // [rad/s], kSkyhookAdd crossover (2 pi 1.5 Hz), > 0
+  ClippedCommand clipped_command = ClippedCommand::kClipped;  // kClippedOptimal
   // True when the values are finite and in range (constant voltage in [e_min, e_max]).
   bool IsValid(double e_min, double e_max) const;
 };
@@ -117,6 +127,9 @@ class ControlLaw {
   static bool NeedsBodyAcceleration(ControlMode m) {
     return m == ControlMode::kAdd || m == ControlMode::kSkyhookAdd;
   }
+  // The clipped-optimal law reads the three floor accelerations and the measured force.
+  static bool NeedsFloorAccelerations(ControlMode m) { return m == ControlMode::kClippedOptimal; }
+  static bool NeedsForce(ControlMode m) { return m == ControlMode::kClippedOptimal; }
 
  private:
   ControlLawConfig config_;

@@ -10,6 +10,9 @@
 //   E(k)    = safe ? E_safe
 //                  : law gives a voltage ? clamp(voltage, E_min, E_max)
 //                  : inverse of the model at the force demand (inverter.hpp)
+//   clipped-optimal: its observer updates every period its inputs (three floor accelerations,
+//             the measured force) are fresh and finite, safe or not; a period where one is not
+//             restarts the estimate from rest (and raises the watchdog cause)
 //   f^(k)   = model(v(k), x(k), E(k))   (the model advances with the command actually sent)
 //
 // Invalid inputs never reach the model: it runs on the last valid velocity/displacement.
@@ -20,6 +23,7 @@
 
 #include "mrd/common/result.hpp"
 #include "mrd/common/table.hpp"
+#include "mrd/firmware/clipped_optimal.hpp"
 #include "mrd/firmware/control_law.hpp"
 #include "mrd/firmware/inverter.hpp"
 #include "mrd/firmware/io.hpp"
@@ -54,6 +58,10 @@ struct ControllerConfig {
   // without an envelope.
   bool envelope = true;
   double envelope_margin = 0.1;
+  // law kClippedOptimal: the gains of the off-line design (mrd-structure design; the config's
+  // [clipped_optimal] gains file). Configure refuses the law without valid loaded gains.
+  ClippedOptimalGains clipped_gains;
+  bool clipped_gains_loaded = false;
 };
 
 struct ControllerOutput {
@@ -105,11 +113,14 @@ class Controller {
   double v_used() const { return static_cast<double>(runtime_.held_v()); }
   double x_used() const { return static_cast<double>(runtime_.held_x()); }
   double law_volts() const { return law_volts_; }
+  // The clipped-optimal law's object (estimate, desired force); idle under the other laws.
+  const ClippedOptimal& clipped_optimal() const { return clipped_; }
 
  private:
   ModelRuntime runtime_;
   Inverter inverter_;
   ControlLaw law_;
+  ClippedOptimal clipped_;
   Watchdog watchdog_;
   DisplacementDifferentiator differentiator_;
   ControllerConfig config_;

@@ -31,6 +31,7 @@ struct SensorFrame {
   Stamped force;          // measured damper force [N] (test rigs only; telemetry)
   Stamped body_acceleration;  // absolute body acceleration [cm/s^2] (ADD, SH-ADD)
   Stamped wheel_velocity;     // absolute wheel (unsprung) velocity [cm/s] (groundhook, hybrid)
+  Stamped floor_acceleration[3];  // absolute floor accelerations [m/s^2] (clipped-optimal)
   bool fault_line = false;  // external fault input asserted
   // Watchdog::Bit(FaultCause::kCanBus / kModbusBus / kGpioBus) of each bus whose device
   // faulted this period (0 from sources that name no bus).

@@ -6,9 +6,11 @@
 // Each bus section lists the inputs it serves and the outputs it drives:
 //   [can]     inputs  velocity displacement demand body_velocity force fault_line
 //                     body_acceleration wheel_velocity
+//                     floor_acceleration_1 floor_acceleration_2 floor_acceleration_3
 //             outputs command enable heartbeat status   (in the device profile's messages)
 //   [modbus]  inputs  velocity displacement demand body_velocity force fault_line
-//                     body_acceleration wheel_velocity (through a profile only)
+//                     body_acceleration wheel_velocity floor_acceleration_1..3
+//                     (these five through a profile only)
 //             outputs command enable heartbeat status
 //   [gpio]    inputs  fault_line displacement (quadrature encoder)
 //             outputs enable heartbeat
@@ -39,8 +41,11 @@ enum class Input : std::uint8_t {
   kFaultLine,
   kBodyAcceleration,  // [cm/s^2] (ADD, SH-ADD)
   kWheelVelocity,     // [cm/s] (groundhook, hybrid)
+  kFloorAcceleration1,  // absolute floor accelerations [m/s^2] (clipped-optimal)
+  kFloorAcceleration2,
+  kFloorAcceleration3,
 };
-inline constexpr std::size_t kNumInputs = 8;  // the order of profile::CanIn's first roles
+inline constexpr std::size_t kNumInputs = 11;  // the order of profile::CanIn's first roles
 // Outputs a device can drive.
 enum class Output : std::uint8_t {
   kCommand = 0,  // voltage set-point to the current driver
@@ -52,8 +57,8 @@ inline constexpr std::size_t kNumOutputs = 4;
 constexpr std::uint32_t Bit(Input i) { return 1U << static_cast<unsigned>(i); }
 constexpr std::uint32_t Bit(Output o) { return 1U << static_cast<unsigned>(o); }
 // Config names ("velocity", "displacement", "demand", "body_velocity", "force", "fault_line",
-// "body_acceleration", "wheel_velocity";
-// "command", "enable", "heartbeat", "status").
+// "body_acceleration", "wheel_velocity", "floor_acceleration_1", "floor_acceleration_2",
+// "floor_acceleration_3"; "command", "enable", "heartbeat", "status").
 const char* InputName(Input input);
 const char* OutputName(Output output);
 

@@ -12,6 +12,7 @@
 
 #include "mrd/common/damper_plant.hpp"
 #include "mrd/common/quarter_car.hpp"
+#include "mrd/common/shear_frame.hpp"
 
 namespace mrd::hil {
 
@@ -30,6 +31,8 @@ class Plant {
   virtual PlantSample Probe(double volts) const = 0;
   // A vehicle plant's ride outputs at the present sample; nullptr for a damper alone.
   virtual const QuarterCarSample* Ride() const { return nullptr; }
+  // The structure plant's floors at the present sample (structure_plant.hpp); nullptr else.
+  virtual const ShearFrameSample* Structure() const { return nullptr; }
   // A model plant's envelope holds so far (model_plant.hpp); nullptr for the others.
   virtual const PlantHolds* Holds() const { return nullptr; }
 };

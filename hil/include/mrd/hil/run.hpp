@@ -38,6 +38,7 @@
 #include "mrd/hil/replay.hpp"
 #include "mrd/hil/scenario.hpp"
 #include "mrd/hil/serve.hpp"
+#include "mrd/hil/structure_scores.hpp"
 
 namespace mrd::hil {
 
@@ -129,6 +130,7 @@ struct RunResult {
   std::uint64_t late_steps = 0;         // realtime: wake-ups after the next deadline
   TrackingScores tracking;
   std::optional<RideScores> ride;       // quarter-car scenarios (needs keep_trace)
+  std::optional<StructureScores> structure;  // structure scenarios (needs keep_trace)
   std::optional<PassiveBaseline> passive;  // quarter car: the best passive baseline (filled by
                                            // ComputePassiveBaseline, not by RunScenario)
   std::optional<ReplayScores> replay;   // replay scenarios: plant force vs measured f

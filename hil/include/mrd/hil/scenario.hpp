@@ -57,6 +57,7 @@ struct ScenarioGpio {
 enum class ExcitationKind : std::uint8_t { kPeriodic, kCsv, kProfile, kReplay };
 
 struct PlantModel;  // model_plant.hpp: an identified NARX model playing the damper
+struct StructureSetup;  // structure_plant.hpp: the three-story frame and its ground motion
 
 struct Scenario {
   std::string path, name, description;
@@ -80,6 +81,10 @@ struct Scenario {
   // model = "narx": an identified model (file, iteration) plays the damper on the excitation's
   // motion; loaded and checked by LoadScenario (model_plant.hpp). nullptr: the Spencer damper.
   std::shared_ptr<const PlantModel> plant_model;
+  // model = "structure": the three-story frame under a ground-acceleration record
+  // ([structure]: record, time_scale, amplitude; loaded and checked by LoadScenario).
+  bool structure = false;
+  std::shared_ptr<const StructureSetup> structure_setup;
   // [excitation]
   ExcitationKind excitation = ExcitationKind::kPeriodic;
   PlantExcitation periodic;
@@ -96,6 +101,8 @@ struct Scenario {
   double hybrid_gain = 50.0;      // [N s/cm]
   double hybrid_alpha = 0.5;      // [0, 1]
   double sh_add_alpha = 9.42;     // [rad/s]
+  std::string clipped_gains;      // law "clipped-optimal": the gains file (resolved)
+  std::string clipped_command = "clipped";  // clipped | inverse
   // [firmware] settings of the generated configuration
   double max_age_ms = 5.0;
   int recover_periods = 5;
@@ -114,6 +121,11 @@ struct Scenario {
   std::optional<int> expect_firmware_exit;    // e.g. 2 for a refused table
   bool body_accel_below_passive = false;      // quarter car: controlled < passive-off and -on
   bool tyre_load_below_passive_off = false;   // quarter car: tyre load RMS < passive-off's
+  // Structure: the controlled run's largest peak drift / peak absolute floor acceleration
+  // (over the floors) not above passive-on's; the peak damper force at most this [N].
+  bool peak_drift_below_passive_on = false;
+  bool peak_accel_below_passive_on = false;
+  std::optional<double> max_peak_force_n;
   std::vector<Fault> faults;
   ScenarioGpio gpio;
 };

@@ -36,14 +36,17 @@ enum class CanIn : std::uint8_t {
   kFaultLine,      // external fault input, non-zero = asserted
   kBodyAcceleration,  // absolute body acceleration [cm/s^2]
   kWheelVelocity,     // absolute wheel (unsprung) velocity [cm/s]
+  kFloorAcceleration1,  // absolute floor accelerations of a structure [m/s^2]
+  kFloorAcceleration2,
+  kFloorAcceleration3,
   kSensorSeq,      // sensor sample number (echoed in the command: latency)
   kDriverFaults,   // driver fault bits, non-zero = a driver fault (safe state)
   kDriverCurrent,  // measured coil current [driver unit] (telemetry)
   kGrant,          // lockstep time grant [us] (simulation only: mrd-hil)
 };
-inline constexpr std::size_t kNumCanIn = 12;
+inline constexpr std::size_t kNumCanIn = 15;  // <= 16: role masks are 16-bit
 // The first roles are the firmware's inputs, in firmware::Input's order (velocity ..
-// wheel_velocity): a cast between the two is the routing's lookup.
+// floor_acceleration_3): a cast between the two is the routing's lookup.
 
 // Signals the firmware sends.
 enum class CanOut : std::uint8_t {

@@ -73,6 +73,7 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
     std::int64_t grant_ns = 0;  // lockstep: the latest granted time (0: none yet)
     double velocity = 0.0, displacement = 0.0, demand = 0.0, body_velocity = 0.0, force = 0.0;
     double body_acceleration = 0.0, wheel_velocity = 0.0;  // profile only [cm/s^2, cm/s]
+    double floor_acceleration[3] = {};                     // profile only [m/s^2]
     bool fault_line = false;
     bool read_failed = false;   // the latest sensor read (after retries) failed
     bool write_failed = false;  // the latest command write (after retries) failed

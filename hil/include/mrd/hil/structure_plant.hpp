@@ -1,0 +1,70 @@
+#pragma once
+// The three-story structure as a harness plant ([plant] model = "structure"): the shear frame
+// of common/ (shear_frame.hpp, Dyke et al. 1996) with the Spencer damper between the ground and
+// the first floor, excited by a ground-acceleration record (El Centro 1940 NS:
+// hil/data/el_centro_1940_ns.csv) played time_scale times faster at amplitude times its
+// level, linear between samples, still ground after its end. The same arithmetic as the
+// in-process study (mrd-structure study; docs/structure.md).
+//
+// Sample: x, v = the damper's stroke and velocity (100 x1 [cm], 100 x1' [cm/s]); force = the
+// damper force [N]; floor_acceleration = the absolute floor accelerations [m/s^2];
+// has_structure. Structure() gives the floors (displacements, drifts, accelerations) scored.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mrd/common/shear_frame.hpp"
+#include "mrd/hil/plant.hpp"
+
+namespace mrd::hil {
+
+// A ground-acceleration record: equally spaced samples [g].
+struct GroundRecord {
+  std::string path;
+  std::vector<double> ag_g;
+  double dt_s = 0.02;  // spacing [s]
+};
+
+// Reads a CSV of `t_s,ag_g` rows ('#' comment lines, one header line `t_s,ag_g`), equally
+// spaced, at least 2 samples, a regular file of at most 64 MiB. false: *error =
+// "FILE:LINE: reason" (or "FILE: reason").
+bool LoadGroundRecord(const std::string& path, GroundRecord* record, std::string* error);
+
+struct StructureSetup {
+  GroundRecord record;
+  double time_scale = 5.0;  // the record is played this many times faster (scaled model)
+  double amplitude = 1.0;   // factor on the record's acceleration
+  double g = 9.81;          // [m/s^2]
+  ShearFrameParams frame;   // Dyke et al.'s frame
+  // The scaled record's length [s].
+  double RecordSeconds() const {
+    return record.dt_s / time_scale * static_cast<double>(record.ag_g.size() - 1);
+  }
+};
+
+class StructurePlant final : public Plant {
+ public:
+  // setup must outlive the plant (shared). period_s: the control period; substeps: RK4 steps
+  // of frame and damper per period.
+  StructurePlant(std::shared_ptr<const StructureSetup> setup, const SpencerParams& damper,
+                 double period_s, int substeps);
+  void Reset() override;
+  PlantSample Step(double volts) override;  // allocation-free
+  PlantSample Sample() const override { return sample_; }
+  PlantSample Probe(double volts) const override;  // steps a copy (a value type)
+  const ShearFrameSample* Structure() const override { return &frame_.sample(); }
+  // Ground acceleration at plant time t [m/s^2].
+  double GroundAcceleration(double t) const;
+
+ private:
+  PlantSample SampleOf(const ShearFrameSample& s, double t) const;
+
+  std::shared_ptr<const StructureSetup> setup_;
+  double period_s_;
+  ShearFrame frame_;
+  std::int64_t steps_ = 0;
+  PlantSample sample_;
+};
+
+}  // namespace mrd::hil
