@@ -36,8 +36,10 @@ struct Rates {
   Col yp{}, zp{}, up{};                 // d(ydot, zdot, udot) / dp at fixed state
 };
 
-// As SpencerDamper::Ydot and ::Derivative (same operations, same order).
-void Evaluate(const double* p, const State& s, double x, double xdot, double E, Rates* r) {
+// As SpencerDamper::Ydot and ::Derivative (same operations, same order); zp[kN] (a log) only
+// when with_n.
+void Evaluate(const double* p, const State& s, double x, double xdot, double E, bool with_n,
+              Rates* r) {
   const double alpha = p[kAlphaA] + p[kAlphaB] * s.u;
   const double c0 = p[kC0a] + p[kC0b] * s.u;
   const double c1 = p[kC1a] + p[kC1b] * s.u;
@@ -74,7 +76,7 @@ void Evaluate(const double* p, const State& s, double x, double xdot, double E, 
   r->zp[kGamma] = -std::fabs(dv) * g1;
   r->zp[kBeta] = -dv * azn;
   r->zp[kA] = dv;
-  r->zp[kN] = az > 0.0 ? hyst * std::log(az) : 0.0;
+  if (with_n) r->zp[kN] = az > 0.0 ? hyst * std::log(az) : 0.0;
   r->uu = -p[kEta];
   r->up[kEta] = -(s.u - E);
 }
@@ -103,7 +105,7 @@ inline void Axpy(const Sens& a, double h, const Sens& d, int j0, int j1, Sens* o
 // col_scale) into row; r is scratch.
 double Force(const double* p, const State& s, const Sens& ds, double x, double xdot, int j0,
              int j1, const double* col_scale, Rates* r, double* row) {
-  Evaluate(p, s, x, xdot, 0.0, r);
+  Evaluate(p, s, x, xdot, 0.0, false, r);
   const double c1 = p[kC1a] + p[kC1b] * s.u;
   const double f = c1 * r->ydot + p[kK1] * (x - p[kX0]);
   if (row == nullptr) return f;
@@ -140,6 +142,7 @@ bool SpencerSensitivity(const double* p, const FitRun& run, int substeps, double
   const double dt = run.dt;
   const double h = dt / steps;
   const double ds = 1.0 / steps;
+  const bool with_n = j0 <= kN && kN < j1;
   for (std::size_t k = 0; k + 1 < rows; ++k) {
     const double E = std::clamp(run.E[k + 1], 0.0, e_max);
     const double x0 = xs[k], v0 = vs[k], x1 = xs[k + 1], v1 = vs[k + 1];
@@ -160,19 +163,19 @@ bool SpencerSensitivity(const double* p, const FitRun& run, int substeps, double
       excitation(sa, &xa, &va);
       excitation(sa + 0.5 * ds, &xm, &vm);
       excitation(sa + ds, &xb, &vb);
-      Evaluate(p, s, xa, va, E, &r1);
+      Evaluate(p, s, xa, va, E, with_n, &r1);
       Tangent(r1, S, j0, j1, &k1);
       const State s2{s.y + 0.5 * h * r1.ydot, s.z + 0.5 * h * r1.zdot, s.u + 0.5 * h * r1.udot};
       Axpy(S, 0.5 * h, k1, j0, j1, &st);
-      Evaluate(p, s2, xm, vm, E, &r2);
+      Evaluate(p, s2, xm, vm, E, with_n, &r2);
       Tangent(r2, st, j0, j1, &k2);
       const State s3{s.y + 0.5 * h * r2.ydot, s.z + 0.5 * h * r2.zdot, s.u + 0.5 * h * r2.udot};
       Axpy(S, 0.5 * h, k2, j0, j1, &st);
-      Evaluate(p, s3, xm, vm, E, &r3);
+      Evaluate(p, s3, xm, vm, E, with_n, &r3);
       Tangent(r3, st, j0, j1, &k3);
       const State s4{s.y + h * r3.ydot, s.z + h * r3.zdot, s.u + h * r3.udot};
       Axpy(S, h, k3, j0, j1, &st);
-      Evaluate(p, s4, xb, vb, E, &r4);
+      Evaluate(p, s4, xb, vb, E, with_n, &r4);
       Tangent(r4, st, j0, j1, &k4);
       s.y += h / 6.0 * (r1.ydot + 2 * r2.ydot + 2 * r3.ydot + r4.ydot);
       s.z += h / 6.0 * (r1.zdot + 2 * r2.zdot + 2 * r3.zdot + r4.zdot);
