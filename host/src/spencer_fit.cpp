@@ -132,11 +132,8 @@ double Solve(const std::vector<FitRun>& runs, const SpencerFitOptions& o, int it
   SpencerParams lo, hi;
   SpencerFitBounds(&lo, &hi);
   const auto a = ToArray(*p), alo = ToArray(lo), ahi = ToArray(hi);
-  std::array<double, kN> theta{}, upper{};
-  for (std::size_t i = 0; i < kN; ++i) {
-    theta[i] = std::clamp(a[i], alo[i], ahi[i]) / scale[i];
-    upper[i] = ahi[i] / scale[i];
-  }
+  std::array<double, kN> theta{};
+  for (std::size_t i = 0; i < kN; ++i) theta[i] = std::clamp(a[i], alo[i], ahi[i]) / scale[i];
   ceres::Problem problem;
   for (const FitRun& r : runs) {
     problem.AddResidualBlock(new SimCost(SimResidual{&r, o.substeps, o.e_max, scale},
