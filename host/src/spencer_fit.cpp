@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "mrd/params/spencer_params_file.hpp"
+#include "spencer_sensitivity.hpp"
 
 namespace mrd::host {
 namespace {
@@ -87,54 +88,40 @@ FitRun Head(const FitRun& r, double seconds) {
   return h;
 }
 
-// Forward-difference Jacobian of the simulator, its 14 columns computed on `threads` threads
-// (Ceres' NumericDiffCostFunction evaluates them one after the other). Step as Ceres' default:
-// 1e-6 |theta_j| (1e-6 at 0), taken downwards at the upper bound.
+// The simulator's residuals with their exact Jacobian (forward sensitivities,
+// spencer_sensitivity.hpp), the 14 columns split over `threads` threads (each thread simulates
+// the state itself and propagates its share of the columns; column j's arithmetic does not
+// depend on the split, so the result does not depend on the thread count).
 class SimCost final : public ceres::CostFunction {
  public:
-  SimCost(SimResidual sim, int rows, int threads, std::array<double, kN> upper)
-      : sim_(sim), threads_(threads), upper_(upper) {
+  SimCost(SimResidual sim, int rows, int threads) : sim_(sim), threads_(threads) {
     set_num_residuals(rows);
     mutable_parameter_block_sizes()->push_back(kN);
   }
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
     const double* theta = parameters[0];
-    if (!sim_(theta, residuals)) return false;
-    if (jacobians == nullptr || jacobians[0] == nullptr) return true;
-    const auto rows = static_cast<std::size_t>(num_residuals());
-    std::atomic<int> next{0};
-    std::atomic<bool> ok{true};
-    const auto work = [&] {
-      std::vector<double> r(rows);
-      for (int j = next++; j < kN; j = next++) {
-        std::array<double, kN> t{};
-        std::copy(theta, theta + kN, t.begin());
-        const auto uj = static_cast<std::size_t>(j);
-        double h = 1e-6 * (t[uj] != 0.0 ? std::fabs(t[uj]) : 1.0);
-        if (t[uj] + h > upper_[uj]) h = -h;
-        t[uj] += h;
-        h = t[uj] - theta[j];  // the step actually taken
-        if (!sim_(t.data(), r.data())) {
-          ok = false;
-          continue;
-        }
-        for (std::size_t i = 0; i < rows; ++i) {
-          jacobians[0][i * kN + uj] = (r[i] - residuals[i]) / h;
-        }
-      }
+    if (jacobians == nullptr || jacobians[0] == nullptr) return sim_(theta, residuals);
+    double p[kN];
+    for (int i = 0; i < kN; ++i) p[i] = theta[i] * sim_.scale[static_cast<std::size_t>(i)];
+    const int t = std::max(1, std::min(threads_, kN));
+    std::array<bool, kN> ok{};
+    const auto work = [&](int k) {
+      ok[static_cast<std::size_t>(k)] =
+          SpencerSensitivity(p, *sim_.run, sim_.substeps, sim_.e_max, k * kN / t,
+                             (k + 1) * kN / t, sim_.scale.data(), k == 0 ? residuals : nullptr,
+                             jacobians[0], kN);
     };
     std::vector<std::thread> pool;
-    for (int k = 1; k < threads_; ++k) pool.emplace_back(work);
-    work();
+    for (int k = 1; k < t; ++k) pool.emplace_back(work, k);
+    work(0);
     for (std::thread& th : pool) th.join();
-    return ok;
+    return std::all_of(ok.begin(), ok.begin() + t, [](bool b) { return b; });
   }
 
  private:
   SimResidual sim_;
   int threads_;
-  std::array<double, kN> upper_;
 };
 
 // One Ceres solve from start over runs (Jacobians on jac_threads threads); returns the final
@@ -145,15 +132,12 @@ double Solve(const std::vector<FitRun>& runs, const SpencerFitOptions& o, int it
   SpencerParams lo, hi;
   SpencerFitBounds(&lo, &hi);
   const auto a = ToArray(*p), alo = ToArray(lo), ahi = ToArray(hi);
-  std::array<double, kN> theta{}, upper{};
-  for (std::size_t i = 0; i < kN; ++i) {
-    theta[i] = std::clamp(a[i], alo[i], ahi[i]) / scale[i];
-    upper[i] = ahi[i] / scale[i];
-  }
+  std::array<double, kN> theta{};
+  for (std::size_t i = 0; i < kN; ++i) theta[i] = std::clamp(a[i], alo[i], ahi[i]) / scale[i];
   ceres::Problem problem;
   for (const FitRun& r : runs) {
     problem.AddResidualBlock(new SimCost(SimResidual{&r, o.substeps, o.e_max, scale},
-                                         static_cast<int>(r.x.size()), jac_threads, upper),
+                                         static_cast<int>(r.x.size()), jac_threads),
                              nullptr, theta.data());
   }
   for (std::size_t i = 0; i < kN; ++i) {

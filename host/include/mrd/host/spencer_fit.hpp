@@ -1,7 +1,7 @@
 #pragma once
 // Fits the Spencer et al. 1997 phenomenological model (all 14 parameters, bounded) to measured
 // damper data by nonlinear least squares (Ceres Solver, trust-region Levenberg-Marquardt,
-// forward-difference Jacobians of the simulator). The simulator is the harness's plant:
+// exact Jacobians of the simulator by forward sensitivities, host/src/spencer_sensitivity.hpp). The simulator is the harness's plant:
 // SpencerDamper (common/) stepped one sample at a time with RK4 sub-steps, the measured x and v
 // interpolated as TracePlant does, the measured E of the interval's end held over it (as `mrd
 // generate` and the harness's replay hold it; clamped to [0, e_max] as the firmware clamps
@@ -11,7 +11,7 @@
 // Multi-start: the presets paper and spencer1997 plus a deterministic scatter of starts
 // (log-uniform around spencer1997, seed); each start is fitted on a search window (the first
 // search_s seconds of each file), the starts in parallel threads; the best few are then
-// polished on all rows, one after the other, each Jacobian's columns on parallel threads. Units as spencer_damper.hpp (x cm, v cm/s, E V, f N).
+// polished on all rows, one after the other, each Jacobian's columns split over the threads. Units as spencer_damper.hpp (x cm, v cm/s, E V, f N).
 
 #include <cstdint>
 #include <functional>
