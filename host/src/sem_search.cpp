@@ -144,16 +144,27 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
   std::atomic<double> best{bound0};
   for (int t : model) e_.U(t);  // materialise before the workers read them
   auto run_chunk = [&](std::size_t begin, std::size_t end, std::vector<double>& scratch) {
+    // Jobs by the candidate's y power and input factor columns: lanes side by side then read
+    // the same columns (cache lines shared). Each job's arithmetic is its own, so the order
+    // changes no result.
+    std::vector<std::size_t> idx(end - begin);
+    for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = begin + i;
+    std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) {
+      const Cand& ca = e_.cand(trials[order[a]].cand);
+      const Cand& cb = e_.cand(trials[order[b]].cand);
+      return ca.ypow != cb.ypow ? ca.ypow < cb.ypow : ca.in_cols < cb.in_cols;
+    });
     std::vector<Engine::Job> jobs(end - begin);
-    for (std::size_t i = begin; i < end; ++i) {
-      Trial& tr = trials[order[i]];
-      jobs[i - begin].theta.assign(tr.theta.begin(), tr.theta.end() - 1);
-      jobs[i - begin].extra = tr.cand;
-      jobs[i - begin].theta_extra = tr.theta.back();
+    for (std::size_t k = 0; k < idx.size(); ++k) {
+      Trial& tr = trials[order[idx[k]]];
+      jobs[k].theta.assign(tr.theta.begin(), tr.theta.end() - 1);
+      jobs[k].extra = tr.cand;
+      jobs[k].theta_extra = tr.theta.back();
     }
     e_.Simulate(model, jobs, best, scratch);
-    for (std::size_t i = begin; i < end; ++i) {
-      const Engine::Job& job = jobs[i - begin];
+    for (std::size_t k = 0; k < idx.size(); ++k) {
+      const std::size_t i = idx[k];
+      const Engine::Job& job = jobs[k];
       Trial& tr = trials[order[i]];
       tr.j = job.dead ? kInf : job.cost;
       if (!job.dead) AtomicMin(best, std::max(job.cost, floor));
