@@ -13,6 +13,7 @@
 #include "sem_engine.hpp"
 #include "sem_evaluator.hpp"
 #include "sem_internal.hpp"
+#include "sem_replay.hpp"
 #include "sem_search.hpp"
 
 namespace mrd::host {
@@ -34,7 +35,7 @@ std::vector<double> internal::TransformSignal(const ElementaryRegressor& reg,
 
 namespace {
 
-using internal::Engine, internal::Search, internal::Trial, internal::kInf, internal::Pow;
+using internal::Engine, internal::Search, internal::Trial, internal::kInf;
 
 constexpr int kMaxExchanges = 8;           // exchange passes per major iteration
 constexpr std::size_t kExchangePool = 64;  // candidates (best one-step rank) tried per term
@@ -87,55 +88,7 @@ std::vector<ChannelInfo> ComputeScales(const SemSpec& spec, std::span<const Data
 double SimulateCost(const SemSpec& spec, const std::vector<ChannelInfo>& channels,
                     const std::vector<SemTerm>& terms, const std::vector<double>& coefficients,
                     const DataSet& data, std::vector<double>* ysim) {
-  const auto signals = spec.Signals();
-  std::vector<const std::vector<double>*> col(signals.size());
-  for (std::size_t i = 0; i < signals.size(); ++i) col[i] = &data.Column(signals[i]);
-  std::vector<std::size_t> reg_channel(spec.regressors.size());
-  for (std::size_t r = 0; r < spec.regressors.size(); ++r) {
-    reg_channel[r] = static_cast<std::size_t>(
-        std::find(signals.begin(), signals.end(), spec.regressors[r].signal) - signals.begin());
-  }
-  const std::size_t n = data.rows();
-  const std::size_t d0 = static_cast<std::size_t>(spec.MaxDelay());
-  // Input regressors over the whole record (the output's are computed from the simulation).
-  std::vector<std::vector<double>> input(spec.regressors.size());
-  for (std::size_t r = 0; r < spec.regressors.size(); ++r) {
-    const std::size_t ci = reg_channel[r];
-    if (ci != 0) {
-      input[r] = internal::TransformSignal(spec.regressors[r], *col[ci], channels[ci].scale);
-    }
-  }
-  std::vector<double> y(n);
-  for (std::size_t k = 0; k < n; ++k) y[k] = (*col[0])[k] / channels[0].scale;
-  std::vector<double> yh(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(std::min(d0, n)));
-  yh.resize(n, 0.0);
-  double cost = 0.0;
-  bool bad = false;
-  for (std::size_t k = d0; k < n; ++k) {
-    double v = 0.0;
-    for (std::size_t t = 0; t < terms.size(); ++t) {
-      double tv = 1.0;
-      for (const auto& f : terms[t].factors) {
-        const auto& reg = spec.regressors[f.regressor];
-        const std::size_t ci = reg_channel[f.regressor];
-        const std::size_t kk = k - static_cast<std::size_t>(f.delay);
-        const double value =
-            ci == 0 ? ApplyTransform(reg.transform, reg.exponent, yh[kk]) : input[f.regressor][kk];
-        tv *= Pow(value, f.power);
-      }
-      v += coefficients[t] * tv;
-    }
-    yh[k] = v;
-    bad |= !(std::fabs(v) <= spec.divergence_limit);
-    const double e = y[k] - v;
-    const double w = spec.weighting == CostWeighting::kRelative
-                         ? 1.0 / std::max(std::fabs(y[k]), spec.floor)
-                         : 1.0;
-    cost += w * e * e;
-  }
-  if (ysim != nullptr) *ysim = yh;
-  if (bad || !std::isfinite(cost)) return kInf;
-  return cost / static_cast<double>(n - d0);
+  return internal::Replay(spec, channels, data).Run(terms, coefficients, ysim);
 }
 
 int SelectIteration(const std::vector<SemIteration>& its, double tolerance_percent) {
@@ -252,10 +205,14 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
   eng.PrepareCandidates();
 
   Search search(eng, o.threads);
+  // Stress and validation records prepared once for their many reference runs.
+  std::vector<internal::Replay> stress_runs, validation_runs;
+  for (const DataSet& d : stress) stress_runs.emplace_back(spec, res.channels, d);
+  for (const DataSet& d : validation) validation_runs.emplace_back(spec, res.channels, d);
   auto stress_of = [&](const std::vector<int>& terms, const std::vector<double>& th) {
     std::vector<SemTerm> t;
     for (int c : terms) t.push_back(eng.cand(c).term);
-    return CheckStress(spec, res.channels, t, th, stress);
+    return internal::CheckStressPrepared(spec, t, th, stress_runs);
   };
   Search::Accept accept;  // none without [stress]
   if (!stress.empty()) {
@@ -282,9 +239,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
   double j = search.Cost(model, &theta);
   auto validate = [&](const std::vector<SemTerm>& terms, const std::vector<double>& coefficients) {
     std::vector<double> vj;
-    for (const auto& v : validation) {
-      vj.push_back(SimulateCost(spec, res.channels, terms, coefficients, v));
-    }
+    for (const auto& v : validation_runs) vj.push_back(v.Run(terms, coefficients));
     return vj;
   };
   // The stress check, validation and refinement of a recorded iteration do not feed the search:

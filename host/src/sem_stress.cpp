@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include "sem_replay.hpp"
+
 namespace mrd::host {
 namespace {
 
@@ -82,6 +84,15 @@ StressVerdict CheckStress(const SemSpec& spec, const std::vector<ChannelInfo>& c
                           const std::vector<SemTerm>& terms,
                           const std::vector<double>& coefficients,
                           std::span<const DataSet> stress) {
+  std::vector<internal::Replay> prepared;
+  for (const DataSet& d : stress) prepared.emplace_back(spec, channels, d);
+  return internal::CheckStressPrepared(spec, terms, coefficients, prepared);
+}
+
+StressVerdict internal::CheckStressPrepared(const SemSpec& spec,
+                                            const std::vector<SemTerm>& terms,
+                                            const std::vector<double>& coefficients,
+                                            const std::vector<Replay>& stress) {
   StressVerdict v;
   if (stress.empty()) return v;
   v.checked = true;
@@ -89,15 +100,15 @@ StressVerdict CheckStress(const SemSpec& spec, const std::vector<ChannelInfo>& c
   // (ComputeScales, offset 0).
   const double bound = spec.stress.force_bound;
   std::vector<double> ysim;
-  for (const DataSet& d : stress) {
-    SimulateCost(spec, channels, terms, coefficients, d, &ysim);
+  for (const Replay& d : stress) {
+    d.Run(terms, coefficients, &ysim);
     const std::size_t d0 = static_cast<std::size_t>(spec.MaxDelay());
     for (std::size_t k = d0; k < ysim.size(); ++k) {
       const double a = std::fabs(ysim[k]);
       if (!std::isfinite(a)) {
         v.peak = std::numeric_limits<double>::infinity();
         v.pass = false;
-        v.reason = fmt::format("free run diverges on {} at sample {}", d.path, k);
+        v.reason = fmt::format("free run diverges on {} at sample {}", d.path(), k);
         return v;
       }
       v.peak = std::max(v.peak, a);
@@ -105,7 +116,7 @@ StressVerdict CheckStress(const SemSpec& spec, const std::vector<ChannelInfo>& c
     if (v.peak > bound) {
       v.pass = false;
       v.reason = fmt::format("|output| reaches {:.3g} x the data's largest on {} (bound {:g})",
-                             v.peak, d.path, bound);
+                             v.peak, d.path(), bound);
       return v;
     }
   }
