@@ -20,12 +20,12 @@ struct Case {
 };
 
 void PrintTo(const Case& c, std::ostream* os) {
-  *os << RecoverySystems()[c.system].name << (c.noise == Noise::kEquation ? " EE " : " OE ") << c.n;
+  *os << RecoverySystems()[c.system].name << " " << NoiseName(c.noise) << " " << c.n;
 }
 
 std::string CaseName(const testing::TestParamInfo<Case>& info) {
   const auto& c = info.param;
-  return RecoverySystems()[c.system].name + (c.noise == Noise::kEquation ? "_EE_" : "_OE_") +
+  return RecoverySystems()[c.system].name + "_" + NoiseName(c.noise) + "_" +
          std::to_string(c.n);
 }
 
