@@ -407,7 +407,8 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       for (int pass = 0; pass < exchanges && exchange(&rejected, &stress_rejected); ++pass) {
         prune(j_prev);
       }
-      res.exchange_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - tx).count();
+      res.exchange_s +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - tx).count();
       record(iteration, rejected, stress_rejected);
     }
     finish_recorded();
@@ -557,7 +558,8 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     }
     const std::vector<int> start = model;
     run_path();
-    res.second_start_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t2).count();
+    res.second_start_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t2).count();
     res.second_start_terms = start.size();
     std::vector<SemIteration> second_path = std::move(res.iterations);
     // Select over both paths (second path renumbered after the first), keep the picked one.

@@ -68,7 +68,8 @@ TEST(DefaultSpecTest, IdentifyWithoutSpecUsesTheSaturatingSpec) {
 // Data without the spec's columns: a clear refusal naming the built-in spec, exit 2.
 TEST(DefaultSpecTest, DataWithoutTheDamperColumnsIsRefused) {
   test::TempDir dir;
-  WriteCsv(dir.File("toy.csv"), {"t", "u", "y"}, {{0.0, 0.1, 0.2}, {1.0, 2.0, 3.0}, {0.0, 1.0, 2.0}});
+  WriteCsv(dir.File("toy.csv"), {"t", "u", "y"},
+           {{0.0, 0.1, 0.2}, {1.0, 2.0, 3.0}, {0.0, 1.0, 2.0}});
   const auto r = test::Run(test::Bin("mrd") + " identify --data " + dir.File("toy.csv") +
                            " --out " + dir.File("m.json"));
   EXPECT_EQ(r.status, 2) << r.output;
