@@ -407,8 +407,10 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       for (int pass = 0; pass < exchanges && exchange(&rejected, &stress_rejected); ++pass) {
         prune(j_prev);
       }
-      res.exchange_s +=
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - tx).count();
+      if (exchanges > 0) {
+        res.exchange_s +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - tx).count();
+      }
       record(iteration, rejected, stress_rejected);
     }
     finish_recorded();
