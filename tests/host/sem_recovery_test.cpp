@@ -105,7 +105,7 @@ INSTANTIATE_TEST_SUITE_P(
 // three spurious terms that the cross-validated free-run score prefers (seed 7: the refined
 // truth scores CV 7.69e-5, the pick with y(k-2)*u(k-1) added 7.03e-5), though the truth is on
 // the search path and the one-step least-squares oracle recovers 20/20. metamss_s5 (NARMAX
-// noise) 18/20: seeds 7 and 14 add y(k-1)*u(k-2)^2 or y(k-1)*y(k-2)*u(k-2). metamss_s6
+// noise) 18/20 (176/200): seeds 7 and 14 add y(k-1)*u(k-2)^2 or y(k-1)*y(k-2)*u(k-2). metamss_s6
 // (x ~ N(0, 0.25^2), e ~ N(0, 0.02^2)) 13/20: the 7 misses leave out y(k-2)*u(k-2), whose
 // contribution (|0.2 y u| mostly below 0.01) is under the noise's standard deviation.
 INSTANTIATE_TEST_SUITE_P(
