@@ -9,6 +9,7 @@
 
 #include "commands.hpp"
 #include "mrd/host/csv.hpp"
+#include "mrd/host/default_spec.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
@@ -40,7 +41,9 @@ std::vector<DataSet> ReadAll(const std::vector<std::string>& paths,
 }
 
 void RunIdentify(const IdentifyOptions& o) {
-  const SemSpec spec = LoadSemSpec(o.spec);
+  // No --spec: the built-in saturating damper spec (default_spec.hpp).
+  const SemSpec spec = o.spec.empty() ? ParseSemSpec(DefaultSemSpecText(), kDefaultSemSpecName)
+                                      : LoadSemSpec(o.spec);
   const auto signals = spec.Signals();
   // Unknown columns are reported against the spec (Identify), so read without requirements.
   const std::vector<DataSet> data = ReadAll(o.data, {});
@@ -83,6 +86,15 @@ void RunIdentify(const IdentifyOptions& o) {
   fmt::print("{}: {} candidates, {} iterations, selected iteration {} ({} terms, J {:.6g}; {})\n",
              o.out, r.num_candidates, r.iterations.size() - 1, mf.selected, sel.terms.size(),
              sel.j, mf.selection_rule);
+  // What the search's extras cost against the search itself (spec keys exchange and
+  // one_step_start; docs/spec.md): wall time, for the user only (not in the model file).
+  fmt::print("search cost: adds and prunes {:.2f} s, exchange moves {}, second start {}\n",
+             r.path_s,
+             spec.exchange ? fmt::format("{:.2f} s", r.exchange_s) : std::string("off"),
+             r.second_start_s < 0.0
+                 ? std::string("off")
+                 : fmt::format("{:.2f} s (a {}-term one-step start)", r.second_start_s,
+                               r.second_start_terms));
   const FamilyResult& f = mf.family;
   if (!f.empty()) {
     fmt::print("transform family ({}):\n", f.rule);
@@ -103,8 +115,9 @@ void RegisterIdentify(CLI::App& app) {
   cmd->add_option("--data", o->data, "Identification data file(s), comma separated")
       ->required()
       ->delimiter(',');
-  cmd->add_option("--spec", o->spec, "Candidate spec (TOML), e.g. host/specs/paper.toml")
-      ->required();
+  cmd->add_option("--spec", o->spec,
+                  "Candidate spec (TOML), e.g. host/specs/paper.toml; default: the built-in "
+                  "copy of host/specs/paper-saturating.toml (robust saturating damper spec)");
   cmd->add_option("--validate", o->validate, "Validation data file(s), comma separated")
       ->delimiter(',');
   cmd->add_option("--out", o->out, "Model file to write (JSON)")->required();

@@ -358,8 +358,13 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
       j = search.Cost(model, &theta);
       prune(j_prev);
       // Exchange: replace one term by a candidate while that lowers J, then prune again.
+      const auto tx = std::chrono::steady_clock::now();
       for (int pass = 0; pass < exchanges && exchange(&rejected, &stress_rejected); ++pass) {
         prune(j_prev);
+      }
+      if (exchanges > 0) {
+        res.exchange_s +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - tx).count();
       }
       record(iteration, rejected, stress_rejected);
     }
@@ -465,6 +470,8 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
   };
   const std::vector<int> initial_model = model;
   run_path();
+  res.path_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() -
+               res.exchange_s;
   // Second start: the structure the one-step (prediction-error) criterion selects by forward
   // regression, stopped by BIC on its one-step SSE, then pruned by J. Escapes the lock-in of
   // the greedy search when a single added term cannot show the gain of a pair (a lightly
@@ -472,6 +479,11 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
   if (initial.empty() && spec.one_step_start) {
     std::vector<SemIteration> first_path = std::move(res.iterations);
     res.iterations.clear();
+    const auto t2 = std::chrono::steady_clock::now();
+    // Bound: the start has at most as many terms as the largest model of the first path, so
+    // its path costs no more per step (a 40-term start on noise-free damper data cost 20x).
+    std::size_t cap = 1;
+    for (const SemIteration& it : first_path) cap = std::max(cap, it.terms.size());
     double yty = 0.0;
     for (const auto& d : identification) {
       const auto& y = d.Column(spec.output);
@@ -483,7 +495,7 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     model.clear();
     theta.clear();
     double sse = yty, bic = n * std::log(std::max(yty, 1e-300) / n);
-    while (model.size() + 1 <= max_params) {
+    while (model.size() + 1 <= max_params && model.size() < cap) {
       int rej = 0;
       const Trial tr = search.TryAdd(model, theta, false, -kInf, &rej, accept, nullptr, 1);
       if (tr.cand < 0) break;
@@ -503,6 +515,9 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
     }
     const std::vector<int> start = model;
     run_path();
+    res.second_start_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t2).count();
+    res.second_start_terms = start.size();
     std::vector<SemIteration> second_path = std::move(res.iterations);
     // Select over both paths (second path renumbered after the first), keep the picked one.
     const int offset = static_cast<int>(first_path.size());

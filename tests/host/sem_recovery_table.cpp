@@ -2,9 +2,9 @@
 // selected model per system, noise and record length, default settings, no validation data.
 //   build/tests/sem_recovery [--seeds N] [--strategy best|first] [--threads N] [--before]
 //   [--misses]
-//   [--trace SYSTEM EE|OE N SEED]   (every iteration of one case, * = selected)
-//   [--case SYSTEM EE|OE N]          (the count and misses of one case only)
-//   [--oracle SYSTEM EE|OE N]        (the one-step least-squares oracle of one case)
+//   [--trace SYSTEM EE|OE|MA N SEED]   (every iteration of one case, * = selected)
+//   [--case SYSTEM EE|OE|MA N]          (the count and misses of one case only)
+//   [--oracle SYSTEM EE|OE|MA N]        (the one-step least-squares oracle of one case)
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <algorithm>
@@ -95,7 +95,7 @@ void Oracle(const mrd::test::RecoverySystem& sys, mrd::test::Noise noise, std::s
     std::printf("  (truth %.3g %% higher)\n", 100.0 * (s_true / s_best - 1.0));
   }
   std::printf("%s %s N=%zu one-step LS oracle: %d/%d\n", sys.name.c_str(),
-              noise == mrd::test::Noise::kEquation ? "EE" : "OE", n, hits, seeds);
+              mrd::test::NoiseName(noise), n, hits, seeds);
 }
 
 // Every iteration of one seed's run (* = selected), the selection rule, and the true
@@ -146,10 +146,10 @@ int main(int argc, char** argv) try {
     } else if (a == "--misses") {
       misses = true;
     } else if ((a == "--case" || a == "--oracle" || a == "--trace") &&
-               i + (a == "--trace" ? 4 : 3) < argc) {  // SYSTEM EE|OE N [SEED]: one case
+               i + (a == "--trace" ? 4 : 3) < argc) {  // SYSTEM EE|OE|MA N [SEED]: one case
       const mrd::test::RecoverySystem& s = mrd::test::RecoverySystemNamed(argv[i + 1]);
       const std::string nz = argv[i + 2];
-      const auto noise = nz == "OE" ? mrd::test::Noise::kOutput : mrd::test::Noise::kEquation;
+      const auto noise = mrd::test::NoiseNamed(nz);
       const auto n = static_cast<std::size_t>(std::atoi(argv[i + 3]));
       if (a == "--case") {  // one count, with misses
         const auto c = mrd::test::CountRecovered(s, noise, n, seeds, o, spec);
@@ -163,18 +163,18 @@ int main(int argc, char** argv) try {
       return 0;
     } else {
       std::fprintf(stderr, "usage: sem_recovery [--seeds N] [--strategy best|first] "
-                           "[--threads N] [--before] [--misses] [--trace SYSTEM EE|OE N SEED] "
-                           "[--case SYSTEM EE|OE N] [--oracle SYSTEM EE|OE N]\n");
+                           "[--threads N] [--before] [--misses] [--trace SYSTEM EE|OE|MA N SEED] "
+                           "[--case SYSTEM EE|OE|MA N] [--oracle SYSTEM EE|OE|MA N]\n");
       return 2;
     }
   }
   std::printf("%-10s %-6s %6s %6s\n", "system", "noise", "N=1000", "N=500");
   for (const auto& s : mrd::test::RecoverySystems()) {
-    for (const auto noise : {mrd::test::Noise::kEquation, mrd::test::Noise::kOutput}) {
+    for (const auto noise : s.noises) {
       const auto a = mrd::test::CountRecovered(s, noise, 1000, seeds, o, spec);
       const auto b = mrd::test::CountRecovered(s, noise, 500, seeds, o, spec);
       std::printf("%-10s %-6s %3d/%-2d %3d/%-2d\n", s.name.c_str(),
-                  noise == mrd::test::Noise::kEquation ? "EE" : "OE", a.hits, a.seeds, b.hits,
+                  mrd::test::NoiseName(noise), a.hits, a.seeds, b.hits,
                   b.seeds);
       if (misses) std::printf("%s%s", a.misses.c_str(), b.misses.c_str());
       std::fflush(stdout);

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <ostream>
+#include <stdexcept>
 #include <string>
 
 #include "sem_recovery.hpp"
@@ -20,12 +21,12 @@ struct Case {
 };
 
 void PrintTo(const Case& c, std::ostream* os) {
-  *os << RecoverySystems()[c.system].name << (c.noise == Noise::kEquation ? " EE " : " OE ") << c.n;
+  *os << RecoverySystems()[c.system].name << " " << NoiseName(c.noise) << " " << c.n;
 }
 
 std::string CaseName(const testing::TestParamInfo<Case>& info) {
   const auto& c = info.param;
-  return RecoverySystems()[c.system].name + (c.noise == Noise::kEquation ? "_EE_" : "_OE_") +
+  return RecoverySystems()[c.system].name + "_" + NoiseName(c.noise) + "_" +
          std::to_string(c.n);
 }
 
@@ -38,6 +39,15 @@ void ExpectTargetRate(const Case& c, int seeds) {
   testing::Test::RecordProperty("hits", r.hits);
   EXPECT_GE(r.hits, seeds / 20 * (c.n >= 1000 ? 19 : 17))
       << r.hits << "/" << seeds << "; misses:\n" << r.misses;
+}
+
+// Index of a system of RecoverySystems() by name (throws for an unknown one).
+std::size_t SystemIndex(const std::string& name) {
+  const auto all = RecoverySystems();
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (all[i].name == name) return i;
+  }
+  throw std::runtime_error("no recovery system '" + name + "'");
 }
 
 class SemRecoveryTest : public testing::TestWithParam<Case> {};
@@ -76,6 +86,34 @@ INSTANTIATE_TEST_SUITE_P(Meets, SemRecoveryTest,
 // billings EE 500) recovers 17/20 here, 187/200 over 200 seeds; the engine 16 and 185.
 INSTANTIATE_TEST_SUITE_P(DISABLED_BelowTarget, SemRecoveryTest,
                          testing::Values(Case{0, Noise::kEquation, 500}), CaseName);
+
+// Published benchmark systems (sem_recovery.hpp: MetaMSS S1-S6 as the SysIdentPy book states
+// them, and SysIdentPy's MA(1)-noise test system), N = 1000, inputs and noise as published.
+// Measured with the default settings (build/tests/sem_recovery --case SYSTEM EE|MA 1000):
+// these reach the target on seeds 1-20.
+// metamss_s1, s2 20/20, s4 19/20, sysidentpy_ma 20/20.
+INSTANTIATE_TEST_SUITE_P(
+    Published, SemRecoveryTest,
+    testing::Values(Case{SystemIndex("metamss_s1"), Noise::kEquation, 1000},
+                    Case{SystemIndex("metamss_s2"), Noise::kEquation, 1000},
+                    Case{SystemIndex("metamss_s4"), Noise::kEquation, 1000},
+                    Case{SystemIndex("sysidentpy_ma"), Noise::kColoured, 1000}),
+    CaseName);
+
+// Below the target with the default settings (docs/results.md, "Published systems"):
+// metamss_s3 (cubic output term, e ~ N(0, 0.01^2)) 11/20: every miss is the truth plus one to
+// three spurious terms that the cross-validated free-run score prefers (seed 7: the refined
+// truth scores CV 7.69e-5, the pick with y(k-2)*u(k-1) added 7.03e-5), though the truth is on
+// the search path and the one-step least-squares oracle recovers 20/20. metamss_s5 (NARMAX
+// noise) 18/20 (176/200): seeds 7 and 14 add y(k-1)*u(k-2)^2 or y(k-1)*y(k-2)*u(k-2). metamss_s6
+// (x ~ N(0, 0.25^2), e ~ N(0, 0.02^2)) 13/20: the 7 misses leave out y(k-2)*u(k-2), whose
+// contribution (|0.2 y u| mostly below 0.01) is under the noise's standard deviation.
+INSTANTIATE_TEST_SUITE_P(
+    DISABLED_PublishedBelowTarget, SemRecoveryTest,
+    testing::Values(Case{SystemIndex("metamss_s3"), Noise::kEquation, 1000},
+                    Case{SystemIndex("metamss_s5"), Noise::kColoured, 1000},
+                    Case{SystemIndex("metamss_s6"), Noise::kEquation, 1000}),
+    CaseName);
 
 // The same targets as rates over 200 seeds (1 ... 200, the suite's 20 among them): 190/200 at
 // N = 1000, 170/200 at N = 500. Run here for the case below target on seeds 1-20 (185/200

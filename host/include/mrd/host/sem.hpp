@@ -87,6 +87,14 @@ struct SemResult {
   bool fast_path = false;             // free run by the y(k-1) polynomial recursion
   int exhausted_rejected = -1;        // >= 0: the search stopped because all candidates
                                       // were rejected (this many)
+  // What the search's extras cost (wall time [s], for the progress output only): the first
+  // path without its exchange moves, the exchange moves of every path (spec `exchange`), the
+  // second start's path (spec `one_step_start`; -1: not run) and its start's size, which is
+  // at most the largest model of the first path (so it cannot cost more per step).
+  double path_s = 0.0;
+  double exchange_s = 0.0;
+  double second_start_s = -1.0;
+  std::size_t second_start_terms = 0;
 };
 
 // Normalisation: offset 0, scale = max |s| over all identification data (1 when all zero).
