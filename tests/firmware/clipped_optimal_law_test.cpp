@@ -12,6 +12,7 @@
 #include <limits>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "mrd/firmware/clipped_optimal_file.hpp"
 #include "mrd/firmware/config.hpp"
@@ -225,22 +226,36 @@ TEST(ClippedConfigTest, CtlSetSwitchesToTheLawOnlyWithGainsAndRoutedInputs) {
   EXPECT_NE(why.find("reload"), std::string::npos) << why;
 }
 
+// mrd-firmware's argv with args, behind the emulator's words in a cross build (qemu-user: a
+// direct exec of a target binary fails with 127 there). ChildProcess does not search PATH, so
+// the emulator is found by /usr/bin/env.
+std::vector<std::string> FirmwareArgv(const std::vector<std::string>& args) {
+  std::vector<std::string> argv;
+  std::istringstream emulator(MRD_TEST_EMULATOR);
+  for (std::string w; emulator >> w;) {
+    if (argv.empty()) argv.push_back("/usr/bin/env");
+    argv.push_back(w);
+  }
+  argv.push_back(std::string(MRD_BIN_DIR) + "/mrd-firmware");
+  argv.insert(argv.end(), args.begin(), args.end());
+  return argv;
+}
+
 // mrd-firmware itself: a dry run of the law, and a bad gains file stops the start (exit 2).
+// Lockstep, so it runs under qemu-user in the cross builds too.
 TEST(ClippedConfigTest, TheFirmwareRunsTheLawAndRefusesABadGainsFileWithExit2) {
   TempDir dir;
   const std::string good = dir.Write(
       "fw.toml", "[control]\nlaw = \"clipped-optimal\"\n[clipped_optimal]\ngains = \"" +
                      kGainsFile + "\"\ncommand = \"inverse\"\n");
-  test::ChildProcess ok({std::string(MRD_BIN_DIR) + "/mrd-firmware", "--config", good,
-                         "--dry-run", "0.5", "--lockstep", "--json"});
+  test::ChildProcess ok(FirmwareArgv({"--config", good, "--dry-run", "0.5", "--lockstep", "--json"}));
   ASSERT_EQ(ok.Wait(60.0), 0) << ok.Stderr();
   EXPECT_NE(ok.Stdout().find("\"law\": \"clipped-optimal\""), std::string::npos) << ok.Stdout();
   EXPECT_NE(ok.Stdout().find("\"ticks\": 500"), std::string::npos) << ok.Stdout();
   dir.Write("bad.toml", WithLine("cy", "cy = [1, 2]"));
   const std::string bad = dir.Write(
       "fw2.toml", "[control]\nlaw = \"clipped-optimal\"\n[clipped_optimal]\ngains = \"bad.toml\"\n");
-  test::ChildProcess refused({std::string(MRD_BIN_DIR) + "/mrd-firmware", "--config", bad,
-                              "--dry-run", "0.5", "--lockstep"});
+  test::ChildProcess refused(FirmwareArgv({"--config", bad, "--dry-run", "0.5", "--lockstep"}));
   EXPECT_EQ(refused.Wait(60.0), 2);
   EXPECT_NE(refused.Stderr().find("fw2.toml:4: [clipped_optimal] gains: "), std::string::npos)
       << refused.Stderr();
