@@ -168,6 +168,10 @@ bool PeriodLog::OpenFile() {
   }
   files_.fetch_add(1, std::memory_order_relaxed);
   file_bytes_ = 0;
+  // Only a regular file is rotated: renaming a device (/dev/null), FIFO or socket path would
+  // replace the node itself with a log file.
+  struct stat st {};
+  rotatable_ = ::fstat(fd_, &st) == 0 && S_ISREG(st.st_mode);
   runlog::Header h;
   h.file_index = file_index_;
   h.period_ns = period_ns_;
@@ -233,8 +237,8 @@ void PeriodLog::WriteBlock() {
   block_.clear();
   runlog::EncodeBlock(sequence_, dropped_.load(std::memory_order_relaxed), pending_.data(), count,
                       record_bytes_, &block_);
-  if (file_bytes_ + block_.size() > config_.max_bytes && file_bytes_ > header_bytes_ &&
-      !Rotate()) {
+  if (rotatable_ && file_bytes_ + block_.size() > config_.max_bytes &&
+      file_bytes_ > header_bytes_ && !Rotate()) {
     lost_.fetch_add(count, std::memory_order_relaxed);
     return;
   }

@@ -5,10 +5,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 
+#include "mrd/common/find_program.hpp"
 #include "passive_report.hpp"
 
 extern char** environ;
@@ -31,10 +33,11 @@ int Gnuplot(const std::string& script, const std::string& log) {
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
   posix_spawn_file_actions_addopen(&fa, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  std::string prog = "gnuplot";
+  std::string prog = mrd::common::FindProgram("gnuplot");  // not posix_spawnp: find_program.hpp
   char* argv[] = {prog.data(), const_cast<char*>(script.c_str()), nullptr};
   pid_t pid = 0;
-  const int rc = posix_spawnp(&pid, "gnuplot", &fa, nullptr, argv, environ);
+  const int rc =
+      prog.empty() ? ENOENT : posix_spawn(&pid, prog.c_str(), &fa, nullptr, argv, environ);
   posix_spawn_file_actions_destroy(&fa);
   if (rc != 0) return -1;
   int st = 0;

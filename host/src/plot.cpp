@@ -19,6 +19,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "mrd/common/find_program.hpp"
 #include "mrd/host/atomic_write.hpp"
 
 extern char** environ;
@@ -43,10 +44,11 @@ int RunGnuplot(const std::string& script, const std::string& log, std::string* e
   posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, log.c_str(),
                                    O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
-  std::string prog = "gnuplot";
+  std::string prog = common::FindProgram("gnuplot");
   char* argv[] = {prog.data(), const_cast<char*>(script.c_str()), nullptr};
   pid_t pid = 0;
-  const int rc = posix_spawnp(&pid, "gnuplot", &actions, nullptr, argv, environ);
+  const int rc =
+      prog.empty() ? ENOENT : posix_spawn(&pid, prog.c_str(), &actions, nullptr, argv, environ);
   posix_spawn_file_actions_destroy(&actions);
   if (rc != 0) {
     // ENOENT: not on PATH; otherwise the system's reason (e.g. the log file cannot be opened).
@@ -164,18 +166,6 @@ void PlotPng(const PlotFigure& figure, const std::string& png_path) {
   WriteFileAtomic(png_path, bytes);
 }
 
-bool GnuplotAvailable() {
-  const char* path = std::getenv("PATH");
-  if (path == nullptr) return false;
-  std::string_view rest = path;
-  while (true) {
-    const std::size_t colon = rest.find(':');
-    const std::filesystem::path dir =
-        colon == 0 || rest.empty() ? std::string_view(".") : rest.substr(0, colon);
-    if (access((dir / "gnuplot").c_str(), X_OK) == 0) return true;
-    if (colon == std::string_view::npos) return false;
-    rest.remove_prefix(colon + 1);
-  }
-}
+bool GnuplotAvailable() { return !common::FindProgram("gnuplot").empty(); }
 
 }  // namespace mrd::host

@@ -2,6 +2,8 @@
 // block, CRC corruption, refusals) and the firmware's PeriodLog (records = periods in a
 // lockstep run, drops counted with a stalled writer, write errors, rotation).
 #include <gtest/gtest.h>
+
+#include <unistd.h>
 #include <signal.h>
 #include <sys/resource.h>
 
@@ -435,6 +437,29 @@ TEST(PeriodLogTest, RotationKeepsFilesWithContinuedSequences) {
   }
   EXPECT_EQ(next_first, s.blocks);  // the newest file ends with the last block
   EXPECT_LT(records, 2000U);        // older files were dropped by the rotation
+}
+
+// A path that is not a regular file (here a symlink to /dev/null, so a failure renames the
+// link and never the device) is written on without rotation: no PATH.1, the node stays.
+TEST(PeriodLogTest, ANonRegularFileIsNeverRotated) {
+  test::TempDir dir;
+  LogConfig config;
+  config.path = dir.File("null.mrdlog");
+  ASSERT_EQ(::symlink("/dev/null", config.path.c_str()), 0);
+  config.max_bytes = 65536;  // would rotate a regular file several times
+  config.block_records = 128;
+  config.files = 3;
+  LoggedLoop l(config);
+  std::atomic<bool> stop{false};
+  l.loop.Run(stop, 2'000'000'000);
+  l.log.Stop();
+  const PeriodLogStats s = l.log.stats();
+  EXPECT_EQ(s.written, 2000U);
+  EXPECT_FALSE(s.failed) << s.error;
+  EXPECT_EQ(s.files, 1U);
+  EXPECT_TRUE(std::filesystem::is_symlink(config.path));
+  EXPECT_FALSE(std::filesystem::exists(config.path + ".1"));
+  EXPECT_TRUE(std::filesystem::is_character_file("/dev/null"));
 }
 
 }  // namespace

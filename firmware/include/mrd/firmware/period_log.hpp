@@ -3,7 +3,8 @@
 // into a preallocated single-producer single-consumer ring (copy + one release store; a full
 // ring drops the record and counts it); a non-real-time writer thread drains the ring into
 // blocks of the runlog format (common/runlog) and appends them to the file, rotating at
-// max_bytes and keeping `files` files. A write error (ENOSPC, EFBIG, EROFS, EIO, ...) stops
+// max_bytes and keeping `files` files (a regular file only: a device such as /dev/null, a FIFO
+// or a socket is written on without rotation). A write error (ENOSPC, EFBIG, EROFS, EIO, ...) stops
 // the log: one line on stderr, the loop keeps running, later records are counted as lost.
 
 #include <atomic>
@@ -100,6 +101,7 @@ class PeriodLog final : public PeriodObserver {
   std::uint32_t pending_count_ = 0;
   std::string block_;
   int fd_ = -1;
+  bool rotatable_ = false;  // the open file is a regular file (max_bytes/files apply)
   std::uint64_t file_bytes_ = 0;
   std::uint64_t header_bytes_ = 0;
   bool writing_ = false;  // the writer thread runs (set before the loop starts)
