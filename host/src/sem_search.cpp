@@ -8,7 +8,11 @@
 namespace mrd::host::internal {
 namespace {
 
-constexpr std::size_t kChunk = 64;    // candidates per work item (first improvement's rounds)
+// First improvement: candidates in rank order, in rounds of kRound (a constant: the early-stop
+// bound is lowered between rounds, so the rounds must not depend on the thread count); a
+// round is split evenly over the threads.
+constexpr std::size_t kRound = 128;
+constexpr std::size_t kChunk = 64;  // candidates per work item of the bordered least squares
 // Best improvement: the kPilot best-ranked candidates run first (their lowest J is the early
 // stop's bound from the start), then the rest in work items of kSweep candidates, each one
 // sweep over the samples: a block's columns then serve kSweep jobs from the cache instead of
@@ -138,11 +142,20 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
     }
     return none;
   };
-  // Shared bound for early stopping. First improvement never lowers it below the
-  // threshold, so no candidate that would meet the threshold is cut short.
+  // Bound for early stopping. First improvement never lowers it below the threshold, so no
+  // candidate that would meet the threshold is cut short. The bound is lowered only between
+  // parallel phases (after the serial pilot, after each round), never by a worker while others
+  // run: which candidates are cut short, and so the fallback choice and the diverged count,
+  // must not depend on thread timing.
   const double floor = first ? j_threshold : -kInf;
   std::atomic<double> best{bound0};
   for (int t : model) e_.U(t);  // materialise before the workers read them
+  auto lower_bound_to = [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Trial& tr = trials[order[i]];
+      if (tr.j < kInf) AtomicMin(best, std::max(tr.j, floor));
+    }
+  };
   auto run_chunk = [&](std::size_t begin, std::size_t end, std::vector<double>& scratch) {
     // Jobs by the candidate's y power and input factor columns: lanes side by side then read
     // the same columns (cache lines shared). Each job's arithmetic is its own, so the order
@@ -167,7 +180,6 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
       const Engine::Job& job = jobs[k];
       Trial& tr = trials[order[i]];
       tr.j = job.dead ? kInf : job.cost;
-      if (!job.dead) AtomicMin(best, std::max(job.cost, floor));
       if (job.diverged) ++n_rejected;
     }
   };
@@ -175,6 +187,7 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
     std::vector<std::vector<double>> scratch(static_cast<std::size_t>(threads_));
     const std::size_t pilot = std::min(order.size(), kPilot);
     run_chunk(0, pilot, scratch[0]);
+    lower_bound_to(0, pilot);
     const std::size_t rest = order.size() - pilot;
     const std::size_t per = std::max<std::size_t>(
         1, std::min(kSweep, (rest + static_cast<std::size_t>(threads_) - 1) /
@@ -190,16 +203,18 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
     }
     return best_accepted(std::move(ok));
   }
-  // First improvement: rank order, in rounds of threads*kChunk candidates.
-  const std::size_t round = static_cast<std::size_t>(threads_) * kChunk;
+  // First improvement: rank order, in rounds of kRound candidates.
   std::vector<std::vector<double>> scratch(static_cast<std::size_t>(threads_));
   std::vector<int> fallback;
-  for (std::size_t r0 = 0; r0 < order.size(); r0 += round) {
-    const std::size_t r1 = std::min(order.size(), r0 + round);
-    const std::size_t chunks = (r1 - r0 + kChunk - 1) / kChunk;
+  const auto workers = static_cast<std::size_t>(threads_);
+  for (std::size_t r0 = 0; r0 < order.size(); r0 += kRound) {
+    const std::size_t r1 = std::min(order.size(), r0 + kRound);
+    const std::size_t per = (r1 - r0 + workers - 1) / workers;
+    const std::size_t chunks = (r1 - r0 + per - 1) / per;
     ParallelFor(chunks, threads_, [&](std::size_t item, int worker) {
-      run_chunk(r0 + item * kChunk, std::min(r1, r0 + (item + 1) * kChunk), scratch[worker]);
+      run_chunk(r0 + item * per, std::min(r1, r0 + (item + 1) * per), scratch[worker]);
     });
+    lower_bound_to(r0, r1);
     for (std::size_t i = r0; i < r1; ++i) {
       const int c = order[i];
       if (trials[c].j <= j_threshold && accepted(c)) return trials[c];
