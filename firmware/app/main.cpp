@@ -380,8 +380,8 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
       s.tracking_samples > 0
           ? std::sqrt(s.sum_sq_tracking_error / static_cast<double>(s.tracking_samples))
           : 0.0;
-  const RunSummary r{o,     cfg,     rt,        table_name, devices,  ci,
-                     params, log,    buses,     seconds,    rms_model, rms_tracking};
+  const RunSummary r{o, cfg, rt, table_name, devices, ci, params, log, buses, seconds,
+                     rms_model, rms_tracking};
   if (o.json) {
     PrintSummaryJson(s, r);
   } else {
