@@ -52,6 +52,50 @@ std::vector<std::string> Split(const std::string& s, char sep) {
   return out;
 }
 
+// list / get: the reply's tab-separated lines (name, value, type, unit, accepts, set) as a
+// table (list) or one line each (get).
+void PrintParams(const std::string& cmd, const std::vector<std::string>& lines) {
+  std::vector<std::array<std::string, 6>> rows;
+  for (const std::string& l : lines) {
+    const std::vector<std::string> f = Split(l, '\t');
+    if (f.size() == 6) rows.push_back({f[0], f[1], f[3], f[2], f[5], f[4]});
+  }
+  if (cmd == "get") {
+    for (const auto& r : rows) {
+      std::printf("%s = %s%s%s (%s, %s; %s)\n", r[0].c_str(), r[1].c_str(),
+                  r[2].empty() ? "" : " ", r[2].c_str(), r[3].c_str(), r[5].c_str(),
+                  r[4].c_str());
+    }
+  } else {
+    std::array<std::size_t, 6> w{4, 5, 4, 4, 3, 7};
+    for (const auto& r : rows) {
+      for (std::size_t i = 0; i < 5; ++i) w[i] = std::max(w[i], r[i].size());
+    }
+    std::printf("%-*s  %-*s  %-*s  %-*s  %-*s  %s\n", static_cast<int>(w[0]), "NAME",
+                static_cast<int>(w[1]), "VALUE", static_cast<int>(w[2]), "UNIT",
+                static_cast<int>(w[3]), "TYPE", static_cast<int>(w[4]), "SET", "ACCEPTS");
+    for (const auto& r : rows) {
+      std::printf("%-*s  %-*s  %-*s  %-*s  %-*s  %s\n", static_cast<int>(w[0]), r[0].c_str(),
+                  static_cast<int>(w[1]), r[1].c_str(), static_cast<int>(w[2]), r[2].c_str(),
+                  static_cast<int>(w[3]), r[3].c_str(), static_cast<int>(w[4]), r[4].c_str(),
+                  r[5].c_str());
+    }
+  }
+}
+
+// set: the reply "ok period N version V value VALUE" in words (as it came when shorter).
+void PrintSetReply(const std::string& name, const std::string& last) {
+  const std::vector<std::string> f = Split(last, ' ');
+  if (f.size() >= 7) {
+    std::string value = f[6];
+    for (std::size_t i = 7; i < f.size(); ++i) value += " " + f[i];
+    std::printf("%s = %s: applied at period %s (parameter version %s)\n", name.c_str(),
+                value.c_str(), f[2].c_str(), f[4].c_str());
+  } else {
+    std::printf("%s\n", last.c_str());
+  }
+}
+
 }  // namespace
 
 int RunCtl(int argc, char** argv) {
@@ -109,43 +153,9 @@ int RunCtl(int argc, char** argv) {
     return 1;
   }
   if (cmd == "list" || cmd == "get") {
-    std::vector<std::array<std::string, 6>> rows;
-    for (const std::string& l : lines) {
-      const std::vector<std::string> f = Split(l, '\t');
-      if (f.size() == 6) rows.push_back({f[0], f[1], f[3], f[2], f[5], f[4]});
-    }
-    if (cmd == "get") {
-      for (const auto& r : rows) {
-        std::printf("%s = %s%s%s (%s, %s; %s)\n", r[0].c_str(), r[1].c_str(),
-                    r[2].empty() ? "" : " ", r[2].c_str(), r[3].c_str(), r[5].c_str(),
-                    r[4].c_str());
-      }
-    } else {
-      std::array<std::size_t, 6> w{4, 5, 4, 4, 3, 7};
-      for (const auto& r : rows) {
-        for (std::size_t i = 0; i < 5; ++i) w[i] = std::max(w[i], r[i].size());
-      }
-      std::printf("%-*s  %-*s  %-*s  %-*s  %-*s  %s\n", static_cast<int>(w[0]), "NAME",
-                  static_cast<int>(w[1]), "VALUE", static_cast<int>(w[2]), "UNIT",
-                  static_cast<int>(w[3]), "TYPE", static_cast<int>(w[4]), "SET", "ACCEPTS");
-      for (const auto& r : rows) {
-        std::printf("%-*s  %-*s  %-*s  %-*s  %-*s  %s\n", static_cast<int>(w[0]), r[0].c_str(),
-                    static_cast<int>(w[1]), r[1].c_str(), static_cast<int>(w[2]), r[2].c_str(),
-                    static_cast<int>(w[3]), r[3].c_str(), static_cast<int>(w[4]), r[4].c_str(),
-                    r[5].c_str());
-      }
-    }
+    PrintParams(cmd, lines);
   } else if (cmd == "set") {
-    // "ok period N version V value VALUE"
-    const std::vector<std::string> f = Split(last, ' ');
-    if (f.size() >= 7) {
-      std::string value = f[6];
-      for (std::size_t i = 7; i < f.size(); ++i) value += " " + f[i];
-      std::printf("%s = %s: applied at period %s (parameter version %s)\n", words[1].c_str(),
-                  value.c_str(), f[2].c_str(), f[4].c_str());
-    } else {
-      std::printf("%s\n", last.c_str());
-    }
+    PrintSetReply(words[1], last);
   } else {
     std::printf("%s\n", last.substr(3).c_str());  // "saved PATH"
   }

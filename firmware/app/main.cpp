@@ -261,43 +261,57 @@ struct ClockInfo {
   std::uint64_t missed = 0;  // 1: stopped because no grant came within grant_timeout_ms
 };
 
-void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareConfig& cfg,
-                  const RealTime& rt, const char* table_name,
-                  const std::vector<std::unique_ptr<BusDevice>>& devices, const ClockInfo& ci,
-                  const RuntimeParams& params, const PeriodLogStats* log) {
-  const bool buses = !devices.empty();
-  const char* mode = buses ? "bus" : (o.lockstep ? "lockstep" : "realtime");
-  const double seconds = buses ? static_cast<double>(s.ticks) * static_cast<double>(cfg.period_ns) * 1e-9
-                               : o.dry_run_s;
-  const double rms_model =
-      s.force_samples > 0 ? std::sqrt(s.sum_sq_model_error / static_cast<double>(s.force_samples)) : 0.0;
-  const double rms_tracking =
-      s.tracking_samples > 0
-          ? std::sqrt(s.sum_sq_tracking_error / static_cast<double>(s.tracking_samples))
-          : 0.0;
+// What both summaries report beyond the telemetry.
+struct RunSummary {
+  const Options& o;
+  const FirmwareConfig& cfg;
+  const RealTime& rt;
+  const char* table_name;
+  const std::vector<std::unique_ptr<BusDevice>>& devices;
+  const ClockInfo& ci;
+  const RuntimeParams& params;
+  const PeriodLogStats* log;  // nullptr: no log
+  bool buses;
+  double seconds;        // run length [s]
+  double rms_model;      // [N]
+  double rms_tracking;   // [N]
+};
+
+// --json: one JSON object (summary_json.hpp).
+void PrintSummaryJson(const TelemetrySnapshot& s, const RunSummary& r) {
+  SummaryInfo info;
+  info.mode = r.buses ? "bus" : (r.o.lockstep ? "lockstep" : "realtime");
+  info.table = r.table_name;
+  info.law = ControlModeName(r.cfg.controller.law.mode);
+  info.seconds = r.seconds;
+  info.period_us = static_cast<double>(r.cfg.period_ns) / 1e3;
+  info.sched_fifo = r.rt.sched_fifo;
+  info.memory_locked = r.rt.memory_locked;
+  info.rms_model_error_n = r.rms_model;
+  info.rms_tracking_error_n = r.rms_tracking;
+  for (const auto& d : r.devices) info.devices.push_back({d->name(), d->counters()});
+  info.clock = r.ci.mode;
+  info.grants = r.ci.grants;
+  info.missed_grants = r.ci.missed;
+  info.param_changes = r.params.changes();
+  info.reloads = r.params.reloads();
+  info.log = r.log;
+  info.log_path = r.cfg.log.path.c_str();
+  std::fputs(SummaryJson(s, info).c_str(), stdout);
+}
+
+// The text summary: a line per figure.
+void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
+  const Options& o = r.o;
+  const FirmwareConfig& cfg = r.cfg;
+  const RealTime& rt = r.rt;
+  const char* table_name = r.table_name;
+  const ClockInfo& ci = r.ci;
+  const RuntimeParams& params = r.params;
+  const PeriodLogStats* log = r.log;
+  const bool buses = r.buses;
+  const double seconds = r.seconds, rms_model = r.rms_model, rms_tracking = r.rms_tracking;
   const auto cause = [&](FaultCause c) { return static_cast<std::size_t>(c); };
-  if (o.json) {
-    SummaryInfo info;
-    info.mode = mode;
-    info.table = table_name;
-    info.law = ControlModeName(cfg.controller.law.mode);
-    info.seconds = seconds;
-    info.period_us = static_cast<double>(cfg.period_ns) / 1e3;
-    info.sched_fifo = rt.sched_fifo;
-    info.memory_locked = rt.memory_locked;
-    info.rms_model_error_n = rms_model;
-    info.rms_tracking_error_n = rms_tracking;
-    for (const auto& d : devices) info.devices.push_back({d->name(), d->counters()});
-    info.clock = ci.mode;
-    info.grants = ci.grants;
-    info.missed_grants = ci.missed;
-    info.param_changes = params.changes();
-    info.reloads = params.reloads();
-    info.log = log;
-    info.log_path = cfg.log.path.c_str();
-    std::fputs(SummaryJson(s, info).c_str(), stdout);
-    return;
-  }
   std::printf("mrd-firmware %s (%s, %.6g s, period %.6g us, law %s, table %s)\n",
               buses ? "run" : "dry run", buses ? "buses" : (o.lockstep ? "lockstep" : "real time"),
               seconds,
@@ -339,7 +353,7 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
                 static_cast<unsigned long long>(ci.missed));
     std::printf("  devices:\n");
   }
-  PrintDevices(devices);
+  PrintDevices(r.devices);
   if (log != nullptr) {
     const auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
     std::printf("  log:              %s: %llu records written (%llu blocks, %u file%s), %llu "
@@ -351,6 +365,28 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
     std::printf("\n");
   }
   std::printf("  final state:      %s\n", s.safe ? "safe" : "NOT SAFE");
+}
+
+void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareConfig& cfg,
+                  const RealTime& rt, const char* table_name,
+                  const std::vector<std::unique_ptr<BusDevice>>& devices, const ClockInfo& ci,
+                  const RuntimeParams& params, const PeriodLogStats* log) {
+  const bool buses = !devices.empty();
+  const double seconds = buses ? static_cast<double>(s.ticks) * static_cast<double>(cfg.period_ns) * 1e-9
+                               : o.dry_run_s;
+  const double rms_model =
+      s.force_samples > 0 ? std::sqrt(s.sum_sq_model_error / static_cast<double>(s.force_samples)) : 0.0;
+  const double rms_tracking =
+      s.tracking_samples > 0
+          ? std::sqrt(s.sum_sq_tracking_error / static_cast<double>(s.tracking_samples))
+          : 0.0;
+  const RunSummary r{o, cfg, rt, table_name, devices, ci, params, log, buses, seconds,
+                     rms_model, rms_tracking};
+  if (o.json) {
+    PrintSummaryJson(s, r);
+  } else {
+    PrintSummaryText(s, r);
+  }
 }
 
 // Runs the loop on CLOCK_MONOTONIC in a thread of its own (SCHED_FIFO and locked memory when
@@ -463,65 +499,90 @@ void ReloadNow(const Options& o, RuntimeParams& params, const RuntimeParams::Rel
                static_cast<unsigned long long>(params.reloads()));
 }
 
-int Run(const Options& o) {
-  // Table: file or compiled-in.
-  mrd::CoefficientTable table = kBuiltinTable;
-  const char* table_name = o.table != nullptr ? o.table : "compiled-in";
-  if (o.table != nullptr) {
-    std::string reason;
-    const auto loaded = LoadTableFile(o.table, &reason);
-    if (!loaded.ok()) {
-      const std::string shown = mrd::Printable(o.table);
-      if (loaded.error() == mrd::Error::kIo) {
-        std::fprintf(stderr, "error: table %s: cannot read (%s)\n", shown.c_str(), reason.c_str());
-      } else {
-        std::fprintf(stderr, "error: table %s refused: %s\n", shown.c_str(), reason.c_str());
-      }
-      return kExitBadInput;
-    }
-    table = loaded.value();
-  }
-  if (o.write_table != nullptr) {
-    if (const auto image = mrd::EncodeTable(table); !image.ok()) {
-      std::fprintf(stderr, "error: table refused: %s\n", mrd::ErrorName(image.error()));
-      return kExitBadInput;
-    }
-    // Temporary, fsync, rename: OUT is the whole table or unchanged.
-    const std::string why = WriteTableFile(o.write_table, table);
-    if (!why.empty()) {
-      std::fprintf(stderr, "error: %s (nothing written)\n", mrd::Printable(why).c_str());
-      return kExitFailure;
-    }
-    return kExitOk;
-  }
+// A start-up step's verdict: go on with the run, or end it with this exit status.
+constexpr int kContinue = -1;
 
-  FirmwareConfig cfg;
+// The table to run on: --table FILE, or the compiled-in one. kContinue or kExitBadInput.
+int LoadRunTable(const Options& o, mrd::CoefficientTable* table) {
+  *table = kBuiltinTable;
+  if (o.table == nullptr) return kContinue;
+  std::string reason;
+  const auto loaded = LoadTableFile(o.table, &reason);
+  if (!loaded.ok()) {
+    const std::string shown = mrd::Printable(o.table);
+    if (loaded.error() == mrd::Error::kIo) {
+      std::fprintf(stderr, "error: table %s: cannot read (%s)\n", shown.c_str(), reason.c_str());
+    } else {
+      std::fprintf(stderr, "error: table %s refused: %s\n", shown.c_str(), reason.c_str());
+    }
+    return kExitBadInput;
+  }
+  *table = loaded.value();
+  return kContinue;
+}
+
+// --write-table OUT: the table as an image file (temporary, fsync, rename: OUT is the whole
+// table or unchanged). The exit status.
+int WriteTableOut(const char* path, const mrd::CoefficientTable& table) {
+  if (const auto image = mrd::EncodeTable(table); !image.ok()) {
+    std::fprintf(stderr, "error: table refused: %s\n", mrd::ErrorName(image.error()));
+    return kExitBadInput;
+  }
+  const std::string why = WriteTableFile(path, table);
+  if (!why.empty()) {
+    std::fprintf(stderr, "error: %s (nothing written)\n", mrd::Printable(why).c_str());
+    return kExitFailure;
+  }
+  return kExitOk;
+}
+
+// The config (--config FILE or the defaults) with E_max resolved against the table and the
+// command line's --ctl-socket and --log applied. kContinue or kExitBadInput.
+int LoadRunConfig(const Options& o, const mrd::CoefficientTable& table, FirmwareConfig* cfg) {
   if (o.config != nullptr) {
     std::string error;
-    if (!LoadConfigFile(o.config, &cfg, &error)) {
+    if (!LoadConfigFile(o.config, cfg, &error)) {
       std::fprintf(stderr, "error: %s\n", error.c_str());
       return kExitBadInput;
     }
   }
-  cfg.controller.e_max = cfg.e_max.value_or(table.e_max);
+  cfg->controller.e_max = cfg->e_max.value_or(table.e_max);
   if (o.ctl_socket != nullptr) {
-    cfg.ctl_socket = o.ctl_socket;
-    cfg.ctl_enable = true;
+    cfg->ctl_socket = o.ctl_socket;
+    cfg->ctl_enable = true;
   }
-  Controller controller;
-  const mrd::Error e = controller.Configure(table, cfg.controller);
-  if (e != mrd::Error::kOk) {
-    if (e == mrd::Error::kOutOfRange) {
-      std::fprintf(stderr,
-                   "error: configuration refused for table %s: value out of range (E_max %g and "
-                   "safe voltage %g must lie in the table's [%g, %g] V; check the law settings)\n",
-                   table_name, cfg.controller.e_max, cfg.controller.safe_voltage, table.e_min,
-                   table.e_max);
-    } else {
-      std::fprintf(stderr, "error: table %s refused: %s\n", table_name, mrd::ErrorName(e));
-    }
-    return kExitBadInput;
+  return kContinue;
+}
+
+// Configures the controller; on a refusal says why (Controller::Configure's reason).
+// kContinue or kExitBadInput.
+int ConfigureController(const mrd::CoefficientTable& table, const char* table_name,
+                        const FirmwareConfig& cfg, Controller* controller) {
+  const ConfigureStatus configured = controller->Configure(table, cfg.controller);
+  if (configured.ok()) return kContinue;
+  if (configured.fault == ConfigureFault::kTable) {
+    std::fprintf(stderr, "error: table %s refused: %s\n", table_name,
+                 mrd::ErrorName(configured.error));
+  } else {
+    std::fprintf(stderr,
+                 "error: configuration refused for table %s: %s (E_max %g V, safe voltage "
+                 "%g V, table range [%g, %g] V)\n",
+                 table_name, ConfigureFaultName(configured.fault), cfg.controller.e_max,
+                 cfg.controller.safe_voltage, table.e_min, table.e_max);
   }
+  return kExitBadInput;
+}
+
+// Buses configured (cfg.io.any()): the inputs the buses serve (Bit(Input)).
+std::uint32_t ServedInputs(const FirmwareConfig& cfg) {
+  return cfg.io.can.inputs | cfg.io.modbus.inputs | cfg.io.gpio.inputs;
+}
+
+// What to run follows from the options and the config: buses or a dry run (not both, not
+// neither), no demo table on a real device, what the model reads served, a dry run's length.
+// kContinue or kExitBadInput.
+int CheckRunMode(const Options& o, const FirmwareConfig& cfg, const mrd::CoefficientTable& table,
+                 const char* table_name, const Controller& controller) {
   const bool buses = cfg.io.any();
   if (buses && o.dry_run_s > 0.0) {
     std::fprintf(stderr, "error: --dry-run runs the simulated damper; %s has bus sections "
@@ -548,29 +609,141 @@ int Run(const Options& o) {
     std::fprintf(stderr, "error: --lockstep is for --dry-run\n");
     return kExitBadInput;
   }
-  const std::uint32_t served = cfg.io.can.inputs | cfg.io.modbus.inputs | cfg.io.gpio.inputs;
   if (buses && controller.runtime().reads_displacement() &&
-      (served & Bit(Input::kDisplacement)) == 0) {
+      (ServedInputs(cfg) & Bit(Input::kDisplacement)) == 0) {
     std::fprintf(stderr, "error: %s: the model of table %s reads the displacement, but no bus "
                  "serves input 'displacement'\n", o.config, table_name);
     return kExitBadInput;
   }
-
   if (!buses && !CheckDryRun(o.dry_run_s, cfg.period_ns)) return kExitBadInput;
+  return kContinue;
+}
 
+// The per-period log of a run: started (ring allocated before mlockall) just before the loop
+// runs, when the config or --log asks for it.
+class RunLog {
+ public:
+  RunLog(const FirmwareConfig& cfg, const char* table_name) : cfg_(cfg), table_name_(table_name) {}
+  void Start(const char* mode) {
+    if (!cfg_.log.enabled || cfg_.log.path.empty()) return;
+    log_.Start(cfg_.log, cfg_.period_ns,
+               std::string("mrd-firmware ") + mode + ", table " + table_name_);
+    observer_ = &log_;
+  }
+  PeriodObserver* observer() const { return observer_; }
+  PeriodLog& log() { return log_; }
+
+ private:
+  const FirmwareConfig& cfg_;
+  const char* table_name_;
+  PeriodLog log_;
+  PeriodObserver* observer_ = nullptr;
+};
+
+// What the loop leaves behind for the summary.
+struct RunOutcome {
+  Telemetry telemetry;
+  RealTime rt;
+  std::vector<std::unique_ptr<BusDevice>> devices;
+  ClockInfo clock_info;
+  bool grant_lost = false;  // lockstep: the harness stopped granting time
+};
+
+// The loop on the buses of cfg until the duration, SIGINT/SIGTERM or (clock = "grant") the
+// harness stops granting time. kContinue (ran) or the exit status of a start-up failure.
+int RunOnBuses(const Options& o, const FirmwareConfig& cfg, Controller& controller,
+               RuntimeParams& params, RunLog& log, RunOutcome* out) {
+  std::string error;
+  if (!MakeDevices(cfg.io, &out->devices, &error)) {
+    std::fprintf(stderr, "error: %s: %s\n", o.config, error.c_str());
+    return kExitBadInput;
+  }
+  auto& devices = out->devices;
+  FieldbusIo io;
+  for (auto& d : devices) {
+    if (!d->Configure(&error) || !d->Activate(&error)) {
+      std::fprintf(stderr, "error: %s\n", error.c_str());
+      for (auto& up : devices) up->Deactivate();
+      return kExitFailure;
+    }
+    io.Add(d.get());
+  }
+  const std::int64_t duration_ns =
+      o.duration_s > 0.0 ? static_cast<std::int64_t>(std::llround(o.duration_s * 1e9)) : 0;
+  if (cfg.clock == LoopClock::kGrant) {
+    // Lockstep with the HIL harness: the same loop on the time the CAN bus (or the Modbus
+    // grant register) grants (duration in granted time).
+    TimeGrantSource* grants = nullptr;
+    for (auto& d : devices) {
+      if (grants == nullptr) grants = d->grant_source();
+    }
+    if (grants == nullptr) {
+      std::fprintf(stderr, "error: %s: clock = \"grant\" needs a [can] or [modbus] device\n", o.config);
+      for (auto& d : devices) d->Deactivate();
+      return kExitBadInput;
+    }
+    GrantClock clock(*grants, cfg.grant_timeout_ns, &g_stop);
+    log.Start("bus run, clock grant");
+    RunRealTime(cfg, io, io, controller, out->telemetry, duration_ns, &out->rt, &params,
+                log.observer(), &clock);
+    out->clock_info = {"grant", clock.grants(), clock.gave_up() ? 1U : 0U};
+    if (clock.gave_up()) {
+      std::fprintf(stderr, "error: no time grant for %.6g s (clock = \"grant\"): the harness "
+                   "is gone; stopped in the safe state\n",
+                   static_cast<double>(cfg.grant_timeout_ns) * 1e-9);
+      out->grant_lost = true;
+    }
+  } else {
+    log.Start("bus run, clock monotonic");
+    RunRealTime(cfg, io, io, controller, out->telemetry, duration_ns, &out->rt, &params,
+                log.observer());
+  }
+  for (auto& d : devices) d->Deactivate();
+  return kContinue;
+}
+
+// The loop on the simulated damper for --dry-run seconds: lockstep (simulated time, as fast
+// as it goes) or in real time.
+void RunDry(const Options& o, const FirmwareConfig& cfg, Controller& controller,
+            RuntimeParams& params, RunLog& log, RunOutcome* out) {
+  const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
+  if (o.lockstep) {
+    LockstepClock clock;
+    SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
+    Loop loop(clock, plant, plant, controller, out->telemetry, cfg.period_ns);
+    loop.SetHook(&params);
+    log.Start("dry run, lockstep");
+    loop.SetObserver(log.observer());
+    loop.Run(g_stop, duration_ns);
+  } else {
+    MonotonicClock clock;
+    SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
+    log.Start("dry run, real time");
+    RunRealTime(cfg, plant, plant, controller, out->telemetry, duration_ns, &out->rt, &params,
+                log.observer());
+  }
+}
+
+int Run(const Options& o) {
+  mrd::CoefficientTable table;
+  const char* table_name = o.table != nullptr ? o.table : "compiled-in";
+  if (const int rc = LoadRunTable(o, &table); rc != kContinue) return rc;
+  if (o.write_table != nullptr) return WriteTableOut(o.write_table, table);
+
+  FirmwareConfig cfg;
+  if (const int rc = LoadRunConfig(o, table, &cfg); rc != kContinue) return rc;
+  Controller controller;
+  if (const int rc = ConfigureController(table, table_name, cfg, &controller); rc != kContinue) {
+    return rc;
+  }
+  if (const int rc = CheckRunMode(o, cfg, table, table_name, controller); rc != kContinue) {
+    return rc;
+  }
   if (o.log != nullptr) {
     cfg.log.path = o.log;
     cfg.log.enabled = true;
   }
-  // The per-period log: started (ring allocated before mlockall) just before the loop runs.
-  PeriodLog period_log;
-  PeriodObserver* observer = nullptr;
-  const auto start_log = [&](const char* mode) {
-    if (!cfg.log.enabled || cfg.log.path.empty()) return;
-    period_log.Start(cfg.log, cfg.period_ns,
-                     std::string("mrd-firmware ") + mode + ", table " + table_name);
-    observer = &period_log;
-  };
+  RunLog log(cfg, table_name);
   // Runtime parameters, the control socket and the SIGHUP reload watch (a thread of their
   // own, off the loop's; docs/tuning.md).
   RuntimeParams params(table, cfg);
@@ -583,88 +756,32 @@ int Run(const Options& o) {
       return kExitBadInput;
     }
   }
-  const RuntimeParams::ReloadCheck reload_check = [&o, served, buses](
-      const FirmwareConfig& next, const mrd::CoefficientTable& t, const Controller& c) {
-    return ReloadCheck(o, served, buses, next, t, c);
-  };
+  const bool buses = cfg.io.any();
+  const RuntimeParams::ReloadCheck reload_check =
+      [&o, served = ServedInputs(cfg), buses](const FirmwareConfig& next,
+                                              const mrd::CoefficientTable& t, const Controller& c) {
+        return ReloadCheck(o, served, buses, next, t, c);
+      };
   server.Start([&] {
     if (g_reload.exchange(false)) ReloadNow(o, params, reload_check);
   });
 
-  Telemetry telemetry;
-  RealTime rt;
-  std::vector<std::unique_ptr<BusDevice>> devices;
-  ClockInfo clock_info;
-  bool grant_lost = false;  // lockstep: the harness stopped granting time
+  RunOutcome out;
   if (buses) {
-    std::string error;
-    if (!MakeDevices(cfg.io, &devices, &error)) {
-      std::fprintf(stderr, "error: %s: %s\n", o.config, error.c_str());
-      return kExitBadInput;
+    if (const int rc = RunOnBuses(o, cfg, controller, params, log, &out); rc != kContinue) {
+      return rc;
     }
-    FieldbusIo io;
-    for (auto& d : devices) {
-      if (!d->Configure(&error) || !d->Activate(&error)) {
-        std::fprintf(stderr, "error: %s\n", error.c_str());
-        for (auto& up : devices) up->Deactivate();
-        return kExitFailure;
-      }
-      io.Add(d.get());
-    }
-    const std::int64_t duration_ns =
-        o.duration_s > 0.0 ? static_cast<std::int64_t>(std::llround(o.duration_s * 1e9)) : 0;
-    if (cfg.clock == LoopClock::kGrant) {
-      // Lockstep with the HIL harness: the same loop on the time the CAN bus (or the Modbus
-      // grant register) grants (duration in granted time).
-      TimeGrantSource* grants = nullptr;
-      for (auto& d : devices) {
-        if (grants == nullptr) grants = d->grant_source();
-      }
-      if (grants == nullptr) {
-        std::fprintf(stderr, "error: %s: clock = \"grant\" needs a [can] or [modbus] device\n", o.config);
-        for (auto& d : devices) d->Deactivate();
-        return kExitBadInput;
-      }
-      GrantClock clock(*grants, cfg.grant_timeout_ns, &g_stop);
-      start_log("bus run, clock grant");
-      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt, &params, observer,
-                  &clock);
-      clock_info = {"grant", clock.grants(), clock.gave_up() ? 1U : 0U};
-      if (clock.gave_up()) {
-        std::fprintf(stderr, "error: no time grant for %.6g s (clock = \"grant\"): the harness "
-                     "is gone; stopped in the safe state\n",
-                     static_cast<double>(cfg.grant_timeout_ns) * 1e-9);
-        grant_lost = true;
-      }
-    } else {
-      start_log("bus run, clock monotonic");
-      RunRealTime(cfg, io, io, controller, telemetry, duration_ns, &rt, &params, observer);
-    }
-    for (auto& d : devices) d->Deactivate();
-  } else if (o.lockstep) {
-    const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
-    LockstepClock clock;
-    SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
-    Loop loop(clock, plant, plant, controller, telemetry, cfg.period_ns);
-    loop.SetHook(&params);
-    start_log("dry run, lockstep");
-    loop.SetObserver(observer);
-    loop.Run(g_stop, duration_ns);
   } else {
-    const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
-    MonotonicClock clock;
-    SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
-    start_log("dry run, real time");
-    RunRealTime(cfg, plant, plant, controller, telemetry, duration_ns, &rt, &params, observer);
+    RunDry(o, cfg, controller, params, log, &out);
   }
   params.LoopEnded();
   server.Stop();
-  period_log.Stop();
-  const PeriodLogStats log_stats = period_log.stats();
-  const TelemetrySnapshot s = telemetry.Read();
-  PrintSummary(s, o, params.config(), rt, table_name, devices, clock_info, params,
-               observer != nullptr ? &log_stats : nullptr);
-  return s.safe && !grant_lost ? kExitOk : kExitFailure;
+  log.log().Stop();
+  const PeriodLogStats log_stats = log.log().stats();
+  const TelemetrySnapshot s = out.telemetry.Read();
+  PrintSummary(s, o, params.config(), out.rt, table_name, out.devices, out.clock_info, params,
+               log.observer() != nullptr ? &log_stats : nullptr);
+  return s.safe && !out.grant_lost ? kExitOk : kExitFailure;
 }
 
 }  // namespace

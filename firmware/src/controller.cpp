@@ -31,28 +31,32 @@ bool Implausible(Real value, Real limit) { return limit > Real(0) && std::fabs(v
 
 }  // namespace
 
-Error Controller::Configure(const CoefficientTable& table, const ControllerConfig& config) {
+ConfigureStatus Controller::Configure(const CoefficientTable& table,
+                                     const ControllerConfig& config) {
+  const auto refuse = [](ConfigureFault fault, Error e = Error::kOutOfRange) {
+    return ConfigureStatus{fault, e};
+  };
   Error e = runtime_.Configure(table);
-  if (e != Error::kOk) return e;
+  if (e != Error::kOk) return refuse(ConfigureFault::kTable, e);
   e = inverter_.Configure(table);
-  if (e != Error::kOk) return e;
+  if (e != Error::kOk) return refuse(ConfigureFault::kTable, e);
   e = inverter_.SetRange(table.e_min, config.e_max);
-  if (e != Error::kOk) return e;
+  if (e != Error::kOk) return refuse(ConfigureFault::kEMax, e);
   e = runtime_.SetEnvelope(config.envelope, config.envelope_margin);
-  if (e != Error::kOk) return e;
+  if (e != Error::kOk) return refuse(ConfigureFault::kEnvelope, e);
   if (!(config.velocity_limit >= 0.0) || !(config.displacement_limit >= 0.0)) {
-    return Error::kOutOfRange;  // negative or NaN
+    return refuse(ConfigureFault::kLimits);  // negative or NaN
   }
   if (!std::isfinite(config.safe_voltage) || config.safe_voltage < table.e_min ||
       config.safe_voltage > table.e_max) {
-    return Error::kOutOfRange;
+    return refuse(ConfigureFault::kSafeVoltage);
   }
-  if (!config.law.IsValid(table.e_min, config.e_max)) return Error::kOutOfRange;
-  if (!ClippedGainsOk(config)) return Error::kOutOfRange;
+  if (!config.law.IsValid(table.e_min, config.e_max)) return refuse(ConfigureFault::kLaw);
+  if (!ClippedGainsOk(config)) return refuse(ConfigureFault::kClippedGains);
   if (config.watchdog.max_age_ns <= 0 || config.watchdog.recover_periods == 0) {
-    return Error::kOutOfRange;
+    return refuse(ConfigureFault::kWatchdog);
   }
-  if (!differentiator_.Configure(config.cutoff_hz)) return Error::kOutOfRange;
+  if (!differentiator_.Configure(config.cutoff_hz)) return refuse(ConfigureFault::kCutoff);
   config_ = config;
   table_e_min_ = table.e_min;
   table_e_max_ = table.e_max;
@@ -65,7 +69,7 @@ Error Controller::Configure(const CoefficientTable& table, const ControllerConfi
   if (config.clipped_gains_loaded) clipped_.Configure(config.clipped_gains);
   watchdog_.Configure(config.watchdog);
   Reset();
-  return Error::kOk;
+  return ConfigureStatus{};
 }
 
 Error Controller::Retune(const ControllerConfig& config) {

@@ -14,9 +14,6 @@ std::int64_t MaxRaw(const FieldScale& f) {
 
 }  // namespace
 
-double MinValue(const FieldScale& f) { return static_cast<double>(MinRaw(f)) * f.scale + f.offset; }
-double MaxValue(const FieldScale& f) { return static_cast<double>(MaxRaw(f)) * f.scale + f.offset; }
-
 bool Encode(const FieldScale& f, double value, std::uint32_t* raw) {
   if (!std::isfinite(value)) return false;
   const double r = std::round((value - f.offset) / f.scale);

@@ -24,6 +24,7 @@
 #include "mrd/common/result.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/clipped_optimal.hpp"
+#include "mrd/firmware/configure_status.hpp"
 #include "mrd/firmware/control_law.hpp"
 #include "mrd/firmware/inverter.hpp"
 #include "mrd/firmware/io.hpp"
@@ -80,10 +81,10 @@ class Controller {
   Controller(const Controller&) = delete;
   Controller& operator=(const Controller&) = delete;
 
-  // Binds a table and a configuration. Errors: the table's (Validate), kInvalidArgument
-  // (channel the firmware does not provide), kNotInvertible, kOutOfRange (e_max or the safe
-  // voltage outside the table's range, a bad law/watchdog/cut-off setting). Not real-time.
-  Error Configure(const CoefficientTable& table, const ControllerConfig& config);
+  // Binds a table and a configuration. Refusals (configure_status.hpp) carry the reason and
+  // the code: kTable with the table's error (Validate, kInvalidArgument for a channel the
+  // firmware does not provide, kNotInvertible), every other reason kOutOfRange. Not real-time.
+  ConfigureStatus Configure(const CoefficientTable& table, const ControllerConfig& config);
   // Retunes a configured controller to `config` (law, E_max, limits, recovery, cut-off,
   // envelope) keeping the model's history, the filter and the watchdog's state and counters.
   // The same checks as Configure against the bound table; kOutOfRange (a value Configure would

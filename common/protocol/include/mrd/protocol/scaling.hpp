@@ -14,10 +14,6 @@ struct FieldScale {
   bool is_signed = true; // two's complement
 };
 
-// Smallest and largest physical value the field holds.
-double MinValue(const FieldScale& f);
-double MaxValue(const FieldScale& f);
-
 // Encodes value; false (and *raw untouched) when it is non-finite or outside the field's
 // range — a sender never wraps a value around. *raw holds the field's bits, zero-extended.
 bool Encode(const FieldScale& f, double value, std::uint32_t* raw);

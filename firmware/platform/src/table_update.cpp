@@ -206,9 +206,10 @@ std::string CheckTable(const char* path, const FirmwareConfig& config) {
   ControllerConfig c = config.controller;
   c.e_max = config.e_max.value_or(loaded.value().e_max);
   Controller controller;
-  const Error e = controller.Configure(loaded.value(), c);
-  if (e != Error::kOk) {
-    return std::string("table ") + path + " refused by this firmware and config: " + ErrorName(e);
+  const ConfigureStatus e = controller.Configure(loaded.value(), c);
+  if (!e.ok()) {
+    return std::string("table ") + path + " refused by this firmware and config: " +
+           (e.fault == ConfigureFault::kTable ? ErrorName(e.error) : ConfigureFaultName(e.fault));
   }
   return "";
 }

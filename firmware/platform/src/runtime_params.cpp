@@ -13,14 +13,16 @@ std::string Num(double v) {
   return buf;
 }
 
-// Why Configure refused (the values it checks, in words).
-std::string ConfigureWhy(Error e, const CoefficientTable& table, const ControllerConfig& c) {
-  if (e == Error::kOutOfRange) {
+// Why Configure refused (the values it checks, in words, then the reason).
+std::string ConfigureWhy(const ConfigureStatus& s, const CoefficientTable& table,
+                         const ControllerConfig& c) {
+  if (s.fault != ConfigureFault::kTable) {
     return "out of range for the table: E_max " + Num(c.e_max) + " V and the safe voltage " +
            Num(c.safe_voltage) + " V must lie in its [" + Num(table.e_min) + ", " +
-           Num(table.e_max) + "] V, a constant voltage in [E_min, E_max]";
+           Num(table.e_max) + "] V, a constant voltage in [E_min, E_max] (" +
+           ConfigureFaultName(s.fault) + ")";
   }
-  return std::string("the table does not configure a controller: ") + ErrorName(e);
+  return std::string("the table does not configure a controller: ") + ErrorName(s.error);
 }
 
 }  // namespace
@@ -76,7 +78,7 @@ RuntimeParams::Result RuntimeParams::PostSetLocked(std::string_view name, std::s
   }
   // The same check as at start-up: a fresh controller on the running table.
   auto probe = std::make_unique<Controller>();
-  if (const Error e = probe->Configure(table_, next.controller); e != Error::kOk) {
+  if (const ConfigureStatus e = probe->Configure(table_, next.controller); !e.ok()) {
     r.status = Status::kRefused;
     r.message = std::string(name) + " = " + std::string(value) + ": " +
                 ConfigureWhy(e, table_, next.controller);
@@ -120,7 +122,7 @@ RuntimeParams::Result RuntimeParams::PostReloadLocked(const FirmwareConfig& conf
     return r;
   }
   auto fresh = std::make_unique<Controller>();
-  if (const Error e = fresh->Configure(table, config.controller); e != Error::kOk) {
+  if (const ConfigureStatus e = fresh->Configure(table, config.controller); !e.ok()) {
     r.message = ConfigureWhy(e, table, config.controller);
     return r;
   }
