@@ -86,7 +86,7 @@ TEST_F(CanDeviceTest, SensorChassisFillsBodyAccelerationAndWheelVelocity) {
   PeerSend(f);
   SensorFrame other;
   (void)Read(&other);
-  EXPECT_EQ(other.wheel_velocity.stamp_ns, std::numeric_limits<std::int64_t>::min());
+  EXPECT_EQ(other[Input::kWheelVelocity].stamp_ns, std::numeric_limits<std::int64_t>::min());
 }
 
 // The floor accelerations (mrd-native SensorStructure, 0x104) reach the frame when routed.
@@ -168,8 +168,8 @@ TEST_F(CanDeviceTest, BadFramesAreRejectedCountedAndChangeNothing) {
 
   IoError why = IoError::kNone;
   EXPECT_EQ(Read(&frame, &why), IoStatus::kNoData);  // rejects alone are not a bus fault
-  EXPECT_DOUBLE_EQ(frame[Input::kVelocity].value, good.velocity.value);
-  EXPECT_EQ(frame[Input::kVelocity].stamp_ns, good.velocity.stamp_ns);
+  EXPECT_DOUBLE_EQ(frame[Input::kVelocity].value, good[Input::kVelocity].value);
+  EXPECT_EQ(frame[Input::kVelocity].stamp_ns, good[Input::kVelocity].stamp_ns);
   const DeviceCounters c = device_->counters();
   EXPECT_EQ(c.rx_ok, 1U);
   EXPECT_EQ(c.rx_rejected, 6U);

@@ -256,7 +256,7 @@ TEST(ModbusDeviceTest, FrozenSensorBlockIsNotNewDataAndKeepsItsStamp) {
   ASSERT_TRUE(WaitFor([&] { return server.requests() > before + 5; }));
   SensorFrame g;
   EXPECT_EQ(device.Read(&g, &why), IoStatus::kNoData);
-  EXPECT_EQ(g.velocity.stamp_ns, stamp);  // the latest value, with its old stamp
+  EXPECT_EQ(g[Input::kVelocity].stamp_ns, stamp);  // the latest value, with its old stamp
   EXPECT_EQ(device.counters().rx_ok, 1U);
 }
 
