@@ -87,8 +87,8 @@ void BM_ControllerUpdate(benchmark::State& state) {
   int k = 0;
   for (auto _ : state) {
     now += 1'000'000;
-    frame.velocity = {static_cast<double>(ex.v[k]), now};
-    frame.demand = {static_cast<double>(ex.f[k]), now};
+    frame[Input::kVelocity] = {static_cast<double>(ex.v[k]), now};
+    frame[Input::kDemand] = {static_cast<double>(ex.f[k]), now};
     benchmark::DoNotOptimize(c.Update(frame, IoStatus::kOk, false, now, 1e-3));
     k = (k + 1) & (kSamples - 1);
   }

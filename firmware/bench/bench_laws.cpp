@@ -80,11 +80,11 @@ void BM_ControllerUpdateLaw(benchmark::State& state, ControlMode mode) {
   for (auto _ : state) {
     now += 1'000'000;
     const auto i = static_cast<std::size_t>(k);
-    frame.velocity = {ex.v[i], now};
-    frame.demand = {ex.demand[i], now};
-    frame.body_velocity = {ex.body_velocity[i], now};
-    frame.wheel_velocity = {ex.wheel_velocity[i], now};
-    frame.body_acceleration = {ex.body_acceleration[i], now};
+    frame[Input::kVelocity] = {ex.v[i], now};
+    frame[Input::kDemand] = {ex.demand[i], now};
+    frame[Input::kBodyVelocity] = {ex.body_velocity[i], now};
+    frame[Input::kWheelVelocity] = {ex.wheel_velocity[i], now};
+    frame[Input::kBodyAcceleration] = {ex.body_acceleration[i], now};
     benchmark::DoNotOptimize(c.Update(frame, IoStatus::kOk, false, now, 1e-3));
     k = (k + 1) & (kSamples - 1);
   }

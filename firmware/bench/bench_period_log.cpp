@@ -21,7 +21,7 @@ void BM_PeriodLogPush(benchmark::State& state) {
   PeriodLog log;
   log.Start(config, 1'000'000, "bench");
   PeriodRecord r;
-  r.frame.velocity = {12.0, 0};
+  r.frame[Input::kVelocity] = {12.0, 0};
   std::uint64_t k = 0;
   for (auto _ : state) {
     r.period = k;

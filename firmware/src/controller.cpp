@@ -122,12 +122,12 @@ void Controller::Reset() {
 ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_status,
                                     bool driver_fault, std::int64_t now_ns, double dt_s) {
   const std::int64_t max_age = config_.watchdog.max_age_ns;
-  const Real velocity = static_cast<Real>(frame.velocity.value);
-  const Real displacement = static_cast<Real>(frame.displacement.value);
-  const Real demand = static_cast<Real>(frame.demand.value);
-  const Real body_velocity = static_cast<Real>(frame.body_velocity.value);
-  const Real wheel_velocity = static_cast<Real>(frame.wheel_velocity.value);
-  const Real body_acceleration = static_cast<Real>(frame.body_acceleration.value);
+  const Real velocity = static_cast<Real>(frame[Input::kVelocity].value);
+  const Real displacement = static_cast<Real>(frame[Input::kDisplacement].value);
+  const Real demand = static_cast<Real>(frame[Input::kDemand].value);
+  const Real body_velocity = static_cast<Real>(frame[Input::kBodyVelocity].value);
+  const Real wheel_velocity = static_cast<Real>(frame[Input::kWheelVelocity].value);
+  const Real body_acceleration = static_cast<Real>(frame[Input::kBodyAcceleration].value);
   std::uint32_t causes = 0;
   constexpr std::uint32_t kBusBits = Watchdog::Bit(FaultCause::kCanBus) |
                                       Watchdog::Bit(FaultCause::kModbusBus) |
@@ -145,7 +145,7 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
       config_.velocity_source == VelocitySource::kDisplacement || runtime_.reads_displacement();
   constexpr std::uint32_t kImplausibleBit = Watchdog::Bit(FaultCause::kImplausible);
   if (config_.velocity_source == VelocitySource::kMeasured) {
-    const std::uint32_t c = Check(frame.velocity, velocity, now_ns, max_age);
+    const std::uint32_t c = Check(frame[Input::kVelocity], velocity, now_ns, max_age);
     causes |= c;
     if (Implausible(velocity, velocity_limit_)) {
       causes |= kImplausibleBit;
@@ -154,7 +154,7 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
     }
   }
   if (use_x) {
-    const std::uint32_t c = Check(frame.displacement, displacement, now_ns, max_age);
+    const std::uint32_t c = Check(frame[Input::kDisplacement], displacement, now_ns, max_age);
     causes |= c;
     if (Implausible(displacement, displacement_limit_)) {
       causes |= kImplausibleBit;
@@ -169,19 +169,20 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
         }
       }
     }
-  } else if (Measured(frame.displacement) && Implausible(displacement, displacement_limit_)) {
+  } else if (Measured(frame[Input::kDisplacement]) &&
+             Implausible(displacement, displacement_limit_)) {
     // Measured though neither the model nor the velocity reads it: the limit still holds.
     causes |= kImplausibleBit;
   }
-  if (law_.needs_demand()) causes |= Check(frame.demand, demand, now_ns, max_age);
+  if (law_.needs_demand()) causes |= Check(frame[Input::kDemand], demand, now_ns, max_age);
   if (law_.needs_body_velocity()) {
-    causes |= Check(frame.body_velocity, body_velocity, now_ns, max_age);
+    causes |= Check(frame[Input::kBodyVelocity], body_velocity, now_ns, max_age);
   }
   if (law_.needs_wheel_velocity()) {
-    causes |= Check(frame.wheel_velocity, wheel_velocity, now_ns, max_age);
+    causes |= Check(frame[Input::kWheelVelocity], wheel_velocity, now_ns, max_age);
   }
   if (law_.needs_body_acceleration()) {
-    causes |= Check(frame.body_acceleration, body_acceleration, now_ns, max_age);
+    causes |= Check(frame[Input::kBodyAcceleration], body_acceleration, now_ns, max_age);
   }
 
   // Clipped-optimal: the observer runs on fresh, finite inputs (safe or not); otherwise its
@@ -191,11 +192,11 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
     Real accel[3];
     std::uint32_t c = 0;
     for (int i = 0; i < 3; ++i) {
-      accel[i] = static_cast<Real>(frame.floor_acceleration[i].value);
-      c |= Check(frame.floor_acceleration[i], accel[i], now_ns, max_age);
+      accel[i] = static_cast<Real>(frame[FloorAcceleration(i)].value);
+      c |= Check(frame[FloorAcceleration(i)], accel[i], now_ns, max_age);
     }
-    const Real force = static_cast<Real>(frame.force.value);
-    c |= Check(frame.force, force, now_ns, max_age);
+    const Real force = static_cast<Real>(frame[Input::kForce].value);
+    c |= Check(frame[Input::kForce], force, now_ns, max_age);
     if (c == 0) {
       clipped_volts = clipped_.Update(accel, force);
       const Real* xh = clipped_.estimate();

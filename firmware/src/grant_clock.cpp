@@ -1,10 +1,12 @@
 #include "mrd/firmware/grant_clock.hpp"
 
+#include "mrd/common/clock.hpp"
+
 namespace mrd::firmware {
 namespace {
 
 // Wall time (CLOCK_MONOTONIC) [ns]: how long the harness has been silent.
-std::int64_t WallNs() { return MonotonicClock().Now(); }
+std::int64_t WallNs() { return common::MonotonicNs(); }
 
 }  // namespace
 

@@ -74,13 +74,13 @@ void Loop::Tick(std::int64_t now_ns) {
   stats_.last_command_v = out.volts;
   stats_.model_force_n = out.model_force;
   stats_.force_demand_n = out.force_demand;
-  stats_.measured_force_n = frame_.force.value;
-  if (!out.safe && std::isfinite(frame_.force.value)) {
-    const double e = out.model_force - frame_.force.value;
+  stats_.measured_force_n = frame_[Input::kForce].value;
+  if (!out.safe && std::isfinite(frame_[Input::kForce].value)) {
+    const double e = out.model_force - frame_[Input::kForce].value;
     stats_.sum_sq_model_error += e * e;
     ++stats_.force_samples;
     if (out.force_law) {
-      const double t = out.force_demand - frame_.force.value;
+      const double t = out.force_demand - frame_[Input::kForce].value;
       stats_.sum_sq_tracking_error += t * t;
       ++stats_.tracking_samples;
     }

@@ -27,14 +27,16 @@ void SimulatedDamper::Advance(std::int64_t to_ns) {
 
 IoStatus SimulatedDamper::Read(SensorFrame* frame) {
   Advance(clock_.Now());
-  frame->displacement = {sample_.x, plant_ns_};
-  frame->velocity = {sample_.v, plant_ns_};
-  frame->demand = {sample_.demand, plant_ns_};
-  frame->body_velocity = {sample_.body_velocity, plant_ns_};
-  frame->force = {sample_.force, plant_ns_};
-  frame->body_acceleration = {sample_.body_acceleration, plant_ns_};
-  frame->wheel_velocity = {sample_.wheel_velocity, plant_ns_};
-  for (int i = 0; i < 3; ++i) frame->floor_acceleration[i] = {sample_.floor_acceleration[i], plant_ns_};
+  (*frame)[Input::kDisplacement] = {sample_.x, plant_ns_};
+  (*frame)[Input::kVelocity] = {sample_.v, plant_ns_};
+  (*frame)[Input::kDemand] = {sample_.demand, plant_ns_};
+  (*frame)[Input::kBodyVelocity] = {sample_.body_velocity, plant_ns_};
+  (*frame)[Input::kForce] = {sample_.force, plant_ns_};
+  (*frame)[Input::kBodyAcceleration] = {sample_.body_acceleration, plant_ns_};
+  (*frame)[Input::kWheelVelocity] = {sample_.wheel_velocity, plant_ns_};
+  for (int i = 0; i < 3; ++i) {
+    (*frame)[FloorAcceleration(i)] = {sample_.floor_acceleration[i], plant_ns_};
+  }
   frame->fault_line = false;
   return IoStatus::kOk;
 }

@@ -87,12 +87,12 @@ bool RunFirmwareLaw(const FirmwareLaw& law, QuarterCarPlant* plant, double durat
   run.ride = RunRide(plant, duration_s, settle_s, [&](const PlantSample& s, std::int64_t k) {
     const std::int64_t now = k * period_ns;
     firmware::SensorFrame frame;
-    frame.velocity = {s.v, now};
-    frame.displacement = {s.x, now};
-    frame.body_velocity = {s.body_velocity, now};
-    frame.body_acceleration = {s.body_acceleration, now};
-    frame.wheel_velocity = {s.wheel_velocity, now};
-    frame.force = {s.force, now};
+    frame[firmware::Input::kVelocity] = {s.v, now};
+    frame[firmware::Input::kDisplacement] = {s.x, now};
+    frame[firmware::Input::kBodyVelocity] = {s.body_velocity, now};
+    frame[firmware::Input::kBodyAcceleration] = {s.body_acceleration, now};
+    frame[firmware::Input::kWheelVelocity] = {s.wheel_velocity, now};
+    frame[firmware::Input::kForce] = {s.force, now};
     const firmware::ControllerOutput o =
         controller.Update(frame, firmware::IoStatus::kOk, false, now, period);
     if (!std::isfinite(o.volts) || o.volts < 0.0 || o.volts > e_max) ++run.violations;

@@ -34,6 +34,7 @@
 #include "mrd/canbus/can_iface.hpp"
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/canbus/socket.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/profile/canopen_codec.hpp"
 #include "mrd/profile/frame_codec.hpp"
@@ -126,7 +127,7 @@ class CanPort final : public PlantPort {
 
   void Publish(const SensorOutput& out) override {
     last_published_ = out.seq;
-    const std::int64_t now = canbus::MonotonicNs();
+    const std::int64_t now = common::MonotonicNs();
     if (!IsOpen()) Reconnect(now);
     if (!IsOpen()) return;
     if (canopen_ != nullptr) PublishDriveHeartbeat(out, now);
@@ -197,7 +198,7 @@ class CanPort final : public PlantPort {
   }
 
   bool SendGrant(std::int64_t t_ns) override {
-    const std::int64_t now = canbus::MonotonicNs();
+    const std::int64_t now = common::MonotonicNs();
     if (!IsOpen()) Reconnect(now);
     if (!IsOpen()) return false;
     const pf::SignalRef grant = profile_->inputs[static_cast<std::size_t>(CanIn::kGrant)];
@@ -453,7 +454,7 @@ class CanPort final : public PlantPort {
     if ((f.can_id & CAN_EFF_FLAG) != 0) return false;
     const std::uint32_t id = f.can_id & CAN_SFF_MASK;
     const int node = canopen_->node_id;
-    const std::int64_t now = canbus::MonotonicNs();
+    const std::int64_t now = common::MonotonicNs();
     if (id == co::kNmtId) {
       if (f.len < 2 || (f.data[1] != node && f.data[1] != 0)) return true;  // another node's
       ++received_;

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "mrd/common/clock.hpp"
 #include "mrd/protocol/quadrature.hpp"
 #include "mrd/sim_gpio/sim_chip.hpp"
 
@@ -40,7 +41,7 @@ class GpioPort final : public PlantPort {
 
   bool Open(std::string* error) override {
     if (!chip_.Open(c_.path, /*create=*/true, error)) return false;
-    const std::int64_t now = sim_gpio::MonotonicNs();
+    const std::int64_t now = common::MonotonicNs();
     chip_.SetValue(Line(c_.fault_line), c_.fault_active_low, now);  // not asserted
     // Continue from the levels the chip holds (a restarted harness: no glitch).
     const bool a = chip_.GetValue(Line(c_.encoder_a_line));
@@ -61,7 +62,7 @@ class GpioPort final : public PlantPort {
       ++failed_;
       return;
     }
-    const std::int64_t now = sim_gpio::MonotonicNs();
+    const std::int64_t now = common::MonotonicNs();
     chip_.SetValue(Line(c_.fault_line), out.fault_line != c_.fault_active_low, now);
     const double target_d = std::round(out.sample.x * c_.counts_per_cm);
     if (!std::isfinite(target_d) || std::fabs(target_d) > 9e15) return;
@@ -74,7 +75,7 @@ class GpioPort final : public PlantPort {
       count_ += dir;
       const protocol::QuadratureLevels to = protocol::LevelsForCount(count_);
       // Distinct, increasing stamps: edges of A and B with one stamp would be one event.
-      last_t_ = std::max(sim_gpio::MonotonicNs(), last_t_ + 1);
+      last_t_ = std::max(common::MonotonicNs(), last_t_ + 1);
       if (to.a != from.a) chip_.SetValue(Line(c_.encoder_a_line), to.a, last_t_);
       if (to.b != from.b) chip_.SetValue(Line(c_.encoder_b_line), to.b, last_t_);
       ++published_;
@@ -93,7 +94,7 @@ class GpioPort final : public PlantPort {
       received_ += head - heartbeat_head_;
       in->heartbeats += head - heartbeat_head_;  // one toggle per firmware period
       heartbeat_head_ = head;
-      in->heartbeat_ns = sim_gpio::MonotonicNs();
+      in->heartbeat_ns = common::MonotonicNs();
     }
   }
 

@@ -10,16 +10,11 @@
 #include <ctime>
 #include <fstream>
 
+#include "mrd/common/clock.hpp"
 #include "mrd/protocol/quadrature.hpp"
 
 namespace mrd::hil {
 namespace {
-
-std::int64_t NowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 bool ReadLine(const std::string& path, std::string* out) {
   std::ifstream in(path);
@@ -117,7 +112,7 @@ class GpioSimPort final : public PlantPort {
       heartbeat_ = hb;
       ++received_;
       ++in->heartbeats;
-      in->heartbeat_ns = NowNs();
+      in->heartbeat_ns = common::MonotonicNs();
     }
   }
 

@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "modbus_server.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/protocol/modbus_map.hpp"
 #include "mrd/protocol/modbus_server.hpp"
@@ -178,7 +179,7 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
     if (lockstep_ && have_last_ && c.has_status && last_.has_status && c.ticks == last_.ticks) {
       return a;
     }
-    const std::int64_t now = ModbusNowNs();
+    const std::int64_t now = common::MonotonicNs();
     ++counters_.received;
     have_last_ = true;
     if (c.heartbeat != last_.heartbeat) {

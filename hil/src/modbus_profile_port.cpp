@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "modbus_server.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 
@@ -297,7 +298,7 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
       const pf::ModbusPoint& pt = p.Out(r);
       return pt.mapped ? pf::LoadModbusPoint(p, pt, Table(pt)) : 0.0;
     };
-    const std::int64_t now = ModbusNowNs();
+    const std::int64_t now = common::MonotonicNs();
     ++counters_.received;
     volts_ = p.command.Invert(get(pf::ModbusOut::kCommand));
     echo_ = static_cast<std::uint32_t>(std::max(0.0, get(pf::ModbusOut::kEcho)));

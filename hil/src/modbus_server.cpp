@@ -15,6 +15,8 @@
 #include <cstring>
 #include <ctime>
 
+#include "mrd/common/clock.hpp"
+
 namespace mrd::hil {
 namespace {
 
@@ -27,12 +29,6 @@ constexpr std::int64_t kAcceptPauseNs = 100'000'000;  // after EMFILE / ENFILE
 void NonBlocking(int fd) { fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK); }
 
 }  // namespace
-
-std::int64_t ModbusNowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 bool ModbusServer::ListenTcp(const std::string& host, int port, std::string* error) {
   sockaddr_in a{};
@@ -84,7 +80,7 @@ void ModbusServer::Run() {
   std::array<pollfd, kMaxClients + 1> fds{};
   std::array<Client*, kMaxClients + 1> owner{};
   while (running_.load()) {
-    const std::int64_t now = ModbusNowNs();
+    const std::int64_t now = common::MonotonicNs();
     std::size_t n = 0;
     if (line_.fd >= 0) {
       fds[n] = {line_.fd, static_cast<short>(POLLIN | (line_.out_len > 0 ? POLLOUT : 0)), 0};
@@ -101,7 +97,7 @@ void ModbusServer::Run() {
     }
     const int timeout = line_.fd >= 0 && line_.have > 0 ? kRtuPartialPollMs : kPollMs;
     const int ready = poll(fds.data(), n, timeout);
-    const std::int64_t t = ModbusNowNs();
+    const std::int64_t t = common::MonotonicNs();
     for (std::size_t i = 0; ready > 0 && i < n; ++i) {
       if (fds[i].revents == 0) continue;
       Client* c = owner[i];

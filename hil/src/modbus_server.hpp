@@ -31,9 +31,6 @@
 
 namespace mrd::hil {
 
-// CLOCK_MONOTONIC now [ns]: the server's request stamps and the port's command stamps.
-std::int64_t ModbusNowNs();
-
 class ModbusServer {
  public:
   // The registers behind the server (ModbusPort): thread-safe, never blocks for long.

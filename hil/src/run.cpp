@@ -23,6 +23,7 @@
 #include <sstream>
 
 #include "mrd/canbus/local_bus.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/hil/child.hpp"
 #include "mrd/hil/excitation_profile.hpp"
 #include "mrd/hil/model_plant.hpp"
@@ -40,17 +41,8 @@ namespace {
 
 constexpr std::int64_t kPeriodNs = 1'000'000;
 
-std::int64_t NowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
-void SleepUntil(std::int64_t t_ns) {
-  const timespec ts{static_cast<time_t>(t_ns / 1'000'000'000), static_cast<long>(t_ns % 1'000'000'000)};
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) != 0) {
-  }
-}
+std::int64_t NowNs() { return common::MonotonicNs(); }
+void SleepUntil(std::int64_t t_ns) { (void)common::SleepUntilNs(t_ns); }
 
 
 std::string FormatSeconds(double s) {

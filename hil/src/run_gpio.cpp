@@ -2,17 +2,12 @@
 
 #include <ctime>
 
+#include "mrd/common/clock.hpp"
 #include "mrd/hil/gpio_port.hpp"
 #include "mrd/hil/gpio_sim_port.hpp"
 
 namespace mrd::hil {
 namespace {
-
-std::int64_t NowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 }  // namespace
 
@@ -46,11 +41,7 @@ void RunGpio::Publish(const SensorOutput& out, bool lockstep) {
   port_->Publish(out);
   // Without the encoder routed the firmware counts no edges: nothing to settle.
   if (!lockstep || !encoder_ || port_->counters().published == before) return;
-  const std::int64_t until = NowNs() + settle_ns_;
-  const timespec ts{static_cast<time_t>(until / 1'000'000'000),
-                    static_cast<long>(until % 1'000'000'000)};
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) != 0) {
-  }
+  (void)common::SleepUntilNs(common::MonotonicNs() + settle_ns_);
 }
 
 void RunGpio::Poll(DriverInput* in) {

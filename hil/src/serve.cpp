@@ -5,22 +5,12 @@
 #include <cmath>
 #include <ctime>
 
+#include "mrd/common/clock.hpp"
+
 namespace mrd::hil {
 namespace {
 
-std::int64_t NowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
-void SleepUntil(std::int64_t t_ns) {
-  timespec ts{};
-  ts.tv_sec = static_cast<time_t>(t_ns / 1'000'000'000);
-  ts.tv_nsec = static_cast<long>(t_ns % 1'000'000'000);
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) != 0) {
-  }
-}
+void SleepUntil(std::int64_t t_ns) { (void)common::SleepUntilNs(t_ns); }
 
 }  // namespace
 
@@ -67,7 +57,7 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
   bool fault_published = false;
   std::uint64_t first_fault_step = 0;
 
-  const std::int64_t start = NowNs();
+  const std::int64_t start = common::MonotonicNs();
   std::int64_t deadline = start;
   const auto steps_limit = o.duration_s > 0.0
                                ? static_cast<std::uint64_t>(std::llround(o.duration_s / o.period_s))
@@ -75,7 +65,7 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
   PlantSample sample = plant.Sample();
   while (!stop.load(std::memory_order_relaxed) && r.steps < steps_limit) {
     SleepUntil(deadline);
-    const std::int64_t now = NowNs();
+    const std::int64_t now = common::MonotonicNs();
     if (now - deadline > period_ns) ++r.late_steps;
 
     // Hear the firmware.
@@ -144,7 +134,7 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
     out.sample = sample;
     out.seq = seq;
     out.fault_line = fault_line;
-    out.t_ns = NowNs();
+    out.t_ns = common::MonotonicNs();
     published_seq[seq % kRing] = seq;
     published_ns[seq % kRing] = out.t_ns;
     for (PlantPort* p : ports) p->Publish(out);

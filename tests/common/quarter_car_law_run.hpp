@@ -37,12 +37,12 @@ inline LawRun RunLaw(QuarterCarPlant* plant, const firmware::ControlLawConfig& l
     const PlantSample s = plant->Sample();
     const std::int64_t now = k * 1'000'000;  // [ns]
     firmware::SensorFrame frame;
-    frame.velocity = {s.v, now};
-    frame.displacement = {s.x, now};
-    frame.body_velocity = {s.body_velocity, now};
-    frame.wheel_velocity = {s.wheel_velocity, now};
-    frame.body_acceleration = {s.body_acceleration, now};
-    frame.force = {s.force, now};
+    frame[firmware::Input::kVelocity] = {s.v, now};
+    frame[firmware::Input::kDisplacement] = {s.x, now};
+    frame[firmware::Input::kBodyVelocity] = {s.body_velocity, now};
+    frame[firmware::Input::kWheelVelocity] = {s.wheel_velocity, now};
+    frame[firmware::Input::kBodyAcceleration] = {s.body_acceleration, now};
+    frame[firmware::Input::kForce] = {s.force, now};
     const firmware::ControllerOutput out =
         controller.Update(frame, firmware::IoStatus::kOk, false, now, kLawPeriod);
     if (!std::isfinite(out.volts) || out.volts < 0.0 || out.volts > config.e_max) {

@@ -26,6 +26,7 @@
 
 #include "mrd/canbus/can_iface.hpp"
 #include "mrd/canbus/socket.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
 namespace {
@@ -64,7 +65,7 @@ bool Parse(int argc, char** argv, Options* o) {
 }
 
 bool Expired(std::int64_t end_ns) {
-  return g_stop.load() || (end_ns != 0 && mrd::canbus::MonotonicNs() >= end_ns);
+  return g_stop.load() || (end_ns != 0 && mrd::common::MonotonicNs() >= end_ns);
 }
 
 int Capture(const Options& o, std::int64_t end_ns) {
@@ -139,7 +140,7 @@ int Babble(const Options& o, std::int64_t end_ns) {
     fds.push_back(fd);
   }
   std::uint64_t sent = 0, blocked = 0, n = 0;
-  const std::int64_t start = mrd::canbus::MonotonicNs();
+  const std::int64_t start = mrd::common::MonotonicNs();
   std::int64_t deadline = start;
   double owed = 0.0;
   // Its own pauses (descheduled longer than kPauseNs): the bus was not flooded meanwhile.
@@ -147,7 +148,7 @@ int Babble(const Options& o, std::int64_t end_ns) {
   std::string pauses;
   std::int64_t last = start;
   while (!Expired(end_ns)) {
-    const std::int64_t now = mrd::canbus::MonotonicNs();
+    const std::int64_t now = mrd::common::MonotonicNs();
     if (now - last > kPauseNs) {
       char b[64];
       std::snprintf(b, sizeof b, "%s[%.6f, %.6f]", pauses.empty() ? "" : ", ",
@@ -170,11 +171,9 @@ int Babble(const Options& o, std::int64_t end_ns) {
       }
     }
     deadline += 1'000'000;
-    const timespec ts{static_cast<time_t>(deadline / 1'000'000'000),
-                      static_cast<long>(deadline % 1'000'000'000)};
-    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+    (void)mrd::common::SleepUntilNs(deadline);
   }
-  const double seconds = static_cast<double>(mrd::canbus::MonotonicNs() - start) * 1e-9;
+  const double seconds = static_cast<double>(mrd::common::MonotonicNs() - start) * 1e-9;
   std::printf("{\"sent\": %" PRIu64 ", \"would_block\": %" PRIu64
               ", \"seconds\": %.3f, \"pauses\": [%s]}\n",
               sent, blocked, seconds, pauses.c_str());
@@ -197,7 +196,7 @@ int main(int argc, char** argv) {
   std::signal(SIGPIPE, SIG_IGN);
   const std::int64_t end_ns =
       o.duration_s > 0.0
-          ? mrd::canbus::MonotonicNs() + static_cast<std::int64_t>(o.duration_s * 1e9)
+          ? mrd::common::MonotonicNs() + static_cast<std::int64_t>(o.duration_s * 1e9)
           : 0;
   return o.mode == "capture" ? Capture(o, end_ns) : Babble(o, end_ns);
 }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "can_device_peer.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/io/can_device.hpp"
 #include "mrd/protocol/can_codec.hpp"
@@ -34,16 +35,16 @@ class CanDeviceConformance : public CanDevicePeerTest {
 };
 
 TEST_F(CanDeviceConformance, DataThatWaitedInTheSocketKeepTheirArrivalStamps) {
-  const std::int64_t before = canbus::MonotonicNs();
+  const std::int64_t before = common::MonotonicNs();
   SendMotion(4.0, 0.4, 1, 0);
-  const std::int64_t sent = canbus::MonotonicNs();
+  const std::int64_t sent = common::MonotonicNs();
   std::this_thread::sleep_for(std::chrono::milliseconds(40));  // the firmware was stalled
   SensorFrame frame;
   ASSERT_EQ(Read(&frame), IoStatus::kOk);
-  EXPECT_GE(frame.velocity.stamp_ns, before - 100'000);  // wall -> monotonic conversion
+  EXPECT_GE(frame[Input::kVelocity].stamp_ns, before - 100'000);  // wall -> monotonic conversion
   // Stamped when it arrived, so the watchdog sees a 40 ms old sample, not a fresh one.
-  EXPECT_LE(frame.velocity.stamp_ns, sent)
-      << "stamped " << (frame.velocity.stamp_ns - sent) / 1000 << " us after it arrived";
+  EXPECT_LE(frame[Input::kVelocity].stamp_ns, sent)
+      << "stamped " << (frame[Input::kVelocity].stamp_ns - sent) / 1000 << " us after it arrived";
 }
 
 TEST_F(CanDeviceConformance, ABacklogIsDrainedToTheNewestFrame) {
@@ -54,7 +55,7 @@ TEST_F(CanDeviceConformance, ABacklogIsDrainedToTheNewestFrame) {
   SensorFrame frame;
   ASSERT_EQ(Read(&frame), IoStatus::kOk);
   EXPECT_EQ(device_->counters().rx_ok, static_cast<std::uint64_t>(kBacklog));
-  EXPECT_DOUBLE_EQ(frame.velocity.value, 0.01 * (kBacklog - 1));  // the newest sample
+  EXPECT_DOUBLE_EQ(frame[Input::kVelocity].value, 0.01 * (kBacklog - 1));  // the newest sample
   IoError why = IoError::kNone;
   ASSERT_EQ(device_->Write({1.0, true, false, 0}, &why), IoStatus::kOk);
   pc::DriverCommand cmd;
@@ -86,15 +87,15 @@ TEST_F(CanDeviceConformance, ABabblingNodeIsAFloodAndABusFault) {
   // Once the flood is drained, the good frame behind it is taken; the bus fault holds for
   // kFloodHoldNs after the last flooded period, then a clean bus is healthy again.
   int reads = 0;
-  std::int64_t last_flood = canbus::MonotonicNs();
+  std::int64_t last_flood = common::MonotonicNs();
   while (reads < 100 && device_->counters().rx_ok < 2) {
     Read(&frame, &why);
     ++reads;
-    last_flood = canbus::MonotonicNs();
+    last_flood = common::MonotonicNs();
   }
-  EXPECT_DOUBLE_EQ(frame.velocity.value, 3.0);
+  EXPECT_DOUBLE_EQ(frame[Input::kVelocity].value, 3.0);
   const IoStatus held = Read(&frame, &why);
-  if (canbus::MonotonicNs() - last_flood < CanDevice::kFloodHoldNs / 2) {
+  if (common::MonotonicNs() - last_flood < CanDevice::kFloodHoldNs / 2) {
     EXPECT_EQ(held, IoStatus::kFault);
     EXPECT_EQ(why, IoError::kOverflow);
   }

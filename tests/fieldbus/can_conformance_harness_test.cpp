@@ -14,6 +14,7 @@
 #include "mrd/canbus/can_iface.hpp"
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/canbus/socket.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
@@ -104,7 +105,7 @@ TEST(HilCanPortOnRelay, ABabblingNodeDoesNotCrowdOutTheFirmwaresCommands) {
   for (int i = 0; i < 10; ++i) relay.Step(5);  // the harness busy elsewhere: no Poll yet
   can_frame cmd{};
   ASSERT_EQ(pc::Encode(pc::DriverCommand{1.0, true, true, false, 1, 0}, &cmd), pc::Reject::kNone);
-  const std::int64_t now = canbus::MonotonicNs();
+  const std::int64_t now = common::MonotonicNs();
   ASSERT_EQ(firmware.Send(cmd, now + 1'000'000'000, now), canbus::CanResult::kOk);
   for (int i = 0; i < 5; ++i) relay.Step(5);
   DriverInput in;

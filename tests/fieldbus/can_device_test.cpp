@@ -19,6 +19,7 @@
 #include "can_device_peer.hpp"
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/canbus/socket.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/telemetry.hpp"
 #include "mrd/profile/can_profile.hpp"
@@ -35,25 +36,25 @@ class CanDeviceTest : public CanDevicePeerTest {};
 TEST_F(CanDeviceTest, AcceptedSensorFramesFillTheRoutedSignalsWithReceiveStamps) {
   SensorFrame frame;
   EXPECT_EQ(Read(&frame), IoStatus::kNoData);
-  const std::int64_t before = canbus::MonotonicNs();
+  const std::int64_t before = common::MonotonicNs();
   SendMotion(12.5, -0.75, 100, 0);
   can_frame f{};
   ASSERT_EQ(pc::Encode(pc::SensorForce{-800.0, 3.25, 640.5, 0}, &f), pc::Reject::kNone);
   PeerSend(f);
   ASSERT_EQ(Read(&frame), IoStatus::kOk);
-  EXPECT_DOUBLE_EQ(frame.velocity.value, 12.5);
-  EXPECT_DOUBLE_EQ(frame.displacement.value, -0.75);
-  EXPECT_DOUBLE_EQ(frame.demand.value, -800.0);
-  EXPECT_DOUBLE_EQ(frame.body_velocity.value, 3.25);
-  EXPECT_DOUBLE_EQ(frame.force.value, 640.5);
-  EXPECT_GE(frame.velocity.stamp_ns, before);
-  EXPECT_LE(frame.velocity.stamp_ns, canbus::MonotonicNs());
+  EXPECT_DOUBLE_EQ(frame[Input::kVelocity].value, 12.5);
+  EXPECT_DOUBLE_EQ(frame[Input::kDisplacement].value, -0.75);
+  EXPECT_DOUBLE_EQ(frame[Input::kDemand].value, -800.0);
+  EXPECT_DOUBLE_EQ(frame[Input::kBodyVelocity].value, 3.25);
+  EXPECT_DOUBLE_EQ(frame[Input::kForce].value, 640.5);
+  EXPECT_GE(frame[Input::kVelocity].stamp_ns, before);
+  EXPECT_LE(frame[Input::kVelocity].stamp_ns, common::MonotonicNs());
   EXPECT_EQ(device_->counters().rx_ok, 2U);
   EXPECT_EQ(device_->counters().rx_rejected, 0U);
   // Nothing new: kNoData, the values and their (now ageing) stamps stay.
-  const std::int64_t stamp = frame.velocity.stamp_ns;
+  const std::int64_t stamp = frame[Input::kVelocity].stamp_ns;
   EXPECT_EQ(Read(&frame), IoStatus::kNoData);
-  EXPECT_EQ(frame.velocity.stamp_ns, stamp);
+  EXPECT_EQ(frame[Input::kVelocity].stamp_ns, stamp);
 }
 
 // The chassis signals (mrd-native SensorChassis, 0x103) reach the frame when routed.
@@ -76,16 +77,16 @@ TEST_F(CanDeviceTest, SensorChassisFillsBodyAccelerationAndWheelVelocity) {
   PeerSend(f);
   SensorFrame frame;
   ASSERT_EQ(Read(&frame), IoStatus::kOk);
-  EXPECT_NEAR(frame.body_acceleration.value, -123.4, 0.05);
-  EXPECT_NEAR(frame.wheel_velocity.value, 56.78, 0.005);
-  EXPECT_NE(frame.body_acceleration.stamp_ns, std::numeric_limits<std::int64_t>::min());
+  EXPECT_NEAR(frame[Input::kBodyAcceleration].value, -123.4, 0.05);
+  EXPECT_NEAR(frame[Input::kWheelVelocity].value, 56.78, 0.005);
+  EXPECT_NE(frame[Input::kBodyAcceleration].stamp_ns, std::numeric_limits<std::int64_t>::min());
   // Not routed: left alone.
   Make(AllRouted());
   codec.Seal(acc.message, &f);  // the next counter
   PeerSend(f);
   SensorFrame other;
   (void)Read(&other);
-  EXPECT_EQ(other.wheel_velocity.stamp_ns, std::numeric_limits<std::int64_t>::min());
+  EXPECT_EQ(other[Input::kWheelVelocity].stamp_ns, std::numeric_limits<std::int64_t>::min());
 }
 
 // The floor accelerations (mrd-native SensorStructure, 0x104) reach the frame when routed.
@@ -115,8 +116,8 @@ TEST_F(CanDeviceTest, SensorStructureFillsTheFloorAccelerations) {
   SensorFrame frame;
   ASSERT_EQ(Read(&frame), IoStatus::kOk);
   for (int i = 0; i < 3; ++i) {
-    EXPECT_NEAR(frame.floor_acceleration[i].value, values[i], 0.0005) << i;
-    EXPECT_NE(frame.floor_acceleration[i].stamp_ns, std::numeric_limits<std::int64_t>::min());
+    EXPECT_NEAR(frame[FloorAcceleration(i)].value, values[i], 0.0005) << i;
+    EXPECT_NE(frame[FloorAcceleration(i)].stamp_ns, std::numeric_limits<std::int64_t>::min());
   }
   // Beyond the DBC's range (+-30 m/s^2): not encodable.
   can_frame g{};
@@ -131,11 +132,11 @@ TEST_F(CanDeviceTest, OnlyRoutedInputsAreMerged) {
   Make(c);
   SendMotion(5.0, 1.0, 1, 0);
   SensorFrame frame;
-  frame.displacement = {42.0, 7};
+  frame[Input::kDisplacement] = {42.0, 7};
   ASSERT_EQ(Read(&frame), IoStatus::kOk);
-  EXPECT_DOUBLE_EQ(frame.velocity.value, 5.0);
-  EXPECT_DOUBLE_EQ(frame.displacement.value, 42.0);  // served by another bus: untouched
-  EXPECT_EQ(frame.displacement.stamp_ns, 7);
+  EXPECT_DOUBLE_EQ(frame[Input::kVelocity].value, 5.0);
+  EXPECT_DOUBLE_EQ(frame[Input::kDisplacement].value, 42.0);  // served by another bus: untouched
+  EXPECT_EQ(frame[Input::kDisplacement].stamp_ns, 7);
 }
 
 // Each kind of bad frame is rejected, counted under its reason, and changes nothing.
@@ -167,8 +168,8 @@ TEST_F(CanDeviceTest, BadFramesAreRejectedCountedAndChangeNothing) {
 
   IoError why = IoError::kNone;
   EXPECT_EQ(Read(&frame, &why), IoStatus::kNoData);  // rejects alone are not a bus fault
-  EXPECT_DOUBLE_EQ(frame.velocity.value, good.velocity.value);
-  EXPECT_EQ(frame.velocity.stamp_ns, good.velocity.stamp_ns);
+  EXPECT_DOUBLE_EQ(frame[Input::kVelocity].value, good[Input::kVelocity].value);
+  EXPECT_EQ(frame[Input::kVelocity].stamp_ns, good[Input::kVelocity].stamp_ns);
   const DeviceCounters c = device_->counters();
   EXPECT_EQ(c.rx_ok, 1U);
   EXPECT_EQ(c.rx_rejected, 6U);
@@ -182,14 +183,14 @@ TEST_F(CanDeviceTest, BadFramesAreRejectedCountedAndChangeNothing) {
   EXPECT_EQ(device_->counters().rx_rejected, 7U);
   SendMotion(9.0, 0.9, 4, 13);
   EXPECT_EQ(Read(&frame), IoStatus::kOk);
-  EXPECT_DOUBLE_EQ(frame.velocity.value, 9.0);
+  EXPECT_DOUBLE_EQ(frame[Input::kVelocity].value, 9.0);
 }
 
 TEST_F(CanDeviceTest, MoreFramesThanAPeriodsBudgetAreAFlood) {
   // Fill the socket (as a flood of well-formed frames would): more than the budget waits. The
   // frames come as local-bus packets that all entered the bus at one instant, so the flood's
   // arrival span does not depend on how fast this test runs on a loaded machine.
-  const std::int64_t entered = canbus::MonotonicNs();
+  const std::int64_t entered = common::MonotonicNs();
   int sent = 0;
   for (; sent < 4 * CanDevice::kMaxFramesPerRead; ++sent) {
     canbus::LocalBusPacket packet{};
@@ -355,9 +356,9 @@ TEST(CanDeviceLocalBus, ReconnectsWhenTheBusComesBack) {
   EXPECT_EQ(why, IoError::kDisconnected);
   // Nobody serves: still faulted after the reconnect interval, and the tick never waits.
   std::this_thread::sleep_for(std::chrono::milliseconds(120));
-  const std::int64_t t0 = canbus::MonotonicNs();
+  const std::int64_t t0 = common::MonotonicNs();
   EXPECT_EQ(device.Read(&frame, &why), IoStatus::kFault);
-  EXPECT_LT(canbus::MonotonicNs() - t0, 50'000'000);
+  EXPECT_LT(common::MonotonicNs() - t0, 50'000'000);
   EXPECT_EQ(device.counters().reconnects, 0U);
 
   relay = std::make_unique<canbus::LocalBusRelay>();
@@ -379,7 +380,7 @@ TEST(CanDeviceLocalBus, ReconnectsWhenTheBusComesBack) {
   }
   EXPECT_TRUE(ok);
   EXPECT_EQ(device.counters().reconnects, 1U);
-  EXPECT_DOUBLE_EQ(frame.velocity.value, 3.0);
+  EXPECT_DOUBLE_EQ(frame[Input::kVelocity].value, 3.0);
   close(peer);
 }
 

@@ -16,9 +16,12 @@
 #include "mrd/canbus/can_iface.hpp"
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/canbus/socket.hpp"
+#include "mrd/common/clock.hpp"
 
 namespace mrd::canbus {
 namespace {
+
+using common::MonotonicNs;
 
 std::string TempSocketPath(const char* tag) {
   return "/tmp/mrd-canbus-test-" + std::string(tag) + "-" + std::to_string(getpid()) + ".sock";

@@ -26,8 +26,8 @@ class FakeDevice final : public BusDevice {
       *why = IoError::kTimeout;
       return IoStatus::kFault;
     }
-    if (velocity) frame->velocity = {*velocity, stamp};
-    if (demand) frame->demand = {*demand, stamp};
+    if (velocity) (*frame)[Input::kVelocity] = {*velocity, stamp};
+    if (demand) (*frame)[Input::kDemand] = {*demand, stamp};
     return velocity || demand ? IoStatus::kOk : IoStatus::kNoData;
   }
   IoStatus Write(const DriverCommand& cmd, IoError* why) override {
@@ -65,10 +65,10 @@ TEST(FieldbusIoTest, MergesTheInputsOfEveryDevice) {
   ASSERT_TRUE(io.Add(&modbus));
   SensorFrame f;
   EXPECT_EQ(io.Read(&f), IoStatus::kOk);
-  EXPECT_EQ(f.velocity.value, 3.0);
-  EXPECT_EQ(f.velocity.stamp_ns, 10);
-  EXPECT_EQ(f.demand.value, -200.0);
-  EXPECT_EQ(f.demand.stamp_ns, 20);
+  EXPECT_EQ(f[Input::kVelocity].value, 3.0);
+  EXPECT_EQ(f[Input::kVelocity].stamp_ns, 10);
+  EXPECT_EQ(f[Input::kDemand].value, -200.0);
+  EXPECT_EQ(f[Input::kDemand].stamp_ns, 20);
   EXPECT_EQ(f.bus_faults, 0U);
 }
 
@@ -82,7 +82,7 @@ TEST(FieldbusIoTest, AFaultedDeviceNamesItsBusAndKeepsTheOthersSamples) {
   SensorFrame f;
   EXPECT_EQ(io.Read(&f), IoStatus::kFault);
   EXPECT_EQ(f.bus_faults, Watchdog::Bit(FaultCause::kGpioBus));
-  EXPECT_EQ(f.velocity.value, 1.5);
+  EXPECT_EQ(f[Input::kVelocity].value, 1.5);
 }
 
 TEST(FieldbusIoTest, NoDataWhenNoDeviceHasAnything) {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "gpio_test_peer.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/io/gpio_device.hpp"
 
@@ -129,13 +130,13 @@ TEST(GpioDevice, EncoderCountsBothDirectionsAndScalesToCentimetres) {
   // 64 edges per line and period: 500 edges take a few periods.
   for (int k = 0; k < 10; ++k) ReadOnce(*s.device, &f, &why);
   EXPECT_EQ(s.device->encoder_count(), 500);
-  EXPECT_DOUBLE_EQ(f.displacement.value, 2.0);
+  EXPECT_DOUBLE_EQ(f[Input::kDisplacement].value, 2.0);
   for (const std::int64_t target : {407, 307, 207, 107, 7, -93, -123}) {
     peer.MoveTo(target);  // in chunks that fit the chip's event rings
     for (int k = 0; k < 4; ++k) ReadOnce(*s.device, &f, &why);
   }
   EXPECT_EQ(s.device->encoder_count(), -130);
-  EXPECT_DOUBLE_EQ(f.displacement.value, -130.0 / 250.0);
+  EXPECT_DOUBLE_EQ(f[Input::kDisplacement].value, -130.0 / 250.0);
   const DeviceCounters n = s.device->counters();
   EXPECT_EQ(n.rx_ok, 500U + 630U);
   EXPECT_EQ(n.rx_rejected, 0U);
@@ -192,10 +193,10 @@ TEST(GpioDevice, AtRestTheSampleIsFresh) {
   // No motion: the count is current as of the read (minus the horizon), not stale.
   std::this_thread::sleep_for(std::chrono::milliseconds(20));
   EXPECT_EQ(ReadOnce(*s.device, &f, &why), IoStatus::kOk);
-  const std::int64_t now = sim_gpio::MonotonicNs();
-  EXPECT_LE(now - f.displacement.stamp_ns, 5'000'000);
-  EXPECT_GE(now - f.displacement.stamp_ns, GpioDevice::kEdgeHorizonNs);
-  EXPECT_DOUBLE_EQ(f.displacement.value, 0.0);
+  const std::int64_t now = common::MonotonicNs();
+  EXPECT_LE(now - f[Input::kDisplacement].stamp_ns, 5'000'000);
+  EXPECT_GE(now - f[Input::kDisplacement].stamp_ns, GpioDevice::kEdgeHorizonNs);
+  EXPECT_DOUBLE_EQ(f[Input::kDisplacement].value, 0.0);
 }
 
 TEST(GpioDevice, WithABacklogTheSampleCarriesTheLatestEdgeStamp) {
@@ -210,11 +211,11 @@ TEST(GpioDevice, WithABacklogTheSampleCarriesTheLatestEdgeStamp) {
   ReadOnce(*s.device, &f, &why);
   // 64 edges of each line read; the last B edge waits for the A edges still queued.
   EXPECT_EQ(s.device->encoder_count(), 2 * static_cast<std::int64_t>(GpioDevice::kMaxEdgesPerRead) - 1);
-  EXPECT_EQ(f.displacement.stamp_ns, s.device->last_edge_ns());
-  EXPECT_GT(sim_gpio::MonotonicNs() - f.displacement.stamp_ns, 90'000'000);
+  EXPECT_EQ(f[Input::kDisplacement].stamp_ns, s.device->last_edge_ns());
+  EXPECT_GT(common::MonotonicNs() - f[Input::kDisplacement].stamp_ns, 90'000'000);
   for (int k = 0; k < 4; ++k) ReadOnce(*s.device, &f, &why);
   EXPECT_EQ(s.device->encoder_count(), 300);
-  EXPECT_LE(sim_gpio::MonotonicNs() - f.displacement.stamp_ns, 5'000'000);  // caught up
+  EXPECT_LE(common::MonotonicNs() - f[Input::kDisplacement].stamp_ns, 5'000'000);  // caught up
 }
 
 TEST(GpioDevice, LostEdgesAreAFault) {
@@ -277,10 +278,10 @@ TEST(GpioDevice, WorkPerPeriodIsMicroseconds) {
   std::vector<double> us;
   for (int k = 0; k < 5000; ++k) {
     peer.MoveTo(peer.count() + (k % 400 < 200 ? 5 : -5));
-    const std::int64_t t0 = sim_gpio::MonotonicNs();
+    const std::int64_t t0 = common::MonotonicNs();
     ReadOnce(*s.device, &f, &why);
     s.device->Write({1.0, true, false, static_cast<std::uint64_t>(k)}, &why);
-    us.push_back(static_cast<double>(sim_gpio::MonotonicNs() - t0) * 1e-3);
+    us.push_back(static_cast<double>(common::MonotonicNs() - t0) * 1e-3);
   }
   std::sort(us.begin(), us.end());
   const double median = us[us.size() / 2], p99 = us[us.size() * 99 / 100], max = us.back();

@@ -15,6 +15,7 @@
 #include <string>
 #include <thread>
 
+#include "mrd/common/clock.hpp"
 #include "mrd/sim_gpio/sim_chip.hpp"
 #include "support/process.hpp"
 
@@ -195,7 +196,7 @@ TEST(GpioIntegration, AKilledFirmwaresStalledHeartbeatDropsTheCoil) {
   mrd::sim_gpio::SimChip chip;
   std::string error;
   ASSERT_TRUE(chip.Open(s.chip, false, &error)) << error;
-  chip.SetValue(17, true, mrd::sim_gpio::MonotonicNs());
+  chip.SetValue(17, true, mrd::common::MonotonicNs());
   ASSERT_EQ(hil.Wait(30.0), 0) << hil.Stderr();
   const json h = Parse(hil, "mrd-hil");
   ASSERT_TRUE(h.contains("ports")) << hil.Stdout();

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <string>
 
+#include "mrd/common/clock.hpp"
 #include "mrd/protocol/quadrature.hpp"
 #include "mrd/sim_gpio/sim_chip.hpp"
 
@@ -55,7 +56,7 @@ class GpioPeer {
     chip_.SetValue(lines.b, !chip_.GetValue(lines.b), t);
     count_ += 2;  // where the peer now is (phase + 2); the decoder cannot know the direction
   }
-  void SetFault(bool level) { chip_.SetValue(lines.fault, level, sim_gpio::MonotonicNs()); }
+  void SetFault(bool level) { chip_.SetValue(lines.fault, level, common::MonotonicNs()); }
   bool enable() const { return chip_.GetValue(lines.enable); }
   bool heartbeat() const { return chip_.GetValue(lines.heartbeat); }
   std::uint64_t heartbeat_edges() const { return chip_.head(lines.heartbeat); }
@@ -65,7 +66,7 @@ class GpioPeer {
 
  private:
   std::int64_t Stamp(std::int64_t age_ns) {
-    last_t_ = std::max(sim_gpio::MonotonicNs() - age_ns, last_t_ + 1);
+    last_t_ = std::max(common::MonotonicNs() - age_ns, last_t_ + 1);
     return last_t_;
   }
 

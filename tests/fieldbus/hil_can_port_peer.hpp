@@ -14,6 +14,7 @@
 
 #include "mrd/canbus/can_iface.hpp"
 #include "mrd/canbus/socket.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
@@ -49,7 +50,7 @@ class HilCanPortPeerTest : public ::testing::Test {
     if (port_ != nullptr) port_->Close();
   }
   void FirmwareSend(const can_frame& f) {
-    const std::int64_t now = canbus::MonotonicNs();
+    const std::int64_t now = common::MonotonicNs();
     ASSERT_EQ(firmware_.Send(f, now + 1'000'000'000, now), canbus::CanResult::kOk);
   }
   void Command(double volts, std::uint16_t echo, std::uint8_t counter) {

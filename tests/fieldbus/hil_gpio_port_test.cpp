@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <string>
 
+#include "mrd/common/clock.hpp"
 #include "mrd/hil/gpio_port.hpp"
 #include "mrd/protocol/quadrature.hpp"
 #include "mrd/sim_gpio/sim_chip.hpp"
@@ -112,9 +113,9 @@ TEST(HilGpioPort, DrivesTheEncoderAndFaultLineAndHearsEnableAndHeartbeat) {
   EXPECT_TRUE(in.has_enable);
   EXPECT_FALSE(in.enable);
   EXPECT_EQ(in.heartbeat_ns, 0);
-  fw.SetValue(17, true, sim_gpio::MonotonicNs());
-  fw.SetValue(18, true, sim_gpio::MonotonicNs());
-  fw.SetValue(18, false, sim_gpio::MonotonicNs());
+  fw.SetValue(17, true, common::MonotonicNs());
+  fw.SetValue(18, true, common::MonotonicNs());
+  fw.SetValue(18, false, common::MonotonicNs());
   port->Poll(&in);
   EXPECT_TRUE(in.enable);
   EXPECT_GT(in.heartbeat_ns, 0);

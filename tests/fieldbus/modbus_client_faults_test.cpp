@@ -113,7 +113,7 @@ TEST_F(ModbusClientFaultsTest, PeerThatResetsEveryConnectionGetsTheBackoff) {
 
 // The seq of a sample: the raw peer sets velocity = seq x 1e-4 cm/s.
 std::uint32_t SeqOf(const SensorFrame& f) {
-  return static_cast<std::uint32_t>(std::llround(f.velocity.value / 1e-4));
+  return static_cast<std::uint32_t>(std::llround(f[Input::kVelocity].value / 1e-4));
 }
 
 // Replies 15 ms late (inside the 20 ms timeout): the values are as old as the request that
@@ -129,8 +129,8 @@ TEST_F(ModbusClientFaultsTest, LateReplyIsStampedWithItsRequest) {
           const std::uint32_t seq = SeqOf(f);
           const std::int64_t arrival = peer_->ReadArrival(seq);
           EXPECT_GT(arrival, 0) << "seq " << seq;
-          EXPECT_LE(f.velocity.stamp_ns, arrival)
-              << "seq " << seq << " stamped " << (f.velocity.stamp_ns - arrival) / 1000
+          EXPECT_LE(f[Input::kVelocity].stamp_ns, arrival)
+              << "seq " << seq << " stamped " << (f[Input::kVelocity].stamp_ns - arrival) / 1000
               << " us after its request reached the server";
           ++fresh;
         }
@@ -151,9 +151,9 @@ TEST_F(ModbusClientFaultsTest, TrickledReplyIsNeverDeliveredAsFresh) {
     IoError why = IoError::kNone;
     if (device_->Read(&f, &why) == IoStatus::kOk) {
       const std::uint32_t seq = SeqOf(f);
-      EXPECT_LE(f.velocity.stamp_ns, peer_->ReadArrival(seq))
+      EXPECT_LE(f[Input::kVelocity].stamp_ns, peer_->ReadArrival(seq))
           << "seq " << seq << " delivered as fresh "
-          << (f.velocity.stamp_ns - peer_->ReadArrival(seq)) / 1'000'000
+          << (f[Input::kVelocity].stamp_ns - peer_->ReadArrival(seq)) / 1'000'000
           << " ms after its request reached the server";
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(1));

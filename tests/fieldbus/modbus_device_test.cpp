@@ -80,13 +80,13 @@ void ExchangeWithHilPort(hil::PlantPort& port, ModbusDevice& device) {
   SensorFrame f;
   IoError why = IoError::kNone;
   ASSERT_EQ(ReadFresh(device, &f, &why), IoStatus::kOk);
-  EXPECT_NEAR(f.velocity.value, -12.3456, 1e-4);
-  EXPECT_NEAR(f.displacement.value, 0.98765, 1e-5);
-  EXPECT_NEAR(f.demand.value, 456.78, 1e-2);
-  EXPECT_NEAR(f.body_velocity.value, 3.5, 1e-4);
-  EXPECT_NEAR(f.force.value, -321.09, 1e-2);
+  EXPECT_NEAR(f[Input::kVelocity].value, -12.3456, 1e-4);
+  EXPECT_NEAR(f[Input::kDisplacement].value, 0.98765, 1e-5);
+  EXPECT_NEAR(f[Input::kDemand].value, 456.78, 1e-2);
+  EXPECT_NEAR(f[Input::kBodyVelocity].value, 3.5, 1e-4);
+  EXPECT_NEAR(f[Input::kForce].value, -321.09, 1e-2);
   EXPECT_FALSE(f.fault_line);
-  EXPECT_GT(f.velocity.stamp_ns, 0);
+  EXPECT_GT(f[Input::kVelocity].stamp_ns, 0);
 
   EXPECT_EQ(device.Write({1.234, true, false, 7}, &why), IoStatus::kOk);
   hil::DriverInput in;
@@ -152,7 +152,7 @@ TEST(ModbusDeviceTest, ExceptionResponseIsAFaultAndCounted) {
   IoError why = IoError::kNone;
   ASSERT_TRUE(WaitFor([&] { return device.Read(&f, &why) == IoStatus::kFault; }));
   EXPECT_EQ(why, IoError::kException);
-  EXPECT_TRUE(std::isnan(f.velocity.value));  // nothing was ever accepted
+  EXPECT_TRUE(std::isnan(f[Input::kVelocity].value));  // nothing was ever accepted
   const DeviceCounters c = device.counters();
   EXPECT_GT(c.errors[static_cast<int>(IoError::kException)], 0U);
   EXPECT_GT(c.rx_rejected, 0U);
@@ -251,12 +251,12 @@ TEST(ModbusDeviceTest, FrozenSensorBlockIsNotNewDataAndKeepsItsStamp) {
   SensorFrame f;
   IoError why = IoError::kNone;
   ASSERT_EQ(ReadFresh(device, &f, &why), IoStatus::kOk);
-  const std::int64_t stamp = f.velocity.stamp_ns;
+  const std::int64_t stamp = f[Input::kVelocity].stamp_ns;
   const int before = server.requests();
   ASSERT_TRUE(WaitFor([&] { return server.requests() > before + 5; }));
   SensorFrame g;
   EXPECT_EQ(device.Read(&g, &why), IoStatus::kNoData);
-  EXPECT_EQ(g.velocity.stamp_ns, stamp);  // the latest value, with its old stamp
+  EXPECT_EQ(g[Input::kVelocity].stamp_ns, stamp);  // the latest value, with its old stamp
   EXPECT_EQ(device.counters().rx_ok, 1U);
 }
 
@@ -292,7 +292,7 @@ TEST(ModbusDeviceTest, PeerGoneIsDisconnectedAndReconnectsWhenItComesBack) {
   SensorFrame f;
   IoError why = IoError::kNone;
   ASSERT_EQ(ReadFresh(device, &f, &why), IoStatus::kOk);
-  const std::int64_t stamp = f.velocity.stamp_ns;
+  const std::int64_t stamp = f[Input::kVelocity].stamp_ns;
 
   port->Close();
   port.reset();
@@ -301,7 +301,7 @@ TEST(ModbusDeviceTest, PeerGoneIsDisconnectedAndReconnectsWhenItComesBack) {
     return device.Read(&f, &why) == IoStatus::kFault;
   }));
   EXPECT_EQ(why, IoError::kDisconnected);
-  EXPECT_EQ(f.velocity.stamp_ns, stamp);  // stale: the old stamp ages
+  EXPECT_EQ(f[Input::kVelocity].stamp_ns, stamp);  // stale: the old stamp ages
   EXPECT_TRUE(WaitFor([&] {
     return device.Write({1.0, true, false, 3}, &why) == IoStatus::kFault;
   }));
@@ -310,7 +310,7 @@ TEST(ModbusDeviceTest, PeerGoneIsDisconnectedAndReconnectsWhenItComesBack) {
   ASSERT_TRUE(again->Open(&error)) << error;
   again->Publish(Sample(1));  // a restarted peer may repeat a seq: still new data
   ASSERT_EQ(ReadFresh(device, &f, &why), IoStatus::kOk);
-  EXPECT_GT(f.velocity.stamp_ns, stamp);
+  EXPECT_GT(f[Input::kVelocity].stamp_ns, stamp);
   EXPECT_GE(device.counters().reconnects, 1U);
   EXPECT_GT(device.counters().errors[static_cast<int>(IoError::kDisconnected)], 0U);
   device.Deactivate();

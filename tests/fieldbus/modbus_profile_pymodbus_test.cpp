@@ -100,11 +100,11 @@ TEST_P(ModbusProfilePymodbusTest, ReadsUnit1AndWritesUnit2OfThePymodbusServer) {
   }
   ASSERT_EQ(s, firmware::IoStatus::kOk) << firmware::IoErrorName(why) << server->Stderr();
   // float32 values: exact to the float's precision (a wrong word order gives nonsense).
-  EXPECT_NEAR(f.velocity.value, -12.3456, 1e-5);
-  EXPECT_NEAR(f.displacement.value, 0.98765, 1e-6);
-  EXPECT_NEAR(f.demand.value, 456.78, 1e-4);
-  EXPECT_NEAR(f.body_velocity.value, 3.5, 1e-6);
-  EXPECT_NEAR(f.force.value, -321.09, 1e-4);
+  EXPECT_NEAR(f[firmware::Input::kVelocity].value, -12.3456, 1e-5);
+  EXPECT_NEAR(f[firmware::Input::kDisplacement].value, 0.98765, 1e-6);
+  EXPECT_NEAR(f[firmware::Input::kDemand].value, 456.78, 1e-4);
+  EXPECT_NEAR(f[firmware::Input::kBodyVelocity].value, 3.5, 1e-6);
+  EXPECT_NEAR(f[firmware::Input::kForce].value, -321.09, 1e-4);
   EXPECT_FALSE(f.fault_line);
 
   // Live telemetry of a period (status_model_force, _demand, _command at unit 2, 8..13).

@@ -76,11 +76,11 @@ TEST_P(PymodbusTest, DeviceReadsAndWritesThePymodbusServer) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   ASSERT_EQ(s, firmware::IoStatus::kOk) << firmware::IoErrorName(why) << server.Stderr();
-  EXPECT_NEAR(f.velocity.value, -12.3456, 1e-4);
-  EXPECT_NEAR(f.displacement.value, 0.98765, 1e-5);
-  EXPECT_NEAR(f.demand.value, 456.78, 1e-2);
-  EXPECT_NEAR(f.body_velocity.value, 3.5, 1e-4);
-  EXPECT_NEAR(f.force.value, -321.09, 1e-2);
+  EXPECT_NEAR(f[firmware::Input::kVelocity].value, -12.3456, 1e-4);
+  EXPECT_NEAR(f[firmware::Input::kDisplacement].value, 0.98765, 1e-5);
+  EXPECT_NEAR(f[firmware::Input::kDemand].value, 456.78, 1e-2);
+  EXPECT_NEAR(f[firmware::Input::kBodyVelocity].value, 3.5, 1e-4);
+  EXPECT_NEAR(f[firmware::Input::kForce].value, -321.09, 1e-2);
   EXPECT_FALSE(f.fault_line);
 
   // Commands until pymodbus has seen two heartbeats with the set-point and enable on.

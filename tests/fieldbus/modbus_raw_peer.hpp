@@ -19,6 +19,8 @@
 #include <thread>
 #include <vector>
 
+#include "mrd/common/clock.hpp"
+
 namespace mrd::test {
 
 struct RawPeerScript {
@@ -64,11 +66,7 @@ class RawTcpPeer {
     return seq >= 1 && seq <= arrivals_.size() ? arrivals_[seq - 1] : 0;
   }
 
-  static std::int64_t NowNs() {
-    timespec ts{};
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-  }
+  static std::int64_t NowNs() { return common::MonotonicNs(); }
 
  private:
   void Run() {

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "modbus_test_peers.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/io/modbus_device.hpp"
@@ -37,11 +38,7 @@ constexpr std::int64_t kPeriod = 1'000'000;
 const std::string kPython = "/usr/bin/python3";
 const std::string kDriver = std::string(MRD_SOURCE_DIR) + "/tests/fieldbus/pymodbus_driver.py";
 
-std::int64_t NowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
+using common::MonotonicNs;
 
 // The loop's driver, recording every command it hands to FieldbusIo: call i carries tick i
 // (FieldbusIo numbers its writes from 0, the heartbeat register's value), its time and
@@ -68,7 +65,7 @@ class RecordingDriver final : public CurrentDriver {
   void Record(bool safe) {
     const std::size_t i = n_.load(std::memory_order_relaxed);
     if (i < kMax) {
-      t_[i] = NowNs();
+      t_[i] = MonotonicNs();
       safe_[i] = safe ? 1 : 0;
     }
     n_.store(i + 1, std::memory_order_release);

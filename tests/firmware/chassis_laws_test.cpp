@@ -279,15 +279,15 @@ TEST(ChassisLawControllerTest, StaleOrNaNRequiredInputsEnterTheSafeState) {
   constexpr std::int64_t kMs = 1'000'000;
   struct Case {
     ControlMode mode;
-    Stamped SensorFrame::*field;
+    Input field;
   };
-  const Case cases[] = {{ControlMode::kGroundhook, &SensorFrame::wheel_velocity},
-                        {ControlMode::kGroundhookOnOff, &SensorFrame::wheel_velocity},
-                        {ControlMode::kHybrid, &SensorFrame::wheel_velocity},
-                        {ControlMode::kHybrid, &SensorFrame::body_velocity},
-                        {ControlMode::kAdd, &SensorFrame::body_acceleration},
-                        {ControlMode::kSkyhookAdd, &SensorFrame::body_acceleration},
-                        {ControlMode::kSkyhookAdd, &SensorFrame::body_velocity}};
+  const Case cases[] = {{ControlMode::kGroundhook, Input::kWheelVelocity},
+                        {ControlMode::kGroundhookOnOff, Input::kWheelVelocity},
+                        {ControlMode::kHybrid, Input::kWheelVelocity},
+                        {ControlMode::kHybrid, Input::kBodyVelocity},
+                        {ControlMode::kAdd, Input::kBodyAcceleration},
+                        {ControlMode::kSkyhookAdd, Input::kBodyAcceleration},
+                        {ControlMode::kSkyhookAdd, Input::kBodyVelocity}};
   for (const Case& k : cases) {
     SCOPED_TRACE(ControlModeName(k.mode));
     ControllerConfig config;
@@ -297,23 +297,23 @@ TEST(ChassisLawControllerTest, StaleOrNaNRequiredInputsEnterTheSafeState) {
     ASSERT_EQ(controller.Configure(test::DemoDamperTable(), config), Error::kOk);
     const auto fresh = [](std::int64_t t) {
       SensorFrame f;
-      f.velocity = {3.0, t};
-      f.body_velocity = {4.0, t};
-      f.wheel_velocity = {-2.0, t};
-      f.body_acceleration = {100.0, t};
+      f[Input::kVelocity] = {3.0, t};
+      f[Input::kBodyVelocity] = {4.0, t};
+      f[Input::kWheelVelocity] = {-2.0, t};
+      f[Input::kBodyAcceleration] = {100.0, t};
       return f;
     };
     std::int64_t t = 10 * kMs;
     EXPECT_FALSE(controller.Update(fresh(t), IoStatus::kOk, false, t, 1e-3).safe);
     t += kMs;
     SensorFrame f = fresh(t);
-    (f.*k.field).stamp_ns = t - 3 * kMs - 1;
+    f[k.field].stamp_ns = t - 3 * kMs - 1;
     ControllerOutput out = controller.Update(f, IoStatus::kOk, false, t, 1e-3);
     EXPECT_TRUE(out.safe);
     EXPECT_NE(out.causes & Watchdog::Bit(FaultCause::kStaleSensor), 0U);
     t += kMs;
     f = fresh(t);
-    (f.*k.field).value = std::numeric_limits<double>::quiet_NaN();
+    f[k.field].value = std::numeric_limits<double>::quiet_NaN();
     out = controller.Update(f, IoStatus::kOk, false, t, 1e-3);
     EXPECT_NE(out.causes & Watchdog::Bit(FaultCause::kNonFinite), 0U);
   }
@@ -323,8 +323,8 @@ TEST(ChassisLawControllerTest, StaleOrNaNRequiredInputsEnterTheSafeState) {
   Controller controller;
   ASSERT_EQ(controller.Configure(test::DemoDamperTable(), config), Error::kOk);
   SensorFrame f;
-  f.velocity = {3.0, 0};
-  f.body_velocity = {4.0, 0};
+  f[Input::kVelocity] = {3.0, 0};
+  f[Input::kBodyVelocity] = {4.0, 0};
   EXPECT_EQ(controller.Update(f, IoStatus::kOk, false, 0, 1e-3).causes, 0U);
 }
 

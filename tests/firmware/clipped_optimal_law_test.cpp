@@ -288,11 +288,11 @@ ControllerConfig ClippedConfig(const ClippedOptimalGains& g) {
 SensorFrame Frame(std::int64_t t, double force, double a1 = 0.1, double a2 = 0.2,
                   double a3 = 0.3) {
   SensorFrame f;
-  f.velocity = {2.0, t};
-  f.force = {force, t};
-  f.floor_acceleration[0] = {a1, t};
-  f.floor_acceleration[1] = {a2, t};
-  f.floor_acceleration[2] = {a3, t};
+  f[Input::kVelocity] = {2.0, t};
+  f[Input::kForce] = {force, t};
+  f[FloorAcceleration(0)] = {a1, t};
+  f[FloorAcceleration(1)] = {a2, t};
+  f[FloorAcceleration(2)] = {a3, t};
   return f;
 }
 
@@ -357,9 +357,9 @@ TEST(ClippedControllerTest, TheInverseCommandIsTheForceLawAtTheDesiredForce) {
   for (int k = 0; k < 7; ++k) {
     const double f = forces[k];
     SensorFrame fa = Frame(t, f);
-    fa.velocity.value = 5.0 * std::sin(0.7 * k);
+    fa[Input::kVelocity].value = 5.0 * std::sin(0.7 * k);
     SensorFrame fb = fa;
-    fb.demand = {demand, t};
+    fb[Input::kDemand] = {demand, t};
     const ControllerOutput oa = a.Update(fa, IoStatus::kOk, false, t, 1e-3);
     const ControllerOutput ob = b.Update(fb, IoStatus::kOk, false, t, 1e-3);
     ASSERT_FALSE(oa.safe);
@@ -385,8 +385,8 @@ TEST(ClippedControllerTest, StaleOrNaNInputsEnterTheSafeStateAndRestartTheEstima
     EXPECT_FALSE(controller.Update(Frame(t, 10.0), IoStatus::kOk, false, t, 1e-3).safe);
     EXPECT_EQ(controller.clipped_optimal().estimate()[0], Real(10));
     const auto field = [which](SensorFrame* f) -> Stamped* {
-      if (which == 3) return &f->force;
-      return &f->floor_acceleration[which];
+      if (which == 3) return &(*f)[Input::kForce];
+      return &(*f)[FloorAcceleration(which)];
     };
     for (int bad = 0; bad < 2; ++bad) {
       t += kMs;
@@ -410,7 +410,7 @@ TEST(ClippedControllerTest, StaleOrNaNInputsEnterTheSafeStateAndRestartTheEstima
   Controller controller;
   ASSERT_EQ(controller.Configure(test::DemoDamperTable(), constant), Error::kOk);
   SensorFrame f;
-  f.velocity = {3.0, 0};
+  f[Input::kVelocity] = {3.0, 0};
   EXPECT_EQ(controller.Update(f, IoStatus::kOk, false, 0, 1e-3).causes, 0U);
 }
 

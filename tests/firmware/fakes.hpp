@@ -36,11 +36,13 @@ class FaultySource final : public SensorSource {
     } else {
       frozen_ = *frame;
     }
-    if (nan_velocity.contains(n)) frame->velocity.value = std::numeric_limits<double>::quiet_NaN();
+    if (nan_velocity.contains(n)) {
+      (*frame)[firmware::Input::kVelocity].value = std::numeric_limits<double>::quiet_NaN();
+    }
     if (fault_line.contains(n)) frame->fault_line = true;
     if (spike.contains(n)) {
-      frame->velocity.value = spike_velocity;
-      frame->displacement.value = spike_displacement;
+      (*frame)[firmware::Input::kVelocity].value = spike_velocity;
+      (*frame)[firmware::Input::kDisplacement].value = spike_displacement;
     }
     if (bus_fault.contains(n)) s = IoStatus::kFault;
     return s;

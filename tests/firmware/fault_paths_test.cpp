@@ -22,11 +22,11 @@ constexpr double kDt = 1e-3;             // [s]
 SensorFrame Fresh(std::int64_t now_ns, double v = 3.0, double x = 0.5, double demand = 200.0,
                   double body = 4.0) {
   SensorFrame f;
-  f.velocity = {v, now_ns};
-  f.displacement = {x, now_ns};
-  f.demand = {demand, now_ns};
-  f.body_velocity = {body, now_ns};
-  f.force = {0.0, now_ns};
+  f[Input::kVelocity] = {v, now_ns};
+  f[Input::kDisplacement] = {x, now_ns};
+  f[Input::kDemand] = {demand, now_ns};
+  f[Input::kBodyVelocity] = {body, now_ns};
+  f[Input::kForce] = {0.0, now_ns};
   return f;
 }
 
@@ -53,13 +53,13 @@ TEST(ControllerFaultTest, SkyhookLawsEnterSafeStateWhenOnlyBodyVelocityIsStaleOr
 
     t += kMs;
     SensorFrame f = Fresh(t);
-    f.body_velocity.stamp_ns = t - 3 * kMs;  // exactly max_age: still fresh
+    f[Input::kBodyVelocity].stamp_ns = t - 3 * kMs;  // exactly max_age: still fresh
     out = Update(c, f, t);
     EXPECT_FALSE(out.safe);
 
     t += kMs;
     f = Fresh(t);
-    f.body_velocity.stamp_ns = t - 3 * kMs - 1;  // 1 ns older than max_age
+    f[Input::kBodyVelocity].stamp_ns = t - 3 * kMs - 1;  // 1 ns older than max_age
     out = Update(c, f, t);
     EXPECT_TRUE(out.safe);
     EXPECT_EQ(out.causes, kStale);
@@ -70,14 +70,14 @@ TEST(ControllerFaultTest, SkyhookLawsEnterSafeStateWhenOnlyBodyVelocityIsStaleOr
 
     t += kMs;
     f = Fresh(t);
-    f.body_velocity.value = std::numeric_limits<double>::quiet_NaN();
+    f[Input::kBodyVelocity].value = std::numeric_limits<double>::quiet_NaN();
     out = Update(c, f, t);
     EXPECT_TRUE(out.safe);
     EXPECT_EQ(out.causes, kNonFinite);
 
     t += kMs;
     f = Fresh(t);
-    f.body_velocity = Stamped{};  // never sampled
+    f[Input::kBodyVelocity] = Stamped{};  // never sampled
     out = Update(c, f, t);
     EXPECT_TRUE(out.safe);
     EXPECT_EQ(out.causes & kStale, kStale);
@@ -96,11 +96,11 @@ TEST(ControllerFaultTest, ForceTrackingIgnoresBodyVelocityButNotDemand) {
   ASSERT_EQ(c.Configure(test::DemoDamperTable(), config), Error::kOk);
   std::int64_t t = 10 * kMs;
   SensorFrame f = Fresh(t);
-  f.body_velocity = Stamped{};
+  f[Input::kBodyVelocity] = Stamped{};
   EXPECT_FALSE(Update(c, f, t).safe);
   t += kMs;
   f = Fresh(t);
-  f.demand.stamp_ns = t - 4 * kMs;
+  f[Input::kDemand].stamp_ns = t - 4 * kMs;
   EXPECT_EQ(Update(c, f, t).causes, kStale);
 }
 

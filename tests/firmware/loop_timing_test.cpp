@@ -20,10 +20,10 @@ class TimedSource final : public SensorSource {
   std::map<std::uint64_t, std::int64_t> work_ns;
   IoStatus Read(SensorFrame* frame) override {
     const std::int64_t now = clock_.Now();
-    frame->velocity = {2.0, now};
-    frame->displacement = {0.1, now};
-    frame->demand = {100.0, now};
-    frame->body_velocity = {1.0, now};
+    (*frame)[Input::kVelocity] = {2.0, now};
+    (*frame)[Input::kDisplacement] = {0.1, now};
+    (*frame)[Input::kDemand] = {100.0, now};
+    (*frame)[Input::kBodyVelocity] = {1.0, now};
     const auto it = work_ns.find(reads_++);
     if (it != work_ns.end()) clock_.Advance(it->second);
     return IoStatus::kOk;

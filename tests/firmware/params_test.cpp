@@ -192,10 +192,10 @@ TEST(ParamTableTest, RestartKeysChangedNamesThem) {
 
 SensorFrame Frame(std::int64_t now, double v, double vb) {
   SensorFrame f;
-  f.velocity = {v, now};
-  f.displacement = {0.1, now};
-  f.demand = {300.0, now};
-  f.body_velocity = {vb, now};
+  f[Input::kVelocity] = {v, now};
+  f[Input::kDisplacement] = {0.1, now};
+  f[Input::kDemand] = {300.0, now};
+  f[Input::kBodyVelocity] = {vb, now};
   return f;
 }
 

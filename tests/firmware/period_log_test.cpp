@@ -36,8 +36,8 @@ PeriodRecord Sample(std::uint64_t k) {
   r.t_ns = static_cast<std::int64_t>(k) * kPeriod;
   r.latency_ns = 1000 + static_cast<std::int64_t>(k);
   r.exec_ns = -static_cast<std::int64_t>(k);  // signed values survive
-  r.frame.velocity = {1.5 * static_cast<double>(k), r.t_ns - 250};
-  r.frame.displacement = {-0.25, r.t_ns};
+  r.frame[Input::kVelocity] = {1.5 * static_cast<double>(k), r.t_ns - 250};
+  r.frame[Input::kDisplacement] = {-0.25, r.t_ns};
   // demand never sampled: NaN, age -1
   r.frame.fault_line = k % 2 == 1;
   r.frame.bus_faults = 0x40;
@@ -108,7 +108,7 @@ TEST(RunlogCodecTest, RoundTripKeepsHeaderFieldsAndEveryValue) {
     EXPECT_EQ(Field(log, k, "period"), static_cast<double>(k));
     EXPECT_EQ(Field(log, k, "t_ns"), static_cast<double>(r.t_ns));
     EXPECT_EQ(Field(log, k, "exec_ns"), static_cast<double>(r.exec_ns));
-    EXPECT_EQ(Field(log, k, "v"), r.frame.velocity.value);
+    EXPECT_EQ(Field(log, k, "v"), r.frame[Input::kVelocity].value);
     EXPECT_EQ(Field(log, k, "v_age_ns"), 250.0);
     EXPECT_EQ(Field(log, k, "x_age_ns"), 0.0);
     EXPECT_TRUE(std::isnan(Field(log, k, "demand")));

@@ -23,9 +23,9 @@ constexpr std::uint32_t kNonFinite = Watchdog::Bit(FaultCause::kNonFinite);
 
 SensorFrame Fresh(std::int64_t now_ns, double x) {
   SensorFrame f;
-  f.velocity = {3.0, now_ns};
-  f.displacement = {x, now_ns};
-  f.demand = {200.0, now_ns};
+  f[Input::kVelocity] = {3.0, now_ns};
+  f[Input::kDisplacement] = {x, now_ns};
+  f[Input::kDemand] = {200.0, now_ns};
   return f;
 }
 
@@ -59,7 +59,7 @@ TEST(DisplacementLimitConformance, UnmeasuredDisplacementIsNoCause) {
   Controller c;
   ASSERT_EQ(c.Configure(kBuiltinTable, config), Error::kOk);
   SensorFrame f = Fresh(10 * kMs, 0.0);
-  f.displacement = Stamped{};  // no bus serves it: never sampled, not required
+  f[Input::kDisplacement] = Stamped{};  // no bus serves it: never sampled, not required
   EXPECT_EQ(c.Update(f, IoStatus::kOk, false, 10 * kMs, kDt).causes, 0U);
 }
 

@@ -50,10 +50,10 @@ LoopResult RunLoop(firmware::ClippedCommand command) {
   for (std::int64_t k = 0; k < 7236; ++k) {
     const std::int64_t now = (k + 1) * kMs;
     firmware::SensorFrame f;
-    f.velocity = {p.v, now};
-    f.displacement = {p.x, now};
-    f.force = {p.force, now};
-    for (int i = 0; i < 3; ++i) f.floor_acceleration[i] = {p.floor_acceleration[i], now};
+    f[firmware::Input::kVelocity] = {p.v, now};
+    f[firmware::Input::kDisplacement] = {p.x, now};
+    f[firmware::Input::kForce] = {p.force, now};
+    for (int i = 0; i < 3; ++i) f[firmware::FloorAcceleration(i)] = {p.floor_acceleration[i], now};
     const firmware::ControllerOutput out =
         controller.Update(f, firmware::IoStatus::kOk, false, now, 1e-3);
     if (out.safe) ++r.safe_periods;

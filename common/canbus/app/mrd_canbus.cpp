@@ -10,6 +10,7 @@
 
 #include "mrd/canbus/can_iface.hpp"
 #include "mrd/canbus/local_bus.hpp"
+#include "mrd/common/clock.hpp"
 
 namespace {
 
@@ -64,9 +65,9 @@ int main(int argc, char** argv) {
   std::signal(SIGPIPE, SIG_IGN);
   std::fprintf(stderr, "mrd-canbus: relaying on %s\n", path.c_str());
   const std::int64_t end_ns =
-      duration_s > 0.0 ? mrd::canbus::MonotonicNs() + static_cast<std::int64_t>(duration_s * 1e9)
+      duration_s > 0.0 ? mrd::common::MonotonicNs() + static_cast<std::int64_t>(duration_s * 1e9)
                        : 0;
-  while (!g_stop.load() && (end_ns == 0 || mrd::canbus::MonotonicNs() < end_ns)) relay.Step(20);
+  while (!g_stop.load() && (end_ns == 0 || mrd::common::MonotonicNs() < end_ns)) relay.Step(20);
   const mrd::canbus::RelayStats s = relay.stats();
   relay.Close();
   std::printf(

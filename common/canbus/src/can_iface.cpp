@@ -11,6 +11,8 @@
 #include <cstddef>
 #include <ctime>
 
+#include "mrd/common/clock.hpp"
+
 namespace mrd::canbus {
 namespace {
 
@@ -24,34 +26,6 @@ bool IsDisconnect(int err) {
 }
 
 }  // namespace
-
-const char* CanResultName(CanResult result) {
-  switch (result) {
-    case CanResult::kOk:
-      return "ok";
-    case CanResult::kEmpty:
-      return "empty";
-    case CanResult::kDisconnected:
-      return "disconnected";
-    case CanResult::kBusOff:
-      return "bus_off";
-    case CanResult::kBadFrame:
-      return "bad_frame";
-    case CanResult::kOverflow:
-      return "overflow";
-    case CanResult::kTimedOut:
-      return "timed_out";
-    case CanResult::kError:
-      return "error";
-  }
-  return "?";
-}
-
-std::int64_t MonotonicNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return Ns(ts);
-}
 
 std::int64_t ArrivalStamp(const timespec& realtime_stamp, std::int64_t monotonic_now_ns,
                           std::int64_t realtime_now_ns) {
@@ -75,7 +49,7 @@ ssize_t ReceiveStamped(int fd, void* buf, std::size_t size, std::int64_t* stamp_
   msg.msg_controllen = sizeof control;
   const ssize_t n = recvmsg(fd, &msg, MSG_DONTWAIT);
   if (n < 0) return n;
-  *stamp_ns = MonotonicNs();
+  *stamp_ns = common::MonotonicNs();
   *truncated = (msg.msg_flags & MSG_TRUNC) != 0;
   for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
     if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPNS &&

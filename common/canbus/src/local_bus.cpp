@@ -14,6 +14,7 @@
 #include <ctime>
 
 #include "mrd/canbus/can_iface.hpp"
+#include "mrd/common/clock.hpp"
 
 namespace mrd::canbus {
 namespace {
@@ -33,7 +34,7 @@ void SleepNs(std::int64_t ns) {
 // a dead relay), and with EAGAIN when the backlog is full: the owner is alive but does not
 // accept (stopped, or busy). That is retried for kProbeWaitNs and then counts as served.
 bool Listening(const sockaddr_un& addr) {
-  const std::int64_t until = MonotonicNs() + kProbeWaitNs;
+  const std::int64_t until = common::MonotonicNs() + kProbeWaitNs;
   while (true) {
     const int probe = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (probe < 0) return true;  // cannot tell: never replace what may be a live relay
@@ -42,7 +43,7 @@ bool Listening(const sockaddr_un& addr) {
     close(probe);
     if (rc == 0) return true;
     if (err != EAGAIN && err != EINTR) return false;
-    if (MonotonicNs() >= until) return true;
+    if (common::MonotonicNs() >= until) return true;
     SleepNs(10'000'000);
   }
 }
@@ -121,7 +122,7 @@ void LocalBusRelay::Drop(std::size_t i) {
 
 void LocalBusRelay::Broadcast(const void* frame) {
   in_.fetch_add(1, std::memory_order_relaxed);
-  Forward(nodes_.size(), frame, MonotonicNs());
+  Forward(nodes_.size(), frame, common::MonotonicNs());
 }
 
 void LocalBusRelay::Forward(std::size_t from, const void* frame, std::int64_t stamp_ns) {
@@ -167,7 +168,7 @@ void LocalBusRelay::Accept() {
     }
     // No spare descriptor, or another failure (ENOBUFS, ENOMEM): rest the listener a while
     // instead of polling it readable in a loop.
-    listen_paused_until_ns_ = MonotonicNs() + kAcceptPauseNs;
+    listen_paused_until_ns_ = common::MonotonicNs() + kAcceptPauseNs;
     return;
   }
 }
@@ -176,7 +177,7 @@ void LocalBusRelay::Step(int timeout_ms) {
   if (listen_fd_ < 0) return;
   std::vector<pollfd>& fds = fds_;
   fds.clear();
-  const bool listening = MonotonicNs() >= listen_paused_until_ns_;
+  const bool listening = common::MonotonicNs() >= listen_paused_until_ns_;
   if (listening && listen_paused_until_ns_ != 0 && spare_fd_ < 0) {
     spare_fd_ = open("/dev/null", O_RDONLY | O_CLOEXEC);
   }

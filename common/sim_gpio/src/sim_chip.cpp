@@ -131,12 +131,6 @@ bool Valid(const Layout* l, const std::string& path, std::string* error) {
 
 }  // namespace
 
-std::int64_t MonotonicNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
 bool SimChip::Open(const std::string& path, bool create, std::string* error) {
   Close();
   int fd = open(path.c_str(), O_RDWR | O_CLOEXEC);

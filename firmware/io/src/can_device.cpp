@@ -11,6 +11,7 @@
 #include <memory>
 
 #include "mrd/canbus/socket.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/telemetry.hpp"
 
@@ -125,7 +126,7 @@ bool CanDevice::Configure(std::string* error) {
 }
 
 std::int64_t CanDevice::Now() const {
-  return config_.lockstep ? granted_ns_ : canbus::MonotonicNs();
+  return config_.lockstep ? granted_ns_ : common::MonotonicNs();
 }
 
 bool CanDevice::Activate(std::string* error) {
@@ -140,7 +141,7 @@ bool CanDevice::Activate(std::string* error) {
   next_sync_ns_ = now;
   active_ = true;
   // A drive that booted during the start-up missed it: configure and start it again.
-  if (canopen_ != nullptr && drive_state_ == 0x00) ReconfigureNext(canbus::MonotonicNs());
+  if (canopen_ != nullptr && drive_state_ == 0x00) ReconfigureNext(common::MonotonicNs());
   return true;
 }
 
@@ -149,7 +150,7 @@ void CanDevice::Deactivate() {
     // Last word on the bus: 0 V, enable low, safe. Not from a device that never started
     // (a refused CANopen start-up): it never drove, and a command would read as a sign of life.
     if (active_ && (config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
-      const std::int64_t now = canbus::MonotonicNs();
+      const std::int64_t now = common::MonotonicNs();
       (void)SendCommand(DriverCommand{0.0, false, true, 0}, now);
       iface_.Flush(now);
     }
@@ -246,7 +247,7 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
 }
 
 IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
-  const std::int64_t now = canbus::MonotonicNs();
+  const std::int64_t now = common::MonotonicNs();
   if (!iface_.is_open()) TryReconnect(now);
   IoError fault = IoError::kNone;
   bool fresh = fresh_in_wait_;
@@ -297,22 +298,9 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
   rejects_since_read_ = 0;
   if (flooded) Count(IoError::kOverflow);
   if ((flooded || Now() < flood_until_ns_) && fault == IoError::kNone) fault = IoError::kOverflow;
-  const std::uint32_t in = config_.inputs;
-  const auto value = [this](Input i) { return values_[static_cast<std::size_t>(i)]; };
-  if ((in & Bit(Input::kVelocity)) != 0) frame->velocity = value(Input::kVelocity);
-  if ((in & Bit(Input::kDisplacement)) != 0) frame->displacement = value(Input::kDisplacement);
-  if ((in & Bit(Input::kDemand)) != 0) frame->demand = value(Input::kDemand);
-  if ((in & Bit(Input::kBodyVelocity)) != 0) frame->body_velocity = value(Input::kBodyVelocity);
-  if ((in & Bit(Input::kForce)) != 0) frame->force = value(Input::kForce);
-  if ((in & Bit(Input::kBodyAcceleration)) != 0) {
-    frame->body_acceleration = value(Input::kBodyAcceleration);
-  }
-  if ((in & Bit(Input::kWheelVelocity)) != 0) frame->wheel_velocity = value(Input::kWheelVelocity);
-  for (int i = 0; i < 3; ++i) {
-    const auto floor = static_cast<Input>(static_cast<int>(Input::kFloorAcceleration1) + i);
-    if ((in & Bit(floor)) != 0) frame->floor_acceleration[i] = value(floor);
-  }
-  if ((in & Bit(Input::kFaultLine)) != 0 && fault_input_) frame->fault_line = true;
+  MergeRouted(config_.inputs, frame,
+              [this](Input i) { return values_[static_cast<std::size_t>(i)]; });
+  if ((config_.inputs & Bit(Input::kFaultLine)) != 0 && fault_input_) frame->fault_line = true;
   // A fault the current driver reports (any fault bit), or a driver status that stopped coming
   // (its message's timeout), is the driver's fault line, as the Modbus sensor block's
   // driver-fault bit is: the watchdog's fault_line cause.
@@ -366,7 +354,7 @@ bool CanDevice::Send(const can_frame& f, std::int64_t now) {
 }
 
 IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
-  const std::int64_t now = canbus::MonotonicNs();
+  const std::int64_t now = common::MonotonicNs();
   if (!iface_.is_open()) {
     ++counters_.tx_failed;
     Publish();
@@ -411,7 +399,7 @@ IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
 
 void CanDevice::PublishStatus(const TelemetrySnapshot& stats) {
   if ((config_.outputs & Bit(Output::kStatus)) == 0 || !iface_.is_open()) return;
-  const std::int64_t now = canbus::MonotonicNs();
+  const std::int64_t now = common::MonotonicNs();
   const std::int64_t t = Now();
   if (t < next_status_ns_) return;
   next_status_ns_ += config_.status_period_ns;
@@ -474,7 +462,7 @@ bool CanDevice::SendCommand(const DriverCommand& cmd, std::int64_t now) {
 }
 
 bool CanDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
-  const std::int64_t until = canbus::MonotonicNs() + timeout_ns;
+  const std::int64_t until = common::MonotonicNs() + timeout_ns;
   while (true) {
     if (got_grant_) {
       got_grant_ = false;
@@ -482,7 +470,7 @@ bool CanDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
       Publish();
       return true;
     }
-    const std::int64_t now = canbus::MonotonicNs();
+    const std::int64_t now = common::MonotonicNs();
     if (!iface_.is_open()) TryReconnect(now);
     bool drained = false;
     if (iface_.is_open()) {

@@ -8,6 +8,7 @@
 #include <ctime>
 
 #include "mrd/canbus/socket.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/io/can_device.hpp"
 #include "mrd/profile/canopen_codec.hpp"
 
@@ -58,13 +59,13 @@ bool CanDevice::StartCanopen(std::string* error) {
                                    ? kLockstepSdoTimeoutNs
                                    : canopen_->sdo_timeout_ns;
   if (canopen_->nmt_start) {
-    const std::int64_t now = canbus::MonotonicNs();
+    const std::int64_t now = common::MonotonicNs();
     SendNmtStart(now);
     iface_.Flush(now);
   }
   for (std::size_t i = 0; i < sdo_frames_.size(); ++i) {
     const profile::SdoDownload& s = canopen_->sdo[i];
-    std::int64_t now = canbus::MonotonicNs();
+    std::int64_t now = common::MonotonicNs();
     const std::int64_t until = now + timeout;
     if (!Send(sdo_frames_[i], now)) {
       *error = "can: cannot send SDO " + profile::DescribeSdo(s) + " to the drive (node " +
@@ -73,7 +74,7 @@ bool CanDevice::StartCanopen(std::string* error) {
     }
     bool answered = false;
     while (!answered) {
-      now = canbus::MonotonicNs();
+      now = common::MonotonicNs();
       iface_.Flush(now);
       can_frame f{};
       std::int64_t stamp = 0;
@@ -136,7 +137,7 @@ bool CanDevice::HandleCanopen(const can_frame& f) {
       ++drive_boot_ups_;
       reconfig_sdo_ = -1;
       reconfig_failed_ = false;
-      ReconfigureNext(canbus::MonotonicNs());
+      ReconfigureNext(common::MonotonicNs());
     }
     return true;
   }
@@ -147,7 +148,7 @@ bool CanDevice::HandleCanopen(const can_frame& f) {
       const co::SdoReply reply = co::DecodeSdoReply(f.data, f.len, s.index, s.subindex, &code);
       if (reply == co::SdoReply::kAck) {
         ++sdo_downloads_;
-        ReconfigureNext(canbus::MonotonicNs());
+        ReconfigureNext(common::MonotonicNs());
       } else if (reply == co::SdoReply::kAbort) {
         reconfig_sdo_ = -1;  // refused: no NMT start; the fault holds until the next boot-up
         reconfig_failed_ = true;

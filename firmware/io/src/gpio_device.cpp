@@ -4,16 +4,11 @@
 #include <ctime>
 #include <memory>
 
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/io/devices.hpp"
 
 namespace mrd::firmware {
 namespace {
-
-std::int64_t NowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 std::unique_ptr<GpioChip> ChipFor(const GpioConfig& config) {
   return config.sim_chip.empty() ? MakeLibgpiodChip(config.chip)
@@ -213,10 +208,11 @@ IoStatus GpioDevice::Read(SensorFrame* frame, IoError* why) {
   }
   if (Routed(Input::kDisplacement)) {
     const std::int64_t before = displacement_.stamp_ns;
-    ReadEncoder(NowNs(), &fault);
+    ReadEncoder(common::MonotonicNs(), &fault);
     fresh = fresh || displacement_.stamp_ns != before;
-    frame->displacement = displacement_;
   }
+  // The encoder is the one value input a GPIO device serves (configuration checks).
+  MergeRouted(config_.inputs, frame, [this](Input) { return displacement_; });
   Publish();
   if (fault != IoError::kNone) {
     *why = fault;

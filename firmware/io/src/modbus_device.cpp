@@ -16,6 +16,7 @@
 
 #include "modbus_link.hpp"
 #include "modbus_waker.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/telemetry.hpp"
 #include "mrd/protocol/modbus_frame.hpp"
@@ -36,13 +37,8 @@ constexpr std::int64_t kLockstepIdleNs = 20'000;             // between reads wi
 constexpr std::int64_t kLockstepCommandWaitNs = 100'000'000;  // for the tick's command
 constexpr std::int64_t kLockstepHandOverNs = 100'000'000;  // the worker writing a published tick
 
-void SleepUntil(std::int64_t t_ns) {
-  timespec ts{};
-  ts.tv_sec = static_cast<time_t>(t_ns / 1'000'000'000);
-  ts.tv_nsec = static_cast<long>(t_ns % 1'000'000'000);
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-  }
-}
+// Short worker pauses; a failing sleep (never with CLOCK_MONOTONIC) just ends the pause.
+void SleepUntil(std::int64_t t_ns) { (void)common::SleepUntilNs(t_ns); }
 
 // eventfd wake-ups. Signal never blocks (a full counter is already a wake-up).
 void Signal(int fd) {
@@ -53,7 +49,7 @@ void Signal(int fd) {
 // Waits until t_ns or fd's signal (consumed); true when signalled.
 bool WaitEventUntil(int fd, std::int64_t t_ns) {
   while (true) {
-    const std::int64_t left = t_ns - ModbusNowNs();
+    const std::int64_t left = t_ns - common::MonotonicNs();
     if (left <= 0) return false;
     const timespec ts{static_cast<time_t>(left / 1'000'000'000),
                       static_cast<long>(left % 1'000'000'000)};
@@ -137,11 +133,12 @@ bool ModbusDevice::Activate(std::string* error) {
     // sample or failure, so the loop's first period does not run on a never-sampled frame.
     const std::int64_t wait = config_.response_timeout_ns * (config_.retries + 1) *
                               static_cast<std::int64_t>(1 + profile_->reads.size());
-    const std::int64_t until = ModbusNowNs() + (wait < 2'000'000'000 ? wait : 2'000'000'000);
+    const std::int64_t until =
+        common::MonotonicNs() + (wait < 2'000'000'000 ? wait : 2'000'000'000);
     Sample s;
-    while (ModbusNowNs() < until &&
+    while (common::MonotonicNs() < until &&
            !(sample_.TryRead(&s) && (s.accepted > 0 || s.read_failed || s.write_failed))) {
-      SleepUntil(ModbusNowNs() + 100'000);
+      SleepUntil(common::MonotonicNs() + 100'000);
     }
   }
   if (config_.priority > 0) {
@@ -213,7 +210,7 @@ void ModbusDevice::GoodExchange() {
 
 bool ModbusDevice::Connect(Sample* s) {
   if (link_->open()) return true;
-  if (ModbusNowNs() < connect_at_ns_) {  // backoff after a failed session or connect
+  if (common::MonotonicNs() < connect_at_ns_) {  // backoff after a failed session or connect
     WaitEventUntil(wake_, connect_at_ns_);
     return false;
   }
@@ -223,7 +220,7 @@ bool ModbusDevice::Connect(Sample* s) {
     s->write_failed = config_.outputs != 0;
     s->why = IoError::kDisconnected;
     sample_.Write(*s);
-    connect_at_ns_ = ModbusNowNs() + backoff_ns_;
+    connect_at_ns_ = common::MonotonicNs() + backoff_ns_;
     backoff_ns_ = backoff_ns_ * 2 > kBackoffMaxNs ? kBackoffMaxNs : backoff_ns_ * 2;
     return false;
   }
@@ -240,7 +237,7 @@ void ModbusDevice::EndSession() {
   link_->Close();
   // Every session that ends is followed by the backoff; it doubles while sessions fail
   // without one good exchange (a peer that accepts and resets is not hammered).
-  connect_at_ns_ = ModbusNowNs() + backoff_ns_;
+  connect_at_ns_ = common::MonotonicNs() + backoff_ns_;
   backoff_ns_ = backoff_ns_ * 2 > kBackoffMaxNs ? kBackoffMaxNs : backoff_ns_ * 2;
 }
 
@@ -363,7 +360,7 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
     // The reply's values are no older than this request: its stamp (however late the reply).
     // RTU has no transaction id: while an earlier read may still be answered late, the
     // stamp is that read's (the reply taken may be its).
-    const std::int64_t sent_ns = ModbusNowNs();
+    const std::int64_t sent_ns = common::MonotonicNs();
     const bool rtu = config_.mode == ModbusMode::kRtu;
     const std::int64_t stamp_ns = rtu && unanswered_since_ns_ != 0 ? unanswered_since_ns_ : sent_ns;
     int reply_len = 0;
@@ -405,11 +402,11 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
           have_seq_ = true;
           s.seq = b.seq;
           s.stamp_ns = stamp;
-          s.velocity = b.velocity;
-          s.displacement = b.displacement;
-          s.demand = b.demand;
-          s.body_velocity = b.body_velocity;
-          s.force = b.force;
+          s.value(Input::kVelocity) = b.velocity;
+          s.value(Input::kDisplacement) = b.displacement;
+          s.value(Input::kDemand) = b.demand;
+          s.value(Input::kBodyVelocity) = b.body_velocity;
+          s.value(Input::kForce) = b.force;
           s.fault_line = b.fault_line || b.driver_fault;
           ++s.accepted;
           rx_ok_.fetch_add(1, std::memory_order_relaxed);
@@ -430,49 +427,70 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
 }
 
 void ModbusDevice::Work() {
+  if (config_.lockstep) {
+    WorkLockstep();
+  } else {
+    WorkPolling();
+  }
+}
+
+ModbusDevice::CycleEnd ModbusDevice::Cycle(Sample* s, int* timed_out_cycles, bool* new_grant) {
+  *new_grant = false;
+  if (!Connect(s)) {
+    *timed_out_cycles = 0;
+    return CycleEnd::kNoSession;
+  }
   const bool reads = config_.inputs != 0 || config_.lockstep;
   const bool writes = config_.outputs != 0;
+  timed_out_ = false;
+  Outcome w = Outcome::kNothing, r = Outcome::kNothing;
+  if (writes) w = WriteLatest(s);
+  if (reads && w != Outcome::kAbandoned && !link_->broken()) r = ReadSensors(s, new_grant);
+  if (!s->read_failed && !s->write_failed) s->why = IoError::kNone;
+  sample_.Write(*s);
+
+  // Only link failures reconnect: a protocol-level failure (exception, refused frame, bad
+  // value, CRC) keeps a link that carries frames.
+  *timed_out_cycles = timed_out_ ? *timed_out_cycles + 1 : 0;
+  if (link_->broken() || *timed_out_cycles >= kMaxFailedCycles) {
+    EndSession();
+    *timed_out_cycles = 0;
+    return CycleEnd::kSessionEnded;
+  }
+  if (w == Outcome::kAbandoned || r == Outcome::kAbandoned) return CycleEnd::kAbandoned;
+  return CycleEnd::kDone;
+}
+
+void ModbusDevice::WorkPolling() {
   Sample s;  // the worker's copy of what it publishes
   int timed_out_cycles = 0;
-  std::int64_t next = ModbusNowNs();
+  std::int64_t next = common::MonotonicNs();
   while (running_.load(std::memory_order_relaxed)) {
-    if (!Connect(&s)) {
-      timed_out_cycles = 0;
-      next = ModbusNowNs();
-      continue;
-    }
-    timed_out_ = false;
-    Outcome w = Outcome::kNothing, r = Outcome::kNothing;
-    if (writes) w = WriteLatest(&s);
-    bool new_grant = false;
-    if (reads && w != Outcome::kAbandoned && !link_->broken()) r = ReadSensors(&s, &new_grant);
-    if (!s.read_failed && !s.write_failed) s.why = IoError::kNone;
-    sample_.Write(s);
-
-    // Only link failures reconnect: a protocol-level failure (exception, refused frame, bad
-    // value, CRC) keeps a link that carries frames.
-    timed_out_cycles = timed_out_ ? timed_out_cycles + 1 : 0;
-    if (link_->broken() || timed_out_cycles >= kMaxFailedCycles) {
-      EndSession();
-      timed_out_cycles = 0;
-      continue;
-    }
-    if (w == Outcome::kAbandoned || r == Outcome::kAbandoned) continue;  // a safe block, now
-    if (config_.lockstep) {
-      // A new grant: wake the loop, wait for its tick's command (written at the top of the
-      // next cycle). Else read again soon: the harness sets the next grant after our command.
-      if (new_grant) {
-        Signal(grant_event_);
-        (void)WaitEventUntil(wake_, ModbusNowNs() + kLockstepCommandWaitNs);
-      } else {
-        SleepUntil(ModbusNowNs() + kLockstepIdleNs);
-      }
-      continue;
-    }
+    bool new_grant = false;  // never set: no time register read outside lockstep
+    const CycleEnd end = Cycle(&s, &timed_out_cycles, &new_grant);
+    if (end == CycleEnd::kNoSession) next = common::MonotonicNs();
+    if (end != CycleEnd::kDone) continue;  // reconnect, or a safe block now
     next += config_.poll_period_ns;
-    const std::int64_t now = ModbusNowNs();
+    const std::int64_t now = common::MonotonicNs();
     if (next < now) next = now;  // behind (slow peer): no catch-up burst
     if (!SafePending()) (void)WaitEventUntil(wake_, next);
+  }
+}
+
+void ModbusDevice::WorkLockstep() {
+  Sample s;  // the worker's copy of what it publishes
+  int timed_out_cycles = 0;
+  while (running_.load(std::memory_order_relaxed)) {
+    bool new_grant = false;
+    if (Cycle(&s, &timed_out_cycles, &new_grant) != CycleEnd::kDone) continue;
+    // A new grant: wake the loop, wait for its tick's command (written at the top of the
+    // next cycle). Else read again soon: the harness sets the next grant after our command.
+    if (new_grant) {
+      Signal(grant_event_);
+      (void)WaitEventUntil(wake_, common::MonotonicNs() + kLockstepCommandWaitNs);
+    } else {
+      SleepUntil(common::MonotonicNs() + kLockstepIdleNs);
+    }
   }
 }
 
@@ -491,25 +509,13 @@ IoStatus ModbusDevice::Read(SensorFrame* frame, IoError* why) {
   if (s.accepted > 0) {
     // The loop starts every period from an empty frame: the latest values always go in,
     // with the stamps of their requests (so old data ages into the stale cause).
-    const std::uint32_t in = config_.inputs;
-    if ((in & Bit(Input::kVelocity)) != 0) frame->velocity = {s.velocity, s.stamp_ns};
-    if ((in & Bit(Input::kDisplacement)) != 0) frame->displacement = {s.displacement, s.stamp_ns};
-    if ((in & Bit(Input::kDemand)) != 0) frame->demand = {s.demand, s.stamp_ns};
-    if ((in & Bit(Input::kBodyVelocity)) != 0) frame->body_velocity = {s.body_velocity, s.stamp_ns};
-    if ((in & Bit(Input::kForce)) != 0) frame->force = {s.force, s.stamp_ns};
-    if ((in & Bit(Input::kBodyAcceleration)) != 0) {
-      frame->body_acceleration = {s.body_acceleration, s.stamp_ns};
-    }
-    if ((in & Bit(Input::kWheelVelocity)) != 0) {
-      frame->wheel_velocity = {s.wheel_velocity, s.stamp_ns};
-    }
-    for (int i = 0; i < 3; ++i) {
-      if ((in & Bit(static_cast<Input>(static_cast<int>(Input::kFloorAcceleration1) + i))) != 0) {
-        frame->floor_acceleration[i] = {s.floor_acceleration[i], s.stamp_ns};
-      }
-    }
+    MergeRouted(config_.inputs, frame, [&s](Input i) {
+      return Stamped{s.values[static_cast<std::size_t>(i)], s.stamp_ns};
+    });
     // OR, not overwrite: a CAN driver's fault bits may have set it already this period.
-    if ((in & Bit(Input::kFaultLine)) != 0) frame->fault_line = frame->fault_line || s.fault_line;
+    if ((config_.inputs & Bit(Input::kFaultLine)) != 0) {
+      frame->fault_line = frame->fault_line || s.fault_line;
+    }
   }
   if (s.read_failed) {
     *why = s.why;
@@ -524,12 +530,12 @@ IoStatus ModbusDevice::Write(const DriverCommand& cmd, IoError* why) {
   // otherwise the harness's next grant already came after that command). Bounded wait; in
   // simulated time only.
   if (config_.lockstep && published_) {
-    const std::int64_t until = ModbusNowNs() + kLockstepHandOverNs;
+    const std::int64_t until = common::MonotonicNs() + kLockstepHandOverNs;
     while (running_.load(std::memory_order_relaxed) &&
            !(handled_any_.load(std::memory_order_acquire) &&
              handled_tick_.load(std::memory_order_acquire) >= published_tick_) &&
-           ModbusNowNs() < until) {
-      SleepUntil(ModbusNowNs() + kLockstepIdleNs);
+           common::MonotonicNs() < until) {
+      SleepUntil(common::MonotonicNs() + kLockstepIdleNs);
     }
   }
   Command c;
@@ -579,7 +585,7 @@ void ModbusDevice::PublishStatus(const TelemetrySnapshot& stats) {
 }
 
 bool ModbusDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
-  const std::int64_t until = ModbusNowNs() + timeout_ns;
+  const std::int64_t until = common::MonotonicNs() + timeout_ns;
   while (true) {
     Sample s;
     bool got = false;
@@ -589,7 +595,7 @@ bool ModbusDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
       *t_ns = granted_ns_;
       return true;
     }
-    const std::int64_t now = ModbusNowNs();
+    const std::int64_t now = common::MonotonicNs();
     if (now >= until) break;
     // The worker signals every new grant; a signal consumed by an earlier call leaves the
     // sample to be seen on the next pass.

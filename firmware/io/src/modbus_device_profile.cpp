@@ -7,6 +7,7 @@
 
 #include "modbus_link.hpp"
 #include "modbus_waker.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/io/modbus_device.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "mrd/protocol/modbus_frame.hpp"
@@ -59,7 +60,7 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
       if (!running_.load(std::memory_order_relaxed)) return Outcome::kAbandoned;
       // The sample is no older than the cycle's first request (RTU: than a read that may
       // still be answered late).
-      const std::int64_t sent_ns = ModbusNowNs();
+      const std::int64_t sent_ns = common::MonotonicNs();
       if (q == 0) stamp_ns = rtu && unanswered_since_ns_ != 0 ? unanswered_since_ns_ : sent_ns;
       link_->set_unit(req.unit);
       int reply_len = 0;
@@ -125,16 +126,16 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
     have_seq_ = true;
     s.seq = seq;
     s.stamp_ns = stamp;
-    s.velocity = value(pf::CanIn::kVelocity);
-    s.displacement = value(pf::CanIn::kDisplacement);
-    s.demand = value(pf::CanIn::kDemand);
-    s.body_velocity = value(pf::CanIn::kBodyVelocity);
-    s.force = value(pf::CanIn::kForce);
-    s.body_acceleration = value(pf::CanIn::kBodyAcceleration);
-    s.wheel_velocity = value(pf::CanIn::kWheelVelocity);
-    s.floor_acceleration[0] = value(pf::CanIn::kFloorAcceleration1);
-    s.floor_acceleration[1] = value(pf::CanIn::kFloorAcceleration2);
-    s.floor_acceleration[2] = value(pf::CanIn::kFloorAcceleration3);
+    s.value(Input::kVelocity) = value(pf::CanIn::kVelocity);
+    s.value(Input::kDisplacement) = value(pf::CanIn::kDisplacement);
+    s.value(Input::kDemand) = value(pf::CanIn::kDemand);
+    s.value(Input::kBodyVelocity) = value(pf::CanIn::kBodyVelocity);
+    s.value(Input::kForce) = value(pf::CanIn::kForce);
+    s.value(Input::kBodyAcceleration) = value(pf::CanIn::kBodyAcceleration);
+    s.value(Input::kWheelVelocity) = value(pf::CanIn::kWheelVelocity);
+    s.value(Input::kFloorAcceleration1) = value(pf::CanIn::kFloorAcceleration1);
+    s.value(Input::kFloorAcceleration2) = value(pf::CanIn::kFloorAcceleration2);
+    s.value(Input::kFloorAcceleration3) = value(pf::CanIn::kFloorAcceleration3);
     s.fault_line = value(pf::CanIn::kFaultLine) != 0.0 || value(pf::CanIn::kDriverFaults) != 0.0;
     ++s.accepted;
     rx_ok_.fetch_add(1, std::memory_order_relaxed);

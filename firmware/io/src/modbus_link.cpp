@@ -11,9 +11,9 @@
 #include <cstring>
 #include <ctime>
 
-namespace mrd::firmware {
+#include "mrd/common/clock.hpp"
 
-std::int64_t ModbusNowNs() { return MonotonicClock().Now(); }
+namespace mrd::firmware {
 
 namespace {
 
@@ -113,7 +113,7 @@ ModbusLink::Result ModbusLink::Unfinished(Wait w, bool mid_frame, IoError* why) 
 ModbusLink::Wait ModbusLink::WaitFor(short events, std::int64_t deadline_ns, Phase phase,
                                      int wake_fd, Interrupt* interrupt) {
   while (true) {
-    const std::int64_t left = deadline_ns - ModbusNowNs();
+    const std::int64_t left = deadline_ns - common::MonotonicNs();
     if (left <= 0) return Wait::kTimeout;
     const timespec ts{static_cast<time_t>(left / 1'000'000'000),
                       static_cast<long>(left % 1'000'000'000)};
@@ -274,7 +274,7 @@ ModbusLink::Result ModbusLink::Transact(const std::uint8_t* pdu, int len, std::u
     wait_ns += WireNs(n) + WireNs(RtuReplyBytes(pdu));
     tcflush(fd_, TCIFLUSH);  // no transaction id: nothing older may be taken for the reply
   }
-  const std::int64_t deadline = ModbusNowNs() + wait_ns;
+  const std::int64_t deadline = common::MonotonicNs() + wait_ns;
   const Result r = Send(adu, n, deadline, why, wake_fd, interrupt);
   if (r != Result::kOk) return r;
   return config_.mode == ModbusMode::kTcp
@@ -285,8 +285,8 @@ ModbusLink::Result ModbusLink::Transact(const std::uint8_t* pdu, int len, std::u
 bool ModbusLink::Quiet(int wake_fd, Interrupt* interrupt) {
   for (int round = 0; round < kMaxQuietRounds && fd_ >= 0; ++round) {
     tcflush(fd_, TCIFLUSH);
-    switch (WaitFor(POLLIN, ModbusNowNs() + config_.response_timeout_ns, Phase::kQuiet, wake_fd,
-                    interrupt)) {
+    switch (WaitFor(POLLIN, common::MonotonicNs() + config_.response_timeout_ns, Phase::kQuiet,
+                    wake_fd, interrupt)) {
       case Wait::kTimeout:
         return true;
       case Wait::kAbandoned:

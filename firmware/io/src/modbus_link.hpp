@@ -28,9 +28,6 @@ typedef struct _modbus modbus_t;  // NOLINT: libmodbus's own name
 
 namespace mrd::firmware {
 
-// CLOCK_MONOTONIC now [ns]: the clock of the link's deadlines and of the device's stamps.
-std::int64_t ModbusNowNs();
-
 class ModbusLink {
  public:
   // What a wait was doing when the wake-up descriptor fired.

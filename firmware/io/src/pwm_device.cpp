@@ -12,6 +12,7 @@
 #include <ctime>
 #include <memory>
 
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/io/devices.hpp"
 
 namespace mrd::firmware {
@@ -53,12 +54,6 @@ bool ReadAttr(const std::string& path, std::int64_t* value, std::string* error) 
   return true;
 }
 
-std::int64_t NowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
 }  // namespace
 
 PwmDevice::PwmDevice(const PwmConfig& config) : config_(config), map_(config.profile.command) {
@@ -85,9 +80,9 @@ bool PwmDevice::Configure(std::string* error) {
       return false;
     }
     // The kernel creates pwmN at once; udev may take a moment to make its files writable.
-    const std::int64_t until = NowNs() + kExportWaitNs;
+    const std::int64_t until = common::MonotonicNs() + kExportWaitNs;
     while (access((dir_ + "/enable").c_str(), W_OK) != 0) {
-      if (NowNs() > until) {
+      if (common::MonotonicNs() > until) {
         *error = "pwm: " + dir_ + " did not appear (or stayed unwritable) within 1 s of export";
         return false;
       }

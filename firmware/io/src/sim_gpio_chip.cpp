@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/io/gpio_chip.hpp"
 #include "mrd/sim_gpio/sim_chip.hpp"
 
@@ -25,7 +26,7 @@ class SimGpioChip final : public GpioChip {
   }
   bool RequestOutput(int offset, bool initial, std::string* error) override {
     if (!Keep(offset, error)) return false;
-    chip_.SetValue(static_cast<std::size_t>(offset), initial, sim_gpio::MonotonicNs());
+    chip_.SetValue(static_cast<std::size_t>(offset), initial, common::MonotonicNs());
     return true;
   }
   bool RequestInput(int offset, std::string* error) override { return Keep(offset, error); }
@@ -37,7 +38,7 @@ class SimGpioChip final : public GpioChip {
 
   bool SetValue(int offset, bool value) override {
     return Find(offset) != nullptr && chip_.Check() &&
-           chip_.SetValue(static_cast<std::size_t>(offset), value, sim_gpio::MonotonicNs());
+           chip_.SetValue(static_cast<std::size_t>(offset), value, common::MonotonicNs());
   }
   int GetValue(int offset) override {
     if (Find(offset) == nullptr || !chip_.Check()) return -1;

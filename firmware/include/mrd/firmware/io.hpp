@@ -4,8 +4,12 @@
 // tests). Every call is real-time safe in every implementation: no allocation, no
 // exceptions, no blocking beyond a bounded bus transaction; failures come back as IoStatus.
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
+
+#include "mrd/firmware/io_config.hpp"  // Input, kNumInputs, Bit(Input)
 
 namespace mrd::firmware {
 
@@ -21,22 +25,48 @@ struct Stamped {
   std::int64_t stamp_ns = std::numeric_limits<std::int64_t>::min();  // never sampled
 };
 
-// What the sensors delivered, latest values. A signal the installation does not have keeps
-// stamp_ns == min (the watchdog only checks the signals the configuration needs).
+// What the sensors delivered, latest values, indexed by Input: frame[Input::kVelocity].
+//   kVelocity          relative damper velocity [cm/s]
+//   kDisplacement      relative damper displacement [cm]
+//   kDemand            force demand [N]
+//   kBodyVelocity      absolute body velocity [cm/s] (skyhook)
+//   kForce             measured damper force [N] (test rigs only; telemetry)
+//   kBodyAcceleration  absolute body acceleration [cm/s^2] (ADD, SH-ADD)
+//   kWheelVelocity     absolute wheel (unsprung) velocity [cm/s] (groundhook, hybrid)
+//   kFloorAcceleration1..3  absolute floor accelerations [m/s^2] (clipped-optimal)
+// Validity is the stamp: an input no source set keeps stamp_ns == min (valid() false; the
+// watchdog only checks the inputs the configuration needs). kFaultLine's slot stays unused:
+// the fault line is the flag fault_line, which every source ORs in.
 struct SensorFrame {
-  Stamped velocity;       // relative damper velocity [cm/s]
-  Stamped displacement;   // relative damper displacement [cm]
-  Stamped demand;         // force demand [N]
-  Stamped body_velocity;  // absolute body velocity [cm/s] (skyhook)
-  Stamped force;          // measured damper force [N] (test rigs only; telemetry)
-  Stamped body_acceleration;  // absolute body acceleration [cm/s^2] (ADD, SH-ADD)
-  Stamped wheel_velocity;     // absolute wheel (unsprung) velocity [cm/s] (groundhook, hybrid)
-  Stamped floor_acceleration[3];  // absolute floor accelerations [m/s^2] (clipped-optimal)
+  std::array<Stamped, kNumInputs> inputs{};
   bool fault_line = false;  // external fault input asserted
   // Watchdog::Bit(FaultCause::kCanBus / kModbusBus / kGpioBus) of each bus whose device
   // faulted this period (0 from sources that name no bus).
   std::uint32_t bus_faults = 0;
+
+  Stamped& operator[](Input i) { return inputs[static_cast<std::size_t>(i)]; }
+  const Stamped& operator[](Input i) const { return inputs[static_cast<std::size_t>(i)]; }
+  bool valid(Input i) const {
+    return (*this)[i].stamp_ns != std::numeric_limits<std::int64_t>::min();
+  }
 };
+
+// Input::kFloorAcceleration1 + i, i in 0..2.
+constexpr Input FloorAcceleration(int i) {
+  return static_cast<Input>(static_cast<int>(Input::kFloorAcceleration1) + i);
+}
+
+// The merge every field device does in Read: each input routed to it (its Bit(Input) set in
+// routed), kFaultLine excepted, takes value_of(input) (a Stamped); the other inputs are left
+// alone (another device serves them). Real-time safe.
+template <typename ValueOf>
+void MergeRouted(std::uint32_t routed, SensorFrame* frame, ValueOf&& value_of) {
+  for (std::size_t i = 0; i < kNumInputs; ++i) {
+    const auto input = static_cast<Input>(i);
+    if (input == Input::kFaultLine || (routed & Bit(input)) == 0) continue;
+    (*frame)[input] = value_of(input);
+  }
+}
 
 struct TelemetrySnapshot;
 

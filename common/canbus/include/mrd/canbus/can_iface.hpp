@@ -38,7 +38,6 @@ enum class CanResult : std::uint8_t {
   kTimedOut,      // queued frame(s) dropped at their deadline
   kError,         // other errno
 };
-const char* CanResultName(CanResult result);
 
 struct CanStats {
   std::uint64_t rx_frames = 0;
@@ -51,8 +50,6 @@ struct CanStats {
   std::uint64_t bus_off = 0;
   std::uint64_t disconnects = 0;
 };
-
-std::int64_t MonotonicNs();
 
 // What the local bus relay hands a node (local_bus.hpp): the frame and the CLOCK_MONOTONIC
 // time [ns] it entered the bus. Nodes send bare `struct can_frame`s (16 bytes).

@@ -104,7 +104,4 @@ class SimChip {
   std::string path_;
 };
 
-// CLOCK_MONOTONIC now [ns].
-std::int64_t MonotonicNs();
-
 }  // namespace mrd::sim_gpio

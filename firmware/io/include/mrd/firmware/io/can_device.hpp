@@ -97,7 +97,6 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   bool WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) override;
   TimeGrantSource* grant_source() override { return config_.lockstep ? this : nullptr; }
 
-  const canbus::CanStats& bus_stats() const { return iface_.stats(); }
   std::uint32_t driver_faults() const { return driver_faults_; }
   double driver_current() const { return driver_current_; }  // [driver unit], latest status
   const profile::CanProfile& can_profile() const { return *profile_; }

@@ -74,7 +74,6 @@ class GpioDevice final : public BusDevice {
 
   // Loop-thread views (tests and diagnostics).
   bool enable_level() const { return enable_; }
-  bool heartbeat_level() const { return heartbeat_; }
   bool fault_asserted() const { return fault_asserted_; }
   std::int64_t encoder_count() const { return decoder_.count(); }
   std::int64_t last_edge_ns() const { return last_edge_ns_; }

@@ -23,6 +23,7 @@
 
 #include <pthread.h>
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -71,10 +72,10 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
     std::int64_t stamp_ns = 0;   // CLOCK_MONOTONIC when its request was sent (lockstep: grant)
     std::uint32_t seq = 0;
     std::int64_t grant_ns = 0;  // lockstep: the latest granted time (0: none yet)
-    double velocity = 0.0, displacement = 0.0, demand = 0.0, body_velocity = 0.0, force = 0.0;
-    double body_acceleration = 0.0, wheel_velocity = 0.0;  // profile only [cm/s^2, cm/s]
-    double floor_acceleration[3] = {};                     // profile only [m/s^2]
+    // Per Input (SensorFrame's units); body and wheel, floor accelerations: profile only.
+    std::array<double, kNumInputs> values{};
     bool fault_line = false;
+    double& value(Input i) { return values[static_cast<std::size_t>(i)]; }
     bool read_failed = false;   // the latest sensor read (after retries) failed
     bool write_failed = false;  // the latest command write (after retries) failed
     IoError why = IoError::kNone;
@@ -91,8 +92,20 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   enum class Outcome : std::uint8_t { kOk, kFailed, kAbandoned, kNothing };
   class Waker;  // the link's Interrupt (modbus_device.cpp)
 
+  // How one worker cycle ended: kDone (transactions made, wait for the next one), kNoSession
+  // (no connection yet: backoff), kSessionEnded (link broken or timing out: reconnect),
+  // kAbandoned (a safe block is pending: start the next cycle at once).
+  enum class CycleEnd : std::uint8_t { kDone, kNoSession, kSessionEnded, kAbandoned };
+
   static void* WorkerMain(void* self);
-  void Work();
+  void Work();  // WorkPolling, or WorkLockstep with config_.lockstep
+  // Polling: one cycle every poll_period (no catch-up burst when behind); a safe block at once.
+  void WorkPolling();
+  // Lockstep: cycles as grants come; after a new grant, waits for the loop's command of it.
+  void WorkLockstep();
+  // One cycle: connect (or wait for the backoff), write the latest command, read the sensors
+  // (*new_grant: a new time grant was read), publish the sample; counts cycles that timed out.
+  CycleEnd Cycle(Sample* s, int* timed_out_cycles, bool* new_grant);
   // Waits for the next connection attempt; true when connected.
   bool Connect(Sample* s);
   void EndSession();
