@@ -20,6 +20,7 @@
 #include "mrd/hil/scenario.hpp"
 #include "passive_report.hpp"
 #include "report.hpp"
+#include "write_atomically.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -45,25 +46,6 @@ std::vector<std::string> Split(const std::string& s) {
   while (std::getline(ss, item, ',')) out.push_back(item);
   if (!s.empty() && s.back() == ',') out.push_back("");
   return out;
-}
-
-// Temporary in the same directory, fsync, rename over path; false with *error.
-bool WriteAtomically(const std::string& path, const std::string& text, std::string* error) {
-  std::string temp = path + ".XXXXXX";
-  const int fd = mkstemp(temp.data());
-  if (fd < 0) return *error = path + ": cannot create a temporary file", false;
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = write(fd, text.data() + done, text.size() - done);
-    if (n <= 0) break;
-    done += static_cast<std::size_t>(n);
-  }
-  const bool ok = done == text.size() && fchmod(fd, 0644) == 0 && fsync(fd) == 0;
-  if (close(fd) != 0 || !ok || std::rename(temp.c_str(), path.c_str()) != 0) {
-    unlink(temp.c_str());
-    return *error = path + ": cannot write", false;
-  }
-  return true;
 }
 
 std::string Num(double v, int digits = 4) {
@@ -248,10 +230,7 @@ bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
   const std::string script = dir + "/study.gp";
   if (!WriteAtomically(script, gp.str(), error)) return false;
   const int rc = Gnuplot(script, dir + "/gnuplot.log");
-  if (rc != 0) {
-    *warning = rc < 0 ? "gnuplot not found (install gnuplot-nox): plots skipped"
-                      : "gnuplot failed (see " + dir + "/gnuplot.log): plots incomplete";
-  }
+  if (rc != 0) *warning = GnuplotWarning(rc, dir);
   return true;
 }
 
