@@ -3,7 +3,8 @@
 # the paper run's model file, the NEES model file and the summary of every HIL scenario
 # (lockstep, compiled-in table; the smoke scenario also over Modbus TCP and RTU), each as a
 # SHA-256 with the exit code. Wall-clock fields (timing, elapsed seconds, worst latency, memory
-# lock, scheduling) and the scratch directory's name are dropped before hashing.
+# lock, scheduling, the per-period log's counters: its writer flushes on a wall-clock timer) and
+# the scratch directory's name are dropped before hashing.
 #
 #   toolchain/behaviour_hashes.sh [BIN_DIR] > hashes.txt      (BIN_DIR default build/bin)
 #   diff before.txt after.txt
@@ -18,7 +19,7 @@ hash_json() {
   python3 -c '
 import hashlib, json, sys
 WALL = {"timing", "elapsed_s", "worst_exec_us", "worst_latency_us", "memory_locked",
-        "sched_fifo"}
+        "sched_fifo", "log"}
 def strip(o):
     if isinstance(o, dict):
         return {k: strip(v) for k, v in o.items() if k not in WALL}

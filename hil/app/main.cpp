@@ -164,9 +164,31 @@ std::string ScenarioList() {
   return out;
 }
 
-int RunCommand(const std::string& scenario_path, const std::vector<std::string>& sets,
-               mrd::hil::RunOptions o, const std::string& out, bool json, double passive_step) {
-  mrd::hil::Scenario s;
+// Run, sweep: a Modbus device profile plays over Modbus TCP unless --transport says otherwise.
+void DefaultTransport(const CLI::Option* transport_opt, mrd::hil::RunOptions* o) {
+  if (transport_opt->count() == 0 && !o->profile.empty() &&
+      mrd::profile::IsModbusProfileFile(o->profile)) {
+    o->transport = "modbus-tcp";
+  }
+}
+
+// Run, sweep: SIGTERM, SIGINT, SIGHUP set g_interrupt (the run stops, its firmware child gets
+// the signal).
+void CatchRunSignals(mrd::hil::RunOptions* o) {
+  struct sigaction sa {};
+  sa.sa_handler = OnRunSignal;
+  sigemptyset(&sa.sa_mask);
+  for (const int sig : {SIGTERM, SIGINT, SIGHUP}) sigaction(sig, &sa, nullptr);
+  o->interrupt = &g_interrupt;
+}
+
+// run: the scenario (with --set and --passive-step), the firmware and table checked, the work
+// directory (--out, else a temporary one: *temp) set. 0, or the exit code after the message.
+int PrepareRun(const std::string& scenario_path, const std::vector<std::string>& sets,
+               const std::string& out, double passive_step, mrd::hil::Scenario* scenario,
+               mrd::hil::RunOptions* ro, std::string* temp) {
+  mrd::hil::Scenario& s = *scenario;
+  mrd::hil::RunOptions& o = *ro;
   std::string error;
   if (!mrd::hil::LoadScenario(scenario_path, sets, &s, &error)) {
     std::fprintf(stderr, "error: %s\n", error.c_str());
@@ -193,7 +215,6 @@ int RunCommand(const std::string& scenario_path, const std::vector<std::string>&
     std::fprintf(stderr, "error: %s: cannot read the table\n", o.table.c_str());
     return kExitBadInput;
   }
-  std::string temp;
   if (!out.empty()) {
     o.work_dir = out;
     o.firmware_log = "firmware.mrdlog";  // beside trace.csv (mrd log info/export/plot)
@@ -203,46 +224,39 @@ int RunCommand(const std::string& scenario_path, const std::vector<std::string>&
       std::fprintf(stderr, "error: cannot create a temporary directory\n");
       return kExitFailure;
     }
-    temp = o.work_dir = dir;
+    *temp = o.work_dir = dir;
   }
   o.keep_trace = true;
   if (o.attach && o.startup_timeout_s <= 0.0) o.startup_timeout_s = 120.0;  // start it by hand
   if (o.startup_timeout_s <= 0.0) o.startup_timeout_s = 10.0;
-  mrd::hil::RunResult r;
-  // SIGTERM, SIGINT, SIGHUP: the run stops, the firmware child gets the same signal and is
-  // reaped, the temporary directory goes; exit 128 + the signal, as a shell reports it.
-  struct sigaction sa {};
-  sa.sa_handler = OnRunSignal;
-  sigemptyset(&sa.sa_mask);
-  for (const int sig : {SIGTERM, SIGINT, SIGHUP}) sigaction(sig, &sa, nullptr);
-  o.interrupt = &g_interrupt;
-  const int rc = mrd::hil::RunScenario(s, o, &r, &error);
-  if (rc != 0) {
-    std::fprintf(stderr, "error: %s\n", error.c_str());
-    if (!r.firmware_stderr.empty()) std::fprintf(stderr, "firmware: %s", r.firmware_stderr.c_str());
-    std::error_code ec;
-    if (!temp.empty()) std::filesystem::remove_all(temp, ec);
-    if (r.interrupted != 0) return 128 + r.interrupted;
-    return rc == 2 ? kExitBadInput : kExitFailure;
+  return kExitOk;
+}
+
+// run, a quarter car with a passive grid: the best passive baseline (in process) into
+// r->passive. 0, or 128 + the signal that interrupted it (the message printed).
+int AddPassiveBaseline(const mrd::hil::Scenario& s, mrd::hil::RunResult* r) {
+  mrd::hil::PassiveBaseline b;
+  if (mrd::hil::ComputePassiveBaseline(s, *r, s.passive_step_v, &b,
+                                       [](std::size_t i, std::size_t n) {
+                                         if (i % 10 == 0 || i == n) {
+                                           std::fprintf(stderr, "passive grid: %zu/%zu\n", i, n);
+                                         }
+                                         return g_interrupt.load() == 0;
+                                       })) {
+    r->passive = std::move(b);
   }
-  if (r.ride && s.passive_step_v > 0.0) {  // the best passive baseline (in process)
-    mrd::hil::PassiveBaseline b;
-    if (mrd::hil::ComputePassiveBaseline(s, r, s.passive_step_v, &b,
-                                         [](std::size_t i, std::size_t n) {
-                                           if (i % 10 == 0 || i == n) {
-                                             std::fprintf(stderr, "passive grid: %zu/%zu\n", i, n);
-                                           }
-                                           return g_interrupt.load() == 0;
-                                         })) {
-      r.passive = std::move(b);
-    }
-    if (const int sig = g_interrupt.load(); sig != 0) {
-      std::fprintf(stderr, "error: interrupted by signal %d during the passive grid\n", sig);
-      std::error_code ec;
-      if (!temp.empty()) std::filesystem::remove_all(temp, ec);
-      return 128 + sig;
-    }
+  if (const int sig = g_interrupt.load(); sig != 0) {
+    std::fprintf(stderr, "error: interrupted by signal %d during the passive grid\n", sig);
+    return 128 + sig;
   }
+  return 0;
+}
+
+// run: the summary (JSON or text) on stdout, the files in --out (else the temporary
+// directory removed); the exit code.
+int ReportRun(const mrd::hil::Scenario& s, const mrd::hil::RunResult& r, const std::string& out,
+              const std::string& temp, bool json) {
+  std::string error;
   const nlohmann::json j = mrd::hil::SummaryJson(s, r);
   if (!out.empty()) {
     std::string warning;
@@ -263,6 +277,37 @@ int RunCommand(const std::string& scenario_path, const std::vector<std::string>&
   }
   if (!std::cout) return kExitFailure;
   return r.pass ? kExitOk : kExitFailure;
+}
+
+int RunCommand(const std::string& scenario_path, const std::vector<std::string>& sets,
+               mrd::hil::RunOptions o, const std::string& out, bool json, double passive_step) {
+  mrd::hil::Scenario s;
+  std::string temp;
+  if (const int rc = PrepareRun(scenario_path, sets, out, passive_step, &s, &o, &temp); rc != 0) {
+    return rc;
+  }
+  mrd::hil::RunResult r;
+  // SIGTERM, SIGINT, SIGHUP: the run stops, the firmware child gets the same signal and is
+  // reaped, the temporary directory goes; exit 128 + the signal, as a shell reports it.
+  CatchRunSignals(&o);
+  std::string error;
+  const int rc = mrd::hil::RunScenario(s, o, &r, &error);
+  if (rc != 0) {
+    std::fprintf(stderr, "error: %s\n", error.c_str());
+    if (!r.firmware_stderr.empty()) std::fprintf(stderr, "firmware: %s", r.firmware_stderr.c_str());
+    std::error_code ec;
+    if (!temp.empty()) std::filesystem::remove_all(temp, ec);
+    if (r.interrupted != 0) return 128 + r.interrupted;
+    return rc == 2 ? kExitBadInput : kExitFailure;
+  }
+  if (r.ride && s.passive_step_v > 0.0) {  // the best passive baseline (in process)
+    if (const int code = AddPassiveBaseline(s, &r); code != 0) {
+      std::error_code ec;
+      if (!temp.empty()) std::filesystem::remove_all(temp, ec);
+      return code;
+    }
+  }
+  return ReportRun(s, r, out, temp, json);
 }
 
 // Lockstep speed over the local CAN bus and real-time wake-up jitter: the closed loop on the
@@ -326,18 +371,23 @@ int BenchCommand(double seconds, mrd::hil::RunOptions o, bool json) {
   return kExitOk;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"mrd-hil: the reference MR damper served over the real protocols (HIL)."};
-  app.require_subcommand(1);
-  auto* serve = app.add_subcommand(
-      "serve", "Play the plant (sensors + current driver) over the given transports in real "
-               "time (1 kHz) for a firmware started separately; print a summary.");
+// `serve`: its options, then the plant over the given ports until the duration or a signal.
+struct ServeArgs {
+  CLI::App* cmd = nullptr;
   std::vector<std::string> port_specs;
   mrd::hil::ServeOptions o;
   bool json = false;
-  serve->add_option("--port", port_specs,
+  std::string fault_window;
+  std::string profile;
+  int rt_priority = 0;
+};
+
+void AddServe(CLI::App& app, ServeArgs* a) {
+  auto* serve = a->cmd = app.add_subcommand(
+      "serve", "Play the plant (sensors + current driver) over the given transports in real "
+               "time (1 kHz) for a firmware started separately; print a summary.");
+  mrd::hil::ServeOptions& o = a->o;
+  serve->add_option("--port", a->port_specs,
                     "TRANSPORT=ENDPOINT, repeatable: can=SOCKET_PATH|IFACE, "
                     "modbus-tcp=HOST:PORT, modbus-rtu=PTY_LINK_PATH, "
                     "gpio=SIM_CHIP_PATH[,KEY=VALUE...] (keys encoder_a=4 encoder_b=5 fault=6 "
@@ -356,41 +406,133 @@ int main(int argc, char** argv) {
   serve->add_option("--heartbeat-timeout", o.heartbeat_timeout_s,
                     "driver drops the coil to 0 V without a heartbeat this long [s]")
       ->check(CLI::Range(1e-3, 10.0))->capture_default_str();
-  std::string fault_window;
-  serve->add_option("--fault-line", fault_window,
+  serve->add_option("--fault-line", a->fault_window,
                     "START:END: assert the fault line (GPIO line, Modbus sensor block, CAN "
                     "DriverStatus overcurrent bit) from START to END seconds");
-  std::string serve_profile;
-  serve->add_option("--profile", serve_profile,
+  serve->add_option("--profile", a->profile,
                     "device profile (docs/devices.md): a CAN profile for the can= ports (the "
                     "harness plays the driver and sensors in its messages) or a Modbus profile "
                     "for the modbus-tcp=/modbus-rtu= ports (the harness serves its map); "
                     "default: the built-in protocols");
-  serve->add_flag("--json", json, "print the summary as JSON");
-  int rt_priority = 0;
-  serve->add_option("--rt-priority", rt_priority,
+  serve->add_flag("--json", a->json, "print the summary as JSON");
+  serve->add_option("--rt-priority", a->rt_priority,
                     "SCHED_FIFO priority (1-99) of the plant and its bus servers, so they "
                     "answer in time on a loaded host as a drive's own processor does; 0: normal "
                     "priority. Refused (no privilege): a warning, normal priority")
       ->check(CLI::Range(0, 99))->capture_default_str();
+}
 
-  auto* run = app.add_subcommand(
-      "run", "Run a scenario against mrd-firmware (started as a child process, or --attach): "
-             "plant, simulated driver, faults, scores. Exit 0 pass, 1 fail, 2 bad input.");
+// serve --profile: a Modbus or CAN device profile (neither: the built-in protocols). false:
+// the message printed.
+bool LoadServeProfile(const std::string& path,
+                      std::shared_ptr<const mrd::profile::CanProfile>* can_profile,
+                      std::shared_ptr<const mrd::profile::ModbusProfile>* modbus_profile) {
+  if (!path.empty() && mrd::profile::IsModbusProfileFile(path)) {
+    auto p = std::make_shared<mrd::profile::ModbusProfile>();
+    std::string error;
+    if (!mrd::profile::LoadModbusProfile(path, p.get(), &error)) {
+      std::fprintf(stderr, "error: --profile: %s\n", error.c_str());
+      return false;
+    }
+    *modbus_profile = std::move(p);
+  } else if (!path.empty()) {
+    auto p = std::make_shared<mrd::profile::CanProfile>();
+    std::string error;
+    if (!mrd::profile::LoadCanProfile(path, p.get(), &error)) {
+      std::fprintf(stderr, "error: --profile: %s\n", error.c_str());
+      return false;
+    }
+    *can_profile = std::move(p);
+  }
+  return true;
+}
+
+// serve --rt-priority: SCHED_FIFO for this thread (the ports' server threads inherit it);
+// true when granted.
+bool SetRtPriority(int rt_priority) {
+  bool sched_fifo = false;
+  if (rt_priority > 0) {
+    sched_param sp{};
+    sp.sched_priority = rt_priority;
+    const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+    sched_fifo = err == 0;
+    if (!sched_fifo)
+      std::fprintf(stderr, "warning: --rt-priority %d refused (%s); serving at normal priority\n",
+                   rt_priority, std::strerror(err));
+  }
+  return sched_fifo;
+}
+
+int ServeCommand(ServeArgs& a) {
+  mrd::hil::ServeOptions& o = a.o;
+  if (!a.fault_window.empty()) {
+    std::string error;
+    if (!ParseFaultWindow(a.fault_window, &o, &error)) {
+      std::fprintf(stderr, "error: %s\n", error.c_str());
+      return kExitBadInput;
+    }
+  }
+  // Before the ports open: a peer may signal as soon as it sees an endpoint (a socket file).
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  std::signal(SIGPIPE, SIG_IGN);
+  std::shared_ptr<const mrd::profile::CanProfile> can_profile;
+  std::shared_ptr<const mrd::profile::ModbusProfile> modbus_profile;
+  if (!LoadServeProfile(a.profile, &can_profile, &modbus_profile)) return kExitBadInput;
+  // Before the ports open: their server threads inherit the policy.
+  const bool sched_fifo = SetRtPriority(a.rt_priority);
+  std::vector<std::unique_ptr<mrd::hil::PlantPort>> ports;
+  std::vector<mrd::hil::PlantPort*> raw;
+  for (const auto& spec : a.port_specs) {
+    std::string error;
+    auto p = MakePort(spec, can_profile, modbus_profile, &error);
+    if (p == nullptr) {
+      std::fprintf(stderr, "error: %s\n", error.c_str());
+      return kExitBadInput;
+    }
+    if (!p->Open(&error)) {
+      std::fprintf(stderr, "error: %s\n", error.c_str());
+      return kExitFailure;
+    }
+    raw.push_back(p.get());
+    ports.push_back(std::move(p));
+  }
+  std::fprintf(stderr, "mrd-hil: serving on %zu port(s)\n", ports.size());
+  const mrd::hil::ServeResult r = mrd::hil::Serve(o, raw, g_stop);
+  for (auto& p : ports) p->Close();
+  nlohmann::json j = ToJson(r);
+  j["sched_fifo"] = sched_fifo;
+  std::cout << j.dump(a.json ? 2 : -1) << std::endl;
+  if (!std::cout) return kExitFailure;
+  return kExitOk;
+}
+
+// `run`: its options (RunCommand runs it).
+struct RunArgs {
+  CLI::App* cmd = nullptr;
   std::string scenario_path, out_dir;
   mrd::hil::RunOptions ro;
-  bool run_json = false;
-  run->add_option("scenario", scenario_path, "scenario TOML (hil/scenarios/)")->required();
-  std::vector<std::string> run_sets;
-  run->add_option("--set", run_sets,
+  bool json = false;
+  std::vector<std::string> sets;
+  CLI::Option* transport_opt = nullptr;
+  double passive_step = -1.0;
+};
+
+void AddRun(CLI::App& app, RunArgs* a) {
+  auto* run = a->cmd = app.add_subcommand(
+      "run", "Run a scenario against mrd-firmware (started as a child process, or --attach): "
+             "plant, simulated driver, faults, scores. Exit 0 pass, 1 fail, 2 bad input.");
+  mrd::hil::RunOptions& ro = a->ro;
+  run->add_option("scenario", a->scenario_path, "scenario TOML (hil/scenarios/)")->required();
+  run->add_option("--set", a->sets,
                   "KEY=VALUE, repeatable: override a scenario key (dotted path, e.g. "
                   "control.skyhook_gain=40, duration_s=5, control.law=passive-on) before the "
                   "scenario is read; VALUE typed as TOML, a bare word is a string")
       ->allow_extra_args(false);
-  auto* transport_opt = run->add_option("--transport", ro.transport,
-                                        "can | modbus-tcp | modbus-rtu (default: can; "
-                                        "modbus-tcp with a Modbus --profile)")
-                            ->capture_default_str();
+  a->transport_opt = run->add_option("--transport", ro.transport,
+                                     "can | modbus-tcp | modbus-rtu (default: can; "
+                                     "modbus-tcp with a Modbus --profile)")
+                         ->capture_default_str();
   ro.clock = "lockstep";
   run->add_option("--clock", ro.clock,
                   "lockstep (time grants on the bus: deterministic, as fast as both sides "
@@ -416,7 +558,7 @@ int main(int argc, char** argv) {
   run->add_flag("--attach", ro.attach,
                 "do not start the firmware: print the generated config and wait for one "
                 "started by hand")->excludes(fw_opt);
-  run->add_option("--out", out_dir,
+  run->add_option("--out", a->out_dir,
                   "write summary.json, trace.csv, firmware.toml, the firmware's per-period log "
                   "firmware.mrdlog (mrd log) and plots (gnuplot) here");
   ro.startup_timeout_s = 0.0;  // default: 10 s, 120 s with --attach
@@ -435,170 +577,133 @@ int main(int argc, char** argv) {
                   "[gpio] scenarios: configfs directory of a live gpio-sim device (plant through "
                   "its sysfs pull/value, firmware through libgpiod) instead of a simulated chip "
                   "file");
-  run->add_flag("--json", run_json, "print the summary as JSON");
-  double passive_step = -1.0;
-  run->add_option("--passive-step", passive_step,
+  run->add_flag("--json", a->json, "print the summary as JSON");
+  run->add_option("--passive-step", a->passive_step,
                   "quarter car: step of the best-passive grid over 0 .. E_max [V] (default: the "
                   "scenario's quarter_car.passive_step_v, 0.05); 0: no grid")
       ->check(CLI::Range(0.0, 1e3));
-  auto* bench = app.add_subcommand(
+}
+
+// `bench`: its options (BenchCommand runs it).
+struct BenchArgs {
+  CLI::App* cmd = nullptr;
+  double seconds = 10.0;
+  mrd::hil::RunOptions o;
+  bool json = false;
+};
+
+void AddBench(CLI::App& app, BenchArgs* a) {
+  auto* bench = a->cmd = app.add_subcommand(
       "bench", "Benchmark: lockstep speed over the local CAN bus (x real time) and the real-time "
                "mode's wake-up jitter (median, p99, max), closed loop with mrd-firmware.");
-  double bench_s = 10.0;
-  mrd::hil::RunOptions bo;
-  bool bench_json = false;
-  bench->add_option("--seconds", bench_s, "plant seconds per mode")
+  bench->add_option("--seconds", a->seconds, "plant seconds per mode")
       ->check(CLI::Range(0.1, 3600.0))->capture_default_str();
-  bench->add_option("--firmware", bo.firmware, "mrd-firmware (default: beside mrd-hil)");
-  bench->add_option("--table", bo.table, "coefficient table for the firmware");
-  bench->add_flag("--json", bench_json, "print the figures as JSON");
-  auto* sweep = app.add_subcommand(
+  bench->add_option("--firmware", a->o.firmware, "mrd-firmware (default: beside mrd-hil)");
+  bench->add_option("--table", a->o.table, "coefficient table for the firmware");
+  bench->add_flag("--json", a->json, "print the figures as JSON");
+}
+
+// `sweep`: its options; the defaults filled in after parsing (SweepCommand runs it).
+struct SweepArgs {
+  CLI::App* cmd = nullptr;
+  std::string path, out;
+  std::vector<std::string> sets;
+  mrd::hil::RunOptions o;
+  CLI::Option* transport_opt = nullptr;
+};
+
+void AddSweep(CLI::App& app, SweepArgs* a) {
+  auto* sweep = a->cmd = app.add_subcommand(
       "sweep", "Run a scenario once per point of a grid of key values (lockstep, "
                "deterministic) and tabulate its scores: reachable tracking error, ride figures "
                "of a quarter car, pass/fail; writes sweep.csv and sweep.png (gnuplot).");
-  std::string sweep_path, sweep_out;
-  std::vector<std::string> sweep_sets;
-  mrd::hil::RunOptions so;
-  sweep->add_option("scenario", sweep_path, "scenario TOML (hil/scenarios/)")->required();
-  sweep->add_option("--set", sweep_sets,
+  sweep->add_option("scenario", a->path, "scenario TOML (hil/scenarios/)")->required();
+  sweep->add_option("--set", a->sets,
                     "KEY=FROM:TO:STEP (a swept key; FROM, FROM+STEP, ... up to TO) or "
                     "KEY=VALUE (fixed), repeatable; the grid is the product of the swept keys "
                     "(at most 1000 points)")
       ->required()->allow_extra_args(false);
-  sweep->add_option("--out", sweep_out,
+  sweep->add_option("--out", a->out,
                     "directory for sweep.csv, sweep.png, sweep.dat, sweep.gp (created; default "
                     "sweep-NAME, NAME the scenario file's stem)");
-  auto* sweep_transport = sweep->add_option("--transport", so.transport,
-                                            "can | modbus-tcp | modbus-rtu (as run)")
-                              ->capture_default_str();
-  sweep->add_option("--table", so.table, "coefficient table for the firmware (mrd export)");
-  sweep->add_option("--profile", so.profile, "device profile (as run)");
-  sweep->add_option("--firmware", so.firmware,
+  a->transport_opt = sweep->add_option("--transport", a->o.transport,
+                                       "can | modbus-tcp | modbus-rtu (as run)")
+                         ->capture_default_str();
+  sweep->add_option("--table", a->o.table, "coefficient table for the firmware (mrd export)");
+  sweep->add_option("--profile", a->o.profile, "device profile (as run)");
+  sweep->add_option("--firmware", a->o.firmware,
                     "mrd-firmware to start (default: the one beside mrd-hil)");
+}
+
+int SweepMain(SweepArgs& a) {
+  DefaultTransport(a.transport_opt, &a.o);
+  if (a.o.firmware.empty()) a.o.firmware = SelfDir() + "/mrd-firmware";
+  if (a.out.empty()) a.out = "sweep-" + std::filesystem::path(a.path).stem().string();
+  CatchRunSignals(&a.o);
+  return mrd::hil::SweepCommand(a.path, a.sets, a.o, a.out);
+}
+
+// `study`: its options (StudyCommand runs it).
+CLI::App* AddStudy(CLI::App& app, mrd::hil::StudyOptions* study_o) {
   auto* study = app.add_subcommand(
       "study", "Comfort / road-holding study of a quarter-car scenario, in process and "
                "deterministic: per road class x speed the best passive constant voltage (grid "
                "over 0 .. E_max) and each firmware law (its Controller at 1 kHz); one table "
                "(text, CSV, JSON) and plots in --out (docs/study.md). Exit 0 done, 1 write "
                "error, 2 bad input.");
-  mrd::hil::StudyOptions study_o;
-  study->add_option("--scenario", study_o.scenario, "quarter-car scenario TOML "
+  study->add_option("--scenario", study_o->scenario, "quarter-car scenario TOML "
                     "(e.g. hil/scenarios/quarter-car-skyhook.toml)")->required();
-  study->add_option("--classes", study_o.classes, "ISO 8608 road classes, comma-separated")
+  study->add_option("--classes", study_o->classes, "ISO 8608 road classes, comma-separated")
       ->capture_default_str();
-  study->add_option("--speeds", study_o.speeds, "vehicle speeds [m/s], comma-separated")
+  study->add_option("--speeds", study_o->speeds, "vehicle speeds [m/s], comma-separated")
       ->capture_default_str();
-  study->add_option("--laws", study_o.laws,
+  study->add_option("--laws", study_o->laws,
                     "firmware laws ([control] law names of the firmware's config), comma-"
                     "separated; NAME:KEY=VALUE[:KEY=VALUE] sets [control] keys of that law "
                     "(e.g. skyhook:skyhook_gain=40; default gain: the scenario's)")
       ->capture_default_str();
-  study->add_option("--duration", study_o.duration_s,
+  study->add_option("--duration", study_o->duration_s,
                     "seconds per run (default: the scenario's duration_s)")
       ->check(CLI::Range(0.0, 1e5));
-  study->add_option("--passive-step", study_o.passive_step_v,
+  study->add_option("--passive-step", study_o->passive_step_v,
                     "passive grid step over 0 .. E_max [V] (default: the scenario's "
                     "quarter_car.passive_step_v, 0.05)")
       ->check(CLI::Range(0.0, 1e3));
-  study->add_option("--out", study_o.out_dir,
+  study->add_option("--out", study_o->out_dir,
                     "directory for study.txt, study.csv, study.json, study.png, "
                     "comfort-CLASS-SPEED.png (default study-NAME, NAME the scenario's stem)");
-  study->add_flag("--json", study_o.json, "print the study as JSON instead of the table");
+  study->add_flag("--json", study_o->json, "print the study as JSON instead of the table");
+  return study;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"mrd-hil: the reference MR damper served over the real protocols (HIL)."};
+  app.require_subcommand(1);
+  ServeArgs serve;
+  AddServe(app, &serve);
+  RunArgs run;
+  AddRun(app, &run);
+  BenchArgs bench;
+  AddBench(app, &bench);
+  SweepArgs sweep;
+  AddSweep(app, &sweep);
+  mrd::hil::StudyOptions study_o;
+  CLI::App* study = AddStudy(app, &study_o);
   app.footer(ScenarioList() + "\n" + mrd::hil::ScenarioKeysHelp());
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? kExitOk : kExitBadInput;
   }
-
-  if (run->parsed()) {
-    // A Modbus device profile plays over Modbus TCP unless --transport says otherwise.
-    if (transport_opt->count() == 0 && !ro.profile.empty() &&
-        mrd::profile::IsModbusProfileFile(ro.profile)) {
-      ro.transport = "modbus-tcp";
-    }
-    return RunCommand(scenario_path, run_sets, ro, out_dir, run_json, passive_step);
+  if (run.cmd->parsed()) {
+    DefaultTransport(run.transport_opt, &run.ro);
+    return RunCommand(run.scenario_path, run.sets, run.ro, run.out_dir, run.json,
+                      run.passive_step);
   }
-  if (sweep->parsed()) {
-    if (sweep_transport->count() == 0 && !so.profile.empty() &&
-        mrd::profile::IsModbusProfileFile(so.profile)) {
-      so.transport = "modbus-tcp";
-    }
-    if (so.firmware.empty()) so.firmware = SelfDir() + "/mrd-firmware";
-    if (sweep_out.empty()) sweep_out = "sweep-" + std::filesystem::path(sweep_path).stem().string();
-    struct sigaction sa {};
-    sa.sa_handler = OnRunSignal;
-    sigemptyset(&sa.sa_mask);
-    for (const int sig : {SIGTERM, SIGINT, SIGHUP}) sigaction(sig, &sa, nullptr);
-    so.interrupt = &g_interrupt;
-    return mrd::hil::SweepCommand(sweep_path, sweep_sets, so, sweep_out);
-  }
-  if (bench->parsed()) return BenchCommand(bench_s, bo, bench_json);
+  if (sweep.cmd->parsed()) return SweepMain(sweep);
+  if (bench.cmd->parsed()) return BenchCommand(bench.seconds, bench.o, bench.json);
   if (study->parsed()) return mrd::hil::StudyCommand(study_o);
-
-  if (!fault_window.empty()) {
-    std::string error;
-    if (!ParseFaultWindow(fault_window, &o, &error)) {
-      std::fprintf(stderr, "error: %s\n", error.c_str());
-      return kExitBadInput;
-    }
-  }
-  // Before the ports open: a peer may signal as soon as it sees an endpoint (a socket file).
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
-  std::signal(SIGPIPE, SIG_IGN);
-  std::shared_ptr<const mrd::profile::CanProfile> can_profile;
-  std::shared_ptr<const mrd::profile::ModbusProfile> modbus_profile;
-  if (!serve_profile.empty() && mrd::profile::IsModbusProfileFile(serve_profile)) {
-    auto p = std::make_shared<mrd::profile::ModbusProfile>();
-    std::string error;
-    if (!mrd::profile::LoadModbusProfile(serve_profile, p.get(), &error)) {
-      std::fprintf(stderr, "error: --profile: %s\n", error.c_str());
-      return kExitBadInput;
-    }
-    modbus_profile = std::move(p);
-  } else if (!serve_profile.empty()) {
-    auto p = std::make_shared<mrd::profile::CanProfile>();
-    std::string error;
-    if (!mrd::profile::LoadCanProfile(serve_profile, p.get(), &error)) {
-      std::fprintf(stderr, "error: --profile: %s\n", error.c_str());
-      return kExitBadInput;
-    }
-    can_profile = std::move(p);
-  }
-  // Before the ports open: their server threads inherit the policy.
-  bool sched_fifo = false;
-  if (rt_priority > 0) {
-    sched_param sp{};
-    sp.sched_priority = rt_priority;
-    const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
-    sched_fifo = err == 0;
-    if (!sched_fifo)
-      std::fprintf(stderr, "warning: --rt-priority %d refused (%s); serving at normal priority\n",
-                   rt_priority, std::strerror(err));
-  }
-  std::vector<std::unique_ptr<mrd::hil::PlantPort>> ports;
-  std::vector<mrd::hil::PlantPort*> raw;
-  for (const auto& spec : port_specs) {
-    std::string error;
-    auto p = MakePort(spec, can_profile, modbus_profile, &error);
-    if (p == nullptr) {
-      std::fprintf(stderr, "error: %s\n", error.c_str());
-      return kExitBadInput;
-    }
-    if (!p->Open(&error)) {
-      std::fprintf(stderr, "error: %s\n", error.c_str());
-      return kExitFailure;
-    }
-    raw.push_back(p.get());
-    ports.push_back(std::move(p));
-  }
-  std::fprintf(stderr, "mrd-hil: serving on %zu port(s)\n", ports.size());
-  const mrd::hil::ServeResult r = mrd::hil::Serve(o, raw, g_stop);
-  for (auto& p : ports) p->Close();
-  nlohmann::json j = ToJson(r);
-  j["sched_fifo"] = sched_fifo;
-  std::cout << j.dump(json ? 2 : -1) << std::endl;
-  if (!std::cout) return kExitFailure;
-  return kExitOk;
+  return ServeCommand(serve);
 }

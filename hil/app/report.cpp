@@ -10,7 +10,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "mrd/common/find_program.hpp"
+#include "mrd/common/gnuplot.hpp"
 #include "passive_report.hpp"
 
 extern char** environ;
@@ -29,20 +29,12 @@ nlohmann::json Opt(const std::optional<std::int64_t>& v) {
 }  // namespace
 
 int Gnuplot(const std::string& script, const std::string& log) {
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
-  posix_spawn_file_actions_addopen(&fa, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  std::string prog = mrd::common::FindProgram("gnuplot");  // not posix_spawnp: find_program.hpp
-  char* argv[] = {prog.data(), const_cast<char*>(script.c_str()), nullptr};
-  pid_t pid = 0;
-  const int rc =
-      prog.empty() ? ENOENT : posix_spawn(&pid, prog.c_str(), &fa, nullptr, argv, environ);
-  posix_spawn_file_actions_destroy(&fa);
-  if (rc != 0) return -1;
-  int st = 0;
-  waitpid(pid, &st, 0);
-  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return mrd::common::RunGnuplot(script, log, nullptr);
+}
+
+std::string GnuplotWarning(int rc, const std::string& dir) {
+  return rc < 0 ? "gnuplot not found (install gnuplot-nox): plots skipped"
+                : "gnuplot failed (see " + dir + "/gnuplot.log): plots incomplete";
 }
 
 nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
@@ -315,10 +307,7 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
     }
   }
   const int rc = Gnuplot(script, dir + "/gnuplot.log");
-  if (rc != 0) {
-    *warning = rc < 0 ? "gnuplot not found (install gnuplot-nox): plots skipped"
-                      : "gnuplot failed (see " + dir + "/gnuplot.log): plots incomplete";
-  }
+  if (rc != 0) *warning = GnuplotWarning(rc, dir);
   return true;
 }
 

@@ -16,6 +16,9 @@ nlohmann::json SummaryJson(const Scenario& s, const RunResult& r);
 std::string SummaryText(const Scenario& s, const RunResult& r);
 // Runs gnuplot on script (its stderr to log); 0 on success, -1 without gnuplot.
 int Gnuplot(const std::string& script, const std::string& log);
+// Gnuplot's return rc (non-zero) as the warning of a command whose plots go to dir/ (log
+// dir/gnuplot.log): "gnuplot not found ...: plots skipped" or "gnuplot failed ...".
+std::string GnuplotWarning(int rc, const std::string& dir);
 // Writes the files; false with *error. Plot failures are warnings (*warning).
 bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const RunResult& r,
                   std::string* error, std::string* warning);

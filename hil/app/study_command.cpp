@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <set>
 #include <sstream>
@@ -20,6 +21,7 @@
 #include "mrd/hil/scenario.hpp"
 #include "passive_report.hpp"
 #include "report.hpp"
+#include "write_atomically.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -45,25 +47,6 @@ std::vector<std::string> Split(const std::string& s) {
   while (std::getline(ss, item, ',')) out.push_back(item);
   if (!s.empty() && s.back() == ',') out.push_back("");
   return out;
-}
-
-// Temporary in the same directory, fsync, rename over path; false with *error.
-bool WriteAtomically(const std::string& path, const std::string& text, std::string* error) {
-  std::string temp = path + ".XXXXXX";
-  const int fd = mkstemp(temp.data());
-  if (fd < 0) return *error = path + ": cannot create a temporary file", false;
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = write(fd, text.data() + done, text.size() - done);
-    if (n <= 0) break;
-    done += static_cast<std::size_t>(n);
-  }
-  const bool ok = done == text.size() && fchmod(fd, 0644) == 0 && fsync(fd) == 0;
-  if (close(fd) != 0 || !ok || std::rename(temp.c_str(), path.c_str()) != 0) {
-    unlink(temp.c_str());
-    return *error = path + ": cannot write", false;
-  }
-  return true;
 }
 
 std::string Num(double v, int digits = 4) {
@@ -248,9 +231,119 @@ bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
   const std::string script = dir + "/study.gp";
   if (!WriteAtomically(script, gp.str(), error)) return false;
   const int rc = Gnuplot(script, dir + "/gnuplot.log");
-  if (rc != 0) {
-    *warning = rc < 0 ? "gnuplot not found (install gnuplot-nox): plots skipped"
-                      : "gnuplot failed (see " + dir + "/gnuplot.log): plots incomplete";
+  if (rc != 0) *warning = GnuplotWarning(rc, dir);
+  return true;
+}
+
+
+// The study's inputs from its options: the base scenario (--duration applied), the passive
+// grid's step and voltages, the road classes, speeds and laws. 0, or the exit code after the
+// message.
+struct StudyInputs {
+  Scenario base;
+  double step = 0.0;
+  std::vector<double> volts;
+  std::vector<char> classes;
+  std::vector<double> speeds;
+  std::vector<FirmwareLaw> laws;
+};
+
+int Bad(const std::string& what) {
+  std::fprintf(stderr, "error: %s\n", what.c_str());
+  return kBadInput;
+}
+
+int ParseClassesAndSpeeds(const StudyOptions& o, StudyInputs* in) {
+  for (const std::string& c : Split(o.classes)) {
+    RoadClass rc{};
+    if (c.size() != 1 || !RoadClassFromChar(c[0], &rc)) {
+      return Bad("--classes '" + o.classes + "': '" + c + "' is not a road class A .. H");
+    }
+    const char upper = static_cast<char>(c[0] & ~0x20);
+    for (const char k : in->classes) {
+      if (k == upper) return Bad("--classes '" + o.classes + "': names " + c + " twice");
+    }
+    in->classes.push_back(upper);
+  }
+  for (const std::string& v : Split(o.speeds)) {
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str(), &end);
+    if (v.empty() || end != v.c_str() + v.size() || !(x > 0.0 && x <= 100.0)) {
+      return Bad("--speeds '" + o.speeds + "': '" + v + "' is not a speed in (0, 100] m/s");
+    }
+    for (const double k : in->speeds) {
+      if (k == x) return Bad("--speeds '" + o.speeds + "': names " + v + " twice");
+    }
+    in->speeds.push_back(x);
+  }
+  if (in->classes.empty()) return Bad("--classes: no road class given");
+  if (in->speeds.empty()) return Bad("--speeds: no speed given");
+  return 0;
+}
+
+int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
+  Scenario& base = in->base;
+  std::string error;
+  if (!LoadScenario(o.scenario, &base, &error)) return Bad(error);
+  if (!base.quarter_car) {
+    return Bad("--scenario: " + o.scenario + " is not a quarter car ([plant] model = \"quarter-car\")");
+  }
+  if (o.duration_s >= 0.0) {
+    if (!(o.duration_s > base.ride_settle_s) || o.duration_s > 1e5) {
+      return Bad("--duration " + Num(o.duration_s) + ": must be longer than the settle time " +
+                 Num(base.ride_settle_s) + " s (and at most 1e5 s)");
+    }
+    base.duration_s = o.duration_s;
+  }
+  in->step = o.passive_step_v >= 0.0 ? o.passive_step_v : base.passive_step_v;
+  if (!GridVoltages(0.0, base.e_max, in->step, &in->volts, &error)) {
+    return Bad("--passive-step " + Num(in->step) + ": " + error);
+  }
+  if (in->volts.size() > 10000) return Bad("--passive-step " + Num(in->step) + ": more than 10000 points");
+  if (const int rc = ParseClassesAndSpeeds(o, in); rc != 0) return rc;
+  for (const std::string& spec : Split(o.laws)) {
+    FirmwareLaw law;
+    if (!MakeFirmwareLaw(spec, base.skyhook_gain, base.e_max, &law, &error)) return Bad(error);
+    for (const FirmwareLaw& k : in->laws) {
+      if (k.spec == spec) return Bad("--laws '" + o.laws + "': names " + spec + " twice");
+    }
+    in->laws.push_back(law);
+  }
+  if (in->laws.empty()) return Bad("--laws: no law given");
+  return 0;
+}
+
+// One road class x speed: the passive grid and each law, with progress on stderr. false:
+// *error (a law could not run).
+bool RunStudyCase(const StudyInputs& in, char cls, double speed, std::size_t index,
+                  std::size_t n_cases, const std::function<double()>& wall, StudyCase* c,
+                  std::string* error) {
+  c->road_class = cls;
+  c->speed = speed;
+  Scenario s = in.base;
+  RoadClassFromChar(cls, &s.road.road_class);
+  s.car.speed_m_s = speed;
+  std::fprintf(stderr, "[%zu/%zu] class %c, %g m/s: passive grid (%zu settings)...\n",
+               index, n_cases, cls, speed, in.volts.size());
+  c->grid = RunPassiveGrid(s, in.step);
+  const PassiveBest best = BestOf(c->grid, RideMetric::kBodyAccel);
+  std::fprintf(stderr, "[%zu/%zu]   best passive body acc RMS %.4f m/s^2 at %.3g V (%.1f s)\n",
+               index, n_cases, best.value, best.volts, wall());
+  QuarterCarPlant plant = MakeQuarterCar(s);
+  for (const FirmwareLaw& law : in.laws) {
+    LawResult lr;
+    if (!RunFirmwareLaw(law, &plant, s.duration_s, s.ride_settle_s, &lr.run, error)) {
+      return false;
+    }
+    lr.cmp = Compare(c->grid, lr.run.ride);
+    std::fprintf(stderr, "[%zu/%zu]   %s: body acc RMS %.4f m/s^2, tyre load RMS %.1f N, %s\n",
+                 index, n_cases, law.spec.c_str(), lr.run.ride.body_accel_rms,
+                 lr.run.ride.tyre_load_rms_n,
+                 lr.cmp.comfort_at_holding_improvement
+                     ? (Signed(*lr.cmp.comfort_at_holding_improvement) +
+                        " vs the best passive at no-worse tyre load").c_str()
+                     : "no passive setting with a tyre load this low");
+    c->laws.push_back(lr);
   }
   return true;
 }
@@ -258,65 +351,11 @@ bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
 }  // namespace
 
 int StudyCommand(const StudyOptions& o) {
-  const auto bad = [](const std::string& what) {
-    std::fprintf(stderr, "error: %s\n", what.c_str());
-    return kBadInput;
-  };
-  Scenario base;
+  StudyInputs in;
+  if (const int rc = ParseStudyInputs(o, &in); rc != 0) return rc;
+  const Scenario& base = in.base;
+  const std::vector<FirmwareLaw>& laws = in.laws;
   std::string error;
-  if (!LoadScenario(o.scenario, &base, &error)) return bad(error);
-  if (!base.quarter_car) {
-    return bad("--scenario: " + o.scenario + " is not a quarter car ([plant] model = \"quarter-car\")");
-  }
-  if (o.duration_s >= 0.0) {
-    if (!(o.duration_s > base.ride_settle_s) || o.duration_s > 1e5) {
-      return bad("--duration " + Num(o.duration_s) + ": must be longer than the settle time " +
-                 Num(base.ride_settle_s) + " s (and at most 1e5 s)");
-    }
-    base.duration_s = o.duration_s;
-  }
-  const double step = o.passive_step_v >= 0.0 ? o.passive_step_v : base.passive_step_v;
-  std::vector<double> volts;
-  if (!GridVoltages(0.0, base.e_max, step, &volts, &error)) {
-    return bad("--passive-step " + Num(step) + ": " + error);
-  }
-  if (volts.size() > 10000) return bad("--passive-step " + Num(step) + ": more than 10000 points");
-  std::vector<char> classes;
-  for (const std::string& c : Split(o.classes)) {
-    RoadClass rc{};
-    if (c.size() != 1 || !RoadClassFromChar(c[0], &rc)) {
-      return bad("--classes '" + o.classes + "': '" + c + "' is not a road class A .. H");
-    }
-    const char upper = static_cast<char>(c[0] & ~0x20);
-    for (const char k : classes) {
-      if (k == upper) return bad("--classes '" + o.classes + "': names " + c + " twice");
-    }
-    classes.push_back(upper);
-  }
-  std::vector<double> speeds;
-  for (const std::string& v : Split(o.speeds)) {
-    char* end = nullptr;
-    const double x = std::strtod(v.c_str(), &end);
-    if (v.empty() || end != v.c_str() + v.size() || !(x > 0.0 && x <= 100.0)) {
-      return bad("--speeds '" + o.speeds + "': '" + v + "' is not a speed in (0, 100] m/s");
-    }
-    for (const double k : speeds) {
-      if (k == x) return bad("--speeds '" + o.speeds + "': names " + v + " twice");
-    }
-    speeds.push_back(x);
-  }
-  if (classes.empty()) return bad("--classes: no road class given");
-  if (speeds.empty()) return bad("--speeds: no speed given");
-  std::vector<FirmwareLaw> laws;
-  for (const std::string& spec : Split(o.laws)) {
-    FirmwareLaw law;
-    if (!MakeFirmwareLaw(spec, base.skyhook_gain, base.e_max, &law, &error)) return bad(error);
-    for (const FirmwareLaw& k : laws) {
-      if (k.spec == spec) return bad("--laws '" + o.laws + "': names " + spec + " twice");
-    }
-    laws.push_back(law);
-  }
-  if (laws.empty()) return bad("--laws: no law given");
   const std::string dir =
       o.out_dir.empty() ? "study-" + std::filesystem::path(o.scenario).stem().string() : o.out_dir;
   std::error_code ec;
@@ -327,46 +366,22 @@ int StudyCommand(const StudyOptions& o) {
   }
 
   const auto t0 = std::chrono::steady_clock::now();
-  const auto wall = [&] {
+  const std::function<double()> wall = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
   std::vector<StudyCase> cases;
-  const std::size_t n_cases = classes.size() * speeds.size();
-  for (const char cls : classes) {
-    for (const double speed : speeds) {
+  const std::size_t n_cases = in.classes.size() * in.speeds.size();
+  for (const char cls : in.classes) {
+    for (const double speed : in.speeds) {
       StudyCase c;
-      c.road_class = cls;
-      c.speed = speed;
-      Scenario s = base;
-      RoadClassFromChar(cls, &s.road.road_class);
-      s.car.speed_m_s = speed;
-      std::fprintf(stderr, "[%zu/%zu] class %c, %g m/s: passive grid (%zu settings)...\n",
-                   cases.size() + 1, n_cases, cls, speed, volts.size());
-      c.grid = RunPassiveGrid(s, step);
-      const PassiveBest best = BestOf(c.grid, RideMetric::kBodyAccel);
-      std::fprintf(stderr, "[%zu/%zu]   best passive body acc RMS %.4f m/s^2 at %.3g V (%.1f s)\n",
-                   cases.size() + 1, n_cases, best.value, best.volts, wall());
-      QuarterCarPlant plant = MakeQuarterCar(s);
-      for (const FirmwareLaw& law : laws) {
-        LawResult lr;
-        if (!RunFirmwareLaw(law, &plant, s.duration_s, s.ride_settle_s, &lr.run, &error)) {
-          return bad(error);
-        }
-        lr.cmp = Compare(c.grid, lr.run.ride);
-        std::fprintf(stderr, "[%zu/%zu]   %s: body acc RMS %.4f m/s^2, tyre load RMS %.1f N, %s\n",
-                     cases.size() + 1, n_cases, law.spec.c_str(), lr.run.ride.body_accel_rms,
-                     lr.run.ride.tyre_load_rms_n,
-                     lr.cmp.comfort_at_holding_improvement
-                         ? (Signed(*lr.cmp.comfort_at_holding_improvement) +
-                            " vs the best passive at no-worse tyre load").c_str()
-                         : "no passive setting with a tyre load this low");
-        c.laws.push_back(lr);
+      if (!RunStudyCase(in, cls, speed, cases.size() + 1, n_cases, wall, &c, &error)) {
+        return Bad(error);
       }
       cases.push_back(std::move(c));
     }
   }
   const std::string table = Table(cases, laws);
-  const nlohmann::json j = Json(base, step, cases, laws);
+  const nlohmann::json j = Json(base, in.step, cases, laws);
   std::string warning;
   if (!WriteAtomically(dir + "/study.txt", table, &error) ||
       !WriteAtomically(dir + "/study.csv", Csv(cases, laws), &error) ||
@@ -381,10 +396,10 @@ int StudyCommand(const StudyOptions& o) {
   } else {
     std::cout << "mrd-hil study " << base.name << ": " << base.duration_s << " s per run (scored after "
               << base.ride_settle_s << " s), road seed " << base.road.seed << ", passive grid "
-              << volts.size() << " settings (0 .. " << base.e_max << " V, step " << step
+              << in.volts.size() << " settings (0 .. " << base.e_max << " V, step " << in.step
               << " V)\n"
               << table << "files: " << dir << "/study.txt, study.csv, study.json, study.png, "
-              << "comfort-CLASS-SPEED.png (" << cases.size() * (volts.size() + laws.size())
+              << "comfort-CLASS-SPEED.png (" << cases.size() * (in.volts.size() + laws.size())
               << " runs, " << Num(wall(), 3) << " s wall)\n";
   }
   return std::cout ? 0 : 1;

@@ -12,32 +12,10 @@
 
 #include "mrd/hil/sweep.hpp"
 #include "report.hpp"
+#include "write_atomically.hpp"
 
 namespace mrd::hil {
 namespace {
-
-// Temporary in the same directory, fsync, rename over path; false with *error.
-bool WriteAtomically(const std::string& path, const std::string& text, std::string* error) {
-  std::string temp = path + ".XXXXXX";
-  const int fd = mkstemp(temp.data());
-  if (fd < 0) {
-    *error = path + ": cannot create a temporary file";
-    return false;
-  }
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = write(fd, text.data() + done, text.size() - done);
-    if (n <= 0) break;
-    done += static_cast<std::size_t>(n);
-  }
-  const bool ok = done == text.size() && fchmod(fd, 0644) == 0 && fsync(fd) == 0;
-  if (close(fd) != 0 || !ok || std::rename(temp.c_str(), path.c_str()) != 0) {
-    unlink(temp.c_str());
-    *error = path + ": cannot write";
-    return false;
-  }
-  return true;
-}
 
 // Points grouped by the axes after the first (one gnuplot data block each, blank-line
 // separated): x the first swept key, then the score columns of the CSV.

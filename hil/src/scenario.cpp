@@ -208,6 +208,499 @@ std::string Folder(const std::string& path) {
   return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
 }
 
+
+// LoadScenario's state while it reads one file: the scenario, the keys that are not fields of
+// it (read first, checked and converted after), one method per section and per check.
+class ScenarioReader {
+ public:
+  ScenarioReader(const std::string& path, toml::table* root, std::string* error)
+      : path_(path), root_(*root), error_(error), c_{path, error} {
+    s.path = path;
+    hb_ms_ = s.heartbeat_timeout_s * 1e3;
+  }
+  ScenarioReader(const ScenarioReader&) = delete;
+  ScenarioReader& operator=(const ScenarioReader&) = delete;
+
+  // Every key of the file into s (or the reader's own fields), then the checks in order.
+  bool Read() {
+    if (!ReadKeys()) return false;
+    s.heartbeat_timeout_s = hb_ms_ * 1e-3;
+    return CheckPlantFiles() && CheckStructure() && CheckNarx() && CheckQuarterCar() &&
+           CheckExcitation() && CheckControl() && CheckPass() && CheckFaults();
+  }
+  Scenario s;
+
+ private:
+  std::map<std::string, Setter> PlantKeys() {
+    return {{"preset", Str(&s.preset, "preset")},
+            {"params", Str(&s.params_file, "params")},
+            {"spencer", [this](const toml::node& n, Ctx& cx) {
+               spencer_ = n.as_table();
+               return spencer_ != nullptr || cx.Fail(n, "[plant.spencer] must be a table");
+             }},
+            {"substeps", Int(&s.substeps, 1, 1000, "substeps")},
+            {"model", Str(&model_, "model")},
+            {"file", Str(&model_file_, "file")},
+            {"iteration", Int(&model_iteration_, 0, 1000000, "iteration")},
+            {"envelope_margin", Num(&envelope_margin_, 0.0, 100.0, "envelope_margin")}};
+  }
+  std::map<std::string, Setter> StructureKeys() {
+    return {{"record", Str(&record_file_, "record")},
+            {"time_scale", Num(&structure_->time_scale, 0.01, 1000.0, "time_scale")},
+            {"amplitude", Num(&structure_->amplitude, 0.0, 100.0, "amplitude")}};
+  }
+  std::map<std::string, Setter> QuarterCarKeys() {
+    QuarterCarParams& car = s.car;
+    return {{"sprung_mass_kg", Num(&car.sprung_mass_kg, 1.0, 1e5, "sprung_mass_kg")},
+            {"unsprung_mass_kg", Num(&car.unsprung_mass_kg, 0.1, 1e4, "unsprung_mass_kg")},
+            {"spring_n_per_m", Num(&car.spring_n_per_m, 1.0, 1e8, "spring_n_per_m")},
+            {"tyre_n_per_m", Num(&car.tyre_n_per_m, 1.0, 1e9, "tyre_n_per_m")},
+            {"motion_ratio", Num(&car.motion_ratio, 0.01, 1.0, "motion_ratio")},
+            {"speed_m_s", Num(&car.speed_m_s, 0.0, 100.0, "speed_m_s")},
+            {"substeps", Int(&car.substeps, 1, 10000, "substeps")},
+            {"settle_s", Num(&s.ride_settle_s, 0.0, 1e6, "settle_s")},
+            {"passive_step_v", Num(&s.passive_step_v, 0.0, 1e3, "passive_step_v")}};
+  }
+  std::map<std::string, Setter> RoadKeys() {
+    RoadParams& road = s.road;
+    return {{"class", Str(&road_class_, "class")},
+            {"seed", Int(&road.seed, 0, std::numeric_limits<std::int64_t>::max(), "seed")},
+            {"n_min", Num(&road.n_min, 1e-6, 100.0, "n_min")},
+            {"n_max", Num(&road.n_max, 1e-6, 100.0, "n_max")},
+            {"components", Int(&road.components, 1, 65536, "components")}};
+  }
+  std::map<std::string, Setter> ExcitationKeys() {
+    PlantExcitation& p = s.periodic;
+    return {{"kind", Str(&excitation_, "kind")},
+            {"amplitude_cm", Num(&p.amplitude_cm, 0.0, 30.0, "amplitude_cm")},
+            {"frequency_hz", Num(&p.frequency_hz, 0.0, 100.0, "frequency_hz")},
+            {"demand_amplitude_n", Num(&p.demand_amplitude_n, 0.0, 15000.0, "demand_amplitude_n")},
+            {"demand_frequency_hz", Num(&p.demand_frequency_hz, 0.0, 100.0, "demand_frequency_hz")},
+            {"body_amplitude", Num(&p.body_amplitude, 0.0, 300.0, "body_amplitude")},
+            {"body_frequency_hz", Num(&p.body_frequency_hz, 0.0, 100.0, "body_frequency_hz")},
+            {"body_phase_rad", Num(&p.body_phase_rad, -10.0, 10.0, "body_phase_rad")},
+            {"file", Str(&s.csv_file, "file")},
+            {"demand_column", Str(&s.demand_column, "demand_column")},
+            {"profile", Str(&s.profile, "profile")},
+            {"seed", Int(&s.profile_seed, 0, std::numeric_limits<std::int64_t>::max(), "seed")}};
+  }
+  std::map<std::string, Setter> ControlKeys() {
+    return {{"law", Str(&s.law, "law")},
+            {"constant_voltage", Num(&s.constant_voltage, 0.0, 24.0, "constant_voltage")},
+            {"skyhook_gain", Num(&s.skyhook_gain, 0.0, 1e6, "skyhook_gain")},
+            {"groundhook_gain", Num(&s.groundhook_gain, 0.0, 1e6, "groundhook_gain")},
+            {"hybrid_gain", Num(&s.hybrid_gain, 0.0, 1e6, "hybrid_gain")},
+            {"hybrid_alpha", Num(&s.hybrid_alpha, 0.0, 1.0, "hybrid_alpha")},
+            {"sh_add_alpha", Num(&s.sh_add_alpha, 1e-3, 1e4, "sh_add_alpha")},
+            {"gains", Str(&s.clipped_gains, "gains")},
+            {"clipped_command", Str(&s.clipped_command, "clipped_command")}};
+  }
+  std::map<std::string, Setter> FirmwareKeys() {
+    return {{"max_age_ms", Num(&s.max_age_ms, 0.01, 1e4, "max_age_ms")},
+            {"recover_periods", Int(&s.recover_periods, 1, 1000000, "recover_periods")},
+            {"velocity_limit", Num(&s.velocity_limit, 0.0, 1e6, "velocity_limit")},
+            {"grant_timeout_ms", Num(&s.grant_timeout_ms, 100.0, 3.6e6, "grant_timeout_ms")},
+            {"table", Str(&s.table_file, "table")}};
+  }
+  std::map<std::string, Setter> PassKeys() {
+    return {
+        {"max_invariant_violations", Int(&pass_max_viol_, 0, 1000000000, "max_invariant_violations")},
+        {"max_error_reachable", Num(&err_reach_, 0.0, 1e6, "max_error_reachable")},
+        {"max_error_all", Num(&err_all_, 0.0, 1e6, "max_error_all")},
+        {"min_replay_fit", Num(&replay_fit_, -1e9, 100.0, "min_replay_fit")},
+        {"max_missed_grants", Num(&max_missed_, 0.0, 1e12, "max_missed_grants")},
+        {"max_detection_to_safe_periods",
+         Int(&s.max_detection_to_safe_periods, 0, 1000000, "max_detection_to_safe_periods")},
+        {"require_recovery", Flag(&s.require_recovery, "require_recovery")},
+        {"expect_firmware_exit", Int(&expect_exit_, 0, 255, "expect_firmware_exit")},
+        {"body_accel_below_passive",
+         Flag(&s.body_accel_below_passive, "body_accel_below_passive")},
+        {"tyre_load_below_passive_off",
+         Flag(&s.tyre_load_below_passive_off, "tyre_load_below_passive_off")},
+        {"peak_drift_below_passive_on",
+         Flag(&s.peak_drift_below_passive_on, "peak_drift_below_passive_on")},
+        {"peak_accel_below_passive_on",
+         Flag(&s.peak_accel_below_passive_on, "peak_accel_below_passive_on")},
+        {"max_peak_force_n", Num(&max_peak_force_, 0.0, 1e7, "max_peak_force_n")}};
+  }
+  std::map<std::string, Setter> GpioKeys() {
+    ScenarioGpio& g = s.gpio;
+    return {{"inputs", Names({{"displacement", &g.displacement}, {"fault_line", &g.fault_line}},
+                             "inputs")},
+            {"outputs", Names({{"enable", &g.enable}, {"heartbeat", &g.heartbeat}}, "outputs")},
+            {"counts_per_cm", Num(&g.counts_per_cm, 1e-3, 1e9, "counts_per_cm")},
+            {"velocity_cutoff_hz", Num(&g.velocity_cutoff_hz, 1e-3, 1e5, "velocity_cutoff_hz")}};
+  }
+  // The keys of a [section]; false: not a section.
+  bool SectionKeys(const std::string& key, std::map<std::string, Setter>* keys) {
+    if (key == "plant") *keys = PlantKeys();
+    else if (key == "excitation") *keys = ExcitationKeys();
+    else if (key == "control") *keys = ControlKeys();
+    else if (key == "firmware") *keys = FirmwareKeys();
+    else if (key == "pass") *keys = PassKeys();
+    else if (key == "quarter_car") *keys = QuarterCarKeys();
+    else if (key == "road") *keys = RoadKeys();
+    else if (key == "gpio") *keys = GpioKeys();
+    else if (key == "structure") *keys = StructureKeys();
+    else return false;
+    return true;
+  }
+
+  // The file's top level: scalars, sections, [[fault]].
+  bool ReadKeys() {
+    Ctx& c = c_;
+    for (const auto& [k, v] : root_) {
+      const std::string key(k.str());
+      bool ok = true;
+      std::map<std::string, Setter> keys;
+      if (key == "name") {
+        ok = Str(&s.name, "name")(v, c);
+      } else if (key == "description") {
+        ok = Str(&s.description, "description")(v, c);
+      } else if (key == "duration_s") {
+        ok = Num(&s.duration_s, 0.001, 1e6, "duration_s")(v, c);
+      } else if (key == "e_max") {
+        ok = Num(&s.e_max, 0.0, 24.0, "e_max")(v, c);
+      } else if (key == "heartbeat_timeout_ms") {
+        ok = Num(&hb_ms_, 1.0, 1e4, "heartbeat_timeout_ms")(v, c);
+      } else if (SectionKeys(key, &keys)) {
+        const toml::table* t = v.as_table();
+        if (t == nullptr) return c.Fail(v, "[" + key + "] must be a table");
+        ok = ApplyTable(*t, keys, " in [" + key + "]", c);
+      } else if (key == "fault") {
+        ok = ReadFaults(v);
+      } else {
+        return c.Fail(v, "unknown key '" + key + "'");
+      }
+      if (!ok) return false;
+    }
+    return true;
+  }
+
+  // [[fault]] tables into s.faults (each with its line for later messages).
+  bool ReadFaults(const toml::node& v) {
+    Ctx& c = c_;
+    const toml::array* a = v.as_array();
+    if (a == nullptr) return c.Fail(v, "'fault' must be an array of tables ([[fault]])");
+    for (const toml::node& e : *a) {
+      const toml::table* t = e.as_table();
+      if (t == nullptr) return c.Fail(e, "each [[fault]] must be a table");
+      Fault f;
+      f.line = static_cast<int>(e.source().begin.line);
+      std::string kind;
+      const std::map<std::string, Setter> fk = {
+          {"kind", Str(&kind, "kind")},
+          {"at_s", Num(&f.at_s, 0.0, 1e6, "at_s")},
+          {"duration_s", Num(&f.duration_s, 0.0, 1e6, "duration_s")},
+          {"delay_periods", Int(&f.delay_periods, 1, 100000, "delay_periods")}};
+      if (!ApplyTable(*t, fk, " in [[fault]]", c)) return false;
+      if (kind.empty()) return c.Fail(e, "[[fault]] needs 'kind'");
+      if (!ParseFaultKind(kind, &f.kind)) {
+        return c.Fail(e, "unknown fault kind '" + kind + "' (see mrd-hil --help)");
+      }
+      s.faults.push_back(f);
+    }
+    return true;
+  }
+
+  // A key's node, or the root when the key is absent (the message's line).
+  const toml::node& at(const char* key) const {
+    const toml::node* n = root_.at_path(key).node();
+    return n != nullptr ? *n : static_cast<const toml::node&>(root_);
+  }
+  bool has(const char* key) const { return root_.at_path(key).node() != nullptr; }
+
+  // [plant] params or preset, the damper they give, the [firmware] table file.
+  bool CheckPlantFiles() {
+    const std::string& path = path_;
+    if (!s.params_file.empty() && root_.at_path("plant.preset").node() != nullptr) {
+      return c_.Fail(*root_.at_path("plant.params").node(),
+                     "[plant] params and preset exclude each other (the file may name a preset)");
+    }
+    if (!s.params_file.empty() && s.params_file[0] != '/') {
+      s.params_file = Folder(path) + "/" + s.params_file;
+    }
+    if (!ResolvePlantDamper(path, root_, spencer_, &s, error_)) return false;
+    if (!s.table_file.empty()) {
+      if (s.table_file[0] != '/') s.table_file = Folder(path) + "/" + s.table_file;
+      struct stat st {};
+      if (stat(s.table_file.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
+        return c_.Fail(at("firmware.table"), "[firmware] table '" + s.table_file +
+                                                 "': not a readable file");
+      }
+    }
+    return true;
+  }
+
+  // model = "structure": its [structure] record; the structure-only [pass] keys.
+  bool CheckStructure() {
+    Ctx& c = c_;
+    if (model_ != "damper" && model_ != "quarter-car" && model_ != "narx" && model_ != "structure") {
+      return c.Fail(at("plant.model"), "plant model must be \"damper\", \"quarter-car\", "
+                                       "\"narx\" or \"structure\"");
+    }
+    s.structure = model_ == "structure";
+    if (!s.structure && root_.contains("structure")) {
+      return c.Fail(at("structure"), "[structure] needs [plant] model = \"structure\"");
+    }
+    if (s.structure) {
+      if (record_file_.empty()) {
+        return c.Fail(root_.contains("structure") ? at("structure") : at("plant.model"),
+                      "model = \"structure\" needs [structure] record (a t_s,ag_g CSV, e.g. "
+                      "../data/el_centro_1940_ns.csv)");
+      }
+      if (record_file_[0] != '/') record_file_ = Folder(path_) + "/" + record_file_;
+      std::string why;
+      if (!LoadGroundRecord(record_file_, &structure_->record, &why)) {
+        return c.Fail(at("structure.record"), "[structure] record: " + why);
+      }
+      if (root_.contains("excitation")) {
+        return c.Fail(at("excitation"),
+                      "a structure is excited by its [structure] record, not [excitation]");
+      }
+      s.structure_setup = structure_;
+    } else if (s.peak_drift_below_passive_on || s.peak_accel_below_passive_on ||
+               max_peak_force_ >= 0.0) {
+      const char* key = s.peak_drift_below_passive_on   ? "pass.peak_drift_below_passive_on"
+                        : s.peak_accel_below_passive_on ? "pass.peak_accel_below_passive_on"
+                                                        : "pass.max_peak_force_n";
+      return c.Fail(at(key), std::string("'") + (key + 5) +
+                                 "' needs [plant] model = \"structure\"");
+    }
+    if (max_peak_force_ >= 0.0) s.max_peak_force_n = max_peak_force_;
+    return true;
+  }
+
+  // model = "narx": the identified model file; its keys need that model.
+  bool CheckNarx() {
+    Ctx& c = c_;
+    if (model_ != "narx" && (!model_file_.empty() || has("plant.iteration") ||
+                             has("plant.envelope_margin"))) {
+      const char* key = !model_file_.empty() ? "plant.file"
+                        : has("plant.iteration") ? "plant.iteration"
+                                                 : "plant.envelope_margin";
+      return c.Fail(at(key), std::string("'") + (key + 6) + "' needs [plant] model = \"narx\"");
+    }
+    if (model_ != "narx") return true;
+    if (model_file_.empty()) {
+      return c.Fail(at("plant.model"), "model = \"narx\" needs 'file' (an mrd identify model)");
+    }
+    if (model_file_[0] != '/') model_file_ = Folder(path_) + "/" + model_file_;
+    auto pm = std::make_shared<PlantModel>();
+    std::string why;
+    if (!LoadPlantModel(model_file_, model_iteration_, envelope_margin_, pm.get(), &why)) {
+      const bool iteration_problem = why.find(": no iteration ") != std::string::npos;
+      return c.Fail(at(iteration_problem && has("plant.iteration")
+                           ? "plant.iteration" : "plant.file"),
+                    "plant model: " + why);
+    }
+    s.plant_model = std::move(pm);
+    return true;
+  }
+
+  // model = "quarter-car": [quarter_car] and [road]; the quarter-car-only [pass] keys.
+  bool CheckQuarterCar() {
+    Ctx& c = c_;
+    QuarterCarParams& car = s.car;
+    RoadParams& road = s.road;
+    s.quarter_car = model_ == "quarter-car";
+    if (!s.quarter_car && (root_.contains("quarter_car") || root_.contains("road"))) {
+      return c.Fail(root_.contains("road") ? at("road") : at("quarter_car"),
+                    "[quarter_car] and [road] need [plant] model = \"quarter-car\"");
+    }
+    if (s.quarter_car) {
+      if (road_class_.size() != 1 || !RoadClassFromChar(road_class_[0], &road.road_class)) {
+        return c.Fail(at("road.class"), "road class must be one of A .. H");
+      }
+      const char* why = nullptr;
+      if (!road.IsValid(&why)) return c.Fail(at("road"), std::string("[road]: ") + why);
+      car.max_volts = s.e_max;
+      if (!car.IsValid(&why)) return c.Fail(at("quarter_car"), std::string("[quarter_car]: ") + why);
+      if (root_.contains("excitation")) {
+        return c.Fail(at("excitation"), "a quarter car is excited by its [road], not [excitation]");
+      }
+      if (s.ride_settle_s >= s.duration_s) {
+        return c.Fail(at("quarter_car.settle_s"), "settle_s must be shorter than duration_s");
+      }
+      if (s.passive_step_v > 0.0 && s.e_max / s.passive_step_v > 10000.0) {
+        return c.Fail(at("quarter_car.passive_step_v"),
+                      "passive_step_v gives more than 10000 grid points over 0 .. e_max");
+      }
+    } else if (s.body_accel_below_passive) {
+      return c.Fail(at("pass.body_accel_below_passive"),
+                    "body_accel_below_passive needs [plant] model = \"quarter-car\"");
+    } else if (s.tyre_load_below_passive_off) {
+      return c.Fail(at("pass.tyre_load_below_passive_off"),
+                    "tyre_load_below_passive_off needs [plant] model = \"quarter-car\"");
+    }
+    return true;
+  }
+
+  // [excitation] kind and what each kind needs.
+  bool CheckExcitation() {
+    Ctx& c = c_;
+    const std::string& path = path_;
+    if (excitation_ == "periodic") {
+      s.excitation = ExcitationKind::kPeriodic;
+    } else if (excitation_ == "profile") {
+      s.excitation = ExcitationKind::kProfile;
+      const auto& names = ReferenceProfileNames();
+      if (s.profile.empty()) return c.Fail(at("excitation.kind"), "kind = \"profile\" needs 'profile'");
+      if (std::find(names.begin(), names.end(), s.profile) == names.end()) {
+        std::string list;
+        for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+        return c.Fail(at("excitation.profile"),
+                      "unknown profile '" + s.profile + "' (" + list + ")");
+      }
+    } else if (excitation_ == "csv") {
+      s.excitation = ExcitationKind::kCsv;
+      if (s.csv_file.empty()) {
+        return c.Fail(*root_.at_path("excitation.kind").node(), "kind = \"csv\" needs 'file'");
+      }
+      if (s.csv_file[0] != '/') s.csv_file = Folder(path) + "/" + s.csv_file;
+    } else if (excitation_ == "replay") {
+      if (!CheckReplay(path, root_, &s, error_)) return false;  // replay.cpp
+    } else {
+      return c.Fail(*root_.at_path("excitation.kind").node(),
+                    "excitation kind must be \"periodic\", \"csv\", \"profile\" or \"replay\"");
+    }
+    if (excitation_ != "profile" && (has("excitation.profile") ||
+                                     has("excitation.seed"))) {
+      return c.Fail(at(has("excitation.profile") ? "excitation.profile"
+                                                 : "excitation.seed"),
+                    "'profile' and 'seed' need [excitation] kind = \"profile\"");
+    }
+    return true;
+  }
+
+  // [control] law and what each law needs (clipped-optimal: its gains file).
+  bool CheckControl() {
+    Ctx& c = c_;
+    const toml::table& root = root_;
+    const bool chassis_law = IsChassisLaw(s.law);
+    if (s.law != "force" && s.law != "passive-off" && s.law != "passive-on" &&
+        s.law != "constant" && s.law != "skyhook" && s.law != "open-loop" && !chassis_law &&
+        s.law != "clipped-optimal") {
+      return c.Fail(*root.at_path("control.law").node(),
+                    "law must be force | passive-off | passive-on | constant | skyhook | "
+                    "open-loop | groundhook | groundhook-on-off | hybrid | add | sh-add | "
+                    "clipped-optimal");
+    }
+    if (s.law == "clipped-optimal") {
+      if (!CheckClippedGains()) return false;
+    } else if (has("control.gains") || has("control.clipped_command")) {
+      return c.Fail(at(has("control.gains") ? "control.gains" : "control.clipped_command"),
+                    "'gains' and 'clipped_command' need law = \"clipped-optimal\"");
+    }
+    if (s.clipped_command != "clipped" && s.clipped_command != "inverse") {
+      return c.Fail(at("control.clipped_command"),
+                    "clipped_command must be \"clipped\" or \"inverse\"");
+    }
+    if (chassis_law && !s.quarter_car) {
+      return c.Fail(*root.at_path("control.law").node(),
+                    "law \"" + s.law + "\" needs [plant] model = \"quarter-car\" (the body "
+                    "acceleration and wheel velocity it reads)");
+    }
+    if (s.law == "open-loop" && s.excitation != ExcitationKind::kReplay) {
+      return c.Fail(*root.at_path("control.law").node(),
+                    "law \"open-loop\" needs [excitation] kind = \"replay\" (the measured E)");
+    }
+    if (s.law == "constant" && s.constant_voltage > s.e_max) {
+      return c.Fail(*root.at_path("control.constant_voltage").node(),
+                    "constant_voltage above e_max");
+    }
+    return true;
+  }
+
+  // law = "clipped-optimal": a structure, and its gains file (made absolute).
+  bool CheckClippedGains() {
+    Ctx& c = c_;
+    const toml::table& root = root_;
+    if (!s.structure) {
+      return c.Fail(*root.at_path("control.law").node(),
+                    "law \"clipped-optimal\" needs [plant] model = \"structure\" (the floor "
+                    "accelerations it reads)");
+    }
+    if (s.clipped_gains.empty()) {
+      return c.Fail(*root.at_path("control.law").node(),
+                    "law \"clipped-optimal\" needs [control] gains (the file mrd-structure "
+                    "design --out writes)");
+    }
+    if (s.clipped_gains[0] != '/') s.clipped_gains = Folder(path_) + "/" + s.clipped_gains;
+    struct stat st {};
+    if (stat(s.clipped_gains.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
+      return c.Fail(at("control.gains"),
+                    "[control] gains '" + s.clipped_gains + "': not a readable file");
+    }
+    // Absolute: the firmware reads it relative to its generated config elsewhere.
+    if (char* abs = realpath(s.clipped_gains.c_str(), nullptr)) {
+      s.clipped_gains = abs;
+      std::free(abs);
+    }
+    return true;
+  }
+
+  // [pass] limits into s (those given), and the ones the excitation or law rules out.
+  bool CheckPass() {
+    Ctx& c = c_;
+    const toml::table& root = root_;
+    s.max_invariant_violations = static_cast<std::uint64_t>(pass_max_viol_);
+    if (err_reach_ >= 0.0) s.max_error_reachable = err_reach_;
+    if (err_all_ >= 0.0) s.max_error_all = err_all_;
+    if (replay_fit_ > -HUGE_VAL) {
+      if (s.excitation != ExcitationKind::kReplay) {
+        return c.Fail(*root.at_path("pass.min_replay_fit").node(),
+                      "min_replay_fit needs [excitation] kind = \"replay\"");
+      }
+      s.min_replay_fit = replay_fit_;
+    }
+    if (s.law == "open-loop" && (s.max_error_reachable || s.max_error_all)) {
+      return c.Fail(root.contains("pass") ? *root.get("pass") : static_cast<const toml::node&>(root),
+                    "law \"open-loop\" tracks no force: score it with min_replay_fit, not "
+                    "max_error_*");
+    }
+    if (max_missed_ >= 0.0) s.max_missed_grants = static_cast<std::uint64_t>(max_missed_);
+    if (expect_exit_ >= 0) s.expect_firmware_exit = expect_exit_;
+    return true;
+  }
+
+  // Each fault within the run and with the lines it needs.
+  bool CheckFaults() {
+    const std::string& path = path_;
+    for (const Fault& f : s.faults) {
+      if (f.kind == FaultKind::kFaultLine && !s.gpio.fault_line) {
+        *error_ = path + ":" + std::to_string(f.line) +
+                  ": a fault_line fault needs [gpio] inputs = [..., \"fault_line\"]";
+        return false;
+      }
+      if (f.kind != FaultKind::kCorruptTable && f.at_s >= s.duration_s) {
+        *error_ = path + ":" + std::to_string(f.line) + ": fault at_s " + std::to_string(f.at_s) +
+                  " is not before the end (duration_s " + std::to_string(s.duration_s) + ")";
+        return false;
+      }
+    }
+    return true;
+  }
+
+  const std::string& path_;
+  const toml::table& root_;
+  std::string* error_;
+  Ctx c_;
+  double hb_ms_ = 0.0;
+  std::string excitation_ = "periodic";
+  int pass_max_viol_ = 0;
+  double max_missed_ = -1.0, err_reach_ = -1.0, err_all_ = -1.0, replay_fit_ = -HUGE_VAL;
+  int expect_exit_ = -1;
+  std::string model_ = "damper", road_class_ = "C";
+  const toml::table* spencer_ = nullptr;  // [plant.spencer] overrides
+  std::string model_file_;
+  int model_iteration_ = -1;
+  double envelope_margin_ = 0.1;
+  std::shared_ptr<StructureSetup> structure_ = std::make_shared<StructureSetup>();
+  std::string record_file_;
+  double max_peak_force_ = -1.0;
+};
+
 }  // namespace
 
 const char* FaultKindName(FaultKind kind) {
@@ -236,386 +729,15 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
 
 bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
                   Scenario* scenario, std::string* error) {
-  Ctx c{path, error};
   try {
     // A regular file of at most kMaxScenarioBytes: a directory, FIFO or device is refused.
     std::string text;
     if (!ReadInputFile(path, kMaxScenarioBytes, &text, error)) return false;
     toml::table root = toml::parse(text, path);
     if (!ApplyScenarioSets(sets, &root, error)) return false;
-    Scenario s;
-    s.path = path;
-    double hb_ms = s.heartbeat_timeout_s * 1e3;
-    std::string excitation = "periodic";
-    PlantExcitation& p = s.periodic;
-    int pass_max_viol = 0;
-    double max_missed = -1.0, err_reach = -1.0, err_all = -1.0, replay_fit = -HUGE_VAL;
-    int expect_exit = -1;
-    std::string model = "damper", road_class = "C";
-    const toml::table* spencer = nullptr;  // [plant.spencer] overrides
-    std::string model_file;
-    int model_iteration = -1;
-    double envelope_margin = 0.1;
-    auto structure = std::make_shared<StructureSetup>();
-    std::string record_file;
-    const std::map<std::string, Setter> structure_keys = {
-        {"record", Str(&record_file, "record")},
-        {"time_scale", Num(&structure->time_scale, 0.01, 1000.0, "time_scale")},
-        {"amplitude", Num(&structure->amplitude, 0.0, 100.0, "amplitude")}};
-    double max_peak_force = -1.0;
-    const std::map<std::string, Setter> plant = {
-        {"preset", Str(&s.preset, "preset")},
-        {"params", Str(&s.params_file, "params")},
-        {"spencer", [&spencer](const toml::node& n, Ctx& cx) {
-           spencer = n.as_table();
-           return spencer != nullptr || cx.Fail(n, "[plant.spencer] must be a table");
-         }},
-        {"substeps", Int(&s.substeps, 1, 1000, "substeps")},
-        {"model", Str(&model, "model")},
-        {"file", Str(&model_file, "file")},
-        {"iteration", Int(&model_iteration, 0, 1000000, "iteration")},
-        {"envelope_margin", Num(&envelope_margin, 0.0, 100.0, "envelope_margin")}};
-    QuarterCarParams& car = s.car;
-    const std::map<std::string, Setter> quarter_car = {
-        {"sprung_mass_kg", Num(&car.sprung_mass_kg, 1.0, 1e5, "sprung_mass_kg")},
-        {"unsprung_mass_kg", Num(&car.unsprung_mass_kg, 0.1, 1e4, "unsprung_mass_kg")},
-        {"spring_n_per_m", Num(&car.spring_n_per_m, 1.0, 1e8, "spring_n_per_m")},
-        {"tyre_n_per_m", Num(&car.tyre_n_per_m, 1.0, 1e9, "tyre_n_per_m")},
-        {"motion_ratio", Num(&car.motion_ratio, 0.01, 1.0, "motion_ratio")},
-        {"speed_m_s", Num(&car.speed_m_s, 0.0, 100.0, "speed_m_s")},
-        {"substeps", Int(&car.substeps, 1, 10000, "substeps")},
-        {"settle_s", Num(&s.ride_settle_s, 0.0, 1e6, "settle_s")},
-        {"passive_step_v", Num(&s.passive_step_v, 0.0, 1e3, "passive_step_v")}};
-    RoadParams& road = s.road;
-    const std::map<std::string, Setter> road_keys = {
-        {"class", Str(&road_class, "class")},
-        {"seed", Int(&road.seed, 0, std::numeric_limits<std::int64_t>::max(), "seed")},
-        {"n_min", Num(&road.n_min, 1e-6, 100.0, "n_min")},
-        {"n_max", Num(&road.n_max, 1e-6, 100.0, "n_max")},
-        {"components", Int(&road.components, 1, 65536, "components")}};
-    const std::map<std::string, Setter> exc = {
-        {"kind", Str(&excitation, "kind")},
-        {"amplitude_cm", Num(&p.amplitude_cm, 0.0, 30.0, "amplitude_cm")},
-        {"frequency_hz", Num(&p.frequency_hz, 0.0, 100.0, "frequency_hz")},
-        {"demand_amplitude_n", Num(&p.demand_amplitude_n, 0.0, 15000.0, "demand_amplitude_n")},
-        {"demand_frequency_hz", Num(&p.demand_frequency_hz, 0.0, 100.0, "demand_frequency_hz")},
-        {"body_amplitude", Num(&p.body_amplitude, 0.0, 300.0, "body_amplitude")},
-        {"body_frequency_hz", Num(&p.body_frequency_hz, 0.0, 100.0, "body_frequency_hz")},
-        {"body_phase_rad", Num(&p.body_phase_rad, -10.0, 10.0, "body_phase_rad")},
-        {"file", Str(&s.csv_file, "file")},
-        {"demand_column", Str(&s.demand_column, "demand_column")},
-        {"profile", Str(&s.profile, "profile")},
-        {"seed", Int(&s.profile_seed, 0, std::numeric_limits<std::int64_t>::max(), "seed")}};
-    const std::map<std::string, Setter> control = {
-        {"law", Str(&s.law, "law")},
-        {"constant_voltage", Num(&s.constant_voltage, 0.0, 24.0, "constant_voltage")},
-        {"skyhook_gain", Num(&s.skyhook_gain, 0.0, 1e6, "skyhook_gain")},
-        {"groundhook_gain", Num(&s.groundhook_gain, 0.0, 1e6, "groundhook_gain")},
-        {"hybrid_gain", Num(&s.hybrid_gain, 0.0, 1e6, "hybrid_gain")},
-        {"hybrid_alpha", Num(&s.hybrid_alpha, 0.0, 1.0, "hybrid_alpha")},
-        {"sh_add_alpha", Num(&s.sh_add_alpha, 1e-3, 1e4, "sh_add_alpha")},
-        {"gains", Str(&s.clipped_gains, "gains")},
-        {"clipped_command", Str(&s.clipped_command, "clipped_command")}};
-    const std::map<std::string, Setter> firmware = {
-        {"max_age_ms", Num(&s.max_age_ms, 0.01, 1e4, "max_age_ms")},
-        {"recover_periods", Int(&s.recover_periods, 1, 1000000, "recover_periods")},
-        {"velocity_limit", Num(&s.velocity_limit, 0.0, 1e6, "velocity_limit")},
-        {"grant_timeout_ms", Num(&s.grant_timeout_ms, 100.0, 3.6e6, "grant_timeout_ms")},
-        {"table", Str(&s.table_file, "table")}};
-    const std::map<std::string, Setter> pass = {
-        {"max_invariant_violations", Int(&pass_max_viol, 0, 1000000000, "max_invariant_violations")},
-        {"max_error_reachable", Num(&err_reach, 0.0, 1e6, "max_error_reachable")},
-        {"max_error_all", Num(&err_all, 0.0, 1e6, "max_error_all")},
-        {"min_replay_fit", Num(&replay_fit, -1e9, 100.0, "min_replay_fit")},
-        {"max_missed_grants", Num(&max_missed, 0.0, 1e12, "max_missed_grants")},
-        {"max_detection_to_safe_periods",
-         Int(&s.max_detection_to_safe_periods, 0, 1000000, "max_detection_to_safe_periods")},
-        {"require_recovery", Flag(&s.require_recovery, "require_recovery")},
-        {"expect_firmware_exit", Int(&expect_exit, 0, 255, "expect_firmware_exit")},
-        {"body_accel_below_passive",
-         Flag(&s.body_accel_below_passive, "body_accel_below_passive")},
-        {"tyre_load_below_passive_off",
-         Flag(&s.tyre_load_below_passive_off, "tyre_load_below_passive_off")},
-        {"peak_drift_below_passive_on",
-         Flag(&s.peak_drift_below_passive_on, "peak_drift_below_passive_on")},
-        {"peak_accel_below_passive_on",
-         Flag(&s.peak_accel_below_passive_on, "peak_accel_below_passive_on")},
-        {"max_peak_force_n", Num(&max_peak_force, 0.0, 1e7, "max_peak_force_n")}};
-    ScenarioGpio& g = s.gpio;
-    const std::map<std::string, Setter> gpio = {
-        {"inputs", Names({{"displacement", &g.displacement}, {"fault_line", &g.fault_line}},
-                         "inputs")},
-        {"outputs", Names({{"enable", &g.enable}, {"heartbeat", &g.heartbeat}}, "outputs")},
-        {"counts_per_cm", Num(&g.counts_per_cm, 1e-3, 1e9, "counts_per_cm")},
-        {"velocity_cutoff_hz", Num(&g.velocity_cutoff_hz, 1e-3, 1e5, "velocity_cutoff_hz")}};
-    for (const auto& [k, v] : root) {
-      const std::string key(k.str());
-      bool ok = true;
-      if (key == "name") {
-        ok = Str(&s.name, "name")(v, c);
-      } else if (key == "description") {
-        ok = Str(&s.description, "description")(v, c);
-      } else if (key == "duration_s") {
-        ok = Num(&s.duration_s, 0.001, 1e6, "duration_s")(v, c);
-      } else if (key == "e_max") {
-        ok = Num(&s.e_max, 0.0, 24.0, "e_max")(v, c);
-      } else if (key == "heartbeat_timeout_ms") {
-        ok = Num(&hb_ms, 1.0, 1e4, "heartbeat_timeout_ms")(v, c);
-      } else if (key == "plant" || key == "excitation" || key == "control" || key == "firmware" ||
-                 key == "pass" || key == "quarter_car" || key == "road" || key == "gpio" ||
-                 key == "structure") {
-        const toml::table* t = v.as_table();
-        if (t == nullptr) return c.Fail(v, "[" + key + "] must be a table");
-        const auto& keys = key == "plant" ? plant : key == "excitation" ? exc
-                         : key == "control" ? control : key == "firmware" ? firmware
-                         : key == "quarter_car" ? quarter_car : key == "road" ? road_keys
-                         : key == "gpio" ? gpio : key == "structure" ? structure_keys : pass;
-        ok = ApplyTable(*t, keys, " in [" + key + "]", c);
-      } else if (key == "fault") {
-        const toml::array* a = v.as_array();
-        if (a == nullptr) return c.Fail(v, "'fault' must be an array of tables ([[fault]])");
-        for (const toml::node& e : *a) {
-          const toml::table* t = e.as_table();
-          if (t == nullptr) return c.Fail(e, "each [[fault]] must be a table");
-          Fault f;
-          f.line = static_cast<int>(e.source().begin.line);
-          std::string kind;
-          const std::map<std::string, Setter> fk = {
-              {"kind", Str(&kind, "kind")},
-              {"at_s", Num(&f.at_s, 0.0, 1e6, "at_s")},
-              {"duration_s", Num(&f.duration_s, 0.0, 1e6, "duration_s")},
-              {"delay_periods", Int(&f.delay_periods, 1, 100000, "delay_periods")}};
-          if (!ApplyTable(*t, fk, " in [[fault]]", c)) return false;
-          if (kind.empty()) return c.Fail(e, "[[fault]] needs 'kind'");
-          if (!ParseFaultKind(kind, &f.kind)) {
-            return c.Fail(e, "unknown fault kind '" + kind + "' (see mrd-hil --help)");
-          }
-          s.faults.push_back(f);
-        }
-      } else {
-        return c.Fail(v, "unknown key '" + key + "'");
-      }
-      if (!ok) return false;
-    }
-    s.heartbeat_timeout_s = hb_ms * 1e-3;
-    if (!s.params_file.empty() && root.at_path("plant.preset").node() != nullptr) {
-      return c.Fail(*root.at_path("plant.params").node(),
-                    "[plant] params and preset exclude each other (the file may name a preset)");
-    }
-    if (!s.params_file.empty() && s.params_file[0] != '/') {
-      s.params_file = Folder(path) + "/" + s.params_file;
-    }
-    if (!ResolvePlantDamper(path, root, spencer, &s, error)) return false;
-    const auto at = [&](const char* key) -> const toml::node& {
-      const toml::node* n = root.at_path(key).node();
-      return n != nullptr ? *n : static_cast<const toml::node&>(root);
-    };
-    if (!s.table_file.empty()) {
-      if (s.table_file[0] != '/') s.table_file = Folder(path) + "/" + s.table_file;
-      struct stat st {};
-      if (stat(s.table_file.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
-        return c.Fail(at("firmware.table"), "[firmware] table '" + s.table_file +
-                                                "': not a readable file");
-      }
-    }
-    const auto has = [&](const char* key) { return root.at_path(key).node() != nullptr; };
-    if (model != "damper" && model != "quarter-car" && model != "narx" && model != "structure") {
-      return c.Fail(at("plant.model"), "plant model must be \"damper\", \"quarter-car\", "
-                                       "\"narx\" or \"structure\"");
-    }
-    s.structure = model == "structure";
-    if (!s.structure && root.contains("structure")) {
-      return c.Fail(at("structure"), "[structure] needs [plant] model = \"structure\"");
-    }
-    if (s.structure) {
-      if (record_file.empty()) {
-        return c.Fail(root.contains("structure") ? at("structure") : at("plant.model"),
-                      "model = \"structure\" needs [structure] record (a t_s,ag_g CSV, e.g. "
-                      "../data/el_centro_1940_ns.csv)");
-      }
-      if (record_file[0] != '/') record_file = Folder(path) + "/" + record_file;
-      std::string why;
-      if (!LoadGroundRecord(record_file, &structure->record, &why)) {
-        return c.Fail(at("structure.record"), "[structure] record: " + why);
-      }
-      if (root.contains("excitation")) {
-        return c.Fail(at("excitation"),
-                      "a structure is excited by its [structure] record, not [excitation]");
-      }
-      s.structure_setup = structure;
-    } else if (s.peak_drift_below_passive_on || s.peak_accel_below_passive_on ||
-               max_peak_force >= 0.0) {
-      const char* key = s.peak_drift_below_passive_on   ? "pass.peak_drift_below_passive_on"
-                        : s.peak_accel_below_passive_on ? "pass.peak_accel_below_passive_on"
-                                                        : "pass.max_peak_force_n";
-      return c.Fail(at(key), std::string("'") + (key + 5) +
-                                 "' needs [plant] model = \"structure\"");
-    }
-    if (max_peak_force >= 0.0) s.max_peak_force_n = max_peak_force;
-    if (model != "narx" && (!model_file.empty() || has("plant.iteration") ||
-                            has("plant.envelope_margin"))) {
-      const char* key = !model_file.empty() ? "plant.file"
-                        : has("plant.iteration") ? "plant.iteration"
-                                                                : "plant.envelope_margin";
-      return c.Fail(at(key), std::string("'") + (key + 6) + "' needs [plant] model = \"narx\"");
-    }
-    if (model == "narx") {
-      if (model_file.empty()) {
-        return c.Fail(at("plant.model"), "model = \"narx\" needs 'file' (an mrd identify model)");
-      }
-      if (model_file[0] != '/') model_file = Folder(path) + "/" + model_file;
-      auto pm = std::make_shared<PlantModel>();
-      std::string why;
-      if (!LoadPlantModel(model_file, model_iteration, envelope_margin, pm.get(), &why)) {
-        const bool iteration_problem = why.find(": no iteration ") != std::string::npos;
-        return c.Fail(at(iteration_problem && has("plant.iteration")
-                             ? "plant.iteration" : "plant.file"),
-                      "plant model: " + why);
-      }
-      s.plant_model = std::move(pm);
-    }
-    s.quarter_car = model == "quarter-car";
-    if (!s.quarter_car && (root.contains("quarter_car") || root.contains("road"))) {
-      return c.Fail(root.contains("road") ? at("road") : at("quarter_car"),
-                    "[quarter_car] and [road] need [plant] model = \"quarter-car\"");
-    }
-    if (s.quarter_car) {
-      if (road_class.size() != 1 || !RoadClassFromChar(road_class[0], &road.road_class)) {
-        return c.Fail(at("road.class"), "road class must be one of A .. H");
-      }
-      const char* why = nullptr;
-      if (!road.IsValid(&why)) return c.Fail(at("road"), std::string("[road]: ") + why);
-      car.max_volts = s.e_max;
-      if (!car.IsValid(&why)) return c.Fail(at("quarter_car"), std::string("[quarter_car]: ") + why);
-      if (root.contains("excitation")) {
-        return c.Fail(at("excitation"), "a quarter car is excited by its [road], not [excitation]");
-      }
-      if (s.ride_settle_s >= s.duration_s) {
-        return c.Fail(at("quarter_car.settle_s"), "settle_s must be shorter than duration_s");
-      }
-      if (s.passive_step_v > 0.0 && s.e_max / s.passive_step_v > 10000.0) {
-        return c.Fail(at("quarter_car.passive_step_v"),
-                      "passive_step_v gives more than 10000 grid points over 0 .. e_max");
-      }
-    } else if (s.body_accel_below_passive) {
-      return c.Fail(at("pass.body_accel_below_passive"),
-                    "body_accel_below_passive needs [plant] model = \"quarter-car\"");
-    } else if (s.tyre_load_below_passive_off) {
-      return c.Fail(at("pass.tyre_load_below_passive_off"),
-                    "tyre_load_below_passive_off needs [plant] model = \"quarter-car\"");
-    }
-    if (excitation == "periodic") {
-      s.excitation = ExcitationKind::kPeriodic;
-    } else if (excitation == "profile") {
-      s.excitation = ExcitationKind::kProfile;
-      const auto& names = ReferenceProfileNames();
-      if (s.profile.empty()) return c.Fail(at("excitation.kind"), "kind = \"profile\" needs 'profile'");
-      if (std::find(names.begin(), names.end(), s.profile) == names.end()) {
-        std::string list;
-        for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
-        return c.Fail(at("excitation.profile"),
-                      "unknown profile '" + s.profile + "' (" + list + ")");
-      }
-    } else if (excitation == "csv") {
-      s.excitation = ExcitationKind::kCsv;
-      if (s.csv_file.empty()) {
-        return c.Fail(*root.at_path("excitation.kind").node(), "kind = \"csv\" needs 'file'");
-      }
-      if (s.csv_file[0] != '/') s.csv_file = Folder(path) + "/" + s.csv_file;
-    } else if (excitation == "replay") {
-      if (!CheckReplay(path, root, &s, error)) return false;  // replay.cpp
-    } else {
-      return c.Fail(*root.at_path("excitation.kind").node(),
-                    "excitation kind must be \"periodic\", \"csv\", \"profile\" or \"replay\"");
-    }
-    if (excitation != "profile" && (has("excitation.profile") ||
-                                    has("excitation.seed"))) {
-      return c.Fail(at(has("excitation.profile") ? "excitation.profile"
-                                                                : "excitation.seed"),
-                    "'profile' and 'seed' need [excitation] kind = \"profile\"");
-    }
-    const bool chassis_law = IsChassisLaw(s.law);
-    if (s.law != "force" && s.law != "passive-off" && s.law != "passive-on" &&
-        s.law != "constant" && s.law != "skyhook" && s.law != "open-loop" && !chassis_law &&
-        s.law != "clipped-optimal") {
-      return c.Fail(*root.at_path("control.law").node(),
-                    "law must be force | passive-off | passive-on | constant | skyhook | "
-                    "open-loop | groundhook | groundhook-on-off | hybrid | add | sh-add | "
-                    "clipped-optimal");
-    }
-    if (s.law == "clipped-optimal") {
-      if (!s.structure) {
-        return c.Fail(*root.at_path("control.law").node(),
-                      "law \"clipped-optimal\" needs [plant] model = \"structure\" (the floor "
-                      "accelerations it reads)");
-      }
-      if (s.clipped_gains.empty()) {
-        return c.Fail(*root.at_path("control.law").node(),
-                      "law \"clipped-optimal\" needs [control] gains (the file mrd-structure "
-                      "design --out writes)");
-      }
-      if (s.clipped_gains[0] != '/') s.clipped_gains = Folder(path) + "/" + s.clipped_gains;
-      struct stat st {};
-      if (stat(s.clipped_gains.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
-        return c.Fail(at("control.gains"),
-                      "[control] gains '" + s.clipped_gains + "': not a readable file");
-      }
-      // Absolute: the firmware reads it relative to its generated config elsewhere.
-      if (char* abs = realpath(s.clipped_gains.c_str(), nullptr)) {
-        s.clipped_gains = abs;
-        std::free(abs);
-      }
-    } else if (has("control.gains") || has("control.clipped_command")) {
-      return c.Fail(at(has("control.gains") ? "control.gains" : "control.clipped_command"),
-                    "'gains' and 'clipped_command' need law = \"clipped-optimal\"");
-    }
-    if (s.clipped_command != "clipped" && s.clipped_command != "inverse") {
-      return c.Fail(at("control.clipped_command"),
-                    "clipped_command must be \"clipped\" or \"inverse\"");
-    }
-    if (chassis_law && !s.quarter_car) {
-      return c.Fail(*root.at_path("control.law").node(),
-                    "law \"" + s.law + "\" needs [plant] model = \"quarter-car\" (the body "
-                    "acceleration and wheel velocity it reads)");
-    }
-    if (s.law == "open-loop" && s.excitation != ExcitationKind::kReplay) {
-      return c.Fail(*root.at_path("control.law").node(),
-                    "law \"open-loop\" needs [excitation] kind = \"replay\" (the measured E)");
-    }
-    if (s.law == "constant" && s.constant_voltage > s.e_max) {
-      return c.Fail(*root.at_path("control.constant_voltage").node(),
-                    "constant_voltage above e_max");
-    }
-    s.max_invariant_violations = static_cast<std::uint64_t>(pass_max_viol);
-    if (err_reach >= 0.0) s.max_error_reachable = err_reach;
-    if (err_all >= 0.0) s.max_error_all = err_all;
-    if (replay_fit > -HUGE_VAL) {
-      if (s.excitation != ExcitationKind::kReplay) {
-        return c.Fail(*root.at_path("pass.min_replay_fit").node(),
-                      "min_replay_fit needs [excitation] kind = \"replay\"");
-      }
-      s.min_replay_fit = replay_fit;
-    }
-    if (s.law == "open-loop" && (s.max_error_reachable || s.max_error_all)) {
-      return c.Fail(root.contains("pass") ? *root.get("pass") : static_cast<const toml::node&>(root),
-                    "law \"open-loop\" tracks no force: score it with min_replay_fit, not "
-                    "max_error_*");
-    }
-    if (max_missed >= 0.0) s.max_missed_grants = static_cast<std::uint64_t>(max_missed);
-    if (expect_exit >= 0) s.expect_firmware_exit = expect_exit;
-    for (const Fault& f : s.faults) {
-      if (f.kind == FaultKind::kFaultLine && !s.gpio.fault_line) {
-        *error = path + ":" + std::to_string(f.line) +
-                 ": a fault_line fault needs [gpio] inputs = [..., \"fault_line\"]";
-        return false;
-      }
-      if (f.kind != FaultKind::kCorruptTable && f.at_s >= s.duration_s) {
-        *error = path + ":" + std::to_string(f.line) + ": fault at_s " + std::to_string(f.at_s) +
-                 " is not before the end (duration_s " + std::to_string(s.duration_s) + ")";
-        return false;
-      }
-    }
-    *scenario = std::move(s);
+    ScenarioReader reader(path, &root, error);
+    if (!reader.Read()) return false;
+    *scenario = std::move(reader.s);
     return true;
   } catch (const toml::parse_error& e) {
     *error = Printable(path) + ":" + std::to_string(e.source().begin.line) + ": " +

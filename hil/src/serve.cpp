@@ -10,7 +10,6 @@
 namespace mrd::hil {
 namespace {
 
-void SleepUntil(std::int64_t t_ns) { (void)common::SleepUntilNs(t_ns); }
 
 }  // namespace
 
@@ -64,7 +63,7 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
                                : UINT64_MAX;
   PlantSample sample = plant.Sample();
   while (!stop.load(std::memory_order_relaxed) && r.steps < steps_limit) {
-    SleepUntil(deadline);
+    (void)common::SleepUntilNs(deadline);
     const std::int64_t now = common::MonotonicNs();
     if (now - deadline > period_ns) ++r.late_steps;
 

@@ -20,6 +20,7 @@
 #include <unistd.h>
 
 #include "mrd/common/find_program.hpp"
+#include "mrd/common/gnuplot.hpp"
 #include "mrd/host/atomic_write.hpp"
 
 extern char** environ;
@@ -38,31 +39,6 @@ std::string Quote(const std::string& s) {
 }
 
 // Runs gnuplot on a script; returns its exit status and captured stderr.
-int RunGnuplot(const std::string& script, const std::string& log, std::string* err) {
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, log.c_str(),
-                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
-  std::string prog = common::FindProgram("gnuplot");
-  char* argv[] = {prog.data(), const_cast<char*>(script.c_str()), nullptr};
-  pid_t pid = 0;
-  const int rc =
-      prog.empty() ? ENOENT : posix_spawn(&pid, prog.c_str(), &actions, nullptr, argv, environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0) {
-    // ENOENT: not on PATH; otherwise the system's reason (e.g. the log file cannot be opened).
-    *err = rc == ENOENT ? "cannot run gnuplot (install the Debian package gnuplot-nox)"
-                        : fmt::format("cannot run gnuplot: {} (log {})", std::strerror(rc), log);
-    return -1;
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  std::ifstream in(log);
-  err->assign(std::istreambuf_iterator<char>(in), {});
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 // Appends one panel's settings and plot command to the script, its data files to dir.
 void WritePanel(const PlotSpec& spec, const std::filesystem::path& dir, std::size_t panel,
                 fmt::memory_buffer& script) {
@@ -157,7 +133,7 @@ void PlotPng(const PlotFigure& figure, const std::string& png_path) {
   std::ofstream(script_path) << fmt::to_string(script);
 
   std::string err;
-  const int status = RunGnuplot(script_path.string(), (dir / "gnuplot.log").string(), &err);
+  const int status = common::RunGnuplot(script_path.string(), (dir / "gnuplot.log").string(), &err);
   if (status != 0 || !fs::exists(tmp_png) || fs::file_size(tmp_png) == 0) {
     throw std::runtime_error(fmt::format("gnuplot failed for {}: {}", png_path, err));
   }

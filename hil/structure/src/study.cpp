@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "mrd/firmware/clipped_optimal.hpp"
+#include "mrd/hil/structure_scores.hpp"
 
 namespace mrd::structure {
 
@@ -113,7 +114,8 @@ bool RunCase(Case which, const GroundMotion& record, const ShearFrameParams& fra
 
   Response r;
   r.which = which;
-  double sum_x2[3] = {}, sum_d2[3] = {}, sum_a2[3] = {}, sum_f2 = 0.0, sum_e = 0.0;
+  hil::StructureMetrics metrics;  // the harness's accumulation (structure_scores.hpp)
+  double sum_e = 0.0;
   ShearFrameSample s = frame.sample();
   for (long k = 0; k < steps; ++k) {
     double E = e_const;
@@ -125,19 +127,7 @@ bool RunCase(Case which, const GroundMotion& record, const ShearFrameParams& fra
     sum_e += E;
     const double t0 = static_cast<double>(k) * T;
     s = frame.Step(T, ag_at(t0), ag_at(t0 + T), E);
-    for (int i = 0; i < 3; ++i) {
-      const double x = 100.0 * s.x[i];
-      const double d = 100.0 * (s.x[i] - (i > 0 ? s.x[i - 1] : 0.0));
-      const double a = 100.0 * s.xa[i];
-      r.peak_x_cm[i] = std::fmax(r.peak_x_cm[i], std::fabs(x));
-      r.peak_d_cm[i] = std::fmax(r.peak_d_cm[i], std::fabs(d));
-      r.peak_xa_cm_s2[i] = std::fmax(r.peak_xa_cm_s2[i], std::fabs(a));
-      sum_x2[i] += x * x;
-      sum_d2[i] += d * d;
-      sum_a2[i] += a * a;
-    }
-    r.peak_force_n = std::fmax(r.peak_force_n, std::fabs(s.force));
-    sum_f2 += s.force * s.force;
+    metrics.Add(s);
     if (!std::isfinite(s.x[2]) || !std::isfinite(s.force)) {
       *error = std::string("study: ") + CaseName(which) + " diverged at t = " +
                std::to_string(t0) + " s";
@@ -145,12 +135,17 @@ bool RunCase(Case which, const GroundMotion& record, const ShearFrameParams& fra
     }
   }
   const double n = static_cast<double>(steps);
+  const hil::StructureFigures f = metrics.Figures();
   for (int i = 0; i < 3; ++i) {
-    r.rms_x_cm[i] = std::sqrt(sum_x2[i] / n);
-    r.rms_d_cm[i] = std::sqrt(sum_d2[i] / n);
-    r.rms_xa_cm_s2[i] = std::sqrt(sum_a2[i] / n);
+    r.peak_x_cm[i] = f.peak_x_cm[i];
+    r.peak_d_cm[i] = f.peak_d_cm[i];
+    r.peak_xa_cm_s2[i] = f.peak_xa_cm_s2[i];
+    r.rms_x_cm[i] = f.rms_x_cm[i];
+    r.rms_d_cm[i] = f.rms_d_cm[i];
+    r.rms_xa_cm_s2[i] = f.rms_xa_cm_s2[i];
   }
-  r.rms_force_n = std::sqrt(sum_f2 / n);
+  r.peak_force_n = f.peak_force_n;
+  r.rms_force_n = f.rms_force_n;
   r.mean_voltage = sum_e / n;
   *out = r;
   return true;
