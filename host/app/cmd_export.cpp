@@ -33,20 +33,22 @@ void RunExport(const ExportOptions& o) {
   const ModelFile mf = LoadModelFile(o.model);
   const int k = o.iteration >= 0 ? o.iteration : mf.selected;
   const SemIteration& it = mf.Iteration(k);
-  CoefficientTable table = MakeTable(ToRuntimeModel(mf, k), o.e_min, o.e_max, o.input, o.model);
+  CoefficientTable table =
+      MakeUncheckedTable(ToRuntimeModel(mf, k), o.e_min, o.e_max, o.input, o.model);
   // Operating envelope (table v2); model files from before it was recorded export without.
   const bool envelope = SetTableEnvelope(mf, &table);
+  // Validated once, with its envelope, then encoded once for both forms.
   if (std::string p = DescribeTableProblem(table); !p.empty()) throw InputError(o.model, 0, p);
+  const TableBytes bytes = TableImage(table);
   // Encode both forms first, then write both or neither (WriteFilesAtomic).
   std::vector<std::pair<std::string, std::string>> files;
   if (!o.table.empty()) {
-    const TableBytes bytes = TableImage(table);
     files.emplace_back(o.table, std::string(reinterpret_cast<const char*>(bytes.data()),
                                             bytes.size()));
   }
   if (!o.header.empty()) {
     try {
-      files.emplace_back(o.header, TableHeader(table, o.symbol));
+      files.emplace_back(o.header, TableHeader(table, o.symbol, bytes));
     } catch (const std::invalid_argument& e) {
       throw InputError("", 0, fmt::format("--symbol: {}", e.what()));
     }

@@ -14,7 +14,7 @@
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
 #include "mrd/host/sem_family.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 
 namespace mrd::host::cli {
 namespace {

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <optional>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
@@ -169,225 +170,280 @@ void ValidateImportOptions(const ImportOptions& o) {
   }
 }
 
-ImportResult Import(const ImportOptions& o) {
-  ValidateImportOptions(o);
-  const std::string& path = o.in_path;
-  ImportReport rep;
-  rep.in_path = path;
-  rep.out_rate_hz = o.out_rate_hz;
+namespace {
 
-  std::string content = csv::ReadFile(path);
-  if (content.starts_with("\xEF\xBB\xBF")) {
-    content.erase(0, 3);
+// The input file as the phases of Import see it: the header's column names and the kept rows'
+// fields (views into content: never copied or moved once read).
+struct InputTable {
+  std::string path;
+  std::string content;
+  std::vector<Line> lines;
+  std::vector<std::string> names;  // input columns
+  bool trailing = false;           // the header ends with a separator
+  std::size_t ncol = 0;
+  std::size_t expected = 0;  // fields per line, the trailing one included
+  std::vector<bool> mapped;  // [input column]: named by --map
+  std::vector<std::string_view> cells;  // kept rows, row-major
+  std::vector<std::size_t> row_line;    // file line of each kept row
+  std::size_t rows = 0;
+
+  std::string_view cell(std::size_t r, std::size_t c) const { return cells[r * ncol + c]; }
+  // Index of the input column in_name; ncol when there is none.
+  std::size_t column_of(const std::string& in_name) const {
+    const auto it = std::find(names.begin(), names.end(), in_name);
+    return it == names.end() ? ncol : static_cast<std::size_t>(it - names.begin());
+  }
+};
+
+// Phase 1: the file, without a UTF-8 byte-order mark, in lines; the header must not be empty.
+void ReadLines(InputTable& in, ImportReport& rep) {
+  in.content = csv::ReadFile(in.path);
+  if (in.content.starts_with("\xEF\xBB\xBF")) {
+    in.content.erase(0, 3);
     rep.bom = true;
   }
-  const std::vector<Line> lines = csv::SplitLines(content, path);
-  if (lines.empty() || Trim(lines[0].text).empty()) {
-    throw InputError(path, 1, "empty file (no header row)");
+  in.lines = csv::SplitLines(in.content, in.path);
+  if (in.lines.empty() || Trim(in.lines[0].text).empty()) {
+    throw InputError(in.path, 1, "empty file (no header row)");
   }
+}
 
-  // Header: names, quoted or not, optionally followed by a trailing separator.
+// Phase 2 (header): names, quoted or not, optionally followed by a trailing separator.
+void ReadHeader(const ImportOptions& o, InputTable& in, ImportReport& rep) {
   std::vector<std::string_view> fields;
-  SplitFields(lines[0].text, o.separator, &fields);
-  const bool trailing = fields.size() > 1 && fields.back().empty();
-  if (trailing) {
+  SplitFields(in.lines[0].text, o.separator, &fields);
+  in.trailing = fields.size() > 1 && fields.back().empty();
+  if (in.trailing) {
     fields.pop_back();
     ++rep.trailing_separators;
   }
-  std::vector<std::string> names;
   for (std::size_t c = 0; c < fields.size(); ++c) {
     std::string_view name = fields[c];
     if (!name.empty() && (name.front() == '"' || name.back() == '"')) {
       if (name.size() < 2 || name.front() != '"' || name.back() != '"') {
-        throw InputError(path, 1, fmt::format("unbalanced quote in column name {}", name));
+        throw InputError(in.path, 1, fmt::format("unbalanced quote in column name {}", name));
       }
       name = Trim(name.substr(1, name.size() - 2));
       ++rep.quoted_names;
     }
-    if (name.empty()) throw InputError(path, 1, fmt::format("column {} has no name", c + 1));
-    if (std::find(names.begin(), names.end(), name) != names.end()) {
-      throw InputError(path, 1, fmt::format("duplicate column '{}'", name));
+    if (name.empty()) throw InputError(in.path, 1, fmt::format("column {} has no name", c + 1));
+    if (std::find(in.names.begin(), in.names.end(), name) != in.names.end()) {
+      throw InputError(in.path, 1, fmt::format("duplicate column '{}'", name));
     }
-    names.emplace_back(name);
+    in.names.emplace_back(name);
   }
-  const std::size_t ncol = names.size();
-  const std::size_t expected = ncol + (trailing ? 1 : 0);
+  in.ncol = in.names.size();
+  in.expected = in.ncol + (in.trailing ? 1 : 0);
+}
 
-  // Map: output name -> input column index.
-  const auto column_of = [&](const std::string& in_name) {
-    const auto it = std::find(names.begin(), names.end(), in_name);
-    return it == names.end() ? ncol : static_cast<std::size_t>(it - names.begin());
-  };
-  std::vector<std::string> out_names;  // t,x,v,E,f first, then the others in map order
+// Phase 3 (map): the output names (t,x,v,E,f first, then the others in map order); every
+// mapped input column must exist.
+std::vector<std::string> MapColumns(const ImportOptions& o, InputTable& in) {
+  std::vector<std::string> out_names;
   for (const std::string& n : kToolkitNames) out_names.push_back(n);
-  for (const auto& [out, in] : o.map) {
+  for (const auto& [out, in_name] : o.map) {
     if (std::find(out_names.begin(), out_names.end(), out) == out_names.end()) {
       out_names.push_back(out);
     }
-    if (column_of(in) == ncol) {
-      throw InputError(path, 1,
-                       fmt::format("--map {}={}: no column '{}' (columns: {})", out, in, in,
-                                   fmt::join(names, ",")));
+    if (in.column_of(in_name) == in.ncol) {
+      throw InputError(in.path, 1,
+                       fmt::format("--map {}={}: no column '{}' (columns: {})", out, in_name,
+                                   in_name, fmt::join(in.names, ",")));
     }
   }
-  std::vector<bool> mapped(ncol, false);
-  for (const auto& p : o.map) mapped[column_of(p.second)] = true;
+  in.mapped.assign(in.ncol, false);
+  for (const auto& p : o.map) in.mapped[in.column_of(p.second)] = true;
+  return out_names;
+}
 
-  // Data lines -> fields of the kept rows (row-major, views into content).
-  std::vector<std::string_view> cells;
-  std::vector<std::size_t> row_line;  // file line of each kept row
-  rep.data_lines = lines.size() - 1;
-  for (std::size_t i = 1; i < lines.size(); ++i) {
-    const Line& line = lines[i];
-    const bool is_last = i + 1 == lines.size();
+// Why the last line (fields) is incomplete and dropped; empty: it is a complete row.
+std::string IncompleteLastLine(const InputTable& in, bool blank, std::size_t nf,
+                               const std::vector<std::string_view>& fields) {
+  std::string reason;
+  if (blank) {
+    reason = fmt::format("empty line, 0 of {} fields", in.ncol);
+  } else if (in.trailing && nf == in.expected - 1) {
+    reason = fmt::format(
+        "no trailing separator where every other line has one: the last "
+        "field '{}' may be truncated",
+        fields.back());
+  } else if (nf < in.expected) {
+    reason = fmt::format("{} of {} fields", std::min(nf, in.ncol), in.ncol);
+  } else if (nf == in.expected) {
+    for (std::size_t c = 0; c < in.ncol && reason.empty(); ++c) {
+      double value = 0.0;
+      if (in.mapped[c] && !ParseNumber(fields[c], &value)) {
+        reason = fmt::format("column '{}' is not a complete number: '{}'", in.names[c], fields[c]);
+      }
+    }
+  }
+  return reason;
+}
+
+// Phase 4 (data lines): the fields of the kept rows; an incomplete last row is dropped, with
+// the reason; at least 2 rows.
+void ReadRows(const ImportOptions& o, InputTable& in, ImportReport& rep) {
+  std::vector<std::string_view> fields;
+  rep.data_lines = in.lines.size() - 1;
+  for (std::size_t i = 1; i < in.lines.size(); ++i) {
+    const Line& line = in.lines[i];
+    const bool is_last = i + 1 == in.lines.size();
     const bool blank = Trim(line.text).empty();
     SplitFields(line.text, o.separator, &fields);
     const std::size_t nf = blank ? 0 : fields.size();
-    if (is_last) {  // an incomplete last row is dropped, with the reason
-      std::string reason;
-      if (blank) {
-        reason = fmt::format("empty line, 0 of {} fields", ncol);
-      } else if (trailing && nf == expected - 1) {
-        reason = fmt::format(
-            "no trailing separator where every other line has one: the last "
-            "field '{}' may be truncated",
-            fields.back());
-      } else if (nf < expected) {
-        reason = fmt::format("{} of {} fields", std::min(nf, ncol), ncol);
-      } else if (nf == expected) {
-        for (std::size_t c = 0; c < ncol && reason.empty(); ++c) {
-          double value = 0.0;
-          if (mapped[c] && !ParseNumber(fields[c], &value)) {
-            reason = fmt::format("column '{}' is not a complete number: '{}'", names[c], fields[c]);
-          }
-        }
-      }
+    if (is_last) {
+      const std::string reason = IncompleteLastLine(in, blank, nf, fields);
       if (!reason.empty()) {
         rep.dropped_last_line = line.number;
         rep.dropped_last_reason = reason;
         break;
       }
     }
-    if (blank) throw InputError(path, line.number, "blank line");
-    if (nf != expected) {
-      throw InputError(path, line.number,
-                       fmt::format("expected {} fields{}, found {}", expected,
-                                   trailing ? " (with the trailing separator)" : "", nf));
+    if (blank) throw InputError(in.path, line.number, "blank line");
+    if (nf != in.expected) {
+      throw InputError(in.path, line.number,
+                       fmt::format("expected {} fields{}, found {}", in.expected,
+                                   in.trailing ? " (with the trailing separator)" : "", nf));
     }
-    if (trailing) {
+    if (in.trailing) {
       if (!fields.back().empty()) {
-        throw InputError(path, line.number,
+        throw InputError(in.path, line.number,
                          fmt::format("value '{}' after the last named column", fields.back()));
       }
       ++rep.trailing_separators;
     }
-    cells.insert(cells.end(), fields.begin(), fields.begin() + static_cast<std::ptrdiff_t>(ncol));
-    row_line.push_back(line.number);
+    in.cells.insert(in.cells.end(), fields.begin(),
+                    fields.begin() + static_cast<std::ptrdiff_t>(in.ncol));
+    in.row_line.push_back(line.number);
   }
-  const std::size_t rows = row_line.size();
-  rep.rows_read = rows;
-  if (rows < 2) throw InputError(path, lines.back().number, "fewer than 2 data rows");
-  const auto cell = [&](std::size_t r, std::size_t c) { return cells[r * ncol + c]; };
+  in.rows = in.row_line.size();
+  rep.rows_read = in.rows;
+  if (in.rows < 2) throw InputError(in.path, in.lines.back().number, "fewer than 2 data rows");
+}
 
-  // Columns: sparse ones dropped (an error when mapped), complete unmapped ones ignored.
+// Phase 5 (columns): sparse ones dropped (an error when mapped), complete unmapped ones
+// ignored. Returns the rate column when it has a value.
+std::optional<std::size_t> SortColumns(const ImportOptions& o, const InputTable& in,
+                                       ImportReport& rep) {
   std::optional<std::size_t> rate_col;
-  for (std::size_t c = 0; c < ncol; ++c) {
+  for (std::size_t c = 0; c < in.ncol; ++c) {
     std::size_t filled = 0;
-    std::size_t first = rows;
-    std::size_t first_empty = rows;
-    for (std::size_t r = 0; r < rows; ++r) {
-      if (cell(r, c).empty()) {
+    std::size_t first = in.rows;
+    std::size_t first_empty = in.rows;
+    for (std::size_t r = 0; r < in.rows; ++r) {
+      if (in.cell(r, c).empty()) {
         first_empty = std::min(first_empty, r);
       } else {
         ++filled;
         first = std::min(first, r);
       }
     }
-    if (mapped[c]) {
-      if (filled < rows) {
-        throw InputError(path, row_line[first_empty],
-                         fmt::format("column '{}' (mapped) has no value", names[c]));
+    if (in.mapped[c]) {
+      if (filled < in.rows) {
+        throw InputError(in.path, in.row_line[first_empty],
+                         fmt::format("column '{}' (mapped) has no value", in.names[c]));
       }
       continue;
     }
-    if (!o.rate_column.empty() && names[c] == o.rate_column && filled > 0) rate_col = c;
-    if (filled < rows) {
-      rep.sparse_dropped.push_back({names[c], filled, filled > 0 ? row_line[first] : 0,
-                                    filled > 0 ? std::string(cell(first, c)) : std::string()});
+    if (!o.rate_column.empty() && in.names[c] == o.rate_column && filled > 0) rate_col = c;
+    if (filled < in.rows) {
+      rep.sparse_dropped.push_back({in.names[c], filled, filled > 0 ? in.row_line[first] : 0,
+                                    filled > 0 ? std::string(in.cell(first, c)) : std::string()});
     } else {
-      rep.ignored.push_back(names[c]);
+      rep.ignored.push_back(in.names[c]);
     }
   }
+  return rate_col;
+}
 
-  // Mapped values, scaled.
-  const auto scale_of = [&](const std::string& out) {
-    const double* s = FindByName(o.scale, out);
-    return s ? *s : 1.0;
-  };
-  const auto read_column = [&](const std::string& out, const std::string& in) {
-    const std::size_t c = column_of(in);
-    const double k = scale_of(out);
-    std::vector<double> values(rows);
-    for (std::size_t r = 0; r < rows; ++r) {
-      double v = 0.0;
-      if (!ParseNumber(cell(r, c), &v)) {
-        throw InputError(path, row_line[r],
-                         fmt::format("column '{}' (mapped to {}): not a "
-                                     "number: '{}'",
-                                     in, out, cell(r, c)));
-      }
-      if (!std::isfinite(v)) {
-        throw InputError(path, row_line[r],
-                         fmt::format("column '{}' (mapped to {}): non-finite "
-                                     "value '{}'",
-                                     in, out, cell(r, c)));
-      }
-      values[r] = v * k;
+double ScaleOf(const ImportOptions& o, const std::string& out) {
+  const double* s = FindByName(o.scale, out);
+  return s ? *s : 1.0;
+}
+
+// Input column in (mapped to out) as finite numbers, scaled.
+std::vector<double> ReadColumn(const ImportOptions& o, const InputTable& in,
+                               const std::string& out, const std::string& in_name) {
+  const std::size_t c = in.column_of(in_name);
+  const double k = ScaleOf(o, out);
+  std::vector<double> values(in.rows);
+  for (std::size_t r = 0; r < in.rows; ++r) {
+    double v = 0.0;
+    if (!ParseNumber(in.cell(r, c), &v)) {
+      throw InputError(in.path, in.row_line[r],
+                       fmt::format("column '{}' (mapped to {}): not a "
+                                   "number: '{}'",
+                                   in_name, out, in.cell(r, c)));
     }
-    return values;
-  };
+    if (!std::isfinite(v)) {
+      throw InputError(in.path, in.row_line[r],
+                       fmt::format("column '{}' (mapped to {}): non-finite "
+                                   "value '{}'",
+                                   in_name, out, in.cell(r, c)));
+    }
+    values[r] = v * k;
+  }
+  return values;
+}
+
+// Phase 6 (values): the mapped columns, scaled, by output name (empty: not mapped).
+std::vector<std::vector<double>> ReadMapped(const ImportOptions& o, const InputTable& in,
+                                            const std::vector<std::string>& out_names,
+                                            ImportReport& rep) {
   std::vector<std::vector<double>> in_values(out_names.size());
   for (std::size_t j = 0; j < out_names.size(); ++j) {
-    if (const std::string* in = FindByName(o.map, out_names[j])) {
-      in_values[j] = read_column(out_names[j], *in);
-      const double k = scale_of(out_names[j]);
-      rep.mapping.push_back(k == 1.0 ? fmt::format("{} <- {}", out_names[j], *in)
-                                     : fmt::format("{} <- {} x {:g}", out_names[j], *in, k));
+    if (const std::string* in_name = FindByName(o.map, out_names[j])) {
+      in_values[j] = ReadColumn(o, in, out_names[j], *in_name);
+      const double k = ScaleOf(o, out_names[j]);
+      rep.mapping.push_back(k == 1.0 ? fmt::format("{} <- {}", out_names[j], *in_name)
+                                     : fmt::format("{} <- {} x {:g}", out_names[j], *in_name, k));
     }
   }
+  return in_values;
+}
 
-  // Time: strictly increasing, uniform within printed rounding + jitter; rate by least squares.
-  const std::vector<double>& t = in_values[0];
-  const std::size_t tcol = column_of(*FindByName(o.map, std::string("t")));
-  // Printed resolution of each time value. Writers drop trailing zeros ("10.1" for 10.1000)
-  // and may vary the digits with magnitude (this data set: 7 decimals below 1e-3 s, 5
-  // significant digits from 0.1 to 10 s, 4 decimals above), so the resolution of a value is
-  // 10^-(most decimals seen in its decade of magnitude); zero takes the finest of all.
+// Printed resolution of each time value [s]; the time must increase. Writers drop trailing
+// zeros ("10.1" for 10.1000) and may vary the digits with magnitude (the NEES data set: 7
+// decimals below 1e-3 s, 5 significant digits from 0.1 to 10 s, 4 decimals above), so the
+// resolution of a value is 10^-(most decimals seen in its decade of magnitude); zero takes the
+// finest of all.
+std::vector<double> TimeResolution(const ImportOptions& o, const InputTable& in,
+                                   const std::vector<double>& t) {
+  const std::size_t tcol = in.column_of(*FindByName(o.map, std::string("t")));
   const auto decade = [](double v) { return static_cast<int>(std::floor(std::log10(v))); };
   std::map<int, int> decimals_in_decade;
   int max_decimals = 0;
-  for (std::size_t r = 0; r < rows; ++r) {
-    const int d = CountDecimals(cell(r, tcol));
+  for (std::size_t r = 0; r < in.rows; ++r) {
+    const int d = CountDecimals(in.cell(r, tcol));
     max_decimals = std::max(max_decimals, d);
     double printed = 0.0;
-    ParseNumber(cell(r, tcol), &printed);
+    ParseNumber(in.cell(r, tcol), &printed);
     if (printed != 0.0) {
       int& m = decimals_in_decade.try_emplace(decade(std::fabs(printed)), d).first->second;
       m = std::max(m, d);
     }
     if (r > 0 && !(t[r] > t[r - 1])) {
-      throw InputError(path, row_line[r],
-                       fmt::format("time '{}' is not increasing ({} s after {} s)", names[tcol],
-                                   t[r], t[r - 1]));
+      throw InputError(in.path, in.row_line[r],
+                       fmt::format("time '{}' is not increasing ({} s after {} s)",
+                                   in.names[tcol], t[r], t[r - 1]));
     }
   }
-  const double t_scale = std::fabs(scale_of("t"));
-  std::vector<double> res(rows);
-  for (std::size_t r = 0; r < rows; ++r) {
+  const double t_scale = std::fabs(ScaleOf(o, "t"));
+  std::vector<double> res(in.rows);
+  for (std::size_t r = 0; r < in.rows; ++r) {
     const double printed = std::fabs(t[r]) / t_scale;
     const int d = printed > 0.0 ? decimals_in_decade[decade(printed)] : max_decimals;
     res[r] = std::pow(10.0, -d) * t_scale;
   }
+  return res;
+}
+
+// Phase 7 (time): strictly increasing, uniform within printed rounding + jitter; the rate by
+// least squares [Hz].
+double FitRate(const ImportOptions& o, const InputTable& in, const std::vector<double>& t,
+               ImportReport& rep) {
+  const std::vector<double> res = TimeResolution(o, in, t);
+  const std::size_t rows = in.rows;
   const double n = static_cast<double>(rows);
   const double k_mean = 0.5 * (n - 1.0);
   double t_mean = 0.0;
@@ -410,7 +466,7 @@ ImportResult Import(const ImportOptions& o) {
   for (std::size_t r = 1; r < rows; ++r) {  // local check first: names a gap's own line
     const double d = t[r] - t[r - 1];
     if (std::fabs(d - period) > tolerance(r) + tolerance(r - 1)) {
-      throw InputError(path, row_line[r],
+      throw InputError(in.path, in.row_line[r],
                        fmt::format("non-uniform time: interval {:.7g} s, fitted period {:.7g} s "
                                    "(rounding and --max-jitter allow {:.3g} s)",
                                    d, period, tolerance(r) + tolerance(r - 1)));
@@ -419,7 +475,7 @@ ImportResult Import(const ImportOptions& o) {
   for (std::size_t r = 0; r < rows; ++r) {
     const double dev = std::fabs(t[r] - (t0 + period * static_cast<double>(r)));
     if (dev > tolerance(r)) {
-      throw InputError(path, row_line[r],
+      throw InputError(in.path, in.row_line[r],
                        fmt::format("time {:.9g} s is {:.3g} s off the uniform grid of the fitted "
                                    "rate {:.6f} Hz (rounding and --max-jitter allow {:.3g} s)",
                                    t[r], dev, 1.0 / period, tolerance(r)));
@@ -430,79 +486,113 @@ ImportResult Import(const ImportOptions& o) {
   const double rate = 1.0 / period;
   rep.in_rate_hz = rate;
   rep.t_start_s = t[0];
-  if (rate_col) {
-    const auto it = std::find_if(rep.sparse_dropped.begin(), rep.sparse_dropped.end(),
-                                 [&](const SparseColumn& s) { return s.name == o.rate_column; });
-    std::size_t line = 0;
-    std::string text;
-    if (it != rep.sparse_dropped.end()) {
-      line = it->first_line;
-      text = it->first_value;
-    } else {  // a complete column: its first value
-      line = row_line[0];
-      text = std::string(cell(0, *rate_col));
-    }
-    double stated = 0.0;
-    if (!ParseNumber(text, &stated) || !(stated > 0.0) || !std::isfinite(stated)) {
-      throw InputError(path, line,
-                       fmt::format("rate column '{}': '{}' is not a positive number "
-                                   "(--rate-column '' skips the check)",
-                                   o.rate_column, text));
-    }
-    if (std::fabs(stated - rate) > 1e-3 * rate) {
-      throw InputError(path, line,
-                       fmt::format("rate column '{}' states {} Hz, the time column "
-                                   "gives {:.6f} Hz ({:+.3f} %); fix the file or "
-                                   "skip the check with --rate-column ''",
-                                   o.rate_column, stated, rate, 100.0 * (stated - rate) / rate));
-    }
-    rep.stated_rate_hz = stated;
-  }
+  return rate;
+}
 
-  // Velocity, then resampling of every signal through the anti-aliasing filter.
+// Phase 8 (rate column): the rate it states (its first value) agrees with the fitted one.
+void CheckStatedRate(const ImportOptions& o, const InputTable& in, std::size_t rate_col,
+                     double rate, ImportReport& rep) {
+  const auto it = std::find_if(rep.sparse_dropped.begin(), rep.sparse_dropped.end(),
+                               [&](const SparseColumn& s) { return s.name == o.rate_column; });
+  std::size_t line = 0;
+  std::string text;
+  if (it != rep.sparse_dropped.end()) {
+    line = it->first_line;
+    text = it->first_value;
+  } else {  // a complete column: its first value
+    line = in.row_line[0];
+    text = std::string(in.cell(0, rate_col));
+  }
+  double stated = 0.0;
+  if (!ParseNumber(text, &stated) || !(stated > 0.0) || !std::isfinite(stated)) {
+    throw InputError(in.path, line,
+                     fmt::format("rate column '{}': '{}' is not a positive number "
+                                 "(--rate-column '' skips the check)",
+                                 o.rate_column, text));
+  }
+  if (std::fabs(stated - rate) > 1e-3 * rate) {
+    throw InputError(in.path, line,
+                     fmt::format("rate column '{}' states {} Hz, the time column "
+                                 "gives {:.6f} Hz ({:+.3f} %); fix the file or "
+                                 "skip the check with --rate-column ''",
+                                 o.rate_column, stated, rate, 100.0 * (stated - rate) / rate));
+  }
+  rep.stated_rate_hz = stated;
+}
+
+// Phase 9a: v derived from x (--derive-velocity), or the mapped column, in rep.velocity.
+void Velocity(const ImportOptions& o, const std::vector<std::string>& out_names, double rate,
+              std::vector<std::vector<double>>& in_values, ImportReport& rep) {
   const auto xi = static_cast<std::size_t>(std::find(out_names.begin(), out_names.end(), "x") -
                                            out_names.begin());
   const auto vi = xi + 1;  // kToolkitNames order: t, x, v
+  if (o.derive_velocity) {
+    in_values[vi] = DeriveVelocity(in_values[xi], rate, o.velocity_cutoff_hz);
+    const double k = ScaleOf(o, "v");
+    for (double& v : in_values[vi]) v *= k;
+    const KaiserLowPass lp = VelocityFilter(o.velocity_cutoff_hz);
+    rep.velocity = fmt::format(
+        "derived from x at {:.6g} Hz: {}; then central differences (gain >= {:.4f} in the pass "
+        "band)",
+        rate, lp.Describe(rate),
+        std::sin(2.0 * std::numbers::pi * lp.pass_hz() / rate) /
+            (2.0 * std::numbers::pi * lp.pass_hz() / rate));
+    rep.mapping.insert(
+        rep.mapping.begin() + static_cast<std::ptrdiff_t>(vi),
+        k == 1.0 ? std::string("v <- d/dt x") : fmt::format("v <- d/dt x x {:g}", k));
+  } else {
+    rep.velocity = fmt::format("column '{}'", *FindByName(o.map, std::string("v")));
+  }
+}
+
+// Phase 9b: every signal resampled at the output rate through the anti-aliasing filter.
+ImportResult ResampleAll(const ImportOptions& o, std::size_t rows, double rate,
+                         const std::vector<std::string>& out_names,
+                         const std::vector<std::vector<double>>& in_values, ImportReport& rep) {
+  const KaiserLowPass aa = AntiAliasFilter(rate, o.out_rate_hz);
+  rep.anti_alias = fmt::format(
+      "{}; band-limited interpolation at the output instants (ratio {:.6g}, kernel tabulated "
+      "at 1024 phases/sample, DC gain 1); ends extended by odd reflection",
+      aa.Describe(rate), rate / o.out_rate_hz);
+  ImportResult result;
+  const std::size_t out_rows = ResampledRows(rows, rate, o.out_rate_hz);
+  result.names = out_names;
+  result.columns.resize(out_names.size());
+  result.columns[0].resize(out_rows);
+  for (std::size_t r = 0; r < out_rows; ++r) {
+    result.columns[0][r] = static_cast<double>(r) / o.out_rate_hz;
+  }
+  for (std::size_t j = 1; j < out_names.size(); ++j) {
+    result.columns[j] = Resample(in_values[j], rate, o.out_rate_hz);
+  }
+  rep.rows_written = out_rows;
+  rep.names = out_names;
+  result.report = std::move(rep);
+  return result;
+}
+
+}  // namespace
+
+ImportResult Import(const ImportOptions& o) {
+  ValidateImportOptions(o);
+  InputTable in;
+  in.path = o.in_path;
+  ImportReport rep;
+  rep.in_path = in.path;
+  rep.out_rate_hz = o.out_rate_hz;
+  ReadLines(in, rep);
+  ReadHeader(o, in, rep);
+  const std::vector<std::string> out_names = MapColumns(o, in);
+  ReadRows(o, in, rep);
+  const std::optional<std::size_t> rate_col = SortColumns(o, in, rep);
+  std::vector<std::vector<double>> in_values = ReadMapped(o, in, out_names, rep);
+  const double rate = FitRate(o, in, in_values[0], rep);
+  if (rate_col) CheckStatedRate(o, in, *rate_col, rate, rep);
   try {
-    if (o.derive_velocity) {
-      in_values[vi] = DeriveVelocity(in_values[xi], rate, o.velocity_cutoff_hz);
-      const double k = scale_of("v");
-      for (double& v : in_values[vi]) v *= k;
-      const KaiserLowPass lp = VelocityFilter(o.velocity_cutoff_hz);
-      rep.velocity = fmt::format(
-          "derived from x at {:.6g} Hz: {}; then central differences (gain >= {:.4f} in the pass "
-          "band)",
-          rate, lp.Describe(rate),
-          std::sin(2.0 * std::numbers::pi * lp.pass_hz() / rate) /
-              (2.0 * std::numbers::pi * lp.pass_hz() / rate));
-      rep.mapping.insert(
-          rep.mapping.begin() + static_cast<std::ptrdiff_t>(vi),
-          k == 1.0 ? std::string("v <- d/dt x") : fmt::format("v <- d/dt x x {:g}", k));
-    } else {
-      rep.velocity = fmt::format("column '{}'", *FindByName(o.map, std::string("v")));
-    }
-    const KaiserLowPass aa = AntiAliasFilter(rate, o.out_rate_hz);
-    rep.anti_alias = fmt::format(
-        "{}; band-limited interpolation at the output instants (ratio {:.6g}, kernel tabulated "
-        "at 1024 phases/sample, DC gain 1); ends extended by odd reflection",
-        aa.Describe(rate), rate / o.out_rate_hz);
-    ImportResult result;
-    const std::size_t out_rows = ResampledRows(rows, rate, o.out_rate_hz);
-    result.names = out_names;
-    result.columns.resize(out_names.size());
-    result.columns[0].resize(out_rows);
-    for (std::size_t r = 0; r < out_rows; ++r) {
-      result.columns[0][r] = static_cast<double>(r) / o.out_rate_hz;
-    }
-    for (std::size_t j = 1; j < out_names.size(); ++j) {
-      result.columns[j] = Resample(in_values[j], rate, o.out_rate_hz);
-    }
-    rep.rows_written = out_rows;
-    rep.names = out_names;
-    result.report = std::move(rep);
-    return result;
+    Velocity(o, out_names, rate, in_values, rep);
+    return ResampleAll(o, in.rows, rate, out_names, in_values, rep);
   } catch (const std::invalid_argument& e) {
-    throw InputError(path, 0, e.what());
+    throw InputError(in.path, 0, e.what());
   }
 }
 

@@ -10,7 +10,6 @@
 
 #include "mrd/common/crc32.hpp"
 #include "mrd/common/model_check.hpp"
-#include "mrd/host/atomic_write.hpp"
 #include "mrd/host/input_error.hpp"
 
 namespace mrd::host {
@@ -167,8 +166,8 @@ std::string DescribeTableProblem(const CoefficientTable& table) {
   return "";
 }
 
-CoefficientTable MakeTable(const Model& model, double e_min, double e_max,
-                           std::string_view input_channel, const std::string& source) {
+CoefficientTable MakeUncheckedTable(const Model& model, double e_min, double e_max,
+                                    std::string_view input_channel, const std::string& source) {
   CoefficientTable t;
   t.model = model;
   t.e_min = e_min;
@@ -180,6 +179,12 @@ CoefficientTable MakeTable(const Model& model, double e_min, double e_max,
     throw InputError(source, 0, fmt::format("model has no input channel '{}'", input_channel));
   }
   t.input_channel = static_cast<std::uint8_t>(c);
+  return t;
+}
+
+CoefficientTable MakeTable(const Model& model, double e_min, double e_max,
+                           std::string_view input_channel, const std::string& source) {
+  CoefficientTable t = MakeUncheckedTable(model, e_min, e_max, input_channel, source);
   if (std::string p = DescribeTableProblem(t); !p.empty()) throw InputError(source, 0, p);
   return t;
 }
@@ -193,12 +198,10 @@ TableBytes TableImage(const CoefficientTable& table) {
   return r.value();
 }
 
-void WriteTableFile(const CoefficientTable& table, const std::string& path) {
-  const TableBytes bytes = TableImage(table);
-  WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
-}
+namespace {
 
-std::string TableHeader(const CoefficientTable& table, std::string_view symbol) {
+// The names of a (qualified) C++ identifier "ns::...::name"; std::invalid_argument otherwise.
+std::vector<std::string_view> SymbolParts(std::string_view symbol) {
   std::vector<std::string_view> parts;
   for (std::size_t at = 0;;) {
     const std::size_t sep = symbol.find("::", at);
@@ -211,8 +214,20 @@ std::string TableHeader(const CoefficientTable& table, std::string_view symbol) 
       throw std::invalid_argument(fmt::format("'{}' is not a C++ identifier", symbol));
     }
   }
-  const TableBytes bytes = TableImage(table);
-  const std::uint32_t crc = Crc32(std::span<const std::uint8_t>(bytes.data(), kTableCrcOffset));
+  return parts;
+}
+
+}  // namespace
+
+std::string TableHeader(const CoefficientTable& table, std::string_view symbol) {
+  SymbolParts(symbol);  // the symbol first, then the encoding
+  return TableHeader(table, symbol, TableImage(table));
+}
+
+std::string TableHeader(const CoefficientTable& table, std::string_view symbol,
+                        const TableBytes& image) {
+  const std::vector<std::string_view> parts = SymbolParts(symbol);
+  const std::uint32_t crc = Crc32(std::span<const std::uint8_t>(image.data(), kTableCrcOffset));
   const Model& m = table.model;
   std::string s;
   auto line = [&s](const std::string& text) { s += text + "\n"; };
@@ -274,11 +289,6 @@ std::string TableHeader(const CoefficientTable& table, std::string_view symbol) 
   if (parts.size() > 1) line("");
   for (std::size_t i = parts.size() - 1; i-- > 0;) line(fmt::format("}}  // namespace {}", parts[i]));
   return s;
-}
-
-void WriteTableHeader(const CoefficientTable& table, std::string_view symbol,
-                      const std::string& path) {
-  WriteFileAtomic(path, TableHeader(table, symbol));
 }
 
 }  // namespace mrd::host

@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "mrd/host/sem.hpp"
-#include "mrd/host/sem_spec.hpp"
-#include "sem_evaluator.hpp"
-#include "sem_internal.hpp"
+#include "mrd/host/candidate_spec.hpp"
+#include "sem/estimate/evaluator.hpp"
+#include "sem/internal.hpp"
 #include "sem_test_util.hpp"
 
 namespace {

@@ -8,7 +8,7 @@
 #include "mrd/host/csv.hpp"
 #include "mrd/host/default_spec.hpp"
 #include "mrd/host/model_file.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 #include "sem_test_util.hpp"
 #include "test_util.hpp"
 

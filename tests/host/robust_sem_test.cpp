@@ -11,7 +11,7 @@
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/profiles.hpp"
 #include "mrd/host/sem.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/sem_stress.hpp"
 #include "mrd/host/table_export.hpp"
 #include "sem_test_util.hpp"

@@ -1,4 +1,4 @@
-// Issue 15: the spec key 'family' (sem_spec.hpp) and the model file's "family" section: what
+// Issue 15: the spec key 'family' (candidate_spec.hpp) and the model file's "family" section: what
 // parses, and a clear error (file, line, reason) for every bad form.
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem_family.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 #include "test_util.hpp"
 
 namespace mrd::host {

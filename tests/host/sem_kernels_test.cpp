@@ -1,7 +1,7 @@
-// The SEM engine's vectorised kernels (host/src/sem_kernels.hpp) against the scalar reference
+// The SEM engine's vectorised kernels (host/src/sem/engine/kernels.hpp) against the scalar reference
 // loops they replace: every result bit for bit equal, for every lane count, term count, y
 // power count, factor count and tail length (issue 15, speed).
-#include "sem_kernels.hpp"
+#include "sem/engine/kernels.hpp"
 
 #include <gtest/gtest.h>
 

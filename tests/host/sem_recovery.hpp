@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "mrd/host/sem.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 #include "sem_test_util.hpp"
 
 namespace mrd::test {

@@ -1,4 +1,4 @@
-// The output-error refinement's free-run sensitivities (host/src/sem_evaluator.hpp) against
+// The output-error refinement's free-run sensitivities (host/src/sem/estimate/evaluator.hpp) against
 // central differences of the free run, through every output transform the spec offers, powers
 // and products of delayed outputs (issue 15: the refinement's Jacobian is analytic).
 #include <gtest/gtest.h>
@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/host/sem_spec.hpp"
-#include "sem_evaluator.hpp"
+#include "mrd/host/candidate_spec.hpp"
+#include "sem/estimate/evaluator.hpp"
 
 namespace mrd::host::internal {
 namespace {

@@ -1,5 +1,5 @@
 // The SEM engine's speed work must not change a result: prepared reference runs
-// (host/src/sem_replay.hpp) against the per-sample evaluation they replace, bit for bit, and the
+// (host/src/sem/estimate/replay.hpp) against the per-sample evaluation they replace, bit for bit, and the
 // fast free run of a batch of candidate jobs independent of the jobs' order (the search sorts a
 // sweep's jobs by their columns). Label sem.
 #include <gtest/gtest.h>
@@ -13,11 +13,11 @@
 #include <vector>
 
 #include "mrd/host/sem.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/sem_stress.hpp"
-#include "sem_engine.hpp"
-#include "sem_internal.hpp"
-#include "sem_replay.hpp"
+#include "sem/engine/engine.hpp"
+#include "sem/internal.hpp"
+#include "sem/estimate/replay.hpp"
 #include "sem_test_util.hpp"
 
 namespace mrd::host {

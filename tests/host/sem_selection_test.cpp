@@ -13,7 +13,7 @@
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 #include "sem_recovery.hpp"
 #include "test_util.hpp"
 
@@ -110,7 +110,7 @@ TEST(SemSpecDocTest, UnknownSelectionIsRefusedWithItsLine) {
 }
 
 TEST(ParseTermOfferTest, RefusesPowersAndDelaysNotOffered) {
-  const SemSpec s = ParseSemSpec(DocumentedExample(), "sem_spec.hpp");
+  const SemSpec s = ParseSemSpec(DocumentedExample(), "candidate_spec.hpp");
   EXPECT_EQ(TermName(s, ParseTerm(s, "y(k-1)^2*a(k-1)^3")), "y(k-1)^2*a(k-1)^3");
   auto refuses = [&](const std::string& term, const std::string& why) {
     try {

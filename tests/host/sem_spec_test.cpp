@@ -4,7 +4,7 @@
 #include <string>
 
 #include "mrd/host/input_error.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 
 namespace mrd::host {
 namespace {

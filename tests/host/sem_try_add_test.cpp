@@ -1,4 +1,4 @@
-// Adding a term (Search::TryAdd, host/src/sem_search.cpp): the candidates run in parallel under
+// Adding a term (Search::TryAdd, host/src/sem/search/search.cpp): the candidates run in parallel under
 // an early-stop bound. Which candidates are cut short decides the next best when the stress
 // check refuses the best, and the count of diverged candidates that goes into the model file;
 // neither may depend on thread timing. Shown for 1 to 8 threads (more threads than cores, so
@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "mrd/host/sem.hpp"
-#include "mrd/host/sem_spec.hpp"
-#include "sem_engine.hpp"
-#include "sem_search.hpp"
+#include "mrd/host/candidate_spec.hpp"
+#include "sem/engine/engine.hpp"
+#include "sem/search/search.hpp"
 #include "sem_test_util.hpp"
 
 namespace mrd::host::internal {

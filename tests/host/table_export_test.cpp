@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "mrd/host/atomic_write.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "support/demo_model.hpp"
@@ -54,7 +55,10 @@ TEST(TableExportTest, RejectsSymbolThatIsNotAnIdentifier) {
 TEST(TableExportTest, BinaryFileDecodesToTheSameImage) {
   test::TempDir dir;
   const std::string path = dir.File("table.bin");
-  WriteTableFile(test::DemoDamperTable(), path);
+  // As mrd export writes it (host/app/cmd_export.cpp): the image through WriteFilesAtomic.
+  const TableBytes bytes = TableImage(test::DemoDamperTable());
+  WriteFilesAtomic(
+      {{path, std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size())}});
   const std::string data = ReadText(path);
   ASSERT_EQ(data.size(), kTableSize);
   const auto decoded = DecodeTable(

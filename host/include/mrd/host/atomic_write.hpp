@@ -30,7 +30,6 @@ class AtomicFile {
   void Finish();
   // Renames the finished temporary over the destination.
   void Commit();
-  const std::string& temp_path() const { return temp_; }
   const std::string& path() const { return path_; }
 
  private:

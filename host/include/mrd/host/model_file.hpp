@@ -26,7 +26,7 @@
 #include "mrd/common/table.hpp"
 #include "mrd/host/sem.hpp"
 #include "mrd/host/sem_family.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 
 namespace mrd::host {
 

@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "mrd/host/csv.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 
 namespace mrd::host {
 

@@ -1,5 +1,5 @@
 #pragma once
-// Transform families (spec key 'family', sem_spec.hpp; docs/design.md §5): instead of a
+// Transform families (spec key 'family', candidate_spec.hpp; docs/design.md §5): instead of a
 // hand-picked transform, a regressor offers a few (e.g. |v|^0.2, |v|^0.5, tanh(v/0.1)) and the
 // engine identifies once per combination of members over all family regressors (at most
 // kMaxFamilyCombinations), then keeps the combination whose selected model scores best by
@@ -23,7 +23,7 @@
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/sem.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 
 namespace mrd::host {
 

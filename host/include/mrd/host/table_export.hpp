@@ -35,11 +35,14 @@ std::string DescribeTableProblem(const CoefficientTable& table);
 CoefficientTable MakeTable(const Model& model, double e_min, double e_max,
                            std::string_view input_channel = "E", const std::string& source = "");
 
+// MakeTable without the validation, for a caller that completes the table (SetTableEnvelope)
+// and then validates it once (DescribeTableProblem). Throws InputError(source, 0, reason) when
+// the model has no such input channel.
+CoefficientTable MakeUncheckedTable(const Model& model, double e_min, double e_max,
+                                    std::string_view input_channel, const std::string& source);
+
 // The binary image; throws InputError("", 0, reason) for a table that does not encode.
 TableBytes TableImage(const CoefficientTable& table);
-
-// Writes the binary image to path (WriteFileAtomic); throws std::runtime_error on I/O failure.
-void WriteTableFile(const CoefficientTable& table, const std::string& path);
 
 // C++ header text defining `inline constexpr mrd::CoefficientTable <name>` where symbol is
 // "name" or "ns::...::name" (namespaces emitted around it). Doubles are written in their
@@ -47,9 +50,8 @@ void WriteTableFile(const CoefficientTable& table, const std::string& path);
 // Throws std::invalid_argument for a symbol that is not a (qualified) C++ identifier and
 // InputError for a table that does not encode.
 std::string TableHeader(const CoefficientTable& table, std::string_view symbol);
-
-// Writes TableHeader(table, symbol) to path (WriteFileAtomic); throws on I/O failure.
-void WriteTableHeader(const CoefficientTable& table, std::string_view symbol,
-                      const std::string& path);
+// The same text from the table's image already encoded (image == TableImage(table)).
+std::string TableHeader(const CoefficientTable& table, std::string_view symbol,
+                        const TableBytes& image);
 
 }  // namespace mrd::host

@@ -1,4 +1,4 @@
-#include "sem_search.hpp"
+#include "sem/search/search.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>

@@ -1,4 +1,4 @@
-#include "sem_engine.hpp"
+#include "sem/engine/engine.hpp"
 
 #include <fmt/format.h>
 
@@ -6,7 +6,7 @@
 #include <cmath>
 
 #include "mrd/host/input_error.hpp"
-#include "sem_internal.hpp"
+#include "sem/internal.hpp"
 
 namespace mrd::host::internal {
 

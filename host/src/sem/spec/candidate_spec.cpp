@@ -1,4 +1,4 @@
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -314,115 +314,131 @@ std::vector<std::string> SemSpec::Signals() const {
   return s;
 }
 
-SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
-  toml::table tbl;
-  try {
-    tbl = toml::parse(text, path);
-  } catch (const toml::parse_error& e) {
-    throw InputError(path, e.source().begin.line, std::string(e.description()));
+namespace {
+
+// [limits] key sk; false: not a key of [limits].
+bool ParseLimitsKey(const std::string& path, const std::string& sk, const toml::node& sn,
+                    SemSpec& s) {
+  if (sk == "max_factors") {
+    s.max_factors = GetInt(path, sn, sk, 1, static_cast<int>(kMaxFactors) * 4);
+  } else if (sk == "max_degree") {
+    s.max_degree = GetInt(path, sn, sk, 0, 1000);
+  } else if (sk == "max_candidates") {
+    s.max_candidates = GetInt(path, sn, sk, 1, 2000000000);
+  } else if (sk == "constant") {
+    s.constant = GetBool(path, sn, sk);
+  } else {
+    return false;
   }
-  SemSpec s;
-  s.path = path;
-  for (const auto& [key, node] : tbl) {
-    const std::string k(key.str());
-    if (k == "output") {
-      s.output = GetString(path, node, k);
-      s.output_line = LineOf(node);
-    } else if (k == "regressor") {
-      const auto* arr = node.as_array();
-      if (arr == nullptr || !arr->is_array_of_tables()) {
-        Fail(path, node, "'regressor' must be an array of tables ([[regressor]])");
-      }
-      for (const auto& e : *arr) {
-        s.regressors.push_back(ParseRegressor(path, *e.as_table(), LineOf(e)));
-      }
-    } else if (k == "limits" || k == "cost" || k == "algorithm") {
-      const auto* t = node.as_table();
-      if (t == nullptr) Fail(path, node, fmt::format("'{}' must be a table", k));
-      for (const auto& [skey, sn] : *t) {
-        const std::string sk(skey.str());
-        if (k == "limits" && sk == "max_factors") {
-          s.max_factors = GetInt(path, sn, sk, 1, static_cast<int>(kMaxFactors) * 4);
-        } else if (k == "limits" && sk == "max_degree") {
-          s.max_degree = GetInt(path, sn, sk, 0, 1000);
-        } else if (k == "limits" && sk == "max_candidates") {
-          s.max_candidates = GetInt(path, sn, sk, 1, 2000000000);
-        } else if (k == "limits" && sk == "constant") {
-          s.constant = GetBool(path, sn, sk);
-        } else if (k == "cost" && sk == "weighting") {
-          const std::string w = GetString(path, sn, sk);
-          if (w == "relative") {
-            s.weighting = CostWeighting::kRelative;
-          } else if (w == "mse") {
-            s.weighting = CostWeighting::kMse;
-          } else {
-            Fail(path, sn, fmt::format("unknown weighting '{}' (expected relative or mse)", w));
-          }
-        } else if (k == "cost" && sk == "floor") {
-          s.floor = GetNumber(path, sn, sk);
-          if (!(s.floor > 0.0)) Fail(path, sn, "'floor' must be > 0");
-        } else if (k == "algorithm" && sk == "strategy") {
-          const std::string st = GetString(path, sn, sk);
-          if (st == "best") {
-            s.strategy = Strategy::kBest;
-          } else if (st == "first") {
-            s.strategy = Strategy::kFirst;
-          } else {
-            Fail(path, sn, fmt::format("unknown strategy '{}' (expected best or first)", st));
-          }
-        } else if (k == "algorithm" && sk == "threshold_percent") {
-          s.threshold_percent = GetNumber(path, sn, sk);
-          if (s.threshold_percent < 0.0 || s.threshold_percent >= 100.0) {
-            Fail(path, sn, "'threshold_percent' must be in [0, 100)");
-          }
-        } else if (k == "algorithm" && sk == "max_iterations") {
-          s.max_iterations = GetInt(path, sn, sk, 0, 100000);
-        } else if (k == "algorithm" && sk == "target_j") {
-          s.target_j = GetNumber(path, sn, sk);
-        } else if (k == "algorithm" && sk == "divergence_limit") {
-          s.divergence_limit = GetNumber(path, sn, sk);
-          if (!(s.divergence_limit > 0.0)) Fail(path, sn, "'divergence_limit' must be > 0");
-        } else if (k == "algorithm" && sk == "selection") {
-          const std::string se = GetString(path, sn, sk);
-          if (se == "cross_validation") {
-            s.selection = Selection::kCrossValidation;
-          } else if (se == "tolerance") {
-            s.selection = Selection::kTolerance;
-          } else {
-            Fail(path, sn,
-                 fmt::format("unknown selection '{}' (expected cross_validation or tolerance)", se));
-          }
-        } else if (k == "algorithm" && sk == "selection_tolerance_percent") {
-          s.selection_tolerance_percent = GetNumber(path, sn, sk);
-          if (s.selection_tolerance_percent < 0.0) {
-            Fail(path, sn, "'selection_tolerance_percent' must be >= 0");
-          }
-        } else if (k == "algorithm" && sk == "drop_terms") {
-          s.drop_terms = GetBool(path, sn, sk);
-        } else if (k == "algorithm" && sk == "score_exchange") {
-          s.score_exchange = GetBool(path, sn, sk);
-        } else if (k == "algorithm" && sk == "exchange") {
-          s.exchange = GetBool(path, sn, sk);
-        } else if (k == "algorithm" && sk == "one_step_start") {
-          s.one_step_start = GetBool(path, sn, sk);
-        } else if (k == "algorithm" && sk == "refine") {
-          s.refine = GetBool(path, sn, sk);
-        } else if (k == "algorithm" && sk == "initial") {
-          const auto* arr = sn.as_array();
-          if (arr == nullptr) Fail(path, sn, "'initial' must be an array of term strings");
-          for (const auto& e : *arr) s.initial.push_back(GetString(path, e, sk));
-        } else {
-          Fail(path, sn, fmt::format("unknown key '{}' in [{}]", sk, k));
-        }
-      }
-    } else if (k == "stress") {
-      s.stress = ParseStress(path, node);
+  return true;
+}
+
+// [cost] key sk; false: not a key of [cost].
+bool ParseCostKey(const std::string& path, const std::string& sk, const toml::node& sn,
+                  SemSpec& s) {
+  if (sk == "weighting") {
+    const std::string w = GetString(path, sn, sk);
+    if (w == "relative") {
+      s.weighting = CostWeighting::kRelative;
+    } else if (w == "mse") {
+      s.weighting = CostWeighting::kMse;
     } else {
-      Fail(path, node, fmt::format("unknown key '{}'", k));
+      Fail(path, sn, fmt::format("unknown weighting '{}' (expected relative or mse)", w));
     }
+  } else if (sk == "floor") {
+    s.floor = GetNumber(path, sn, sk);
+    if (!(s.floor > 0.0)) Fail(path, sn, "'floor' must be > 0");
+  } else {
+    return false;
   }
-  if (s.output.empty()) throw InputError(path, 0, "missing 'output' (the signal to model)");
-  if (s.regressors.empty()) throw InputError(path, 0, "no [[regressor]] given");
+  return true;
+}
+
+// [algorithm] keys of the model selection; false: not one of them.
+bool ParseSelectionKey(const std::string& path, const std::string& sk, const toml::node& sn,
+                       SemSpec& s) {
+  if (sk == "selection") {
+    const std::string se = GetString(path, sn, sk);
+    if (se == "cross_validation") {
+      s.selection = Selection::kCrossValidation;
+    } else if (se == "tolerance") {
+      s.selection = Selection::kTolerance;
+    } else {
+      Fail(path, sn,
+           fmt::format("unknown selection '{}' (expected cross_validation or tolerance)", se));
+    }
+  } else if (sk == "selection_tolerance_percent") {
+    s.selection_tolerance_percent = GetNumber(path, sn, sk);
+    if (s.selection_tolerance_percent < 0.0) {
+      Fail(path, sn, "'selection_tolerance_percent' must be >= 0");
+    }
+  } else if (sk == "drop_terms") {
+    s.drop_terms = GetBool(path, sn, sk);
+  } else if (sk == "score_exchange") {
+    s.score_exchange = GetBool(path, sn, sk);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// [algorithm] keys of the search; false: not one of them.
+bool ParseSearchKey(const std::string& path, const std::string& sk, const toml::node& sn,
+                    SemSpec& s) {
+  if (sk == "strategy") {
+    const std::string st = GetString(path, sn, sk);
+    if (st == "best") {
+      s.strategy = Strategy::kBest;
+    } else if (st == "first") {
+      s.strategy = Strategy::kFirst;
+    } else {
+      Fail(path, sn, fmt::format("unknown strategy '{}' (expected best or first)", st));
+    }
+  } else if (sk == "threshold_percent") {
+    s.threshold_percent = GetNumber(path, sn, sk);
+    if (s.threshold_percent < 0.0 || s.threshold_percent >= 100.0) {
+      Fail(path, sn, "'threshold_percent' must be in [0, 100)");
+    }
+  } else if (sk == "max_iterations") {
+    s.max_iterations = GetInt(path, sn, sk, 0, 100000);
+  } else if (sk == "target_j") {
+    s.target_j = GetNumber(path, sn, sk);
+  } else if (sk == "divergence_limit") {
+    s.divergence_limit = GetNumber(path, sn, sk);
+    if (!(s.divergence_limit > 0.0)) Fail(path, sn, "'divergence_limit' must be > 0");
+  } else if (sk == "exchange") {
+    s.exchange = GetBool(path, sn, sk);
+  } else if (sk == "one_step_start") {
+    s.one_step_start = GetBool(path, sn, sk);
+  } else if (sk == "refine") {
+    s.refine = GetBool(path, sn, sk);
+  } else if (sk == "initial") {
+    const auto* arr = sn.as_array();
+    if (arr == nullptr) Fail(path, sn, "'initial' must be an array of term strings");
+    for (const auto& e : *arr) s.initial.push_back(GetString(path, e, sk));
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// The table [k] (limits, cost or algorithm), key by key.
+void ParseSection(const std::string& path, const std::string& k, const toml::node& node,
+                  SemSpec& s) {
+  const auto* t = node.as_table();
+  if (t == nullptr) Fail(path, node, fmt::format("'{}' must be a table", k));
+  for (const auto& [skey, sn] : *t) {
+    const std::string sk(skey.str());
+    const bool known = k == "limits" ? ParseLimitsKey(path, sk, sn, s)
+                       : k == "cost" ? ParseCostKey(path, sk, sn, s)
+                                     : ParseSelectionKey(path, sk, sn, s) ||
+                                           ParseSearchKey(path, sk, sn, s);
+    if (!known) Fail(path, sn, fmt::format("unknown key '{}' in [{}]", sk, k));
+  }
+}
+
+// Regressor names unique; output regressors delayed, without family or low-pass.
+void CheckRegressors(const std::string& path, const SemSpec& s) {
   for (std::size_t i = 0; i < s.regressors.size(); ++i) {
     const auto& r = s.regressors[i];
     for (std::size_t j = 0; j < i; ++j) {
@@ -449,6 +465,10 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
                                    r.name, s.output));
     }
   }
+}
+
+// At most kMaxFamilyCombinations family combinations; [stress] names input signals only.
+void CheckFamiliesAndStress(const std::string& path, const SemSpec& s) {
   std::size_t combinations = 1;
   for (const auto& r : s.regressors) {
     combinations *= std::max<std::size_t>(r.family.size(), 1);
@@ -468,6 +488,44 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
       }
     }
   }
+}
+
+}  // namespace
+
+SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
+  toml::table tbl;
+  try {
+    tbl = toml::parse(text, path);
+  } catch (const toml::parse_error& e) {
+    throw InputError(path, e.source().begin.line, std::string(e.description()));
+  }
+  SemSpec s;
+  s.path = path;
+  for (const auto& [key, node] : tbl) {
+    const std::string k(key.str());
+    if (k == "output") {
+      s.output = GetString(path, node, k);
+      s.output_line = LineOf(node);
+    } else if (k == "regressor") {
+      const auto* arr = node.as_array();
+      if (arr == nullptr || !arr->is_array_of_tables()) {
+        Fail(path, node, "'regressor' must be an array of tables ([[regressor]])");
+      }
+      for (const auto& e : *arr) {
+        s.regressors.push_back(ParseRegressor(path, *e.as_table(), LineOf(e)));
+      }
+    } else if (k == "limits" || k == "cost" || k == "algorithm") {
+      ParseSection(path, k, node, s);
+    } else if (k == "stress") {
+      s.stress = ParseStress(path, node);
+    } else {
+      Fail(path, node, fmt::format("unknown key '{}'", k));
+    }
+  }
+  if (s.output.empty()) throw InputError(path, 0, "missing 'output' (the signal to model)");
+  if (s.regressors.empty()) throw InputError(path, 0, "no [[regressor]] given");
+  CheckRegressors(path, s);
+  CheckFamiliesAndStress(path, s);
   // Initial terms are checked here so that errors name the spec.
   for (const auto& t : s.initial) ParseTerm(s, t, path, 0);
   return s;

@@ -1,6 +1,6 @@
 #pragma once
 // One identification record prepared for free-run evaluation outside the search engine: the
-// cross-validation (sem_selection.cpp) and the output-error refinement (sem_refine.cpp). Not
+// cross-validation (host/src/sem/select/selection.cpp) and the output-error refinement (host/src/sem/estimate/refine.cpp). Not
 // public.
 
 #include <algorithm>
@@ -11,7 +11,7 @@
 #include <Eigen/Dense>
 
 #include "mrd/host/sem.hpp"
-#include "sem_internal.hpp"
+#include "sem/internal.hpp"
 
 namespace mrd::host::internal {
 

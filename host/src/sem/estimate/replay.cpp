@@ -1,10 +1,10 @@
-#include "sem_replay.hpp"
+#include "sem/estimate/replay.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "sem_engine.hpp"  // Pow
-#include "sem_internal.hpp"
+#include "sem/engine/engine.hpp"  // Pow
+#include "sem/internal.hpp"
 
 namespace mrd::host::internal {
 

@@ -1,9 +1,9 @@
-// Pruning step of the SEM search (sem_search.hpp, Search::BestDrop): the reduced models (one
+// Pruning step of the SEM search (host/src/sem/search/search.hpp, Search::BestDrop): the reduced models (one
 // term dropped each) solved by least squares, then run in parallel under a shared bound.
 #include <atomic>
 #include <span>
 
-#include "sem_search.hpp"
+#include "sem/search/search.hpp"
 
 namespace mrd::host::internal {
 

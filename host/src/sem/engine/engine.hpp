@@ -1,8 +1,8 @@
 #pragma once
-// The SEM engine's data and free runs (used by sem.cpp's Identify through Search,
-// sem_search.hpp): the identification records stacked and normalised, the elementary power
+// The SEM engine's data and free runs (used by host/src/sem/identify.cpp's Identify through Search,
+// host/src/sem/search/search.hpp): the identification records stacked and normalised, the elementary power
 // columns, the candidates with their Gram sums, and the free run of many jobs at once
-// (sem_kernels.hpp gives the cost model). Not public.
+// (host/src/sem/engine/kernels.hpp gives the cost model). Not public.
 
 #include <algorithm>
 #include <atomic>
@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "mrd/host/sem.hpp"
-#include "sem_internal.hpp"
-#include "sem_kernels.hpp"
+#include "sem/internal.hpp"
+#include "sem/engine/kernels.hpp"
 
 namespace mrd::host::internal {
 
@@ -116,7 +116,7 @@ class Engine {
   static constexpr std::size_t kBlock = 256;  // samples per block of the free-run pass
 
   // out[c] = sum_k phi_c(k) x(k) for every candidate c (x == nullptr: phi_c(k)^2), summed in
-  // sample order, kMaxLanes candidates at a time (sem_kernels.hpp).
+  // sample order, kMaxLanes candidates at a time (host/src/sem/engine/kernels.hpp).
   void GramSums(const double* x, double* out);
 
   // GramSums of the candidates [item * kGramItem, ...): one sweep over the samples for all of
@@ -134,7 +134,7 @@ class Engine {
 
   // Free run of the fast path (y(k-1) only): y(k) = sum_q c_q(k) y(k-1)^q with
   // c_q(k) = sum over terms of y-power q of theta_i u_i(k) (+ the job's extra candidate).
-  // Jobs go through in lane groups of up to kMaxLanes (sem_kernels.hpp gives the cost model);
+  // Jobs go through in lane groups of up to kMaxLanes (host/src/sem/engine/kernels.hpp gives the cost model);
   // the bound is checked every kBlock samples, as are divergence and finiteness.
   void SimulateFast(const std::vector<int>& terms, std::span<Job> jobs,
                     const std::atomic<double>& bound, std::vector<double>& scratch);

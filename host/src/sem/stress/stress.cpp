@@ -6,7 +6,7 @@
 #include <cmath>
 #include <limits>
 
-#include "sem_replay.hpp"
+#include "sem/estimate/replay.hpp"
 
 namespace mrd::host {
 namespace {

@@ -1,7 +1,7 @@
 #pragma once
 // A data set prepared once for many reference free runs (SimulateCost's per-sample evaluation):
-// the validation runs and stress checks of every iteration and candidate (sem.cpp,
-// sem_stress.cpp) run on the same records, so the normalised output, the row weights and the
+// the validation runs and stress checks of every iteration and candidate (host/src/sem/identify.cpp,
+// host/src/sem/stress/stress.cpp) run on the same records, so the normalised output, the row weights and the
 // transformed inputs to each offered power are computed once instead of per run. Run gives
 // SimulateCost's result bit for bit (same operations in the same order). Not public.
 
@@ -10,7 +10,7 @@
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/sem.hpp"
-#include "mrd/host/sem_spec.hpp"
+#include "mrd/host/candidate_spec.hpp"
 
 namespace mrd::host::internal {
 

@@ -1,6 +1,6 @@
 #pragma once
-// Shared by the SEM engine (sem.cpp, sem_engine.cpp) and its model selection
-// (sem_selection.cpp); not public.
+// Shared by the SEM engine (sem/identify.cpp, sem/engine/, sem/search/) and its model
+// selection (sem/select/selection.cpp); not public.
 
 #include <functional>
 #include <limits>
@@ -15,7 +15,7 @@ namespace mrd::host::internal {
 
 inline constexpr double kInf = std::numeric_limits<double>::infinity();
 
-class Evaluator;  // sem_evaluator.hpp
+class Evaluator;  // host/src/sem/estimate/evaluator.hpp
 
 // Jacobian of the weighted free-run residual, one row per scored row (row-major: the free
 // run's sensitivities are produced row by row).
@@ -30,6 +30,10 @@ using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::Ro
 double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm>& terms,
                      std::vector<double>* coefficients, Jacobian* jacobian = nullptr,
                      Eigen::VectorXd* residual = nullptr);
+
+// Every signal of the spec is a column of every data set (InputError with the spec's line of
+// the signal) and every set is longer than the largest delay + 1 (InputError).
+void CheckData(const SemSpec& spec, std::span<const DataSet> data);
 
 // One elementary regressor over a whole record of raw values: T(raw / scale). Low-pass
 // filters start from r(-1) = 0 at the record's first sample, as ModelRunner after Reset.

@@ -1,4 +1,4 @@
-#include "sem_kernels.hpp"
+#include "sem/engine/kernels.hpp"
 
 #include <cstring>
 

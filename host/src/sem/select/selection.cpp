@@ -10,8 +10,8 @@
 #include <fmt/format.h>
 
 #include "mrd/host/sem.hpp"
-#include "sem_evaluator.hpp"
-#include "sem_internal.hpp"
+#include "sem/estimate/evaluator.hpp"
+#include "sem/internal.hpp"
 
 namespace mrd::host {
 namespace {

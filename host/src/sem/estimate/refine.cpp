@@ -1,4 +1,4 @@
-// Output-error refinement of a structure's coefficients (sem_internal.hpp): Levenberg-Marquardt
+// Output-error refinement of a structure's coefficients (host/src/sem/internal.hpp): Levenberg-Marquardt
 // on the free-run cost J, started from the one-step least squares. Least squares on the one-step
 // regression is biased when the noise enters the output (the measured output in the regressors
 // is noisy); minimising J itself removes that bias, so a spurious term no longer lowers J by
@@ -8,8 +8,8 @@
 
 #include <Eigen/Dense>
 
-#include "sem_evaluator.hpp"
-#include "sem_internal.hpp"
+#include "sem/estimate/evaluator.hpp"
+#include "sem/internal.hpp"
 
 namespace mrd::host::internal {
 namespace {
