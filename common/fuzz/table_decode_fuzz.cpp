@@ -64,8 +64,7 @@ mrd::CoefficientTable SeedTable() {
   m.regressors[4] = {1, mrd::Transform::kLowPass, 3.0};
   m.regressors[5] = {2, mrd::Transform::kTanh, 0.5};
   m.regressors[6] = {2, mrd::Transform::kClip, 0.8};
-  const auto term = [&m](std::size_t i, std::initializer_list<mrd::Factor> factors,
-                         double theta) {
+  const auto term = [&m](std::size_t i, std::initializer_list<mrd::Factor> factors, double theta) {
     m.terms[i].num_factors = static_cast<std::uint8_t>(factors.size());
     std::size_t j = 0;
     for (const mrd::Factor& f : factors) m.terms[i].factors[j++] = f;

@@ -47,13 +47,15 @@ PlantSample DamperPlant::Sample() const {
   // ~2 cm/s) with a magnitude swinging between 0.3 D and D.
   const double level = 0.65 + 0.35 * std::sin(kTwoPi * excitation_.demand_frequency_hz * t);
   s.demand = excitation_.demand_amplitude_n * level * std::tanh(s.v / 2.0);
-  s.body_velocity = excitation_.body_amplitude *
-                    std::sin(kTwoPi * excitation_.body_frequency_hz * t + excitation_.body_phase_rad);
-  s.body_acceleration = kTwoPi * excitation_.body_frequency_hz * excitation_.body_amplitude *
-                        std::cos(kTwoPi * excitation_.body_frequency_hz * t +
-                                 excitation_.body_phase_rad);
+  s.body_velocity =
+      excitation_.body_amplitude *
+      std::sin(kTwoPi * excitation_.body_frequency_hz * t + excitation_.body_phase_rad);
+  s.body_acceleration =
+      kTwoPi * excitation_.body_frequency_hz * excitation_.body_amplitude *
+      std::cos(kTwoPi * excitation_.body_frequency_hz * t + excitation_.body_phase_rad);
   s.wheel_velocity = s.body_velocity - s.v;
-  for (int i = 0; i < 3; ++i) s.floor_acceleration[i] = 0.01 * s.body_acceleration * (1.0 + 0.5 * i);
+  for (int i = 0; i < 3; ++i)
+    s.floor_acceleration[i] = 0.01 * s.body_acceleration * (1.0 + 0.5 * i);
   s.force = force_;
   return s;
 }

@@ -32,9 +32,9 @@ int RunGnuplot(const std::string& script, const std::string& log, std::string* e
   if (rc != 0) {
     // ENOENT: not on PATH; otherwise the system's reason (e.g. the log file cannot be opened).
     if (error != nullptr) {
-      *error = rc == ENOENT ? std::string("cannot run gnuplot (install the Debian package gnuplot-nox)")
-                            : "cannot run gnuplot: " + std::string(std::strerror(rc)) + " (log " +
-                                  log + ")";
+      *error = rc == ENOENT
+                   ? std::string("cannot run gnuplot (install the Debian package gnuplot-nox)")
+                   : "cannot run gnuplot: " + std::string(std::strerror(rc)) + " (log " + log + ")";
     }
     return -1;
   }

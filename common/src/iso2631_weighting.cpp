@@ -25,11 +25,11 @@ std::array<Analog, 4> Sections() {
   const double r = std::sqrt(2.0);
   const double g = (w5 / w6) * (w5 / w6);
   return {{
-      {0.0, 0.0, 1.0, w1 * w1, r * w1, 1.0, kF1},                  // Hh = p^2 / (p^2 + r w1 p + w1^2)
-      {1.0, 0.0, 0.0, 1.0, r / w2, 1.0 / (w2 * w2), kF2},          // Hl
+      {0.0, 0.0, 1.0, w1 * w1, r * w1, 1.0, kF1},          // Hh = p^2 / (p^2 + r w1 p + w1^2)
+      {1.0, 0.0, 0.0, 1.0, r / w2, 1.0 / (w2 * w2), kF2},  // Hl
       {1.0, 1.0 / w3, 0.0, 1.0, 1.0 / (kQ4 * w4), 1.0 / (w4 * w4), kF4},  // Ht
       {g, g / (kQ5 * w5), g / (w5 * w5), 1.0, 1.0 / (kQ6 * w6), 1.0 / (w6 * w6),
-       std::sqrt(kF5 * kF6)},                                      // Hs
+       std::sqrt(kF5 * kF6)},  // Hs
   }};
 }
 

@@ -177,8 +177,7 @@ void BasicModelRunner<T>::SetInput(std::size_t channel, T raw) {
 
 template <class T>
 T BasicModelRunner<T>::Evaluate() const {
-  return Denormalise(model_->scales[model_->output_channel],
-                     EvaluateNormalised(*model_, history_));
+  return Denormalise(model_->scales[model_->output_channel], EvaluateNormalised(*model_, history_));
 }
 
 template <class T>

@@ -98,7 +98,8 @@ ModelCheck CheckModel(const BasicModel<T>& m) {
   }
   for (std::size_t i = 0; i < m.num_terms; ++i) {
     const Term& term = m.terms[i];
-    if (term.num_factors > kMaxFactors) return at(ModelProblem::kTooManyFactors, i, term.num_factors);
+    if (term.num_factors > kMaxFactors)
+      return at(ModelProblem::kTooManyFactors, i, term.num_factors);
     for (const Factor& f : term.active()) {
       if (f.regressor >= m.num_regressors) return at(ModelProblem::kFactorRegressor, i);
       if (f.delay > kMaxDelay) return at(ModelProblem::kFactorDelay, i, f.delay);

@@ -123,7 +123,7 @@ Piece WindowedMultisine(double duration, double fade, Multisine ms) {
                }};
 }
 
-std::vector<double> PiecewiseConstant(std::size_t n, double dt, double hold, 
+std::vector<double> PiecewiseConstant(std::size_t n, double dt, double hold,
                                       const std::function<double(std::size_t)>& level) {
   std::vector<double> E(n);
   for (std::size_t k = 0; k < n; ++k) {
@@ -134,9 +134,8 @@ std::vector<double> PiecewiseConstant(std::size_t n, double dt, double hold,
 
 ReferenceExcitation Identification(std::mt19937_64& rng, double dt) {
   // (frequency [Hz], peak velocity [cm/s]); 5 s holds an integer number of cycles of each.
-  std::vector<std::pair<double, double>> segs = {{1.0, 15.0}, {0.4, 6.0},  {2.0, 12.0},
-                                                 {0.6, 3.0},  {3.0, 15.0}, {1.4, 9.0},
-                                                 {4.0, 13.0}, {2.6, 7.5}};
+  std::vector<std::pair<double, double>> segs = {{1.0, 15.0}, {0.4, 6.0}, {2.0, 12.0}, {0.6, 3.0},
+                                                 {3.0, 15.0}, {1.4, 9.0}, {4.0, 13.0}, {2.6, 7.5}};
   std::shuffle(segs.begin(), segs.end(), rng);
   std::vector<Piece> pieces;
   for (const auto& [f, vp] : segs) pieces.push_back(SinePiece(5.0, f, vp));
@@ -184,7 +183,8 @@ ReferenceExcitation V1(std::mt19937_64& rng, double dt) {
   const double f0 = 0.5, f1 = 5.0, T = 8.0, k = (f1 - f0) / T;
   pieces.push_back(Piece{T, [=](double tau, double* x, double* v) {
                            const double f = f0 + k * tau;
-                           const double a = 10.0 / (2 * kPi * f), da = -10.0 * k / (2 * kPi * f * f);
+                           const double a = 10.0 / (2 * kPi * f),
+                                        da = -10.0 * k / (2 * kPi * f * f);
                            const double ph = 2 * kPi * (f0 * tau + 0.5 * k * tau * tau);
                            *x = a * std::sin(ph);
                            *v = da * std::sin(ph) + a * 2 * kPi * f * std::cos(ph);
@@ -234,8 +234,7 @@ ReferenceExcitation V3(std::mt19937_64& rng, double dt) {
   // Kanai-Tajimi velocity spectrum shape: ground frequency 2.5 Hz, damping 0.6.
   const auto kanai_tajimi = [](double f) {
     const double wg = 2.5, zg = 0.6, r = f / wg;
-    return std::sqrt((1 + 4 * zg * zg * r * r) /
-                     ((1 - r * r) * (1 - r * r) + 4 * zg * zg * r * r));
+    return std::sqrt((1 + 4 * zg * zg * r * r) / ((1 - r * r) * (1 - r * r) + 4 * zg * zg * r * r));
   };
   const Multisine ms = RandomMultisine(rng, 40, 0.3, 6.0, kanai_tajimi);
   // Shinozuka-Sato envelope: (t/2)^2 rise, strong motion to 8 s, exp(-0.25 (t-8)) decay,
@@ -341,8 +340,7 @@ std::vector<double> SimulateReferenceDamper(const SpencerParams& params,
   damper.Reset(ex.x[0], ex.E[0]);
   f[0] = damper.Force(ex.x[0], ex.v[0]);
   for (std::size_t k = 1; k < n; ++k) {
-    f[k] = damper.Step(ex.t[k] - ex.t[k - 1], ex.x[k - 1], ex.v[k - 1], ex.x[k], ex.v[k],
-                       ex.E[k]);
+    f[k] = damper.Step(ex.t[k] - ex.t[k - 1], ex.x[k - 1], ex.v[k - 1], ex.x[k], ex.v[k], ex.E[k]);
   }
   return f;
 }

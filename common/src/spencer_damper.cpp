@@ -42,11 +42,11 @@ bool SpencerParams::IsValid(const char** reason) const {
     bool positive;
   };
   const Field fields[] = {
-      {"c0a", c0a, true},         {"c0b", c0b, false},  {"k0", k0, true},
-      {"c1a", c1a, true},         {"c1b", c1b, false},  {"k1", k1, false},
-      {"x0", x0, false},          {"alpha_a", alpha_a, false},
-      {"alpha_b", alpha_b, false}, {"gamma", gamma, false}, {"beta", beta, false},
-      {"A", A, false},            {"n", n, true},       {"eta", eta, true},
+      {"c0a", c0a, true},      {"c0b", c0b, false},         {"k0", k0, true},
+      {"c1a", c1a, true},      {"c1b", c1b, false},         {"k1", k1, false},
+      {"x0", x0, false},       {"alpha_a", alpha_a, false}, {"alpha_b", alpha_b, false},
+      {"gamma", gamma, false}, {"beta", beta, false},       {"A", A, false},
+      {"n", n, true},          {"eta", eta, true},
   };
   for (const Field& f : fields) {
     if (!std::isfinite(f.value) || (f.positive && !(f.value > 0.0))) {

@@ -64,7 +64,8 @@ int RunMaintenance(int argc, char** argv) {
       return Refuse(std::string(file) +
                     ": no device profile configured: no [can], [modbus] or [gpio] section, so "
                     "the firmware has nothing to drive (it would only run --dry-run). Say how "
-                    "your driver and sensors are wired: see " + std::string(kDevicesDoc));
+                    "your driver and sensors are wired: see " +
+                    std::string(kDevicesDoc));
     }
     std::printf("config %s: ok\n", file);
     return kOk;

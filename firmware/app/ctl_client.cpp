@@ -62,9 +62,8 @@ void PrintParams(const std::string& cmd, const std::vector<std::string>& lines) 
   }
   if (cmd == "get") {
     for (const auto& r : rows) {
-      std::printf("%s = %s%s%s (%s, %s; %s)\n", r[0].c_str(), r[1].c_str(),
-                  r[2].empty() ? "" : " ", r[2].c_str(), r[3].c_str(), r[5].c_str(),
-                  r[4].c_str());
+      std::printf("%s = %s%s%s (%s, %s; %s)\n", r[0].c_str(), r[1].c_str(), r[2].empty() ? "" : " ",
+                  r[2].c_str(), r[3].c_str(), r[5].c_str(), r[4].c_str());
     }
   } else {
     std::array<std::size_t, 6> w{4, 5, 4, 4, 3, 7};
@@ -118,11 +117,13 @@ int RunCtl(int argc, char** argv) {
     }
   }
   const std::string cmd = words.empty() ? "" : words[0];
-  const bool ok_args = (cmd == "list" && words.size() == 1) || (cmd == "get" && words.size() == 2) ||
-                       (cmd == "set" && words.size() == 3) || (cmd == "save" && words.size() == 1);
+  const bool ok_args = (cmd == "list" && words.size() == 1) ||
+                       (cmd == "get" && words.size() == 2) || (cmd == "set" && words.size() == 3) ||
+                       (cmd == "save" && words.size() == 1);
   if (!ok_args) {
-    std::fprintf(stderr, "error: usage: mrd-firmware ctl [--socket PATH] list | get NAME | set "
-                         "NAME VALUE | save (see mrd-firmware ctl --help)\n");
+    std::fprintf(stderr,
+                 "error: usage: mrd-firmware ctl [--socket PATH] list | get NAME | set "
+                 "NAME VALUE | save (see mrd-firmware ctl --help)\n");
     return 2;
   }
   for (const std::string& w : words) {
@@ -135,8 +136,10 @@ int RunCtl(int argc, char** argv) {
   for (std::size_t i = 1; i < words.size(); ++i) request += " " + words[i];
   std::string reply, error;
   if (!CtlRequest(socket, request, &reply, &error)) {
-    std::fprintf(stderr, "error: %s (is mrd-firmware running with [ctl] socket or "
-                         "--ctl-socket there?)\n", error.c_str());
+    std::fprintf(stderr,
+                 "error: %s (is mrd-firmware running with [ctl] socket or "
+                 "--ctl-socket there?)\n",
+                 error.c_str());
     return 1;
   }
   std::vector<std::string> lines = Split(reply, '\n');

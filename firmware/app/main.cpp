@@ -23,6 +23,7 @@
 
 #include "check.hpp"
 #include "ctl_client.hpp"
+#include "demo_table.hpp"
 #include "mrd/common/input_file.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/builtin_table.hpp"
@@ -33,13 +34,12 @@
 #include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/params_server.hpp"
-#include "mrd/firmware/runtime_params.hpp"
 #include "mrd/firmware/period_log.hpp"
+#include "mrd/firmware/runtime_params.hpp"
 #include "mrd/firmware/sd_notify.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
 #include "mrd/firmware/table_update.hpp"
-#include "demo_table.hpp"
 #include "summary_json.hpp"
 
 namespace {
@@ -63,8 +63,8 @@ void InstallStopHandlers() {
   struct sigaction sa {};
   sa.sa_handler = OnSignal;
   sigemptyset(&sa.sa_mask);
-  for (const int sig : {SIGINT, SIGTERM, SIGQUIT, SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM,
-                        SIGVTALRM, SIGPROF, SIGXCPU, SIGXFSZ, SIGPWR, SIGSTKFLT}) {
+  for (const int sig : {SIGINT, SIGTERM, SIGQUIT, SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM,
+                        SIGPROF, SIGXCPU, SIGXFSZ, SIGPWR, SIGSTKFLT}) {
     sigaction(sig, &sa, nullptr);
   }
   struct sigaction hup {};
@@ -214,7 +214,8 @@ bool ParseArgs(int argc, char** argv, Options* o) {
       o->duration_s = std::strtod(v, &end);
       if (end == v || *end != '\0' || !std::isfinite(o->duration_s) || o->duration_s <= 0.0 ||
           o->duration_s > 1e9) {
-        std::fprintf(stderr, "error: --duration needs a number of seconds in (0, 1e9], got '%s'\n", v);
+        std::fprintf(stderr, "error: --duration needs a number of seconds in (0, 1e9], got '%s'\n",
+                     v);
         return false;
       }
     } else if (a == "--lockstep") {
@@ -247,10 +248,11 @@ void PrintDevices(const std::vector<std::unique_ptr<BusDevice>>& devices) {
   for (const auto& d : devices) {
     const DeviceCounters c = d->counters();
     const auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
-    std::printf("  %-8s rx %llu (rejected %llu), tx %llu (failed %llu), reconnects %llu, "
-                "last error %s\n",
-                d->name(), u(c.rx_ok), u(c.rx_rejected), u(c.tx_ok), u(c.tx_failed),
-                u(c.reconnects), IoErrorName(c.last_error));
+    std::printf(
+        "  %-8s rx %llu (rejected %llu), tx %llu (failed %llu), reconnects %llu, "
+        "last error %s\n",
+        d->name(), u(c.rx_ok), u(c.rx_rejected), u(c.tx_ok), u(c.tx_failed), u(c.reconnects),
+        IoErrorName(c.last_error));
   }
 }
 
@@ -272,9 +274,9 @@ struct RunSummary {
   const RuntimeParams& params;
   const PeriodLogStats* log;  // nullptr: no log
   bool buses;
-  double seconds;        // run length [s]
-  double rms_model;      // [N]
-  double rms_tracking;   // [N]
+  double seconds;       // run length [s]
+  double rms_model;     // [N]
+  double rms_tracking;  // [N]
 };
 
 // --json: one JSON object (summary_json.hpp).
@@ -314,9 +316,8 @@ void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
   const auto cause = [&](FaultCause c) { return static_cast<std::size_t>(c); };
   std::printf("mrd-firmware %s (%s, %.6g s, period %.6g us, law %s, table %s)\n",
               buses ? "run" : "dry run", buses ? "buses" : (o.lockstep ? "lockstep" : "real time"),
-              seconds,
-              static_cast<double>(cfg.period_ns) / 1e3, ControlModeName(cfg.controller.law.mode),
-              table_name);
+              seconds, static_cast<double>(cfg.period_ns) / 1e3,
+              ControlModeName(cfg.controller.law.mode), table_name);
   std::printf("  real time:        SCHED_FIFO %s, memory %s\n", rt.sched_fifo ? "yes" : "no",
               rt.memory_locked ? "locked" : "not locked");
   std::printf("  ticks:            %llu\n", static_cast<unsigned long long>(s.ticks));
@@ -332,8 +333,9 @@ void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
               static_cast<unsigned long long>(s.watchdog.safe_periods),
               static_cast<unsigned long long>(s.watchdog.entries));
   for (std::size_t i = 0; i < kNumFaultCauses; ++i) {
-    std::printf(" %s %llu", FaultCauseName(static_cast<FaultCause>(i)),
-                static_cast<unsigned long long>(s.watchdog.trips[cause(static_cast<FaultCause>(i))]));
+    std::printf(
+        " %s %llu", FaultCauseName(static_cast<FaultCause>(i)),
+        static_cast<unsigned long long>(s.watchdog.trips[cause(static_cast<FaultCause>(i))]));
   }
   std::printf("\n  unreachable:      %llu force demands saturated\n",
               static_cast<unsigned long long>(s.unreachable));
@@ -341,7 +343,8 @@ void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
   std::printf("  envelope:         %llu periods with v/x held, %llu with the force held\n",
               static_cast<unsigned long long>(s.envelope_excursions),
               static_cast<unsigned long long>(s.force_excursions));
-  std::printf("  last command:     %.6g V, model force %.6g N\n", s.last_command_v, s.model_force_n);
+  std::printf("  last command:     %.6g V, model force %.6g N\n", s.last_command_v,
+              s.model_force_n);
   std::printf("  parameters:       %llu changes, %llu reloads\n",
               static_cast<unsigned long long>(params.changes()),
               static_cast<unsigned long long>(params.reloads()));
@@ -356,9 +359,11 @@ void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
   PrintDevices(r.devices);
   if (log != nullptr) {
     const auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
-    std::printf("  log:              %s: %llu records written (%llu blocks, %u file%s), %llu "
-                "dropped", cfg.log.path.c_str(), u(log->written), u(log->blocks), log->files,
-                log->files == 1 ? "" : "s", u(log->dropped));
+    std::printf(
+        "  log:              %s: %llu records written (%llu blocks, %u file%s), %llu "
+        "dropped",
+        cfg.log.path.c_str(), u(log->written), u(log->blocks), log->files,
+        log->files == 1 ? "" : "s", u(log->dropped));
     if (log->failed) {
       std::printf("; STOPPED: %s (%llu records not written)", log->error.c_str(), u(log->lost));
     }
@@ -372,16 +377,18 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
                   const std::vector<std::unique_ptr<BusDevice>>& devices, const ClockInfo& ci,
                   const RuntimeParams& params, const PeriodLogStats* log) {
   const bool buses = !devices.empty();
-  const double seconds = buses ? static_cast<double>(s.ticks) * static_cast<double>(cfg.period_ns) * 1e-9
-                               : o.dry_run_s;
+  const double seconds =
+      buses ? static_cast<double>(s.ticks) * static_cast<double>(cfg.period_ns) * 1e-9
+            : o.dry_run_s;
   const double rms_model =
-      s.force_samples > 0 ? std::sqrt(s.sum_sq_model_error / static_cast<double>(s.force_samples)) : 0.0;
+      s.force_samples > 0 ? std::sqrt(s.sum_sq_model_error / static_cast<double>(s.force_samples))
+                          : 0.0;
   const double rms_tracking =
       s.tracking_samples > 0
           ? std::sqrt(s.sum_sq_tracking_error / static_cast<double>(s.tracking_samples))
           : 0.0;
-  const RunSummary r{o, cfg, rt, table_name, devices, ci, params, log, buses, seconds,
-                     rms_model, rms_tracking};
+  const RunSummary r{o,      cfg, rt,    table_name, devices,   ci,
+                     params, log, buses, seconds,    rms_model, rms_tracking};
   if (o.json) {
     PrintSummaryJson(s, r);
   } else {
@@ -400,7 +407,8 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
     if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
       rt->memory_locked = true;
     } else {
-      std::fprintf(stderr, "warning: mlockall failed (%s); memory not locked, page faults may "
+      std::fprintf(stderr,
+                   "warning: mlockall failed (%s); memory not locked, page faults may "
                    "delay the loop (needs CAP_IPC_LOCK or a higher RLIMIT_MEMLOCK)\n",
                    std::strerror(errno));
     }
@@ -419,7 +427,8 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
       if (err == 0) {
         rt->sched_fifo = true;
       } else {
-        std::fprintf(stderr, "warning: SCHED_FIFO priority %d refused (%s); running at normal "
+        std::fprintf(stderr,
+                     "warning: SCHED_FIFO priority %d refused (%s); running at normal "
                      "priority, expect jitter (needs CAP_SYS_NICE or an rtprio limit)\n",
                      cfg.priority, std::strerror(err));
       }
@@ -435,7 +444,8 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
   while (!done.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     notifier.Ping(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                      std::chrono::steady_clock::now().time_since_epoch()).count(),
+                      std::chrono::steady_clock::now().time_since_epoch())
+                      .count(),
                   telemetry.Read().ticks);
   }
   notifier.Send("STOPPING=1");
@@ -491,7 +501,8 @@ void ReloadNow(const Options& o, RuntimeParams& params, const RuntimeParams::Rel
     std::fprintf(stderr, "%s %s\n", keep, r.message.c_str());
     return;
   }
-  std::fprintf(stderr, "mrd-firmware: reloaded config %s and table %s at period %llu "
+  std::fprintf(stderr,
+               "mrd-firmware: reloaded config %s and table %s at period %llu "
                "(parameter version %u, reload %llu; model state reset)\n",
                o.config != nullptr ? mrd::Printable(o.config).c_str() : "(none)",
                o.table != nullptr ? mrd::Printable(o.table).c_str() : "compiled-in",
@@ -585,24 +596,27 @@ int CheckRunMode(const Options& o, const FirmwareConfig& cfg, const mrd::Coeffic
                  const char* table_name, const Controller& controller) {
   const bool buses = cfg.io.any();
   if (buses && o.dry_run_s > 0.0) {
-    std::fprintf(stderr, "error: --dry-run runs the simulated damper; %s has bus sections "
+    std::fprintf(stderr,
+                 "error: --dry-run runs the simulated damper; %s has bus sections "
                  "([can], [modbus], [gpio], [pwm]): drop --dry-run, or use a config without them\n",
                  o.config);
     return kExitBadInput;
   }
   if (!buses && o.dry_run_s <= 0.0) {
-    std::fprintf(stderr, "error: nothing to run: give --config FILE with bus sections ([can], "
+    std::fprintf(stderr,
+                 "error: nothing to run: give --config FILE with bus sections ([can], "
                  "[modbus], [gpio], [pwm]) or --dry-run SECONDS (see --help)\n");
     return kExitBadInput;
   }
   if (const std::string device = buses ? RealDeviceOf(cfg.io) : std::string();
       !device.empty() && !o.allow_demo_table && IsDemoTable(table)) {
-    std::fprintf(stderr,
-                 "error: table %s is the demo table, a model of the reference damper, not of "
-                 "yours: refusing to drive %s with it. Identify your damper (mrd identify, mrd "
-                 "export: see docs/guide/identify.md) and give its table with --table FILE, or pass "
-                 "--allow-demo-table\n",
-                 mrd::Printable(table_name).c_str(), mrd::Printable(device).c_str());
+    std::fprintf(
+        stderr,
+        "error: table %s is the demo table, a model of the reference damper, not of "
+        "yours: refusing to drive %s with it. Identify your damper (mrd identify, mrd "
+        "export: see docs/guide/identify.md) and give its table with --table FILE, or pass "
+        "--allow-demo-table\n",
+        mrd::Printable(table_name).c_str(), mrd::Printable(device).c_str());
     return kExitBadInput;
   }
   if (buses && o.lockstep) {
@@ -611,8 +625,10 @@ int CheckRunMode(const Options& o, const FirmwareConfig& cfg, const mrd::Coeffic
   }
   if (buses && controller.runtime().reads_displacement() &&
       (ServedInputs(cfg) & Bit(Input::kDisplacement)) == 0) {
-    std::fprintf(stderr, "error: %s: the model of table %s reads the displacement, but no bus "
-                 "serves input 'displacement'\n", o.config, table_name);
+    std::fprintf(stderr,
+                 "error: %s: the model of table %s reads the displacement, but no bus "
+                 "serves input 'displacement'\n",
+                 o.config, table_name);
     return kExitBadInput;
   }
   if (!buses && !CheckDryRun(o.dry_run_s, cfg.period_ns)) return kExitBadInput;
@@ -678,7 +694,8 @@ int RunOnBuses(const Options& o, const FirmwareConfig& cfg, Controller& controll
       if (grants == nullptr) grants = d->grant_source();
     }
     if (grants == nullptr) {
-      std::fprintf(stderr, "error: %s: clock = \"grant\" needs a [can] or [modbus] device\n", o.config);
+      std::fprintf(stderr, "error: %s: clock = \"grant\" needs a [can] or [modbus] device\n",
+                   o.config);
       for (auto& d : devices) d->Deactivate();
       return kExitBadInput;
     }
@@ -688,7 +705,8 @@ int RunOnBuses(const Options& o, const FirmwareConfig& cfg, Controller& controll
                 log.observer(), &clock);
     out->clock_info = {"grant", clock.grants(), clock.gave_up() ? 1U : 0U};
     if (clock.gave_up()) {
-      std::fprintf(stderr, "error: no time grant for %.6g s (clock = \"grant\"): the harness "
+      std::fprintf(stderr,
+                   "error: no time grant for %.6g s (clock = \"grant\"): the harness "
                    "is gone; stopped in the safe state\n",
                    static_cast<double>(cfg.grant_timeout_ns) * 1e-9);
       out->grant_lost = true;

@@ -1,7 +1,6 @@
 #include "summary_json.hpp"
 
 #include <iterator>
-
 #include <nlohmann/json.hpp>
 
 #include "mrd/firmware/watchdog.hpp"
@@ -67,23 +66,24 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
       for (std::size_t i = 0; i < kNumIoErrors; ++i) {
         errors[IoErrorName(static_cast<IoError>(i))] = c.errors[i];
       }
-      devices[d.name] = {{"rx_ok", c.rx_ok},           {"rx_rejected", c.rx_rejected},
-                         {"tx_ok", c.tx_ok},           {"tx_failed", c.tx_failed},
-                         {"reconnects", c.reconnects}, {"last_error", IoErrorName(c.last_error)},
+      devices[d.name] = {{"rx_ok", c.rx_ok},
+                         {"rx_rejected", c.rx_rejected},
+                         {"tx_ok", c.tx_ok},
+                         {"tx_failed", c.tx_failed},
+                         {"reconnects", c.reconnects},
+                         {"last_error", IoErrorName(c.last_error)},
                          {"errors", errors}};
     }
     j["devices"] = devices;
     j["final_safe_state"] = s.safe;
     j["parameters"] = {{"changes", info.param_changes}, {"reloads", info.reloads}};
-    j["clock"] = {{"mode", info.clock}, {"grants", info.grants},
-                  {"missed_grants", info.missed_grants}};
+    j["clock"] = {
+        {"mode", info.clock}, {"grants", info.grants}, {"missed_grants", info.missed_grants}};
     if (info.log != nullptr) {
       const PeriodLogStats& l = *info.log;
-      j["log"] = {{"path", info.log_path},   {"records_written", l.written},
-                  {"dropped", l.dropped},     {"lost", l.lost},
-                  {"blocks", l.blocks},      {"bytes", l.bytes},
-                  {"files", l.files},        {"stopped", l.failed},
-                  {"error", l.error}};
+      j["log"] = {{"path", info.log_path}, {"records_written", l.written}, {"dropped", l.dropped},
+                  {"lost", l.lost},        {"blocks", l.blocks},           {"bytes", l.bytes},
+                  {"files", l.files},      {"stopped", l.failed},          {"error", l.error}};
     } else {
       j["log"] = nullptr;
     }

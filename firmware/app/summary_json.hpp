@@ -13,10 +13,10 @@
 namespace mrd::firmware {
 
 struct SummaryInfo {
-  const char* mode = "";        // "lockstep" | "realtime" | "bus"
-  const char* table = "";       // table file path or "compiled-in"
+  const char* mode = "";   // "lockstep" | "realtime" | "bus"
+  const char* table = "";  // table file path or "compiled-in"
   const char* law = "";
-  double seconds = 0.0;         // dry-run duration, or ticks x period on the buses [s]
+  double seconds = 0.0;  // dry-run duration, or ticks x period on the buses [s]
   double period_us = 0.0;
   bool sched_fifo = false;
   bool memory_locked = false;
@@ -27,13 +27,14 @@ struct SummaryInfo {
     DeviceCounters counters;
   };
   std::vector<Device> devices;
-  const char* clock = "monotonic";  // bus mode: "monotonic" | "grant" (lockstep)
-  std::uint64_t grants = 0;         // lockstep: time grants received
-  std::uint64_t param_changes = 0;  // runtime parameter changes applied (mrd-firmware ctl set)
-  std::uint64_t reloads = 0;        // reloads applied (SIGHUP)
+  const char* clock = "monotonic";      // bus mode: "monotonic" | "grant" (lockstep)
+  std::uint64_t grants = 0;             // lockstep: time grants received
+  std::uint64_t param_changes = 0;      // runtime parameter changes applied (mrd-firmware ctl set)
+  std::uint64_t reloads = 0;            // reloads applied (SIGHUP)
   const PeriodLogStats* log = nullptr;  // the per-period log; nullptr: none ("log": null)
   const char* log_path = "";
-  std::uint64_t missed_grants = 0;  // lockstep: 1 when no grant came within grant_timeout_ms (stopped)  // bus mode: per field device (empty in a dry run)
+  std::uint64_t missed_grants = 0;  // lockstep: 1 when no grant came within grant_timeout_ms
+                                    // (stopped)  // bus mode: per field device (empty in a dry run)
 };
 
 // Pretty-printed JSON text with a final newline; "" if it cannot be built (no memory).

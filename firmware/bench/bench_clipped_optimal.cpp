@@ -74,7 +74,7 @@ void BM_ControllerUpdateClippedOptimal(benchmark::State& state, ClippedCommand c
     const double s1 = std::sin(kTwoPi * 5.5 * t), s2 = std::sin(kTwoPi * 16.0 * t);
     frame[Input::kVelocity] = {8.0 * std::cos(kTwoPi * 5.5 * t), now};       // [cm/s]
     frame[Input::kForce] = {300.0 * std::cos(kTwoPi * 5.5 * t + 0.3), now};  // [N]
-    frame[FloorAcceleration(0)] = {2.0 * s1 + 0.5 * s2, now};       // [m/s^2]
+    frame[FloorAcceleration(0)] = {2.0 * s1 + 0.5 * s2, now};                // [m/s^2]
     frame[FloorAcceleration(1)] = {3.0 * s1 - 0.3 * s2, now};
     frame[FloorAcceleration(2)] = {4.0 * s1 + 0.2 * s2, now};
     benchmark::DoNotOptimize(c.Update(frame, IoStatus::kOk, false, now, 1e-3));

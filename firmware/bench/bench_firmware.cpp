@@ -95,7 +95,6 @@ void BM_ControllerUpdate(benchmark::State& state) {
 }
 BENCHMARK(BM_ControllerUpdate);
 
-
 // One HIL plant period of the quarter car on a class C road (10 RK4 substeps; the budget of the
 // harness's lockstep speed): real time is 1 ms per step.
 void BM_QuarterCarStep(benchmark::State& state) {
@@ -108,7 +107,6 @@ void BM_QuarterCarStep(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_QuarterCarStep);
-
 
 }  // namespace
 

@@ -25,10 +25,10 @@ struct ChassisExcitation {
   ChassisExcitation() {
     for (int k = 0; k < kSamples; ++k) {
       const double t = k * 1e-3;
-      const double vb = 8.0 * std::sin(kTwoPi * 1.2 * t);                           // [cm/s]
+      const double vb = 8.0 * std::sin(kTwoPi * 1.2 * t);  // [cm/s]
       const double ab = 8.0 * kTwoPi * 1.2 * std::cos(kTwoPi * 1.2 * t) +
-                        150.0 * std::sin(kTwoPi * 11.0 * t);                         // [cm/s^2]
-      const double vw = 20.0 * std::sin(kTwoPi * 11.0 * t + 0.4) + 0.5 * vb;         // [cm/s]
+                        150.0 * std::sin(kTwoPi * 11.0 * t);                  // [cm/s^2]
+      const double vw = 20.0 * std::sin(kTwoPi * 11.0 * t + 0.4) + 0.5 * vb;  // [cm/s]
       body_velocity.push_back(vb);
       body_acceleration.push_back(ab);
       wheel_velocity.push_back(vw);
@@ -40,11 +40,16 @@ struct ChassisExcitation {
   std::vector<double> v, body_velocity, body_acceleration, wheel_velocity, demand;
 };
 
-const ControlMode kModes[] = {ControlMode::kForceTracking, ControlMode::kOpenLoop,
-                              ControlMode::kConstantVoltage, ControlMode::kSkyhookOnOff,
-                              ControlMode::kSkyhookContinuous, ControlMode::kGroundhook,
-                              ControlMode::kGroundhookOnOff, ControlMode::kHybrid,
-                              ControlMode::kAdd, ControlMode::kSkyhookAdd};
+const ControlMode kModes[] = {ControlMode::kForceTracking,
+                              ControlMode::kOpenLoop,
+                              ControlMode::kConstantVoltage,
+                              ControlMode::kSkyhookOnOff,
+                              ControlMode::kSkyhookContinuous,
+                              ControlMode::kGroundhook,
+                              ControlMode::kGroundhookOnOff,
+                              ControlMode::kHybrid,
+                              ControlMode::kAdd,
+                              ControlMode::kSkyhookAdd};
 
 void BM_ControlLaw(benchmark::State& state, ControlMode mode) {
   const ChassisExcitation ex;
@@ -94,8 +99,8 @@ const bool kRegistered = [] {
   for (const ControlMode mode : kModes) {
     const std::string name = ControlModeName(mode);
     benchmark::RegisterBenchmark(("BM_ControlLaw/" + name).c_str(), BM_ControlLaw, mode);
-    benchmark::RegisterBenchmark(("BM_ControllerUpdateLaw/" + name).c_str(),
-                                 BM_ControllerUpdateLaw, mode);
+    benchmark::RegisterBenchmark(("BM_ControllerUpdateLaw/" + name).c_str(), BM_ControllerUpdateLaw,
+                                 mode);
   }
   return true;
 }();

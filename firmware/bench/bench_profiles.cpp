@@ -41,7 +41,8 @@ void CanTelemetry(benchmark::State& state, const mrd::profile::CanProfile& p) {
   for (auto _ : state) {
     can_frame f{};
     tx.Begin(m, &f);
-    for (const CanOut r : {CanOut::kStatusModelForce, CanOut::kStatusDemand, CanOut::kStatusCommand}) {
+    for (const CanOut r :
+         {CanOut::kStatusModelForce, CanOut::kStatusDemand, CanOut::kStatusCommand}) {
       if (out(r).message == m) (void)tx.Set(&f, out(r), 100.0 * std::sin(0.01 * k) + 200.0);
     }
     tx.Seal(m, &f);
@@ -67,7 +68,8 @@ void CanPeriod(benchmark::State& state, const mrd::profile::CanProfile& p) {
     if (in(CanIn::kDisplacement).message == motion_m) {
       (void)tx.Set(&motion[k], in(CanIn::kDisplacement), 0.5 * std::cos(0.01 * k));
     }
-    if (demand_m == motion_m) (void)tx.Set(&motion[k], in(CanIn::kDemand), 500.0 * std::sin(0.003 * k));
+    if (demand_m == motion_m)
+      (void)tx.Set(&motion[k], in(CanIn::kDemand), 500.0 * std::sin(0.003 * k));
     tx.Seal(motion_m, &motion[k]);
     tx.Begin(demand_m, &force[k]);
     (void)tx.Set(&force[k], in(CanIn::kDemand), 500.0 * std::sin(0.003 * k));
@@ -116,7 +118,8 @@ std::vector<std::uint8_t> ReadReply(const mrd::profile::ModbusRequest& r,
   for (int i = 0; i < r.count; ++i) {
     const std::uint16_t w = words[static_cast<std::size_t>(r.address + i)];
     if (bits) {
-      if (w != 0) pdu[2 + static_cast<std::size_t>(i / 8)] |= static_cast<std::uint8_t>(1U << (i % 8));
+      if (w != 0)
+        pdu[2 + static_cast<std::size_t>(i / 8)] |= static_cast<std::uint8_t>(1U << (i % 8));
     } else {
       pdu[2 + 2 * static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(w >> 8);
       pdu[3 + 2 * static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(w & 0xFF);

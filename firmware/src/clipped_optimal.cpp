@@ -24,13 +24,20 @@ void ToReal(const double (&in)[N], Real (&out)[N]) {
 
 bool ClippedOptimalGains::IsValid(const char** reason) const {
   const char* bad = nullptr;
-  if (!AllFinite(ad)) bad = "ad";
-  else if (!AllFinite(bd)) bad = "bd";
-  else if (!AllFinite(cy)) bad = "cy";
-  else if (!AllFinite(dy)) bad = "dy";
-  else if (!AllFinite(l)) bad = "l";
-  else if (!AllFinite(k)) bad = "k";
-  else if (!std::isfinite(v_max) || !std::isfinite(v_min) || v_min > v_max) bad = "v_max";
+  if (!AllFinite(ad))
+    bad = "ad";
+  else if (!AllFinite(bd))
+    bad = "bd";
+  else if (!AllFinite(cy))
+    bad = "cy";
+  else if (!AllFinite(dy))
+    bad = "dy";
+  else if (!AllFinite(l))
+    bad = "l";
+  else if (!AllFinite(k))
+    bad = "k";
+  else if (!std::isfinite(v_max) || !std::isfinite(v_min) || v_min > v_max)
+    bad = "v_max";
   if (bad != nullptr && reason != nullptr) *reason = bad;
   return bad == nullptr;
 }

@@ -1,4 +1,5 @@
 #include "mrd/common/clock.hpp"
+
 #include "mrd/firmware/io.hpp"
 
 namespace mrd::firmware {

@@ -19,13 +19,16 @@ bool ControlLawConfig::IsValid(double e_min, double e_max) const {
     return false;
   }
   return skyhook_gain >= 0.0 && force_limit > 0.0 &&
-         static_cast<std::uint8_t>(mode) <= static_cast<std::uint8_t>(ControlMode::kClippedOptimal) &&
+         static_cast<std::uint8_t>(mode) <=
+             static_cast<std::uint8_t>(ControlMode::kClippedOptimal) &&
          static_cast<std::uint8_t>(clipped_command) <=
              static_cast<std::uint8_t>(ClippedCommand::kInverse);
 }
 
 ControlOutput ControlLaw::Update(const ControlInputs& in) const {
-  const auto clamp = [this](Real f) { return std::fmin(std::fmax(f, -force_limit_), force_limit_); };
+  const auto clamp = [this](Real f) {
+    return std::fmin(std::fmax(f, -force_limit_), force_limit_);
+  };
   switch (config_.mode) {
     case ControlMode::kForceTracking:
       return {true, clamp(in.demand)};
@@ -42,8 +45,8 @@ ControlOutput ControlLaw::Update(const ControlInputs& in) const {
     case ControlMode::kGroundhook: {
       // Groundhook force on the wheel -c vw; the damper pushes the wheel with +f (per motion
       // ratio): f = -c vw, possible when it has f's passive sign (-vw v > 0).
-      const Real f = -in.wheel_velocity * in.v > Real(0) ? -groundhook_gain_ * in.wheel_velocity
-                                                        : Real(0);
+      const Real f =
+          -in.wheel_velocity * in.v > Real(0) ? -groundhook_gain_ * in.wheel_velocity : Real(0);
       return {true, clamp(f)};
     }
     case ControlMode::kGroundhookOnOff:
@@ -51,8 +54,7 @@ ControlOutput ControlLaw::Update(const ControlInputs& in) const {
     case ControlMode::kHybrid: {
       const Real sky = in.body_velocity * in.v > Real(0) ? in.body_velocity : Real(0);
       const Real gnd = -in.wheel_velocity * in.v > Real(0) ? -in.wheel_velocity : Real(0);
-      return {true,
-              clamp(hybrid_gain_ * (hybrid_alpha_ * sky + (Real(1) - hybrid_alpha_) * gnd))};
+      return {true, clamp(hybrid_gain_ * (hybrid_alpha_ * sky + (Real(1) - hybrid_alpha_) * gnd))};
     }
     case ControlMode::kAdd:
       return {false, in.body_acceleration * in.v > Real(0) ? e_max_ : e_min_};
@@ -72,17 +74,28 @@ ControlOutput ControlLaw::Update(const ControlInputs& in) const {
 
 const char* ControlModeName(ControlMode mode) {
   switch (mode) {
-    case ControlMode::kForceTracking: return "force";
-    case ControlMode::kConstantVoltage: return "constant";
-    case ControlMode::kSkyhookOnOff: return "skyhook-on-off";
-    case ControlMode::kSkyhookContinuous: return "skyhook";
-    case ControlMode::kOpenLoop: return "open-loop";
-    case ControlMode::kGroundhook: return "groundhook";
-    case ControlMode::kGroundhookOnOff: return "groundhook-on-off";
-    case ControlMode::kHybrid: return "hybrid";
-    case ControlMode::kAdd: return "add";
-    case ControlMode::kSkyhookAdd: return "sh-add";
-    case ControlMode::kClippedOptimal: return "clipped-optimal";
+    case ControlMode::kForceTracking:
+      return "force";
+    case ControlMode::kConstantVoltage:
+      return "constant";
+    case ControlMode::kSkyhookOnOff:
+      return "skyhook-on-off";
+    case ControlMode::kSkyhookContinuous:
+      return "skyhook";
+    case ControlMode::kOpenLoop:
+      return "open-loop";
+    case ControlMode::kGroundhook:
+      return "groundhook";
+    case ControlMode::kGroundhookOnOff:
+      return "groundhook-on-off";
+    case ControlMode::kHybrid:
+      return "hybrid";
+    case ControlMode::kAdd:
+      return "add";
+    case ControlMode::kSkyhookAdd:
+      return "sh-add";
+    case ControlMode::kClippedOptimal:
+      return "clipped-optimal";
   }
   return "unknown";
 }

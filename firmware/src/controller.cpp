@@ -32,7 +32,7 @@ bool Implausible(Real value, Real limit) { return limit > Real(0) && std::fabs(v
 }  // namespace
 
 ConfigureStatus Controller::Configure(const CoefficientTable& table,
-                                     const ControllerConfig& config) {
+                                      const ControllerConfig& config) {
   const auto refuse = [](ConfigureFault fault, Error e = Error::kOutOfRange) {
     return ConfigureStatus{fault, e};
   };
@@ -83,9 +83,8 @@ Error Controller::Retune(const ControllerConfig& config) {
       config.e_max > table_e_max_ || !std::isfinite(config.envelope_margin) ||
       config.envelope_margin < 0.0 || !(config.velocity_limit >= 0.0) ||
       !(config.displacement_limit >= 0.0) || !config.law.IsValid(table_e_min_, config.e_max) ||
-      !ClippedGainsOk(config) ||
-      config.watchdog.recover_periods == 0 || !std::isfinite(config.cutoff_hz) ||
-      !(config.cutoff_hz > 0.0)) {
+      !ClippedGainsOk(config) || config.watchdog.recover_periods == 0 ||
+      !std::isfinite(config.cutoff_hz) || !(config.cutoff_hz > 0.0)) {
     return Error::kOutOfRange;
   }
   (void)inverter_.SetRange(table_e_min_, config.e_max);
@@ -130,8 +129,8 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
   const Real body_acceleration = static_cast<Real>(frame[Input::kBodyAcceleration].value);
   std::uint32_t causes = 0;
   constexpr std::uint32_t kBusBits = Watchdog::Bit(FaultCause::kCanBus) |
-                                      Watchdog::Bit(FaultCause::kModbusBus) |
-                                      Watchdog::Bit(FaultCause::kGpioBus);
+                                     Watchdog::Bit(FaultCause::kModbusBus) |
+                                     Watchdog::Bit(FaultCause::kGpioBus);
   if ((frame.bus_faults & kBusBits) != 0) {
     causes |= frame.bus_faults & kBusBits;
   } else if (read_status == IoStatus::kFault) {
@@ -238,7 +237,8 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
       volts = std::fmin(std::fmax(clipped_volts, e_min_), e_max_);
     }
   } else if (!out.safe) {
-    const ControlOutput law = law_.Update({v_, demand, body_velocity, wheel_velocity, body_acceleration});
+    const ControlOutput law =
+        law_.Update({v_, demand, body_velocity, wheel_velocity, body_acceleration});
     if (law.is_force) {
       const Inverter::Solution s = inverter_.Solve(runtime_.history(), law.value, E_prev_);
       volts = s.E;

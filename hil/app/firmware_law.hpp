@@ -28,9 +28,9 @@ bool MakeFirmwareLaw(const std::string& spec, double skyhook_gain, double e_max,
                      std::string* error);
 
 struct LawRun {
-  RidePoint ride;                   // volts: the mean command [V]
-  std::uint64_t violations = 0;     // commands non-finite or outside [0, E_max]
-  std::uint64_t safe_periods = 0;   // watchdog safe state after the first period
+  RidePoint ride;                  // volts: the mean command [V]
+  std::uint64_t violations = 0;    // commands non-finite or outside [0, E_max]
+  std::uint64_t safe_periods = 0;  // watchdog safe state after the first period
 };
 // Runs the law on the plant from Reset (the compiled-in table). false with *error when the
 // controller refuses the configuration.

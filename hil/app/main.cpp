@@ -2,27 +2,25 @@
 // transports as hardware (local CAN bus / SocketCAN, Modbus TCP, Modbus RTU on a pty,
 // simulated GPIO chip) to a firmware started separately (serve), or runs a scored scenario
 // against a firmware child process (run; run.hpp).
-#include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
-
-#include <atomic>
-#include <cmath>
-#include <csignal>
-#include <cstdio>
-#include <cstring>
-#include <iostream>
-#include <memory>
-#include <stdexcept>
-#include <string>
-#include <vector>
-
 #include <dirent.h>
 #include <pthread.h>
 #include <sched.h>
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "mrd/hil/gpio_port.hpp"
 #include "mrd/hil/plant_port.hpp"
@@ -126,8 +124,10 @@ nlohmann::json ToJson(const mrd::hil::ServeResult& r) {
                      {"p99", r.latency.p99_us},
                      {"max", r.latency.max_us}};
   for (const auto& [name, c] : r.ports) {
-    j["ports"][name] = {{"published", c.published}, {"received", c.received},
-                        {"rejected", c.rejected}, {"refused", c.refused}};
+    j["ports"][name] = {{"published", c.published},
+                        {"received", c.received},
+                        {"rejected", c.rejected},
+                        {"refused", c.refused}};
   }
   return j;
 }
@@ -208,7 +208,8 @@ int PrepareRun(const std::string& scenario_path, const std::vector<std::string>&
   }
   if (o.firmware.empty()) o.firmware = SelfDir() + "/mrd-firmware";
   if (access(o.firmware.c_str(), X_OK) != 0 && !o.attach) {
-    std::fprintf(stderr, "error: %s: not an executable (give --firmware PATH)\n", o.firmware.c_str());
+    std::fprintf(stderr, "error: %s: not an executable (give --firmware PATH)\n",
+                 o.firmware.c_str());
     return kExitBadInput;
   }
   if (!o.table.empty() && access(o.table.c_str(), R_OK) != 0) {
@@ -273,7 +274,12 @@ int ReportRun(const mrd::hil::Scenario& s, const mrd::hil::RunResult& r, const s
     std::cout << j.dump(2) << std::endl;
   } else {
     std::cout << mrd::hil::SummaryText(s, r);
-    if (!out.empty()) std::cout << "  files: " << out << "/summary.json, trace.csv, firmware.toml, firmware.mrdlog, tracking.png, command.png" << (r.ride ? ", ride.png" : "") << (r.passive ? ", comfort.png, psd.png, passive.dat, psd.dat" : "") << "\n";
+    if (!out.empty())
+      std::cout
+          << "  files: " << out
+          << "/summary.json, trace.csv, firmware.toml, firmware.mrdlog, tracking.png, command.png"
+          << (r.ride ? ", ride.png" : "")
+          << (r.passive ? ", comfort.png, psd.png, passive.dat, psd.dat" : "") << "\n";
   }
   if (!std::cout) return kExitFailure;
   return r.pass ? kExitOk : kExitFailure;
@@ -315,7 +321,8 @@ int RunCommand(const std::string& scenario_path, const std::vector<std::string>&
 int BenchCommand(double seconds, mrd::hil::RunOptions o, bool json) {
   if (o.firmware.empty()) o.firmware = SelfDir() + "/mrd-firmware";
   if (access(o.firmware.c_str(), X_OK) != 0) {
-    std::fprintf(stderr, "error: %s: not an executable (give --firmware PATH)\n", o.firmware.c_str());
+    std::fprintf(stderr, "error: %s: not an executable (give --firmware PATH)\n",
+                 o.firmware.c_str());
     return kExitBadInput;
   }
   mrd::hil::Scenario s;
@@ -340,8 +347,8 @@ int BenchCommand(double seconds, mrd::hil::RunOptions o, bool json) {
       return rc == 2 ? kExitBadInput : kExitFailure;
     }
     const auto stats = [](const mrd::hil::LatencyStats& l) {
-      return nlohmann::json{{"count", l.count}, {"median", l.median_us}, {"p99", l.p99_us},
-                            {"max", l.max_us}};
+      return nlohmann::json{
+          {"count", l.count}, {"median", l.median_us}, {"p99", l.p99_us}, {"max", l.max_us}};
     };
     j[clock] = {{"plant_s", static_cast<double>(r.steps) * 1e-3},
                 {"wall_s", r.wall_s},
@@ -358,15 +365,17 @@ int BenchCommand(double seconds, mrd::hil::RunOptions o, bool json) {
   } else {
     const auto& l = j["lockstep"];
     const auto& rt = j["realtime"];
-    std::printf("lockstep over the local CAN bus: %.3g s of plant time in %.3g s wall = %.3gx real "
-                "time (%llu steps, %llu command timeouts)\n",
-                l["plant_s"].get<double>(), l["wall_s"].get<double>(), l["speed_x"].get<double>(),
-                l["steps"].get<unsigned long long>(), l["command_timeouts"].get<unsigned long long>());
-    std::printf("real time (1 kHz) wake-up jitter: median %.1f us, p99 %.1f us, max %.1f us "
-                "(%llu late steps); sensor->command latency median %.1f us, p99 %.1f us\n",
-                rt["wake_jitter_us"]["median"].get<double>(), rt["wake_jitter_us"]["p99"].get<double>(),
-                rt["wake_jitter_us"]["max"].get<double>(), rt["late_steps"].get<unsigned long long>(),
-                rt["latency_us"]["median"].get<double>(), rt["latency_us"]["p99"].get<double>());
+    std::printf(
+        "lockstep over the local CAN bus: %.3g s of plant time in %.3g s wall = %.3gx real "
+        "time (%llu steps, %llu command timeouts)\n",
+        l["plant_s"].get<double>(), l["wall_s"].get<double>(), l["speed_x"].get<double>(),
+        l["steps"].get<unsigned long long>(), l["command_timeouts"].get<unsigned long long>());
+    std::printf(
+        "real time (1 kHz) wake-up jitter: median %.1f us, p99 %.1f us, max %.1f us "
+        "(%llu late steps); sensor->command latency median %.1f us, p99 %.1f us\n",
+        rt["wake_jitter_us"]["median"].get<double>(), rt["wake_jitter_us"]["p99"].get<double>(),
+        rt["wake_jitter_us"]["max"].get<double>(), rt["late_steps"].get<unsigned long long>(),
+        rt["latency_us"]["median"].get<double>(), rt["latency_us"]["p99"].get<double>());
   }
   return kExitOk;
 }
@@ -384,28 +393,36 @@ struct ServeArgs {
 
 void AddServe(CLI::App& app, ServeArgs* a) {
   auto* serve = a->cmd = app.add_subcommand(
-      "serve", "Play the plant (sensors + current driver) over the given transports in real "
-               "time (1 kHz) for a firmware started separately; print a summary.");
+      "serve",
+      "Play the plant (sensors + current driver) over the given transports in real "
+      "time (1 kHz) for a firmware started separately; print a summary.");
   mrd::hil::ServeOptions& o = a->o;
-  serve->add_option("--port", a->port_specs,
-                    "TRANSPORT=ENDPOINT, repeatable: can=SOCKET_PATH|IFACE, "
-                    "modbus-tcp=HOST:PORT, modbus-rtu=PTY_LINK_PATH, "
-                    "gpio=SIM_CHIP_PATH[,KEY=VALUE...] (keys encoder_a=4 encoder_b=5 fault=6 "
-                    "enable=17 heartbeat=18 counts_per_cm=400 fault_active_low=0)")
+  serve
+      ->add_option("--port", a->port_specs,
+                   "TRANSPORT=ENDPOINT, repeatable: can=SOCKET_PATH|IFACE, "
+                   "modbus-tcp=HOST:PORT, modbus-rtu=PTY_LINK_PATH, "
+                   "gpio=SIM_CHIP_PATH[,KEY=VALUE...] (keys encoder_a=4 encoder_b=5 fault=6 "
+                   "enable=17 heartbeat=18 counts_per_cm=400 fault_active_low=0)")
       ->required();
   serve->add_option("--duration", o.duration_s, "seconds to run (<= 0: until SIGINT/SIGTERM)")
       ->capture_default_str();
   serve->add_option("--amplitude", o.excitation.amplitude_cm, "displacement amplitude [cm]")
-      ->check(CLI::Range(0.0, 100.0))->capture_default_str();
+      ->check(CLI::Range(0.0, 100.0))
+      ->capture_default_str();
   serve->add_option("--frequency", o.excitation.frequency_hz, "displacement frequency [Hz]")
-      ->check(CLI::Range(0.0, 1000.0))->capture_default_str();
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
   serve->add_option("--demand", o.excitation.demand_amplitude_n, "force demand amplitude [N]")
-      ->check(CLI::Range(0.0, 1e6))->capture_default_str();
+      ->check(CLI::Range(0.0, 1e6))
+      ->capture_default_str();
   serve->add_option("--e-max", o.e_max, "highest admissible command [V]")
-      ->check(CLI::Range(0.0, 1e3))->capture_default_str();
-  serve->add_option("--heartbeat-timeout", o.heartbeat_timeout_s,
-                    "driver drops the coil to 0 V without a heartbeat this long [s]")
-      ->check(CLI::Range(1e-3, 10.0))->capture_default_str();
+      ->check(CLI::Range(0.0, 1e3))
+      ->capture_default_str();
+  serve
+      ->add_option("--heartbeat-timeout", o.heartbeat_timeout_s,
+                   "driver drops the coil to 0 V without a heartbeat this long [s]")
+      ->check(CLI::Range(1e-3, 10.0))
+      ->capture_default_str();
   serve->add_option("--fault-line", a->fault_window,
                     "START:END: assert the fault line (GPIO line, Modbus sensor block, CAN "
                     "DriverStatus overcurrent bit) from START to END seconds");
@@ -415,11 +432,13 @@ void AddServe(CLI::App& app, ServeArgs* a) {
                     "for the modbus-tcp=/modbus-rtu= ports (the harness serves its map); "
                     "default: the built-in protocols");
   serve->add_flag("--json", a->json, "print the summary as JSON");
-  serve->add_option("--rt-priority", a->rt_priority,
-                    "SCHED_FIFO priority (1-99) of the plant and its bus servers, so they "
-                    "answer in time on a loaded host as a drive's own processor does; 0: normal "
-                    "priority. Refused (no privilege): a warning, normal priority")
-      ->check(CLI::Range(0, 99))->capture_default_str();
+  serve
+      ->add_option("--rt-priority", a->rt_priority,
+                   "SCHED_FIFO priority (1-99) of the plant and its bus servers, so they "
+                   "answer in time on a loaded host as a drive's own processor does; 0: normal "
+                   "priority. Refused (no privilege): a warning, normal priority")
+      ->check(CLI::Range(0, 99))
+      ->capture_default_str();
 }
 
 // serve --profile: a Modbus or CAN device profile (neither: the built-in protocols). false:
@@ -520,8 +539,9 @@ struct RunArgs {
 
 void AddRun(CLI::App& app, RunArgs* a) {
   auto* run = a->cmd = app.add_subcommand(
-      "run", "Run a scenario against mrd-firmware (started as a child process, or --attach): "
-             "plant, simulated driver, faults, scores. Exit 0 pass, 1 fail, 2 bad input.");
+      "run",
+      "Run a scenario against mrd-firmware (started as a child process, or --attach): "
+      "plant, simulated driver, faults, scores. Exit 0 pass, 1 fail, 2 bad input.");
   mrd::hil::RunOptions& ro = a->ro;
   run->add_option("scenario", a->scenario_path, "scenario TOML (hil/scenarios/)")->required();
   run->add_option("--set", a->sets,
@@ -557,7 +577,8 @@ void AddRun(CLI::App& app, RunArgs* a) {
                                  "mrd-firmware to start (default: the one beside mrd-hil)");
   run->add_flag("--attach", ro.attach,
                 "do not start the firmware: print the generated config and wait for one "
-                "started by hand")->excludes(fw_opt);
+                "started by hand")
+      ->excludes(fw_opt);
   run->add_option("--out", a->out_dir,
                   "write summary.json, trace.csv, firmware.toml, the firmware's per-period log "
                   "firmware.mrdlog (mrd log) and plots (gnuplot) here");
@@ -569,7 +590,8 @@ void AddRun(CLI::App& app, RunArgs* a) {
   run->add_option("--command-timeout", ro.command_timeout_s,
                   "lockstep liveness: a firmware silent this long (wall clock) ends the run "
                   "with an error; a slow answer never changes the result [s]")
-      ->check(CLI::Range(0.1, 3600.0))->capture_default_str();
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
   run->add_option("--can-interface", ro.can_interface,
                   "CAN: a SocketCAN interface (CAN_RAW with filters, e.g. vcan0) for harness and "
                   "firmware instead of the local frame bus");
@@ -594,10 +616,12 @@ struct BenchArgs {
 
 void AddBench(CLI::App& app, BenchArgs* a) {
   auto* bench = a->cmd = app.add_subcommand(
-      "bench", "Benchmark: lockstep speed over the local CAN bus (x real time) and the real-time "
-               "mode's wake-up jitter (median, p99, max), closed loop with mrd-firmware.");
+      "bench",
+      "Benchmark: lockstep speed over the local CAN bus (x real time) and the real-time "
+      "mode's wake-up jitter (median, p99, max), closed loop with mrd-firmware.");
   bench->add_option("--seconds", a->seconds, "plant seconds per mode")
-      ->check(CLI::Range(0.1, 3600.0))->capture_default_str();
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
   bench->add_option("--firmware", a->o.firmware, "mrd-firmware (default: beside mrd-hil)");
   bench->add_option("--table", a->o.table, "coefficient table for the firmware");
   bench->add_flag("--json", a->json, "print the figures as JSON");
@@ -614,21 +638,24 @@ struct SweepArgs {
 
 void AddSweep(CLI::App& app, SweepArgs* a) {
   auto* sweep = a->cmd = app.add_subcommand(
-      "sweep", "Run a scenario once per point of a grid of key values (lockstep, "
-               "deterministic) and tabulate its scores: reachable tracking error, ride figures "
-               "of a quarter car, pass/fail; writes sweep.csv and sweep.png (gnuplot).");
+      "sweep",
+      "Run a scenario once per point of a grid of key values (lockstep, "
+      "deterministic) and tabulate its scores: reachable tracking error, ride figures "
+      "of a quarter car, pass/fail; writes sweep.csv and sweep.png (gnuplot).");
   sweep->add_option("scenario", a->path, "scenario TOML (hil/scenarios/)")->required();
-  sweep->add_option("--set", a->sets,
-                    "KEY=FROM:TO:STEP (a swept key; FROM, FROM+STEP, ... up to TO) or "
-                    "KEY=VALUE (fixed), repeatable; the grid is the product of the swept keys "
-                    "(at most 1000 points)")
-      ->required()->allow_extra_args(false);
+  sweep
+      ->add_option("--set", a->sets,
+                   "KEY=FROM:TO:STEP (a swept key; FROM, FROM+STEP, ... up to TO) or "
+                   "KEY=VALUE (fixed), repeatable; the grid is the product of the swept keys "
+                   "(at most 1000 points)")
+      ->required()
+      ->allow_extra_args(false);
   sweep->add_option("--out", a->out,
                     "directory for sweep.csv, sweep.png, sweep.dat, sweep.gp (created; default "
                     "sweep-NAME, NAME the scenario file's stem)");
-  a->transport_opt = sweep->add_option("--transport", a->o.transport,
-                                       "can | modbus-tcp | modbus-rtu (as run)")
-                         ->capture_default_str();
+  a->transport_opt =
+      sweep->add_option("--transport", a->o.transport, "can | modbus-tcp | modbus-rtu (as run)")
+          ->capture_default_str();
   sweep->add_option("--table", a->o.table, "coefficient table for the firmware (mrd export)");
   sweep->add_option("--profile", a->o.profile, "device profile (as run)");
   sweep->add_option("--firmware", a->o.firmware,
@@ -646,28 +673,35 @@ int SweepMain(SweepArgs& a) {
 // `study`: its options (StudyCommand runs it).
 CLI::App* AddStudy(CLI::App& app, mrd::hil::StudyOptions* study_o) {
   auto* study = app.add_subcommand(
-      "study", "Comfort / road-holding study of a quarter-car scenario, in process and "
-               "deterministic: per road class x speed the best passive constant voltage (grid "
-               "over 0 .. E_max) and each firmware law (its Controller at 1 kHz); one table "
-               "(text, CSV, JSON) and plots in --out (docs/study.md). Exit 0 done, 1 write "
-               "error, 2 bad input.");
-  study->add_option("--scenario", study_o->scenario, "quarter-car scenario TOML "
-                    "(e.g. hil/scenarios/quarter-car-skyhook.toml)")->required();
+      "study",
+      "Comfort / road-holding study of a quarter-car scenario, in process and "
+      "deterministic: per road class x speed the best passive constant voltage (grid "
+      "over 0 .. E_max) and each firmware law (its Controller at 1 kHz); one table "
+      "(text, CSV, JSON) and plots in --out (docs/study.md). Exit 0 done, 1 write "
+      "error, 2 bad input.");
+  study
+      ->add_option("--scenario", study_o->scenario,
+                   "quarter-car scenario TOML "
+                   "(e.g. hil/scenarios/quarter-car-skyhook.toml)")
+      ->required();
   study->add_option("--classes", study_o->classes, "ISO 8608 road classes, comma-separated")
       ->capture_default_str();
   study->add_option("--speeds", study_o->speeds, "vehicle speeds [m/s], comma-separated")
       ->capture_default_str();
-  study->add_option("--laws", study_o->laws,
-                    "firmware laws ([control] law names of the firmware's config), comma-"
-                    "separated; NAME:KEY=VALUE[:KEY=VALUE] sets [control] keys of that law "
-                    "(e.g. skyhook:skyhook_gain=40; default gain: the scenario's)")
+  study
+      ->add_option("--laws", study_o->laws,
+                   "firmware laws ([control] law names of the firmware's config), comma-"
+                   "separated; NAME:KEY=VALUE[:KEY=VALUE] sets [control] keys of that law "
+                   "(e.g. skyhook:skyhook_gain=40; default gain: the scenario's)")
       ->capture_default_str();
-  study->add_option("--duration", study_o->duration_s,
-                    "seconds per run (default: the scenario's duration_s)")
+  study
+      ->add_option("--duration", study_o->duration_s,
+                   "seconds per run (default: the scenario's duration_s)")
       ->check(CLI::Range(0.0, 1e5));
-  study->add_option("--passive-step", study_o->passive_step_v,
-                    "passive grid step over 0 .. E_max [V] (default: the scenario's "
-                    "quarter_car.passive_step_v, 0.05)")
+  study
+      ->add_option("--passive-step", study_o->passive_step_v,
+                   "passive grid step over 0 .. E_max [V] (default: the scenario's "
+                   "quarter_car.passive_step_v, 0.05)")
       ->check(CLI::Range(0.0, 1e3));
   study->add_option("--out", study_o->out_dir,
                     "directory for study.txt, study.csv, study.json, study.png, "
@@ -699,8 +733,7 @@ int main(int argc, char** argv) {
   }
   if (run.cmd->parsed()) {
     DefaultTransport(run.transport_opt, &run.ro);
-    return RunCommand(run.scenario_path, run.sets, run.ro, run.out_dir, run.json,
-                      run.passive_step);
+    return RunCommand(run.scenario_path, run.sets, run.ro, run.out_dir, run.json, run.passive_step);
   }
   if (sweep.cmd->parsed()) return SweepMain(sweep);
   if (bench.cmd->parsed()) return BenchCommand(bench.seconds, bench.o, bench.json);

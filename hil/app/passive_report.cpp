@@ -63,20 +63,18 @@ std::string PassiveText(const PassiveBaseline& b) {
   for (std::size_t i = 0; i < kNumRideMetrics; ++i) {
     const RideMetric m = kRideMetrics[i];
     o << "    " << RideMetricTitle(m) << ": best " << c.best[i].value << " at " << c.best[i].volts
-      << " V, controlled " << MetricOf(b.controlled, m) << " (" << std::showpos
-      << c.improvement[i] << std::noshowpos << " %)\n";
+      << " V, controlled " << MetricOf(b.controlled, m) << " (" << std::showpos << c.improvement[i]
+      << std::noshowpos << " %)\n";
   }
   if (c.comfort_at_holding) {
     const RidePoint& p = b.grid[c.comfort_at_holding->index];
     o << "    comfort at equal road holding: best passive with tyre load RMS <= "
-      << b.controlled.tyre_load_rms_n << " N is " << p.volts << " V (body acc "
-      << p.body_accel_rms << " m/s^2, tyre load " << p.tyre_load_rms_n
-      << " N); controlled body acc RMS improvement " << std::showpos
-      << *c.comfort_at_holding_improvement << std::noshowpos << " %";
+      << b.controlled.tyre_load_rms_n << " N is " << p.volts << " V (body acc " << p.body_accel_rms
+      << " m/s^2, tyre load " << p.tyre_load_rms_n << " N); controlled body acc RMS improvement "
+      << std::showpos << *c.comfort_at_holding_improvement << std::noshowpos << " %";
     if (c.wk_at_holding) {
-      o << "; Wk weighted: vs " << c.wk_at_holding->value << " m/s^2 at "
-        << c.wk_at_holding->volts << " V, " << std::showpos << *c.wk_at_holding_improvement
-        << std::noshowpos << " %";
+      o << "; Wk weighted: vs " << c.wk_at_holding->value << " m/s^2 at " << c.wk_at_holding->volts
+        << " V, " << std::showpos << *c.wk_at_holding_improvement << std::noshowpos << " %";
     }
     o << "\n";
   } else {
@@ -105,7 +103,7 @@ std::string ComfortPanels(const std::string& grid_dat, const std::vector<PlotPoi
   const std::string prefix = title.empty() ? "" : title + ": ";
   const auto panel = [&](const char* xlabel, int xcol, const char* what) {
     o << "set key outside below\n";
-  o << "set xlabel '" << xlabel << "'\nset ylabel 'body acceleration RMS [m/s^2]'\n"
+    o << "set xlabel '" << xlabel << "'\nset ylabel 'body acceleration RMS [m/s^2]'\n"
       << "set title '" << prefix << what << "'\n"
       << "plot '" << grid_dat << "' using " << xcol
       << ":2 with linespoints pt 7 ps 0.5 title 'passive (0 V .. E_max)', '' using " << xcol
@@ -126,8 +124,8 @@ std::string PsdData(const PassiveBaseline& b) {
   std::ostringstream o;
   o.precision(9);
   o << "# f_hz off best controlled [(m/s^2)^2/Hz]\n";
-  const std::size_t n = std::min({b.psd_off.f_hz.size(), b.psd_best.f_hz.size(),
-                                  b.psd_controlled.f_hz.size()});
+  const std::size_t n =
+      std::min({b.psd_off.f_hz.size(), b.psd_best.f_hz.size(), b.psd_controlled.f_hz.size()});
   for (std::size_t k = 1; k < n; ++k) {
     o << b.psd_controlled.f_hz[k] << ' ' << b.psd_off.density[k] << ' ' << b.psd_best.density[k]
       << ' ' << b.psd_controlled.density[k] << '\n';

@@ -5,7 +5,6 @@
 // psd.png (Welch PSD of the body acceleration: passive-off, best passive, controlled).
 
 #include <nlohmann/json.hpp>
-
 #include <string>
 #include <vector>
 

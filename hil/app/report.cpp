@@ -85,7 +85,7 @@ nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
   }
   if (r.structure) {
     const auto fig = [](const StructureFigures& f) {
-      const auto three = [](const double (&v)[3]) { return nlohmann::json{v[0], v[1], v[2]}; };
+      const auto three = [](const double(&v)[3]) { return nlohmann::json{v[0], v[1], v[2]}; };
       return nlohmann::json{{"samples", f.samples},
                             {"peak_x_cm", three(f.peak_x_cm)},
                             {"rms_x_cm", three(f.rms_x_cm)},
@@ -112,20 +112,20 @@ nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
   }
   nlohmann::json faults = nlohmann::json::array();
   for (const FaultResult& f : r.faults) {
-    faults.push_back({{"kind", FaultKindName(f.fault.kind)},
-                      {"at_s", f.fault.at_s},
-                      {"duration_s", f.fault.duration_s},
-                      {"onset_step", f.onset_step},
-                      {"clear_step", f.clear_step},
-                      {"periods_to_detection", Opt(f.detection)},
-                      {"periods_to_safe_state", Opt(f.safe)},
-                      {"detection_to_safe_periods",
-                       f.detection && f.safe ? nlohmann::json(*f.safe - *f.detection)
-                                             : nlohmann::json(nullptr)},
-                      {"periods_to_recovery", Opt(f.recovery)},
-                      {"detection_required", f.detection_required},
-                      {"ok", f.ok},
-                      {"why", f.why}});
+    faults.push_back(
+        {{"kind", FaultKindName(f.fault.kind)},
+         {"at_s", f.fault.at_s},
+         {"duration_s", f.fault.duration_s},
+         {"onset_step", f.onset_step},
+         {"clear_step", f.clear_step},
+         {"periods_to_detection", Opt(f.detection)},
+         {"periods_to_safe_state", Opt(f.safe)},
+         {"detection_to_safe_periods",
+          f.detection && f.safe ? nlohmann::json(*f.safe - *f.detection) : nlohmann::json(nullptr)},
+         {"periods_to_recovery", Opt(f.recovery)},
+         {"detection_required", f.detection_required},
+         {"ok", f.ok},
+         {"why", f.why}});
   }
   j["faults"] = faults;
   nlohmann::json fw = {{"exit", r.firmware_exit}, {"starts", r.firmware_starts}};
@@ -133,8 +133,8 @@ nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
   if (fw["summary"].is_discarded()) fw["summary"] = nullptr;
   j["firmware"] = fw;
   for (const auto& [name, c] : r.ports) {
-    j["ports"][name] = {{"published", c.published}, {"received", c.received},
-                        {"rejected", c.rejected}};
+    j["ports"][name] = {
+        {"published", c.published}, {"received", c.received}, {"rejected", c.rejected}};
   }
   // Wall-clock figures: everything outside "timing" is deterministic in lockstep.
   j["timing"] = {{"wall_s", r.wall_s},
@@ -150,8 +150,8 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
   o.precision(4);
   const TrackingScores& t = r.tracking;
   o << "mrd-hil run " << (s.name.empty() ? s.path : s.name) << " (" << r.transport << ", "
-    << r.clock << ", law " << s.law << ", " << s.duration_s << " s): "
-    << (r.pass ? "PASS" : "FAIL") << "\n";
+    << r.clock << ", law " << s.law << ", " << s.duration_s << " s): " << (r.pass ? "PASS" : "FAIL")
+    << "\n";
   o << "  steps " << r.steps << ", commands " << r.commands << ", invariant violations "
     << r.invariant_violations << ", command timeouts " << r.command_timeouts
     << ", heartbeat timeouts " << r.heartbeat_timeouts << "\n";
@@ -160,10 +160,10 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
       << r.replay->fit_percent << " %, RMSE " << r.replay->rmse_n << " N\n";
   }
   if ((!r.ride || s.law == "force") && s.law != "open-loop" && !r.structure) {
-  o << "  tracking ||f-d||/||d|| over " << t.steps << " controlled steps (" << t.reachable_steps
-    << " reachable): all " << t.error_all << ", reachable " << t.error_reachable << "\n";
-  o << "    passive-off (0 V): all " << t.off_all << ", reachable " << t.off_reachable
-    << "; passive-on (E_max): all " << t.on_all << ", reachable " << t.on_reachable << "\n";
+    o << "  tracking ||f-d||/||d|| over " << t.steps << " controlled steps (" << t.reachable_steps
+      << " reachable): all " << t.error_all << ", reachable " << t.error_reachable << "\n";
+    o << "    passive-off (0 V): all " << t.off_all << ", reachable " << t.off_reachable
+      << "; passive-on (E_max): all " << t.on_all << ", reachable " << t.on_reachable << "\n";
   }
   if (s.plant_model != nullptr) {
     const PlantModel& pm = *s.plant_model;
@@ -175,9 +175,8 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
   }
   if (r.ride) {
     const auto line = [&](const char* name, const RideFigures& f) {
-      o << "    " << name << ": body acceleration RMS " << f.body_accel_rms
-        << " m/s^2, travel RMS " << f.travel_rms_cm << " cm, tyre load RMS " << f.tyre_load_rms_n
-        << " N\n";
+      o << "    " << name << ": body acceleration RMS " << f.body_accel_rms << " m/s^2, travel RMS "
+        << f.travel_rms_cm << " cm, tyre load RMS " << f.tyre_load_rms_n << " N\n";
     };
     o << "  ride after " << s.ride_settle_s << " s:\n";
     line("controlled ", r.ride->controlled);
@@ -191,9 +190,9 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
     const auto peak = [&](const char* name, const StructureFigures& f) {
       std::snprintf(buf, sizeof buf,
                     "    %-15s %.4f %.4f %.4f | %.4f %.4f %.4f | %.0f %.0f %.0f | %.0f\n", name,
-                    f.peak_x_cm[0], f.peak_x_cm[1], f.peak_x_cm[2], f.peak_d_cm[0],
-                    f.peak_d_cm[1], f.peak_d_cm[2], f.peak_xa_cm_s2[0], f.peak_xa_cm_s2[1],
-                    f.peak_xa_cm_s2[2], f.peak_force_n);
+                    f.peak_x_cm[0], f.peak_x_cm[1], f.peak_x_cm[2], f.peak_d_cm[0], f.peak_d_cm[1],
+                    f.peak_d_cm[2], f.peak_xa_cm_s2[0], f.peak_xa_cm_s2[1], f.peak_xa_cm_s2[2],
+                    f.peak_force_n);
       o << buf;
     };
     peak(s.law.c_str(), r.structure->controlled);
@@ -201,11 +200,10 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
     peak("passive-on", r.structure->passive_on);
     o << "  structure, RMS (same units):\n";
     const auto rms = [&](const char* name, const StructureFigures& f) {
-      std::snprintf(buf, sizeof buf,
-                    "    %-15s %.4f %.4f %.4f | %.4f %.4f %.4f | %.0f %.0f %.0f | %.0f\n", name,
-                    f.rms_x_cm[0], f.rms_x_cm[1], f.rms_x_cm[2], f.rms_d_cm[0], f.rms_d_cm[1],
-                    f.rms_d_cm[2], f.rms_xa_cm_s2[0], f.rms_xa_cm_s2[1], f.rms_xa_cm_s2[2],
-                    f.rms_force_n);
+      std::snprintf(
+          buf, sizeof buf, "    %-15s %.4f %.4f %.4f | %.4f %.4f %.4f | %.0f %.0f %.0f | %.0f\n",
+          name, f.rms_x_cm[0], f.rms_x_cm[1], f.rms_x_cm[2], f.rms_d_cm[0], f.rms_d_cm[1],
+          f.rms_d_cm[2], f.rms_xa_cm_s2[0], f.rms_xa_cm_s2[1], f.rms_xa_cm_s2[2], f.rms_force_n);
       o << buf;
     };
     rms(s.law.c_str(), r.structure->controlled);
@@ -217,9 +215,9 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
     const auto p = [](const std::optional<std::int64_t>& v) {
       return v ? std::to_string(*v) : std::string("-");
     };
-    o << "  fault " << FaultKindName(f.fault.kind) << " at " << f.fault.at_s
-      << " s: detection " << p(f.detection) << ", safe " << p(f.safe) << ", recovery "
-      << p(f.recovery) << " periods" << (f.ok ? "" : "  FAILED: " + f.why) << "\n";
+    o << "  fault " << FaultKindName(f.fault.kind) << " at " << f.fault.at_s << " s: detection "
+      << p(f.detection) << ", safe " << p(f.safe) << ", recovery " << p(f.recovery) << " periods"
+      << (f.ok ? "" : "  FAILED: " + f.why) << "\n";
   }
   o << "  firmware exit " << r.firmware_exit << " (" << r.firmware_starts << " start(s))\n";
   o << "  wall " << r.wall_s << " s (" << r.speed_x << "x real time); latency median "
@@ -252,9 +250,8 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
     f.precision(9);
     for (const StepRecord& k : r.trace) {
       f << k.t << ',' << k.x << ',' << k.v << ',' << k.demand << ',' << k.force << ','
-        << k.force_off << ',' << k.force_on << ',' << k.command << ',' << k.applied << ','
-        << k.safe << ',' << k.driven << ',' << k.reachable << ',' << k.causes << ','
-        << k.command_age_ms;
+        << k.force_off << ',' << k.force_on << ',' << k.command << ',' << k.applied << ',' << k.safe
+        << ',' << k.driven << ',' << k.reachable << ',' << k.causes << ',' << k.command_age_ms;
       if (ride) f << ',' << k.body_accel << ',' << k.body_accel_off << ',' << k.body_accel_on;
       f << '\n';
     }
@@ -285,7 +282,8 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
       g << "unset y2label\nunset y2tics\nset autoscale y2\n"
         << "set output '" << dir << "/ride.png'\nset ylabel 'body acceleration [m/s^2]'\n"
         << "set title 'Quarter car: body acceleration, controlled vs passive-off and passive-on'\n"
-        << "plot '" << dir << "/trace.csv' every ::1 using 1:17 with lines dt 3 title 'passive-on', "
+        << "plot '" << dir
+        << "/trace.csv' every ::1 using 1:17 with lines dt 3 title 'passive-on', "
         << "'' every ::1 using 1:16 with lines dt 2 title 'passive-off', "
         << "'' every ::1 using 1:15 with lines lw 2 title 'controlled'\n";
     }
@@ -294,12 +292,14 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
       std::ofstream(dir + "/passive.dat") << GridData(r.passive->grid);
       std::ofstream(dir + "/psd.dat") << PsdData(*r.passive);
       g << "set datafile separator whitespace\nunset y2label\nunset y2tics\nset key inside\n"
-        << "set terminal pngcairo noenhanced size 1400,600\nset output '" << dir << "/comfort.png'\n"
+        << "set terminal pngcairo noenhanced size 1400,600\nset output '" << dir
+        << "/comfort.png'\n"
         << "set multiplot layout 1,2\n"
         << ComfortPanels(dir + "/passive.dat", {{"controlled", r.passive->controlled}}, "")
         << "unset multiplot\n"
         << "set terminal pngcairo noenhanced size 1000,600\nset output '" << dir << "/psd.png'\n"
-        << "set logscale xy\nset format y '%.0e'\nset xlabel 'f [Hz]'\nset ylabel 'body acceleration PSD [(m/s^2)^2/Hz]'\n"
+        << "set logscale xy\nset format y '%.0e'\nset xlabel 'f [Hz]'\nset ylabel 'body "
+           "acceleration PSD [(m/s^2)^2/Hz]'\n"
         << "set title 'Body acceleration PSD (Welch, Hann, 50 % overlap)'\nset xrange [0.2:100]\n"
         << "plot '" << dir << "/psd.dat' using 1:2 with lines dt 2 title 'passive-off (0 V)', "
         << "'' using 1:3 with lines title 'best passive (" << r.passive->comparison.best[0].volts

@@ -4,7 +4,6 @@
 // command.png, and ride.png for a quarter car; skipped with a warning without gnuplot).
 
 #include <nlohmann/json.hpp>
-
 #include <string>
 
 #include "mrd/hil/run.hpp"

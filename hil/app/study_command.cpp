@@ -1,7 +1,5 @@
 #include "study_command.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -13,6 +11,7 @@
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
@@ -89,8 +88,9 @@ std::string Table(const std::vector<StudyCase>& cases, const std::vector<Firmwar
         << " | ";
       if (l.cmp.comfort_at_holding) {
         o << "**" << Signed(*l.cmp.comfort_at_holding_improvement) << "** (vs "
-          << Num(l.cmp.comfort_at_holding->value) << " at " << Num(l.cmp.comfort_at_holding->volts, 3)
-          << " V); Wk " << Signed(*l.cmp.wk_at_holding_improvement);
+          << Num(l.cmp.comfort_at_holding->value) << " at "
+          << Num(l.cmp.comfort_at_holding->volts, 3) << " V); Wk "
+          << Signed(*l.cmp.wk_at_holding_improvement);
       } else {
         o << "none (tyre load below every passive setting)";
       }
@@ -112,8 +112,7 @@ std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareL
   for (const StudyCase& c : cases) {
     for (std::size_t i = 0; i < laws.size(); ++i) {
       const LawResult& l = c.laws[i];
-      o << c.road_class << ',' << c.speed << ',' << laws[i].spec << ','
-        << c.grid[0].body_accel_rms;
+      o << c.road_class << ',' << c.speed << ',' << laws[i].spec << ',' << c.grid[0].body_accel_rms;
       for (const PassiveBest& b : l.cmp.best) o << ',' << b.value << ',' << b.volts;
       const RidePoint& p = l.run.ride;
       o << ',' << p.body_accel_rms << ',' << p.body_accel_wk_rms << ',' << p.tyre_load_rms_n << ','
@@ -193,7 +192,8 @@ bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
     const std::string dat = dir + "/grid-" + name + ".dat";
     if (!WriteAtomically(dat, GridData(c.grid), error)) return false;
     std::vector<PlotPoint> points;
-    for (std::size_t i = 0; i < laws.size(); ++i) points.push_back({laws[i].spec, c.laws[i].run.ride});
+    for (std::size_t i = 0; i < laws.size(); ++i)
+      points.push_back({laws[i].spec, c.laws[i].run.ride});
     gp << "set terminal pngcairo noenhanced size 1400,600\nset output '" << dir << "/comfort-"
        << name << ".png'\nset multiplot layout 1,2\n"
        << ComfortPanels(dat, points,
@@ -234,7 +234,6 @@ bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
   if (rc != 0) *warning = GnuplotWarning(rc, dir);
   return true;
 }
-
 
 // The study's inputs from its options: the base scenario (--duration applied), the passive
 // grid's step and voltages, the road classes, speeds and laws. 0, or the exit code after the
@@ -286,7 +285,8 @@ int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
   std::string error;
   if (!LoadScenario(o.scenario, &base, &error)) return Bad(error);
   if (!base.quarter_car) {
-    return Bad("--scenario: " + o.scenario + " is not a quarter car ([plant] model = \"quarter-car\")");
+    return Bad("--scenario: " + o.scenario +
+               " is not a quarter car ([plant] model = \"quarter-car\")");
   }
   if (o.duration_s >= 0.0) {
     if (!(o.duration_s > base.ride_settle_s) || o.duration_s > 1e5) {
@@ -299,7 +299,8 @@ int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
   if (!GridVoltages(0.0, base.e_max, in->step, &in->volts, &error)) {
     return Bad("--passive-step " + Num(in->step) + ": " + error);
   }
-  if (in->volts.size() > 10000) return Bad("--passive-step " + Num(in->step) + ": more than 10000 points");
+  if (in->volts.size() > 10000)
+    return Bad("--passive-step " + Num(in->step) + ": more than 10000 points");
   if (const int rc = ParseClassesAndSpeeds(o, in); rc != 0) return rc;
   for (const std::string& spec : Split(o.laws)) {
     FirmwareLaw law;
@@ -323,8 +324,8 @@ bool RunStudyCase(const StudyInputs& in, char cls, double speed, std::size_t ind
   Scenario s = in.base;
   RoadClassFromChar(cls, &s.road.road_class);
   s.car.speed_m_s = speed;
-  std::fprintf(stderr, "[%zu/%zu] class %c, %g m/s: passive grid (%zu settings)...\n",
-               index, n_cases, cls, speed, in.volts.size());
+  std::fprintf(stderr, "[%zu/%zu] class %c, %g m/s: passive grid (%zu settings)...\n", index,
+               n_cases, cls, speed, in.volts.size());
   c->grid = RunPassiveGrid(s, in.step);
   const PassiveBest best = BestOf(c->grid, RideMetric::kBodyAccel);
   std::fprintf(stderr, "[%zu/%zu]   best passive body acc RMS %.4f m/s^2 at %.3g V (%.1f s)\n",
@@ -336,13 +337,13 @@ bool RunStudyCase(const StudyInputs& in, char cls, double speed, std::size_t ind
       return false;
     }
     lr.cmp = Compare(c->grid, lr.run.ride);
-    std::fprintf(stderr, "[%zu/%zu]   %s: body acc RMS %.4f m/s^2, tyre load RMS %.1f N, %s\n",
-                 index, n_cases, law.spec.c_str(), lr.run.ride.body_accel_rms,
-                 lr.run.ride.tyre_load_rms_n,
-                 lr.cmp.comfort_at_holding_improvement
-                     ? (Signed(*lr.cmp.comfort_at_holding_improvement) +
-                        " vs the best passive at no-worse tyre load").c_str()
-                     : "no passive setting with a tyre load this low");
+    std::fprintf(
+        stderr, "[%zu/%zu]   %s: body acc RMS %.4f m/s^2, tyre load RMS %.1f N, %s\n", index,
+        n_cases, law.spec.c_str(), lr.run.ride.body_accel_rms, lr.run.ride.tyre_load_rms_n,
+        lr.cmp.comfort_at_holding_improvement ? (Signed(*lr.cmp.comfort_at_holding_improvement) +
+                                                 " vs the best passive at no-worse tyre load")
+                                                    .c_str()
+                                              : "no passive setting with a tyre load this low");
     c->laws.push_back(lr);
   }
   return true;
@@ -394,10 +395,10 @@ int StudyCommand(const StudyOptions& o) {
   if (o.json) {
     std::cout << j.dump(2) << std::endl;
   } else {
-    std::cout << "mrd-hil study " << base.name << ": " << base.duration_s << " s per run (scored after "
-              << base.ride_settle_s << " s), road seed " << base.road.seed << ", passive grid "
-              << in.volts.size() << " settings (0 .. " << base.e_max << " V, step " << in.step
-              << " V)\n"
+    std::cout << "mrd-hil study " << base.name << ": " << base.duration_s
+              << " s per run (scored after " << base.ride_settle_s << " s), road seed "
+              << base.road.seed << ", passive grid " << in.volts.size() << " settings (0 .. "
+              << base.e_max << " V, step " << in.step << " V)\n"
               << table << "files: " << dir << "/study.txt, study.csv, study.json, study.png, "
               << "comfort-CLASS-SPEED.png (" << cases.size() * (in.volts.size() + laws.size())
               << " runs, " << Num(wall(), 3) << " s wall)\n";

@@ -13,13 +13,13 @@ namespace mrd::hil {
 
 struct StudyOptions {
   std::string scenario;
-  std::string classes = "B,C,D";       // ISO 8608 classes, comma-separated
-  std::string speeds = "10,20,30";     // [m/s], comma-separated
+  std::string classes = "B,C,D";                // ISO 8608 classes, comma-separated
+  std::string speeds = "10,20,30";              // [m/s], comma-separated
   std::string laws = "skyhook,skyhook-on-off";  // NAME[:KEY=VALUE...], comma-separated
-  double duration_s = -1.0;            // < 0: the scenario's
-  double passive_step_v = -1.0;        // < 0: the scenario's
-  std::string out_dir;                 // "": study-NAME
-  bool json = false;                   // print the JSON instead of the table
+  double duration_s = -1.0;                     // < 0: the scenario's
+  double passive_step_v = -1.0;                 // < 0: the scenario's
+  std::string out_dir;                          // "": study-NAME
+  bool json = false;                            // print the JSON instead of the table
 };
 
 // Exit status: 0 done, 1 a file could not be written, 2 bad input (names the flag).

@@ -29,7 +29,8 @@ std::string PlotData(const SweepGrid& g, const std::vector<SweepScores>& rows,
     if (i % per == 0) {
       if (i > 0) o << "\n\n";
       std::string t;
-      for (std::size_t a = 1; a < points[i].size(); ++a) t += (t.empty() ? "" : ", ") + points[i][a];
+      for (std::size_t a = 1; a < points[i].size(); ++a)
+        t += (t.empty() ? "" : ", ") + points[i][a];
       titles->push_back(t);
     }
     const SweepScores& s = rows[i];
@@ -126,7 +127,8 @@ int SweepCommand(const std::string& scenario_path, const std::vector<std::string
     for (const std::string& p : points[i]) label += (label.empty() ? "" : " ") + p;
     if (rc != 0) {
       std::fprintf(stderr, "error: point %zu (%s): %s\n", i + 1, label.c_str(), error.c_str());
-      if (!r.firmware_stderr.empty()) std::fprintf(stderr, "firmware: %s", r.firmware_stderr.c_str());
+      if (!r.firmware_stderr.empty())
+        std::fprintf(stderr, "firmware: %s", r.firmware_stderr.c_str());
       if (r.interrupted != 0) return 128 + r.interrupted;
       return rc == 2 ? 2 : 1;
     }
@@ -137,8 +139,7 @@ int SweepCommand(const std::string& scenario_path, const std::vector<std::string
                  s.ride ? "body acceleration RMS" : "reachable error",
                  s.ride ? s.body_accel_rms : s.error_reachable, r.wall_s);
   }
-  const double wall =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::size_t best = BestPoint(rows);
   std::cout << SweepTable(grid, rows);
   std::string best_label;
@@ -162,14 +163,15 @@ int SweepCommand(const std::string& scenario_path, const std::vector<std::string
   }
   const int rc = Gnuplot(gp, out_dir + "/gnuplot.log");
   if (rc == 0 && std::rename(png_temp.c_str(), png.c_str()) == 0) {
-    std::cout << "files: " << csv << ", " << png << " (" << points.size() << " runs, "
-              << wall << " s wall)\n";
+    std::cout << "files: " << csv << ", " << png << " (" << points.size() << " runs, " << wall
+              << " s wall)\n";
   } else {
     unlink(png_temp.c_str());
     std::cout << "files: " << csv << " (" << points.size() << " runs, " << wall << " s wall)\n";
     std::fprintf(stderr, "warning: %s\n",
-                 rc < 0 ? "gnuplot not found (install gnuplot-nox): plot skipped"
-                        : ("gnuplot failed (see " + out_dir + "/gnuplot.log): plot skipped").c_str());
+                 rc < 0
+                     ? "gnuplot not found (install gnuplot-nox): plot skipped"
+                     : ("gnuplot failed (see " + out_dir + "/gnuplot.log): plot skipped").c_str());
   }
   if (!std::cout) return 1;
   return 0;

@@ -8,9 +8,9 @@
 // coil, else 0 A) and the driver's fault (the step's fault_line: the scenario's fault_line
 // fault, `mrd-hil serve --fault-line`) as the overcurrent bit (docs/mrd.dbc). Commands are
 // timed by their bus stamps (when the firmware sent them). Endpoint: a local frame bus socket
-// path (contains '/') or a SocketCAN interface. On a local bus path nobody serves yet (no socket, or one left by a dead relay),
-// the port runs the relay itself on a thread: the harness then owns the bus, and the firmware
-// loses it when the harness exits (the peer-restart test relies on that).
+// path (contains '/') or a SocketCAN interface. On a local bus path nobody serves yet (no socket,
+// or one left by a dead relay), the port runs the relay itself on a thread: the harness then owns
+// the bus, and the firmware loses it when the harness exits (the peer-restart test relies on that).
 // With a CANopen profile ([canopen]) the simulated driver is a CiA 301 node: it boots into
 // pre-operational, follows NMT (start -> operational, stop, pre-operational, resets -> boot-up
 // frame), answers expedited SDO downloads (accepted; RefuseSdo makes it abort one), produces
@@ -21,13 +21,12 @@
 #include <linux/can.h>
 #include <poll.h>
 
-#include <ctime>
-
 #include <algorithm>
 #include <array>
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <memory>
 #include <thread>
 
@@ -70,7 +69,8 @@ std::uint32_t ExpandEcho(std::uint32_t echo, std::uint32_t last_published, int b
 
 std::shared_ptr<const pf::CanProfile> ProfileOrNative(std::shared_ptr<const pf::CanProfile> p) {
   if (p != nullptr) return p;
-  return std::shared_ptr<const pf::CanProfile>(&pf::NativeCanProfile(), [](const pf::CanProfile*) {});
+  return std::shared_ptr<const pf::CanProfile>(&pf::NativeCanProfile(),
+                                               [](const pf::CanProfile*) {});
 }
 
 // A signal's extreme raw values (the NaN code is the most negative, as in the native DBC).
@@ -85,7 +85,8 @@ std::int64_t MinRaw(const protocol::SignalLayout& l) {
 class CanPort final : public PlantPort {
  public:
   CanPort(std::string endpoint, std::shared_ptr<const pf::CanProfile> profile)
-      : endpoint_(std::move(endpoint)), profile_(ProfileOrNative(std::move(profile))),
+      : endpoint_(std::move(endpoint)),
+        profile_(ProfileOrNative(std::move(profile))),
         codec_(*profile_) {
     Index();
   }
@@ -108,7 +109,8 @@ class CanPort final : public PlantPort {
       return true;
     }
     if (!canbus::IsLocalBusPath(endpoint_)) {
-      const int fd = canbus::OpenSocketCan(endpoint_.c_str(), filters_.data(), filters_.size(), error);
+      const int fd =
+          canbus::OpenSocketCan(endpoint_.c_str(), filters_.data(), filters_.size(), error);
       if (fd < 0) return false;
       iface_.Attach(fd);
       return true;
@@ -174,7 +176,8 @@ class CanPort final : public PlantPort {
       const pf::SignalRef seq = profile_->inputs[static_cast<std::size_t>(CanIn::kSensorSeq)];
       if (seq.message == m) {
         protocol::InsertRaw(f.data, profile_->Layout(seq),
-                            static_cast<std::int64_t>(out.seq & static_cast<std::uint32_t>(MaxRaw(profile_->Layout(seq)))));
+                            static_cast<std::int64_t>(out.seq & static_cast<std::uint32_t>(MaxRaw(
+                                                                    profile_->Layout(seq)))));
       }
       if (!ok) {  // not representable: this message is not sent (as the native encoder refuses)
         all_ok = false;
@@ -394,8 +397,8 @@ class CanPort final : public PlantPort {
     const auto add = [](std::vector<int>* v, int m) {
       if (m >= 0 && !IsIn(*v, m)) v->push_back(m);
     };
-    for (const CanOut r : {CanOut::kCommand, CanOut::kEnable, CanOut::kEnableValid, CanOut::kSafe,
-                           CanOut::kEcho}) {
+    for (const CanOut r :
+         {CanOut::kCommand, CanOut::kEnable, CanOut::kEnableValid, CanOut::kSafe, CanOut::kEcho}) {
       add(&command_msgs_, p.outputs[static_cast<std::size_t>(r)].message);
     }
     add(&heartbeat_msgs_, p.outputs[static_cast<std::size_t>(CanOut::kHeartbeatSafe)].message);
@@ -404,9 +407,9 @@ class CanPort final : public PlantPort {
       add(&status_msgs_, p.outputs[static_cast<std::size_t>(r)].message);
     }
     const int grant = p.inputs[static_cast<std::size_t>(CanIn::kGrant)].message;
-    for (const CanIn r : {CanIn::kVelocity, CanIn::kDisplacement, CanIn::kDemand,
-                          CanIn::kBodyVelocity, CanIn::kForce, CanIn::kFaultLine,
-                          CanIn::kSensorSeq}) {
+    for (const CanIn r :
+         {CanIn::kVelocity, CanIn::kDisplacement, CanIn::kDemand, CanIn::kBodyVelocity,
+          CanIn::kForce, CanIn::kFaultLine, CanIn::kSensorSeq}) {
       const int m = p.inputs[static_cast<std::size_t>(r)].message;
       if (m != grant) add(&sensor_msgs_, m);
     }
@@ -415,8 +418,8 @@ class CanPort final : public PlantPort {
       if (m >= 0 && m != grant && !IsIn(sensor_msgs_, m)) add(&chassis_msgs_, m);
       if (m != grant) add(&sensor_msgs_, m);
     }
-    for (const CanIn r : {CanIn::kFloorAcceleration1, CanIn::kFloorAcceleration2,
-                          CanIn::kFloorAcceleration3}) {
+    for (const CanIn r :
+         {CanIn::kFloorAcceleration1, CanIn::kFloorAcceleration2, CanIn::kFloorAcceleration3}) {
       const int m = p.inputs[static_cast<std::size_t>(r)].message;
       if (m >= 0 && m != grant && !IsIn(sensor_msgs_, m)) add(&structure_msgs_, m);
       if (m != grant) add(&sensor_msgs_, m);
@@ -433,10 +436,9 @@ class CanPort final : public PlantPort {
       }
     }
     const pf::SignalRef current = p.inputs[static_cast<std::size_t>(CanIn::kDriverCurrent)];
-    current_in_ma_ = current.mapped() &&
-                     p.dbc.messages[static_cast<std::size_t>(current.message)]
-                             .signals[static_cast<std::size_t>(current.signal)]
-                             .unit == "mA";
+    current_in_ma_ = current.mapped() && p.dbc.messages[static_cast<std::size_t>(current.message)]
+                                                 .signals[static_cast<std::size_t>(current.signal)]
+                                                 .unit == "mA";
     if (p.canopen) {
       canopen_ = &*p.canopen;
       drive_state_ = co::kStatePreOperational;  // booted before the firmware came
@@ -459,15 +461,23 @@ class CanPort final : public PlantPort {
       if (f.len < 2 || (f.data[1] != node && f.data[1] != 0)) return true;  // another node's
       ++received_;
       switch (f.data[0]) {
-        case co::kNmtStart: drive_state_ = co::kStateOperational; break;
-        case co::kNmtStop: drive_state_ = co::kStateStopped; break;
-        case co::kNmtPreOperational: drive_state_ = co::kStatePreOperational; break;
+        case co::kNmtStart:
+          drive_state_ = co::kStateOperational;
+          break;
+        case co::kNmtStop:
+          drive_state_ = co::kStateStopped;
+          break;
+        case co::kNmtPreOperational:
+          drive_state_ = co::kStatePreOperational;
+          break;
         case co::kNmtResetNode:
         case co::kNmtResetCommunication:
           SendDriveHeartbeat(co::kStateBootUp, now);  // boot-up, then pre-operational
           drive_state_ = co::kStatePreOperational;
           break;
-        default: ++rejected_; break;
+        default:
+          ++rejected_;
+          break;
       }
       return true;
     }
@@ -595,7 +605,7 @@ class CanPort final : public PlantPort {
   std::vector<can_filter> filters_;
   // Profile messages by kind: the firmware's (heard) and the plant's and driver's (sent).
   std::vector<int> command_msgs_, heartbeat_msgs_, status_msgs_, sensor_msgs_, driver_msgs_;
-  std::vector<int> chassis_msgs_;  // sensor messages carrying only chassis roles
+  std::vector<int> chassis_msgs_;    // sensor messages carrying only chassis roles
   std::vector<int> structure_msgs_;  // sensor messages carrying only floor accelerations
   // The simulated driver: the latest command heard, the DriverStatus schedule.
   double command_volts_ = 0.0;

@@ -41,8 +41,9 @@ void WriteControl(std::ostringstream& c, const Scenario& s) {
   } else if (s.law == "clipped-optimal") {
     c << "law = \"clipped-optimal\"\n";
   } else {
-    const double v = s.law == "passive-on" ? s.e_max : s.law == "passive-off" ? 0.0
-                                                                              : s.constant_voltage;
+    const double v = s.law == "passive-on"    ? s.e_max
+                     : s.law == "passive-off" ? 0.0
+                                              : s.constant_voltage;
     c << "law = \"constant\"\nconstant_voltage = " << v << "\n";
   }
   c << "e_max = " << s.e_max << "\n";
@@ -102,8 +103,8 @@ ModbusLists ModbusListsOf(const Scenario& s, const profile::ModbusProfile* modbu
 void WriteCan(std::ostringstream& c, const Scenario& s, const std::string& endpoint,
               const profile::CanProfile* can_profile, const std::string& pwm_sysfs) {
   const ScenarioGpio& g = s.gpio;
-  const profile::CanProfile& p = can_profile != nullptr ? *can_profile
-                                                        : profile::NativeCanProfile();
+  const profile::CanProfile& p =
+      can_profile != nullptr ? *can_profile : profile::NativeCanProfile();
   const auto in = [&](profile::CanIn r) { return p.inputs[static_cast<std::size_t>(r)].mapped(); };
   const auto out = [&](profile::CanOut r) {
     return p.outputs[static_cast<std::size_t>(r)].mapped();
@@ -141,9 +142,9 @@ void WriteCan(std::ostringstream& c, const Scenario& s, const std::string& endpo
   }
   can_outputs += "]";
   const bool local = endpoint.find('/') != std::string::npos;
-  c << "\n[can]\n" << (local ? "local_bus" : "interface") << " = \"" << endpoint
-    << "\"\ninputs = " << can_inputs << "\noutputs = " << can_outputs
-    << "\nstatus_period_ms = 1\nheartbeat_period_ms = 10\n";
+  c << "\n[can]\n"
+    << (local ? "local_bus" : "interface") << " = \"" << endpoint << "\"\ninputs = " << can_inputs
+    << "\noutputs = " << can_outputs << "\nstatus_period_ms = 1\nheartbeat_period_ms = 10\n";
   if (can_profile != nullptr) c << "profile = \"" << can_profile->path << "\"\n";
   if (!pwm_sysfs.empty()) {
     // The set-point as a PWM duty into the harness's sysfs-ABI tree; the profile is [can]'s.
@@ -163,12 +164,14 @@ void WriteModbus(std::ostringstream& c, const Scenario& s, const std::string& tr
   if (transport == "modbus-tcp") {
     const auto colon = endpoint.rfind(':');
     c << "\n[modbus]\nmode = \"tcp\"\nhost = \"" << endpoint.substr(0, colon)
-      << "\"\nport = " << endpoint.substr(colon + 1) << "\n" << l.unit << "\nresponse_timeout_ms = " << response_ms << "\n"
+      << "\"\nport = " << endpoint.substr(colon + 1) << "\n"
+      << l.unit << "\nresponse_timeout_ms = " << response_ms << "\n"
       << "retries = 1\ninputs = " << l.inputs << "\noutputs = " << l.outputs << "\n";
   } else {
-    c << "\n[modbus]\nmode = \"rtu\"\ndevice = \"" << endpoint << "\"\nbaud = 115200\n" << l.unit << "\n"
-      << "response_timeout_ms = " << response_ms << "\nretries = 1\ninputs = " << l.inputs << "\noutputs = "
-      << l.outputs << "\n";
+    c << "\n[modbus]\nmode = \"rtu\"\ndevice = \"" << endpoint << "\"\nbaud = 115200\n"
+      << l.unit << "\n"
+      << "response_timeout_ms = " << response_ms << "\nretries = 1\ninputs = " << l.inputs
+      << "\noutputs = " << l.outputs << "\n";
   }
 }
 
@@ -182,15 +185,27 @@ void WriteGpio(std::ostringstream& c, const ScenarioGpio& g, const std::string& 
   const bool sim = gpio_chip.find('/') != std::string::npos;
   c << "\n[gpio]\n" << (sim ? "sim_chip" : "chip") << " = \"" << gpio_chip << "\"\ninputs = [";
   const char* sep = "";
-  if (g.displacement) { c << sep << "\"displacement\""; sep = ", "; }
-  if (g.fault_line) { c << sep << "\"fault_line\""; sep = ", "; }
+  if (g.displacement) {
+    c << sep << "\"displacement\"";
+    sep = ", ";
+  }
+  if (g.fault_line) {
+    c << sep << "\"fault_line\"";
+    sep = ", ";
+  }
   c << "]\noutputs = [";
   sep = "";
-  if (g.enable) { c << sep << "\"enable\""; sep = ", "; }
-  if (g.heartbeat) { c << sep << "\"heartbeat\""; sep = ", "; }
-  c << "]\nencoder_a_line = " << lines.encoder_a_line << "\nencoder_b_line = "
-    << lines.encoder_b_line << "\nfault_line = " << lines.fault_line << "\nenable_line = "
-    << lines.enable_line << "\nheartbeat_line = " << lines.heartbeat_line
+  if (g.enable) {
+    c << sep << "\"enable\"";
+    sep = ", ";
+  }
+  if (g.heartbeat) {
+    c << sep << "\"heartbeat\"";
+    sep = ", ";
+  }
+  c << "]\nencoder_a_line = " << lines.encoder_a_line
+    << "\nencoder_b_line = " << lines.encoder_b_line << "\nfault_line = " << lines.fault_line
+    << "\nenable_line = " << lines.enable_line << "\nheartbeat_line = " << lines.heartbeat_line
     << "\ncounts_per_cm = " << g.counts_per_cm << "\n";
 }
 

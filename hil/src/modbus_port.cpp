@@ -18,10 +18,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
-#include <cerrno>
 #include <cstring>
 #include <mutex>
 #include <thread>
@@ -77,7 +77,7 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
     b.force = out.sample.force;
     b.fault_line = out.fault_line;
     std::uint16_t regs[map::kSensorCount] = {};
-    if (map::EncodeSensors(b, regs) != map::MapError::kOk) return;  // not representable
+    if (map::EncodeSensors(b, regs) != map::MapError::kOk) return;             // not representable
     if (out.fault == SensorFault::kOutOfRange) regs[map::kFaults] |= 0x8000U;  // reserved bit
     std::lock_guard<std::mutex> lock(mu_);
     ++counters_.published;
@@ -170,8 +170,7 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
     if (!a.wrote) return a;
     std::copy(regs + map::kCommandBase, regs + map::kMapSize, regs_ + map::kCommandBase);
     map::CommandBlock c;
-    if (!a.command ||
-        map::DecodeCommand(regs_ + map::kCommandBase, &c) != map::MapError::kOk) {
+    if (!a.command || map::DecodeCommand(regs_ + map::kCommandBase, &c) != map::MapError::kOk) {
       return a;
     }
     // Lockstep: a block the firmware wrote again (its write timed out on a stalled harness

@@ -12,6 +12,8 @@
 // Faults: drop and stall leave the values as they were; nan stores a float32 NaN in the
 // velocity register (an integer register cannot hold one: left as it was); out_of_range
 // stores 1e30 cm/s where the type can hold it.
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -19,7 +21,6 @@
 #include <cstring>
 #include <map>
 #include <mutex>
-#include <unistd.h>
 #include <vector>
 
 #include "modbus_server.hpp"
@@ -69,9 +70,9 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     Staged s;
     s.valid = true;
     const auto set = [&](pf::CanIn r, double v) { s.v[static_cast<std::size_t>(r)] = v; };
-    set(pf::CanIn::kVelocity, out.fault == SensorFault::kNan        ? std::nan("")
+    set(pf::CanIn::kVelocity, out.fault == SensorFault::kNan          ? std::nan("")
                               : out.fault == SensorFault::kOutOfRange ? 1e30
-                                                                       : out.sample.v);
+                                                                      : out.sample.v);
     set(pf::CanIn::kDisplacement, out.sample.x);
     set(pf::CanIn::kDemand, out.sample.demand);
     set(pf::CanIn::kBodyVelocity, out.sample.body_velocity);
@@ -226,15 +227,40 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     const auto u16 = [&](int at) { return (pdu[at] << 8) | pdu[at + 1]; };
     int table = -1, max = 0;
     switch (fc) {
-      case 0x01: table = 0; max = 2000; break;
-      case 0x02: table = 1; max = 2000; break;
-      case 0x03: table = 2; max = 125; break;
-      case 0x04: table = 3; max = 125; break;
-      case 0x05: table = 0; max = 1; break;
-      case 0x06: table = 2; max = 1; break;
-      case 0x0F: table = 0; max = 1968; break;
-      case 0x10: table = 2; max = 123; break;
-      default: return fail(mb::kExIllegalFunction);
+      case 0x01:
+        table = 0;
+        max = 2000;
+        break;
+      case 0x02:
+        table = 1;
+        max = 2000;
+        break;
+      case 0x03:
+        table = 2;
+        max = 125;
+        break;
+      case 0x04:
+        table = 3;
+        max = 125;
+        break;
+      case 0x05:
+        table = 0;
+        max = 1;
+        break;
+      case 0x06:
+        table = 2;
+        max = 1;
+        break;
+      case 0x0F:
+        table = 0;
+        max = 1968;
+        break;
+      case 0x10:
+        table = 2;
+        max = 123;
+        break;
+      default:
+        return fail(mb::kExIllegalFunction);
     }
     if (len < 5) return fail(mb::kExIllegalValue);
     const int address = u16(1);
@@ -260,7 +286,8 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
       std::memset(reply + 2, 0, static_cast<std::size_t>(bytes));
       for (int i = 0; i < count; ++i) {
         if (bits) {
-          if (t[i] != 0) reply[2 + i / 8] = static_cast<std::uint8_t>(reply[2 + i / 8] | (1U << (i % 8)));
+          if (t[i] != 0)
+            reply[2 + i / 8] = static_cast<std::uint8_t>(reply[2 + i / 8] | (1U << (i % 8)));
         } else {
           reply[2 + 2 * i] = static_cast<std::uint8_t>(t[i] >> 8);
           reply[3 + 2 * i] = static_cast<std::uint8_t>(t[i] & 0xFF);
@@ -282,9 +309,8 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     std::memcpy(reply, pdu, 5);  // the echo: address and count (0x0F 0x10) or value
     a.reply_len = 5;
     a.wrote = true;
-    if (trigger_->mapped && trigger_->unit == unit &&
-        static_cast<int>(trigger_->table) == table && trigger_->address < address + count &&
-        trigger_->address + trigger_->count() > address) {
+    if (trigger_->mapped && trigger_->unit == unit && static_cast<int>(trigger_->table) == table &&
+        trigger_->address < address + count && trigger_->address + trigger_->count() > address) {
       a.command = true;
       Decode();
     }
@@ -353,8 +379,8 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
 
 }  // namespace
 
-std::unique_ptr<PlantPort> MakeModbusProfilePort(
-    bool rtu, const std::string& endpoint, std::shared_ptr<const profile::ModbusProfile> p) {
+std::unique_ptr<PlantPort> MakeModbusProfilePort(bool rtu, const std::string& endpoint,
+                                                 std::shared_ptr<const profile::ModbusProfile> p) {
   return std::make_unique<ModbusProfilePort>(rtu, endpoint, std::move(p));
 }
 

@@ -4,16 +4,16 @@
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <poll.h>
-#include <sys/socket.h>
-#include <unistd.h>
-#include <string>
-#include <termios.h>
 #include <pty.h>
+#include <sys/socket.h>
+#include <termios.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <ctime>
+#include <string>
 
 #include "mrd/common/clock.hpp"
 
@@ -349,8 +349,8 @@ bool OpenRtu(ModbusServer& server, const std::string& endpoint, int* master_fd, 
 
 }  // namespace
 
-bool OpenModbusEndpoint(ModbusServer& server, bool rtu, const std::string& endpoint,
-                        int* master_fd, int* slave_fd, std::string* error) {
+bool OpenModbusEndpoint(ModbusServer& server, bool rtu, const std::string& endpoint, int* master_fd,
+                        int* slave_fd, std::string* error) {
   return rtu ? OpenRtu(server, endpoint, master_fd, slave_fd, error)
              : OpenTcp(server, endpoint, error);
 }

@@ -12,12 +12,12 @@
 //        kMaxOutput (a client that does not read): the client is dropped (refused); an MBAP
 //        protocol id other than 0: not Modbus, dropped without reply (rejected); a length
 //        field that frames nothing: the stream is lost, the client dropped (rejected); unit id
-//        kUnit (a profile's units: Bank::Serves), 0 or 0xFF (the Modbus TCP guide: a device addressed by its IP) answered, any
-//        other unit gets exception 0x0B (rejected).
+//        kUnit (a profile's units: Bank::Serves), 0 or 0xFF (the Modbus TCP guide: a device
+//        addressed by its IP) answered, any other unit gets exception 0x0B (rejected).
 //   RTU  a frame is delimited by its function's length, or by kRtuGapNs of silence for a
-//        function without one; a bad CRC or a torn frame is dropped (rejected); unit kUnit (or a profile's) is
-//        answered; unit 0 is a broadcast: a write is carried out, nothing is answered; other
-//        units are not answered (rejected).
+//        function without one; a bad CRC or a torn frame is dropped (rejected); unit kUnit (or a
+//        profile's) is answered; unit 0 is a broadcast: a write is carried out, nothing is
+//        answered; other units are not answered (rejected).
 
 #include <array>
 #include <atomic>
@@ -104,7 +104,7 @@ class ModbusServer {
 // Opens the server's endpoint: TCP "HOST:PORT" (listens), or RTU: a pseudo-terminal whose
 // slave the link `endpoint` points to (*master_fd, *slave_fd: the caller's to close, and the
 // link to unlink). false: *error.
-bool OpenModbusEndpoint(ModbusServer& server, bool rtu, const std::string& endpoint,
-                        int* master_fd, int* slave_fd, std::string* error);
+bool OpenModbusEndpoint(ModbusServer& server, bool rtu, const std::string& endpoint, int* master_fd,
+                        int* slave_fd, std::string* error);
 
 }  // namespace mrd::hil

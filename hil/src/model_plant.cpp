@@ -1,12 +1,11 @@
 // An identified model as the plant (model_plant.hpp): the model file reader and the plant.
 #include "mrd/hil/model_plant.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "mrd/common/input_file.hpp"
@@ -102,8 +101,8 @@ bool Parse(const json& j, int iteration, PlantModel* pm, std::string* why) {
     }
     reg_index[i] = m.num_regressors;
     auto& mr = m.regressors[m.num_regressors++];
-    mr.channel = static_cast<std::uint8_t>(std::find(chans.begin(), chans.end(), r.signal) -
-                                           chans.begin());
+    mr.channel =
+        static_cast<std::uint8_t>(std::find(chans.begin(), chans.end(), r.signal) - chans.begin());
     mr.transform = r.transform;
     mr.exponent = r.exponent;
   }
@@ -175,9 +174,9 @@ bool Parse(const json& j, int iteration, PlantModel* pm, std::string* why) {
         *why = "factor '" + name + "': delay or power out of range";
         return false;
       }
-      term.factors[term.num_factors++] = {static_cast<std::uint8_t>(reg_index[static_cast<std::size_t>(i)]),
-                                          static_cast<std::uint8_t>(delay),
-                                          static_cast<std::uint8_t>(power)};
+      term.factors[term.num_factors++] = {
+          static_cast<std::uint8_t>(reg_index[static_cast<std::size_t>(i)]),
+          static_cast<std::uint8_t>(delay), static_cast<std::uint8_t>(power)};
     }
     m.coefficients[m.num_terms++] = t.at("coefficient").get<double>();
   }

@@ -17,30 +17,42 @@ constexpr std::size_t kMaxGridPoints = 100000;
 
 const char* RideMetricKey(RideMetric m) {
   switch (m) {
-    case RideMetric::kBodyAccel: return "body_accel_rms";
-    case RideMetric::kBodyAccelWk: return "body_accel_wk_rms";
-    case RideMetric::kTyreLoad: return "tyre_load_rms_n";
-    case RideMetric::kTravel: return "travel_rms_cm";
+    case RideMetric::kBodyAccel:
+      return "body_accel_rms";
+    case RideMetric::kBodyAccelWk:
+      return "body_accel_wk_rms";
+    case RideMetric::kTyreLoad:
+      return "tyre_load_rms_n";
+    case RideMetric::kTravel:
+      return "travel_rms_cm";
   }
   return "?";
 }
 
 const char* RideMetricTitle(RideMetric m) {
   switch (m) {
-    case RideMetric::kBodyAccel: return "body acceleration RMS [m/s^2]";
-    case RideMetric::kBodyAccelWk: return "body acceleration RMS, ISO 2631-1 Wk weighted [m/s^2]";
-    case RideMetric::kTyreLoad: return "tyre load RMS [N]";
-    case RideMetric::kTravel: return "suspension travel RMS [cm]";
+    case RideMetric::kBodyAccel:
+      return "body acceleration RMS [m/s^2]";
+    case RideMetric::kBodyAccelWk:
+      return "body acceleration RMS, ISO 2631-1 Wk weighted [m/s^2]";
+    case RideMetric::kTyreLoad:
+      return "tyre load RMS [N]";
+    case RideMetric::kTravel:
+      return "suspension travel RMS [cm]";
   }
   return "?";
 }
 
 double MetricOf(const RidePoint& p, RideMetric m) {
   switch (m) {
-    case RideMetric::kBodyAccel: return p.body_accel_rms;
-    case RideMetric::kBodyAccelWk: return p.body_accel_wk_rms;
-    case RideMetric::kTyreLoad: return p.tyre_load_rms_n;
-    case RideMetric::kTravel: return p.travel_rms_cm;
+    case RideMetric::kBodyAccel:
+      return p.body_accel_rms;
+    case RideMetric::kBodyAccelWk:
+      return p.body_accel_wk_rms;
+    case RideMetric::kTyreLoad:
+      return p.tyre_load_rms_n;
+    case RideMetric::kTravel:
+      return p.travel_rms_cm;
   }
   return 0.0;
 }
@@ -94,8 +106,7 @@ RidePoint RunRide(QuarterCarPlant* plant, double duration_s, double settle_s, co
   return p;
 }
 
-bool GridVoltages(double lo, double hi, double step, std::vector<double>* out,
-                  std::string* error) {
+bool GridVoltages(double lo, double hi, double step, std::vector<double>* out, std::string* error) {
   if (!std::isfinite(lo) || !std::isfinite(hi) || !std::isfinite(step) || !(step > 0.0)) {
     *error = "the passive grid needs a finite step > 0 V";
     return false;
@@ -224,8 +235,9 @@ bool ComputePassiveBaseline(const Scenario& s, const RunResult& r, double step_v
   const double best_v = b.comparison.best[0].volts;
   QuarterCarPlant plant = MakeQuarterCar(s);
   std::vector<double> best;
-  RunRide(&plant, s.duration_s, s.ride_settle_s,
-          [best_v](const PlantSample&, std::int64_t) { return best_v; }, &best);
+  RunRide(
+      &plant, s.duration_s, s.ride_settle_s,
+      [best_v](const PlantSample&, std::int64_t) { return best_v; }, &best);
   b.psd_off = BodyAccelPsd(off, 1.0 / kPeriod);
   b.psd_best = BodyAccelPsd(best, 1.0 / kPeriod);
   b.psd_controlled = BodyAccelPsd(controlled, 1.0 / kPeriod);

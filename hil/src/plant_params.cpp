@@ -38,8 +38,9 @@ bool ResolvePlantDamper(const std::string& scenario_path, const toml::table& roo
       }
       if (!params::SetSpencerField(&p, k, *v)) {
         *error = At(scenario_path, line,
-                    "unknown key '" + k + "' in [plant.spencer] (c0a c0b k0 c1a c1b k1 x0 "
-                    "alpha_a alpha_b gamma beta A n eta)");
+                    "unknown key '" + k +
+                        "' in [plant.spencer] (c0a c0b k0 c1a c1b k1 x0 "
+                        "alpha_a alpha_b gamma beta A n eta)");
         return false;
       }
       std::string why;

@@ -26,8 +26,8 @@ bool LoadReplay(const std::string& path, bool open_loop, const std::string& dema
     a = b + 1;
   }
   std::string missing;
-  for (const std::string& need : {std::string("x"), std::string("v"), std::string("E"),
-                                 demand_column}) {
+  for (const std::string& need :
+       {std::string("x"), std::string("v"), std::string("E"), demand_column}) {
     bool found = false;
     for (const std::string& n : names) found = found || n == need;
     if (!found && missing.find("'" + need + "'") == std::string::npos) {
@@ -89,8 +89,8 @@ bool CheckReplay(const std::string& path, const toml::table& root, Scenario* s,
   }
   if (s->csv_file[0] != '/') {
     const auto slash = path.find_last_of('/');
-    s->csv_file = (slash == std::string::npos ? std::string(".") : path.substr(0, slash)) + "/" +
-                  s->csv_file;
+    s->csv_file =
+        (slash == std::string::npos ? std::string(".") : path.substr(0, slash)) + "/" + s->csv_file;
   }
   return true;
 }

@@ -11,7 +11,6 @@ namespace mrd::hil {
 
 // Sets s->excitation = kReplay and resolves 'file' (needed) against the scenario's folder.
 // false: *error = "FILE:LINE: reason".
-bool CheckReplay(const std::string& path, const toml::table& root, Scenario* s,
-                 std::string* error);
+bool CheckReplay(const std::string& path, const toml::table& root, Scenario* s, std::string* error);
 
 }  // namespace mrd::hil

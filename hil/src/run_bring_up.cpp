@@ -72,14 +72,14 @@ int ScenarioRun::MakePlants() {
   const Scenario& s = s_;
   const SpencerParams params = s.damper;  // preset, params file, overrides (scenario.cpp)
   replaying_ = !s.quarter_car && s.excitation == ExcitationKind::kReplay;
-  const bool generated = !s.quarter_car && o.excitation.empty() &&
-                         s.excitation == ExcitationKind::kProfile;
+  const bool generated =
+      !s.quarter_car && o.excitation.empty() && s.excitation == ExcitationKind::kProfile;
   const bool csv = !s.quarter_car && !generated &&
                    (s.excitation == ExcitationKind::kCsv || replaying_ || !o.excitation.empty());
   const std::string csv_path = o.excitation.empty() ? s.csv_file : o.excitation;
-  if (replaying_ ? !LoadReplay(csv_path, s.law == "open-loop", s.demand_column, &trace_, &replay_,
-                               error_)
-                 : csv && !LoadTrace(csv_path, s.demand_column, &trace_, error_)) {
+  if (replaying_
+          ? !LoadReplay(csv_path, s.law == "open-loop", s.demand_column, &trace_, &replay_, error_)
+          : csv && !LoadTrace(csv_path, s.demand_column, &trace_, error_)) {
     return 2;
   }
   if (generated && !ProfileTrace(s.profile, s.profile_seed, params, &trace_, error_)) return 2;
@@ -175,8 +175,9 @@ int ScenarioRun::StartFirmware() {
   fw_duration_ = lockstep_ ? static_cast<double>(steps_ + 1) * 1e-3 : 0.0;
   if (!Spawn(error_)) return 1;
   if (o.attach) {
-    std::fprintf(stderr, "mrd-hil: waiting for a firmware started by hand:\n  mrd-firmware --config %s%s\n",
-                 r_->config_path.c_str(), lockstep_ ? " (lockstep: add --duration to stop it)" : "");
+    std::fprintf(
+        stderr, "mrd-hil: waiting for a firmware started by hand:\n  mrd-firmware --config %s%s\n",
+        r_->config_path.c_str(), lockstep_ ? " (lockstep: add --duration to stop it)" : "");
   }
   // A PWM duty is rounded to the nearest ns: E_max may come back up to half a step above.
   e_tolerance_ = pwm_.active() ? 0.5 * pwm_.QuantumVolts(s.e_max) + 1e-12 : 0.0;
@@ -199,7 +200,8 @@ int ScenarioRun::StartFirmware() {
 // first sample on the bus meanwhile.
 int ScenarioRun::AwaitRealtimeStart() {
   if (lockstep_) return 0;
-  const std::int64_t until = common::MonotonicNs() + static_cast<std::int64_t>(o_.startup_timeout_s * 1e9);
+  const std::int64_t until =
+      common::MonotonicNs() + static_cast<std::int64_t>(o_.startup_timeout_s * 1e9);
   std::uint32_t seq = 0;
   while (true) {
     SensorOutput out;

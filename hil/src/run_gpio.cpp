@@ -7,9 +7,7 @@
 #include "mrd/hil/gpio_sim_port.hpp"
 
 namespace mrd::hil {
-namespace {
-
-}  // namespace
+namespace {}  // namespace
 
 bool RunGpio::Open(const Scenario& s, const RunOptions& o, std::string* firmware_chip,
                    std::string* error) {

@@ -18,7 +18,8 @@ void ScenarioRun::Pump(std::int64_t timeout_ns) {
 
 void ScenarioRun::PumpFor(std::int64_t ns) {
   const std::int64_t until = common::MonotonicNs() + ns;
-  for (std::int64_t now = common::MonotonicNs(); now < until; now = common::MonotonicNs()) Pump(until - now);
+  for (std::int64_t now = common::MonotonicNs(); now < until; now = common::MonotonicNs())
+    Pump(until - now);
 }
 
 // A sensor frame out, stamped and remembered by sequence number (the latency of the command
@@ -36,8 +37,8 @@ bool ScenarioRun::Spawn(std::string* e) {
   if (o_.attach) return true;
   const std::string tag = Tag(r_->firmware_starts);
   if (!fw_.Spawn(FirmwareArgv(o_, r_->config_path, o_.table, fw_duration_),
-                 o_.work_dir + "/firmware" + tag + ".json", o_.work_dir + "/firmware" + tag + ".err",
-                 e)) {
+                 o_.work_dir + "/firmware" + tag + ".json",
+                 o_.work_dir + "/firmware" + tag + ".err", e)) {
     return false;
   }
   if (r_->firmware_starts > 0) port_->PeerRestarted();

@@ -13,8 +13,8 @@
 
 namespace mrd::hil {
 
-bool RunPwm::Open(const std::string& profile_path, const std::string& work_dir,
-                  std::string* sysfs, std::string* error) {
+bool RunPwm::Open(const std::string& profile_path, const std::string& work_dir, std::string* sysfs,
+                  std::string* error) {
   if (!profile::ProfileHasPwm(profile_path)) return true;
   if (!profile::LoadPwmProfile(profile_path, &profile_, error)) return false;
   // The class directory, one chip with one channel already exported (the firmware exports

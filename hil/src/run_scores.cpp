@@ -58,9 +58,10 @@ void ScoreRun(const Scenario& s, RunResult* r) {
     FaultResult fr;
     fr.fault = f;
     fr.onset_step = static_cast<std::int64_t>(std::llround(f.at_s / 1e-3));
-    fr.clear_step = f.duration_s > 0.0
-                        ? fr.onset_step + static_cast<std::int64_t>(std::llround(f.duration_s / 1e-3))
-                        : n;
+    fr.clear_step =
+        f.duration_s > 0.0
+            ? fr.onset_step + static_cast<std::int64_t>(std::llround(f.duration_s / 1e-3))
+            : n;
     // A delay shorter than the firmware's max_age cannot be seen: the data are late, not stale.
     // A delay shorter than the firmware's max_age cannot be seen: the data are late, not
     // stale. A killed plant side cannot watch the firmware detect its absence: the firmware's
@@ -112,8 +113,8 @@ void ScoreRun(const Scenario& s, RunResult* r) {
     } else if (fr.detection && *fr.safe - *fr.detection > s.max_detection_to_safe_periods) {
       fr.ok = false;
       fr.why = "safe state " + std::to_string(*fr.safe - *fr.detection) +
-               " periods after detection (limit " + std::to_string(s.max_detection_to_safe_periods) +
-               ")";
+               " periods after detection (limit " +
+               std::to_string(s.max_detection_to_safe_periods) + ")";
     } else if (s.require_recovery && clears && fr.safe && !fr.recovery) {
       fr.ok = false;
       fr.why = "no recovery after the fault cleared";
@@ -180,8 +181,8 @@ void EvaluatePass(const Scenario& s, RunResult* r) {
       const StructureScores& st = *r->structure;
       if (s.peak_drift_below_passive_on &&
           !(st.controlled.peak_drift_cm() <= st.passive_on.peak_drift_cm())) {
-        f.push_back("peak drift " + Fmt(st.controlled.peak_drift_cm()) +
-                    " cm above passive-on's " + Fmt(st.passive_on.peak_drift_cm()));
+        f.push_back("peak drift " + Fmt(st.controlled.peak_drift_cm()) + " cm above passive-on's " +
+                    Fmt(st.passive_on.peak_drift_cm()));
       }
       if (s.peak_accel_below_passive_on &&
           !(st.controlled.peak_accel_cm_s2() <= st.passive_on.peak_accel_cm_s2())) {
@@ -195,8 +196,9 @@ void EvaluatePass(const Scenario& s, RunResult* r) {
     }
   }
   for (const FaultResult& fr : r->faults) {
-    if (!fr.ok) f.push_back(std::string("fault ") + FaultKindName(fr.fault.kind) + " at " +
-                            Fmt(fr.fault.at_s) + " s: " + fr.why);
+    if (!fr.ok)
+      f.push_back(std::string("fault ") + FaultKindName(fr.fault.kind) + " at " +
+                  Fmt(fr.fault.at_s) + " s: " + fr.why);
   }
   if (s.min_replay_fit && (!r->replay || r->replay->fit_percent < *s.min_replay_fit)) {
     f.push_back(r->replay ? "replay fit " + Fmt(r->replay->fit_percent) + " % < " +

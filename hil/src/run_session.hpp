@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/common/clock.hpp"
 #include "mrd/canbus/local_bus.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/hil/child.hpp"
 #include "mrd/hil/plant.hpp"
 #include "mrd/hil/run.hpp"

@@ -11,12 +11,18 @@ namespace {
 
 SensorFault SensorFaultOf(FaultKind k) {
   switch (k) {
-    case FaultKind::kDrop: return SensorFault::kDrop;
-    case FaultKind::kCorrupt: return SensorFault::kCorrupt;
-    case FaultKind::kStall: return SensorFault::kStall;
-    case FaultKind::kOutOfRange: return SensorFault::kOutOfRange;
-    case FaultKind::kNan: return SensorFault::kNan;
-    default: return SensorFault::kNone;
+    case FaultKind::kDrop:
+      return SensorFault::kDrop;
+    case FaultKind::kCorrupt:
+      return SensorFault::kCorrupt;
+    case FaultKind::kStall:
+      return SensorFault::kStall;
+    case FaultKind::kOutOfRange:
+      return SensorFault::kOutOfRange;
+    case FaultKind::kNan:
+      return SensorFault::kNan;
+    default:
+      return SensorFault::kNone;
   }
 }
 
@@ -119,7 +125,8 @@ SensorOutput ScenarioRun::PublishSensors(std::int64_t k, const StepFaults& f) {
     } else if (f.delay || !delayed_.empty()) {
       delayed_.push_back(out);
       while (!delayed_.empty() &&
-             (!f.delay || static_cast<std::int64_t>(out.seq - delayed_.front().seq) >= f.delay_periods)) {
+             (!f.delay ||
+              static_cast<std::int64_t>(out.seq - delayed_.front().seq) >= f.delay_periods)) {
         Publish(delayed_.front());
         delayed_.pop_front();
       }
@@ -149,21 +156,20 @@ int ScenarioRun::HearLockstep(std::int64_t k, const SensorOutput& out, bool plan
     if (fresh->has_command && (fresh->has_status || !port_->CarriesStatus())) break;
     if (!FirmwareAlive() && awaiting_start_ && !o.attach) {
       // Exited before its first command: it refused to start (its stderr says why).
-      return EndRun("the firmware exited during start-up (exit " + std::to_string(fw_.status()) +
-                        ")",
-                    0);
+      return EndRun(
+          "the firmware exited during start-up (exit " + std::to_string(fw_.status()) + ")", 0);
     }
     if (!FirmwareAlive()) break;  // exited mid-step: no command for this step
     const std::int64_t now = common::MonotonicNs();
     if (const int sig = Interrupted()) return EndRun(InterruptText(sig), sig);
     if (now >= until) {
-      return EndRun(std::string(awaiting_start_
-                                    ? "no firmware answered within the start-up timeout ("
-                                    : "the firmware stopped answering: no command within "
-                                      "the command timeout (") +
-                        FormatSeconds(wait_s) + ") at step " + std::to_string(k) +
-                        (o.attach ? "" : "; it was stopped"),
-                    0);
+      return EndRun(
+          std::string(awaiting_start_ ? "no firmware answered within the start-up timeout ("
+                                      : "the firmware stopped answering: no command within "
+                                        "the command timeout (") +
+              FormatSeconds(wait_s) + ") at step " + std::to_string(k) +
+              (o.attach ? "" : "; it was stopped"),
+          0);
     }
     if (awaiting_start_ && now >= resend) {
       // The firmware may not be on the bus yet: offer the step again.
@@ -173,8 +179,10 @@ int ScenarioRun::HearLockstep(std::int64_t k, const SensorOutput& out, bool plan
     }
     Pump(std::min<std::int64_t>(until - now, 2'000'000));
   }
-  if (!fresh->has_command) ++r_->command_timeouts;
-  else awaiting_start_ = false;
+  if (!fresh->has_command)
+    ++r_->command_timeouts;
+  else
+    awaiting_start_ = false;
   return 0;
 }
 
@@ -223,13 +231,15 @@ void ScenarioRun::TakeLines(std::int64_t k, const DriverInput& fresh) {
 // plant time under lockstep, wall time in real time); else the coil's safe 0 V. [V]
 double ScenarioRun::DriverVolts(std::int64_t k) {
   const Scenario& s = s_;
-  const bool hb_fresh = lockstep_ ? k - hb_step_ <= hb_timeout_steps_
-                                  : hb_ns_ != 0 && common::MonotonicNs() - hb_ns_ <= static_cast<std::int64_t>(
-                                                                          s.heartbeat_timeout_s * 1e9);
+  const bool hb_fresh =
+      lockstep_ ? k - hb_step_ <= hb_timeout_steps_
+                : hb_ns_ != 0 && common::MonotonicNs() - hb_ns_ <=
+                                     static_cast<std::int64_t>(s.heartbeat_timeout_s * 1e9);
   if (hb_fresh_prev_ && !hb_fresh) ++r_->heartbeat_timeouts;
   hb_fresh_prev_ = hb_fresh;
   driven_ = (!carries_enable_ || enable_) && hb_fresh;
-  const double applied = driven_ && std::isfinite(set_point_) ? std::clamp(set_point_, 0.0, s.e_max) : 0.0;
+  const double applied =
+      driven_ && std::isfinite(set_point_) ? std::clamp(set_point_, 0.0, s.e_max) : 0.0;
   if (driven_) ++r_->driven_steps;
   return applied;
 }
@@ -263,8 +273,8 @@ void ScenarioRun::StepPlants(double applied, double command_age_ms) {
   }
   if (o.keep_trace) {
     const double lo = std::min(reach_a, reach_b), hi = std::max(reach_a, reach_b);
-    r_->trace.push_back({sample_.t_s, sample_.x, v_seen, sample_.demand, sample_.force, f_off,
-                         f_on, set_point_, applied, cmd_safe_, driven_,
+    r_->trace.push_back({sample_.t_s, sample_.x, v_seen, sample_.demand, sample_.force, f_off, f_on,
+                         set_point_, applied, cmd_safe_, driven_,
                          sample_.demand >= lo && sample_.demand <= hi, causes_});
     r_->trace.back().command_age_ms = command_age_ms;
     if (score_ride_) {

@@ -17,9 +17,12 @@ namespace mrd::hil {
 
 const char* TransportName(Transport t) {
   switch (t) {
-    case Transport::kCan: return "can";
-    case Transport::kModbusTcp: return "modbus-tcp";
-    case Transport::kModbusRtu: return "modbus-rtu";
+    case Transport::kCan:
+      return "can";
+    case Transport::kModbusTcp:
+      return "modbus-tcp";
+    case Transport::kModbusRtu:
+      return "modbus-rtu";
   }
   return "can";
 }
@@ -139,8 +142,7 @@ bool ParseSdoRefusal(const std::string& text, SdoRefusal* r) {
 std::vector<std::string> FirmwareArgv(const RunOptions& o, const std::string& config,
                                       const std::string& table, double duration_s) {
   // The harness is the plant: the demo table may drive it on any interface (vcan on a board).
-  std::vector<std::string> argv = {o.firmware, "--config", config, "--json",
-                                   "--allow-demo-table"};
+  std::vector<std::string> argv = {o.firmware, "--config", config, "--json", "--allow-demo-table"};
   if (!table.empty()) {
     argv.push_back("--table");
     argv.push_back(table);

@@ -9,8 +9,8 @@ namespace mrd::hil {
 namespace {
 
 RideFigures Figures(const RideMetrics& m) {
-  return {m.count(), m.body_accel_rms(), m.travel_rms_cm(), m.tyre_load_rms_n(),
-          m.max_travel_cm(), m.lift_off()};
+  return {m.count(),           m.body_accel_rms(), m.travel_rms_cm(),
+          m.tyre_load_rms_n(), m.max_travel_cm(),  m.lift_off()};
 }
 
 }  // namespace
@@ -52,7 +52,8 @@ void ScenarioRun::StopFirmware() {
     if (lockstep_) {
       // Its last tick may still wait for a grant: one more ends it.
       port_->SendGrant((steps_ + 1) * kPeriodNs);
-      const std::int64_t until = common::MonotonicNs() + static_cast<std::int64_t>(o_.command_timeout_s * 1e9);
+      const std::int64_t until =
+          common::MonotonicNs() + static_cast<std::int64_t>(o_.command_timeout_s * 1e9);
       while (fw_.Alive() && common::MonotonicNs() < until) Pump(2'000'000);
       if (fw_.Alive()) fw_.Stop(2.0);
     } else {

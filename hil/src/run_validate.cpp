@@ -1,10 +1,9 @@
 // The scenario run's first phase (run_session.hpp): options and scenario checked before
 // anything starts, transport and clock parsed once, the device profile loaded. 2: bad input.
+#include <algorithm>
 #include <climits>
 #include <cstdlib>
 #include <cstring>
-
-#include <algorithm>
 
 #include "mrd/profile/pwm_profile.hpp"
 #include "run_session.hpp"
@@ -45,7 +44,8 @@ int ScenarioRun::ValidateOptions() {
   lockstep_ = clock_ == Clock::kLockstep;
   const bool can = transport_ == Transport::kCan;
   if (!o.can_interface.empty() && (!can || o.can_interface.find('/') != std::string::npos)) {
-    *error_ = "--can-interface '" + o.can_interface + "': a SocketCAN interface name (no '/') "
+    *error_ = "--can-interface '" + o.can_interface +
+              "': a SocketCAN interface name (no '/') "
               "with --transport can";
     return 2;
   }
@@ -62,7 +62,8 @@ int ScenarioRun::ValidateOptions() {
   if (o.attach && std::any_of(s.faults.begin(), s.faults.end(), [](const Fault& f) {
         return f.kind == FaultKind::kKillFirmware || f.kind == FaultKind::kCorruptTable;
       })) {
-    *error_ = s.path + ": kill_firmware and corrupt_table faults need the harness to start the "
+    *error_ = s.path +
+              ": kill_firmware and corrupt_table faults need the harness to start the "
               "firmware (drop --attach)";
     return 2;
   }
@@ -89,7 +90,8 @@ int ScenarioRun::LoadProfile() {
 int ScenarioRun::LoadModbusProfile() {
   const RunOptions& o = o_;
   if (transport_ == Transport::kCan) {
-    *error_ = "--profile " + o.profile + ": a Modbus device profile needs --transport "
+    *error_ = "--profile " + o.profile +
+              ": a Modbus device profile needs --transport "
               "modbus-tcp or modbus-rtu";
     return 2;
   }
@@ -102,7 +104,8 @@ int ScenarioRun::LoadModbusProfile() {
     return 2;
   }
   if (lockstep_ && !p->In(profile::CanIn::kGrant).mapped) {
-    *error_ = "--profile " + o.profile + ": lockstep needs a 'grant' input in the profile's "
+    *error_ = "--profile " + o.profile +
+              ": lockstep needs a 'grant' input in the profile's "
               "[modbus.inputs] (the simulation's time grant); or --clock realtime";
     return 2;
   }
@@ -125,14 +128,16 @@ int ScenarioRun::LoadCanProfile() {
     return 2;
   }
   if (lockstep_ && !p->inputs[static_cast<std::size_t>(profile::CanIn::kGrant)].mapped()) {
-    *error_ = "--profile " + o.profile + ": lockstep needs a 'grant' input in the profile (the "
+    *error_ = "--profile " + o.profile +
+              ": lockstep needs a 'grant' input in the profile (the "
               "simulation's time grant, e.g. the native TimeGrant message); or --clock realtime";
     return 2;
   }
   if (pwm_profile_ && lockstep_ &&
       !p->outputs[static_cast<std::size_t>(profile::CanOut::kStatusSafe)].mapped() &&
       !p->outputs[static_cast<std::size_t>(profile::CanOut::kStatusCauses)].mapped()) {
-    *error_ = "--profile " + o.profile + ": lockstep with a [pwm] output needs a firmware status "
+    *error_ = "--profile " + o.profile +
+              ": lockstep with a [pwm] output needs a firmware status "
               "message in the profile (status_safe or status_causes): the harness reads each "
               "tick's duty after it; or --clock realtime";
     return 2;
@@ -148,7 +153,8 @@ int ScenarioRun::ValidateProfileNeeds() {
   const bool canopen = can_profile_ != nullptr && can_profile_->canopen.has_value();
   for (const Fault& f : s.faults) {
     if (f.kind == FaultKind::kDriveHeartbeatLoss && !canopen) {
-      *error_ = s.path + ":" + std::to_string(f.line) + ": fault 'drive_heartbeat_loss' needs a "
+      *error_ = s.path + ":" + std::to_string(f.line) +
+                ": fault 'drive_heartbeat_loss' needs a "
                 "CANopen device profile (--profile with a [canopen] section)";
       return 2;
     }

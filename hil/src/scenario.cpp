@@ -1,8 +1,7 @@
 #include "mrd/hil/scenario.hpp"
 
-#include <toml++/toml.h>
-
 #include <sys/stat.h>
+#include <toml++/toml.h>
 
 #include <algorithm>
 #include <cmath>
@@ -14,11 +13,11 @@
 #include "mrd/common/input_file.hpp"
 #include "mrd/common/reference_profiles.hpp"
 #include "mrd/common/spencer_damper.hpp"
-#include "scenario_set.hpp"
-#include "plant_params.hpp"
-#include "replay_scenario.hpp"
 #include "mrd/hil/model_plant.hpp"
 #include "mrd/hil/structure_plant.hpp"
+#include "plant_params.hpp"
+#include "replay_scenario.hpp"
+#include "scenario_set.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -112,7 +111,8 @@ struct Ctx {
   bool Fail(const toml::node& n, const std::string& why) {  // why may echo input
     const auto& from = n.source().path;  // "--set KEY=VALUE" for an override's node
     *error = from && *from != path ? *from + ": " + Printable(why)
-             : Printable(path) + ":" + std::to_string(n.source().begin.line) + ": " + Printable(why);
+                                   : Printable(path) + ":" + std::to_string(n.source().begin.line) +
+                                         ": " + Printable(why);
     return false;
   }
 };
@@ -190,11 +190,16 @@ bool ApplyTable(const toml::table& t, const std::map<std::string, Setter>& keys,
 
 bool ParseFaultKind(const std::string& s, FaultKind* k) {
   static const std::map<std::string, FaultKind> kinds = {
-      {"drop", FaultKind::kDrop},           {"delay", FaultKind::kDelay},
-      {"corrupt", FaultKind::kCorrupt},     {"stall", FaultKind::kStall},
-      {"out_of_range", FaultKind::kOutOfRange}, {"nan", FaultKind::kNan},
-      {"implausible", FaultKind::kImplausible}, {"kill_plant", FaultKind::kKillPlant},
-      {"kill_firmware", FaultKind::kKillFirmware}, {"corrupt_table", FaultKind::kCorruptTable},
+      {"drop", FaultKind::kDrop},
+      {"delay", FaultKind::kDelay},
+      {"corrupt", FaultKind::kCorrupt},
+      {"stall", FaultKind::kStall},
+      {"out_of_range", FaultKind::kOutOfRange},
+      {"nan", FaultKind::kNan},
+      {"implausible", FaultKind::kImplausible},
+      {"kill_plant", FaultKind::kKillPlant},
+      {"kill_firmware", FaultKind::kKillFirmware},
+      {"corrupt_table", FaultKind::kCorruptTable},
       {"fault_line", FaultKind::kFaultLine},
       {"drive_heartbeat_loss", FaultKind::kDriveHeartbeatLoss}};
   const auto it = kinds.find(s);
@@ -207,7 +212,6 @@ std::string Folder(const std::string& path) {
   const auto slash = path.find_last_of('/');
   return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
 }
-
 
 // LoadScenario's state while it reads one file: the scenario, the keys that are not fields of
 // it (read first, checked and converted after), one method per section and per check.
@@ -234,7 +238,8 @@ class ScenarioReader {
   std::map<std::string, Setter> PlantKeys() {
     return {{"preset", Str(&s.preset, "preset")},
             {"params", Str(&s.params_file, "params")},
-            {"spencer", [this](const toml::node& n, Ctx& cx) {
+            {"spencer",
+             [this](const toml::node& n, Ctx& cx) {
                spencer_ = n.as_table();
                return spencer_ != nullptr || cx.Fail(n, "[plant.spencer] must be a table");
              }},
@@ -304,7 +309,8 @@ class ScenarioReader {
   }
   std::map<std::string, Setter> PassKeys() {
     return {
-        {"max_invariant_violations", Int(&pass_max_viol_, 0, 1000000000, "max_invariant_violations")},
+        {"max_invariant_violations",
+         Int(&pass_max_viol_, 0, 1000000000, "max_invariant_violations")},
         {"max_error_reachable", Num(&err_reach_, 0.0, 1e6, "max_error_reachable")},
         {"max_error_all", Num(&err_all_, 0.0, 1e6, "max_error_all")},
         {"min_replay_fit", Num(&replay_fit_, -1e9, 100.0, "min_replay_fit")},
@@ -313,8 +319,7 @@ class ScenarioReader {
          Int(&s.max_detection_to_safe_periods, 0, 1000000, "max_detection_to_safe_periods")},
         {"require_recovery", Flag(&s.require_recovery, "require_recovery")},
         {"expect_firmware_exit", Int(&expect_exit_, 0, 255, "expect_firmware_exit")},
-        {"body_accel_below_passive",
-         Flag(&s.body_accel_below_passive, "body_accel_below_passive")},
+        {"body_accel_below_passive", Flag(&s.body_accel_below_passive, "body_accel_below_passive")},
         {"tyre_load_below_passive_off",
          Flag(&s.tyre_load_below_passive_off, "tyre_load_below_passive_off")},
         {"peak_drift_below_passive_on",
@@ -325,24 +330,34 @@ class ScenarioReader {
   }
   std::map<std::string, Setter> GpioKeys() {
     ScenarioGpio& g = s.gpio;
-    return {{"inputs", Names({{"displacement", &g.displacement}, {"fault_line", &g.fault_line}},
-                             "inputs")},
+    return {{"inputs",
+             Names({{"displacement", &g.displacement}, {"fault_line", &g.fault_line}}, "inputs")},
             {"outputs", Names({{"enable", &g.enable}, {"heartbeat", &g.heartbeat}}, "outputs")},
             {"counts_per_cm", Num(&g.counts_per_cm, 1e-3, 1e9, "counts_per_cm")},
             {"velocity_cutoff_hz", Num(&g.velocity_cutoff_hz, 1e-3, 1e5, "velocity_cutoff_hz")}};
   }
   // The keys of a [section]; false: not a section.
   bool SectionKeys(const std::string& key, std::map<std::string, Setter>* keys) {
-    if (key == "plant") *keys = PlantKeys();
-    else if (key == "excitation") *keys = ExcitationKeys();
-    else if (key == "control") *keys = ControlKeys();
-    else if (key == "firmware") *keys = FirmwareKeys();
-    else if (key == "pass") *keys = PassKeys();
-    else if (key == "quarter_car") *keys = QuarterCarKeys();
-    else if (key == "road") *keys = RoadKeys();
-    else if (key == "gpio") *keys = GpioKeys();
-    else if (key == "structure") *keys = StructureKeys();
-    else return false;
+    if (key == "plant")
+      *keys = PlantKeys();
+    else if (key == "excitation")
+      *keys = ExcitationKeys();
+    else if (key == "control")
+      *keys = ControlKeys();
+    else if (key == "firmware")
+      *keys = FirmwareKeys();
+    else if (key == "pass")
+      *keys = PassKeys();
+    else if (key == "quarter_car")
+      *keys = QuarterCarKeys();
+    else if (key == "road")
+      *keys = RoadKeys();
+    else if (key == "gpio")
+      *keys = GpioKeys();
+    else if (key == "structure")
+      *keys = StructureKeys();
+    else
+      return false;
     return true;
   }
 
@@ -425,8 +440,8 @@ class ScenarioReader {
       if (s.table_file[0] != '/') s.table_file = Folder(path) + "/" + s.table_file;
       struct stat st {};
       if (stat(s.table_file.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
-        return c_.Fail(at("firmware.table"), "[firmware] table '" + s.table_file +
-                                                 "': not a readable file");
+        return c_.Fail(at("firmware.table"),
+                       "[firmware] table '" + s.table_file + "': not a readable file");
       }
     }
     return true;
@@ -435,9 +450,11 @@ class ScenarioReader {
   // model = "structure": its [structure] record; the structure-only [pass] keys.
   bool CheckStructure() {
     Ctx& c = c_;
-    if (model_ != "damper" && model_ != "quarter-car" && model_ != "narx" && model_ != "structure") {
-      return c.Fail(at("plant.model"), "plant model must be \"damper\", \"quarter-car\", "
-                                       "\"narx\" or \"structure\"");
+    if (model_ != "damper" && model_ != "quarter-car" && model_ != "narx" &&
+        model_ != "structure") {
+      return c.Fail(at("plant.model"),
+                    "plant model must be \"damper\", \"quarter-car\", "
+                    "\"narx\" or \"structure\"");
     }
     s.structure = model_ == "structure";
     if (!s.structure && root_.contains("structure")) {
@@ -464,8 +481,8 @@ class ScenarioReader {
       const char* key = s.peak_drift_below_passive_on   ? "pass.peak_drift_below_passive_on"
                         : s.peak_accel_below_passive_on ? "pass.peak_accel_below_passive_on"
                                                         : "pass.max_peak_force_n";
-      return c.Fail(at(key), std::string("'") + (key + 5) +
-                                 "' needs [plant] model = \"structure\"");
+      return c.Fail(at(key),
+                    std::string("'") + (key + 5) + "' needs [plant] model = \"structure\"");
     }
     if (max_peak_force_ >= 0.0) s.max_peak_force_n = max_peak_force_;
     return true;
@@ -474,9 +491,9 @@ class ScenarioReader {
   // model = "narx": the identified model file; its keys need that model.
   bool CheckNarx() {
     Ctx& c = c_;
-    if (model_ != "narx" && (!model_file_.empty() || has("plant.iteration") ||
-                             has("plant.envelope_margin"))) {
-      const char* key = !model_file_.empty() ? "plant.file"
+    if (model_ != "narx" &&
+        (!model_file_.empty() || has("plant.iteration") || has("plant.envelope_margin"))) {
+      const char* key = !model_file_.empty()     ? "plant.file"
                         : has("plant.iteration") ? "plant.iteration"
                                                  : "plant.envelope_margin";
       return c.Fail(at(key), std::string("'") + (key + 6) + "' needs [plant] model = \"narx\"");
@@ -490,9 +507,9 @@ class ScenarioReader {
     std::string why;
     if (!LoadPlantModel(model_file_, model_iteration_, envelope_margin_, pm.get(), &why)) {
       const bool iteration_problem = why.find(": no iteration ") != std::string::npos;
-      return c.Fail(at(iteration_problem && has("plant.iteration")
-                           ? "plant.iteration" : "plant.file"),
-                    "plant model: " + why);
+      return c.Fail(
+          at(iteration_problem && has("plant.iteration") ? "plant.iteration" : "plant.file"),
+          "plant model: " + why);
     }
     s.plant_model = std::move(pm);
     return true;
@@ -515,7 +532,8 @@ class ScenarioReader {
       const char* why = nullptr;
       if (!road.IsValid(&why)) return c.Fail(at("road"), std::string("[road]: ") + why);
       car.max_volts = s.e_max;
-      if (!car.IsValid(&why)) return c.Fail(at("quarter_car"), std::string("[quarter_car]: ") + why);
+      if (!car.IsValid(&why))
+        return c.Fail(at("quarter_car"), std::string("[quarter_car]: ") + why);
       if (root_.contains("excitation")) {
         return c.Fail(at("excitation"), "a quarter car is excited by its [road], not [excitation]");
       }
@@ -545,7 +563,8 @@ class ScenarioReader {
     } else if (excitation_ == "profile") {
       s.excitation = ExcitationKind::kProfile;
       const auto& names = ReferenceProfileNames();
-      if (s.profile.empty()) return c.Fail(at("excitation.kind"), "kind = \"profile\" needs 'profile'");
+      if (s.profile.empty())
+        return c.Fail(at("excitation.kind"), "kind = \"profile\" needs 'profile'");
       if (std::find(names.begin(), names.end(), s.profile) == names.end()) {
         std::string list;
         for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
@@ -564,10 +583,8 @@ class ScenarioReader {
       return c.Fail(*root_.at_path("excitation.kind").node(),
                     "excitation kind must be \"periodic\", \"csv\", \"profile\" or \"replay\"");
     }
-    if (excitation_ != "profile" && (has("excitation.profile") ||
-                                     has("excitation.seed"))) {
-      return c.Fail(at(has("excitation.profile") ? "excitation.profile"
-                                                 : "excitation.seed"),
+    if (excitation_ != "profile" && (has("excitation.profile") || has("excitation.seed"))) {
+      return c.Fail(at(has("excitation.profile") ? "excitation.profile" : "excitation.seed"),
                     "'profile' and 'seed' need [excitation] kind = \"profile\"");
     }
     return true;
@@ -598,8 +615,9 @@ class ScenarioReader {
     }
     if (chassis_law && !s.quarter_car) {
       return c.Fail(*root.at_path("control.law").node(),
-                    "law \"" + s.law + "\" needs [plant] model = \"quarter-car\" (the body "
-                    "acceleration and wheel velocity it reads)");
+                    "law \"" + s.law +
+                        "\" needs [plant] model = \"quarter-car\" (the body "
+                        "acceleration and wheel velocity it reads)");
     }
     if (s.law == "open-loop" && s.excitation != ExcitationKind::kReplay) {
       return c.Fail(*root.at_path("control.law").node(),
@@ -655,9 +673,10 @@ class ScenarioReader {
       s.min_replay_fit = replay_fit_;
     }
     if (s.law == "open-loop" && (s.max_error_reachable || s.max_error_all)) {
-      return c.Fail(root.contains("pass") ? *root.get("pass") : static_cast<const toml::node&>(root),
-                    "law \"open-loop\" tracks no force: score it with min_replay_fit, not "
-                    "max_error_*");
+      return c.Fail(
+          root.contains("pass") ? *root.get("pass") : static_cast<const toml::node&>(root),
+          "law \"open-loop\" tracks no force: score it with min_replay_fit, not "
+          "max_error_*");
     }
     if (max_missed_ >= 0.0) s.max_missed_grants = static_cast<std::uint64_t>(max_missed_);
     if (expect_exit_ >= 0) s.expect_firmware_exit = expect_exit_;
@@ -705,18 +724,30 @@ class ScenarioReader {
 
 const char* FaultKindName(FaultKind kind) {
   switch (kind) {
-    case FaultKind::kDrop: return "drop";
-    case FaultKind::kDelay: return "delay";
-    case FaultKind::kCorrupt: return "corrupt";
-    case FaultKind::kStall: return "stall";
-    case FaultKind::kOutOfRange: return "out_of_range";
-    case FaultKind::kNan: return "nan";
-    case FaultKind::kImplausible: return "implausible";
-    case FaultKind::kKillPlant: return "kill_plant";
-    case FaultKind::kKillFirmware: return "kill_firmware";
-    case FaultKind::kCorruptTable: return "corrupt_table";
-    case FaultKind::kFaultLine: return "fault_line";
-    case FaultKind::kDriveHeartbeatLoss: return "drive_heartbeat_loss";
+    case FaultKind::kDrop:
+      return "drop";
+    case FaultKind::kDelay:
+      return "delay";
+    case FaultKind::kCorrupt:
+      return "corrupt";
+    case FaultKind::kStall:
+      return "stall";
+    case FaultKind::kOutOfRange:
+      return "out_of_range";
+    case FaultKind::kNan:
+      return "nan";
+    case FaultKind::kImplausible:
+      return "implausible";
+    case FaultKind::kKillPlant:
+      return "kill_plant";
+    case FaultKind::kKillFirmware:
+      return "kill_firmware";
+    case FaultKind::kCorruptTable:
+      return "corrupt_table";
+    case FaultKind::kFaultLine:
+      return "fault_line";
+    case FaultKind::kDriveHeartbeatLoss:
+      return "drive_heartbeat_loss";
   }
   return "?";
 }
@@ -727,8 +758,8 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
   return LoadScenario(path, {}, scenario, error);
 }
 
-bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
-                  Scenario* scenario, std::string* error) {
+bool LoadScenario(const std::string& path, const std::vector<std::string>& sets, Scenario* scenario,
+                  std::string* error) {
   try {
     // A regular file of at most kMaxScenarioBytes: a directory, FIFO or device is refused.
     std::string text;

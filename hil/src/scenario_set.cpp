@@ -66,8 +66,9 @@ bool ApplyScenarioSets(const std::vector<std::string>& sets, toml::table* root,
       const auto dot = key.find('.', from);
       const std::string part = key.substr(from, dot == std::string::npos ? dot : dot - from);
       if (!BareKey(part)) {
-        *error = label + ": KEY must be a dotted path of names (letters, digits, _ and -), "
-                         "e.g. control.skyhook_gain";
+        *error = label +
+                 ": KEY must be a dotted path of names (letters, digits, _ and -), "
+                 "e.g. control.skyhook_gain";
         return false;
       }
       if (dot == std::string::npos) break;

@@ -14,7 +14,6 @@ namespace mrd::hil {
 // as none of them is taken as a string (law=skyhook). Nodes it adds carry the source path
 // "--set KEY=VALUE" so a later error names the override. false with *error
 // ("--set 'SPEC': reason") when SPEC is malformed.
-bool ApplyScenarioSets(const std::vector<std::string>& sets, toml::table* root,
-                       std::string* error);
+bool ApplyScenarioSets(const std::vector<std::string>& sets, toml::table* root, std::string* error);
 
 }  // namespace mrd::hil

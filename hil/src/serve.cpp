@@ -8,10 +8,7 @@
 #include "mrd/common/clock.hpp"
 
 namespace mrd::hil {
-namespace {
-
-
-}  // namespace
+namespace {}  // namespace
 
 void PlantPort::Wait(std::int64_t timeout_ns) {
   const std::int64_t step = timeout_ns < 200'000 ? timeout_ns : 200'000;
@@ -25,7 +22,7 @@ LatencyStats Summarise(std::vector<double> samples_us) {
   if (samples_us.empty()) return s;
   std::sort(samples_us.begin(), samples_us.end());
   const auto at = [&](double q) {
-    const auto i = static_cast<std::size_t>(std::ceil(q * static_cast<double>(samples_us.size()))) ;
+    const auto i = static_cast<std::size_t>(std::ceil(q * static_cast<double>(samples_us.size())));
     return samples_us[std::min(samples_us.size() - 1, i == 0 ? 0 : i - 1)];
   };
   s.median_us = at(0.5);
@@ -39,12 +36,14 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
   ServeResult r;
   DamperPlant plant(o.params, o.excitation, o.period_s);
   const auto period_ns = static_cast<std::int64_t>(std::llround(o.period_s * 1e9));
-  const auto heartbeat_timeout_ns = static_cast<std::int64_t>(std::llround(o.heartbeat_timeout_s * 1e9));
+  const auto heartbeat_timeout_ns =
+      static_cast<std::int64_t>(std::llround(o.heartbeat_timeout_s * 1e9));
   constexpr std::size_t kRing = 4096;
   std::array<std::int64_t, kRing> published_ns{};
   std::array<std::uint32_t, kRing> published_seq{};
   std::vector<double> latency_us;
-  latency_us.reserve(o.duration_s > 0.0 ? static_cast<std::size_t>(o.duration_s / o.period_s) + 16 : 1 << 16);
+  latency_us.reserve(o.duration_s > 0.0 ? static_cast<std::size_t>(o.duration_s / o.period_s) + 16
+                                        : 1 << 16);
 
   DriverInput in;
   bool carries_enable = false, carries_heartbeat = false, heartbeat_fresh = false;
@@ -103,8 +102,7 @@ ServeResult Serve(const ServeOptions& o, const std::vector<PlantPort*>& ports,
     // The fault line this step publishes; the driver's state while the one published by the
     // previous step (which the firmware has had a period to see) was asserted.
     const double t_s = static_cast<double>(r.steps) * o.period_s;
-    const bool fault_line =
-        o.fault_start_s >= 0.0 && t_s >= o.fault_start_s && t_s < o.fault_end_s;
+    const bool fault_line = o.fault_start_s >= 0.0 && t_s >= o.fault_start_s && t_s < o.fault_end_s;
     if (fault_published) {
       if (driven) {
         ++r.fault_driven_steps;

@@ -107,9 +107,9 @@ PlantSample StructurePlant::Step(double volts) {
 PlantSample StructurePlant::Probe(double volts) const {
   ShearFrame copy = frame_;
   const double t0 = static_cast<double>(steps_) * period_s_;
-  return SampleOf(copy.Step(period_s_, GroundAcceleration(t0), GroundAcceleration(t0 + period_s_),
-                            volts),
-                  t0 + period_s_);
+  return SampleOf(
+      copy.Step(period_s_, GroundAcceleration(t0), GroundAcceleration(t0 + period_s_), volts),
+      t0 + period_s_);
 }
 
 }  // namespace mrd::hil

@@ -57,7 +57,8 @@ bool ParseRange(const std::string& text, std::vector<std::string>* values, std::
     return false;
   }
   const auto n = static_cast<std::size_t>(std::floor(span + 1e-9)) + 1;
-  for (std::size_t i = 0; i < n; ++i) values->push_back(Number(from + static_cast<double>(i) * step));
+  for (std::size_t i = 0; i < n; ++i)
+    values->push_back(Number(from + static_cast<double>(i) * step));
   return true;
 }
 
@@ -166,7 +167,8 @@ std::string SweepCsv(const SweepGrid& grid, const std::vector<SweepScores>& rows
   const bool ride = !rows.empty() && rows[0].ride;
   for (const SweepAxis& a : grid.axes) o << a.key << ',';
   o << "pass,invariant_violations,error_all,error_reachable";
-  if (ride) o << ",body_accel_rms,travel_rms_cm,tyre_load_rms_n,body_accel_rms_off,body_accel_rms_on";
+  if (ride)
+    o << ",body_accel_rms,travel_rms_cm,tyre_load_rms_n,body_accel_rms_off,body_accel_rms_on";
   o << '\n';
   o.precision(9);
   const auto points = grid.Points();
@@ -190,7 +192,8 @@ std::string SweepTable(const SweepGrid& grid, const std::vector<SweepScores>& ro
   for (const SweepAxis& a : grid.axes) head.push_back(a.key);
   head.push_back("pass");
   if (ride) {
-    for (const char* h : {"body_accel_rms", "travel_rms_cm", "tyre_load_rms_n", "vs_off", "vs_on"}) {
+    for (const char* h :
+         {"body_accel_rms", "travel_rms_cm", "tyre_load_rms_n", "vs_off", "vs_on"}) {
       head.push_back(h);
     }
   } else {

@@ -1,9 +1,9 @@
 // mrd compare: several models on several data files, one table (host/compare.hpp).
+#include <fmt/format.h>
+
 #include <cstdio>
 #include <memory>
 #include <string>
-
-#include <fmt/format.h>
 
 #include "commands.hpp"
 #include "mrd/host/compare.hpp"

@@ -1,12 +1,12 @@
 // mrd export: an identified model as the firmware's coefficient table (binary and/or C++
 // header). Everything is checked and encoded before anything is written.
+#include <fmt/format.h>
+
 #include <memory>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "commands.hpp"
 #include "mrd/host/atomic_write.hpp"
@@ -43,8 +43,8 @@ void RunExport(const ExportOptions& o) {
   // Encode both forms first, then write both or neither (WriteFilesAtomic).
   std::vector<std::pair<std::string, std::string>> files;
   if (!o.table.empty()) {
-    files.emplace_back(o.table, std::string(reinterpret_cast<const char*>(bytes.data()),
-                                            bytes.size()));
+    files.emplace_back(o.table,
+                       std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
   }
   if (!o.header.empty()) {
     try {
@@ -65,8 +65,9 @@ void RunExport(const ExportOptions& o) {
 void RegisterExport(CLI::App& app) {
   auto o = std::make_shared<ExportOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "export", "Write a model iteration as the firmware's coefficient table: binary image "
-                "(docs/table_format.md) and/or a C++ header with a constexpr table.");
+      "export",
+      "Write a model iteration as the firmware's coefficient table: binary image "
+      "(docs/table_format.md) and/or a C++ header with a constexpr table.");
   cmd->add_option("--model", o->model, "Model file from mrd identify")->required();
   cmd->add_option("--iteration", o->iteration, "Iteration to export (default: the selected one)");
   cmd->add_option("--table", o->table, "Binary table output (.bin)");

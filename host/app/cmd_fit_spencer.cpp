@@ -1,13 +1,13 @@
 // mrd fit-spencer: the Spencer 1997 damper model fitted to measured runs (spencer_fit.hpp);
 // writes a parameter file for `mrd generate --params` and the harness's `[plant] params`.
+#include <fmt/format.h>
+
 #include <chrono>
 #include <cmath>
 #include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "commands.hpp"
 #include "mrd/host/atomic_write.hpp"
@@ -72,20 +72,20 @@ void RunFit(FitOptions o) {
   for (const std::string& p : o.validate) held.push_back(LoadRun(p, -HUGE_VAL, HUGE_VAL));
   std::size_t rows = 0;
   for (const FitRun& r : runs) rows += r.x.size();
-  fmt::print("fit-spencer: {} run(s), {} rows, {} RK4 sub-steps per sample, E clamped to "
-             "[0, {:g}] V\n",
-             runs.size(), rows, o.fit.substeps, o.fit.e_max);
+  fmt::print(
+      "fit-spencer: {} run(s), {} rows, {} RK4 sub-steps per sample, E clamped to "
+      "[0, {:g}] V\n",
+      runs.size(), rows, o.fit.substeps, o.fit.e_max);
   o.fit.progress = [](const std::string& line) {
     fmt::print("{}\n", line);
     std::fflush(stdout);
   };
   const SpencerFitResult res = FitSpencer(runs, o.fit);
-  const double wall =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const SpencerParams paper = SpencerParams::Paper(), s1997 = SpencerParams::Spencer1997();
   std::ostringstream header;
-  header << "Spencer 1997 damper parameters fitted by mrd fit-spencer (Ceres, "
-         << o.fit.substeps << " RK4 sub-steps per sample)\n";
+  header << "Spencer 1997 damper parameters fitted by mrd fit-spencer (Ceres, " << o.fit.substeps
+         << " RK4 sub-steps per sample)\n";
   const auto report = [&](const char* what, const FitRun& r) {
     const std::string line = fmt::format("{} {}: fitted {} | spencer1997 {} | paper {}", what,
                                          r.name, Figures(res.params, r, o.fit),

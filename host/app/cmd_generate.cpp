@@ -1,10 +1,10 @@
 // mrd generate: reference data sets from the Spencer damper (docs/design.md §4).
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
 #include <algorithm>
 #include <memory>
 #include <string>
-
-#include <fmt/format.h>
-#include <fmt/ranges.h>
 
 #include "commands.hpp"
 #include "mrd/host/csv.hpp"
@@ -33,18 +33,20 @@ void RunGenerate(const GenerateOptions& o) {
   const auto [emin, emax] = std::minmax_element(ex.E.begin(), ex.E.end());
   const auto [vmin, vmax] = std::minmax_element(ex.v.begin(), ex.v.end());
   WriteCsv(o.out, {"t", "x", "v", "E", "f"}, {ex.t, ex.x, ex.v, ex.E, f});
-  fmt::print("{}: {} rows, t 0 ... {:.3f} s, v {:.2f} ... {:.2f} cm/s, E {:.2f} ... {:.2f} V, "
-             "f {:.1f} ... {:.1f} N\n",
-             o.out, ex.t.size(), ex.t.back(), *vmin, *vmax, *emin, *emax, *fmin, *fmax);
+  fmt::print(
+      "{}: {} rows, t 0 ... {:.3f} s, v {:.2f} ... {:.2f} cm/s, E {:.2f} ... {:.2f} V, "
+      "f {:.1f} ... {:.1f} N\n",
+      o.out, ex.t.size(), ex.t.back(), *vmin, *vmax, *emin, *emax, *fmin, *fmax);
 }
 
 }  // namespace
 
 void RegisterGenerate(CLI::App& app) {
   auto o = std::make_shared<GenerateOptions>();
-  CLI::App* cmd = app.add_subcommand(
-      "generate", "Simulate the Spencer reference damper on a reference profile; write CSV "
-                  "t,x,v,E,f at 1 ms.");
+  CLI::App* cmd =
+      app.add_subcommand("generate",
+                         "Simulate the Spencer reference damper on a reference profile; write CSV "
+                         "t,x,v,E,f at 1 ms.");
   cmd->add_option("--profile", o->profile, fmt::format("{}", fmt::join(ProfileNames(), " | ")))
       ->required()
       ->check(CLI::IsMember(ProfileNames()));

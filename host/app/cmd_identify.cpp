@@ -1,20 +1,20 @@
 // mrd identify: SEM identification (docs/design.md §5) of a polynomial NARX model from data.
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
 #include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <fmt/format.h>
-#include <fmt/ranges.h>
-
 #include "commands.hpp"
+#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/default_spec.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
 #include "mrd/host/sem_family.hpp"
-#include "mrd/host/candidate_spec.hpp"
 
 namespace mrd::host::cli {
 namespace {
@@ -59,8 +59,7 @@ void RunIdentify(const IdentifyOptions& o) {
                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   so.progress = [](const SemIteration& it) {
     fmt::print("iteration {:3d}: {:2d} terms, J {:.6g}, validation J [{:.6g}], {:.2f} s",
-               it.iteration, it.terms.size(), it.j, fmt::join(it.validation_j, ", "),
-               it.elapsed_s);
+               it.iteration, it.terms.size(), it.j, fmt::join(it.validation_j, ", "), it.elapsed_s);
     if (it.stress.checked) {  // spec [stress]: verdict, peak |y| / data's, candidates refused
       fmt::print(", stress {} (peak {:.3g}, {} candidates rejected)",
                  it.stress.pass ? "pass" : "FAIL", it.stress.peak, it.stress_rejected);
@@ -84,17 +83,15 @@ void RunIdentify(const IdentifyOptions& o) {
   SaveModelFile(mf, o.out);
   const SemIteration& sel = mf.Iteration(mf.selected);
   fmt::print("{}: {} candidates, {} iterations, selected iteration {} ({} terms, J {:.6g}; {})\n",
-             o.out, r.num_candidates, r.iterations.size() - 1, mf.selected, sel.terms.size(),
-             sel.j, mf.selection_rule);
+             o.out, r.num_candidates, r.iterations.size() - 1, mf.selected, sel.terms.size(), sel.j,
+             mf.selection_rule);
   // What the search's extras cost against the search itself (spec keys exchange and
   // one_step_start; docs/spec.md): wall time, for the user only (not in the model file).
   fmt::print("search cost: adds and prunes {:.2f} s, exchange moves {}, second start {}\n",
-             r.path_s,
-             spec.exchange ? fmt::format("{:.2f} s", r.exchange_s) : std::string("off"),
-             r.second_start_s < 0.0
-                 ? std::string("off")
-                 : fmt::format("{:.2f} s (a {}-term one-step start)", r.second_start_s,
-                               r.second_start_terms));
+             r.path_s, spec.exchange ? fmt::format("{:.2f} s", r.exchange_s) : std::string("off"),
+             r.second_start_s < 0.0 ? std::string("off")
+                                    : fmt::format("{:.2f} s (a {}-term one-step start)",
+                                                  r.second_start_s, r.second_start_terms));
   const FamilyResult& f = mf.family;
   if (!f.empty()) {
     fmt::print("transform family ({}):\n", f.rule);
@@ -137,7 +134,8 @@ void RegisterIdentify(CLI::App& app) {
   cmd->add_option("--initial", o->initial,
                   "Initial structure: terms like y(k-1)^2*u1(k), comma separated")
       ->delimiter(',');
-  cmd->add_option("--strategy", o->strategy, "first (built-in default) | best improvement; default: the spec's strategy")
+  cmd->add_option("--strategy", o->strategy,
+                  "first (built-in default) | best improvement; default: the spec's strategy")
       ->check(CLI::IsMember({"best", "first"}));
   cmd->callback([o] { RunIdentify(*o); });
 }

@@ -32,7 +32,8 @@ void Info(const LogOptions& o) {
   // A corrupt block: what came before it is shown, then the error (exit 2).
   const runlog::Log log = LoadRunLog(o.file, /*allow_corrupt=*/true);
   fmt::print("{}", RunLogInfo(log, o.file));
-  if (log.damage == runlog::Damage::kCorrupt) throw InputError("", 0, RunLogDamageNote(log, o.file));
+  if (log.damage == runlog::Damage::kCorrupt)
+    throw InputError("", 0, RunLogDamageNote(log, o.file));
   Note(log, o.file);
 }
 
@@ -59,8 +60,9 @@ void Plot(const LogOptions& o) {
 void RegisterLog(CLI::App& app) {
   auto o = std::make_shared<LogOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "log", "Read the firmware's per-period log (mrd-firmware --log FILE, [log] in its config): "
-             "info, export to CSV, plot.");
+      "log",
+      "Read the firmware's per-period log (mrd-firmware --log FILE, [log] in its config): "
+      "info, export to CSV, plot.");
   cmd->require_subcommand(1);
   cmd->footer(
       "A file cut inside its last block (power cut, kill -9) is read up to its last whole "
@@ -68,21 +70,24 @@ void RegisterLog(CLI::App& app) {
       "corrupt block (info: shown up to it) or an unknown field: error, exit 2. Format and "
       "fields: docs/logging.md.");
   CLI::App* info = cmd->add_subcommand(
-      "info", "Format version, source, period, records, blocks, time span, dropped records, "
-              "damage, and every field with its type and unit.");
+      "info",
+      "Format version, source, period, records, blocks, time span, dropped records, "
+      "damage, and every field with its type and unit.");
   info->add_option("FILE", o->file, "Log file")->required();
   info->callback([o] { Info(*o); });
   CLI::App* exp = cmd->add_subcommand(
-      "export", "Write the records as CSV (header row of field names; integers exact, floats "
-                "shortest round-trip, nan for none); the file is written atomically.");
+      "export",
+      "Write the records as CSV (header row of field names; integers exact, floats "
+      "shortest round-trip, nan for none); the file is written atomically.");
   exp->add_option("FILE", o->file, "Log file")->required();
   exp->add_option("--csv", o->csv, "Output CSV file")->required();
   exp->add_option("--fields", o->fields, "Fields to export, comma separated (default: all)")
       ->delimiter(',');
   exp->callback([o] { Export(*o); });
   CLI::App* plot = cmd->add_subcommand(
-      "plot", "DIR/<stem>_time.png: force (model, demand, measured), command and the law's E, "
-              "safe state and watchdog causes over time, the safe state shaded (gnuplot).");
+      "plot",
+      "DIR/<stem>_time.png: force (model, demand, measured), command and the law's E, "
+      "safe state and watchdog causes over time, the safe state shaded (gnuplot).");
   plot->add_option("FILE", o->file, "Log file")->required();
   plot->add_option("--out", o->out_dir, "Output directory (created; its parent must exist)")
       ->required();

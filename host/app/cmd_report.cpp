@@ -37,7 +37,8 @@ void RegisterReport(CLI::App& app) {
       "inputs), DIR/<stem>_residuals.png (residual correlations, as mrd resid) per data file, "
       "DIR/J_iterations.png and DIR/summary.txt; the summary is also printed on stdout, "
       "progress on stderr. The files are built in a temporary directory beside DIR (inside DIR "
-      "when DIR's parent is not writable), then moved into place (the whole directory when DIR is absent or empty, else file by "
+      "when DIR's parent is not writable), then moved into place (the whole directory when DIR is "
+      "absent or empty, else file by "
       "file, replacing files of the same name). Needs gnuplot (Debian: gnuplot-nox).");
   cmd->add_option("--model", o->model, "Model file (JSON) from mrd identify")->required();
   cmd->add_option("--data", o->data, "Data file(s) (CSV), comma separated or repeated")

@@ -1,13 +1,13 @@
 // mrd resid: residual analysis of a model on a data file (host/residuals.hpp).
+#include <fmt/format.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
-
-#include <fmt/format.h>
-#include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "mrd/host/csv.hpp"
@@ -53,9 +53,8 @@ void RunResid(const ResidOptions& o) {
     throw InputError("", 0, e.what());
   }
   const std::string unit = SignalUnit(mf.spec.output);
-  const std::string text =
-      fmt::format("mrd resid: model {} iteration {} on {}\n{}", o.model, k, o.data,
-                  ResidualSummary(a, unit));
+  const std::string text = fmt::format("mrd resid: model {} iteration {} on {}\n{}", o.model, k,
+                                       o.data, ResidualSummary(a, unit));
   std::vector<std::string> files;
   if (!o.out.empty()) {
     StagingDir staging(o.out, "resid");

@@ -1,9 +1,9 @@
 // mrd simulate: free-run simulation of an identified model through mrd::ModelRunner.
-#include <memory>
-#include <string>
-
 #include <fmt/format.h>
+
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "commands.hpp"
 #include "mrd/host/csv.hpp"
@@ -49,8 +49,9 @@ void RunSimulate(const SimulateOptions& o) {
              mf.Iteration(k).terms.size(), m.samples, m.diverged ? ", DIVERGED" : "");
   fmt::print("  physical:   MSE {:.6g} {}^2  RMSE {:.6g} {}\n", m.mse_physical, unit,
              m.rmse_physical, unit);
-  fmt::print("  unweighted: RRSE {:.6g}  fit {:.3f} %  (NRMSE = RRSE = ||{} - sim|| / ||{} - mean||)\n",
-             m.rrse, m.fit_percent, y, y);
+  fmt::print(
+      "  unweighted: RRSE {:.6g}  fit {:.3f} %  (NRMSE = RRSE = ||{} - sim|| / ||{} - mean||)\n",
+      m.rrse, m.fit_percent, y, y);
   fmt::print("  normalised: J {:.6g} ({})  MSE {:.6g}\n", m.j, CostWeightingName(mf), m.mse);
 }
 
@@ -59,13 +60,16 @@ void RunSimulate(const SimulateOptions& o) {
 void RegisterSimulate(CLI::App& app) {
   auto o = std::make_shared<SimulateOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "simulate", "Free-run simulation of a model file on a data set: RMSE (output unit), NRMSE, fit %, J "
+      "simulate",
+      "Free-run simulation of a model file on a data set: RMSE (output unit), NRMSE, fit %, J "
       "with its weighting; inputs outside the model's identification envelope warned on stderr.");
   cmd->add_option("--model", o->model, "Model file (JSON) from mrd identify")->required();
   cmd->add_option("--data", o->data, "Data file (CSV)")->required();
   cmd->add_option("--iteration", o->iteration, "Iteration to simulate (default: selected)");
   cmd->add_option("--out", o->out, "Write t, measured and simulated output (CSV)");
-  cmd->add_flag("--json", o->json, "Print one JSON object (J, J_weighting, rmse, rmse_unit, nrmse, fit_percent, envelope, ...)");
+  cmd->add_flag(
+      "--json", o->json,
+      "Print one JSON object (J, J_weighting, rmse, rmse_unit, nrmse, fit_percent, envelope, ...)");
   cmd->callback([o] { RunSimulate(*o); });
 }
 

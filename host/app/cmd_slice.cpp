@@ -1,9 +1,9 @@
 // mrd slice: a time segment of a data file, for identification/validation splits and k-fold
 // cross-validation on one measured run.
+#include <fmt/format.h>
+
 #include <memory>
 #include <string>
-
-#include <fmt/format.h>
 
 #include "commands.hpp"
 #include "mrd/host/csv.hpp"
@@ -31,9 +31,10 @@ void RunSlice(const SliceOptions& o) {
   last = first;
   while (last < t.size() && t[last] < o.to - eps) ++last;
   if (last - first < 2) {
-    throw InputError(o.in, 0,
-                     fmt::format("slice {} ... {} s holds fewer than 2 rows (file spans {} ... {} s)",
-                                 o.from, o.to, t.front(), t.back()));
+    throw InputError(
+        o.in, 0,
+        fmt::format("slice {} ... {} s holds fewer than 2 rows (file spans {} ... {} s)", o.from,
+                    o.to, t.front(), t.back()));
   }
   std::vector<std::vector<double>> cols;
   for (const auto& c : ds.columns) {
@@ -50,8 +51,9 @@ void RunSlice(const SliceOptions& o) {
 void RegisterSlice(CLI::App& app) {
   auto o = std::make_shared<SliceOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "slice", "Cut the rows with FROM <= t < TO out of a data file (hold-out validation, "
-               "k-fold segments).");
+      "slice",
+      "Cut the rows with FROM <= t < TO out of a data file (hold-out validation, "
+      "k-fold segments).");
   cmd->add_option("--in", o->in, "Input data file (CSV with column t)")->required();
   cmd->add_option("--from", o->from, "Start time [s] (inclusive)")->required();
   cmd->add_option("--to", o->to, "End time [s] (exclusive)")->required();

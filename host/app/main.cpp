@@ -1,11 +1,11 @@
 // mrd — host CLI of the MR damper control toolkit.
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <exception>
-
-#include <CLI/CLI.hpp>
-#include <fmt/format.h>
 
 #include "commands.hpp"
 #include "mrd/host/atomic_write.hpp"
@@ -14,7 +14,8 @@
 int main(int argc, char** argv) {
   CLI::App app{
       "mrd: identify control-oriented NARX models of magneto-rheological dampers.\n"
-      "Data flow: generate | import -> identify -> simulate/report/compare/resid -> export (table for "
+      "Data flow: generate | import -> identify -> simulate/report/compare/resid -> export (table "
+      "for "
       "mrd-firmware)."};
   mrd::host::InstallCleanupHandlers();
   app.require_subcommand(1);

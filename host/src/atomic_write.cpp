@@ -2,6 +2,7 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
@@ -14,8 +15,6 @@
 #include <cstring>
 #include <memory>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 #include "mrd/host/input_error.hpp"
 

@@ -1,9 +1,9 @@
 #include "mrd/host/compare.hpp"
 
+#include <fmt/format.h>
+
 #include <filesystem>
 #include <set>
-
-#include <fmt/format.h>
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
@@ -25,9 +25,9 @@ std::string Cell(double v, const char* fmt_spec) {
 }
 
 std::string Table(const CompareResult& r) {
-  std::vector<std::vector<std::string>> cells = {
-      {"model", "data", "fit %", "RMSE", "NRMSE", "J", "J weighting", "terms", "diverged",
-       "outside envelope"}};
+  std::vector<std::vector<std::string>> cells = {{"model", "data", "fit %", "RMSE", "NRMSE", "J",
+                                                  "J weighting", "terms", "diverged",
+                                                  "outside envelope"}};
   for (const CompareRow& row : r.rows) {
     std::string env;
     for (const EnvelopeCheck& e : row.envelope) {
@@ -37,14 +37,13 @@ std::string Table(const CompareResult& r) {
                          e.largest_excursion, e.unit.empty() ? "" : " " + e.unit);
     }
     const SimMetrics& m = row.metrics;
-    cells.push_back({row.model, row.data, Cell(m.fit_percent, "{:.2f}"),
-                     std::isfinite(m.rmse_physical)
-                         ? fmt::format("{:.4g}{}", m.rmse_physical,
-                                       row.unit.empty() ? "" : " " + row.unit)
-                         : "-",
-                     Cell(m.rrse, "{:.4f}"), Cell(m.j, "{:.4g}"), row.weighting,
-                     fmt::format("{}", row.terms), m.diverged ? "yes" : "no",
-                     env.empty() ? "-" : env});
+    cells.push_back(
+        {row.model, row.data, Cell(m.fit_percent, "{:.2f}"),
+         std::isfinite(m.rmse_physical)
+             ? fmt::format("{:.4g}{}", m.rmse_physical, row.unit.empty() ? "" : " " + row.unit)
+             : "-",
+         Cell(m.rrse, "{:.4f}"), Cell(m.j, "{:.4g}"), row.weighting, fmt::format("{}", row.terms),
+         m.diverged ? "yes" : "no", env.empty() ? "-" : env});
   }
   std::vector<std::size_t> w(cells.front().size(), 0);
   for (const auto& line : cells)
@@ -55,7 +54,8 @@ std::string Table(const CompareResult& r) {
     for (std::size_t c = 0; c < line.size(); ++c) {
       const bool left = c < 2 || c == 6 || c + 1 == line.size();
       if (left) {
-        fmt::format_to(out, "{}{:<{}}", c == 0 ? "" : "  ", line[c], c + 1 == line.size() ? 0 : w[c]);
+        fmt::format_to(out, "{}{:<{}}", c == 0 ? "" : "  ", line[c],
+                       c + 1 == line.size() ? 0 : w[c]);
       } else {
         fmt::format_to(out, "  {:>{}}", line[c], w[c]);
       }
@@ -75,7 +75,8 @@ std::vector<std::string> Stems(const std::vector<std::string>& paths) {
   std::set<std::string> used;
   std::vector<std::string> out;
   for (const std::string& p : paths) {
-    const std::string base = fs::path(p).stem().string().empty() ? "data" : fs::path(p).stem().string();
+    const std::string base =
+        fs::path(p).stem().string().empty() ? "data" : fs::path(p).stem().string();
     std::string stem = base;
     for (int n = 2; used.count(stem) != 0; ++n) stem = fmt::format("{}_{}", base, n);
     used.insert(stem);
@@ -160,8 +161,8 @@ CompareResult CompareModels(const CompareOptions& o) {
   const std::string& out = models[0].spec.output;
   for (std::size_t di = 0; di < data.size(); ++di) {
     PlotSpec p;
-    p.title = fmt::format("{}: measured and free-run {} of {} model(s)", fs::path(o.data[di]).filename().string(), out,
-                          models.size());
+    p.title = fmt::format("{}: measured and free-run {} of {} model(s)",
+                          fs::path(o.data[di]).filename().string(), out, models.size());
     p.xlabel = SignalLabel("t");
     p.ylabel = SignalLabel(out);
     p.width = 1400;

@@ -1,12 +1,12 @@
 #include "mrd/host/csv.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 #include "csv_tokenizer.hpp"
 #include "mrd/host/input_error.hpp"
@@ -44,8 +44,9 @@ DataSet ReadCsv(const std::string& path, std::span<const std::string> required) 
   need.insert(need.end(), required.begin(), required.end());
   for (const std::string& r : need) {
     if (!ds.Has(r)) {
-      throw InputError(path, 1, fmt::format("missing column '{}' (header has: {})", r,
-                                            fmt::join(ds.names, ",")));
+      throw InputError(
+          path, 1,
+          fmt::format("missing column '{}' (header has: {})", r, fmt::join(ds.names, ",")));
     }
   }
 
@@ -55,8 +56,8 @@ DataSet ReadCsv(const std::string& path, std::span<const std::string> required) 
     if (csv::Trim(lines[li].text).empty()) continue;  // blank lines (e.g. trailing newline)
     csv::SplitFields(lines[li].text, ',', &fields);
     if (fields.size() != ds.names.size()) {
-      throw InputError(path, lineno, fmt::format("expected {} fields, found {}",
-                                                 ds.names.size(), fields.size()));
+      throw InputError(path, lineno,
+                       fmt::format("expected {} fields, found {}", ds.names.size(), fields.size()));
     }
     for (std::size_t i = 0; i < fields.size(); ++i) {
       const std::string_view f = fields[i];
@@ -64,12 +65,12 @@ DataSet ReadCsv(const std::string& path, std::span<const std::string> required) 
       const char* end = f.data() + f.size();
       const auto res = std::from_chars(f.data(), end, value);
       if (f.empty() || res.ec == std::errc::invalid_argument || res.ptr != end) {
-        throw InputError(path, lineno, fmt::format("column '{}': not a number: '{}'",
-                                                   ds.names[i], f));
+        throw InputError(path, lineno,
+                         fmt::format("column '{}': not a number: '{}'", ds.names[i], f));
       }
       if (res.ec == std::errc::result_out_of_range || !std::isfinite(value)) {
-        throw InputError(path, lineno, fmt::format("column '{}': non-finite value '{}'",
-                                                   ds.names[i], f));
+        throw InputError(path, lineno,
+                         fmt::format("column '{}': non-finite value '{}'", ds.names[i], f));
       }
       ds.columns[i].push_back(value);
     }
@@ -84,13 +85,13 @@ DataSet ReadCsv(const std::string& path, std::span<const std::string> required) 
   for (std::size_t r = 1; r < t.size(); ++r) {
     const double d = t[r] - t[r - 1];
     if (!(d > 0.0)) {
-      throw InputError(path, r + 2, fmt::format("time 't' is not increasing ({} after {})",
-                                                t[r], t[r - 1]));
+      throw InputError(path, r + 2,
+                       fmt::format("time 't' is not increasing ({} after {})", t[r], t[r - 1]));
     }
     if (std::fabs(d - ds.dt) > 1e-3 * ds.dt) {
-      throw InputError(path, r + 2,
-                       fmt::format("non-uniform sampling: interval {:.9g} s, expected {:.9g} s",
-                                   d, ds.dt));
+      throw InputError(
+          path, r + 2,
+          fmt::format("non-uniform sampling: interval {:.9g} s, expected {:.9g} s", d, ds.dt));
     }
   }
   return ds;
@@ -109,9 +110,9 @@ void WriteCsv(const std::string& path, const std::vector<std::string>& names,
       if (!std::isfinite(columns[c][r])) {
         // Data file line r + 2 (after the header); an overflowed scale or a diverging
         // simulation ends here, before anything is written.
-        throw InputError(path, r + 2,
-                         fmt::format("column '{}': non-finite value {} not written",
-                                     names[c], columns[c][r]));
+        throw InputError(
+            path, r + 2,
+            fmt::format("column '{}': non-finite value {} not written", names[c], columns[c][r]));
       }
       // %.10g keeps 1e-10 relative precision; enough for simulated and measured signals.
       if (c > 0) buf.push_back(',');

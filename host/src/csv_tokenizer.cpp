@@ -1,11 +1,11 @@
 #include "csv_tokenizer.hpp"
 
+#include <fmt/format.h>
+
 #include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <iterator>
-
-#include <fmt/format.h>
 
 #include "mrd/host/input_error.hpp"
 
@@ -54,8 +54,9 @@ std::string ReadFile(const std::string& path) {
   errno = 0;
   std::ifstream in(path, std::ios::binary);
   if (!in) {
-    throw InputError(path, 0, fmt::format("cannot open file: {}",
-                                          errno != 0 ? std::strerror(errno) : "unreadable"));
+    throw InputError(
+        path, 0,
+        fmt::format("cannot open file: {}", errno != 0 ? std::strerror(errno) : "unreadable"));
   }
   std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (in.bad()) throw InputError(path, 0, "read error");

@@ -9,8 +9,8 @@
 #include <fstream>
 #include <iterator>
 #include <map>
-#include <optional>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string_view>
@@ -181,8 +181,8 @@ struct InputTable {
   std::vector<std::string> names;  // input columns
   bool trailing = false;           // the header ends with a separator
   std::size_t ncol = 0;
-  std::size_t expected = 0;  // fields per line, the trailing one included
-  std::vector<bool> mapped;  // [input column]: named by --map
+  std::size_t expected = 0;             // fields per line, the trailing one included
+  std::vector<bool> mapped;             // [input column]: named by --map
   std::vector<std::string_view> cells;  // kept rows, row-major
   std::vector<std::size_t> row_line;    // file line of each kept row
   std::size_t rows = 0;
@@ -362,8 +362,8 @@ double ScaleOf(const ImportOptions& o, const std::string& out) {
 }
 
 // Input column in (mapped to out) as finite numbers, scaled.
-std::vector<double> ReadColumn(const ImportOptions& o, const InputTable& in,
-                               const std::string& out, const std::string& in_name) {
+std::vector<double> ReadColumn(const ImportOptions& o, const InputTable& in, const std::string& out,
+                               const std::string& in_name) {
   const std::size_t c = in.column_of(in_name);
   const double k = ScaleOf(o, out);
   std::vector<double> values(in.rows);
@@ -424,8 +424,8 @@ std::vector<double> TimeResolution(const ImportOptions& o, const InputTable& in,
     }
     if (r > 0 && !(t[r] > t[r - 1])) {
       throw InputError(in.path, in.row_line[r],
-                       fmt::format("time '{}' is not increasing ({} s after {} s)",
-                                   in.names[tcol], t[r], t[r - 1]));
+                       fmt::format("time '{}' is not increasing ({} s after {} s)", in.names[tcol],
+                                   t[r], t[r - 1]));
     }
   }
   const double t_scale = std::fabs(ScaleOf(o, "t"));

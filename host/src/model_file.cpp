@@ -1,15 +1,15 @@
 #include "mrd/host/model_file.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <limits>
 #include <cstring>
 #include <fstream>
-#include <sstream>
-
-#include <fmt/format.h>
+#include <limits>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
@@ -40,8 +40,11 @@ const char* TransformName(Transform t) {
 json SpecToJson(const SemSpec& s) {
   json regs = json::array();
   for (const auto& r : s.regressors) {
-    json j = {{"name", r.name},     {"signal", r.signal}, {"transform", TransformName(r.transform)},
-              {"powers", r.powers}, {"delays", r.delays}};
+    json j = {{"name", r.name},
+              {"signal", r.signal},
+              {"transform", TransformName(r.transform)},
+              {"powers", r.powers},
+              {"delays", r.delays}};
     if (r.transform == Transform::kAbsPow) j["exponent"] = r.exponent;
     if (r.transform == Transform::kLowPass) j["tau"] = r.exponent;
     if (r.transform == Transform::kTanh) j["scale"] = r.exponent;
@@ -49,25 +52,25 @@ json SpecToJson(const SemSpec& s) {
     regs.push_back(j);
   }
   json out = {{"output", s.output},
-          {"regressor", regs},
-          {"limits",
-           {{"max_factors", s.max_factors},
-            {"max_degree", s.max_degree},
-            {"constant", s.constant},
-            {"max_candidates", s.max_candidates}}},
-          {"cost",
-           {{"weighting", s.weighting == CostWeighting::kRelative ? "relative" : "mse"},
-            {"floor", s.floor}}},
-          {"algorithm",
-           {{"strategy", s.strategy == Strategy::kBest ? "best" : "first"},
-            {"threshold_percent", s.threshold_percent},
-            {"max_iterations", s.max_iterations},
-            {"target_j", s.target_j},
-            {"divergence_limit", s.divergence_limit},
-            {"selection",
-             s.selection == Selection::kCrossValidation ? "cross_validation" : "tolerance"},
-            {"selection_tolerance_percent", s.selection_tolerance_percent},
-            {"initial", s.initial}}}};
+              {"regressor", regs},
+              {"limits",
+               {{"max_factors", s.max_factors},
+                {"max_degree", s.max_degree},
+                {"constant", s.constant},
+                {"max_candidates", s.max_candidates}}},
+              {"cost",
+               {{"weighting", s.weighting == CostWeighting::kRelative ? "relative" : "mse"},
+                {"floor", s.floor}}},
+              {"algorithm",
+               {{"strategy", s.strategy == Strategy::kBest ? "best" : "first"},
+                {"threshold_percent", s.threshold_percent},
+                {"max_iterations", s.max_iterations},
+                {"target_j", s.target_j},
+                {"divergence_limit", s.divergence_limit},
+                {"selection",
+                 s.selection == Selection::kCrossValidation ? "cross_validation" : "tolerance"},
+                {"selection_tolerance_percent", s.selection_tolerance_percent},
+                {"initial", s.initial}}}};
   if (s.stress.enabled) {
     out["stress"] = {{"stretch", s.stress.stretch},
                      {"stretch_signals", s.stress.stretch_signals},
@@ -93,8 +96,10 @@ std::string JsonValueToToml(const json& v, const std::string& key, const std::st
     }
     return s + "]";
   }
-  throw InputError(path, 0, fmt::format("spec: '{}' is {}, expected a number, string, boolean "
-                                       "or array", key, v.type_name()));
+  throw InputError(path, 0,
+                   fmt::format("spec: '{}' is {}, expected a number, string, boolean "
+                               "or array",
+                               key, v.type_name()));
 }
 
 SemSpec SpecFromJson(const json& j, const std::string& path) {
@@ -137,10 +142,9 @@ int IntField(const json& obj, const std::string& key, long long lo, long long hi
     throw InputError(path, 0, fmt::format("'{}' must be an integer, found {}", name, v.dump()));
   }
   const bool out_of_range =
-      v.is_number_unsigned()
-          ? v.get<unsigned long long>() > static_cast<unsigned long long>(hi) ||
-                static_cast<long long>(v.get<unsigned long long>()) < lo
-          : v.get<long long>() < lo || v.get<long long>() > hi;
+      v.is_number_unsigned() ? v.get<unsigned long long>() > static_cast<unsigned long long>(hi) ||
+                                   static_cast<long long>(v.get<unsigned long long>()) < lo
+                             : v.get<long long>() < lo || v.get<long long>() > hi;
   if (out_of_range) {
     throw InputError(path, 0,
                      fmt::format("'{}' = {} out of range {} ... {}", name, v.dump(), lo, hi));
@@ -235,8 +239,8 @@ void SaveModelFile(const ModelFile& m, const std::string& path) {
   for (const auto& it : m.iterations) {
     for (const double c : it.coefficients) {
       if (!std::isfinite(c)) {
-        throw InputError(path, 0, fmt::format("iteration {}: non-finite coefficient not written",
-                                              it.iteration));
+        throw InputError(
+            path, 0, fmt::format("iteration {}: non-finite coefficient not written", it.iteration));
       }
     }
   }
@@ -279,8 +283,9 @@ ModelFile LoadModelFile(const std::string& path) {
         ci.min = FiniteField(c.at("min"), fmt::format("channel '{}': min", ci.name), path);
         ci.max = FiniteField(c.at("max"), fmt::format("channel '{}': max", ci.name), path);
         if (!(ci.min <= ci.max)) {
-          throw InputError(path, 0, fmt::format("channel '{}': envelope min {} > max {}",
-                                                ci.name, ci.min, ci.max));
+          throw InputError(
+              path, 0,
+              fmt::format("channel '{}': envelope min {} > max {}", ci.name, ci.min, ci.max));
         }
       }
       m.channels.push_back(ci);
@@ -291,8 +296,9 @@ ModelFile LoadModelFile(const std::string& path) {
     }
     for (std::size_t i = 0; i < signals.size(); ++i) {
       if (m.channels[i].name != signals[i]) {
-        throw InputError(path, 0, fmt::format("channel {} is '{}', expected '{}'", i,
-                                              m.channels[i].name, signals[i]));
+        throw InputError(
+            path, 0,
+            fmt::format("channel {} is '{}', expected '{}'", i, m.channels[i].name, signals[i]));
       }
     }
     m.num_candidates = j.value("num_candidates", std::size_t{0});
@@ -304,8 +310,8 @@ ModelFile LoadModelFile(const std::string& path) {
           throw InputError(path, 0, fmt::format("iteration {} appears twice", it.iteration));
         }
       }
-      it.j = ji.at("J").is_null() ? std::numeric_limits<double>::infinity()
-                                  : ji.at("J").get<double>();
+      it.j =
+          ji.at("J").is_null() ? std::numeric_limits<double>::infinity() : ji.at("J").get<double>();
       for (const auto& v : ji.at("validation_J")) {
         it.validation_j.push_back(v.is_null() ? std::numeric_limits<double>::infinity()
                                               : v.get<double>());
@@ -326,17 +332,16 @@ ModelFile LoadModelFile(const std::string& path) {
           const std::string name = jf.at("regressor").get<std::string>();
           const int r = m.spec.RegressorIndex(name);
           if (r < 0) {
-            throw InputError(path, 0,
-                             fmt::format("iteration {}: unknown regressor '{}'", it.iteration,
-                                         name));
+            throw InputError(
+                path, 0, fmt::format("iteration {}: unknown regressor '{}'", it.iteration, name));
           }
           const std::string where = fmt::format("iteration {}: factor {}", it.iteration, name);
-          const int delay = IntField(jf, "delay", 0, static_cast<long long>(kMaxDelay), path,
-                                     where);
+          const int delay =
+              IntField(jf, "delay", 0, static_cast<long long>(kMaxDelay), path, where);
           const auto& offered = m.spec.regressors[static_cast<std::size_t>(r)].delays;
           if (std::find(offered.begin(), offered.end(), delay) == offered.end()) {
-            throw InputError(path, 0, fmt::format("'{}: delay' = {} is not offered by the spec",
-                                                  where, delay));
+            throw InputError(
+                path, 0, fmt::format("'{}: delay' = {} is not offered by the spec", where, delay));
           }
           const int power = IntField(jf, "power", 1, kMaxPower, path, where);
           term.factors.push_back({r, delay, power});
@@ -375,9 +380,8 @@ bool SetTableEnvelope(const ModelFile& m, CoefficientTable* table) {
 mrd::Model ToRuntimeModel(const ModelFile& m, int iteration) {
   const SemIteration& it = m.Iteration(iteration);
   auto fail = [&](const std::string& why) {
-    return InputError(m.path, 0,
-                      fmt::format("iteration {} does not fit the runtime model: {}", iteration,
-                                  why));
+    return InputError(
+        m.path, 0, fmt::format("iteration {} does not fit the runtime model: {}", iteration, why));
   };
   mrd::Model model;
   if (it.terms.size() > kMaxTerms) {
@@ -400,8 +404,8 @@ mrd::Model ToRuntimeModel(const ModelFile& m, int iteration) {
   }
   std::sort(used_regs.begin(), used_regs.end());
   if (used_regs.size() > kMaxRegressors) {
-    throw fail(fmt::format("{} elementary regressors > capacity {}", used_regs.size(),
-                           kMaxRegressors));
+    throw fail(
+        fmt::format("{} elementary regressors > capacity {}", used_regs.size(), kMaxRegressors));
   }
   for (std::size_t i = 0; i < used_regs.size(); ++i) {
     const auto& r = m.spec.regressors[used_regs[i]];
@@ -415,8 +419,8 @@ mrd::Model ToRuntimeModel(const ModelFile& m, int iteration) {
   model.output_channel = 0;
   for (std::size_t c = 0; c < chans.size(); ++c) {
     if (chans[c].size() > kMaxNameLength) {
-      throw fail(fmt::format("channel name '{}' longer than {} characters", chans[c],
-                             kMaxNameLength));
+      throw fail(
+          fmt::format("channel name '{}' longer than {} characters", chans[c], kMaxNameLength));
     }
     std::memcpy(model.channel_names[c].data(), chans[c].c_str(), chans[c].size() + 1);
     const auto ch = std::find_if(m.channels.begin(), m.channels.end(),
@@ -426,8 +430,8 @@ mrd::Model ToRuntimeModel(const ModelFile& m, int iteration) {
   model.num_regressors = static_cast<std::uint8_t>(used_regs.size());
   for (std::size_t i = 0; i < used_regs.size(); ++i) {
     const auto& r = m.spec.regressors[used_regs[i]];
-    model.regressors[i].channel = static_cast<std::uint8_t>(
-        std::find(chans.begin(), chans.end(), r.signal) - chans.begin());
+    model.regressors[i].channel =
+        static_cast<std::uint8_t>(std::find(chans.begin(), chans.end(), r.signal) - chans.begin());
     model.regressors[i].transform = r.transform;
     model.regressors[i].exponent = r.exponent;
   }

@@ -1,10 +1,10 @@
 #include "mrd/host/model_judge.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <map>
-
-#include <fmt/format.h>
 
 namespace mrd::host {
 
@@ -30,9 +30,8 @@ std::string CostWeightingName(const ModelFile& m) {
 }
 
 std::string CostWeightingShort(const ModelFile& m) {
-  return m.spec.weighting == CostWeighting::kRelative
-             ? fmt::format("rel, floor {:g}", m.spec.floor)
-             : std::string("mse");
+  return m.spec.weighting == CostWeighting::kRelative ? fmt::format("rel, floor {:g}", m.spec.floor)
+                                                      : std::string("mse");
 }
 
 std::vector<EnvelopeCheck> CheckEnvelope(const ModelFile& m, const DataSet& data) {

@@ -1,5 +1,12 @@
 #include "mrd/host/plot.hpp"
 
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -8,16 +15,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <string>
 #include <stdexcept>
+#include <string>
 #include <string_view>
-
-#include <fmt/format.h>
-#include <fmt/ranges.h>
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include "mrd/common/find_program.hpp"
 #include "mrd/common/gnuplot.hpp"
@@ -44,8 +44,8 @@ void WritePanel(const PlotSpec& spec, const std::filesystem::path& dir, std::siz
                 fmt::memory_buffer& script) {
   auto out = std::back_inserter(script);
   fmt::format_to(out, "unset logscale\nunset arrow\nunset label\nset autoscale\n");
-  fmt::format_to(out, "set title {}\nset xlabel {}\nset ylabel {}\nset grid\n",
-                 Quote(spec.title), Quote(spec.xlabel), Quote(spec.ylabel));
+  fmt::format_to(out, "set title {}\nset xlabel {}\nset ylabel {}\nset grid\n", Quote(spec.title),
+                 Quote(spec.xlabel), Quote(spec.ylabel));
   fmt::format_to(out, "set key outside below\n");
   if (spec.log_y) fmt::format_to(out, "set logscale y\n");
   for (const PlotMarker& m : spec.x_markers) {
@@ -117,8 +117,7 @@ void PlotPng(const PlotFigure& figure, const std::string& png_path) {
   fmt::memory_buffer script;
   auto out = std::back_inserter(script);
   const fs::path tmp_png = dir / "plot.png";
-  fmt::format_to(out, "set terminal pngcairo size {},{} noenhanced\n", figure.width,
-                 figure.height);
+  fmt::format_to(out, "set terminal pngcairo size {},{} noenhanced\n", figure.width, figure.height);
   fmt::format_to(out, "set output {}\n", Quote(tmp_png.string()));
   const bool multi = figure.panels.size() > 1 || !figure.title.empty();
   if (multi) {

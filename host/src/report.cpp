@@ -13,8 +13,8 @@
 #include <stdexcept>
 #include <system_error>
 
-#include "mrd/host/csv.hpp"
 #include "mrd/host/atomic_write.hpp"
+#include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/model_judge.hpp"
@@ -196,10 +196,10 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
   const SemIteration& it = mf.Iteration(k);
   fmt::format_to(out, "mrd report: model {}\n", mf.path);
   if (!mf.identification_data.empty()) {
-    fmt::format_to(out, "identified on: {}; validated on: {}\n",
-                   fmt::join(mf.identification_data, ", "),
-                   mf.validation_data.empty() ? std::string("-")
-                                              : fmt::format("{}", fmt::join(mf.validation_data, ", ")));
+    fmt::format_to(
+        out, "identified on: {}; validated on: {}\n", fmt::join(mf.identification_data, ", "),
+        mf.validation_data.empty() ? std::string("-")
+                                   : fmt::format("{}", fmt::join(mf.validation_data, ", ")));
   }
   fmt::format_to(out, "selected iteration: {} ({} terms, J {}; {})\n", mf.selected,
                  sel.terms.size(), FormatJ(sel.j), mf.selection_rule);
@@ -238,9 +238,9 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
     const SimMetrics& m = r.metrics;
     fmt::format_to(out, "  {}: {} samples scored{}\n", r.data.path, m.samples,
                    m.diverged ? ", DIVERGED" : "");
-    fmt::format_to(out, "    J {:.6g}  MSE {:.6g} (normalised)  MSE {:.6g} {}^2  RMSE {:.6g} {}  (J: {})\n",
-                   m.j, m.mse, m.mse_physical, Unit(y), m.rmse_physical, Unit(y),
-                   CostWeightingName(mf));
+    fmt::format_to(
+        out, "    J {:.6g}  MSE {:.6g} (normalised)  MSE {:.6g} {}^2  RMSE {:.6g} {}  (J: {})\n",
+        m.j, m.mse, m.mse_physical, Unit(y), m.rmse_physical, Unit(y), CostWeightingName(mf));
     fmt::format_to(out, "    RRSE {:.6g}  fit {:.3f} %  (unweighted; NRMSE = RRSE)\n", m.rrse,
                    m.fit_percent);
     if (r.envelope.empty()) {
@@ -258,7 +258,8 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
   }
   fmt::format_to(out,
                  "\nJ per iteration (J: {}; '-': not finite, diverged or not runnable; "
-                 "'<': reported):\n", CostWeightingName(mf));
+                 "'<': reported):\n",
+                 CostWeightingName(mf));
   std::vector<std::string> heads = {"iteration", "terms", "identification"};
   std::size_t num_val = 0;
   for (const SemIteration& s : mf.iterations) num_val = std::max(num_val, s.validation_j.size());
@@ -397,8 +398,8 @@ ReportResult WriteReport(const ReportOptions& o) {
       notes.push_back(fmt::format("{}: no column 'v': force-velocity loop skipped", r.name));
     }
     plot(TimePlot(mf, k, r), r.stem + "_time.png");
-    plot(ResidualPlot(r.residuals, fmt::format("{}: residual correlations, model iteration {}",
-                                               r.name, k)),
+    plot(ResidualPlot(r.residuals,
+                      fmt::format("{}: residual correlations, model iteration {}", r.name, k)),
          r.stem + "_residuals.png");
   }
   plot(IterationPlot(mf, k, reports), "J_iterations.png");

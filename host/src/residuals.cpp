@@ -1,11 +1,11 @@
 #include "mrd/host/residuals.hpp"
 
-#include <array>
-#include <cstddef>
-#include <cmath>
-#include <stdexcept>
-
 #include <fmt/format.h>
+
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <stdexcept>
 
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_judge.hpp"
@@ -38,9 +38,8 @@ double LaggedProduct(const std::vector<double>& a, double ma, const std::vector<
 
 void CheckLag(std::size_t n, int max_lag) {
   if (max_lag < 0 || static_cast<std::size_t>(max_lag) >= n) {
-    throw std::invalid_argument(
-        fmt::format("max lag {} outside 0 ... {} (signal of {} samples)", max_lag,
-                    n == 0 ? 0 : static_cast<long>(n) - 1, n));
+    throw std::invalid_argument(fmt::format("max lag {} outside 0 ... {} (signal of {} samples)",
+                                            max_lag, n == 0 ? 0 : static_cast<long>(n) - 1, n));
   }
 }
 
@@ -193,10 +192,14 @@ nlohmann::json ResidualJson(const ResidualAnalysis& a) {
     for (const double v : c.r) r.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json());
     corr.push_back({{"name", c.name}, {"lags", c.lags}, {"r", r}, {"outside", c.outside}});
   }
-  return {{"samples", a.samples},       {"max_lag", a.max_lag},
-          {"band", a.band},             {"inputs", a.inputs},
-          {"rms_free_run", a.rms_free_run}, {"rms_one_step", a.rms_one_step},
-          {"diverged", a.diverged},     {"correlations", corr}};
+  return {{"samples", a.samples},
+          {"max_lag", a.max_lag},
+          {"band", a.band},
+          {"inputs", a.inputs},
+          {"rms_free_run", a.rms_free_run},
+          {"rms_one_step", a.rms_one_step},
+          {"diverged", a.diverged},
+          {"correlations", corr}};
 }
 
 PlotFigure ResidualPlot(const ResidualAnalysis& a, const std::string& title) {

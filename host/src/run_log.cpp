@@ -39,8 +39,10 @@ std::string Text(const runlog::Log& log, const std::vector<std::uint32_t>& off, 
   switch (log.header.fields[i].type) {
     case runlog::Type::kI64:
       return fmt::format("{}", static_cast<std::int64_t>(Raw(log, off, r, i)));
-    case runlog::Type::kF64: return fmt::format("{}", runlog::Value(log, off, r, i));
-    default: return fmt::format("{}", Raw(log, off, r, i));
+    case runlog::Type::kF64:
+      return fmt::format("{}", runlog::Value(log, off, r, i));
+    default:
+      return fmt::format("{}", Raw(log, off, r, i));
   }
 }
 
@@ -61,17 +63,20 @@ runlog::Log LoadRunLog(const std::string& path, bool allow_corrupt) {
 
 std::string RunLogDamageNote(const runlog::Log& log, const std::string& path) {
   switch (log.damage) {
-    case runlog::Damage::kNone: return "";
+    case runlog::Damage::kNone:
+      return "";
     case runlog::Damage::kTruncated:
-      return fmt::format("{}: truncated in block {} at byte {} ({}); read up to the last whole "
-                         "block ({} records, {} bytes of {})",
-                         path, log.damage_block, log.damage_offset, log.damage_reason,
-                         log.num_records, log.valid_bytes, log.file_bytes);
+      return fmt::format(
+          "{}: truncated in block {} at byte {} ({}); read up to the last whole "
+          "block ({} records, {} bytes of {})",
+          path, log.damage_block, log.damage_offset, log.damage_reason, log.num_records,
+          log.valid_bytes, log.file_bytes);
     case runlog::Damage::kCorrupt:
-      return fmt::format("{}: corrupt block {} at byte {} ({}); the {} records of the {} blocks "
-                         "before it are intact, nothing after it was read",
-                         path, log.damage_block, log.damage_offset, log.damage_reason,
-                         log.num_records, log.blocks);
+      return fmt::format(
+          "{}: corrupt block {} at byte {} ({}); the {} records of the {} blocks "
+          "before it are intact, nothing after it was read",
+          path, log.damage_block, log.damage_offset, log.damage_reason, log.num_records,
+          log.blocks);
   }
   return "";
 }
@@ -86,9 +91,9 @@ std::string RunLogInfo(const runlog::Log& log, const std::string& path) {
   s += fmt::format("  records:  {} ({} bytes each)\n", log.num_records, h.record_bytes());
   s += fmt::format("  blocks:   {}", log.blocks);
   if (log.blocks > 0) {
-    s += fmt::format(" (sequence {} to {}{})", log.first_sequence, log.last_sequence,
-                     log.sequence_gaps > 0 ? fmt::format(", {} missing", log.sequence_gaps)
-                                           : std::string());
+    s += fmt::format(
+        " (sequence {} to {}{})", log.first_sequence, log.last_sequence,
+        log.sequence_gaps > 0 ? fmt::format(", {} missing", log.sequence_gaps) : std::string());
   }
   s += "\n";
   const int t = runlog::FieldIndex(h, "t_ns");
@@ -108,9 +113,9 @@ std::string RunLogInfo(const runlog::Log& log, const std::string& path) {
   }
   s += fmt::format("  dropped:  {} (ring full, counted by the writer up to the last block)\n",
                    log.dropped);
-  s += fmt::format("  damage:   {}\n",
-                   log.damage == runlog::Damage::kNone ? std::string("none")
-                                                       : RunLogDamageNote(log, path));
+  s += fmt::format("  damage:   {}\n", log.damage == runlog::Damage::kNone
+                                           ? std::string("none")
+                                           : RunLogDamageNote(log, path));
   s += "  fields:\n";
   for (const auto& f : h.fields) {
     s += fmt::format("    {:<16} {:<4} {}\n", f.name, runlog::TypeName(f.type),
@@ -127,8 +132,9 @@ std::string RunLogCsv(const runlog::Log& log, const std::vector<std::string>& fi
   for (const std::string& name : fields) {
     const int i = runlog::FieldIndex(log.header, name);
     if (i < 0) {
-      throw InputError("", 0, fmt::format("--fields: unknown field '{}'; the log has: {}", name,
-                                          FieldList(log.header)));
+      throw InputError("", 0,
+                       fmt::format("--fields: unknown field '{}'; the log has: {}", name,
+                                   FieldList(log.header)));
     }
     cols.push_back(static_cast<std::size_t>(i));
   }
@@ -168,7 +174,8 @@ std::string PlotRunLog(const runlog::Log& log, const std::string& path, const st
   if (!fs::exists(dir)) {
     const fs::path parent = dir.has_parent_path() ? dir.parent_path() : fs::path(".");
     if (!fs::is_directory(parent)) {
-      throw InputError("", 0, fmt::format("--out {}: its parent directory does not exist", out_dir));
+      throw InputError("", 0,
+                       fmt::format("--out {}: its parent directory does not exist", out_dir));
     }
     fs::create_directory(dir);
   }
@@ -215,10 +222,13 @@ std::string PlotRunLog(const runlog::Log& log, const std::string& path, const st
     return band;
   };
   PlotSpec forces{"Force", "t [s]", "force [N]", {}};
-  forces.series = {shade({&model, &demand, &force}), {"model force", t, model},
-                   {"demand", t, demand}, {"measured force", t, force}};
+  forces.series = {shade({&model, &demand, &force}),
+                   {"model force", t, model},
+                   {"demand", t, demand},
+                   {"measured force", t, force}};
   PlotSpec volts{"Command", "t [s]", "E [V]", {}};
-  volts.series = {shade({&command, &e_law}), {"command written", t, command},
+  volts.series = {shade({&command, &e_law}),
+                  {"command written", t, command},
                   {"law's E (before clamping; none when safe)", t, e_law}};
   PlotSpec state{"State", "t [s]", "", {}};
   state.series = {shade({&safe}), {"safe (1)", t, safe, "steps"}};
@@ -234,8 +244,8 @@ std::string PlotRunLog(const runlog::Log& log, const std::string& path, const st
     state.series.push_back(std::move(s));
   }
   PlotFigure fig;
-  fig.title = fmt::format("{} ({} records, period {:g} us)", fs::path(path).filename().string(),
-                          n, static_cast<double>(h.period_ns) / 1e3);
+  fig.title = fmt::format("{} ({} records, period {:g} us)", fs::path(path).filename().string(), n,
+                          static_cast<double>(h.period_ns) / 1e3);
   fig.panels = {forces, volts, state};
   fig.rows = 3;
   fig.width = 1200;

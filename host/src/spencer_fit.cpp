@@ -108,9 +108,8 @@ class SimCost final : public ceres::CostFunction {
     std::array<bool, kN> ok{};
     const auto work = [&](int k) {
       ok[static_cast<std::size_t>(k)] =
-          SpencerSensitivity(p, *sim_.run, sim_.substeps, sim_.e_max, k * kN / t,
-                             (k + 1) * kN / t, sim_.scale.data(), k == 0 ? residuals : nullptr,
-                             jacobians[0], kN);
+          SpencerSensitivity(p, *sim_.run, sim_.substeps, sim_.e_max, k * kN / t, (k + 1) * kN / t,
+                             sim_.scale.data(), k == 0 ? residuals : nullptr, jacobians[0], kN);
     };
     std::vector<std::thread> pool;
     for (int k = 1; k < t; ++k) pool.emplace_back(work, k);
@@ -186,7 +185,8 @@ void ParallelFor(int n, int threads, const std::function<void(int)>& job) {
 void SpencerFitBounds(SpencerParams* lo, SpencerParams* hi) {
   // Wide physical boxes (spencer_damper.hpp units); both presets lie inside.
   *lo = FromArray(std::array<double, kN>{0.1, 0.0, 0.01, 1.0, 0.0, 0.0, -50.0, 0.0, 0.0, 0.0, 0.0,
-                                         1.0, 1.0, 1.0}.data());
+                                         1.0, 1.0, 1.0}
+                      .data());
   *hi = FromArray(std::array<double, kN>{2000.0, 2000.0, 2000.0, 20000.0, 20000.0, 200.0, 50.0,
                                          20000.0, 20000.0, 5000.0, 5000.0, 5000.0, 4.0, 5000.0}
                       .data());
@@ -213,8 +213,8 @@ FitScore ScoreRun(const SpencerParams& p, const FitRun& run, int substeps, doubl
     s.rmse_n = HUGE_VAL;
     return s;
   }
-  const double mean = std::accumulate(run.f.begin(), run.f.end(), 0.0) /
-                      static_cast<double>(run.f.size());
+  const double mean =
+      std::accumulate(run.f.begin(), run.f.end(), 0.0) / static_cast<double>(run.f.size());
   double e2 = 0.0, d2 = 0.0;
   for (std::size_t k = 0; k < fh.size(); ++k) {
     e2 += (run.f[k] - fh[k]) * (run.f[k] - fh[k]);
@@ -254,8 +254,8 @@ SpencerFitResult FitSpencer(const std::vector<FitRun>& runs, const SpencerFitOpt
   for (int k = 0; k < o.scatter_starts; ++k) {
     std::array<double, kN> a = ToArray(SpencerParams::Spencer1997());
     for (std::size_t i = 0; i < kN; ++i) a[i] *= std::exp(u(rng));
-    a[6] = 20.0 * u(rng);        // x0
-    a[12] = 2.0 + u(rng);        // n
+    a[6] = 20.0 * u(rng);  // x0
+    a[12] = 2.0 + u(rng);  // n
     for (std::size_t i = 0; i < kN; ++i) a[i] = std::clamp(a[i], alo[i], ahi[i]);
     starts.push_back({fmt::format("scatter {}", k + 1), 0, -1, FromArray(a.data())});
   }
@@ -291,8 +291,7 @@ SpencerFitResult FitSpencer(const std::vector<FitRun>& runs, const SpencerFitOpt
     int it = 0;
     s.polish_cost = Solve(runs, o, o.polish_iterations, o.threads, &s.params, &it);
     const FitScore sc = ScoreRun(s.params, runs.front(), o.substeps, o.e_max);
-    say(fmt::format("  polish {:<12} {:3d} iterations, fit {:.1f} %", s.label, it,
-                    sc.fit_percent));
+    say(fmt::format("  polish {:<12} {:3d} iterations, fit {:.1f} %", s.label, it, sc.fit_percent));
   });
   SpencerFitResult result;
   result.cost = HUGE_VAL;

@@ -11,9 +11,7 @@ namespace mrd::host {
 namespace {
 
 // Parameter indices (params::SpencerFields order).
-enum : int {
-  kC0a, kC0b, kK0, kC1a, kC1b, kK1, kX0, kAlphaA, kAlphaB, kGamma, kBeta, kA, kN, kEta
-};
+enum : int { kC0a, kC0b, kK0, kC1a, kC1b, kK1, kX0, kAlphaA, kAlphaB, kGamma, kBeta, kA, kN, kEta };
 
 using Col = std::array<double, kSpencerParamCount>;
 
@@ -103,8 +101,8 @@ inline void Axpy(const Sens& a, double h, const Sens& d, int j0, int j1, Sens* o
 
 // Force (as SpencerDamper::ForceAt) and, for columns [j0, j1), its derivative (times
 // col_scale) into row; r is scratch.
-double Force(const double* p, const State& s, const Sens& ds, double x, double xdot, int j0,
-             int j1, const double* col_scale, Rates* r, double* row) {
+double Force(const double* p, const State& s, const Sens& ds, double x, double xdot, int j0, int j1,
+             const double* col_scale, Rates* r, double* row) {
   Evaluate(p, s, x, xdot, 0.0, false, r);
   const double c1 = p[kC1a] + p[kC1b] * s.u;
   const double f = c1 * r->ydot + p[kK1] * (x - p[kX0]);
@@ -133,7 +131,7 @@ bool SpencerSensitivity(const double* p, const FitRun& run, int substeps, double
   const std::vector<double>& xs = run.x;
   const std::vector<double>& vs = run.v;
   State s{xs[0], 0.0, 0.0};  // SpencerDamper::Reset(x[0], 0)
-  Sens S;                   // the start does not depend on p
+  Sens S;                    // the start does not depend on p
   Rates r, r1, r2, r3, r4;
   Sens k1, k2, k3, k4, st;
   double* row = jac;

@@ -22,7 +22,6 @@ constexpr int kSpencerParamCount = 14;  // params::SpencerFields order
 // Either output may be nullptr. Returns false when the force turned non-finite or above 1e9 N
 // (the outputs then hold what was computed), as SimResidual does.
 bool SpencerSensitivity(const double* p, const FitRun& run, int substeps, double e_max, int j0,
-                        int j1, const double* col_scale, double* residual, double* jac,
-                        int stride);
+                        int j1, const double* col_scale, double* residual, double* jac, int stride);
 
 }  // namespace mrd::host

@@ -40,12 +40,18 @@ std::string CharLiteral(char c) {
 
 const char* TransformName(Transform t) {
   switch (t) {
-    case Transform::kIdentity: return "mrd::Transform::kIdentity";
-    case Transform::kAbsPow: return "mrd::Transform::kAbsPow";
-    case Transform::kSign: return "mrd::Transform::kSign";
-    case Transform::kLowPass: return "mrd::Transform::kLowPass";
-    case Transform::kTanh: return "mrd::Transform::kTanh";
-    case Transform::kClip: return "mrd::Transform::kClip";
+    case Transform::kIdentity:
+      return "mrd::Transform::kIdentity";
+    case Transform::kAbsPow:
+      return "mrd::Transform::kAbsPow";
+    case Transform::kSign:
+      return "mrd::Transform::kSign";
+    case Transform::kLowPass:
+      return "mrd::Transform::kLowPass";
+    case Transform::kTanh:
+      return "mrd::Transform::kTanh";
+    case Transform::kClip:
+      return "mrd::Transform::kClip";
   }
   return "mrd::Transform::kIdentity";
 }
@@ -60,10 +66,12 @@ std::string TableFitProblem(const ModelShape& s) {
         Fits("terms", s.terms, kTableTerms),
         Fits("factors in one term", s.max_factors, kTableFactors),
         s.max_delay > kMaxDelay ? fmt::format("model uses delay {}; table format v{} holds at "
-                                              "most {}", s.max_delay, kTableVersion, kMaxDelay)
+                                              "most {}",
+                                              s.max_delay, kTableVersion, kMaxDelay)
                                 : std::string(),
         s.max_power > kMaxPower ? fmt::format("model uses power {}; table format v{} holds at "
-                                              "most {}", s.max_power, kTableVersion, +kMaxPower)
+                                              "most {}",
+                                              s.max_power, kTableVersion, +kMaxPower)
                                 : std::string()}) {
     if (!p.empty()) return p;
   }
@@ -93,8 +101,10 @@ std::string FormatModelCheck(const CoefficientTable& table, const ModelCheck& c)
     case ModelProblem::kOutputChannel:
       return "output channel index out of range";
     case ModelProblem::kChannelName:
-      return fmt::format("channel {} name is empty, longer than {} characters or not printable "
-                         "ASCII", i, kMaxNameLength);
+      return fmt::format(
+          "channel {} name is empty, longer than {} characters or not printable "
+          "ASCII",
+          i, kMaxNameLength);
     case ModelProblem::kChannelScaleNonFinite:
     case ModelProblem::kChannelScale:
       return fmt::format("channel '{}' has an invalid normalisation (offset {}, scale {})",
@@ -110,11 +120,11 @@ std::string FormatModelCheck(const CoefficientTable& table, const ModelCheck& c)
     case ModelProblem::kAbsPowExponent:
       return fmt::format("regressor {} has an invalid exponent {}", i, m.regressors[i].exponent);
     case ModelProblem::kLowPass:
-      return fmt::format("regressor {} is a low-pass with tau {} samples on {} (input channels, "
-                         "0 < tau <= {:g})",
-                         i, m.regressors[i].exponent,
-                         m.regressors[i].channel == m.output_channel ? "the output" : "an input",
-                         kMaxLowPassTau);
+      return fmt::format(
+          "regressor {} is a low-pass with tau {} samples on {} (input channels, "
+          "0 < tau <= {:g})",
+          i, m.regressors[i].exponent,
+          m.regressors[i].channel == m.output_channel ? "the output" : "an input", kMaxLowPassTau);
     case ModelProblem::kSaturation:
       return fmt::format("regressor {} is a tanh or clip with scale/limit {} (must be > 0)", i,
                          m.regressors[i].exponent);
@@ -153,15 +163,16 @@ std::string DescribeTableProblem(const CoefficientTable& table) {
     case InversionProblem::kNone:
       return "";
     case InversionProblem::kTransform:
-      return fmt::format("not invertible in '{}': term {} takes {}(k) through abs_pow, sign, "
-                         "tanh or clip (the firmware needs a polynomial in {}(k))",
-                         input, inv.term, input, input);
+      return fmt::format(
+          "not invertible in '{}': term {} takes {}(k) through abs_pow, sign, "
+          "tanh or clip (the firmware needs a polynomial in {}(k))",
+          input, inv.term, input, input);
     case InversionProblem::kDegree:
       return fmt::format("not invertible in '{}': term {} has degree {} in {}(k) > {}", input,
                          inv.term, inv.degree, input, kMaxInputDegree);
     case InversionProblem::kAbsent:
-      return fmt::format("not invertible in '{}': {}(k) does not enter the model at delay 0",
-                         input, input);
+      return fmt::format("not invertible in '{}': {}(k) does not enter the model at delay 0", input,
+                         input);
   }
   return "";
 }
@@ -233,11 +244,11 @@ std::string TableHeader(const CoefficientTable& table, std::string_view symbol,
   auto line = [&s](const std::string& text) { s += text + "\n"; };
   line("#pragma once");
   line("// Generated by mrd::host::TableHeader (mrd export) -- do not edit.");
-  line(fmt::format("// Coefficient table format v{}: {} channels, {} regressors, {} terms; input "
-                   "'{}' in [{}, {}] V.",
-                   kTableVersion, m.num_channels, m.num_regressors, m.num_terms,
-                   m.channel_names[table.input_channel].data(), Num(table.e_min),
-                   Num(table.e_max)));
+  line(
+      fmt::format("// Coefficient table format v{}: {} channels, {} regressors, {} terms; input "
+                  "'{}' in [{}, {}] V.",
+                  kTableVersion, m.num_channels, m.num_regressors, m.num_terms,
+                  m.channel_names[table.input_channel].data(), Num(table.e_min), Num(table.e_max)));
   line(fmt::format("// Binary image: {} bytes, CRC-32 0x{:08X}.", kTableSize, crc));
   line("");
   line("#include \"mrd/common/table.hpp\"");
@@ -287,7 +298,8 @@ std::string TableHeader(const CoefficientTable& table, std::string_view symbol,
   line("  return t;");
   line("}();");
   if (parts.size() > 1) line("");
-  for (std::size_t i = parts.size() - 1; i-- > 0;) line(fmt::format("}}  // namespace {}", parts[i]));
+  for (std::size_t i = parts.size() - 1; i-- > 0;)
+    line(fmt::format("}}  // namespace {}", parts[i]));
   return s;
 }
 

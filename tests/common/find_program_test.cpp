@@ -2,7 +2,6 @@
 #include "mrd/common/find_program.hpp"
 
 #include <gtest/gtest.h>
-
 #include <sys/stat.h>
 #include <unistd.h>
 

@@ -1,11 +1,12 @@
 // ISO 2631-1 Wk weighting and the Welch PSD (labels hil, control).
+#include "mrd/common/iso2631_weighting.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
 #include <vector>
 
-#include "mrd/common/iso2631_weighting.hpp"
 #include "mrd/common/welch_psd.hpp"
 
 namespace mrd {
@@ -19,9 +20,9 @@ TEST(Iso2631WkTest, AnalogGainMatchesTheStandardsTable) {
   struct Row {
     double f, wk;
   };
-  const Row rows[] = {{0.1, 0.0312}, {0.5, 0.418}, {1.0, 0.482}, {2.0, 0.531}, {4.0, 0.967},
-                      {5.0, 1.039},  {6.3, 1.054}, {8.0, 1.036}, {10.0, 0.988}, {12.5, 0.902},
-                      {16.0, 0.768}, {20.0, 0.636}, {31.5, 0.405}, {50.0, 0.246}, {63.0, 0.186},
+  const Row rows[] = {{0.1, 0.0312}, {0.5, 0.418},    {1.0, 0.482},   {2.0, 0.531},  {4.0, 0.967},
+                      {5.0, 1.039},  {6.3, 1.054},    {8.0, 1.036},   {10.0, 0.988}, {12.5, 0.902},
+                      {16.0, 0.768}, {20.0, 0.636},   {31.5, 0.405},  {50.0, 0.246}, {63.0, 0.186},
                       {80.0, 0.132}, {100.0, 0.0887}, {160.0, 0.0285}};
   for (const Row& r : rows) {
     EXPECT_NEAR(Iso2631WkGain(r.f) / r.wk, 1.0, 0.005) << r.f << " Hz";
@@ -73,7 +74,8 @@ TEST(WelchPsdTest, IntegratesToTheVarianceAndPlacesASine) {
   for (const double d : p.density) integral += d * 1000.0 / 1024.0;
   EXPECT_NEAR(integral / var, 1.0, 0.03);
   EXPECT_EQ(p.segments, 63);
-  for (std::size_t n = 0; n < x.size(); ++n) x[n] = 2.0 * std::sin(2 * kPi * 125.0 * static_cast<double>(n) / 1000.0);
+  for (std::size_t n = 0; n < x.size(); ++n)
+    x[n] = 2.0 * std::sin(2 * kPi * 125.0 * static_cast<double>(n) / 1000.0);
   ASSERT_TRUE(WelchPsd(x, 1000.0, 1024, &p));
   std::size_t peak = 0;
   integral = 0.0;
@@ -82,8 +84,8 @@ TEST(WelchPsdTest, IntegratesToTheVarianceAndPlacesASine) {
     integral += p.density[k] * 1000.0 / 1024.0;
   }
   EXPECT_DOUBLE_EQ(p.f_hz[peak], 125.0);
-  EXPECT_NEAR(integral, 2.0, 0.01);  // A^2 / 2
-  EXPECT_FALSE(WelchPsd(x, 1000.0, 1000, &p));   // not a power of two
+  EXPECT_NEAR(integral, 2.0, 0.01);                   // A^2 / 2
+  EXPECT_FALSE(WelchPsd(x, 1000.0, 1000, &p));        // not a power of two
   EXPECT_FALSE(WelchPsd({1.0, 2.0}, 1000.0, 8, &p));  // shorter than a segment
   EXPECT_FALSE(WelchPsd(x, 0.0, 1024, &p));
 }

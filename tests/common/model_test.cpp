@@ -54,8 +54,8 @@ TEST(ModelTest, RunnerMatchesStraightforwardReference) {
     const double vprev = k > 0 ? v[k - 1] / 15.0 : 0.0;
     const double sgn = vprev > 0 ? 1.0 : (vprev < 0 ? -1.0 : 0.0);
     const double y1 = fn[fn.size() - 1], y2 = fn[fn.size() - 2];
-    const double ref = 0.6 * y1 + 0.3 * std::pow(std::fabs(vn), 0.6) * en * en * sgn - 0.01 -
-                       0.05 * y2 * y2;
+    const double ref =
+        0.6 * y1 + 0.3 * std::pow(std::fabs(vn), 0.6) * en * en * sgn - 0.01 - 0.05 * y2 * y2;
     fn.push_back(ref);
     const double raw[3] = {v[k], E[k], 0.0};
     const double got = runner.Step(raw);

@@ -23,7 +23,6 @@ namespace {
 
 using firmware::ControlMode;
 
-
 constexpr double kPeriod = test::kLawPeriod;      // [s]
 constexpr double kDuration = test::kLawDuration;  // [s]
 constexpr double kSettle = test::kLawSettle;      // [s]
@@ -39,11 +38,12 @@ QuarterCarPlant MakePlant(std::uint64_t seed) {
 }
 
 void Print(const char* name, const RideMetrics& m, const RideMetrics& off, double volts) {
-  std::printf("  %-28s body acc RMS %.4f m/s^2 (%+6.1f %%)  travel RMS %.3f cm  tyre load RMS "
-              "%6.1f N (%+6.1f %%)  mean E %.3f V\n",
-              name, m.body_accel_rms(), 100.0 * (m.body_accel_rms() / off.body_accel_rms() - 1.0),
-              m.travel_rms_cm(), m.tyre_load_rms_n(),
-              100.0 * (m.tyre_load_rms_n() / off.tyre_load_rms_n() - 1.0), volts);
+  std::printf(
+      "  %-28s body acc RMS %.4f m/s^2 (%+6.1f %%)  travel RMS %.3f cm  tyre load RMS "
+      "%6.1f N (%+6.1f %%)  mean E %.3f V\n",
+      name, m.body_accel_rms(), 100.0 * (m.body_accel_rms() / off.body_accel_rms() - 1.0),
+      m.travel_rms_cm(), m.tyre_load_rms_n(),
+      100.0 * (m.tyre_load_rms_n() / off.tyre_load_rms_n() - 1.0), volts);
 }
 
 // The shipped gains (hil/scenarios/quarter-car-<law>.toml use the same).
@@ -54,22 +54,23 @@ firmware::ControlLawConfig Law(ControlMode mode) {
   c.groundhook_gain = 20.0;  // [N s/cm]
   c.hybrid_gain = 60.0;      // [N s/cm]
   c.hybrid_alpha = 0.8;
-  c.sh_add_alpha = 9.42;     // [rad/s] = 2 pi 1.5 Hz
+  c.sh_add_alpha = 9.42;  // [rad/s] = 2 pi 1.5 Hz
   return c;
 }
 
 TEST(QuarterCarChassisLawTest, EachLawAgainstPassiveOnClassC) {
-  const ControlMode modes[] = {ControlMode::kSkyhookContinuous, ControlMode::kSkyhookOnOff,
-                               ControlMode::kGroundhook,         ControlMode::kGroundhookOnOff,
-                               ControlMode::kHybrid,             ControlMode::kAdd,
-                               ControlMode::kSkyhookAdd};
+  const ControlMode modes[] = {
+      ControlMode::kSkyhookContinuous, ControlMode::kSkyhookOnOff, ControlMode::kGroundhook,
+      ControlMode::kGroundhookOnOff,   ControlMode::kHybrid,       ControlMode::kAdd,
+      ControlMode::kSkyhookAdd};
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     QuarterCarPlant plant = MakePlant(seed);
     const RideMetrics off = RunConstantVoltage(&plant, 0.0, kDuration, kSettle);
     const RideMetrics on = RunConstantVoltage(&plant, 2.25, kDuration, kSettle);
-    std::printf("class C, 20 m/s, %.0f s (scored after %.0f s), road seed %llu "
-                "(%%: against passive-off):\n",
-                kDuration, kSettle, static_cast<unsigned long long>(seed));
+    std::printf(
+        "class C, 20 m/s, %.0f s (scored after %.0f s), road seed %llu "
+        "(%%: against passive-off):\n",
+        kDuration, kSettle, static_cast<unsigned long long>(seed));
     Print("passive-off (0 V)", off, off, 0.0);
     Print("passive-on (2.25 V)", on, off, 2.25);
     for (const ControlMode mode : modes) {

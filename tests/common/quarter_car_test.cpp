@@ -139,8 +139,8 @@ TEST(QuarterCarTest, CoupledStepConvergesAtFourthOrder) {
     return std::fabs(s.vs - ref.vs) + std::fabs(s.vu - ref.vu);  // [m/s]
   };
   const double e4 = error(4), e8 = error(8), e16 = error(16);
-  std::printf("error after 1 s, 4/8/16 substeps: %.3g %.3g %.3g m/s (ratios %.1f %.1f)\n", e4,
-              e8, e16, e4 / e8, e8 / e16);
+  std::printf("error after 1 s, 4/8/16 substeps: %.3g %.3g %.3g m/s (ratios %.1f %.1f)\n", e4, e8,
+              e16, e4 / e8, e8 / e16);
   EXPECT_GT(e4 / e8, 10.0);
   EXPECT_GT(e8 / e16, 10.0);
 }

@@ -93,7 +93,8 @@ TEST(SpencerDamperTest, ForceDisplacementLoopDissipatesEnergy) {
   SteadyLoop(1.0, &xs, &fs);
   // Work done on the damper over one cycle: integral of f dx > 0.
   double work = 0.0;
-  for (std::size_t i = 1; i < xs.size(); ++i) work += 0.5 * (fs[i] + fs[i - 1]) * (xs[i] - xs[i - 1]);
+  for (std::size_t i = 1; i < xs.size(); ++i)
+    work += 0.5 * (fs[i] + fs[i - 1]) * (xs[i] - xs[i - 1]);
   EXPECT_GT(work, 0.0);
 }
 

@@ -33,15 +33,14 @@ void PutF64(TableBytes& b, std::size_t at, double v) {
 // Recomputes the CRC, so only the patched content can be refused.
 Error Decode(TableBytes b) {
   const std::uint32_t crc = Crc32(std::span<const std::uint8_t>(b.data(), kTableCrcOffset));
-  for (std::size_t i = 0; i < 4; ++i) b[kTableCrcOffset + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+  for (std::size_t i = 0; i < 4; ++i)
+    b[kTableCrcOffset + i] = static_cast<std::uint8_t>(crc >> (8 * i));
   return DecodeTable(std::span<const std::uint8_t>(b.data(), b.size())).error();
 }
 
 std::size_t Channel(std::size_t c) { return kTableChannelsOffset + c * kTableChannelRecord; }
 
-TEST(TableRulesConformance, TheCompiledInImageDecodes) {
-  EXPECT_EQ(Decode(Builtin()), Error::kOk);
-}
+TEST(TableRulesConformance, TheCompiledInImageDecodes) { EXPECT_EQ(Decode(Builtin()), Error::kOk); }
 
 TEST(TableRulesConformance, NormalisationThatOverflowsEveryPeriodIsRefused) {
   for (const double offset : {1e308, -1e308, 1.1e6}) {
@@ -62,17 +61,27 @@ TEST(TableRulesConformance, NormalisationThatOverflowsEveryPeriodIsRefused) {
 }
 
 TEST(TableRulesConformance, NonZeroReservedOrUnusedBytesAreRefused) {
-  const std::size_t term0 = kTableTermsOffset;  // 1 factor: bytes 1-3 reserved, 7-15 unused
+  const std::size_t term0 = kTableTermsOffset;      // 1 factor: bytes 1-3 reserved, 7-15 unused
   const std::size_t reg0 = kTableRegressorsOffset;  // bytes 2-7 reserved
   const std::size_t cases[] = {
-      17, 18, 19,                                   // header reserved
-      Channel(0) + 2, Channel(0) + 15,              // name bytes after "v\0"
-      Channel(3), Channel(7) + 31,                  // channel slots beyond the 3 used
-      reg0 + 2, reg0 + 7, kTableRegressorsOffset + 5 * kTableRegressorRecord,  // unused regressor
-      term0 + 1, term0 + 3, term0 + 7, term0 + 15,  // term reserved / unused factors
-      kTableTermsOffset + 8 * kTableTermRecord,     // term slot beyond the 8 used
-      kTableCoefficientsOffset + 8 * 8 + 7,         // coefficient slot 8 (unused)
-      kTableEnvelopeOffset, kTableCrcOffset - 1,    // envelope without flag bit 0
+      17,
+      18,
+      19,  // header reserved
+      Channel(0) + 2,
+      Channel(0) + 15,  // name bytes after "v\0"
+      Channel(3),
+      Channel(7) + 31,  // channel slots beyond the 3 used
+      reg0 + 2,
+      reg0 + 7,
+      kTableRegressorsOffset + 5 * kTableRegressorRecord,  // unused regressor
+      term0 + 1,
+      term0 + 3,
+      term0 + 7,
+      term0 + 15,                                // term reserved / unused factors
+      kTableTermsOffset + 8 * kTableTermRecord,  // term slot beyond the 8 used
+      kTableCoefficientsOffset + 8 * 8 + 7,      // coefficient slot 8 (unused)
+      kTableEnvelopeOffset,
+      kTableCrcOffset - 1,  // envelope without flag bit 0
   };
   for (const std::size_t at : cases) {
     TableBytes b = Builtin();

@@ -22,7 +22,8 @@ TableBytes Encoded(const CoefficientTable& t) {
 // Rewrites the CRC after a deliberate corruption, so the decoder reaches its field checks.
 void FixCrc(TableBytes& b) {
   const std::uint32_t crc = Crc32(std::span<const std::uint8_t>(b.data(), kTableCrcOffset));
-  for (std::size_t i = 0; i < 4; ++i) b[kTableCrcOffset + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+  for (std::size_t i = 0; i < 4; ++i)
+    b[kTableCrcOffset + i] = static_cast<std::uint8_t>(crc >> (8 * i));
 }
 
 void PutF64(TableBytes& b, std::size_t at, double d) {

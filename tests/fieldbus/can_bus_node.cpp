@@ -52,16 +52,24 @@ bool Parse(int argc, char** argv, Options* o) {
     }
     if (i + 1 >= argc) return false;
     const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--socket") o->socket = v;
-    else if (k == "--out") o->out = v;
-    else if (k == "--ids") o->ids = v;
-    else if (k == "--duration") o->duration_s = std::atof(v.c_str());
-    else if (k == "--rate") o->rate = std::atof(v.c_str());
-    else if (k == "--nodes") o->nodes = std::atoi(v.c_str());
-    else return false;
+    if (k == "--socket")
+      o->socket = v;
+    else if (k == "--out")
+      o->out = v;
+    else if (k == "--ids")
+      o->ids = v;
+    else if (k == "--duration")
+      o->duration_s = std::atof(v.c_str());
+    else if (k == "--rate")
+      o->rate = std::atof(v.c_str());
+    else if (k == "--nodes")
+      o->nodes = std::atoi(v.c_str());
+    else
+      return false;
   }
   if (o->socket.empty()) return false;
-  return o->mode == "babble" ? o->rate > 0.0 && o->nodes > 0 : o->mode == "capture" && !o->out.empty();
+  return o->mode == "babble" ? o->rate > 0.0 && o->nodes > 0
+                             : o->mode == "capture" && !o->out.empty();
 }
 
 bool Expired(std::int64_t end_ns) {
@@ -185,18 +193,18 @@ int Babble(const Options& o, std::int64_t end_ns) {
 int main(int argc, char** argv) {
   Options o;
   if (!Parse(argc, argv, &o)) {
-    std::fprintf(stderr,
-                 "usage: mrd_can_node capture --socket PATH --out FILE [--valid-only] [--duration S]\n"
-                 "       mrd_can_node babble --socket PATH --rate N [--ids 100,101] [--nodes K] "
-                 "[--duration S]\n");
+    std::fprintf(
+        stderr,
+        "usage: mrd_can_node capture --socket PATH --out FILE [--valid-only] [--duration S]\n"
+        "       mrd_can_node babble --socket PATH --rate N [--ids 100,101] [--nodes K] "
+        "[--duration S]\n");
     return 2;
   }
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   std::signal(SIGPIPE, SIG_IGN);
-  const std::int64_t end_ns =
-      o.duration_s > 0.0
-          ? mrd::common::MonotonicNs() + static_cast<std::int64_t>(o.duration_s * 1e9)
-          : 0;
+  const std::int64_t end_ns = o.duration_s > 0.0 ? mrd::common::MonotonicNs() +
+                                                       static_cast<std::int64_t>(o.duration_s * 1e9)
+                                                 : 0;
   return o.mode == "capture" ? Capture(o, end_ns) : Babble(o, end_ns);
 }

@@ -173,8 +173,7 @@ TEST(LocalBus, PacketsCarryTheTimeTheFrameEnteredTheBus) {
   EXPECT_LE(stamp, after_send) << "stamped " << (stamp - after_send) / 1000
                                << " us after it was sent: the read's or the relay's time";
   // What a node reads is the frame and its stamp (the documented packet).
-  ASSERT_EQ(a.Send(Frame(0x101, 6), MonotonicNs() + 1'000'000'000, MonotonicNs()),
-            CanResult::kOk);
+  ASSERT_EQ(a.Send(Frame(0x101, 6), MonotonicNs() + 1'000'000'000, MonotonicNs()), CanResult::kOk);
   relay.Step(100);
   LocalBusPacket packet{};
   ASSERT_EQ(recv(b.fd(), &packet, sizeof packet, 0), static_cast<ssize_t>(sizeof packet));

@@ -146,8 +146,8 @@ TEST_F(CanDeviceConformance, ADriverFaultInDriverStatusAssertsTheFaultLine) {
   EXPECT_FALSE(frame.fault_line);  // a healthy driver's status
   EXPECT_DOUBLE_EQ(device_->driver_current(), 1.2);
   std::uint8_t counter = 1;
-  for (std::uint8_t bit : {pc::kFaultOvercurrent, pc::kFaultOvertemperature,
-                           pc::kFaultUndervoltage, pc::kFaultHeartbeatLost, pc::kFaultCoilOpen}) {
+  for (std::uint8_t bit : {pc::kFaultOvercurrent, pc::kFaultOvertemperature, pc::kFaultUndervoltage,
+                           pc::kFaultHeartbeatLost, pc::kFaultCoilOpen}) {
     ASSERT_EQ(pc::Encode(pc::DriverStatus{0.0, bit, counter}, &f), pc::Reject::kNone);
     counter = static_cast<std::uint8_t>((counter + 1) & 15);
     PeerSend(f);

@@ -119,7 +119,8 @@ TEST_F(DbcTest, TimeGrantMatches) {
   const std::uint64_t t = 123'456'789'012ULL;
   ASSERT_EQ(Encode(TimeGrant{t, 11}, &f), Reject::kNone);
   Check("TimeGrant", kTimeGrantId, f,
-        {{"GrantTime", static_cast<double>(t)}, {"GrantCounter", 11},
+        {{"GrantTime", static_cast<double>(t)},
+         {"GrantCounter", 11},
          {"GrantChecksum", Checksum(f)}});
   TimeGrant back;
   ASSERT_EQ(Decode(f, &back), Reject::kNone);

@@ -63,8 +63,10 @@ TEST_F(CanDeviceTest, SensorChassisFillsBodyAccelerationAndWheelVelocity) {
   c.inputs |= Bit(Input::kBodyAcceleration) | Bit(Input::kWheelVelocity);
   Make(c);
   const profile::CanProfile& p = profile::NativeCanProfile();
-  const profile::SignalRef acc = p.inputs[static_cast<std::size_t>(profile::CanIn::kBodyAcceleration)];
-  const profile::SignalRef wheel = p.inputs[static_cast<std::size_t>(profile::CanIn::kWheelVelocity)];
+  const profile::SignalRef acc =
+      p.inputs[static_cast<std::size_t>(profile::CanIn::kBodyAcceleration)];
+  const profile::SignalRef wheel =
+      p.inputs[static_cast<std::size_t>(profile::CanIn::kWheelVelocity)];
   ASSERT_TRUE(acc.mapped());
   ASSERT_EQ(acc.message, wheel.message);
   profile::FrameCodec codec(p);

@@ -124,7 +124,8 @@ TEST(CanLockstep, OneTickPerGrantALateGrantChangesNothingNoAllocation) {
                                 counter},
                &f);
     write(peer, &f, sizeof f);
-    pc::Encode(pc::SensorForce{800.0 * std::tanh(6.0 * std::cos(12.566 * t)), 0.0, 0.0, counter}, &f);
+    pc::Encode(pc::SensorForce{800.0 * std::tanh(6.0 * std::cos(12.566 * t)), 0.0, 0.0, counter},
+               &f);
     write(peer, &f, sizeof f);
     if (k == kLateGrant) std::this_thread::sleep_for(std::chrono::milliseconds(150));
     pc::Encode(pc::TimeGrant{static_cast<std::uint64_t>(k + 1) * 1000U, counter}, &f);

@@ -83,7 +83,8 @@ TEST(RelayProcess, OutOfDescriptorsTheRelayRefusesNodesAndStaysIdle) {
   const std::string path = SocketPath("emfile");
   unlink(path.c_str());
   // 16 descriptors: stdin/out/err, the listener, a spare, and a handful of nodes.
-  ChildProcess relay({"/bin/sh", "-c", "ulimit -n 16 && exec " + kBin + "/mrd-canbus --socket " + path});
+  ChildProcess relay(
+      {"/bin/sh", "-c", "ulimit -n 16 && exec " + kBin + "/mrd-canbus --socket " + path});
   ASSERT_TRUE(mrd::test::WaitForPath(path, 10.0)) << relay.Stderr();
   // 24 nodes; a full backlog (the relay not accepting yet) is retried for a while.
   std::vector<int> nodes;

@@ -64,8 +64,9 @@ std::vector<int> Bytes(const can_frame& f) { return std::vector<int>(f.data, f.d
 class ScriptedDrive {
  public:
   ScriptedDrive(int fd, int refuse_index, std::uint32_t code, bool silent)
-      : fd_(fd), refuse_index_(refuse_index), code_(code), silent_(silent),
-        thread_([this] { Run(); }) {}
+      : fd_(fd), refuse_index_(refuse_index), code_(code), silent_(silent), thread_([this] {
+          Run();
+        }) {}
   ~ScriptedDrive() { Stop(); }
   void Stop() {
     stop_ = true;
@@ -143,7 +144,8 @@ class CanopenDeviceTest : public ::testing::Test {
   // sent in this period.
   bool Period(int t_ms, int drive_state) {
     if (drive_state >= 0) PeerSend(Frame(co::HeartbeatId(5), {drive_state}));
-    const profile::SignalRef v = profile_->inputs[static_cast<std::size_t>(profile::CanIn::kVelocity)];
+    const profile::SignalRef v =
+        profile_->inputs[static_cast<std::size_t>(profile::CanIn::kVelocity)];
     can_frame f{};
     codec_->Begin(v.message, &f);
     (void)codec_->Set(&f, v, 1.0);
@@ -185,7 +187,7 @@ class CanopenDeviceTest : public ::testing::Test {
   std::vector<can_frame> startup_;
   std::vector<can_frame> sent_ = std::vector<can_frame>(64);
   std::vector<int> own_heartbeats_ = std::vector<int>(1024);  // grant times [ms] of the
-                                                               // firmware's heartbeats
+                                                              // firmware's heartbeats
  public:
   CanopenDeviceTest() {
     sent_.clear();
@@ -276,8 +278,8 @@ TEST_F(CanopenDeviceTest, ABootUpReconfiguresAndRestartsTheDriveSafeUntilOperati
     }
   }
   EXPECT_EQ(device_->sdo_downloads(), 6U);
-  EXPECT_TRUE(Period(6, -1));                        // started, not yet operational
-  EXPECT_FALSE(Period(7, co::kStateOperational));    // operational: the fault clears
+  EXPECT_TRUE(Period(6, -1));                      // started, not yet operational
+  EXPECT_FALSE(Period(7, co::kStateOperational));  // operational: the fault clears
 }
 
 TEST_F(CanopenDeviceTest, ARefusedReconfigurationHoldsTheFaultUntilTheNextBootUp) {

@@ -2,6 +2,8 @@
 // after Deactivate), the heartbeat toggles per write, the fault line with both polarities, the
 // quadrature encoder in both directions with illegal transitions rejected, displacement
 // scaling and stamps, lost edges, start-up errors.
+#include "mrd/firmware/io/gpio_device.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,7 +17,6 @@
 #include "gpio_test_peer.hpp"
 #include "mrd/common/clock.hpp"
 #include "mrd/firmware/io/devices.hpp"
-#include "mrd/firmware/io/gpio_device.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -210,7 +211,8 @@ TEST(GpioDevice, WithABacklogTheSampleCarriesTheLatestEdgeStamp) {
   peer.MoveTo(300, 100'000'000);
   ReadOnce(*s.device, &f, &why);
   // 64 edges of each line read; the last B edge waits for the A edges still queued.
-  EXPECT_EQ(s.device->encoder_count(), 2 * static_cast<std::int64_t>(GpioDevice::kMaxEdgesPerRead) - 1);
+  EXPECT_EQ(s.device->encoder_count(),
+            2 * static_cast<std::int64_t>(GpioDevice::kMaxEdgesPerRead) - 1);
   EXPECT_EQ(f[Input::kDisplacement].stamp_ns, s.device->last_edge_ns());
   EXPECT_GT(common::MonotonicNs() - f[Input::kDisplacement].stamp_ns, 90'000'000);
   for (int k = 0; k < 4; ++k) ReadOnce(*s.device, &f, &why);
@@ -285,8 +287,10 @@ TEST(GpioDevice, WorkPerPeriodIsMicroseconds) {
   }
   std::sort(us.begin(), us.end());
   const double median = us[us.size() / 2], p99 = us[us.size() * 99 / 100], max = us.back();
-  std::printf("gpio device Read+Write per period (5 edges): median %.2f us, p99 %.2f us, "
-              "max %.2f us\n", median, p99, max);
+  std::printf(
+      "gpio device Read+Write per period (5 edges): median %.2f us, p99 %.2f us, "
+      "max %.2f us\n",
+      median, p99, max);
   EXPECT_EQ(s.device->counters().rx_ok, 25000U);
   EXPECT_LT(median, 100.0);
 }

@@ -68,10 +68,17 @@ json Parse(const ChildProcess& p, const char* who) {
 
 ChildProcess Hil(const RunFiles& s, double seconds, const std::string& gpio_options,
                  const std::string& fault_window) {
-  std::vector<std::string> argv{kBin + "/mrd-hil", "serve",  "--port",
-                                "can=" + s.socket,  "--port", "gpio=" + s.chip + gpio_options,
-                                "--duration",       std::to_string(seconds), "--json",
-                                "--rt-priority",    "70"};
+  std::vector<std::string> argv{kBin + "/mrd-hil",
+                                "serve",
+                                "--port",
+                                "can=" + s.socket,
+                                "--port",
+                                "gpio=" + s.chip + gpio_options,
+                                "--duration",
+                                std::to_string(seconds),
+                                "--json",
+                                "--rt-priority",
+                                "70"};
   if (!fault_window.empty()) {
     argv.push_back("--fault-line");
     argv.push_back(fault_window);
@@ -86,7 +93,7 @@ ChildProcess Firmware(const RunFiles& s, double seconds) {
 
 // Runs both; false (with a failure) when either did not finish cleanly.
 bool RunBoth(const RunFiles& s, double hil_s, double fw_s, const std::string& gpio_options,
-         const std::string& fault_window, json* f, json* h) {
+             const std::string& fault_window, json* f, json* h) {
   ChildProcess hil = Hil(s, hil_s, gpio_options, fault_window);
   if (!mrd::test::WaitForPath(s.socket, 10.0) || !mrd::test::WaitForPath(s.chip, 10.0)) {
     ADD_FAILURE() << "harness did not come up: " << hil.Stderr();
@@ -147,8 +154,8 @@ TEST(GpioIntegration, FaultLineTakesTheFirmwareToTheSafeStateAndItRecovers) {
   ExpectCleanLoop(f, h);
   EXPECT_EQ(f["watchdog"]["fault_line"]["trips"].get<int>(), 1);
   // Safe for most of the 1 s fault: > 80 % of the periods the loop ran in that second.
-  const double ran = f["ticks"].get<double>() /
-                     (f["ticks"].get<double>() + f["missed_periods"].get<double>());
+  const double ran =
+      f["ticks"].get<double>() / (f["ticks"].get<double>() + f["missed_periods"].get<double>());
   EXPECT_GT(f["watchdog"]["fault_line"]["periods"].get<int>(), 800 * ran);
   EXPECT_GT(h["fault_steps"].get<int>(), 900);
   // The coil dropped within a few periods of the fault (enable low seen by the harness)...

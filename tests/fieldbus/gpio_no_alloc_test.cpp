@@ -91,8 +91,8 @@ TEST(GpioNoAllocation, LoopPeriodsOnTheGpioDeviceAllocateNothing) {
 
   // The paths really ran.
   const DeviceCounters c = device.counters();
-  EXPECT_GT(c.rx_ok, 3000U);      // ~6 cm of travel per period of the sine, 400 counts/cm
-  EXPECT_EQ(c.rx_rejected, 1U);   // the glitch
+  EXPECT_GT(c.rx_ok, 3000U);     // ~6 cm of travel per period of the sine, 400 counts/cm
+  EXPECT_EQ(c.rx_rejected, 1U);  // the glitch
   EXPECT_GT(c.tx_ok, 2U * kPeriods - 10);
   EXPECT_EQ(c.tx_failed, 0U);
   EXPECT_EQ(enabled_while_safe, 0);

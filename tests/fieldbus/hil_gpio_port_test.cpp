@@ -34,9 +34,10 @@ TEST(HilGpioPort, EndpointDefaultsAndKeys) {
   EXPECT_EQ(c.heartbeat_line, 18);
   EXPECT_DOUBLE_EQ(c.counts_per_cm, 400.0);
   EXPECT_FALSE(c.fault_active_low);
-  ASSERT_TRUE(ParseGpioEndpoint("/tmp/c,encoder_a=1,encoder_b=2,fault=3,enable=60,heartbeat=63,"
-                                "counts_per_cm=125.5,fault_active_low=1",
-                                &c, &error))
+  ASSERT_TRUE(
+      ParseGpioEndpoint("/tmp/c,encoder_a=1,encoder_b=2,fault=3,enable=60,heartbeat=63,"
+                        "counts_per_cm=125.5,fault_active_low=1",
+                        &c, &error))
       << error;
   EXPECT_EQ(c.encoder_a_line, 1);
   EXPECT_EQ(c.heartbeat_line, 63);
@@ -44,8 +45,7 @@ TEST(HilGpioPort, EndpointDefaultsAndKeys) {
   EXPECT_TRUE(c.fault_active_low);
   for (const char* bad : {"", ",fault=3", "/tmp/c,fault=64", "/tmp/c,fault=-1", "/tmp/c,fault=x",
                           "/tmp/c,counts_per_cm=0", "/tmp/c,counts_per_cm=nan",
-                          "/tmp/c,fault_active_low=yes", "/tmp/c,colour=red",
-                          "/tmp/c,enable=4"}) {
+                          "/tmp/c,fault_active_low=yes", "/tmp/c,colour=red", "/tmp/c,enable=4"}) {
     EXPECT_FALSE(ParseGpioEndpoint(bad, &c, &error)) << bad;
     EXPECT_EQ(error.rfind("gpio endpoint '", 0), 0U) << error;
   }
@@ -148,7 +148,11 @@ TEST(SimGpioChip, AReaderLappedByTheWriterCountsTheLostEvents) {
   EXPECT_EQ(ev[n - 1].t_ns, static_cast<std::int64_t>(sim_gpio::kRingSize + 10));
   // A file that is not a chip is refused.
   const std::string not_chip = path + ".txt";
-  { std::FILE* f = std::fopen(not_chip.c_str(), "w"); std::fputs("hello\n", f); std::fclose(f); }
+  {
+    std::FILE* f = std::fopen(not_chip.c_str(), "w");
+    std::fputs("hello\n", f);
+    std::fclose(f);
+  }
   sim_gpio::SimChip bad;
   EXPECT_FALSE(bad.Open(not_chip, false, &error));
   unlink(not_chip.c_str());

@@ -37,7 +37,9 @@ inputs = ["velocity", "demand"]
 outputs = ["command", "heartbeat"]
 tx_deadline_us = 300
 status_period_ms = 50
-)", &c, &error)) << error;
+)",
+                    &c, &error))
+      << error;
   EXPECT_TRUE(c.io.can.enabled);
   EXPECT_EQ(c.io.can.inputs, Bit(Input::kVelocity) | Bit(Input::kDemand));
   EXPECT_EQ(c.io.can.outputs, Bit(Output::kCommand) | Bit(Output::kHeartbeat));
@@ -60,7 +62,9 @@ response_timeout_ms = 5
 retries = 2
 inputs = ["velocity", "demand"]
 outputs = ["command"]
-)", &c, &error)) << error;
+)",
+                    &c, &error))
+      << error;
   EXPECT_EQ(c.io.modbus.mode, ModbusMode::kRtu);
   EXPECT_EQ(c.io.modbus.device, "/dev/ttyS1");
   EXPECT_EQ(c.io.modbus.baud, 57600);
@@ -91,7 +95,9 @@ enable_line = 4
 heartbeat_line = 5
 fault_active_low = true
 counts_per_cm = 100
-)", &c, &error)) << error;
+)",
+                    &c, &error))
+      << error;
   EXPECT_EQ(c.io.gpio.encoder_a_line, 1);
   EXPECT_EQ(c.io.gpio.heartbeat_line, 5);
   EXPECT_TRUE(c.io.gpio.fault_active_low);
@@ -121,14 +127,16 @@ outputs = ["command", "heartbeat"]
 }
 
 TEST(IoConfigTest, RefusesARequiredInputWithNoSource) {
-  EXPECT_EQ(ErrorOf("[can]\nlocal_bus = \"/b\"\ninputs = [\"velocity\"]\noutputs = [\"command\"]\n"),
-            "fw.toml: no bus serves input 'demand' (law \"force\")");
+  EXPECT_EQ(
+      ErrorOf("[can]\nlocal_bus = \"/b\"\ninputs = [\"velocity\"]\noutputs = [\"command\"]\n"),
+      "fw.toml: no bus serves input 'demand' (law \"force\")");
   EXPECT_EQ(ErrorOf("[control]\nlaw = \"skyhook\"\n[can]\nlocal_bus = \"/b\"\n"
                     "inputs = [\"velocity\"]\noutputs = [\"command\"]\n"),
             "fw.toml: no bus serves input 'body_velocity' (skyhook laws)");
-  EXPECT_EQ(ErrorOf("[control]\nlaw = \"constant\"\n[velocity]\nsource = \"displacement\"\n"
-                    "[can]\nlocal_bus = \"/b\"\ninputs = [\"velocity\"]\noutputs = [\"command\"]\n"),
-            "fw.toml: no bus serves input 'displacement' ([velocity] source = \"displacement\")");
+  EXPECT_EQ(
+      ErrorOf("[control]\nlaw = \"constant\"\n[velocity]\nsource = \"displacement\"\n"
+              "[can]\nlocal_bus = \"/b\"\ninputs = [\"velocity\"]\noutputs = [\"command\"]\n"),
+      "fw.toml: no bus serves input 'displacement' ([velocity] source = \"displacement\")");
 }
 
 TEST(IoConfigTest, RefusesNoCommandOutput) {
@@ -157,8 +165,9 @@ local_bus = "/tmp/b"
 inputs = ["velocity", "demand"]
 outputs = ["command"]
 )");
-  EXPECT_EQ(both, "fw.toml:2: [can] needs exactly one of 'interface' (SocketCAN) and "
-                  "'local_bus' (socket path)");
+  EXPECT_EQ(both,
+            "fw.toml:2: [can] needs exactly one of 'interface' (SocketCAN) and "
+            "'local_bus' (socket path)");
   EXPECT_EQ(ErrorOf("[modbus]\nmode = \"rtu\"\ninputs = [\"velocity\", \"demand\"]\n"
                     "outputs = [\"command\"]\n"),
             "fw.toml:2: [modbus] mode \"rtu\" needs 'device'");

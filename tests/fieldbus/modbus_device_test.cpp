@@ -1,6 +1,7 @@
 // The Modbus device (firmware/io) against real servers: mrd-hil's libmodbus port on
 // 127.0.0.1 and on a pty pair, and scripted peers for the faults (exception response,
-// timeout, CRC error, late RTU reply, reserved bits, frozen sensors, peer gone and back, bad set-point).
+// timeout, CRC error, late RTU reply, reserved bits, frozen sensors, peer gone and back, bad
+// set-point).
 #include "mrd/firmware/io/modbus_device.hpp"
 
 #include <gtest/gtest.h>

@@ -23,7 +23,7 @@
 namespace mrd::test {
 namespace {
 
-constexpr int kClientLimit = 32;  // docs/modbus_registers.md
+constexpr int kClientLimit = 32;     // docs/modbus_registers.md
 constexpr int kConnectTimeoutS = 5;  // bounds connect()
 
 // The child has not exited (checked without reaping it).

@@ -109,7 +109,8 @@ void LoopPeriodsAllocateNothing(bool rtu, const char* profile = nullptr) {
   EXPECT_GT(after.rx_ok - before.rx_ok, 200U);  // the bus really carried samples
   EXPECT_GT(after.tx_ok - before.tx_ok, 200U);  // and commands
   // Mostly out of the safe state.
-  EXPECT_LT(loop.stats().watchdog.safe_periods - safe_before, static_cast<std::uint64_t>(periods / 2));
+  EXPECT_LT(loop.stats().watchdog.safe_periods - safe_before,
+            static_cast<std::uint64_t>(periods / 2));
 }
 
 // Plain tests (not parameterised: gtest's parameter registry trips GCC's new/delete check

@@ -64,9 +64,9 @@ TEST(ModbusProfilePortTest, ServesTheProfilesUnitsAndHearsTheCommand) {
     if (modbus_receive_confirmation(ctx, rsp) != 9 || rsp[7] != (*pdu.begin() | 0x80)) return -2;
     return static_cast<int>(rsp[8]);
   };
-  EXPECT_EQ(exception_of({0x04, 0x00, 0x00, 0x00, 126}), 0x03);     // quantity
-  EXPECT_EQ(exception_of({0x03, 0xFF, 0xFF, 0x00, 2}), 0x02);      // beyond the table
-  EXPECT_EQ(exception_of({0x2B, 0x0E, 0x01, 0x00}), 0x01);         // unknown function
+  EXPECT_EQ(exception_of({0x04, 0x00, 0x00, 0x00, 126}), 0x03);  // quantity
+  EXPECT_EQ(exception_of({0x03, 0xFF, 0xFF, 0x00, 2}), 0x02);    // beyond the table
+  EXPECT_EQ(exception_of({0x2B, 0x0E, 0x01, 0x00}), 0x01);       // unknown function
   modbus_set_slave(ctx, 3);
   EXPECT_EQ(modbus_read_input_registers(ctx, 0, 1, regs), -1);
   EXPECT_EQ(errno, EMBXGTAR);
@@ -77,8 +77,8 @@ TEST(ModbusProfilePortTest, ServesTheProfilesUnitsAndHearsTheCommand) {
   float sp = 3.25F;
   std::uint32_t u = 0;
   std::memcpy(&u, &sp, sizeof u);
-  const std::uint16_t block[7] = {static_cast<std::uint16_t>(u & 0xFFFF),
-                                  static_cast<std::uint16_t>(u >> 16), 42, 0, 7, 0, 0};
+  const std::uint16_t block[7] = {
+      static_cast<std::uint16_t>(u & 0xFFFF), static_cast<std::uint16_t>(u >> 16), 42, 0, 7, 0, 0};
   ASSERT_EQ(modbus_write_registers(ctx, 0, 7, block), 7) << modbus_strerror(errno);
   hil::DriverInput in;
   hil->Poll(&in);

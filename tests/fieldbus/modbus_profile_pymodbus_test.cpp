@@ -51,9 +51,9 @@ class ModbusProfilePymodbusTest : public ::testing::TestWithParam<bool> {  // tr
   void TearDown() override { unlink(link_.c_str()); }
 
   std::unique_ptr<ChildProcess> Server(bool nan) {
-    std::vector<std::string> args = {kPython, kPeer, GetParam() ? "rtu" : "tcp",
-                                     GetParam() ? link_ : std::to_string(port_), "--seconds",
-                                     "15"};
+    std::vector<std::string> args = {
+        kPython,     kPeer, GetParam() ? "rtu" : "tcp", GetParam() ? link_ : std::to_string(port_),
+        "--seconds", "15"};
     if (nan) args.push_back("--nan");
     auto server = std::make_unique<ChildProcess>(args);
     const bool ready = GetParam() ? WaitForPath(link_, 10.0) : TcpReady(port_, 10.0);
@@ -140,8 +140,8 @@ TEST_P(ModbusProfilePymodbusTest, ReadsUnit1AndWritesUnit2OfThePymodbusServer) {
   // 0x10, nothing else.
   std::set<std::vector<int>> seen;
   for (const auto& r : c["requests"]) {
-    seen.insert({r[0].get<int>(), r[1].get<int>(), r[2].get<int>(),
-                 r[3].is_null() ? -1 : r[3].get<int>()});
+    seen.insert(
+        {r[0].get<int>(), r[1].get<int>(), r[2].get<int>(), r[3].is_null() ? -1 : r[3].get<int>()});
   }
   const std::set<std::vector<int>> want = {
       {1, 0x04, 0, 16}, {2, 0x04, 0, 1}, {2, 0x0F, 0, 1}, {2, 0x10, 8, 6}, {2, 0x10, 0, 7}};

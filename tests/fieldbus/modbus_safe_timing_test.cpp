@@ -156,8 +156,8 @@ TEST_P(ModbusSafeTimingTest, FirstSafeBlockWithinTwoPeriodsOfTheLoopGoingSafe) {
   // The defect put the first safe block 20-76 periods late, and wrote driven blocks of
   // earlier ticks after the loop had gone safe.
   // What is asserted, on any machine load: no driven block older than the one in flight
-  // reaches the server after the loop went safe (causal: the latest block wins); the median within one
-  // period, 90 % within the bound above, every one within 15 periods. The goal (every one
+  // reaches the server after the loop went safe (causal: the latest block wins); the median within
+  // one period, 90 % within the bound above, every one within 15 periods. The goal (every one
   // within 2 periods) is the measured figure this test prints; a loaded CI host that delays
   // this process's or the Python server's wake-ups by a few ms must not fail it.
   const double bound = rt ? (rtu ? 3.0 : 2.0) : 15.0;
@@ -231,8 +231,8 @@ TEST_P(ModbusSafeTimingTest, FirstSafeBlockWithinTwoPeriodsOfTheLoopGoingSafe) {
   EXPECT_TRUE(stale_driven.empty()) << ::testing::PrintToString(stale_driven);
   EXPECT_LE(median, 1.0);
   EXPECT_LE(sorted[sorted.size() * 9 / 10], bound);
-  EXPECT_LE(max, kEveryBound) << late.size() << " of " << delays.size() << " later than "
-                              << bound << " periods; " << ::testing::PrintToString(late);
+  EXPECT_LE(max, kEveryBound) << late.size() << " of " << delays.size() << " later than " << bound
+                              << " periods; " << ::testing::PrintToString(late);
 }
 
 // RTU: the server relays through two ptys in Python and gets no dropped-reply fault (RTU is

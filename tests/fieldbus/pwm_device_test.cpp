@@ -10,19 +10,17 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <vector>
-
-#include "mrd/firmware/fieldbus_io.hpp"
-#include "mrd/firmware/io/devices.hpp"
-
 #include <atomic>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
+#include "mrd/firmware/fieldbus_io.hpp"
+#include "mrd/firmware/io/devices.hpp"
 #include "mrd/profile/pwm_profile.hpp"
 
 // GCC 12 takes the counting operator delete's free() for a mismatch with the counting new
@@ -154,8 +152,8 @@ TEST(PwmDeviceTest, ALeftOverChannelIsDisabledAndZeroedBeforeTheNewPeriod) {
   std::ofstream(chip.chip() + "/pwm0/enable") << "1\n";
   std::string error;
   PwmDevice pwm(SafeAtFive(chip.chip()));
-  const std::vector<std::string> want = {"enable", "duty_cycle", "period", "polarity",
-                                         "duty_cycle", "enable"};
+  const std::vector<std::string> want = {"enable",   "duty_cycle", "period",
+                                         "polarity", "duty_cycle", "enable"};
   EXPECT_EQ(SetUpWrites(chip, &pwm, &error), want);
   EXPECT_EQ(chip.Attr("period"), "40000");
   EXPECT_EQ(chip.Attr("duty_cycle"), "2000");
@@ -257,7 +255,6 @@ TEST(PwmDeviceTest, RefusesWhatIsNotAChipAndFaultsOnAFailedWrite) {
   EXPECT_EQ(why, IoError::kSystem);
 }
 
-
 // The device as the firmware builds it from [pwm] (MakePwmDevice), behind FieldbusIo: a
 // period's command and safe state allocate nothing.
 TEST(PwmDeviceTest, FieldbusPeriodsThroughTheConfiguredDeviceAllocateNothing) {
@@ -270,9 +267,9 @@ TEST(PwmDeviceTest, FieldbusPeriodsThroughTheConfiguredDeviceAllocateNothing) {
   }
   auto profile = std::make_shared<profile::PwmProfile>();
   std::string error;
-  ASSERT_TRUE(profile::LoadPwmProfile(std::string(MRD_SOURCE_DIR) +
-                                          "/firmware/profiles/pwm-enable.toml",
-                                      profile.get(), &error)) << error;
+  ASSERT_TRUE(profile::LoadPwmProfile(
+      std::string(MRD_SOURCE_DIR) + "/firmware/profiles/pwm-enable.toml", profile.get(), &error))
+      << error;
   IoConfig io;
   io.pwm.enabled = true;
   io.pwm.outputs = Bit(Output::kCommand);

@@ -49,7 +49,8 @@ TEST(ChassisLawTest, GroundhookDemandsMinusGainTimesWheelVelocityWhenDissipative
   EXPECT_EQ(law.Update(In(3.0, 0.0, 2.0, 0.0)).value, Real(0));
   EXPECT_EQ(law.Update(In(0.0, 0.0, 2.0, 0.0)).value, Real(0));
   // Body velocity plays no part.
-  EXPECT_EQ(law.Update(In(3.0, 99.0, -2.0, 7.0)).value, law.Update(In(3.0, -99.0, -2.0, 0.0)).value);
+  EXPECT_EQ(law.Update(In(3.0, 99.0, -2.0, 7.0)).value,
+            law.Update(In(3.0, -99.0, -2.0, 0.0)).value);
 }
 
 TEST(ChassisLawTest, GroundhookForceIsClampedToTheLimit) {
@@ -188,9 +189,10 @@ TEST(ChassisLawTest, InvalidParametersAreRefused) {
 TEST(ChassisLawConfigTest, KeysParseAndOutOfRangeValuesAreRefused) {
   FirmwareConfig c;
   std::string error;
-  ASSERT_TRUE(ParseConfig("[control]\nlaw = \"hybrid\"\nhybrid_gain = 35\nhybrid_alpha = 0.3\n"
-                          "groundhook_gain = 12\nsh_add_alpha = 6.5\n",
-                          "fw.toml", &c, &error))
+  ASSERT_TRUE(
+      ParseConfig("[control]\nlaw = \"hybrid\"\nhybrid_gain = 35\nhybrid_alpha = 0.3\n"
+                  "groundhook_gain = 12\nsh_add_alpha = 6.5\n",
+                  "fw.toml", &c, &error))
       << error;
   EXPECT_EQ(c.controller.law.mode, ControlMode::kHybrid);
   EXPECT_EQ(c.controller.law.hybrid_gain, 35.0);
@@ -238,20 +240,22 @@ TEST(ChassisLawConfigTest, LawsWhoseInputsNoBusServesAreRefused) {
   // All routed: accepted (the built-in mrd-native profile maps both chassis signals).
   FirmwareConfig c;
   std::string error;
-  EXPECT_TRUE(ParseConfig("[control]\nlaw = \"hybrid\"\n[can]\ninputs = [\"velocity\", "
-                          "\"body_velocity\", \"wheel_velocity\", \"body_acceleration\"]\n"
-                          "outputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
-                          "fw.toml", &c, &error))
+  EXPECT_TRUE(
+      ParseConfig("[control]\nlaw = \"hybrid\"\n[can]\ninputs = [\"velocity\", "
+                  "\"body_velocity\", \"wheel_velocity\", \"body_acceleration\"]\n"
+                  "outputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
+                  "fw.toml", &c, &error))
       << error;
 }
 
 TEST(ChassisLawConfigTest, TheBuiltInModbusMapServesNoChassisSignal) {
   FirmwareConfig c;
   std::string error;
-  EXPECT_FALSE(ParseConfig("[control]\nlaw = \"add\"\n[modbus]\nmode = \"tcp\"\nhost = \"h\"\n"
-                           "inputs = [\"velocity\", \"body_acceleration\"]\n"
-                           "outputs = [\"command\"]\n",
-                           "fw.toml", &c, &error));
+  EXPECT_FALSE(
+      ParseConfig("[control]\nlaw = \"add\"\n[modbus]\nmode = \"tcp\"\nhost = \"h\"\n"
+                  "inputs = [\"velocity\", \"body_acceleration\"]\n"
+                  "outputs = [\"command\"]\n",
+                  "fw.toml", &c, &error));
   EXPECT_NE(error.find("input 'body_acceleration' needs a Modbus device profile"),
             std::string::npos)
       << error;
@@ -260,9 +264,10 @@ TEST(ChassisLawConfigTest, TheBuiltInModbusMapServesNoChassisSignal) {
 TEST(ChassisLawConfigTest, CtlSetSwitchesLawsAndTunesTheirParameters) {
   FirmwareConfig c;
   std::string error, why;
-  ASSERT_TRUE(ParseConfig("[can]\ninputs = [\"velocity\", \"demand\", \"wheel_velocity\"]\n"
-                          "outputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
-                          "fw.toml", &c, &error))
+  ASSERT_TRUE(
+      ParseConfig("[can]\ninputs = [\"velocity\", \"demand\", \"wheel_velocity\"]\n"
+                  "outputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
+                  "fw.toml", &c, &error))
       << error;
   EXPECT_TRUE(SetParam(&c, "control.law", "groundhook", &why)) << why;
   EXPECT_TRUE(SetParam(&c, "control.groundhook_gain", "25", &why)) << why;

@@ -3,7 +3,6 @@
 // the Controller (clipped rule by hand, the inverse command against the force law, the
 // watchdog on its inputs, Retune).
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <cmath>
@@ -92,13 +91,17 @@ TEST(ClippedGainsFileTest, EveryBadFieldIsRefusedWithItsLine) {
   {
     std::istringstream in(WithLine("ad", diag2));
     for (std::string l; std::getline(in, l);) {
-      unstable += (l.rfind("l =", 0) == 0 ? "l = [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]" : l) + "\n";
+      unstable +=
+          (l.rfind("l =", 0) == 0 ? "l = [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]"
+                                  : l) +
+          "\n";
     }
   }
   const Case cases[] = {
       {WithLine("ad", "ad = [1, 2, 3]"), "g.toml:3:", "'ad' must be a list of 36 numbers (has 3)"},
       {WithLine("bd", "bd = 4"), "g.toml:4:", "'bd' must be a list of 6 numbers"},
-      {WithLine("k", "k = [1, 2, 3, 4, 5, \"x\"]"), "g.toml:8:", "'k' element 6 must be a finite number"},
+      {WithLine("k", "k = [1, 2, 3, 4, 5, \"x\"]"),
+       "g.toml:8:", "'k' element 6 must be a finite number"},
       {WithLine("dy", "dy = [1, nan, 3]"), "g.toml:6:", "'dy' element 2 must be a finite number"},
       {WithLine("l", ""), "g.toml:2:", "has no 'l' (18 numbers)"},
       {WithLine("v_max", "v_max = \"high\""), "g.toml:9:", "'v_max' must be a number"},
@@ -245,16 +248,18 @@ std::vector<std::string> FirmwareArgv(const std::vector<std::string>& args) {
 // Lockstep, so it runs under qemu-user in the cross builds too.
 TEST(ClippedConfigTest, TheFirmwareRunsTheLawAndRefusesABadGainsFileWithExit2) {
   TempDir dir;
-  const std::string good = dir.Write(
-      "fw.toml", "[control]\nlaw = \"clipped-optimal\"\n[clipped_optimal]\ngains = \"" +
-                     kGainsFile + "\"\ncommand = \"inverse\"\n");
-  test::ChildProcess ok(FirmwareArgv({"--config", good, "--dry-run", "0.5", "--lockstep", "--json"}));
+  const std::string good =
+      dir.Write("fw.toml", "[control]\nlaw = \"clipped-optimal\"\n[clipped_optimal]\ngains = \"" +
+                               kGainsFile + "\"\ncommand = \"inverse\"\n");
+  test::ChildProcess ok(
+      FirmwareArgv({"--config", good, "--dry-run", "0.5", "--lockstep", "--json"}));
   ASSERT_EQ(ok.Wait(60.0), 0) << ok.Stderr();
   EXPECT_NE(ok.Stdout().find("\"law\": \"clipped-optimal\""), std::string::npos) << ok.Stdout();
   EXPECT_NE(ok.Stdout().find("\"ticks\": 500"), std::string::npos) << ok.Stdout();
   dir.Write("bad.toml", WithLine("cy", "cy = [1, 2]"));
-  const std::string bad = dir.Write(
-      "fw2.toml", "[control]\nlaw = \"clipped-optimal\"\n[clipped_optimal]\ngains = \"bad.toml\"\n");
+  const std::string bad =
+      dir.Write("fw2.toml",
+                "[control]\nlaw = \"clipped-optimal\"\n[clipped_optimal]\ngains = \"bad.toml\"\n");
   test::ChildProcess refused(FirmwareArgv({"--config", bad, "--dry-run", "0.5", "--lockstep"}));
   EXPECT_EQ(refused.Wait(60.0), 2);
   EXPECT_NE(refused.Stderr().find("fw2.toml:4: [clipped_optimal] gains: "), std::string::npos)
@@ -285,8 +290,7 @@ ControllerConfig ClippedConfig(const ClippedOptimalGains& g) {
   return c;
 }
 
-SensorFrame Frame(std::int64_t t, double force, double a1 = 0.1, double a2 = 0.2,
-                  double a3 = 0.3) {
+SensorFrame Frame(std::int64_t t, double force, double a1 = 0.1, double a2 = 0.2, double a3 = 0.3) {
   SensorFrame f;
   f[Input::kVelocity] = {2.0, t};
   f[Input::kForce] = {force, t};
@@ -398,9 +402,9 @@ TEST(ClippedControllerTest, StaleOrNaNInputsEnterTheSafeStateAndRestartTheEstima
       }
       const ControllerOutput out = controller.Update(f, IoStatus::kOk, false, t, 1e-3);
       EXPECT_TRUE(out.safe);
-      EXPECT_NE(out.causes & Watchdog::Bit(bad == 0 ? FaultCause::kStaleSensor
-                                                    : FaultCause::kNonFinite),
-                0U);
+      EXPECT_NE(
+          out.causes & Watchdog::Bit(bad == 0 ? FaultCause::kStaleSensor : FaultCause::kNonFinite),
+          0U);
       EXPECT_EQ(controller.clipped_optimal().estimate()[0], Real(0));  // restarted
     }
   }

@@ -39,7 +39,9 @@ displacement_limit = 4.5
 [simulation]
 amplitude_cm = 0.5
 substeps = 50
-)", "fw.toml", &c, &error)) << error;
+)",
+                          "fw.toml", &c, &error))
+      << error;
   EXPECT_EQ(c.period_ns, 2'000'000);
   EXPECT_EQ(c.priority, 0);
   EXPECT_FALSE(c.lock_memory);

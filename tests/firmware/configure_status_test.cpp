@@ -107,11 +107,11 @@ TEST(ConfigureStatusTest, CutoffNotAPositiveFrequency) {
 }
 
 TEST(ConfigureStatusTest, EveryFaultHasItsOwnName) {
-  const ConfigureFault all[] = {
-      ConfigureFault::kNone,        ConfigureFault::kTable,   ConfigureFault::kEMax,
-      ConfigureFault::kEnvelope,    ConfigureFault::kLimits,  ConfigureFault::kSafeVoltage,
-      ConfigureFault::kLaw,         ConfigureFault::kClippedGains, ConfigureFault::kWatchdog,
-      ConfigureFault::kCutoff};
+  const ConfigureFault all[] = {ConfigureFault::kNone,     ConfigureFault::kTable,
+                                ConfigureFault::kEMax,     ConfigureFault::kEnvelope,
+                                ConfigureFault::kLimits,   ConfigureFault::kSafeVoltage,
+                                ConfigureFault::kLaw,      ConfigureFault::kClippedGains,
+                                ConfigureFault::kWatchdog, ConfigureFault::kCutoff};
   for (const ConfigureFault a : all) {
     for (const ConfigureFault b : all) {
       if (a != b) {

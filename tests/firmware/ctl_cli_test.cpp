@@ -46,8 +46,8 @@ bool Eventually(const std::function<bool()>& pred, double limit_s = 20.0) {
 struct Running {
   Running(const std::vector<std::string>& extra, const std::string& socket)
       : child([&] {
-          std::vector<std::string> argv{Firmware(), "--dry-run", "30", "--json",
-                                        "--ctl-socket", socket};
+          std::vector<std::string> argv{Firmware(), "--dry-run",    "30",
+                                        "--json",   "--ctl-socket", socket};
           argv.insert(argv.end(), extra.begin(), extra.end());
           return argv;
         }()) {
@@ -86,7 +86,9 @@ TEST(CtlCliTest, ListGetSetSaveAndRefusals) {
   EXPECT_NE(r.output.find("control.skyhook_gain = 55.0: applied at period "), std::string::npos)
       << r.output;
   EXPECT_NE(r.output.find("(parameter version 1)"), std::string::npos) << r.output;
-  EXPECT_EQ(test::Run(Ctl(sock, "get control.skyhook_gain")).output.find("control.skyhook_gain = 55.0 "), 0U);
+  EXPECT_EQ(
+      test::Run(Ctl(sock, "get control.skyhook_gain")).output.find("control.skyhook_gain = 55.0 "),
+      0U);
 
   struct Refusal {
     const char* args;
@@ -109,7 +111,9 @@ TEST(CtlCliTest, ListGetSetSaveAndRefusals) {
     EXPECT_NE(r.output.find(f.says), std::string::npos) << f.args << ": " << r.output;
   }
   // Nothing changed.
-  EXPECT_EQ(test::Run(Ctl(sock, "get control.skyhook_gain")).output.find("control.skyhook_gain = 55.0 "), 0U);
+  EXPECT_EQ(
+      test::Run(Ctl(sock, "get control.skyhook_gain")).output.find("control.skyhook_gain = 55.0 "),
+      0U);
   EXPECT_NE(test::Run(Ctl(sock, "get control.e_max")).output.find("= 2.25 V"), std::string::npos);
 
   r = test::Run(Ctl(sock, "set envelope.margin 0.25"));
@@ -184,7 +188,8 @@ TEST(CtlCliTest, StaleSocketIsReplacedBadPathsAreRefused) {
                      {file, "exists and is not a socket"},
                      {dir.File(std::string(120, 'a')), "must be 1 to 107 bytes"}};
   for (const Bad& b : bad) {
-    const CommandResult r = test::Run(Firmware() + " --dry-run 1 --lockstep --ctl-socket " + b.path);
+    const CommandResult r =
+        test::Run(Firmware() + " --dry-run 1 --lockstep --ctl-socket " + b.path);
     EXPECT_EQ(r.status, 2) << b.path << ": " << r.output;
     EXPECT_NE(r.output.find(b.says), std::string::npos) << r.output;
   }
@@ -201,7 +206,8 @@ TEST(CtlCliTest, SighupWithABadTableKeepsTheOldOneAGoodOneSwitches) {
   const std::string table = dir.File("t.bin");
   ASSERT_EQ(test::Run(Firmware() + " --write-table " + table).status, 0);
   const std::string good = Slurp(table);
-  const std::string cfg = dir.Write("fw.toml", "[control]\nlaw = \"skyhook\"\nskyhook_gain = 40.0\n");
+  const std::string cfg =
+      dir.Write("fw.toml", "[control]\nlaw = \"skyhook\"\nskyhook_gain = 40.0\n");
   const std::string sock = dir.File("ctl.sock");
   Running fw({"--config", cfg, "--table", table}, sock);
   ASSERT_TRUE(fw.ready) << fw.child.Stderr();
@@ -212,8 +218,9 @@ TEST(CtlCliTest, SighupWithABadTableKeepsTheOldOneAGoodOneSwitches) {
   dir.Write("t.bin", bad);
   dir.Write("fw.toml", "[control]\nlaw = \"skyhook\"\nskyhook_gain = 70.0\n");
   fw.child.Signal(SIGHUP);
-  ASSERT_TRUE(Eventually([&] { return fw.child.Stderr().find("reload refused") != std::string::npos; }))
-      << fw.child.Stderr();
+  ASSERT_TRUE(Eventually([&] {
+    return fw.child.Stderr().find("reload refused") != std::string::npos;
+  })) << fw.child.Stderr();
   EXPECT_NE(fw.child.Stderr().find("still running on the old config and table: table " + table +
                                    " refused: CRC mismatch"),
             std::string::npos)
@@ -235,8 +242,9 @@ TEST(CtlCliTest, SighupWithABadTableKeepsTheOldOneAGoodOneSwitches) {
   // A good table and config: switched at a period boundary, counted.
   dir.Write("fw.toml", "[control]\nlaw = \"skyhook\"\nskyhook_gain = 70.0\n");
   fw.child.Signal(SIGHUP);
-  ASSERT_TRUE(Eventually([&] { return fw.child.Stderr().find("reloaded config") != std::string::npos; }))
-      << fw.child.Stderr();
+  ASSERT_TRUE(Eventually([&] {
+    return fw.child.Stderr().find("reloaded config") != std::string::npos;
+  })) << fw.child.Stderr();
   EXPECT_NE(fw.child.Stderr().find("(parameter version 1, reload 1; model state reset)"),
             std::string::npos)
       << fw.child.Stderr();

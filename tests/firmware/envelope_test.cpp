@@ -8,8 +8,8 @@
 
 #include "host/test_util.hpp"
 #include "mrd/common/table.hpp"
-#include "support/fev_table.hpp"
 #include "mrd/firmware/model_runtime.hpp"
+#include "support/fev_table.hpp"
 
 namespace mrd::firmware {
 namespace {

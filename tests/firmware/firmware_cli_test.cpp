@@ -45,7 +45,8 @@ TEST(FirmwareCliTest, HelpDescribesDryRun) {
 TEST(FirmwareCliTest, LockstepDryRunPrintsJsonCounters) {
   TempDir dir;
   const std::string table = WriteBuiltinTable(dir);
-  const CommandResult r = test::Run(Firmware() + " --table " + table + " --dry-run 3 --lockstep --json");
+  const CommandResult r =
+      test::Run(Firmware() + " --table " + table + " --dry-run 3 --lockstep --json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("\"ticks\": 3000,"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("\"overruns\": 0,"), std::string::npos) << r.output;
@@ -95,7 +96,8 @@ TEST(FirmwareCliTest, ConfigSelectsLawAndPeriod) {
   const std::string cfg = dir.Write("fw.toml",
                                     "[loop]\nperiod_us = 500\n[control]\nlaw = \"skyhook\"\n"
                                     "skyhook_gain = 40.0\n[safety]\nsafe_voltage = 0.2\n");
-  const CommandResult r = test::Run(Firmware() + " --config " + cfg + " --dry-run 1 --lockstep --json");
+  const CommandResult r =
+      test::Run(Firmware() + " --config " + cfg + " --dry-run 1 --lockstep --json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("\"law\": \"skyhook\""), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("\"ticks\": 2000,"), std::string::npos) << r.output;
@@ -107,8 +109,8 @@ TEST(FirmwareCliTest, ConfigSelectsLawAndPeriod) {
 TEST(FirmwareCliTest, ChassisLawsRunDryAndAreRefusedWithoutTheirInputs) {
   TempDir dir;
   for (const char* law : {"groundhook", "groundhook-on-off", "hybrid", "add", "sh-add"}) {
-    const std::string cfg = dir.Write("fw.toml", std::string("[control]\nlaw = \"") + law +
-                                                      "\"\ngroundhook_gain = 20\n");
+    const std::string cfg = dir.Write(
+        "fw.toml", std::string("[control]\nlaw = \"") + law + "\"\ngroundhook_gain = 20\n");
     const CommandResult r =
         test::Run(Firmware() + " --config " + cfg + " --dry-run 1 --lockstep --json");
     ASSERT_EQ(r.status, 0) << law << ": " << r.output;
@@ -170,13 +172,13 @@ TEST(FirmwareCliTest, DemoTableDrivesNoRealDeviceUnlessAllowed) {
       EXPECT_NE(r.output.find("--allow-demo-table"), std::string::npos) << r.output;
     }
     // Told otherwise: the run goes on to open the device (which fails here, for its own reason).
-    const CommandResult allowed = test::Run(Firmware() + " --config " + cfg +
-                                            " --duration 0.1 --allow-demo-table");
+    const CommandResult allowed =
+        test::Run(Firmware() + " --config " + cfg + " --duration 0.1 --allow-demo-table");
     EXPECT_EQ(allowed.output.find("demo table"), std::string::npos) << allowed.output;
   }
   // A simulated endpoint (a local CAN bus nobody serves) is not a real device.
-  const std::string local = dir.Write(
-      "local.toml", "[can]\nlocal_bus = \"" + dir.File("none.sock") + "\"\n" + tail);
+  const std::string local =
+      dir.Write("local.toml", "[can]\nlocal_bus = \"" + dir.File("none.sock") + "\"\n" + tail);
   const CommandResult r = test::Run(Firmware() + " --config " + local + " --duration 0.1");
   EXPECT_EQ(r.output.find("demo table"), std::string::npos) << r.output;
 }
@@ -190,15 +192,14 @@ TEST(FirmwareCliTest, CheckConfigRefusesAConfigWithNothingToDrive) {
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("unconfigured.toml: no device profile configured"), std::string::npos)
       << r.output;
-  EXPECT_NE(r.output.find("/usr/share/doc/mrd-firmware/devices.md"), std::string::npos)
-      << r.output;
+  EXPECT_NE(r.output.find("/usr/share/doc/mrd-firmware/devices.md"), std::string::npos) << r.output;
   // The same file still serves a dry run.
   EXPECT_EQ(test::Run(Firmware() + " --config " + cfg + " --dry-run 0.1 --lockstep").status, 0);
 }
 
 TEST(FirmwareCliTest, SigtermStopsTheLoopInTheSafeState) {
-  const CommandResult r =
-      test::Run("timeout --preserve-status -s TERM 0.5 " + Firmware() + " --dry-run 30 --json; echo status=$?");
+  const CommandResult r = test::Run("timeout --preserve-status -s TERM 0.5 " + Firmware() +
+                                    " --dry-run 30 --json; echo status=$?");
   EXPECT_NE(r.output.find("\"final_safe_state\": true"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("status=0"), std::string::npos) << r.output;
 }

@@ -50,7 +50,8 @@ TEST(LogCliTest, LockstepDryRunLogsEveryPeriodAndInfoSaysSo) {
 
 TEST(LogCliTest, ConfigLogSectionIsRelativeToTheConfigAndTextSummaryReportsIt) {
   TempDir dir;
-  const std::string cfg = dir.Write("fw.toml", "[log]\npath = \"cfg.mrdlog\"\nblock_records = 100\n");
+  const std::string cfg =
+      dir.Write("fw.toml", "[log]\npath = \"cfg.mrdlog\"\nblock_records = 100\n");
   CommandResult r = test::Run(Firmware() + " --config " + cfg + " --dry-run 1 --lockstep");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_TRUE(Has(r.output, "1000 records written (10 blocks, 1 file), 0 dropped")) << r.output;
@@ -65,7 +66,8 @@ TEST(LogCliTest, ConfigLogSectionIsRelativeToTheConfigAndTextSummaryReportsIt) {
 
 TEST(LogCliTest, BadLogConfigIsRefusedWithFileAndLine) {
   TempDir dir;
-  const std::string small = dir.Write("small.toml", "[log]\npath = \"x\"\nmax_bytes = 65536\nblock_records = 4096\n");
+  const std::string small =
+      dir.Write("small.toml", "[log]\npath = \"x\"\nmax_bytes = 65536\nblock_records = 4096\n");
   CommandResult r = test::Run(Firmware() + " --config " + small + " --dry-run 1 --lockstep");
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_TRUE(Has(r.output, small + ":3: [log] max_bytes 65536 is smaller")) << r.output;
@@ -96,8 +98,9 @@ TEST(LogCliTest, KillNineLeavesALogReadableUpToItsLastWholeBlock) {
   TempDir dir;
   const std::string log = dir.File("killed.mrdlog");
   // Real time, 10 minutes: it is killed long before. Blocks of 64 records, flushed every 20 ms.
-  const std::string cfg = dir.Write("fw.toml", "[loop]\npriority = 0\nlock_memory = false\n"
-                                              "[log]\nblock_records = 64\nflush_ms = 20\n");
+  const std::string cfg = dir.Write("fw.toml",
+                                    "[loop]\npriority = 0\nlock_memory = false\n"
+                                    "[log]\nblock_records = 64\nflush_ms = 20\n");
   ChildProcess fw({Firmware().substr(Firmware().rfind(' ') + 1), "--config", cfg, "--dry-run",
                    "600", "--log", log});
   ASSERT_TRUE(fw.started());
@@ -123,15 +126,17 @@ TEST(LogCliTest, KillNineLeavesALogReadableUpToItsLastWholeBlock) {
   EXPECT_NE(parsed.damage, runlog::Damage::kCorrupt);
   EXPECT_TRUE(Has(r.output, "records:  " + std::to_string(parsed.num_records) + " ")) << r.output;
   // Every period from the first, none missing.
-  EXPECT_TRUE(Has(r.output, "(" + std::to_string(parsed.num_records) +
-                                " periods, 0 not in the file)")) << r.output;
+  EXPECT_TRUE(
+      Has(r.output, "(" + std::to_string(parsed.num_records) + " periods, 0 not in the file)"))
+      << r.output;
 }
 
 TEST(LogCliTest, ExportWritesTheChosenFieldsAndRefusesAnUnknownOne) {
   TempDir dir;
   const std::string log = MakeLog(dir);
   const std::string csv = dir.File("out.csv");
-  CommandResult r = test::Run(Mrd() + " log export " + log + " --csv " + csv + " --fields period,t_ns,command");
+  CommandResult r =
+      test::Run(Mrd() + " log export " + log + " --csv " + csv + " --fields period,t_ns,command");
   ASSERT_EQ(r.status, 0) << r.output;
   const std::string text = FileBytes(csv);
   EXPECT_EQ(text.substr(0, text.find('\n')), "period,t_ns,command");
@@ -181,7 +186,8 @@ TEST(LogCliTest, BadInputIsRefusedWithExitTwoAndNothingWritten) {
     return dir.File(name);
   };
   std::string corrupt = whole;
-  const std::size_t block1 = header + runlog::kBlockHeaderBytes + 256 * parsed.header.record_bytes();
+  const std::size_t block1 =
+      header + runlog::kBlockHeaderBytes + 256 * parsed.header.record_bytes();
   corrupt[block1 + 100] = static_cast<char>(corrupt[block1 + 100] ^ 0x55);
   std::string v9 = whole;
   v9[8] = 9;

@@ -5,8 +5,8 @@
 
 #include <atomic>
 #include <chrono>
-#include <thread>
 #include <string>
+#include <thread>
 
 #include "host/test_util.hpp"
 #include "mrd/firmware/loop.hpp"

@@ -189,9 +189,9 @@ TEST(NoAllocationTest, ClippedOptimalLoopStepsAllocateNothing) {
   ControllerConfig config;
   config.law.mode = ControlMode::kClippedOptimal;
   std::string error;
-  ASSERT_TRUE(LoadClippedOptimalGains(
-      std::string(MRD_SOURCE_DIR) + "/hil/data/clipped_optimal_gains.toml",
-      &config.clipped_gains, &error))
+  ASSERT_TRUE(
+      LoadClippedOptimalGains(std::string(MRD_SOURCE_DIR) + "/hil/data/clipped_optimal_gains.toml",
+                              &config.clipped_gains, &error))
       << error;
   config.clipped_gains_loaded = true;
   for (const ClippedCommand command : {ClippedCommand::kClipped, ClippedCommand::kInverse}) {

@@ -44,18 +44,18 @@ TEST(ParamTableTest, EveryKeyIsAParameterWithTypeUnitRangeAndWhenItApplies) {
   EXPECT_EQ(gain->unit, "N s/cm");
   EXPECT_EQ(gain->accepts, "[0.0, 1e+06]");
   EXPECT_EQ(gain->tunable, Tunable::kRuntime);
-  for (const char* name : {"control.law", "control.e_max", "control.constant_voltage",
-                           "control.force_limit", "velocity.cutoff_hz", "safety.recover_periods",
-                           "safety.velocity_limit", "safety.displacement_limit", "envelope.hold",
-                           "envelope.margin"}) {
+  for (const char* name :
+       {"control.law", "control.e_max", "control.constant_voltage", "control.force_limit",
+        "velocity.cutoff_hz", "safety.recover_periods", "safety.velocity_limit",
+        "safety.displacement_limit", "envelope.hold", "envelope.margin"}) {
     const ParamInfo* p = Find(list, name);
     ASSERT_NE(p, nullptr) << name;
     EXPECT_EQ(p->tunable, Tunable::kRuntime) << name;
   }
   EXPECT_EQ(Find(list, "velocity.source")->tunable, Tunable::kReload);
-  for (const char* name : {"loop.period_us", "loop.clock", "safety.safe_voltage",
-                           "safety.max_age_ms", "simulation.substeps", "can.inputs",
-                           "modbus.port", "ctl.socket"}) {
+  for (const char* name :
+       {"loop.period_us", "loop.clock", "safety.safe_voltage", "safety.max_age_ms",
+        "simulation.substeps", "can.inputs", "modbus.port", "ctl.socket"}) {
     const ParamInfo* p = Find(list, name);
     ASSERT_NE(p, nullptr) << name;
     EXPECT_EQ(p->tunable, Tunable::kRestart) << name;
@@ -107,8 +107,9 @@ TEST(ParamTableTest, SetAcceptsValidValuesAndRefusesTheRestUnchanged) {
       {"control.nope", "1", "unknown parameter 'control.nope'"},
       {"nope", "1", "unknown parameter 'nope'"},
       {"loop.period_us", "500", "loop.period_us is not tunable at runtime: it needs a restart"},
-      {"velocity.source", "displacement", "not tunable at runtime: change it in the config file "
-                                          "and reload (SIGHUP)"},
+      {"velocity.source", "displacement",
+       "not tunable at runtime: change it in the config file "
+       "and reload (SIGHUP)"},
       {"safety.safe_voltage", "0.1", "not tunable at runtime"},
       {"control.skyhook_gain", "1\nx = 2", "must be a number"},
   };
@@ -126,9 +127,10 @@ TEST(ParamTableTest, SetAcceptsValidValuesAndRefusesTheRestUnchanged) {
 // One code path: a runtime key accepts exactly what the config file accepts for it.
 TEST(ParamTableTest, RuntimeRangesAreTheConfigRanges) {
   const FirmwareConfig base;
-  const char* values[] = {"-1e12", "-1", "-0.5", "0", "1e-10", "0.5", "1", "2", "3", "99.5",
-                          "100", "100.5", "1e5", "1e6", "1000001", "1e9", "1e10", "true",
-                          "\"force\"", "\"skyhook\"", "\"x\"", "inf", "nan"};
+  const char* values[] = {"-1e12",     "-1",          "-0.5",    "0",    "1e-10", "0.5",
+                          "1",         "2",           "3",       "99.5", "100",   "100.5",
+                          "1e5",       "1e6",         "1000001", "1e9",  "1e10",  "true",
+                          "\"force\"", "\"skyhook\"", "\"x\"",   "inf",  "nan"};
   int compared = 0;
   for (const ParamInfo& p : ListParams(base)) {
     if (p.tunable != Tunable::kRuntime) continue;
@@ -137,8 +139,8 @@ TEST(ParamTableTest, RuntimeRangesAreTheConfigRanges) {
     for (const char* v : values) {
       FirmwareConfig by_file = base, by_set = base;
       std::string error, why;
-      const bool file_ok = ParseConfig("[" + section + "]\n" + key + " = " + v + "\n", "t.toml",
-                                       &by_file, &error);
+      const bool file_ok =
+          ParseConfig("[" + section + "]\n" + key + " = " + v + "\n", "t.toml", &by_file, &error);
       const bool set_ok = SetParam(&by_set, p.name, v, &why);
       EXPECT_EQ(file_ok, set_ok) << p.name << " = " << v << ": " << error << " / " << why;
       if (file_ok && set_ok && p.name != "control.e_max") {
@@ -153,9 +155,10 @@ TEST(ParamTableTest, RuntimeRangesAreTheConfigRanges) {
 TEST(ParamTableTest, SetRefusesWhatTheBusesCannotServe) {
   FirmwareConfig c;
   std::string error;
-  ASSERT_TRUE(ParseConfig("[can]\ninputs = [\"velocity\", \"demand\"]\noutputs = [\"command\"]\n"
-                          "local_bus = \"/tmp/x.sock\"\n",
-                          "bus.toml", &c, &error))
+  ASSERT_TRUE(
+      ParseConfig("[can]\ninputs = [\"velocity\", \"demand\"]\noutputs = [\"command\"]\n"
+                  "local_bus = \"/tmp/x.sock\"\n",
+                  "bus.toml", &c, &error))
       << error;
   std::string why;
   EXPECT_FALSE(SetParam(&c, "control.law", "skyhook", &why));
@@ -163,8 +166,7 @@ TEST(ParamTableTest, SetRefusesWhatTheBusesCannotServe) {
       << why;
   EXPECT_EQ(c.controller.law.mode, ControlMode::kForceTracking);
   EXPECT_FALSE(SetParam(&c, "safety.displacement_limit", "5", &why));
-  EXPECT_NE(why.find("displacement_limit needs a measured displacement"), std::string::npos)
-      << why;
+  EXPECT_NE(why.find("displacement_limit needs a measured displacement"), std::string::npos) << why;
   EXPECT_TRUE(SetParam(&c, "control.law", "constant", &why)) << why;
 }
 
@@ -174,14 +176,15 @@ TEST(ParamTableTest, RestartKeysChangedNamesThem) {
   ASSERT_TRUE(ParseConfig("[control]\nlaw = \"skyhook\"\n[velocity]\nsource = \"displacement\"\n",
                           "b.toml", &b, &error));
   EXPECT_TRUE(RestartKeysChanged(a, b).empty());  // runtime and reload keys only
-  ASSERT_TRUE(ParseConfig("[loop]\nperiod_us = 500\n[safety]\nsafe_voltage = 0.1\n", "b.toml",
-                          &b, &error));
+  ASSERT_TRUE(
+      ParseConfig("[loop]\nperiod_us = 500\n[safety]\nsafe_voltage = 0.1\n", "b.toml", &b, &error));
   EXPECT_EQ(RestartKeysChanged(a, b),
             (std::vector<std::string>{"loop.period_us", "safety.safe_voltage"}));
   FirmwareConfig c;
-  ASSERT_TRUE(ParseConfig("[modbus]\ninputs = [\"velocity\", \"demand\"]\noutputs = [\"command\"]\n"
-                          "host = \"localhost\"\nport = 1502\n",
-                          "c.toml", &c, &error))
+  ASSERT_TRUE(
+      ParseConfig("[modbus]\ninputs = [\"velocity\", \"demand\"]\noutputs = [\"command\"]\n"
+                  "host = \"localhost\"\nport = 1502\n",
+                  "c.toml", &c, &error))
       << error;
   const std::vector<std::string> changed = RestartKeysChanged(a, c);
   EXPECT_NE(std::find(changed.begin(), changed.end(), "[modbus]"), changed.end());
@@ -412,11 +415,12 @@ TEST(ParamMailboxTest, AReloadSwapsAFreshControllerAtABoundaryAndCountsOn) {
   r = rig.params.Reload(too_high, test::DemoDamperTable(), nullptr, 1000);
   EXPECT_EQ(r.status, RuntimeParams::Status::kRefused);
   EXPECT_NE(r.message.find("out of range for the table"), std::string::npos) << r.message;
-  r = rig.params.Reload(next, test::DemoDamperTable(),
-                        [](const FirmwareConfig&, const CoefficientTable&, const Controller&) {
-                          return std::string("no");
-                        },
-                        1000);
+  r = rig.params.Reload(
+      next, test::DemoDamperTable(),
+      [](const FirmwareConfig&, const CoefficientTable&, const Controller&) {
+        return std::string("no");
+      },
+      1000);
   EXPECT_EQ(r.status, RuntimeParams::Status::kRefused);
   EXPECT_EQ(r.message, "no");
   EXPECT_EQ(rig.params.reloads(), 1U);

@@ -1,11 +1,12 @@
 // The per-period log: the runlog codec (round trip, truncation at every byte of the last
 // block, CRC corruption, refusals) and the firmware's PeriodLog (records = periods in a
 // lockstep run, drops counted with a stalled writer, write errors, rotation).
-#include <gtest/gtest.h>
+#include "mrd/firmware/period_log.hpp"
 
-#include <unistd.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cmath>
@@ -20,7 +21,6 @@
 #include "fakes.hpp"
 #include "host/test_util.hpp"
 #include "mrd/firmware/loop.hpp"
-#include "mrd/firmware/period_log.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/runlog/runlog.hpp"
 #include "support/demo_model.hpp"
@@ -158,13 +158,13 @@ TEST(RunlogCodecTest, CorruptBlockIsFoundByItsCrcAndStopsTheReading) {
   runlog::Log full;
   std::string error;
   ASSERT_TRUE(runlog::DecodeLog(whole, &full, &error));
-  const auto header = static_cast<std::size_t>(
-      full.valid_bytes - full.blocks * runlog::kBlockHeaderBytes -
-      full.num_records * full.header.record_bytes());
+  const auto header =
+      static_cast<std::size_t>(full.valid_bytes - full.blocks * runlog::kBlockHeaderBytes -
+                               full.num_records * full.header.record_bytes());
   const std::size_t block1 = header + runlog::kBlockHeaderBytes + 5 * full.header.record_bytes();
   // Every byte of block 1 (header or payload), flipped, is caught.
-  for (std::size_t at = block1; at < block1 + runlog::kBlockHeaderBytes + 5 * full.header.record_bytes();
-       at += 7) {
+  for (std::size_t at = block1;
+       at < block1 + runlog::kBlockHeaderBytes + 5 * full.header.record_bytes(); at += 7) {
     std::string bad = whole;
     bad[at] = static_cast<char>(bad[at] ^ 0x10);
     runlog::Log log;
@@ -218,7 +218,8 @@ TEST(RunlogCodecTest, RandomDamageIsRefusedOrReadAsAConsistentPrefix) {
     ASSERT_EQ(log.damage == runlog::Damage::kNone, log.valid_bytes == m.size());
     const auto off = log.header.Offsets();
     for (std::uint64_t r = 0; r < log.num_records; ++r) {
-      for (std::size_t i = 0; i < log.header.fields.size(); ++i) (void)runlog::Value(log, off, r, i);
+      for (std::size_t i = 0; i < log.header.fields.size(); ++i)
+        (void)runlog::Value(log, off, r, i);
     }
   }
 }
@@ -286,7 +287,7 @@ TEST(PeriodLogTest, StalledWriterDropsAndCountsWithoutBlockingTheLoop) {
   }
   EXPECT_EQ(l.loop.stats().ticks, 100U);
   EXPECT_EQ(l.log.stats().dropped, 84U);  // 16 fit the ring
-  l.log.Stop();  // drains the 16 even though paused
+  l.log.Stop();                           // drains the 16 even though paused
   const PeriodLogStats s = l.log.stats();
   EXPECT_EQ(s.written, 16U);
   EXPECT_EQ(s.pushed, 100U);
@@ -326,7 +327,8 @@ TEST(PeriodLogTest, FileTooLargeMidRunStopsTheLogAndKeepsTheBlocksWritten) {
   config.block_records = 32;
   rlimit old{};
   ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
-  struct sigaction ignore {}, previous {};
+  struct sigaction ignore {
+  }, previous{};
   ignore.sa_handler = SIG_IGN;
   sigaction(SIGXFSZ, &ignore, &previous);
   rlimit small = old;

@@ -118,7 +118,8 @@ TEST(ModelDivergenceConformance, ANonFiniteModelForceIsAWatchdogCause) {
   // A clean model is no cause: the compiled-in table over the same 1000 periods.
   Controller clean;
   ASSERT_EQ(clean.Configure(kBuiltinTable, config), Error::kOk);
-  for (int k = 0; k < 1000; ++k, t += kMs) clean.Update(Fresh(t, 0.0), IoStatus::kOk, false, t, kDt);
+  for (int k = 0; k < 1000; ++k, t += kMs)
+    clean.Update(Fresh(t, 0.0), IoStatus::kOk, false, t, kDt);
   EXPECT_EQ(clean.model_resets(), 0U);
   EXPECT_EQ(clean.watchdog().counters().trips[Idx(FaultCause::kNonFinite)], 0U);
 }

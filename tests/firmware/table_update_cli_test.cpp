@@ -115,9 +115,10 @@ TEST(TableUpdateTest, TableRefusedAtStartRollsBackToThePreviousOne) {
 
 TEST(TableUpdateTest, CheckConfigAndArguments) {
   TempDir dir;
-  const std::string good = dir.Write(
-      "good.toml", "[control]\ne_max = 2.0\n[can]\ninterface = \"can0\"\n"
-                   "inputs = [\"velocity\", \"demand\"]\noutputs = [\"command\"]\n");
+  const std::string good =
+      dir.Write("good.toml",
+                "[control]\ne_max = 2.0\n[can]\ninterface = \"can0\"\n"
+                "inputs = [\"velocity\", \"demand\"]\noutputs = [\"command\"]\n");
   const std::string bad = dir.Write("bad.toml", "[control]\nfoo = 1\n");
   EXPECT_EQ(test::Run(Firmware() + " --check-config " + good).status, 0);
   const CommandResult r = test::Run(Firmware() + " --check-config " + bad);

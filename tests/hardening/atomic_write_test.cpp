@@ -108,7 +108,8 @@ void ExpectSignalRemovesTemporaries(int sig) {
 }
 
 TEST(AtomicWriteTest, TerminatingSignalsRemoveTemporariesAndStagingDirectories) {
-  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE}) ExpectSignalRemovesTemporaries(sig);
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE})
+    ExpectSignalRemovesTemporaries(sig);
 }
 
 }  // namespace

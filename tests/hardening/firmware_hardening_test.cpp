@@ -1,6 +1,6 @@
 // Issue 14 (hardening): mrd-firmware's dry-run limits, JSON summary, signals and write errors.
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -11,15 +11,14 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
 
-#include <nlohmann/json.hpp>
-
 #include "firmware/app/summary_json.hpp"
-#include "mrd/firmware/config.hpp"
 #include "host/test_util.hpp"
+#include "mrd/firmware/config.hpp"
 #include "support/process.hpp"
 
 extern char** environ;
@@ -51,8 +50,8 @@ TEST(FirmwareHardeningTest, JsonSummaryEscapesTheTablePath) {
   const std::string table = dir.File("ta\"ble\\x.bin");
   ASSERT_EQ(test::Run(Firmware() + " --write-table '" + table + "'").status, 0);
   const std::string out = dir.File("out.json");
-  const CommandResult r = test::Run(Firmware() + " --table '" + table +
-                              "' --dry-run 0.05 --lockstep --json > " + out);
+  const CommandResult r =
+      test::Run(Firmware() + " --table '" + table + "' --dry-run 0.05 --lockstep --json > " + out);
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json j = nlohmann::json::parse(Slurp(out));
   EXPECT_EQ(j["table"], table);
@@ -81,9 +80,13 @@ int RunAndSignal(int sig, const std::string& out) {
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  char* argv[] = {const_cast<char*>(bin.c_str()), const_cast<char*>("--dry-run"),
-                  const_cast<char*>("30"),        const_cast<char*>("--json"),
-                  const_cast<char*>("--ctl-socket"), const_cast<char*>(sock.c_str()), nullptr};
+  char* argv[] = {const_cast<char*>(bin.c_str()),
+                  const_cast<char*>("--dry-run"),
+                  const_cast<char*>("30"),
+                  const_cast<char*>("--json"),
+                  const_cast<char*>("--ctl-socket"),
+                  const_cast<char*>(sock.c_str()),
+                  nullptr};
   pid_t pid = 0;
   if (posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv, environ) != 0) return -1;
   posix_spawn_file_actions_destroy(&fa);
@@ -123,9 +126,13 @@ TEST(FirmwareHardeningTest, SighupReloadsAndKeepsRunning) {
   // The control socket appears after the signal handlers are installed: it marks "ready for
   // SIGHUP" (a fixed sleep raced a slow start: SIGHUP's default action killed the process).
   const std::string sock = dir.File("ctl.sock");
-  char* argv[] = {const_cast<char*>(bin.c_str()), const_cast<char*>("--dry-run"),
-                  const_cast<char*>("30"),        const_cast<char*>("--json"),
-                  const_cast<char*>("--ctl-socket"), const_cast<char*>(sock.c_str()), nullptr};
+  char* argv[] = {const_cast<char*>(bin.c_str()),
+                  const_cast<char*>("--dry-run"),
+                  const_cast<char*>("30"),
+                  const_cast<char*>("--json"),
+                  const_cast<char*>("--ctl-socket"),
+                  const_cast<char*>(sock.c_str()),
+                  nullptr};
   pid_t pid = 0;
   ASSERT_EQ(posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv, environ), 0);
   posix_spawn_file_actions_destroy(&fa);
@@ -157,7 +164,8 @@ TEST(FirmwareHardeningTest, SighupReloadsAndKeepsRunning) {
 // Defect 11: a result that cannot be written is an error.
 TEST(FirmwareHardeningTest, JsonToAFullDeviceFails) {
   if (access("/dev/full", W_OK) != 0) GTEST_SKIP() << "no /dev/full";
-  const CommandResult r = test::Run(std::string("(") + Firmware() + " --dry-run 0.01 --lockstep --json > /dev/full)");
+  const CommandResult r =
+      test::Run(std::string("(") + Firmware() + " --dry-run 0.01 --lockstep --json > /dev/full)");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("error"), std::string::npos) << r.output;
 }

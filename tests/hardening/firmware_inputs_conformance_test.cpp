@@ -42,11 +42,10 @@ TEST(FirmwareInputsConformance, DevZeroIsRefusedNotReadUntilMemoryRunsOut) {
 TEST(FirmwareInputsConformance, AFifoIsRefusedWithoutBlocking) {
   TempDir dir;
   const std::string fifo = Fifo(dir);
-  for (const std::string& args :
-       {"--check-config " + fifo, "--check-table " + fifo,
-        "--install-table " + fifo + " --to " + dir.File("dest.bin"),
-        "--check-table " + dir.File("none.bin") + " --config " + fifo,
-        "--table " + fifo + " --dry-run 0.01 --lockstep"}) {
+  for (const std::string& args : {"--check-config " + fifo, "--check-table " + fifo,
+                                  "--install-table " + fifo + " --to " + dir.File("dest.bin"),
+                                  "--check-table " + dir.File("none.bin") + " --config " + fifo,
+                                  "--table " + fifo + " --dry-run 0.01 --lockstep"}) {
     const CommandResult r = Fw(args);
     EXPECT_EQ(r.status, 2) << args << ": " << r.output;  // 124: blocked until `timeout`
     EXPECT_NE(r.output.find("is a FIFO, not a regular file"), std::string::npos)
@@ -63,8 +62,7 @@ TEST(FirmwareInputsConformance, ADirectoryIsNeitherAConfigNorATable) {
     const CommandResult r = Fw(std::string(command) + " " + folder);
     EXPECT_EQ(r.status, 2) << command << ": " << r.output;
     EXPECT_EQ(r.output.find(": ok"), std::string::npos) << r.output;
-    EXPECT_NE(r.output.find("is a directory, not a regular file"), std::string::npos)
-        << r.output;
+    EXPECT_NE(r.output.find("is a directory, not a regular file"), std::string::npos) << r.output;
   }
   const CommandResult run = Fw("--config " + folder + " --dry-run 0.01 --lockstep");
   EXPECT_EQ(run.status, 2) << run.output;
@@ -80,8 +78,7 @@ TEST(FirmwareInputsConformance, AConfigOverTheSizeLimitIsRefusedWithTheLimit) {
   }
   const CommandResult r = Fw("--check-config " + big);
   EXPECT_EQ(r.status, 2) << r.output;
-  EXPECT_NE(r.output.find("larger than the limit of 1048576 bytes"), std::string::npos)
-      << r.output;
+  EXPECT_NE(r.output.find("larger than the limit of 1048576 bytes"), std::string::npos) << r.output;
 }
 
 TEST(FirmwareInputsConformance, ConfigErrorsEchoControlBytesAsEscapesAndAreCapped) {
@@ -93,7 +90,8 @@ TEST(FirmwareInputsConformance, ConfigErrorsEchoControlBytesAsEscapesAndAreCappe
   EXPECT_EQ(r.output.find('\x01'), std::string::npos);
   EXPECT_EQ(r.output.find('\x1b'), std::string::npos);
   // A 100 kB key: the message stops at 400 characters of reason.
-  const std::string long_key = dir.Write("long.toml", "[loop]\n" + std::string(100000, 'k') + " = 1\n");
+  const std::string long_key =
+      dir.Write("long.toml", "[loop]\n" + std::string(100000, 'k') + " = 1\n");
   r = Fw("--check-config " + long_key);
   EXPECT_EQ(r.status, 2);
   EXPECT_LT(r.output.size(), 600U) << r.output.size();
@@ -116,8 +114,8 @@ TEST(FirmwareInputsConformance, CheckConfigRefusesWhatTheStartWouldRefuse) {
       {"slash.toml", "[can]\ninterface = \"can/0\"\n" + can_tail, "must not contain '/'"},
       {"socket.toml", "[can]\nlocal_bus = \"/tmp/" + std::string(120, 's') + "\"\n" + can_tail,
        "at most 107"},
-      {"host.toml",
-       "[modbus]\nhost = \"" + std::string(5000, 'h') + "\"\n" + can_tail, "at most 253"},
+      {"host.toml", "[modbus]\nhost = \"" + std::string(5000, 'h') + "\"\n" + can_tail,
+       "at most 253"},
       {"host_nul.toml", "[modbus]\nhost = \"127.0.0.1\\u0000evil\"\n" + can_tail,
        "control characters"},
       {"device.toml",
@@ -129,10 +127,12 @@ TEST(FirmwareInputsConformance, CheckConfigRefusesWhatTheStartWouldRefuse) {
     const CommandResult r = Fw("--check-config " + path);
     EXPECT_EQ(r.status, 2) << c.name << ": " << r.output.substr(0, 300);
     EXPECT_NE(r.output.find(c.name + ":2: "), std::string::npos) << r.output.substr(0, 300);
-    EXPECT_NE(r.output.find(c.reason), std::string::npos) << c.name << ": " << r.output.substr(0, 300);
+    EXPECT_NE(r.output.find(c.reason), std::string::npos)
+        << c.name << ": " << r.output.substr(0, 300);
   }
   // The longest accepted interface name still passes.
-  const std::string ok = dir.Write("ok.toml", "[can]\ninterface = \"can0123456789ab\"\n" + can_tail);
+  const std::string ok =
+      dir.Write("ok.toml", "[can]\ninterface = \"can0123456789ab\"\n" + can_tail);
   const CommandResult r = Fw("--check-config " + ok);
   EXPECT_EQ(r.status, 0) << r.output;
 }

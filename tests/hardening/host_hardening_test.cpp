@@ -6,13 +6,12 @@
 
 #include <cmath>
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/plot.hpp"
@@ -58,7 +57,8 @@ std::string ToySpec(const std::string& u_transform = "transform = \"identity\"",
                     const std::string& limits = "max_factors = 2\nmax_degree = 2") {
   return "output = \"y\"\n[[regressor]]\nname = \"y\"\nsignal = \"y\"\ntransform = "
          "\"identity\"\npowers = [1, 2]\ndelays = [1]\n[[regressor]]\nname = \"u1\"\nsignal = "
-         "\"u\"\n" + u_transform + "\npowers = [1, 2]\ndelays = [0, 1]\n[limits]\n" + limits +
+         "\"u\"\n" +
+         u_transform + "\npowers = [1, 2]\ndelays = [0, 1]\n[limits]\n" + limits +
          "\n[cost]\nweighting = \"mse\"\n[algorithm]\nmax_iterations = 4\n";
 }
 
@@ -86,8 +86,8 @@ TEST(HardeningTest, RepeatedFactorPowersAreCheckedAgainstTheLimit) {
     EXPECT_NE(r.output.find("out of range"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(dir.File("m.json")));
   }
-  const std::string in_spec = dir.Write(
-      "init.toml", ToySpec() + "initial = [\"u1(k)^16*u1(k)^16\"]\n");
+  const std::string in_spec =
+      dir.Write("init.toml", ToySpec() + "initial = [\"u1(k)^16*u1(k)^16\"]\n");
   const CommandResult r = test::Run(Mrd() + " identify --data " + data + " --spec " + in_spec +
                                     " --out " + dir.File("m.json"));
   EXPECT_EQ(r.status, 2) << r.output;
@@ -100,8 +100,8 @@ TEST(HardeningTest, OutputNeverWritesThroughSymlinksOrReplacesSpecialFiles) {
   const std::string data = WriteToy(dir, "in.csv");
   const std::string victim = dir.Write("victim.txt", "precious\n");
   ASSERT_EQ(symlink(victim.c_str(), dir.File("x.csv.tmp").c_str()), 0);
-  CommandResult r = test::Run(Mrd() + " slice --in " + data + " --from 0 --to 1 --out " +
-                              dir.File("x.csv"));
+  CommandResult r =
+      test::Run(Mrd() + " slice --in " + data + " --from 0 --to 1 --out " + dir.File("x.csv"));
   EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_EQ(Slurp(victim), "precious\n");
   EXPECT_NE(Slurp(dir.File("x.csv")).find("t,u,y"), std::string::npos);
@@ -140,8 +140,9 @@ TEST(HardeningTest, ConcurrentWritersOfOneOutputLeaveOneWholeFile) {
   // A temporary of another writer still at work (the fixed name OUT.tmp of old) is not touched.
   const std::string other = dir.Write("out.csv.tmp", "another writer\n");
   for (int round = 0; round < 5; ++round) {
-    const CommandResult r = test::Run(std::string("(") + slice("300", out) + " || echo FAILED) & (" +
-                                      slice("200", out) + " || echo FAILED) & wait");
+    const CommandResult r =
+        test::Run(std::string("(") + slice("300", out) + " || echo FAILED) & (" +
+                  slice("200", out) + " || echo FAILED) & wait");
     EXPECT_EQ(r.output.find("FAILED"), std::string::npos) << r.output;
     const std::string got = Slurp(out);
     EXPECT_TRUE(got == a || got == b) << "round " << round << ": " << got.size() << " bytes";
@@ -170,11 +171,13 @@ TEST(HardeningTest, ExportWritesBothOutputsOrNeither) {
 TEST(HardeningTest, ExportRefusesTablesTheFirmwareCannotInvert) {
   TempDir dir;
   const std::string data = WriteToy(dir, "id.csv");
-  const std::string spec = dir.Write(
-      "abs.toml", ToySpec("transform = \"abs_pow\"\nexponent = 0.5"));
+  const std::string spec =
+      dir.Write("abs.toml", ToySpec("transform = \"abs_pow\"\nexponent = 0.5"));
   const std::string model = dir.File("m.json");
   ASSERT_EQ(test::Run(Mrd() + " identify --data " + data + " --spec " + spec + " --out " + model +
-                      " --initial 'u1(k)' --max-iterations 0").status, 0);
+                      " --initial 'u1(k)' --max-iterations 0")
+                .status,
+            0);
   const CommandResult r = test::Run(Mrd() + " export --model " + model +
                                     " --input u --e-min 0 --e-max 1 --table " + dir.File("t.bin"));
   EXPECT_EQ(r.status, 2) << r.output;
@@ -204,8 +207,8 @@ TEST(HardeningTest, ModelFileNumbersAreNeverSilentlyChanged) {
       {"delay not offered",
        [](nlohmann::json& j) { j["iterations"][1]["terms"][0]["factors"][0]["delay"] = 7; },
        "delay"},
-      {"duplicate iteration",
-       [](nlohmann::json& j) { j["iterations"][1]["iteration"] = 0; }, "iteration 0"},
+      {"duplicate iteration", [](nlohmann::json& j) { j["iterations"][1]["iteration"] = 0; },
+       "iteration 0"},
   };
   for (const Case& c : cases) {
     nlohmann::json j = good;
@@ -221,11 +224,13 @@ TEST(HardeningTest, ModelFileNumbersAreNeverSilentlyChanged) {
 // Defect 6: non-finite data is never written.
 TEST(HardeningTest, NonFiniteDataIsNeverWritten) {
   TempDir dir;
-  const std::string in = dir.Write("raw.csv", "time,d,vel,volt,force\n0,1,1,1,1e10\n"
-                                              "0.001,1,1,1,2e10\n0.002,1,1,1,3e10\n");
+  const std::string in = dir.Write("raw.csv",
+                                   "time,d,vel,volt,force\n0,1,1,1,1e10\n"
+                                   "0.001,1,1,1,2e10\n0.002,1,1,1,3e10\n");
   CommandResult r = test::Run(Mrd() + " import --in " + in +
                               " --map t=time,x=d,v=vel,E=volt,f=force --scale f=1e306 --rate 1000"
-                              " --out " + dir.File("out.csv"));
+                              " --out " +
+                              dir.File("out.csv"));
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_FALSE(fs::exists(dir.File("out.csv")));
   const std::string params = dir.Write("p.toml", "alpha_a = 1e308\n");
@@ -241,8 +246,9 @@ TEST(HardeningTest, BadInputGetsExitTwoAndAReadableReason) {
   TempDir dir;
   const Toy toy = MakeToyModel(dir);
   std::string text = Slurp(toy.model);
-  const std::string model_1e400 = dir.Write("big.json", std::string(text).replace(
-      text.find("\"coefficient\": ") + 15, 1, "1e400,\"x\":"));
+  const std::string model_1e400 =
+      dir.Write("big.json",
+                std::string(text).replace(text.find("\"coefficient\": ") + 15, 1, "1e400,\"x\":"));
   CommandResult r = test::Run(Mrd() + " simulate --model " + model_1e400 + " --data " + toy.data);
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("big.json"), std::string::npos) << r.output;
@@ -254,28 +260,32 @@ TEST(HardeningTest, BadInputGetsExitTwoAndAReadableReason) {
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("target_j"), std::string::npos) << r.output;
 
-  r = test::Run(Mrd() + " export --model " + toy.model + " --input u --e-min 0 --e-max 1 "
-                "--header " + dir.File("h.hpp") + " --symbol 'a b'");
+  r = test::Run(Mrd() + " export --model " + toy.model +
+                " --input u --e-min 0 --e-max 1 "
+                "--header " +
+                dir.File("h.hpp") + " --symbol 'a b'");
   EXPECT_EQ(r.status, 2) << r.output;
   r = test::Run(Mrd() + " slice --in " + toy.data + " --from 0 --to 1 --out ''");
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("empty"), std::string::npos) << r.output;
 
   // Tiny time step: the filter length is reported, not an overflowed integer.
-  const std::string tiny = dir.Write("tiny.csv", "t,x,v,E,f\n0,0,0,0,0\n1e-300,0,0,0,0\n"
-                                                 "2e-300,0,0,0,0\n3e-300,0,0,0,0\n");
+  const std::string tiny = dir.Write("tiny.csv",
+                                     "t,x,v,E,f\n0,0,0,0,0\n1e-300,0,0,0,0\n"
+                                     "2e-300,0,0,0,0\n3e-300,0,0,0,0\n");
   r = test::Run(Mrd() + " import --in " + tiny + " --map t=t,x=x,v=v,E=E,f=f --rate 1000 --out " +
                 dir.File("o.csv"));
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_EQ(r.output.find("-9223372036854775"), std::string::npos) << r.output;
 
   // A 10 MB field and raw binary bytes are not echoed whole.
-  const std::string huge = dir.Write("huge.csv", "t,u,y\n0,0," + std::string(10'000'000, '7') +
-                                                     "x\n1,0,0\n");
+  const std::string huge =
+      dir.Write("huge.csv", "t,u,y\n0,0," + std::string(10'000'000, '7') + "x\n1,0,0\n");
   r = test::Run(Mrd() + " slice --in " + huge + " --from 0 --to 1 --out " + dir.File("o.csv"));
   EXPECT_EQ(r.status, 2);
   EXPECT_LT(r.output.size(), 2000u);
-  const std::string bin = dir.Write("bin.csv", std::string("t,u,y\n0,\x01\x02\xff\x1b[31m,0\n1,0,0\n"));
+  const std::string bin =
+      dir.Write("bin.csv", std::string("t,u,y\n0,\x01\x02\xff\x1b[31m,0\n1,0,0\n"));
   r = test::Run(Mrd() + " slice --in " + bin + " --from 0 --to 1 --out " + dir.File("o.csv"));
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(r.output.find('\x1b'), std::string::npos) << r.output;
@@ -323,15 +333,16 @@ TEST(HardeningTest, OversizedCandidateSetsAreRefusedWithTheirCount) {
   TempDir dir;
   std::string spec = "output = \"y\"\n";
   for (int r = 0; r < 16; ++r) {
-    spec += "[[regressor]]\nname = \"r" + std::to_string(r) + "\"\nsignal = \"" +
-            (r == 0 ? "y" : "u") + "\"\ntransform = \"identity\"\npowers = [1, 2, 3, 4, 5, 6, 7, "
-            "8, 9, 10, 11, 12, 13, 14, 15, 16]\ndelays = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13,"
-            " 14, 15]\n";
+    spec +=
+        "[[regressor]]\nname = \"r" + std::to_string(r) + "\"\nsignal = \"" + (r == 0 ? "y" : "u") +
+        "\"\ntransform = \"identity\"\npowers = [1, 2, 3, 4, 5, 6, 7, "
+        "8, 9, 10, 11, 12, 13, 14, 15, 16]\ndelays = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13,"
+        " 14, 15]\n";
   }
   spec += "[limits]\nmax_factors = 16\n";
-  const CommandResult r = test::Run("timeout 60 " + Mrd() + " identify --data " +
-                                    WriteToy(dir, "id.csv") + " --spec " +
-                                    dir.Write("big.toml", spec) + " --out " + dir.File("m.json"));
+  const CommandResult r =
+      test::Run("timeout 60 " + Mrd() + " identify --data " + WriteToy(dir, "id.csv") + " --spec " +
+                dir.Write("big.toml", spec) + " --out " + dir.File("m.json"));
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("candidate set too large"), std::string::npos) << r.output;
   const CommandResult small = test::Run(Mrd() + " identify --data " + WriteToy(dir, "id2.csv") +
@@ -345,8 +356,8 @@ TEST(HardeningTest, SimulateJsonToAFullDeviceFails) {
   if (access("/dev/full", W_OK) != 0) GTEST_SKIP() << "no /dev/full";
   TempDir dir;
   const Toy toy = MakeToyModel(dir);
-  const CommandResult r = test::Run(std::string("(") + Mrd() + " simulate --json --model " + toy.model +
-                                    " --data " + toy.data + " > /dev/full)");
+  const CommandResult r = test::Run(std::string("(") + Mrd() + " simulate --json --model " +
+                                    toy.model + " --data " + toy.data + " > /dev/full)");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("error"), std::string::npos) << r.output;
 }
@@ -367,8 +378,9 @@ TEST(HardeningTest, ReportWritesIntoAWritableDirectoryUnderAReadOnlyParent) {
     ASSERT_EQ(chown(dir.File("p/rep").c_str(), 65534, 65534), 0);
     prefix = "setpriv --reuid=65534 --regid=65534 --clear-groups ";
   }
-  fs::permissions(dir.File("p"), fs::perms::owner_write | fs::perms::group_write |
-                                     fs::perms::others_write, fs::perm_options::remove);
+  fs::permissions(dir.File("p"),
+                  fs::perms::owner_write | fs::perms::group_write | fs::perms::others_write,
+                  fs::perm_options::remove);
   const CommandResult r = test::Run(prefix + Mrd() + " report --model " + toy.model + " --data " +
                                     toy.data + " --out " + dir.File("p/rep"));
   fs::permissions(dir.File("p"), fs::perms::owner_write, fs::perm_options::add);
@@ -388,11 +400,12 @@ TEST(HardeningTest, ReportPrintsTheSystemErrorWhenItCannotStage) {
   fs::permissions(dir.File(toy.model), fs::perms::all, fs::perm_options::add);
   fs::permissions(dir.File(toy.data), fs::perms::all, fs::perm_options::add);
   fs::create_directory(dir.File("p"));
-  fs::permissions(dir.File("p"), fs::perms::owner_write | fs::perms::group_write |
-                                     fs::perms::others_write, fs::perm_options::remove);
-  const CommandResult r = test::Run("setpriv --reuid=65534 --regid=65534 --clear-groups " + Mrd() +
-                                    " report --model " + toy.model + " --data " + toy.data +
-                                    " --out " + dir.File("p/rep"));
+  fs::permissions(dir.File("p"),
+                  fs::perms::owner_write | fs::perms::group_write | fs::perms::others_write,
+                  fs::perm_options::remove);
+  const CommandResult r =
+      test::Run("setpriv --reuid=65534 --regid=65534 --clear-groups " + Mrd() + " report --model " +
+                toy.model + " --data " + toy.data + " --out " + dir.File("p/rep"));
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("Permission denied"), std::string::npos) << r.output;
 }

@@ -1,8 +1,8 @@
 // Conformance (labels conformance, hardening, hil): the simulated GPIO chip file truncated
 // while mrd-firmware and mrd-hil serve both have it mapped (a closed loop over the local CAN
 // bus and the chip). Both used to die of SIGBUS; now both run to their end: the firmware
-// reports a gpio_bus fault and ends in the safe state, the harness counts the cycles it could not use the chip (rejected).
-// Causal checks only (no timing): the machine may be loaded.
+// reports a gpio_bus fault and ends in the safe state, the harness counts the cycles it could not
+// use the chip (rejected). Causal checks only (no timing): the machine may be loaded.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -46,8 +46,8 @@ TEST(SimChipTruncationProcess, BothProcessesSurviveAndTheFirmwareGoesSafe) {
                         << "outputs = [\"enable\", \"heartbeat\"]\n"
                         << "encoder_a_line = 4\nencoder_b_line = 5\nfault_line = 6\n"
                         << "enable_line = 17\nheartbeat_line = 18\n";
-  ChildProcess hil({kBin + "/mrd-hil", "serve", "--port", "can=" + socket, "--port",
-                    "gpio=" + chip, "--duration", "4", "--json"});
+  ChildProcess hil({kBin + "/mrd-hil", "serve", "--port", "can=" + socket, "--port", "gpio=" + chip,
+                    "--duration", "4", "--json"});
   ASSERT_TRUE(mrd::test::WaitForPath(socket, 20.0) && mrd::test::WaitForPath(chip, 20.0))
       << hil.Stderr();
   ChildProcess fw({kBin + "/mrd-firmware", "--config", config, "--duration", "3", "--json"});

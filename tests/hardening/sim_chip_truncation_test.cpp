@@ -3,8 +3,8 @@
 // a SIGBUS, also when the truncation lands between the check and the access; the firmware's
 // GPIO device turns it into a device fault (kFault: the gpio_bus cause, the safe state). A
 // SIGBUS outside any chip still ends the process as before.
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/mman.h>
 #include <unistd.h>
@@ -113,8 +113,10 @@ TEST(SimChipTruncation, TheFirmwaresGpioDeviceReportsAFault) {
   ChipFile file("device");
   firmware::GpioConfig c;
   c.enabled = true;
-  c.inputs = firmware::Bit(firmware::Input::kDisplacement) | firmware::Bit(firmware::Input::kFaultLine);
-  c.outputs = firmware::Bit(firmware::Output::kEnable) | firmware::Bit(firmware::Output::kHeartbeat);
+  c.inputs =
+      firmware::Bit(firmware::Input::kDisplacement) | firmware::Bit(firmware::Input::kFaultLine);
+  c.outputs =
+      firmware::Bit(firmware::Output::kEnable) | firmware::Bit(firmware::Output::kHeartbeat);
   c.sim_chip = file.path();
   c.encoder_a_line = 4;
   c.encoder_b_line = 5;

@@ -41,7 +41,8 @@ std::string PatchedTable(const TempDir& dir, const std::string& name,
   for (const auto& [at, v] : u8) image[at] = static_cast<char>(v);
   const std::uint32_t crc = Crc32(std::span<const std::uint8_t>(
       reinterpret_cast<const std::uint8_t*>(image.data()), kTableCrcOffset));
-  for (std::size_t i = 0; i < 4; ++i) image[kTableCrcOffset + i] = static_cast<char>(crc >> (8 * i));
+  for (std::size_t i = 0; i < 4; ++i)
+    image[kTableCrcOffset + i] = static_cast<char>(crc >> (8 * i));
   const std::string path = dir.File(name);
   std::ofstream(path, std::ios::binary) << image;
   return path;
@@ -61,7 +62,9 @@ TEST(TableCheckConformance, AbsurdTablesAreRefusedWithTheReason) {
       {"offset.bin", {{ch0 + 16, 1e308}}, {}, "channel 'f' normalisation offset 1e+308"},
       {"scale.bin", {{ch1 + 24, 5e-324}}, {}, "channel 'E' normalisation"},
       {"reserved.bin", {}, {{17, 1}}, "byte 17 (header, reserved) is 0x01, must be 0"},
-      {"nan.bin", {{kTableCoefficientsOffset + 8 * 20, std::nan("")}}, {},
+      {"nan.bin",
+       {{kTableCoefficientsOffset + 8 * 20, std::nan("")}},
+       {},
        "(coefficient 20 (unused: the table has 10 terms))"},
       {"names.bin", {}, {{ch1, 'v'}}, "channels 1 and 2 are both named 'v'"},
       {"emin.bin", {{kTableRangeOffset, -5.0}}, {}, "input range [-5, 2.25] V"},

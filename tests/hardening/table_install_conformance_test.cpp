@@ -3,8 +3,8 @@
 // earlier one's table as DEST.prev, nothing is lost), a symlink planted at a staging name is
 // never written through; --write-table: a failed write (file-size limit, a full device)
 // exits non-zero and leaves no partial file.
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/resource.h>
@@ -127,8 +127,16 @@ TEST(TableInstallConformance, ConcurrentInstallsSerialiseAndLoseNothing) {
     if (!ok || left != expected) {
       ++failures;
       ADD_FAILURE() << "round " << round << ": exit " << sa << " / " << sb << "\n"
-                    << oa << ob << "DEST " << (now == a ? "A" : now == b ? "B" : now == original ? "original" : "other")
-                    << ", DEST.prev " << (prev == a ? "A" : prev == b ? "B" : prev == original ? "original" : "other")
+                    << oa << ob << "DEST "
+                    << (now == a          ? "A"
+                        : now == b        ? "B"
+                        : now == original ? "original"
+                                          : "other")
+                    << ", DEST.prev "
+                    << (prev == a          ? "A"
+                        : prev == b        ? "B"
+                        : prev == original ? "original"
+                                           : "other")
                     << ", " << left.size() << " entries";
     }
   }

@@ -33,11 +33,12 @@ std::string Scenario(const std::string& name, double seconds, const std::string&
   const std::string path = ::testing::TempDir() + "/" + name + ".toml";
   FILE* f = std::fopen(path.c_str(), "w");
   EXPECT_NE(f, nullptr);
-  std::fprintf(f,
-               "name = \"%s\"\nduration_s = %g\n[excitation]\nkind = \"csv\"\nfile = \"%s/v1.csv\"\n"
-               "demand_column = \"f\"\n[control]\nlaw = \"force\"\n[pass]\n"
-               "max_invariant_violations = 0\n%s",
-               name.c_str(), seconds, kPaper.c_str(), extra.c_str());
+  std::fprintf(
+      f,
+      "name = \"%s\"\nduration_s = %g\n[excitation]\nkind = \"csv\"\nfile = \"%s/v1.csv\"\n"
+      "demand_column = \"f\"\n[control]\nlaw = \"force\"\n[pass]\n"
+      "max_invariant_violations = 0\n%s",
+      name.c_str(), seconds, kPaper.c_str(), extra.c_str());
   std::fclose(f);
   return path;
 }

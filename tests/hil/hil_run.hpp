@@ -5,7 +5,6 @@
 // MRD_PAPER_DIR.
 
 #include <nlohmann/json.hpp>
-
 #include <string>
 #include <vector>
 

@@ -28,8 +28,8 @@ using mrd::test::ChildProcess;
 using Clock = std::chrono::steady_clock;
 
 // MRD_TEST_BIN_DIR runs the same checks against other builds (e.g. an older one).
-const std::string kBin = std::getenv("MRD_TEST_BIN_DIR") != nullptr ? std::getenv("MRD_TEST_BIN_DIR")
-                                                                      : MRD_BIN_DIR;
+const std::string kBin =
+    std::getenv("MRD_TEST_BIN_DIR") != nullptr ? std::getenv("MRD_TEST_BIN_DIR") : MRD_BIN_DIR;
 const std::string kScn = std::string(MRD_SOURCE_DIR) + "/hil/scenarios/";
 
 std::string Slurp(const std::string& path) {
@@ -41,8 +41,8 @@ std::string Slurp(const std::string& path) {
 
 // The first child of pid (from /proc), or -1.
 pid_t FirstChild(pid_t pid) {
-  const std::string kids = Slurp("/proc/" + std::to_string(pid) + "/task/" +
-                                 std::to_string(pid) + "/children");
+  const std::string kids =
+      Slurp("/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/children");
   return kids.empty() ? -1 : static_cast<pid_t>(std::stol(kids));
 }
 
@@ -102,7 +102,9 @@ TEST(LockstepLifecycleTest, FirmwareOnTheGrantClockWithoutAHarnessStops) {
   ASSERT_TRUE(mrd::test::WaitForPath(sock, 10.0));
   const std::string cfg = dir + "/fw.toml";
   std::ofstream(cfg) << "[loop]\nclock = \"grant\"\ngrant_timeout_ms = 500\n[control]\n"
-                        "law = \"force\"\n[can]\nlocal_bus = \"" << sock << "\"\n"
+                        "law = \"force\"\n[can]\nlocal_bus = \""
+                     << sock
+                     << "\"\n"
                         "inputs = [\"velocity\", \"demand\"]\n"
                         "outputs = [\"command\", \"enable\", \"heartbeat\", \"status\"]\n";
   ChildProcess fw({kBin + "/mrd-firmware", "--config", cfg, "--duration", "0.2", "--json"});
@@ -122,8 +124,7 @@ TEST(LockstepLifecycleTest, FirmwareOnTheGrantClockWithoutAHarnessStops) {
 // its temporary directory and exits 128 + the signal.
 void ExpectSignalEndsTheRunCleanly(int sig, const std::string& clock) {
   SCOPED_TRACE(std::string(strsignal(sig)) + ", " + clock);
-  ChildProcess hil(
-      {kBin + "/mrd-hil", "run", kScn + "quarter-car-skyhook.toml", "--clock", clock});
+  ChildProcess hil({kBin + "/mrd-hil", "run", kScn + "quarter-car-skyhook.toml", "--clock", clock});
   const pid_t fw = WaitForChild(hil.pid(), 20.0);
   ASSERT_GT(fw, 0) << hil.Stderr();
   std::string config;
@@ -152,8 +153,8 @@ TEST(LockstepLifecycleTest, TermIntAndHupStopTheRunReapTheFirmwareAndCleanUp) {
 }
 
 TEST(LockstepLifecycleTest, AKilledHarnessTakesItsFirmwareWithIt) {
-  ChildProcess hil({kBin + "/mrd-hil", "run", kScn + "quarter-car-skyhook.toml", "--clock",
-                    "realtime"});
+  ChildProcess hil(
+      {kBin + "/mrd-hil", "run", kScn + "quarter-car-skyhook.toml", "--clock", "realtime"});
   const pid_t fw = WaitForChild(hil.pid(), 20.0);
   ASSERT_GT(fw, 0) << hil.Stderr();
   std::this_thread::sleep_for(std::chrono::milliseconds(200));

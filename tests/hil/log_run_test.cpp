@@ -3,14 +3,14 @@
 // the firmware period of the same time.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <fstream>
-#include <chrono>
 #include <map>
 #include <regex>
-#include <thread>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "host/test_util.hpp"
@@ -103,7 +103,8 @@ TEST(HilLogTest, CtlSetDuringARunShowsInTheLogAtItsPeriod) {
   r = test::Run(ctl + "set control.skyhook_gain 1e9");
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("must be in"), std::string::npos) << r.output;
-  EXPECT_EQ(test::Run(ctl + "get control.skyhook_gain").output.find("control.skyhook_gain = 40.0 "), 0U);
+  EXPECT_EQ(test::Run(ctl + "get control.skyhook_gain").output.find("control.skyhook_gain = 40.0 "),
+            0U);
   ASSERT_EQ(hil.Wait(300.0), 0) << hil.Stdout() << hil.Stderr();
 
   runlog::Log log;

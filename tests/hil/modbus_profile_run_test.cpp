@@ -50,7 +50,8 @@ TEST(ModbusProfileRunTest, Float32ProfileTracksLikeTheNativeProtocolInLockstep) 
   const double n = native.j["tracking"]["error_reachable"].get<double>();
   const double d = f32.j["tracking"]["error_reachable"].get<double>();
   EXPECT_NEAR(d, n, 0.005) << "native " << n << ", modbus-float32 " << d;
-  std::printf("[ figures ] reachable tracking error: native %.6f, modbus-float32 (TCP) %.6f\n", n, d);
+  std::printf("[ figures ] reachable tracking error: native %.6f, modbus-float32 (TCP) %.6f\n", n,
+              d);
 }
 
 TEST(ModbusProfileRunTest, Float32ProfileOverRtuInLockstep) {
@@ -78,8 +79,8 @@ TEST(ModbusProfileRunTest, Float32ProfileRunsTenSecondsInRealTime) {
                  kPaper.c_str());
     std::fclose(f);
   }
-  const HilResult r = Hil({scn, "--table", kPaper + "/table.bin", "--profile", kFloat32,
-                           "--clock", "realtime"});
+  const HilResult r =
+      Hil({scn, "--table", kPaper + "/table.bin", "--profile", kFloat32, "--clock", "realtime"});
   ASSERT_EQ(r.status, 0) << r.err << r.j.dump();
   EXPECT_EQ(r.j["clock"], "realtime");
   EXPECT_EQ(r.j["invariant_violations"], 0);
@@ -113,11 +114,12 @@ TEST(ModbusProfileRunTest, AModbusProfileIsRefusedWhereItCannotRun) {
   {
     FILE* f = std::fopen(nogrant.c_str(), "w");
     ASSERT_NE(f, nullptr);
-    std::fputs("name = \"nogrant\"\n[modbus]\n[modbus.inputs]\n"
-               "velocity = { unit = 1, table = \"input\", address = 0, type = \"float32\" }\n"
-               "[modbus.outputs]\n"
-               "command = { unit = 2, table = \"holding\", address = 0, type = \"float32\" }\n",
-               f);
+    std::fputs(
+        "name = \"nogrant\"\n[modbus]\n[modbus.inputs]\n"
+        "velocity = { unit = 1, table = \"input\", address = 0, type = \"float32\" }\n"
+        "[modbus.outputs]\n"
+        "command = { unit = 2, table = \"holding\", address = 0, type = \"float32\" }\n",
+        f);
     std::fclose(f);
   }
   args = ForceV1();
@@ -130,8 +132,10 @@ TEST(ModbusProfileRunTest, AModbusProfileIsRefusedWhereItCannotRun) {
   {
     FILE* f = std::fopen(bad.c_str(), "w");
     ASSERT_NE(f, nullptr);
-    std::fputs("name = \"bad\"\n[modbus]\n[modbus.inputs]\n"
-               "velocity = { unit = 300, table = \"input\", address = 0 }\n", f);
+    std::fputs(
+        "name = \"bad\"\n[modbus]\n[modbus.inputs]\n"
+        "velocity = { unit = 300, table = \"input\", address = 0 }\n",
+        f);
     std::fclose(f);
   }
   args = ForceV1();

@@ -1,13 +1,14 @@
 // The best passive baseline (passive_baseline.hpp), labels hil, control: the grid, the best
 // setting per metric on a synthetic case with a known minimum, comfort at equal road holding,
 // and the quarter car's grid (deterministic, Wk scored).
+#include "mrd/hil/passive_baseline.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <string>
 #include <vector>
 
-#include "mrd/hil/passive_baseline.hpp"
 #include "mrd/hil/scenario.hpp"
 
 namespace mrd::hil {
@@ -62,7 +63,7 @@ TEST(PassiveGridTest, FindsTheKnownMinimumOfASyntheticCase) {
   c.tyre_load_rms_n = 725.0;
   c.travel_rms_cm = 1.5;
   const PassiveComparison cmp = Compare(grid, c);
-  EXPECT_NEAR(cmp.improvement[0], 10.0, 1e-9);                  // (1 - 0.9) / 1
+  EXPECT_NEAR(cmp.improvement[0], 10.0, 1e-9);                        // (1 - 0.9) / 1
   EXPECT_NEAR(cmp.improvement[1], 100.0 * (0.5 - 0.55) / 0.5, 1e-9);  // worse: negative
   ASSERT_TRUE(cmp.comfort_at_holding.has_value());
   EXPECT_NEAR(cmp.comfort_at_holding->volts, 1.10, 1e-9);  // the lowest V with tyre <= 725

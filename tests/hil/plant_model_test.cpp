@@ -124,14 +124,18 @@ TEST(ExcitationProfileTest, EqualsMrdGenerateSampleBySample) {
   test::TempDir dir;
   for (const std::string profile : {"v1", "v2", "v3"}) {
     const std::string csv = dir.File(profile + ".csv");
-    ASSERT_EQ(test::Run(test::Bin("mrd") + " generate --profile " + profile + " --seed 3 --out " +
-                        csv).status, 0);
+    ASSERT_EQ(
+        test::Run(test::Bin("mrd") + " generate --profile " + profile + " --seed 3 --out " + csv)
+            .status,
+        0);
     const host::DataSet data = host::ReadCsv(csv);
     Trace trace;
     std::string error;
     ASSERT_TRUE(ProfileTrace(profile, 3, SpencerParams::Paper(), &trace, &error)) << error;
     ASSERT_EQ(trace.x.size(), data.rows()) << profile;
-    const auto near = [](double a, double b) { return std::fabs(a - b) <= 1e-9 * std::fabs(b) + 1e-12; };
+    const auto near = [](double a, double b) {
+      return std::fabs(a - b) <= 1e-9 * std::fabs(b) + 1e-12;
+    };
     for (std::size_t k = 0; k < data.rows(); ++k) {
       ASSERT_TRUE(near(trace.x[k], data.Column("x")[k])) << profile << " row " << k;
       ASSERT_TRUE(near(trace.v[k], data.Column("v")[k])) << profile << " row " << k;
@@ -160,7 +164,9 @@ TEST_F(PlantScenarioTest, ReadsProfileAndNarxKeys) {
   Scenario s;
   ASSERT_EQ(Load("[plant]\nmodel = \"narx\"\n" + model_key() +
                      "iteration = 20\n[excitation]\nkind = \"profile\"\nprofile = \"v3\"\n"
-                     "seed = 7\n", &s), "");
+                     "seed = 7\n",
+                 &s),
+            "");
   EXPECT_EQ(s.excitation, ExcitationKind::kProfile);
   EXPECT_EQ(s.profile, "v3");
   EXPECT_EQ(s.profile_seed, 7U);
@@ -175,7 +181,8 @@ TEST_F(PlantScenarioTest, RefusesBadInputWithItsLine) {
   EXPECT_NE(Load("[excitation]\nkind = \"profile\"\n", &s).find(":2: kind = \"profile\" needs"),
             std::string::npos);
   EXPECT_NE(Load("[excitation]\nkind = \"csv\"\nfile = \"a.csv\"\nseed = 2\n", &s)
-                .find(":4: 'profile' and 'seed' need"), std::string::npos);
+                .find(":4: 'profile' and 'seed' need"),
+            std::string::npos);
   EXPECT_NE(Load("[plant]\nmodel = \"narx\"\n", &s).find(":2: model = \"narx\" needs 'file'"),
             std::string::npos);
   EXPECT_NE(Load("[plant]\n" + model_key(), &s).find(":2: 'file' needs [plant] model = \"narx\""),

@@ -141,9 +141,10 @@ TEST_F(PlantParamsTest, BadReplay) {
   ExpectRefused("[excitation]\nkind = \"replay\"\n", "s.toml:2: kind = \"replay\" needs 'file'");
   ExpectRefused("[excitation]\nkind = \"periodic\"\n[control]\nlaw = \"open-loop\"\n",
                 "s.toml:4: law \"open-loop\" needs [excitation] kind = \"replay\"");
-  ExpectRefused("[excitation]\nkind = \"replay\"\nfile = \"run.csv\"\n[control]\n"
-                "law = \"open-loop\"\n[pass]\nmax_error_reachable = 0.1\n",
-                "law \"open-loop\" tracks no force");
+  ExpectRefused(
+      "[excitation]\nkind = \"replay\"\nfile = \"run.csv\"\n[control]\n"
+      "law = \"open-loop\"\n[pass]\nmax_error_reachable = 0.1\n",
+      "law \"open-loop\" tracks no force");
   ExpectRefused("[pass]\nmin_replay_fit = 90\n", "s.toml:2: min_replay_fit needs");
   ExpectRefused("[firmware]\ntable = \"none.bin\"\n", "s.toml:2: [firmware] table");
   Trace t;
@@ -151,8 +152,7 @@ TEST_F(PlantParamsTest, BadReplay) {
   std::string error;
   const std::string no_e = Write("noe.csv", "t,x,v,f\n0,0,0,0\n0.001,0,0,0\n");
   EXPECT_FALSE(LoadReplay(no_e, true, "f", &t, &run, &error));
-  EXPECT_NE(error.find("noe.csv:1: a replay file needs columns x, v, E and f"),
-            std::string::npos)
+  EXPECT_NE(error.find("noe.csv:1: a replay file needs columns x, v, E and f"), std::string::npos)
       << error;
   EXPECT_NE(error.find("missing 'E'"), std::string::npos) << error;
   const std::string no_xf = Write("noxf.csv", "t,v,E\n0,0,0\n0.001,0,0\n");

@@ -7,8 +7,8 @@
 // CAN) does the same through the harness's sysfs-ABI tree, deterministically in lockstep.
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -98,7 +98,6 @@ TEST(ProfileRunTest, ABadProfileIsRefusedBeforeAnythingStarts) {
   EXPECT_NE(m.err.find("needs --transport can"), std::string::npos) << m.err;
 }
 
-
 std::string Slurp(const std::string& path) {
   std::ifstream in(path);
   std::stringstream s;
@@ -148,8 +147,8 @@ TEST(ProfileRunTest, PwmEnableLockstepIsDeterministic) {
   std::string traces[2];
   for (int i = 0; i < 2; ++i) {
     const std::string out = ::testing::TempDir() + "/pwm-lockstep-" + std::to_string(i);
-    const HilResult r = Hil({scn, "--table", kPaper + "/table.bin", "--profile", kPwmEnable,
-                             "--out", out});
+    const HilResult r =
+        Hil({scn, "--table", kPaper + "/table.bin", "--profile", kPwmEnable, "--out", out});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(r.j["commands"], 3000);
     traces[i] = Slurp(out + "/trace.csv");
@@ -183,8 +182,8 @@ TEST(ProfileRunTest, PwmEnableProfileRunsTenSecondsInRealTime) {
 // Lockstep reads the duty after the tick's status frame: a PWM profile without one is refused.
 TEST(ProfileRunTest, APwmProfileWithoutAFirmwareStatusIsRefusedInLockstep) {
   std::string text = Slurp(kPwmEnable);
-  for (const char* role : {"status_safe = ", "status_causes = ", "status_overruns = ",
-                           "status_safe_entries = "}) {
+  for (const char* role :
+       {"status_safe = ", "status_causes = ", "status_overruns = ", "status_safe_entries = "}) {
     const auto at = text.find(role);
     ASSERT_NE(at, std::string::npos) << role;
     text.insert(at, "# ");
@@ -201,7 +200,8 @@ TEST(ProfileRunTest, APwmProfileWithoutAFirmwareStatusIsRefusedInLockstep) {
   const HilResult r = Hil(args);
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("lockstep with a [pwm] output needs a firmware status message"),
-            std::string::npos) << r.err;
+            std::string::npos)
+      << r.err;
 }
 
 }  // namespace

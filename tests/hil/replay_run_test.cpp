@@ -20,8 +20,8 @@ std::string TempDirPath() {
 TEST(ReplayRunTest, OpenLoopReplayOfAGeneratedRunReproducesItsForce) {
   const std::string dir = TempDirPath();
   ASSERT_FALSE(dir.empty());
-  ChildProcess gen({std::string(MRD_BIN_DIR) + "/mrd", "generate", "--profile", "v1", "--seed",
-                    "1", "--preset", "spencer1997", "--out", dir + "/v1.csv"});
+  ChildProcess gen({std::string(MRD_BIN_DIR) + "/mrd", "generate", "--profile", "v1", "--seed", "1",
+                    "--preset", "spencer1997", "--out", dir + "/v1.csv"});
   ASSERT_EQ(gen.Wait(60.0), 0) << gen.Stderr();
   std::ofstream(dir + "/replay.toml")
       << "duration_s = 3.0\n[plant]\npreset = \"spencer1997\"\n[excitation]\nkind = \"replay\"\n"
@@ -62,8 +62,7 @@ TEST(ReplayRunTest, ReplayFileWithoutTheColumnsIsRefused) {
   std::ofstream(dir + "/s.toml") << "[excitation]\nkind = \"replay\"\nfile = \"run.csv\"\n";
   const HilResult r = Hil({dir + "/s.toml", "--out", dir + "/out"});
   EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.err.find("run.csv:1: a replay file needs columns x, v, E and f"),
-            std::string::npos)
+  EXPECT_NE(r.err.find("run.csv:1: a replay file needs columns x, v, E and f"), std::string::npos)
       << r.err;
   std::system(("rm -rf " + dir).c_str());
 }

@@ -65,16 +65,16 @@ TEST(HilRunTest, ForceTrackingPeriodicLockstepCan) {
 }
 
 TEST(HilRunTest, ForceTrackingV1LockstepCan) {
-  ExpectTracking(Hil({kScn + "force-v1.toml", "--table", Table(), "--excitation", kPaper + "/v1.csv"}),
-                 0.05);
+  ExpectTracking(
+      Hil({kScn + "force-v1.toml", "--table", Table(), "--excitation", kPaper + "/v1.csv"}), 0.05);
 }
 TEST(HilRunTest, ForceTrackingV2LockstepCan) {
-  ExpectTracking(Hil({kScn + "force-v2.toml", "--table", Table(), "--excitation", kPaper + "/v2.csv"}),
-                 0.05);
+  ExpectTracking(
+      Hil({kScn + "force-v2.toml", "--table", Table(), "--excitation", kPaper + "/v2.csv"}), 0.05);
 }
 TEST(HilRunTest, ForceTrackingV3LockstepCan) {
-  ExpectTracking(Hil({kScn + "force-v3.toml", "--table", Table(), "--excitation", kPaper + "/v3.csv"}),
-                 0.05);
+  ExpectTracking(
+      Hil({kScn + "force-v3.toml", "--table", Table(), "--excitation", kPaper + "/v3.csv"}), 0.05);
 }
 
 // Quarter car on an ISO 8608 class C road at 20 m/s: skyhook through the inverse of the paper
@@ -229,8 +229,10 @@ TEST(HilRunTest, CorruptTableIsRefused) {
 // cm/s and forces in 1 N steps, the Modbus registers in 1e-4 cm/s and 0.01 N).
 TEST(HilRunTest, LockstepOverModbusTcpAndRtuMatchesCan) {
   HilResult can = Hil({kScn + "force-periodic.toml", "--table", Table()});
-  HilResult tcp = Hil({kScn + "force-periodic.toml", "--table", Table(), "--transport", "modbus-tcp"});
-  HilResult rtu = Hil({kScn + "force-periodic.toml", "--table", Table(), "--transport", "modbus-rtu"});
+  HilResult tcp =
+      Hil({kScn + "force-periodic.toml", "--table", Table(), "--transport", "modbus-tcp"});
+  HilResult rtu =
+      Hil({kScn + "force-periodic.toml", "--table", Table(), "--transport", "modbus-rtu"});
   for (const HilResult* r : {&can, &tcp, &rtu}) {
     ASSERT_EQ(r->status, 0) << r->out << r->err;
     EXPECT_EQ(r->j["clock"], "lockstep");
@@ -271,8 +273,8 @@ TEST(HilRunTest, RegisterFaultsOverModbusRtuLockstep) {
       Hil({kScn + "faults-register.toml", "--table", Table(), "--transport", "modbus-rtu"}));
 }
 TEST(HilRunTest, KillPlantSideOverModbusTcpLockstep) {
-  const HilResult r = Hil({kScn + "fault-kill-plant.toml", "--table", Table(), "--transport",
-                           "modbus-tcp"});
+  const HilResult r =
+      Hil({kScn + "fault-kill-plant.toml", "--table", Table(), "--transport", "modbus-tcp"});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   EXPECT_EQ(r.j["invariant_violations"], 0);
   const json& f = r.j["faults"][0];
@@ -310,9 +312,10 @@ TEST(HilRunTest, RealTimeOverModbusRtuPty) {
 TEST(HilRunTest, FailingCriteriaExitOne) {
   const std::string dir = "/tmp/mrd-hil-fail-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
-  std::ofstream(dir + "/strict.toml") << "name = \"strict\"\ndescription = \"x\"\nduration_s = 0.5\n"
-                                         "[control]\nlaw = \"passive-off\"\n"
-                                         "[pass]\nmax_error_all = 0.05\n";
+  std::ofstream(dir + "/strict.toml")
+      << "name = \"strict\"\ndescription = \"x\"\nduration_s = 0.5\n"
+         "[control]\nlaw = \"passive-off\"\n"
+         "[pass]\nmax_error_all = 0.05\n";
   const HilResult r = Hil({dir + "/strict.toml", "--table", Table()});
   EXPECT_EQ(r.status, 1) << r.out << r.err;
   EXPECT_FALSE(r.j["pass"].get<bool>());
@@ -324,10 +327,11 @@ TEST(HilRunTest, FailingCriteriaExitOne) {
 TEST(HilRunTest, QuarterCarCriterionFailsForAPassiveCar) {
   const std::string dir = "/tmp/mrd-hil-qcfail-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
-  std::ofstream(dir + "/on.toml") << "name = \"on\"\ndescription = \"x\"\nduration_s = 3\n"
-                                     "[plant]\nmodel = \"quarter-car\"\n"
-                                     "[quarter_car]\nsettle_s = 1\n[control]\nlaw = \"passive-on\"\n"
-                                     "[pass]\nbody_accel_below_passive = true\n";
+  std::ofstream(dir + "/on.toml")
+      << "name = \"on\"\ndescription = \"x\"\nduration_s = 3\n"
+         "[plant]\nmodel = \"quarter-car\"\n"
+         "[quarter_car]\nsettle_s = 1\n[control]\nlaw = \"passive-on\"\n"
+         "[pass]\nbody_accel_below_passive = true\n";
   const HilResult r = Hil({dir + "/on.toml"});
   EXPECT_EQ(r.status, 1) << r.out << r.err;
   ASSERT_EQ(r.j["failures"].size(), 1U) << r.out;

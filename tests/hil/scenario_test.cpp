@@ -1,5 +1,7 @@
 // Issue 10: scenario files (TOML, FILE:LINE errors), CSV traces, and the firmware
 // configuration mrd-hil run generates (accepted by the firmware's own parser).
+#include "mrd/hil/scenario.hpp"
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -11,7 +13,6 @@
 #include "mrd/firmware/config.hpp"
 #include "mrd/hil/plant.hpp"
 #include "mrd/hil/run.hpp"
-#include "mrd/hil/scenario.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -116,15 +117,15 @@ TEST(ScenarioTest, BadInputNamesFileAndLine) {
     Scenario s;
     std::string error;
     EXPECT_FALSE(LoadScenario(path, &s, &error)) << c.text;
-    EXPECT_NE(error.find(path + c.line_and_reason), std::string::npos)
-        << c.text << " -> " << error;
+    EXPECT_NE(error.find(path + c.line_and_reason), std::string::npos) << c.text << " -> " << error;
   }
 }
 
 TEST(TraceTest, ReadsAGeneratedDataSetAndRefusesBadRows) {
   Trace t;
   std::string error;
-  ASSERT_TRUE(LoadTrace(Write("ok.csv", "t,x,v,E,f\n0,0,1,0,5\n0.001,0.1,2,0,6\n"), "f", &t, &error))
+  ASSERT_TRUE(
+      LoadTrace(Write("ok.csv", "t,x,v,E,f\n0,0,1,0,5\n0.001,0.1,2,0,6\n"), "f", &t, &error))
       << error;
   ASSERT_EQ(t.x.size(), 2U);
   EXPECT_DOUBLE_EQ(t.v[1], 2.0);

@@ -21,8 +21,8 @@ const std::string kSource = MRD_SOURCE_DIR;
 const std::string kTestDriver = kSource + "/tests/data/profiles/test-driver.toml";
 
 std::string RunDir(const char* tag) {
-  const std::string dir = "/tmp/mrd-serve-profile-" + std::string(tag) + "-" +
-                          std::to_string(getpid());
+  const std::string dir =
+      "/tmp/mrd-serve-profile-" + std::string(tag) + "-" + std::to_string(getpid());
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
@@ -40,8 +40,8 @@ TEST(ServeProfileTest, FirmwareAndHarnessCloseTheLoopInTheTestDriversMessages) {
                         << "\"\nprofile = \"" << kTestDriver
                         << "\"\ninputs = [\"velocity\", \"displacement\", \"demand\", \"force\"]\n"
                            "outputs = [\"command\", \"enable\", \"heartbeat\"]\n";
-  ChildProcess hil({kBin + "/mrd-hil", "serve", "--port", "can=" + socket, "--profile",
-                    kTestDriver, "--duration", "4", "--json"});
+  ChildProcess hil({kBin + "/mrd-hil", "serve", "--port", "can=" + socket, "--profile", kTestDriver,
+                    "--duration", "4", "--json"});
   ASSERT_TRUE(mrd::test::WaitForPath(socket, 10.0)) << hil.Stderr();
   ChildProcess fw({kBin + "/mrd-firmware", "--config", config, "--duration", "3", "--json"});
   ASSERT_EQ(fw.Wait(30.0), 0) << fw.Stdout() << fw.Stderr();
@@ -63,7 +63,8 @@ TEST(ServeProfileTest, FirmwareAndHarnessCloseTheLoopOnTheModbusFloat32Map) {
   const int port = 20000 + static_cast<int>(getpid() % 20000) + 3;
   const std::string config = dir + "/firmware.toml";
   std::ofstream(config) << "[control]\nlaw = \"force\"\n[safety]\nmax_age_ms = 20\n\n[modbus]\n"
-                           "host = \"127.0.0.1\"\nport = " << port << "\nprofile = \"" << profile
+                           "host = \"127.0.0.1\"\nport = "
+                        << port << "\nprofile = \"" << profile
                         << "\"\ninputs = [\"velocity\", \"displacement\", \"demand\"]\n"
                            "outputs = [\"command\", \"enable\", \"heartbeat\"]\n";
   ChildProcess hil({kBin + "/mrd-hil", "serve", "--port",
@@ -88,8 +89,8 @@ TEST(ServeProfileTest, ABadProfileIsRefusedWithFileAndLine) {
   std::ofstream(bad) << "name = \"bad\"\ndbc = \"" << kSource
                      << "/tests/data/profiles/test-driver.dbc\"\n[inputs]\n"
                         "velocity = \"NoSuchMessage.Speed\"\n";
-  ChildProcess hil({kBin + "/mrd-hil", "serve", "--port", "can=" + dir + "/bus.sock",
-                    "--profile", bad, "--duration", "1"});
+  ChildProcess hil({kBin + "/mrd-hil", "serve", "--port", "can=" + dir + "/bus.sock", "--profile",
+                    bad, "--duration", "1"});
   EXPECT_EQ(hil.Wait(30.0), 2);
   EXPECT_NE(hil.Stderr().find("bad.toml:4: inputs.velocity"), std::string::npos) << hil.Stderr();
   EXPECT_FALSE(std::filesystem::exists(dir + "/bus.sock"));

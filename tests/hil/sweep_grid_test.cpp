@@ -22,10 +22,11 @@ TEST(ScenarioSet, OverridesChangeTheScenario) {
   Scenario plain, set;
   std::string error;
   ASSERT_TRUE(LoadScenario(kSkyhook, &plain, &error)) << error;
-  ASSERT_TRUE(LoadScenario(kSkyhook,
-                           {"duration_s=5", "control.skyhook_gain=40", "pass.max_error_reachable=0.2",
-                            "road.class=D", "quarter_car.settle_s=1.5"},
-                           &set, &error))
+  ASSERT_TRUE(
+      LoadScenario(kSkyhook,
+                   {"duration_s=5", "control.skyhook_gain=40", "pass.max_error_reachable=0.2",
+                    "road.class=D", "quarter_car.settle_s=1.5"},
+                   &set, &error))
       << error;
   EXPECT_DOUBLE_EQ(plain.duration_s, 25.0);
   EXPECT_DOUBLE_EQ(plain.skyhook_gain, 60.0);
@@ -37,8 +38,8 @@ TEST(ScenarioSet, OverridesChangeTheScenario) {
   EXPECT_DOUBLE_EQ(set.ride_settle_s, 1.5);
   EXPECT_EQ(set.car.sprung_mass_kg, plain.car.sprung_mass_kg);  // the rest as in the file
   // A bare word is a string; a quoted one too; the last --set of a key wins.
-  ASSERT_TRUE(LoadScenario(kSkyhook, {"control.law=passive-on", "name=\"x y\"", "name=z"}, &set,
-                           &error))
+  ASSERT_TRUE(
+      LoadScenario(kSkyhook, {"control.law=passive-on", "name=\"x y\"", "name=z"}, &set, &error))
       << error;
   EXPECT_EQ(set.law, "passive-on");
   EXPECT_EQ(set.name, "z");
@@ -49,7 +50,8 @@ TEST(ScenarioSet, BadOverridesAreRefusedNamingThem) {
     std::string set, why;
   };
   const std::vector<Case> cases = {
-      {"control.skyhook_gain=abc", "--set control.skyhook_gain=abc: 'skyhook_gain' must be a number"},
+      {"control.skyhook_gain=abc",
+       "--set control.skyhook_gain=abc: 'skyhook_gain' must be a number"},
       {"control.skyhook_gain=-1", "--set control.skyhook_gain=-1: 'skyhook_gain' must be a number"},
       {"control.gain=1", "--set control.gain=1: unknown key 'gain' in [control]"},
       {"nosuch.key=1", "--set nosuch.key=1: unknown key 'nosuch'"},

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/host/sem.hpp"
 #include "mrd/host/candidate_spec.hpp"
+#include "mrd/host/sem.hpp"
 #include "sem/estimate/evaluator.hpp"
 #include "sem/internal.hpp"
 #include "sem_test_util.hpp"

@@ -18,14 +18,16 @@ void ExpectError(const std::string& path, const std::vector<std::string>& fragme
     ReadCsv(path, kDamper);
     FAIL() << "no error for " << path;
   } catch (const InputError& e) {
-    for (const auto& f : fragments) EXPECT_NE(std::string(e.what()).find(f), std::string::npos)
-        << "'" << e.what() << "' lacks '" << f << "'";
+    for (const auto& f : fragments)
+      EXPECT_NE(std::string(e.what()).find(f), std::string::npos)
+          << "'" << e.what() << "' lacks '" << f << "'";
   }
 }
 
 TEST(CsvTest, ReadsValidFileWithExtraColumn) {
   test::TempDir dir;
-  const auto p = dir.Write("ok.csv", "t,x,v,E,f,extra\n0,1,2,3,4,5\n0.001,1,2,3,4,5\n0.002,1,2,3,4,5\n");
+  const auto p =
+      dir.Write("ok.csv", "t,x,v,E,f,extra\n0,1,2,3,4,5\n0.001,1,2,3,4,5\n0.002,1,2,3,4,5\n");
   const DataSet ds = ReadCsv(p, kDamper);
   EXPECT_EQ(ds.rows(), 3u);
   EXPECT_NEAR(ds.dt, 1e-3, 1e-15);
@@ -57,9 +59,12 @@ TEST(CsvTest, NonNumericValueNamesLineAndColumn) {
 
 TEST(CsvTest, NonFiniteValueIsAnError) {
   test::TempDir dir;
-  ExpectError(dir.Write("i.csv", "t,x,v,E,f\n0,1,2,3,4\n0.001,1,2,inf,4\n"), {"i.csv:3", "non-finite"});
-  ExpectError(dir.Write("j.csv", "t,x,v,E,f\n0,nan,2,3,4\n0.001,1,2,3,4\n"), {"j.csv:2", "non-finite"});
-  ExpectError(dir.Write("k.csv", "t,x,v,E,f\n0,1e999,2,3,4\n0.001,1,2,3,4\n"), {"k.csv:2", "non-finite"});
+  ExpectError(dir.Write("i.csv", "t,x,v,E,f\n0,1,2,3,4\n0.001,1,2,inf,4\n"),
+              {"i.csv:3", "non-finite"});
+  ExpectError(dir.Write("j.csv", "t,x,v,E,f\n0,nan,2,3,4\n0.001,1,2,3,4\n"),
+              {"j.csv:2", "non-finite"});
+  ExpectError(dir.Write("k.csv", "t,x,v,E,f\n0,1e999,2,3,4\n0.001,1,2,3,4\n"),
+              {"k.csv:2", "non-finite"});
 }
 
 TEST(CsvTest, WrongFieldCountIsAnError) {

@@ -1,14 +1,15 @@
 // `mrd identify` without --spec: the built-in copy of host/specs/paper-saturating.toml
 // (host/include/mrd/host/default_spec.hpp), and --help says so.
+#include "mrd/host/default_spec.hpp"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <string>
 
-#include "mrd/host/csv.hpp"
-#include "mrd/host/default_spec.hpp"
-#include "mrd/host/model_file.hpp"
 #include "mrd/host/candidate_spec.hpp"
+#include "mrd/host/csv.hpp"
+#include "mrd/host/model_file.hpp"
 #include "sem_test_util.hpp"
 #include "test_util.hpp"
 
@@ -37,7 +38,8 @@ TEST(DefaultSpecTest, HelpNamesTheDefault) {
   EXPECT_NE(r.output.find("default: the built-in", at), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("paper-saturating.toml", at), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("REQUIRED", at), r.output.find("REQUIRED", r.output.find("--out")))
-      << "--spec must not be required:\n" << r.output;
+      << "--spec must not be required:\n"
+      << r.output;
 }
 
 // Identified without --spec from another working directory (nothing of the source tree at

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/host/sem.hpp"
 #include "mrd/host/candidate_spec.hpp"
+#include "mrd/host/sem.hpp"
 #include "sem_test_util.hpp"
 
 namespace mrd::host {

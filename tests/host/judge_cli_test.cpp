@@ -40,10 +40,10 @@ std::unique_ptr<test::TempDir> JudgeCliTest::dir_;
 
 TEST_F(JudgeCliTest, CompareTableOfTwoModelsOnTwoFiles) {
   const test::TempDir out;
-  const auto r = MrdStdout("compare --model " + File("exact.json") + "," + File("off.json") +
-                               " --data " + File("in1.csv") + " --data " + File("in2.csv") +
-                               " --json",
-                           out.File("err.txt"));
+  const auto r =
+      MrdStdout("compare --model " + File("exact.json") + "," + File("off.json") + " --data " +
+                    File("in1.csv") + " --data " + File("in2.csv") + " --json",
+                out.File("err.txt"));
   ASSERT_EQ(r.status, 0) << r.output << test::FileBytes(out.File("err.txt"));
   const auto j = nlohmann::json::parse(r.output);
   ASSERT_EQ(j["rows"].size(), 4u);
@@ -79,7 +79,8 @@ TEST_F(JudgeCliTest, CompareTableOfTwoModelsOnTwoFiles) {
   ASSERT_EQ(t.status, 0) << t.output;
   EXPECT_NE(t.output.find("fit %"), std::string::npos) << t.output;
   EXPECT_NE(t.output.find("J weighting"), std::string::npos) << t.output;
-  const std::regex row(R"(off\.json\s+\S+in2\.csv\s+[-0-9.]+\s+[0-9.e+]+ N\s+[0-9.]+\s+\S+\s+rel, floor 0\.1\s+3\s+no\s+-)");
+  const std::regex row(
+      R"(off\.json\s+\S+in2\.csv\s+[-0-9.]+\s+[0-9.e+]+ N\s+[0-9.]+\s+\S+\s+rel, floor 0\.1\s+3\s+no\s+-)");
   EXPECT_TRUE(std::regex_search(t.output, row)) << t.output;
 }
 
@@ -87,8 +88,8 @@ TEST_F(JudgeCliTest, CompareWritesTableAndOverlayPlots) {
   if (!GnuplotAvailable()) GTEST_SKIP() << "gnuplot not installed";
   const test::TempDir out;
   const auto dir = out.File("cmp");
-  const auto r = Mrd("compare --model " + File("exact.json") + "," + File("off.json") +
-                     " --data " + File("in1.csv") + "," + File("wide.csv") + " --out " + dir);
+  const auto r = Mrd("compare --model " + File("exact.json") + "," + File("off.json") + " --data " +
+                     File("in1.csv") + "," + File("wide.csv") + " --out " + dir);
   ASSERT_EQ(r.status, 0) << r.output;
   for (const char* name : {"in1_compare.png", "wide_compare.png", "compare.txt", "compare.json"}) {
     EXPECT_TRUE(fs::is_regular_file(dir + "/" + name)) << name;
@@ -124,8 +125,8 @@ TEST_F(JudgeCliTest, RangeWarningFiresOutsideTheEnvelopeOnly) {
   }
   // In --json too.
   const test::TempDir tmp;
-  const auto j = MrdStdout("simulate --json" + model + " --data " + File("wide.csv"),
-                           tmp.File("err.txt"));
+  const auto j =
+      MrdStdout("simulate --json" + model + " --data " + File("wide.csv"), tmp.File("err.txt"));
   ASSERT_EQ(j.status, 0);
   const auto sj = nlohmann::json::parse(j.output);
   EXPECT_TRUE(sj["outside_envelope"].get<bool>());
@@ -134,8 +135,8 @@ TEST_F(JudgeCliTest, RangeWarningFiresOutsideTheEnvelopeOnly) {
   EXPECT_EQ(sj["envelope"]["E"]["outside"].get<int>(), 0);
   EXPECT_NE(test::FileBytes(tmp.File("err.txt")).find("warning: "), std::string::npos);
   if (GnuplotAvailable()) {  // report: on stderr and in the summary
-    const auto r = Mrd("report" + model + " --data " + File("wide.csv") + " --out " +
-                       tmp.File("rep"));
+    const auto r =
+        Mrd("report" + model + " --data " + File("wide.csv") + " --out " + tmp.File("rep"));
     ASSERT_EQ(r.status, 0) << r.output;
     const std::string summary = test::FileBytes(tmp.File("rep/summary.txt"));
     EXPECT_TRUE(std::regex_search(summary, warn)) << summary;
@@ -147,9 +148,9 @@ TEST_F(JudgeCliTest, RangeWarningFiresOutsideTheEnvelopeOnly) {
 
 TEST_F(JudgeCliTest, ResidListsLagsOutsideTheBand) {
   const test::TempDir tmp;
-  const auto r = MrdStdout("resid --json --max-lag 10 --model " + File("exact.json") +
-                               " --data " + File("in1.csv"),
-                           tmp.File("err.txt"));
+  const auto r = MrdStdout(
+      "resid --json --max-lag 10 --model " + File("exact.json") + " --data " + File("in1.csv"),
+      tmp.File("err.txt"));
   ASSERT_EQ(r.status, 0) << r.output << test::FileBytes(tmp.File("err.txt"));
   const auto j = nlohmann::json::parse(r.output);
   EXPECT_EQ(j["samples"].get<int>(), 7999);
@@ -191,7 +192,8 @@ TEST_F(JudgeCliTest, BadInputsAreRefusedNamingFileAndReason) {
       {"compare" + models + badjson + " --data " + File("in1.csv") + out, badjson},
       {"compare" + models + File("off.json") + " --data " + File("in1.csv") + "," + bad + out,
        bad + ":3: "},
-      {"compare" + models + File("off.json") + " --data " + nof + out, nof + ":1: missing column 'f'"},
+      {"compare" + models + File("off.json") + " --data " + nof + out,
+       nof + ":1: missing column 'f'"},
       {"compare" + models + File("off.json") + " --data " + tmp.File("none.csv") + out,
        tmp.File("none.csv")},
       {"compare" + models + File("off.json") + " --data " + File("in1.csv") + " --out " + bad,

@@ -59,8 +59,8 @@ inline void WriteArxModel(const std::string& path, double a, double b, double c,
 // [0, 2.25] V and v = v_peak sin(2 pi 1.3 t) + random part; equation noise of standard
 // deviation noise (normalised) enters f(k) (so the one-step residual of the exact model is
 // white). rows at 1 ms.
-inline void WriteArxData(const std::string& path, double v_peak, double noise,
-                         std::uint64_t seed, std::size_t rows = 8000) {
+inline void WriteArxData(const std::string& path, double v_peak, double noise, std::uint64_t seed,
+                         std::size_t rows = 8000) {
   Gauss g(seed);
   std::vector<double> t(rows), x(rows), v(rows), E(rows), f(rows);
   double fn = 0.0;

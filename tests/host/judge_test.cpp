@@ -117,7 +117,8 @@ TEST(EnvelopeCheckTest, CountsSamplesOutsideAndTheLargestExcursion) {
   EXPECT_EQ(j["v"]["outside"].get<int>(), 2);
   EXPECT_EQ(j["v"]["unit"].get<std::string>(), "cm/s");
   // Inside: no warning.
-  DataSet in = test::MakeDataSet("in.csv", {"v", "E", "f"}, {{0, 15, -15}, {0, 2.25, 1}, {0, 0, 0}});
+  DataSet in =
+      test::MakeDataSet("in.csv", {"v", "E", "f"}, {{0, 15, -15}, {0, 2.25, 1}, {0, 0, 0}});
   EXPECT_FALSE(AnyOutside(CheckEnvelope(mf, in)));
   EXPECT_TRUE(EnvelopeWarnings("m.json", "in.csv", CheckEnvelope(mf, in)).empty());
 }
@@ -130,8 +131,7 @@ TEST(ModelJudgeTest, UnitsAndWeightingNames) {
   test::TempDir dir;
   test::WriteArxModel(dir.File("m.json"), 0.9, 0.05, 0.08);
   test::WriteArxModel(dir.File("r.json"), 0.9, 0.05, 0.08, true);
-  EXPECT_EQ(CostWeightingName(LoadModelFile(dir.File("m.json"))),
-            "unweighted MSE of normalised f");
+  EXPECT_EQ(CostWeightingName(LoadModelFile(dir.File("m.json"))), "unweighted MSE of normalised f");
   EXPECT_EQ(CostWeightingShort(LoadModelFile(dir.File("r.json"))), "rel, floor 0.1");
   EXPECT_EQ(CostWeightingName(LoadModelFile(dir.File("r.json"))),
             "relative weighting 1/max(|f_n|, 0.1) of normalised f");

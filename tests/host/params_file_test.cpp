@@ -28,8 +28,12 @@ void ExpectError(const std::string& text, const std::string& fragment) {
   }
 }
 
-TEST(ParamsFileTest, UnknownKeyIsAnError) { ExpectError("c0a = 1\nbogus = 2\n", "bad.toml:2: unknown key 'bogus'"); }
-TEST(ParamsFileTest, NonNumberIsAnError) { ExpectError("eta = \"fast\"\n", "'eta' must be a number"); }
+TEST(ParamsFileTest, UnknownKeyIsAnError) {
+  ExpectError("c0a = 1\nbogus = 2\n", "bad.toml:2: unknown key 'bogus'");
+}
+TEST(ParamsFileTest, NonNumberIsAnError) {
+  ExpectError("eta = \"fast\"\n", "'eta' must be a number");
+}
 TEST(ParamsFileTest, NegativeEtaIsAnError) { ExpectError("eta = -3\n", "invalid parameter 'eta'"); }
 TEST(ParamsFileTest, SyntaxErrorNamesLine) { ExpectError("eta = 1\nc0a = = 2\n", "bad.toml:2"); }
 TEST(ParamsFileTest, UnknownPresetIsAnError) { ExpectError("preset = \"x\"\n", "unknown preset"); }

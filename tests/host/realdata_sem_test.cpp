@@ -4,9 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "simulate_json.hpp"
 #include "test_util.hpp"
@@ -21,14 +20,14 @@ TEST(RealDataSemTest, NeesSpecFitsHeldOutSegment) {
                     held = dir.File("held.csv"), model = dir.File("nees.json");
   auto ok = [](const CommandResult& r) { ASSERT_EQ(r.status, 0) << r.output; };
   ok(test::Run(Bin("mrd") + " import --in " + kNeesFile +
-         " --map t=t,x=D,v=V,E=Y,f=F --rate 1000 --out " + all));
+               " --map t=t,x=D,v=V,E=Y,f=F --rate 1000 --out " + all));
   // Identification 0 ... 14 s; held out 14 ... 19.5 s. The last 0.5 s (the rig on its end
   // stop: x pinned at 1.08 cm, |v| to 78 cm/s, f to 4.6 kN) is outside the damper's operating
   // range and in neither segment.
   ok(test::Run(Bin("mrd") + " slice --in " + all + " --from 0 --to 14 --out " + id));
   ok(test::Run(Bin("mrd") + " slice --in " + all + " --from 14 --to 19.5 --out " + held));
   ok(test::Run(Bin("mrd") + " identify --data " + id + " --spec " + MRD_SOURCE_DIR +
-         "/host/specs/nees.toml --threads 2 --out " + model));
+               "/host/specs/nees.toml --threads 2 --out " + model));
 
   const auto h = SimulateJson(model, held);
   ASSERT_FALSE(h["diverged"].get<bool>());
@@ -42,8 +41,9 @@ TEST(RealDataSemTest, NeesSpecFitsHeldOutSegment) {
   // The identified model (low-pass command regressor) is accepted by the table exporter,
   // which applies the firmware's checks (inverter included).
   ok(test::Run(Bin("mrd") + " export --model " + model + " --table " + dir.File("nees.bin") +
-         " --header " + dir.File("nees.hpp")));
-  ok(test::Run(Bin("mrd-firmware") + " --table " + dir.File("nees.bin") + " --dry-run 0.5 --lockstep"));
+               " --header " + dir.File("nees.hpp")));
+  ok(test::Run(Bin("mrd-firmware") + " --table " + dir.File("nees.bin") +
+               " --dry-run 0.5 --lockstep"));
 }
 
 }  // namespace

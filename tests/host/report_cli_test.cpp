@@ -209,8 +209,10 @@ TEST_F(ReportCliTest, IterationFlagReportsThatIteration) {
   const auto s = test::Run(test::Bin("mrd") + " simulate --json --iteration 1 --model " +
                            File("model.json") + " --data " + File("v1.csv"));
   ASSERT_EQ(s.status, 0) << s.output;
-  EXPECT_NEAR(ParseFigures(summary, File("v1.csv")).fit,
-              nlohmann::json::parse(s.output.substr(s.output.find('{')))["fit_percent"].get<double>(), 5.0001e-4);
+  EXPECT_NEAR(
+      ParseFigures(summary, File("v1.csv")).fit,
+      nlohmann::json::parse(s.output.substr(s.output.find('{')))["fit_percent"].get<double>(),
+      5.0001e-4);
 }
 
 TEST_F(ReportCliTest, DivergingIterationIsAGapNotACrash) {

@@ -7,11 +7,11 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/profiles.hpp"
 #include "mrd/host/sem.hpp"
-#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/sem_stress.hpp"
 #include "mrd/host/table_export.hpp"
 #include "sem_test_util.hpp"

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-
 #include <nlohmann/json.hpp>
 
 #include "mrd/host/csv.hpp"
@@ -84,8 +83,8 @@ TEST(SemCliTest, SimulatePrintsMetrics) {
   const auto id = WriteToyData(dir, "id.csv", 1);
   const auto spec = dir.Write("toy.toml", kToySpec);
   const auto model = dir.File("m.json");
-  ASSERT_EQ(test::Run(test::Bin("mrd") + " identify --data " + id + " --spec " + spec +
-                      " --out " + model + " --max-iterations 1")
+  ASSERT_EQ(test::Run(test::Bin("mrd") + " identify --data " + id + " --spec " + spec + " --out " +
+                      model + " --max-iterations 1")
                 .status,
             0);
   const auto s = test::Run(test::Bin("mrd") + " simulate --model " + model + " --data " + id +

@@ -4,10 +4,10 @@
 
 #include <cmath>
 
+#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
-#include "mrd/host/candidate_spec.hpp"
 #include "sem_test_util.hpp"
 
 namespace mrd::host {

@@ -13,8 +13,8 @@ namespace {
 host::SemResult IdentifyLinear2(const std::string& algorithm, int max_iterations) {
   const host::SemSpec spec =
       host::ParseSemSpec(std::string(kRecoverySpec) + "[algorithm]\n" + algorithm, "x.toml");
-  const std::vector<host::DataSet> id{SuiteData(RecoverySystemNamed("linear2"),
-                                                Noise::kEquation, 1000, 1)};
+  const std::vector<host::DataSet> id{
+      SuiteData(RecoverySystemNamed("linear2"), Noise::kEquation, 1000, 1)};
   host::SemOptions o;
   o.threads = 1;
   o.max_iterations = max_iterations;

@@ -6,10 +6,10 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem_family.hpp"
-#include "mrd/host/candidate_spec.hpp"
 #include "test_util.hpp"
 
 namespace mrd::host {

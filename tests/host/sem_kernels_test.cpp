@@ -1,14 +1,14 @@
-// The SEM engine's vectorised kernels (host/src/sem/engine/kernels.hpp) against the scalar reference
-// loops they replace: every result bit for bit equal, for every lane count, term count, y
+// The SEM engine's vectorised kernels (host/src/sem/engine/kernels.hpp) against the scalar
+// reference loops they replace: every result bit for bit equal, for every lane count, term count, y
 // power count, factor count and tail length (issue 15, speed).
-#include "sem/engine/kernels.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 #include <random>
 #include <vector>
+
+#include "sem/engine/kernels.hpp"
 
 namespace mrd::host::internal {
 namespace {

@@ -1,13 +1,13 @@
-// Pruning step of the SEM search (Search::BestDrop, host/src/sem/search/prune.cpp): the parallel runs
-// of the reduced models under a shared early-stop bound pick the same term, J and coefficients
+// Pruning step of the SEM search (Search::BestDrop, host/src/sem/search/prune.cpp): the parallel
+// runs of the reduced models under a shared early-stop bound pick the same term, J and coefficients
 // as running every reduced model to the end, for 1 and 2 threads and any bound.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
 
-#include "mrd/host/sem.hpp"
 #include "mrd/host/candidate_spec.hpp"
+#include "mrd/host/sem.hpp"
 #include "sem/engine/engine.hpp"
 #include "sem/search/search.hpp"
 #include "sem_test_util.hpp"

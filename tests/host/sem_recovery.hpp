@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/host/sem.hpp"
 #include "mrd/host/candidate_spec.hpp"
+#include "mrd/host/sem.hpp"
 #include "sem_test_util.hpp"
 
 namespace mrd::test {
@@ -60,7 +60,7 @@ struct RecoverySystem {
   Input input = Input::kUniform;
   double amplitude = 1.0;
   std::function<double(double, double, double, double)> coloured;  // empty: white only
-  std::vector<Noise> noises{Noise::kEquation, Noise::kOutput};    // cases of the table tool
+  std::vector<Noise> noises{Noise::kEquation, Noise::kOutput};     // cases of the table tool
 };
 
 inline const char* NoiseName(Noise n) {
@@ -150,8 +150,7 @@ inline std::vector<RecoverySystem> RecoverySystems() {
       // realisation (about 7 % of records of 700 samples diverge): RecoveryData redraws.
       {"metamss_s3",
        [](double y1, double y2, double u1, double u2) {
-         return 0.2 * y1 * y1 * y1 + 0.7 * y1 * u1 + 0.6 * u2 * u2 - 0.7 * y2 * u2 * u2 -
-                0.5 * y2;
+         return 0.2 * y1 * y1 * y1 + 0.7 * y1 * u1 + 0.6 * u2 * u2 - 0.7 * y2 * u2 * u2 - 0.5 * y2;
        },
        {"y(k-1)^3", "y(k-1)*u(k-1)", "u(k-2)^2", "y(k-2)*u(k-2)^2", "y(k-2)"},
        0.01,
@@ -276,8 +275,8 @@ struct RecoveryCount {
 
 // Identifies every seed 1 ... seeds with the default settings (options: threads only) and no
 // validation data; counts exact recoveries of the selected model.
-inline RecoveryCount CountRecovered(const RecoverySystem& s, Noise noise, std::size_t n,
-                                    int seeds, const host::SemOptions& options = {},
+inline RecoveryCount CountRecovered(const RecoverySystem& s, Noise noise, std::size_t n, int seeds,
+                                    const host::SemOptions& options = {},
                                     const std::string& spec_text = kRecoverySpec) {
   const host::SemSpec spec = host::ParseSemSpec(spec_text, "recovery.toml");
   RecoveryCount out;

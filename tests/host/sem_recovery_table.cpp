@@ -24,8 +24,8 @@ namespace {
 // so no rule that compares models of equal size by likelihood (any penalty on the number of
 // terms: AIC, BIC, ...) selects the truth in a seed the oracle misses. Prints the count and,
 // before it, per missed seed, the winner and the relative margin of the truth.
-void Oracle(const mrd::test::RecoverySystem& sys, mrd::test::Noise noise, std::size_t n,
-            int seeds, const std::string& spec_text) {
+void Oracle(const mrd::test::RecoverySystem& sys, mrd::test::Noise noise, std::size_t n, int seeds,
+            const std::string& spec_text) {
   const mrd::host::SemSpec spec = mrd::host::ParseSemSpec(spec_text, "recovery.toml");
   const std::vector<mrd::host::SemTerm> cands = mrd::host::GenerateCandidates(spec);
   const std::size_t nc = cands.size(), size = sys.terms.size();
@@ -108,8 +108,8 @@ void Trace(const mrd::test::RecoverySystem& s, mrd::test::Noise noise, std::size
   for (const auto& it : r.iterations) {
     double cv = 0.0;
     for (double v : it.cv_j) cv += v;
-    std::printf("%s%2d J %.6g CV %.6g:", it.iteration == r.selected ? "*" : " ", it.iteration,
-                it.j, cv);
+    std::printf("%s%2d J %.6g CV %.6g:", it.iteration == r.selected ? "*" : " ", it.iteration, it.j,
+                cv);
     for (const auto& t : it.terms) std::printf(" %s", mrd::host::TermName(sp, t).c_str());
     std::printf("\n");
   }
@@ -162,9 +162,10 @@ int main(int argc, char** argv) try {
       }
       return 0;
     } else {
-      std::fprintf(stderr, "usage: sem_recovery [--seeds N] [--strategy best|first] "
-                           "[--threads N] [--before] [--misses] [--trace SYSTEM EE|OE|MA N SEED] "
-                           "[--case SYSTEM EE|OE|MA N] [--oracle SYSTEM EE|OE|MA N]\n");
+      std::fprintf(stderr,
+                   "usage: sem_recovery [--seeds N] [--strategy best|first] "
+                   "[--threads N] [--before] [--misses] [--trace SYSTEM EE|OE|MA N SEED] "
+                   "[--case SYSTEM EE|OE|MA N] [--oracle SYSTEM EE|OE|MA N]\n");
       return 2;
     }
   }
@@ -173,9 +174,8 @@ int main(int argc, char** argv) try {
     for (const auto noise : s.noises) {
       const auto a = mrd::test::CountRecovered(s, noise, 1000, seeds, o, spec);
       const auto b = mrd::test::CountRecovered(s, noise, 500, seeds, o, spec);
-      std::printf("%-10s %-6s %3d/%-2d %3d/%-2d\n", s.name.c_str(),
-                  mrd::test::NoiseName(noise), a.hits, a.seeds, b.hits,
-                  b.seeds);
+      std::printf("%-10s %-6s %3d/%-2d %3d/%-2d\n", s.name.c_str(), mrd::test::NoiseName(noise),
+                  a.hits, a.seeds, b.hits, b.seeds);
       if (misses) std::printf("%s%s", a.misses.c_str(), b.misses.c_str());
       std::fflush(stdout);
     }

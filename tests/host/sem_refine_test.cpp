@@ -1,6 +1,6 @@
-// The output-error refinement's free-run sensitivities (host/src/sem/estimate/evaluator.hpp) against
-// central differences of the free run, through every output transform the spec offers, powers
-// and products of delayed outputs (issue 15: the refinement's Jacobian is analytic).
+// The output-error refinement's free-run sensitivities (host/src/sem/estimate/evaluator.hpp)
+// against central differences of the free run, through every output transform the spec offers,
+// powers and products of delayed outputs (issue 15: the refinement's Jacobian is analytic).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -84,8 +84,8 @@ TEST(SemRefineTest, SensitivitiesEqualCentralDifferencesOfTheFreeRun) {
   const DataSet d = Damped(400);
   const Evaluator ev(spec, ch, d);
   std::vector<SemTerm> terms;
-  const std::vector<std::string> names = {"y(k-1)", "ya(k-2)",  "yt(k-1)*u(k-1)", "yc(k-3)",
-                                          "y(k-1)^2*y(k-2)", "u(k-1)", "u(k-2)^2", "1"};
+  const std::vector<std::string> names = {"y(k-1)",          "ya(k-2)", "yt(k-1)*u(k-1)", "yc(k-3)",
+                                          "y(k-1)^2*y(k-2)", "u(k-1)",  "u(k-2)^2",       "1"};
   for (const std::string& t : names) terms.push_back(ParseTerm(spec, t));
   Eigen::VectorXd theta(8);
   theta << 0.45, -0.1, 0.15, -0.05, 0.03, 0.6, 0.1, 0.01;
@@ -116,14 +116,17 @@ TEST(SemRefineTest, SensitivitiesEqualCentralDifferencesOfTheFreeRun) {
       scale = std::max(scale, std::fabs(fd));
     }
   }
-  EXPECT_GT(scale, 0.1);               // the output feedback made the columns non-trivial
+  EXPECT_GT(scale, 0.1);  // the output feedback made the columns non-trivial
   EXPECT_LT(worst, 1e-6 * scale) << "largest |analytic - central difference| " << worst;
 }
 
 TEST(SemRefineTest, TransformSlopesMatchTheirTransforms) {
-  for (const auto& [t, e] : std::vector<std::pair<Transform, double>>{
-           {Transform::kIdentity, 1.0}, {Transform::kAbsPow, 1.5}, {Transform::kAbsPow, 0.5},
-           {Transform::kTanh, 0.7}, {Transform::kClip, 0.9}, {Transform::kSign, 1.0}}) {
+  for (const auto& [t, e] : std::vector<std::pair<Transform, double>>{{Transform::kIdentity, 1.0},
+                                                                      {Transform::kAbsPow, 1.5},
+                                                                      {Transform::kAbsPow, 0.5},
+                                                                      {Transform::kTanh, 0.7},
+                                                                      {Transform::kClip, 0.9},
+                                                                      {Transform::kSign, 1.0}}) {
     for (double s : {-1.3, -0.4, 0.2, 0.8, 1.6}) {
       const double h = 1e-6;
       const double fd = (ApplyTransform(t, e, s + h) - ApplyTransform(t, e, s - h)) / (2 * h);
@@ -169,9 +172,9 @@ TEST(SemRefineTest, RefinementEndsAtAStationaryPointOfTheFreeRunCost) {
   Evaluator::Scratch scratch;
   std::vector<double> e;
   const Record& rec = ev[0].record();
-  const double j0 = ev[0].FreeRun(ev[0].Prepare(terms),
-                                  Eigen::Map<const Eigen::VectorXd>(theta.data(), 5), rec.first,
-                                  rec.y.size(), scratch, &e);
+  const double j0 =
+      ev[0].FreeRun(ev[0].Prepare(terms), Eigen::Map<const Eigen::VectorXd>(theta.data(), 5),
+                    rec.first, rec.y.size(), scratch, &e);
   Jacobian jac;
   Eigen::VectorXd r;
   const double j = RefineFreeRun(ev, terms, &theta, &jac, &r);

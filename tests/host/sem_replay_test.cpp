@@ -1,7 +1,7 @@
 // The SEM engine's speed work must not change a result: prepared reference runs
-// (host/src/sem/estimate/replay.hpp) against the per-sample evaluation they replace, bit for bit, and the
-// fast free run of a batch of candidate jobs independent of the jobs' order (the search sorts a
-// sweep's jobs by their columns). Label sem.
+// (host/src/sem/estimate/replay.hpp) against the per-sample evaluation they replace, bit for bit,
+// and the fast free run of a batch of candidate jobs independent of the jobs' order (the search
+// sorts a sweep's jobs by their columns). Label sem.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,12 +12,12 @@
 #include <string>
 #include <vector>
 
-#include "mrd/host/sem.hpp"
 #include "mrd/host/candidate_spec.hpp"
+#include "mrd/host/sem.hpp"
 #include "mrd/host/sem_stress.hpp"
 #include "sem/engine/engine.hpp"
-#include "sem/internal.hpp"
 #include "sem/estimate/replay.hpp"
+#include "sem/internal.hpp"
 #include "sem_test_util.hpp"
 
 namespace mrd::host {

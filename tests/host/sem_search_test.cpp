@@ -123,8 +123,7 @@ TEST(SemSearchTest, RefinementNeverMakesAValidationSetWorse) {
   o.threads = 2;
   // One start, so that both runs keep the same search path (the refinement does not steer it).
   const SemResult with = Identify(Spec("one_step_start = false\n"), id, val, o);
-  const SemResult without =
-      Identify(Spec("one_step_start = false\nrefine = false\n"), id, val, o);
+  const SemResult without = Identify(Spec("one_step_start = false\nrefine = false\n"), id, val, o);
   ASSERT_EQ(with.iterations.size(), without.iterations.size());
   int refined = 0;
   for (std::size_t i = 0; i < with.iterations.size(); ++i) {

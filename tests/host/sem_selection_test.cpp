@@ -10,10 +10,10 @@
 #include <string>
 #include <vector>
 
+#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
-#include "mrd/host/candidate_spec.hpp"
 #include "sem_recovery.hpp"
 #include "test_util.hpp"
 
@@ -82,9 +82,10 @@ TEST(SemSpecDocTest, DocumentedExampleParsesAsWritten) {
   EXPECT_DOUBLE_EQ(s.selection_tolerance_percent, 5.0);
   EXPECT_EQ(s.initial.size(), 2u);
   // The documented values are the built-in defaults.
-  const SemSpec d = ParseSemSpec("output = \"f\"\n[[regressor]]\nname = \"y\"\nsignal = \"f\"\n"
-                                 "powers = [1]\ndelays = [1]\n",
-                                 "min.toml");
+  const SemSpec d = ParseSemSpec(
+      "output = \"f\"\n[[regressor]]\nname = \"y\"\nsignal = \"f\"\n"
+      "powers = [1]\ndelays = [1]\n",
+      "min.toml");
   EXPECT_EQ(d.strategy, s.strategy);
   EXPECT_EQ(d.selection, s.selection);
   EXPECT_EQ(d.threshold_percent, s.threshold_percent);
@@ -104,8 +105,7 @@ TEST(SemSpecDocTest, UnknownSelectionIsRefusedWithItsLine) {
     ParseSemSpec(bad, "x.toml");
     FAIL() << "accepted selection = \"aic\"";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("unknown selection 'aic'"), std::string::npos)
-        << e.what();
+    EXPECT_NE(std::string(e.what()).find("unknown selection 'aic'"), std::string::npos) << e.what();
   }
 }
 
@@ -139,8 +139,7 @@ SemIteration It(int iteration, std::size_t terms) {
 TEST(SemSelectionTest, BicOnCrossValidatedCostTradesTermsForCost) {
   const std::vector<SemIteration> its{It(0, 0), It(1, 1), It(2, 2), It(3, 3)};
   // Fold costs: a large drop with the 2nd term, then 1 % with the 3rd.
-  const std::vector<std::vector<double>> cv{
-      {1.0, 1.0}, {0.5, 0.5}, {0.1, 0.1}, {0.099, 0.099}};
+  const std::vector<std::vector<double>> cv{{1.0, 1.0}, {0.5, 0.5}, {0.1, 0.1}, {0.099, 0.099}};
   // 4 candidates, N = 100: the 3rd term must lower CV J by more than about
   // (ln(100) + 2 ln(4/6)) / 100 = 3.8 %.
   EXPECT_EQ(SelectByCrossValidation(its, cv, 100.0, 4.0), 2);
@@ -275,9 +274,8 @@ TEST(SemSelectionTest, PickedStructureExchangesATermWhileTheScoreFalls) {
   const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
   const SemResult a = Identify(spec, oe, {}, SemOptions{});
   EXPECT_EQ(test::SelectedTerms(spec, a), sys.terms);
-  EXPECT_NE(
-      a.selection_rule.find(MovedPickRule(a.selected, "exchanged y(k-2)^3 for y(k-2)^2")),
-      std::string::npos)
+  EXPECT_NE(a.selection_rule.find(MovedPickRule(a.selected, "exchanged y(k-2)^3 for y(k-2)^2")),
+            std::string::npos)
       << a.selection_rule;
   const SemIteration& picked = a.iterations.back();
   ASSERT_EQ(picked.iteration, a.selected);

@@ -3,8 +3,8 @@
 
 #include <string>
 
-#include "mrd/host/input_error.hpp"
 #include "mrd/host/candidate_spec.hpp"
+#include "mrd/host/input_error.hpp"
 
 namespace mrd::host {
 namespace {
@@ -75,7 +75,8 @@ max_factors = 2
   const SemSpec spec = ParseSemSpec(text, "t.toml");
   // |u|^0.5 squared equals |u|^1: one of them is skipped; s*|u| equals u... not offered.
   EXPECT_EQ(TermKey(spec, ParseTerm(spec, "a(k)^2")), TermKey(spec, ParseTerm(spec, "b(k)")));
-  EXPECT_EQ(TermKey(spec, ParseTerm(spec, "s(k)^2*y(k-1)")), TermKey(spec, ParseTerm(spec, "y(k-1)")));
+  EXPECT_EQ(TermKey(spec, ParseTerm(spec, "s(k)^2*y(k-1)")),
+            TermKey(spec, ParseTerm(spec, "y(k-1)")));
   const auto c = GenerateCandidates(spec);
   int count_abs1 = 0;
   for (const auto& t : c) {

@@ -7,8 +7,8 @@
 #include <functional>
 #include <set>
 
-#include "mrd/host/sem.hpp"
 #include "mrd/host/candidate_spec.hpp"
+#include "mrd/host/sem.hpp"
 #include "sem_test_util.hpp"
 
 namespace mrd::host {
@@ -63,11 +63,10 @@ System Polynomial() {
 // Piroddi & Spinelli 2003, example 1 (the one that misleads prediction-error selection
 // under output noise): y(k) = 0.75 y(k-2) + 0.25 u(k-1) - 0.2 y(k-2) u(k-1) + e(k).
 System Piroddi() {
-  return {[](double, double y2, double u1, double) {
-            return 0.75 * y2 + 0.25 * u1 - 0.2 * y2 * u1;
-          },
-          {"y(k-2)", "u(k-1)", "y(k-2)*u(k-1)"},
-          0.05};
+  return {
+      [](double, double y2, double u1, double) { return 0.75 * y2 + 0.25 * u1 - 0.2 * y2 * u1; },
+      {"y(k-2)", "u(k-1)", "y(k-2)*u(k-1)"},
+      0.05};
 }
 
 DataSet Simulate(const System& s, Noise noise, std::uint64_t seed, std::size_t n) {

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "mrd/host/csv.hpp"
-#include "mrd/host/profiles.hpp"
 #include "mrd/host/params_file.hpp"
+#include "mrd/host/profiles.hpp"
 
 namespace mrd::test {
 

@@ -1,5 +1,5 @@
-// Adding a term (Search::TryAdd, host/src/sem/search/search.cpp): the candidates run in parallel under
-// an early-stop bound. Which candidates are cut short decides the next best when the stress
+// Adding a term (Search::TryAdd, host/src/sem/search/search.cpp): the candidates run in parallel
+// under an early-stop bound. Which candidates are cut short decides the next best when the stress
 // check refuses the best, and the count of diverged candidates that goes into the model file;
 // neither may depend on thread timing. Shown for 1 to 8 threads (more threads than cores, so
 // the workers' order varies), repeated, against the single-thread result.
@@ -10,8 +10,8 @@
 #include <utility>
 #include <vector>
 
-#include "mrd/host/sem.hpp"
 #include "mrd/host/candidate_spec.hpp"
+#include "mrd/host/sem.hpp"
 #include "sem/engine/engine.hpp"
 #include "sem/search/search.hpp"
 #include "sem_test_util.hpp"

@@ -19,8 +19,12 @@ TEST(SliceCliTest, AdjacentSlicesPartitionTheRows) {
   test::TempDir dir;
   const auto in = MakeFile(dir);
   const auto a = dir.File("a.csv"), b = dir.File("b.csv");
-  ASSERT_EQ(test::Run(test::Bin("mrd") + " slice --in " + in + " --from 0 --to 0.7 --out " + a).status, 0);
-  ASSERT_EQ(test::Run(test::Bin("mrd") + " slice --in " + in + " --from 0.7 --to 2 --out " + b).status, 0);
+  ASSERT_EQ(
+      test::Run(test::Bin("mrd") + " slice --in " + in + " --from 0 --to 0.7 --out " + a).status,
+      0);
+  ASSERT_EQ(
+      test::Run(test::Bin("mrd") + " slice --in " + in + " --from 0.7 --to 2 --out " + b).status,
+      0);
   const DataSet da = ReadCsv(a), db = ReadCsv(b);
   EXPECT_EQ(da.rows(), 70u);
   EXPECT_EQ(db.rows(), 31u);
@@ -31,7 +35,8 @@ TEST(SliceCliTest, EmptySliceExits2AndWritesNothing) {
   test::TempDir dir;
   const auto in = MakeFile(dir);
   const auto out = dir.File("o.csv");
-  const auto r = test::Run(test::Bin("mrd") + " slice --in " + in + " --from 5 --to 6 --out " + out);
+  const auto r =
+      test::Run(test::Bin("mrd") + " slice --in " + in + " --from 5 --to 6 --out " + out);
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("fewer than 2 rows"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(out));

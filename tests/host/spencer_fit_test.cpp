@@ -75,8 +75,8 @@ TEST(SpencerFitTest, RecoversAKnownParameterSet) {
 TEST(SpencerFitCliTest, DataWithoutTheForceColumnIsRefused) {
   const std::string path = "/tmp/mrd_fit_spencer_nof.csv";
   std::ofstream(path) << "t,x,v,E\n0,0,0,0\n0.001,0,0,0\n0.002,0,0,0\n";
-  test::ChildProcess p({std::string(MRD_BIN_DIR) + "/mrd", "fit-spencer", "--data", path,
-                        "--out", "/tmp/mrd_fit_spencer_never.toml"});
+  test::ChildProcess p({std::string(MRD_BIN_DIR) + "/mrd", "fit-spencer", "--data", path, "--out",
+                        "/tmp/mrd_fit_spencer_never.toml"});
   EXPECT_EQ(p.Wait(60.0), 2);
   EXPECT_NE(p.Stderr().find(path), std::string::npos) << p.Stderr();
   EXPECT_NE(p.Stderr().find("'f'"), std::string::npos) << p.Stderr();

@@ -61,8 +61,8 @@ TEST(TableExportTest, BinaryFileDecodesToTheSameImage) {
       {{path, std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size())}});
   const std::string data = ReadText(path);
   ASSERT_EQ(data.size(), kTableSize);
-  const auto decoded = DecodeTable(
-      std::span(reinterpret_cast<const std::uint8_t*>(data.data()), data.size()));
+  const auto decoded =
+      DecodeTable(std::span(reinterpret_cast<const std::uint8_t*>(data.data()), data.size()));
   ASSERT_TRUE(decoded.ok()) << ErrorName(decoded.error());
   EXPECT_EQ(TableImage(decoded.value()), TableImage(test::DemoDamperTable()));
 }
@@ -97,7 +97,8 @@ TEST(TableExportTest, ModelOverCapacityIsRefusedWithReason) {
 TEST(TableExportTest, FitProblemNamesEachCapacity) {
   EXPECT_EQ(TableFitProblem({3, 5, 8, 3, 2, 4}), "");
   EXPECT_NE(TableFitProblem({9, 5, 8, 3, 2, 4}).find("9 channels"), std::string::npos);
-  EXPECT_NE(TableFitProblem({3, 17, 8, 3, 2, 4}).find("17 elementary regressors"), std::string::npos);
+  EXPECT_NE(TableFitProblem({3, 17, 8, 3, 2, 4}).find("17 elementary regressors"),
+            std::string::npos);
   EXPECT_NE(TableFitProblem({3, 5, 8, 3, 16, 4}).find("delay 16"), std::string::npos);
   EXPECT_NE(TableFitProblem({3, 5, 8, 3, 2, 17}).find("power 17"), std::string::npos);
 }

@@ -1,14 +1,14 @@
 #pragma once
 // Helpers for host tests: temporary files and running the CLI.
 
+#include <sys/wait.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
-
-#include <sys/wait.h>
 
 namespace mrd::test {
 
@@ -40,7 +40,7 @@ inline std::string FileBytes(const std::string& path) {
 }
 
 struct CommandResult {
-  int status = -1;  // exit status
+  int status = -1;     // exit status
   std::string output;  // stdout and stderr
 };
 

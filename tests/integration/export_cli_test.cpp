@@ -15,9 +15,11 @@ namespace {
 std::string MakeModel(const test::TempDir& dir) {
   const auto data = dir.File("id.csv");
   const auto model = dir.File("m.json");
-  EXPECT_EQ(test::Run(test::Bin("mrd") + " generate --profile identification --out " + data).status, 0);
-  const auto r = test::Run(test::Bin("mrd") + " identify --data " + data + " --spec " +
-                           MRD_SOURCE_DIR "/host/specs/paper.toml --max-iterations 3 --out " + model);
+  EXPECT_EQ(test::Run(test::Bin("mrd") + " generate --profile identification --out " + data).status,
+            0);
+  const auto r =
+      test::Run(test::Bin("mrd") + " identify --data " + data + " --spec " +
+                MRD_SOURCE_DIR "/host/specs/paper.toml --max-iterations 3 --out " + model);
   EXPECT_EQ(r.status, 0) << r.output;
   return model;
 }
@@ -31,8 +33,9 @@ TEST(ExportCliTest, WritesTableAndHeaderTheFirmwareAccepts) {
   test::TempDir dir;
   const auto model = MakeModel(dir);
   const auto bin = dir.File("t.bin"), hpp = dir.File("t.hpp");
-  const auto r = test::Run(test::Bin("mrd") + " export --model " + model + " --iteration 3 --table " +
-                           bin + " --header " + hpp + " --symbol demo::kTable");
+  const auto r =
+      test::Run(test::Bin("mrd") + " export --model " + model + " --iteration 3 --table " + bin +
+                " --header " + hpp + " --symbol demo::kTable");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto bytes = ReadBytes(bin);
   const Result<CoefficientTable> t = DecodeTable(bytes);
@@ -42,8 +45,8 @@ TEST(ExportCliTest, WritesTableAndHeaderTheFirmwareAccepts) {
   const std::string text{std::istreambuf_iterator<char>(h), {}};
   EXPECT_NE(text.find("namespace demo"), std::string::npos);
   EXPECT_NE(text.find("kTable"), std::string::npos);
-  const auto fw = test::Run(test::Bin("mrd-firmware") + " --table " + bin +
-                            " --dry-run 0.5 --lockstep --json");
+  const auto fw =
+      test::Run(test::Bin("mrd-firmware") + " --table " + bin + " --dry-run 0.5 --lockstep --json");
   EXPECT_EQ(fw.status, 0) << fw.output;
   EXPECT_NE(fw.output.find("\"ticks\": 500"), std::string::npos) << fw.output;
 }
@@ -62,8 +65,8 @@ TEST(ExportCliTest, UnknownInputChannelExits2AndWritesNothing) {
 TEST(ExportCliTest, MissingIterationExits2) {
   test::TempDir dir;
   const auto model = MakeModel(dir);
-  const auto r = test::Run(test::Bin("mrd") + " export --model " + model + " --iteration 99 --table " +
-                           dir.File("t.bin"));
+  const auto r = test::Run(test::Bin("mrd") + " export --model " + model +
+                           " --iteration 99 --table " + dir.File("t.bin"));
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir.File("t.bin")));
 }

@@ -18,7 +18,8 @@ namespace {
 // A model identified on the reference set (8 iterations of the paper spec).
 const host::ModelFile& IdentifiedModel() {
   static const host::ModelFile mf = [] {
-    const host::SemSpec spec = host::LoadSemSpec(std::string(MRD_SOURCE_DIR) + "/host/specs/paper.toml");
+    const host::SemSpec spec =
+        host::LoadSemSpec(std::string(MRD_SOURCE_DIR) + "/host/specs/paper.toml");
     host::SemOptions o;
     o.max_iterations = 8;
     o.threads = 2;
@@ -57,7 +58,8 @@ TEST(HostFirmwareEquivalenceLowPassTest, FirmwareRuntimeMatchesSimulateTo1e12) {
   const int k = mf.iterations.back().iteration;
   bool low_pass = false;
   for (const auto& t : mf.iterations.back().terms) {
-    for (const auto& f : t.factors) low_pass |= mf.spec.regressors[f.regressor].transform == Transform::kLowPass;
+    for (const auto& f : t.factors)
+      low_pass |= mf.spec.regressors[f.regressor].transform == Transform::kLowPass;
   }
   ASSERT_TRUE(low_pass);
   ExpectEquivalent(mf, k, test::DamperData("v1"));
@@ -69,7 +71,8 @@ void ExpectEquivalent(const host::ModelFile& mf, int k, const host::DataSet& dat
   ASSERT_FALSE(metrics.diverged);
 
   // Through the binary image, as the firmware loads it.
-  const TableBytes image = host::TableImage(host::MakeTable(host::ToRuntimeModel(mf, k), 0.0, 2.25));
+  const TableBytes image =
+      host::TableImage(host::MakeTable(host::ToRuntimeModel(mf, k), 0.0, 2.25));
   const Result<CoefficientTable> table = DecodeTable(image);
   ASSERT_TRUE(table.ok()) << ErrorName(table.error());
   firmware::BasicModelRuntime<double> runtime;  // the double path, in every build

@@ -105,7 +105,8 @@ TEST(CanProfileTest, Crc8OverIdAndPayloadEqualsTheNativeCodec) {
   sum.checksum_kind = ChecksumKind::kSum8;
   sum.checksum_covers_id = false;
   const std::uint8_t d[8] = {1, 2, 3, 250, 5, 6, 7, 99};
-  EXPECT_EQ(FrameChecksum(sum, ck, msg.id, d, 8), static_cast<std::uint8_t>(1 + 2 + 3 + 250 + 5 + 6 + 7));
+  EXPECT_EQ(FrameChecksum(sum, ck, msg.id, d, 8),
+            static_cast<std::uint8_t>(1 + 2 + 3 + 250 + 5 + 6 + 7));
 }
 
 void ExpectRefused(const std::string& text, int line, const std::string& reason) {
@@ -124,17 +125,26 @@ TEST(CanProfileTest, RefusesBadProfilesWithFileLineAndReason) {
   ExpectRefused(head + "[inputs]\nvelocity = \"Motion.Velocity\"\n", 4, "has no message Motion");
   ExpectRefused(head + "[inputs]\nvelocity = \"Velocity\"\n", 4, "is not Message.Signal");
   ExpectRefused(head + "[inputs]\nspeed = \"SensorMotion.Velocity\"\n", 4, "unknown role");
-  ExpectRefused(head + "[inputs]\ndemand = \"SensorMotion.Velocity\"\n"
-                       "velocity = \"SensorMotion.Velocity\"\n", 5, "already carries inputs.demand");
-  ExpectRefused(head + "[inputs]\nvelocity = \"SensorMotion.Velocity\"\n[outputs]\n"
-                       "command = \"SensorMotion.Displacement\"\n", 6, "both sent and received");
-  ExpectRefused(head + "[inputs]\nvelocity = \"SensorMotion.Velocity\"\n"
-                       "[messages.SensorMotion]\ncounter = \"Velocity\"\n", 6, "carries the role velocity");
+  ExpectRefused(head +
+                    "[inputs]\ndemand = \"SensorMotion.Velocity\"\n"
+                    "velocity = \"SensorMotion.Velocity\"\n",
+                5, "already carries inputs.demand");
+  ExpectRefused(head +
+                    "[inputs]\nvelocity = \"SensorMotion.Velocity\"\n[outputs]\n"
+                    "command = \"SensorMotion.Displacement\"\n",
+                6, "both sent and received");
+  ExpectRefused(head +
+                    "[inputs]\nvelocity = \"SensorMotion.Velocity\"\n"
+                    "[messages.SensorMotion]\ncounter = \"Velocity\"\n",
+                6, "carries the role velocity");
   ExpectRefused(head + "[messages.SensorMotion]\ncounter = \"SensorSeq\"\n", 4, "at most 8 bits");
-  ExpectRefused(head + "[messages.SensorMotion]\nchecksum = \"MotionCounter\"\nchecksum_kind = \"crc8\"\n",
-                4, "unsigned 8-bit signal");
-  ExpectRefused(head + "[messages.SensorMotion]\nchecksum = \"MotionChecksum\"\n", 3, "go together");
-  ExpectRefused(head + "[messages.SensorMotion]\nchecksum_kind = \"crc16\"\n", 4, "expected \"crc8\"");
+  ExpectRefused(
+      head + "[messages.SensorMotion]\nchecksum = \"MotionCounter\"\nchecksum_kind = \"crc8\"\n", 4,
+      "unsigned 8-bit signal");
+  ExpectRefused(head + "[messages.SensorMotion]\nchecksum = \"MotionChecksum\"\n", 3,
+                "go together");
+  ExpectRefused(head + "[messages.SensorMotion]\nchecksum_kind = \"crc16\"\n", 4,
+                "expected \"crc8\"");
   ExpectRefused(head + "[messages.SensorMotion]\ncrc_poly = 300\n", 4, "0..255");
   ExpectRefused(head + "[messages.SensorMotion]\nperiod_ms = 0\n", 4, "milliseconds");
   ExpectRefused(head + "[messages.SensorMotion]\nspeed = 1\n", 4, "unknown key");

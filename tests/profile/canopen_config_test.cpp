@@ -20,7 +20,9 @@ const std::string kShipped = std::string(MRD_SOURCE_DIR) + "/firmware/profiles";
 bool Parse(const std::string& profile, FirmwareConfig* c, std::string* error) {
   const std::string text =
       "[loop]\nclock = \"grant\"\n[control]\nlaw = \"force\"\n[can]\nlocal_bus = \"/tmp/x.sock\"\n"
-      "profile = \"" + profile + "\"\ninputs = [\"velocity\", \"displacement\", \"demand\"]\n"
+      "profile = \"" +
+      profile +
+      "\"\ninputs = [\"velocity\", \"displacement\", \"demand\"]\n"
       "outputs = [\"command\", \"enable\", \"heartbeat\", \"status\"]\n";
   return ParseConfig(text, kShipped + "/fw.toml", c, error);
 }
@@ -41,7 +43,8 @@ TEST(CanopenConfigTest, ABadCanopenSectionIsNamedWithTheProfilesLine) {
   const auto at = text.find("node_id = 5");
   ASSERT_NE(at, std::string::npos);
   text.replace(at, 11, "node_id = 200");
-  const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
+  const int line =
+      1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
   const auto dbc = text.find("dbc = \"canopen-drive.dbc\"");
   text.replace(dbc, 25, "dbc = \"" + kShipped + "/canopen-drive.dbc\"");
   const auto csv = text.find("calibration = \"canopen-coil.csv\"");
@@ -51,7 +54,8 @@ TEST(CanopenConfigTest, ABadCanopenSectionIsNamedWithTheProfilesLine) {
   FirmwareConfig c;
   std::string error;
   EXPECT_FALSE(Parse(path, &c, &error));
-  EXPECT_NE(error.find(path + ":" + std::to_string(line) + ": canopen.node_id: expected an integer "
+  EXPECT_NE(error.find(path + ":" + std::to_string(line) +
+                       ": canopen.node_id: expected an integer "
                        "in 1..127"),
             std::string::npos)
       << error;

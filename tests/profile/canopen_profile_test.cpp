@@ -2,6 +2,8 @@
 // payloads (canopen_codec.hpp): the shipped canopen-drive profile loads, every refusal names
 // file, line and reason, SDO download requests, answers and aborts encode and decode as CiA 301
 // lays them out, and abort codes read as the standard's words.
+#include "mrd/profile/canopen_profile.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -11,7 +13,6 @@
 
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/canopen_codec.hpp"
-#include "mrd/profile/canopen_profile.hpp"
 
 namespace mrd::profile {
 namespace {
@@ -168,8 +169,8 @@ TEST(CanopenProfileTest, RefusesAProfileMessageOnACanopenCobId) {
     std::string head = kHead;
     if (role) head.replace(head.find("[outputs]"), 0, "force = \"Clash.Byte\"\n");
     CanProfile q;
-    return ParseCanProfile(head + "[canopen]\nnode_id = 5\nown_node_id = 1\n", "co.toml", &dbc,
-                           &q, e);
+    return ParseCanProfile(head + "[canopen]\nnode_id = 5\nown_node_id = 1\n", "co.toml", &dbc, &q,
+                           e);
   };
   const std::pair<unsigned, const char*> clashes[] = {
       {0x000, "the NMT COB-ID"},
@@ -208,7 +209,9 @@ TEST(CanopenProfileTest, TheShippedCanopenDriveProfileLoads) {
   EXPECT_EQ(p.canopen->sdo[0].value, -3);
   EXPECT_EQ(p.command_unit, "mA");
   // The drive's PDOs: RPDO1 0x200 + 5 carries the set-point, TPDO1 0x180 + 5 the fault bit.
-  const auto id = [&](SignalRef r) { return p.dbc.messages[static_cast<std::size_t>(r.message)].id; };
+  const auto id = [&](SignalRef r) {
+    return p.dbc.messages[static_cast<std::size_t>(r.message)].id;
+  };
   EXPECT_EQ(id(p.outputs[static_cast<std::size_t>(CanOut::kCommand)]), 0x205U);
   EXPECT_EQ(id(p.inputs[static_cast<std::size_t>(CanIn::kDriverFaults)]), 0x185U);
   EXPECT_EQ(id(p.inputs[static_cast<std::size_t>(CanIn::kVelocity)]), 0x190U);

@@ -31,7 +31,8 @@ int main(int argc, char** argv) {
       return 2;
     }
     std::uint8_t d[8] = {};
-    for (int i = 0; i < 8; ++i) d[i] = static_cast<std::uint8_t>(std::stoul(hex.substr(2 * i, 2), nullptr, 16));
+    for (int i = 0; i < 8; ++i)
+      d[i] = static_cast<std::uint8_t>(std::stoul(hex.substr(2 * i, 2), nullptr, 16));
     for (const auto& s : m->signals) {
       double v = 0;
       (void)mrd::protocol::DecodeSignal(d, s.layout, &v);

@@ -118,9 +118,11 @@ TEST(DbcTest, ParsesAHandWrittenDriverDbc) {
   // Known answers: Current 0x123 * 0.01 = 2.91 A from bytes 0x12, 0x3_ (Motorola).
   std::uint8_t d[8] = {0x12, 0x30, 0, 0, 0x05, 0, 0, 0};
   double v = 0;
-  EXPECT_EQ(protocol::DecodeSignal(d, st->Find("Current")->layout, &v), protocol::SignalError::kNone);
+  EXPECT_EQ(protocol::DecodeSignal(d, st->Find("Current")->layout, &v),
+            protocol::SignalError::kNone);
   EXPECT_NEAR(v, 2.91, 1e-12);
-  EXPECT_EQ(protocol::DecodeSignal(d, st->Find("Faults")->layout, &v), protocol::SignalError::kNone);
+  EXPECT_EQ(protocol::DecodeSignal(d, st->Find("Faults")->layout, &v),
+            protocol::SignalError::kNone);
   EXPECT_EQ(v, 5.0);
 }
 

@@ -19,8 +19,11 @@ const std::string kProfiles = std::string(MRD_SOURCE_DIR) + "/firmware/profiles"
 
 bool Parse(const std::string& modbus, FirmwareConfig* c, std::string* error,
            const std::string& loop = "", const std::string& dir = kProfiles) {
-  const std::string text = "[loop]\n" + loop + "[control]\nlaw = \"constant\"\nconstant_voltage = 1.0\n[modbus]\nmode = "
-                           "\"tcp\"\nport = 1502\n" + modbus;
+  const std::string text =
+      "[loop]\n" + loop +
+      "[control]\nlaw = \"constant\"\nconstant_voltage = 1.0\n[modbus]\nmode = "
+      "\"tcp\"\nport = 1502\n" +
+      modbus;
   return ParseConfig(text, dir + "/fw.toml", c, error);
 }
 
@@ -31,8 +34,8 @@ const std::string kRouting =
 TEST(ModbusProfileConfigTest, AProfileRelativeToTheConfigurationIsLoaded) {
   FirmwareConfig c;
   std::string error;
-  ASSERT_TRUE(Parse("profile = \"modbus-float32.toml\"\n" + kRouting, &c, &error,
-                    "clock = \"grant\"\n"))
+  ASSERT_TRUE(
+      Parse("profile = \"modbus-float32.toml\"\n" + kRouting, &c, &error, "clock = \"grant\"\n"))
       << error;
   ASSERT_NE(c.io.modbus.modbus_profile, nullptr);
   EXPECT_EQ(c.io.modbus.modbus_profile->name, "modbus-float32");
@@ -66,36 +69,46 @@ TEST(ModbusProfileConfigTest, RoutingMustMatchTheProfile) {
       "name = \"small\"\n[modbus]\n[modbus.inputs]\n"
       "velocity = { unit = 1, table = \"input\", address = 0, type = \"float32\" }\n"
       "driver_faults = { unit = 2, table = \"input\", address = 0 }\n"
-      "[modbus.outputs]\ncommand = { unit = 2, table = \"holding\", address = 0, type = \"float32\" }\n");
+      "[modbus.outputs]\ncommand = { unit = 2, table = \"holding\", address = 0, type = "
+      "\"float32\" }\n");
   FirmwareConfig c;
   std::string error;
   // fault_line is served by driver_faults.
-  EXPECT_TRUE(Parse("profile = \"p.toml\"\ninputs = [\"velocity\", \"fault_line\"]\n"
-                    "outputs = [\"command\"]\n", &c, &error, "", p.dir()))
+  EXPECT_TRUE(
+      Parse("profile = \"p.toml\"\ninputs = [\"velocity\", \"fault_line\"]\n"
+            "outputs = [\"command\"]\n",
+            &c, &error, "", p.dir()))
       << error;
-  EXPECT_FALSE(Parse("profile = \"p.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
-                     "outputs = [\"command\"]\n", &c, &error, "", p.dir()));
+  EXPECT_FALSE(
+      Parse("profile = \"p.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
+            "outputs = [\"command\"]\n",
+            &c, &error, "", p.dir()));
   EXPECT_NE(error.find("fw.toml:"), std::string::npos) << error;
   EXPECT_NE(error.find("maps no register to input 'demand'"), std::string::npos) << error;
-  EXPECT_FALSE(Parse("profile = \"p.toml\"\ninputs = [\"velocity\"]\n"
-                     "outputs = [\"command\", \"enable\"]\n", &c, &error, "", p.dir()));
+  EXPECT_FALSE(
+      Parse("profile = \"p.toml\"\ninputs = [\"velocity\"]\n"
+            "outputs = [\"command\", \"enable\"]\n",
+            &c, &error, "", p.dir()));
   EXPECT_NE(error.find("maps no register to output 'enable'"), std::string::npos) << error;
-  EXPECT_FALSE(Parse("profile = \"p.toml\"\ninputs = [\"velocity\"]\n"
-                     "outputs = [\"command\", \"status\"]\n", &c, &error, "", p.dir()));
+  EXPECT_FALSE(
+      Parse("profile = \"p.toml\"\ninputs = [\"velocity\"]\n"
+            "outputs = [\"command\", \"status\"]\n",
+            &c, &error, "", p.dir()));
   EXPECT_NE(error.find("maps no register to output 'status'"), std::string::npos) << error;
   // Lockstep with grants on Modbus needs the grant role.
-  EXPECT_FALSE(Parse("profile = \"p.toml\"\ninputs = [\"velocity\"]\noutputs = [\"command\"]\n",
-                     &c, &error, "clock = \"grant\"\n", p.dir()));
+  EXPECT_FALSE(Parse("profile = \"p.toml\"\ninputs = [\"velocity\"]\noutputs = [\"command\"]\n", &c,
+                     &error, "clock = \"grant\"\n", p.dir()));
   EXPECT_NE(error.find("needs the profile's 'grant' input"), std::string::npos) << error;
 }
 
 TEST(ModbusProfileConfigTest, ABrokenProfileIsNamedWithItsLine) {
-  const TempProfile p("name = \"bad\"\n[modbus]\nalign32 = true\n[modbus.inputs]\n"
-                      "velocity = { unit = 1, table = \"input\", address = 1, type = \"float32\" }\n");
+  const TempProfile p(
+      "name = \"bad\"\n[modbus]\nalign32 = true\n[modbus.inputs]\n"
+      "velocity = { unit = 1, table = \"input\", address = 1, type = \"float32\" }\n");
   FirmwareConfig c;
   std::string error;
-  EXPECT_FALSE(Parse("profile = \"p.toml\"\ninputs = [\"velocity\"]\noutputs = [\"command\"]\n",
-                     &c, &error, "", p.dir()));
+  EXPECT_FALSE(Parse("profile = \"p.toml\"\ninputs = [\"velocity\"]\noutputs = [\"command\"]\n", &c,
+                     &error, "", p.dir()));
   // The configuration's line of the key, then the profile's file:line and reason.
   EXPECT_NE(error.find("fw.toml:"), std::string::npos) << error;
   EXPECT_NE(error.find(p.dir() + "/p.toml:5: modbus.inputs.velocity: 32-bit value at odd address"),

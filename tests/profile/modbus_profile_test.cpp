@@ -70,7 +70,9 @@ TEST(ModbusProfile, GroupsReadsIntoFewestRequests) {
   // Unit 1 holding: 0-1, 4 (gap 2: bridged), 30-31 and 33 (gap 25: a new request); the input
   // table apart;
   // unit 3 coils 0 and 7 (one request); max_read 10 splits 40..49 from 52.
-  const std::string text = kHead + "max_read = 10\n[modbus.inputs]\n"
+  const std::string text =
+      kHead +
+      "max_read = 10\n[modbus.inputs]\n"
       "velocity = { unit = 1, table = \"holding\", address = 0, type = \"float32\" }\n"
       "displacement = { unit = 1, table = \"holding\", address = 4, type = \"int16\" }\n"
       "demand = { unit = 1, table = \"holding\", address = 30, type = \"int32\" }\n"
@@ -105,7 +107,9 @@ TEST(ModbusProfile, GroupsReadsIntoFewestRequests) {
 // The chassis roles (groundhook, hybrid, add, sh-add laws) map like any input; a firmware
 // [modbus] section routes them through the profile (the built-in map has none).
 TEST(ModbusProfile, MapsTheChassisRoles) {
-  const std::string text = kHead + "[modbus.inputs]\n"
+  const std::string text =
+      kHead +
+      "[modbus.inputs]\n"
       "velocity = { unit = 1, table = \"input\", address = 0, type = \"float32\" }\n"
       "body_acceleration = { unit = 1, table = \"input\", address = 2, type = \"float32\" }\n"
       "wheel_velocity = { unit = 1, table = \"input\", address = 4, type = \"float32\" }\n";
@@ -122,7 +126,9 @@ TEST(ModbusProfile, MapsTheChassisRoles) {
 }
 
 TEST(ModbusProfile, WritesSingleRegisterWithFunction6) {
-  const std::string text = kHead + "write_function = 6\n[modbus.outputs]\n"
+  const std::string text =
+      kHead +
+      "write_function = 6\n[modbus.outputs]\n"
       "command = { unit = 2, table = \"holding\", address = 0, type = \"int16\", scale = 0.001 }\n"
       "heartbeat = { unit = 2, table = \"holding\", address = 1 }\n"
       "enable = { unit = 2, table = \"coil\", address = 3 }\n";
@@ -159,8 +165,10 @@ TEST(ModbusProfile, WritesSingleRegisterWithFunction6) {
 TEST(ModbusProfile, Float32BothWordOrders) {
   for (const bool swapped : {false, true}) {
     const std::string text = kHead + (swapped ? "word_order = \"swapped\"\n" : "") +
-        "[modbus.inputs]\nvelocity = { unit = 1, table = \"input\", address = 0, type = \"float32\" }\n"
-        "demand = { unit = 1, table = \"input\", address = 2, type = \"int32\", scale = 0.01, offset = 5 }\n";
+                             "[modbus.inputs]\nvelocity = { unit = 1, table = \"input\", address = "
+                             "0, type = \"float32\" }\n"
+                             "demand = { unit = 1, table = \"input\", address = 2, type = "
+                             "\"int32\", scale = 0.01, offset = 5 }\n";
     ModbusProfile p;
     std::string error;
     ASSERT_TRUE(Parse(text, &p, &error)) << error;
@@ -192,9 +200,10 @@ TEST(ModbusProfile, Float32BothWordOrders) {
 }
 
 TEST(ModbusProfile, CoilsPackedLsbFirst) {
-  const std::string text = kHead + "[modbus.outputs]\n"
-      "enable = { unit = 2, table = \"coil\", address = 8 }\n"
-      "safe = { unit = 2, table = \"coil\", address = 9 }\n";
+  const std::string text = kHead +
+                           "[modbus.outputs]\n"
+                           "enable = { unit = 2, table = \"coil\", address = 8 }\n"
+                           "safe = { unit = 2, table = \"coil\", address = 9 }\n";
   ModbusProfile p;
   std::string error;
   ASSERT_TRUE(Parse(text, &p, &error)) << error;
@@ -208,7 +217,7 @@ TEST(ModbusProfile, CoilsPackedLsbFirst) {
 }
 
 TEST(ModbusProfile, Refusals) {
-  const std::string in = kHead + "[modbus.inputs]\n";    // roles from line 4
+  const std::string in = kHead + "[modbus.inputs]\n";  // roles from line 4
   const std::string out = kHead + "[modbus.outputs]\n";
   ExpectRefused(kHead + "colour = 1\n", 3, "unknown key");
   ExpectRefused("name = \"t\"\nflavour = 1\n[modbus]\n", 2, "unknown key");
@@ -217,41 +226,53 @@ TEST(ModbusProfile, Refusals) {
   ExpectRefused(in + "speed = { unit = 1, table = \"input\", address = 0 }\n", 4, "unknown role");
   ExpectRefused(out + "velocity = { unit = 1, table = \"holding\", address = 0 }\n", 4,
                 "unknown role");
-  ExpectRefused(in + "velocity = { unit = 1, table = \"file\", address = 0 }\n", 4, "unknown table");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"file\", address = 0 }\n", 4,
+                "unknown table");
   ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0, type = \"f64\" }\n", 4,
                 "unknown type");
   ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0, colour = 1 }\n", 4,
                 "unknown key");
   ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0 }\n"
-                     "velocity = { unit = 1, table = \"input\", address = 4 }\n", 5, "velocity");
+                     "velocity = { unit = 1, table = \"input\", address = 4 }\n",
+                5, "velocity");
   ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0, type = \"float32\" }\n"
-                     "demand = { unit = 1, table = \"input\", address = 1 }\n", 5,
-                "register 1 of unit 1 already carries modbus.inputs.velocity");
-  ExpectRefused(in + "velocity = { unit = 1, table = \"holding\", address = 6 }\n" + "[modbus.outputs]\n" +
-                     "command = { unit = 1, table = \"holding\", address = 5, type = \"int32\" }\n", 6,
-                "already carries");
-  ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 65535, type = \"int32\" }\n", 4,
-                "beyond 65535");
+                     "demand = { unit = 1, table = \"input\", address = 1 }\n",
+                5, "register 1 of unit 1 already carries modbus.inputs.velocity");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"holding\", address = 6 }\n" +
+                    "[modbus.outputs]\n" +
+                    "command = { unit = 1, table = \"holding\", address = 5, type = \"int32\" }\n",
+                6, "already carries");
+  ExpectRefused(
+      in + "velocity = { unit = 1, table = \"input\", address = 65535, type = \"int32\" }\n", 4,
+      "beyond 65535");
   ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 65536 }\n", 4,
                 "address outside 0..65535");
-  ExpectRefused(in + "velocity = { unit = 0, table = \"input\", address = 0 }\n", 4, "outside 1..247");
-  ExpectRefused(in + "velocity = { unit = 248, table = \"input\", address = 0 }\n", 4, "outside 1..247");
-  ExpectRefused(kHead + "align32 = true\n[modbus.inputs]\n"
-                "velocity = { unit = 1, table = \"input\", address = 3, type = \"float32\" }\n", 5,
-                "odd address 3");
-  ExpectRefused(kHead + "write_function = 6\n[modbus.outputs]\n"
-                "command = { unit = 1, table = \"holding\", address = 0, type = \"float32\" }\n", 5,
-                "write_function 6");
+  ExpectRefused(in + "velocity = { unit = 0, table = \"input\", address = 0 }\n", 4,
+                "outside 1..247");
+  ExpectRefused(in + "velocity = { unit = 248, table = \"input\", address = 0 }\n", 4,
+                "outside 1..247");
+  ExpectRefused(kHead +
+                    "align32 = true\n[modbus.inputs]\n"
+                    "velocity = { unit = 1, table = \"input\", address = 3, type = \"float32\" }\n",
+                5, "odd address 3");
+  ExpectRefused(
+      kHead +
+          "write_function = 6\n[modbus.outputs]\n"
+          "command = { unit = 1, table = \"holding\", address = 0, type = \"float32\" }\n",
+      5, "write_function 6");
   ExpectRefused(kHead + "write_function = 5\n", 3, "expected 16");
   ExpectRefused(kHead + "max_read = 126\n", 3, "outside 1..125");
   ExpectRefused(kHead + "max_read = 0\n", 3, "outside 1..125");
   ExpectRefused(kHead + "word_order = \"little\"\n", 3, "swapped");
-  ExpectRefused(out + "command = { unit = 1, table = \"input\", address = 0 }\n", 4, "writable table");
-  ExpectRefused(in + "fault_line = { unit = 1, table = \"coil\", address = 0, type = \"uint16\" }\n", 4,
-                "no type");
+  ExpectRefused(out + "command = { unit = 1, table = \"input\", address = 0 }\n", 4,
+                "writable table");
+  ExpectRefused(
+      in + "fault_line = { unit = 1, table = \"coil\", address = 0, type = \"uint16\" }\n", 4,
+      "no type");
   ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0, scale = 0.0 }\n", 4,
                 "non-zero");
-  ExpectRefused(in + "velocity = { unit = 1, table = \"input\" }\n", 4, "needs unit, table and address");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"input\" }\n", 4,
+                "needs unit, table and address");
   ExpectRefused(in + "velocity = 3\n", 4, "expected {");
   ExpectRefused(kHead + "[command]\nmin = 2\nmax = 1\n", 3, "");
   ExpectRefused(kHead + "[command]\ncalibration = \"/nonexistent.csv\"\n", 4, "calibration");

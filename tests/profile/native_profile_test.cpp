@@ -32,7 +32,8 @@ bool Same(const can_frame& a, const can_frame& b) {
 TEST(NativeProfileTest, TheCompiledInProfileEqualsTheFile) {
   CanProfile file;
   std::string error;
-  ASSERT_TRUE(LoadCanProfile(kSource + "/firmware/profiles/mrd-native.toml", &file, &error)) << error;
+  ASSERT_TRUE(LoadCanProfile(kSource + "/firmware/profiles/mrd-native.toml", &file, &error))
+      << error;
   const CanProfile& built = NativeCanProfile();
   EXPECT_EQ(built.name, "mrd-native");
   ASSERT_EQ(built.dbc.messages.size(), file.dbc.messages.size());
@@ -63,11 +64,13 @@ TEST(NativeProfileTest, EveryMessageIsTheNativeCodecsFrameBitForBit) {
     const auto c4 = static_cast<std::uint8_t>(k & 15);
     can_frame want{}, got{};
     // SensorMotion
-    const pc::SensorMotion sm{299.0 * u(rng), 29.0 * u(rng), static_cast<std::uint16_t>(k * 977), c4};
+    const pc::SensorMotion sm{299.0 * u(rng), 29.0 * u(rng), static_cast<std::uint16_t>(k * 977),
+                              c4};
     ASSERT_EQ(pc::Encode(sm, &want), pc::Reject::kNone);
     tx.Begin(motion, &got);
     ASSERT_EQ(tx.Set(&got, In(p, CanIn::kVelocity), sm.velocity), protocol::SignalError::kNone);
-    ASSERT_EQ(tx.Set(&got, In(p, CanIn::kDisplacement), sm.displacement), protocol::SignalError::kNone);
+    ASSERT_EQ(tx.Set(&got, In(p, CanIn::kDisplacement), sm.displacement),
+              protocol::SignalError::kNone);
     ASSERT_EQ(tx.Set(&got, In(p, CanIn::kSensorSeq), sm.seq), protocol::SignalError::kNone);
     tx.Seal(motion, &got);
     EXPECT_TRUE(Same(want, got)) << "SensorMotion " << k;
@@ -95,8 +98,12 @@ TEST(NativeProfileTest, EveryMessageIsTheNativeCodecsFrameBitForBit) {
     tx.Seal(grant, &got);
     EXPECT_TRUE(Same(want, got)) << "TimeGrant " << k;
     // DriverCommand
-    const pc::DriverCommand dc{12.0 + 11.9 * u(rng), (k & 1) != 0, (k & 2) != 0, (k & 4) != 0,
-                               static_cast<std::uint16_t>(k * 31), c4};
+    const pc::DriverCommand dc{12.0 + 11.9 * u(rng),
+                               (k & 1) != 0,
+                               (k & 2) != 0,
+                               (k & 4) != 0,
+                               static_cast<std::uint16_t>(k * 31),
+                               c4};
     ASSERT_EQ(pc::Encode(dc, &want), pc::Reject::kNone);
     tx.Begin(command, &got);
     (void)tx.Set(&got, Out(p, CanOut::kCommand), dc.volts);

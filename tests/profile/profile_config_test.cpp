@@ -18,17 +18,20 @@ const std::string kProfiles = std::string(MRD_SOURCE_DIR) + "/tests/data/profile
 
 bool Parse(const std::string& can, FirmwareConfig* c, std::string* error,
            const std::string& loop = "") {
-  const std::string text = "[loop]\n" + loop + "[control]\nlaw = \"force\"\n[can]\nlocal_bus = "
-                           "\"/tmp/x.sock\"\n" + can;
+  const std::string text = "[loop]\n" + loop +
+                           "[control]\nlaw = \"force\"\n[can]\nlocal_bus = "
+                           "\"/tmp/x.sock\"\n" +
+                           can;
   return ParseConfig(text, kProfiles + "/fw.toml", c, error);
 }
 
 TEST(ProfileConfigTest, AProfileRelativeToTheConfigurationIsLoaded) {
   FirmwareConfig c;
   std::string error;
-  ASSERT_TRUE(Parse("profile = \"test-driver.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
-                    "outputs = [\"command\", \"enable\", \"heartbeat\"]\n",
-                    &c, &error, "clock = \"grant\"\n"))
+  ASSERT_TRUE(
+      Parse("profile = \"test-driver.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
+            "outputs = [\"command\", \"enable\", \"heartbeat\"]\n",
+            &c, &error, "clock = \"grant\"\n"))
       << error;
   ASSERT_NE(c.io.can.can_profile, nullptr);
   EXPECT_EQ(c.io.can.can_profile->name, "test-driver");
@@ -38,35 +41,46 @@ TEST(ProfileConfigTest, RoutingMustMatchTheProfile) {
   FirmwareConfig c;
   std::string error;
   // test-driver has no body velocity and no firmware status message.
-  EXPECT_FALSE(Parse("profile = \"test-driver.toml\"\ninputs = [\"velocity\", \"demand\", "
-                     "\"body_velocity\"]\noutputs = [\"command\"]\n", &c, &error));
+  EXPECT_FALSE(
+      Parse("profile = \"test-driver.toml\"\ninputs = [\"velocity\", \"demand\", "
+            "\"body_velocity\"]\noutputs = [\"command\"]\n",
+            &c, &error));
   EXPECT_NE(error.find("fw.toml:"), std::string::npos) << error;
   EXPECT_NE(error.find("maps no signal to input 'body_velocity'"), std::string::npos) << error;
-  EXPECT_FALSE(Parse("profile = \"test-driver.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
-                     "outputs = [\"command\", \"status\"]\n", &c, &error));
+  EXPECT_FALSE(
+      Parse("profile = \"test-driver.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
+            "outputs = [\"command\", \"status\"]\n",
+            &c, &error));
   EXPECT_NE(error.find("maps no signal to output 'status'"), std::string::npos) << error;
   // The native profile maps every input but fault_line.
-  EXPECT_FALSE(Parse("inputs = [\"velocity\", \"demand\", \"fault_line\"]\noutputs = [\"command\"]\n",
-                     &c, &error));
+  EXPECT_FALSE(
+      Parse("inputs = [\"velocity\", \"demand\", \"fault_line\"]\noutputs = [\"command\"]\n", &c,
+            &error));
   EXPECT_NE(error.find("profile mrd-native maps no signal to input 'fault_line'"),
-            std::string::npos) << error;
+            std::string::npos)
+      << error;
 }
 
 TEST(ProfileConfigTest, AMissingOrBrokenProfileIsNamedWithItsLine) {
   FirmwareConfig c;
   std::string error;
-  EXPECT_FALSE(Parse("profile = \"nothere.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
-                     "outputs = [\"command\"]\n", &c, &error));
+  EXPECT_FALSE(
+      Parse("profile = \"nothere.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
+            "outputs = [\"command\"]\n",
+            &c, &error));
   EXPECT_NE(error.find("device profile: " + kProfiles + "/nothere.toml: cannot open"),
-            std::string::npos) << error;
+            std::string::npos)
+      << error;
   const std::string bad = kProfiles + "/../bad-profile.toml";
   std::ofstream(bad) << "name = \"bad\"\ndbc = \"profiles/test-driver.dbc\"\n[inputs]\n"
                         "velocity = \"RigMotion.Nope\"\n";
-  EXPECT_FALSE(Parse("profile = \"../bad-profile.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
-                     "outputs = [\"command\"]\n", &c, &error));
+  EXPECT_FALSE(
+      Parse("profile = \"../bad-profile.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
+            "outputs = [\"command\"]\n",
+            &c, &error));
   unlink(bad.c_str());
-  EXPECT_NE(error.find("bad-profile.toml:4: inputs.velocity: message RigMotion"),
-            std::string::npos) << error;
+  EXPECT_NE(error.find("bad-profile.toml:4: inputs.velocity: message RigMotion"), std::string::npos)
+      << error;
 }
 
 TEST(ProfileConfigTest, LockstepNeedsTheProfilesGrant) {
@@ -81,8 +95,10 @@ TEST(ProfileConfigTest, LockstepNeedsTheProfilesGrant) {
   std::ofstream(dir + "/nogrant.toml") << text;
   FirmwareConfig c;
   std::string error;
-  EXPECT_FALSE(Parse("profile = \"" + dir + "/nogrant.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
-                     "outputs = [\"command\"]\n", &c, &error, "clock = \"grant\"\n"));
+  EXPECT_FALSE(Parse("profile = \"" + dir +
+                         "/nogrant.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
+                         "outputs = [\"command\"]\n",
+                     &c, &error, "clock = \"grant\"\n"));
   EXPECT_NE(error.find("needs the profile's 'grant' input"), std::string::npos) << error;
 }
 

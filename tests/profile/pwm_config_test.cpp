@@ -30,8 +30,11 @@ bool Parse(const std::string& body, FirmwareConfig* c, std::string* error) {
 TEST(PwmConfigTest, TheCanProfileServesThePwmOutputByDefault) {
   FirmwareConfig c;
   std::string error;
-  ASSERT_TRUE(Parse(kCan + kGpio + "[pwm]\nsysfs = \"/tmp/pwm-tree\"\nchip = 2\nchannel = 1\n"
-                    "outputs = [\"command\"]\n", &c, &error)) << error;
+  ASSERT_TRUE(Parse(kCan + kGpio +
+                        "[pwm]\nsysfs = \"/tmp/pwm-tree\"\nchip = 2\nchannel = 1\n"
+                        "outputs = [\"command\"]\n",
+                    &c, &error))
+      << error;
   EXPECT_TRUE(c.io.pwm.enabled);
   EXPECT_EQ(c.io.pwm.outputs, Bit(Output::kCommand));
   EXPECT_EQ(c.io.pwm.sysfs, "/tmp/pwm-tree");
@@ -52,10 +55,12 @@ TEST(PwmConfigTest, ItsOwnProfileKeyWinsAndWorksWithoutACanProfile) {
   FirmwareConfig c;
   std::string error;
   // Sensors in the built-in mrd-native frames, the command as a PWM duty.
-  ASSERT_TRUE(Parse("[can]\nlocal_bus = \"/tmp/x.sock\"\ninputs = [\"velocity\", \"demand\"]\n"
-                    "outputs = [\"heartbeat\"]\n[pwm]\noutputs = [\"command\"]\nprofile = \"" +
-                        kPwmEnable + "\"\n",
-                    &c, &error)) << error;
+  ASSERT_TRUE(
+      Parse("[can]\nlocal_bus = \"/tmp/x.sock\"\ninputs = [\"velocity\", \"demand\"]\n"
+            "outputs = [\"heartbeat\"]\n[pwm]\noutputs = [\"command\"]\nprofile = \"" +
+                kPwmEnable + "\"\n",
+            &c, &error))
+      << error;
   ASSERT_NE(c.io.pwm.pwm_profile, nullptr);
   EXPECT_EQ(c.io.can.can_profile, nullptr);  // mrd-native
 }
@@ -64,16 +69,19 @@ TEST(PwmConfigTest, RoutingRefusals) {
   FirmwareConfig c;
   std::string error;
   // The command on CAN and on PWM.
-  EXPECT_FALSE(Parse("[can]\nlocal_bus = \"/tmp/x.sock\"\ninputs = [\"velocity\", \"demand\"]\n"
-                     "outputs = [\"command\"]\n[pwm]\noutputs = [\"command\"]\nprofile = \"" +
-                         kPwmEnable + "\"\n",
-                     &c, &error));
+  EXPECT_FALSE(
+      Parse("[can]\nlocal_bus = \"/tmp/x.sock\"\ninputs = [\"velocity\", \"demand\"]\n"
+            "outputs = [\"command\"]\n[pwm]\noutputs = [\"command\"]\nprofile = \"" +
+                kPwmEnable + "\"\n",
+            &c, &error));
   EXPECT_NE(error.find("/tmp/fw.toml:8: output 'command' is driven by two buses"),
-            std::string::npos) << error;
+            std::string::npos)
+      << error;
   // [pwm] drives the command only, and must drive it.
   EXPECT_FALSE(Parse(kCan + "[pwm]\noutputs = [\"enable\"]\n", &c, &error));
   EXPECT_NE(error.find("/tmp/fw.toml:9: 'outputs' has 'enable'; allowed: command"),
-            std::string::npos) << error;
+            std::string::npos)
+      << error;
   EXPECT_FALSE(Parse(kCan + "[pwm]\noutputs = []\n", &c, &error));
   EXPECT_NE(error.find("[pwm] drives no output"), std::string::npos) << error;
   // Without [pwm] nothing drives the command here.
@@ -84,8 +92,8 @@ TEST(PwmConfigTest, RoutingRefusals) {
   EXPECT_NE(error.find("/tmp/fw.toml:10: unknown key 'frequency' in [pwm]"), std::string::npos)
       << error;
   // A PWM output needs the sensors from somewhere.
-  EXPECT_FALSE(Parse("[pwm]\noutputs = [\"command\"]\nprofile = \"" + kPwmEnable + "\"\n", &c,
-                     &error));
+  EXPECT_FALSE(
+      Parse("[pwm]\noutputs = [\"command\"]\nprofile = \"" + kPwmEnable + "\"\n", &c, &error));
   EXPECT_NE(error.find("no bus serves input 'velocity'"), std::string::npos) << error;
 }
 
@@ -97,13 +105,15 @@ TEST(PwmConfigTest, AProfileWithoutAPwmSectionOrNoneAtAllIsRefused) {
       "outputs = [\"heartbeat\"]\n";
   EXPECT_FALSE(Parse(can_native + "[pwm]\noutputs = [\"command\"]\n", &c, &error));
   EXPECT_NE(error.find("/tmp/fw.toml:8: [pwm] needs a device profile with a [pwm] section"),
-            std::string::npos) << error;
+            std::string::npos)
+      << error;
   EXPECT_FALSE(Parse(can_native + "[pwm]\noutputs = [\"command\"]\nprofile = \"" + kProfiles +
                          "/mrd-native.toml\"\n",
                      &c, &error));
   EXPECT_NE(error.find("/tmp/fw.toml:9: device profile: " + kProfiles +
                        "/mrd-native.toml:1: pwm: no [pwm] section"),
-            std::string::npos) << error;
+            std::string::npos)
+      << error;
 }
 
 TEST(PwmConfigTest, ABrokenPwmSectionIsNamedByTheProfilesLine) {
@@ -122,10 +132,11 @@ TEST(PwmConfigTest, ABrokenPwmSectionIsNamedByTheProfilesLine) {
   std::ofstream(path) << text;
   FirmwareConfig c;
   std::string error;
-  EXPECT_FALSE(Parse("[can]\nlocal_bus = \"/tmp/x.sock\"\ninputs = [\"velocity\", \"demand\"]\n"
-                     "outputs = [\"heartbeat\"]\n[pwm]\noutputs = [\"command\"]\nprofile = \"" +
-                         path + "\"\n",
-                     &c, &error));
+  EXPECT_FALSE(
+      Parse("[can]\nlocal_bus = \"/tmp/x.sock\"\ninputs = [\"velocity\", \"demand\"]\n"
+            "outputs = [\"heartbeat\"]\n[pwm]\noutputs = [\"command\"]\nprofile = \"" +
+                path + "\"\n",
+            &c, &error));
   unlink(path.c_str());
   EXPECT_NE(error.find(path + ":" + std::to_string(line) + ": pwm.period_ns"), std::string::npos)
       << error;

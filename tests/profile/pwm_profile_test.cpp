@@ -78,7 +78,7 @@ TEST(PwmProfileTest, MapsTheSetPointToDutyAndBack) {
   EXPECT_EQ(p.DutyNs(-1.0), 0);
   // The simulated driver's side: identity calibration here, so E = the set-point [A].
   EXPECT_DOUBLE_EQ(p.DutyToVolts(25000), 1.0);
-  EXPECT_DOUBLE_EQ(p.DutyToVolts(0), 0.0);       // below min_duty: held at the range's end
+  EXPECT_DOUBLE_EQ(p.DutyToVolts(0), 0.0);  // below min_duty: held at the range's end
   EXPECT_DOUBLE_EQ(p.DutyToVolts(50000), 2.0);
   // Round trip within one ns of duty: 2 A / (0.9 x 50000 ns) per ns.
   for (double u = 0.0; u <= 2.0; u += 0.0137) {
@@ -116,15 +116,20 @@ TEST(PwmProfileTest, RefusesWithFileLineAndReason) {
   const Refusal cases[] = {
       {"name = \"x\"\n[command]\nmin = 0\nmax = 1\n", "/tmp/p.toml:1: pwm: no [pwm] section"},
       {"pwm = 3\n", "/tmp/p.toml:1: pwm: expected a table"},
-      {With("period_ns = 50000", "period_ns = 0"), "/tmp/p.toml:3: pwm.period_ns: expected an integer"},
+      {With("period_ns = 50000", "period_ns = 0"),
+       "/tmp/p.toml:3: pwm.period_ns: expected an integer"},
       {With("period_ns = 50000", "period_ns = 999"), "/tmp/p.toml:3: pwm.period_ns"},
       {With("period_ns = 50000", "period_ns = 50000.5"), "/tmp/p.toml:3: pwm.period_ns"},
       {With("period_ns = 50000", "period_ns = 2000000000"), "/tmp/p.toml:3: pwm.period_ns"},
-      {With("\"inversed\"", "\"inverted\""), "/tmp/p.toml:4: pwm.polarity: expected \"normal\" or \"inversed\""},
-      {With("min_duty = 0.05", "min_duty = -0.1"), "/tmp/p.toml:5: pwm.min_duty: expected a duty fraction in [0, 1]"},
-      {With("max_duty = 0.95", "max_duty = 1.5"), "/tmp/p.toml:6: pwm.max_duty: expected a duty fraction"},
+      {With("\"inversed\"", "\"inverted\""),
+       "/tmp/p.toml:4: pwm.polarity: expected \"normal\" or \"inversed\""},
+      {With("min_duty = 0.05", "min_duty = -0.1"),
+       "/tmp/p.toml:5: pwm.min_duty: expected a duty fraction in [0, 1]"},
+      {With("max_duty = 0.95", "max_duty = 1.5"),
+       "/tmp/p.toml:6: pwm.max_duty: expected a duty fraction"},
       {With("max_duty = 0.95", "max_duty = \"95%\""), "/tmp/p.toml:6: pwm.max_duty"},
-      {With("min_duty = 0.05", "min_duty = 0.95"), "/tmp/p.toml:2: pwm: min_duty must be below max_duty"},
+      {With("min_duty = 0.05", "min_duty = 0.95"),
+       "/tmp/p.toml:2: pwm: min_duty must be below max_duty"},
       {With("max_duty = 0.95", "max_duty = 0.95\nfrequency_hz = 20000"),
        "/tmp/p.toml:7: pwm.frequency_hz: unknown key (period_ns, polarity, min_duty, max_duty)"},
       {With("unit = \"A\"", "unit = \"A\"\ngain = 2"), "/tmp/p.toml:9: command.gain: unknown key"},
@@ -153,7 +158,8 @@ TEST(PwmProfileTest, ANonMonotonicCalibrationIsNamedByItsOwnLine) {
   std::string error;
   EXPECT_FALSE(LoadPwmProfile(d + "/p.toml", &p, &error));
   EXPECT_NE(error.find(d + "/p.toml:9: command.calibration: " + d + "/coil.csv:4: "),
-            std::string::npos) << error;
+            std::string::npos)
+      << error;
   unlink((d + "/coil.csv").c_str());
   unlink((d + "/p.toml").c_str());
   rmdir(d.c_str());

@@ -8,13 +8,13 @@
 #include <cmath>
 #include <string>
 
+#include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/clipped_optimal_file.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/hil/scenario.hpp"
 #include "mrd/hil/structure_plant.hpp"
 #include "mrd/hil/structure_scores.hpp"
 #include "mrd/structure/study.hpp"
-#include "mrd/firmware/builtin_table.hpp"
 
 namespace mrd {
 namespace {

@@ -152,8 +152,9 @@ TEST(StructureScenarioTest, TheGeneratedFirmwareConfigRoutesTheFloorAcceleration
                                                       ? firmware::ClippedCommand::kInverse
                                                       : firmware::ClippedCommand::kClipped);
     EXPECT_TRUE(cfg.controller.clipped_gains_loaded);
-    for (const auto in : {firmware::Input::kFloorAcceleration1, firmware::Input::kFloorAcceleration2,
-                          firmware::Input::kFloorAcceleration3, firmware::Input::kForce}) {
+    for (const auto in :
+         {firmware::Input::kFloorAcceleration1, firmware::Input::kFloorAcceleration2,
+          firmware::Input::kFloorAcceleration3, firmware::Input::kForce}) {
       EXPECT_NE(cfg.io.can.inputs & firmware::Bit(in), 0U) << firmware::InputName(in);
     }
   }

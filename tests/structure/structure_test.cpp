@@ -77,7 +77,8 @@ double RoofAmplitude(double f, double seconds) {
   const long n = std::lround(seconds / T);
   for (long k = 0; k < n; ++k) {
     const double t = static_cast<double>(k) * T;
-    const auto& s = frame.Step(T, std::sin(2 * M_PI * f * t), std::sin(2 * M_PI * f * (t + T)), 0.0);
+    const auto& s =
+        frame.Step(T, std::sin(2 * M_PI * f * t), std::sin(2 * M_PI * f * (t + T)), 0.0);
     if (t + T > seconds - 1.0) {
       si += s.x[2] * std::sin(2 * M_PI * f * (t + T));
       co += s.x[2] * std::cos(2 * M_PI * f * (t + T));
@@ -126,14 +127,14 @@ TEST(ShearFrameTest, InvalidParametersAreNamed) {
 
 TEST(ClippedRuleTest, SwitchesOnOnlyWhenTheForceMustGrowTowardsTheDesiredForce) {
   const Real vmax = Real(2.25), vmin = Real(0);
-  EXPECT_EQ(ClippedRule(Real(500), Real(100), vmax, vmin), vmax);    // same sign, |f| < |fc|
+  EXPECT_EQ(ClippedRule(Real(500), Real(100), vmax, vmin), vmax);  // same sign, |f| < |fc|
   EXPECT_EQ(ClippedRule(Real(-500), Real(-100), vmax, vmin), vmax);
-  EXPECT_EQ(ClippedRule(Real(100), Real(500), vmax, vmin), vmin);    // |f| > |fc|
+  EXPECT_EQ(ClippedRule(Real(100), Real(500), vmax, vmin), vmin);  // |f| > |fc|
   EXPECT_EQ(ClippedRule(Real(-100), Real(-500), vmax, vmin), vmin);
-  EXPECT_EQ(ClippedRule(Real(-500), Real(100), vmax, vmin), vmin);   // opposite signs
+  EXPECT_EQ(ClippedRule(Real(-500), Real(100), vmax, vmin), vmin);  // opposite signs
   EXPECT_EQ(ClippedRule(Real(500), Real(-100), vmax, vmin), vmin);
-  EXPECT_EQ(ClippedRule(Real(500), Real(0), vmax, vmin), vmin);      // f = 0: H(0) = 0
-  EXPECT_EQ(ClippedRule(Real(100), Real(100), vmax, vmin), vmin);    // f = fc
+  EXPECT_EQ(ClippedRule(Real(500), Real(0), vmax, vmin), vmin);    // f = 0: H(0) = 0
+  EXPECT_EQ(ClippedRule(Real(100), Real(100), vmax, vmin), vmin);  // f = fc
   EXPECT_EQ(ClippedRule(Real(500), Real(100), Real(1.5), Real(0.2)), Real(1.5));
 }
 
@@ -240,9 +241,9 @@ TEST(ObserverTest, ConvergesOnANoiseFreeRun) {
     if (k > 500 && k < 2000) err_shaking = std::fmax(err_shaking, e);
     if (k >= 3900) err_end = std::fmax(err_end, e);
   }
-  EXPECT_GT(peak, 1e-3);                 // it really moved (> 1 mm)
-  EXPECT_LT(err_shaking, 0.5 * peak);    // tracks while shaking
-  EXPECT_LT(err_end, 1e-3 * peak);       // converged after the ground stops
+  EXPECT_GT(peak, 1e-3);               // it really moved (> 1 mm)
+  EXPECT_LT(err_shaking, 0.5 * peak);  // tracks while shaking
+  EXPECT_LT(err_end, 1e-3 * peak);     // converged after the ground stops
   EXPECT_LT(err_end, 0.05 * err_shaking);
 }
 
@@ -268,8 +269,8 @@ TEST(StudyTest, ProducesEveryCellAndTheClippedOptimalReductions) {
   const Case cases[4] = {Case::kUncontrolled, Case::kPassiveOff, Case::kPassiveOn,
                          Case::kClippedOptimal};
   for (int c = 0; c < 4; ++c) {
-    ASSERT_TRUE(RunCase(cases[c], record, ShearFrameParams{}, SpencerParams::Spencer1997(), g,
-                        o, &r[c], &error))
+    ASSERT_TRUE(RunCase(cases[c], record, ShearFrameParams{}, SpencerParams::Spencer1997(), g, o,
+                        &r[c], &error))
         << error;
     for (int i = 0; i < 3; ++i) {
       EXPECT_GT(r[c].peak_x_cm[i], 0.0);
@@ -283,16 +284,16 @@ TEST(StudyTest, ProducesEveryCellAndTheClippedOptimalReductions) {
   const Response &unc = r[0], &off = r[1], &on = r[2], &co = r[3];
   for (int i = 0; i < 3; ++i) {
     EXPECT_LT(off.peak_x_cm[i], unc.peak_x_cm[i]);
-    EXPECT_LT(co.peak_x_cm[i], off.peak_x_cm[i]);      // better than the passive-off damper
+    EXPECT_LT(co.peak_x_cm[i], off.peak_x_cm[i]);  // better than the passive-off damper
     EXPECT_LT(co.peak_d_cm[i], off.peak_d_cm[i]);
     EXPECT_LT(co.peak_xa_cm_s2[i], unc.peak_xa_cm_s2[i]);
   }
-  EXPECT_LE(co.peak_x_cm[2], on.peak_x_cm[2]);          // roof no worse than passive-on
-  EXPECT_LT(co.peak_d_cm[1], on.peak_d_cm[1]);          // upper drifts and roof acceleration
-  EXPECT_LT(co.peak_d_cm[2], on.peak_d_cm[2]);          // below passive-on's
+  EXPECT_LE(co.peak_x_cm[2], on.peak_x_cm[2]);  // roof no worse than passive-on
+  EXPECT_LT(co.peak_d_cm[1], on.peak_d_cm[1]);  // upper drifts and roof acceleration
+  EXPECT_LT(co.peak_d_cm[2], on.peak_d_cm[2]);  // below passive-on's
   EXPECT_LT(co.peak_xa_cm_s2[2], on.peak_xa_cm_s2[2]);
-  EXPECT_LT(co.peak_force_n, on.peak_force_n);          // with less force
-  EXPECT_GT(co.mean_voltage, 0.0);                      // the rule switched
+  EXPECT_LT(co.peak_force_n, on.peak_force_n);  // with less force
+  EXPECT_GT(co.mean_voltage, 0.0);              // the rule switched
   EXPECT_LT(co.mean_voltage, o.design.v_max);
   // Deterministic: the same run again gives the same numbers.
   Response again;
@@ -301,8 +302,8 @@ TEST(StudyTest, ProducesEveryCellAndTheClippedOptimalReductions) {
   EXPECT_EQ(again.peak_x_cm[2], co.peak_x_cm[2]);
   EXPECT_EQ(again.rms_force_n, co.rms_force_n);
   const std::string table = ResponseTable({unc, off, on, co});
-  for (const char* name : {"| uncontrolled |", "| passive-off |", "| passive-on |",
-                           "| clipped-optimal |"}) {
+  for (const char* name :
+       {"| uncontrolled |", "| passive-off |", "| passive-on |", "| clipped-optimal |"}) {
     EXPECT_NE(table.find(name), std::string::npos) << name;
   }
 }

@@ -117,9 +117,8 @@ CanResult CanIface::Receive(can_frame* frame, std::int64_t* stamp_ns) {
     return CanResult::kError;
   }
   if (n == 0) return Lost();  // orderly shutdown of the peer (SOCK_SEQPACKET EOF)
-  if (truncated ||
-      (static_cast<std::size_t>(n) != sizeof(can_frame) &&
-       static_cast<std::size_t>(n) != sizeof(LocalBusPacket))) {
+  if (truncated || (static_cast<std::size_t>(n) != sizeof(can_frame) &&
+                    static_cast<std::size_t>(n) != sizeof(LocalBusPacket))) {
     ++stats_.rx_bad;
     return CanResult::kBadFrame;
   }

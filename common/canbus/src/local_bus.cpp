@@ -20,8 +20,8 @@ namespace mrd::canbus {
 namespace {
 
 constexpr int kBacklog = 16;
-constexpr int kMaxFramesPerNodeRound = 64;  // fairness: bounded work per node per Step
-constexpr std::int64_t kProbeWaitNs = 200'000'000;  // a full backlog: retry this long [ns]
+constexpr int kMaxFramesPerNodeRound = 64;            // fairness: bounded work per node per Step
+constexpr std::int64_t kProbeWaitNs = 200'000'000;    // a full backlog: retry this long [ns]
 constexpr std::int64_t kAcceptPauseNs = 100'000'000;  // accept() failing: listener rests [ns]
 
 void SleepNs(std::int64_t ns) {

@@ -10,11 +10,11 @@ namespace mrd::params {
 
 void SpencerFields(SpencerParams* p, SpencerField (&out)[kSpencerFieldCount]) {
   const SpencerField f[kSpencerFieldCount] = {
-      {"c0a", &p->c0a},         {"c0b", &p->c0b},         {"k0", &p->k0},
-      {"c1a", &p->c1a},         {"c1b", &p->c1b},         {"k1", &p->k1},
-      {"x0", &p->x0},           {"alpha_a", &p->alpha_a}, {"alpha_b", &p->alpha_b},
-      {"gamma", &p->gamma},     {"beta", &p->beta},       {"A", &p->A},
-      {"n", &p->n},             {"eta", &p->eta}};
+      {"c0a", &p->c0a},     {"c0b", &p->c0b},         {"k0", &p->k0},
+      {"c1a", &p->c1a},     {"c1b", &p->c1b},         {"k1", &p->k1},
+      {"x0", &p->x0},       {"alpha_a", &p->alpha_a}, {"alpha_b", &p->alpha_b},
+      {"gamma", &p->gamma}, {"beta", &p->beta},       {"A", &p->A},
+      {"n", &p->n},         {"eta", &p->eta}};
   for (std::size_t i = 0; i < kSpencerFieldCount; ++i) out[i] = f[i];
 }
 
@@ -47,14 +47,20 @@ bool CheckPhysical(const SpencerParams& p, std::string* why) {
     double hi;
   };
   constexpr double kInf = HUGE_VAL;
-  const Rule rules[] = {
-      {"c0a", p.c0a, 0, true, kInf},        {"c0b", p.c0b, 0, false, kInf},
-      {"k0", p.k0, 0, true, kInf},          {"c1a", p.c1a, 0, true, kInf},
-      {"c1b", p.c1b, 0, false, kInf},       {"k1", p.k1, 0, false, kInf},
-      {"x0", p.x0, -kInf, false, kInf},     {"alpha_a", p.alpha_a, 0, false, kInf},
-      {"alpha_b", p.alpha_b, 0, false, kInf}, {"gamma", p.gamma, 0, false, kInf},
-      {"beta", p.beta, -kInf, false, kInf}, {"A", p.A, 0, false, kInf},
-      {"n", p.n, 1, false, 10},             {"eta", p.eta, 0, true, kInf}};
+  const Rule rules[] = {{"c0a", p.c0a, 0, true, kInf},
+                        {"c0b", p.c0b, 0, false, kInf},
+                        {"k0", p.k0, 0, true, kInf},
+                        {"c1a", p.c1a, 0, true, kInf},
+                        {"c1b", p.c1b, 0, false, kInf},
+                        {"k1", p.k1, 0, false, kInf},
+                        {"x0", p.x0, -kInf, false, kInf},
+                        {"alpha_a", p.alpha_a, 0, false, kInf},
+                        {"alpha_b", p.alpha_b, 0, false, kInf},
+                        {"gamma", p.gamma, 0, false, kInf},
+                        {"beta", p.beta, -kInf, false, kInf},
+                        {"A", p.A, 0, false, kInf},
+                        {"n", p.n, 1, false, 10},
+                        {"eta", p.eta, 0, true, kInf}};
   for (const Rule& r : rules) {
     if (!std::isfinite(r.v)) {
       *why = std::string("invalid parameter '") + r.key + "': must be finite";
@@ -105,8 +111,9 @@ bool LoadSpencerParamsFile(const std::string& path, SpencerParams* out, ParamsEr
     }
     if (field == nullptr) {
       std::string why = "unknown key '";  // appended piecewise: GCC 12 -Wrestrict
-      why.append(key.str()).append("' (expected preset or one of c0a c0b k0 c1a c1b k1 x0 "
-                                   "alpha_a alpha_b gamma beta A n eta)");
+      why.append(key.str()).append(
+          "' (expected preset or one of c0a c0b k0 c1a c1b k1 x0 "
+          "alpha_a alpha_b gamma beta A n eta)");
       *error = {line, why};
       return false;
     }

@@ -16,15 +16,34 @@
 namespace mrd::profile {
 namespace {
 
-constexpr const char* kCanInNames[kNumCanIn] = {
-    "velocity", "displacement", "demand", "body_velocity", "force",
-    "fault_line", "body_acceleration", "wheel_velocity", "floor_acceleration_1",
-    "floor_acceleration_2", "floor_acceleration_3", "sensor_seq", "driver_faults",
-    "driver_current", "grant"};
-constexpr const char* kCanOutNames[kNumCanOut] = {
-    "command", "enable", "enable_valid", "safe", "echo", "heartbeat_safe",
-    "status_safe", "status_causes", "status_overruns", "status_safe_entries",
-    "status_model_force", "status_demand", "status_command"};
+constexpr const char* kCanInNames[kNumCanIn] = {"velocity",
+                                                "displacement",
+                                                "demand",
+                                                "body_velocity",
+                                                "force",
+                                                "fault_line",
+                                                "body_acceleration",
+                                                "wheel_velocity",
+                                                "floor_acceleration_1",
+                                                "floor_acceleration_2",
+                                                "floor_acceleration_3",
+                                                "sensor_seq",
+                                                "driver_faults",
+                                                "driver_current",
+                                                "grant"};
+constexpr const char* kCanOutNames[kNumCanOut] = {"command",
+                                                  "enable",
+                                                  "enable_valid",
+                                                  "safe",
+                                                  "echo",
+                                                  "heartbeat_safe",
+                                                  "status_safe",
+                                                  "status_causes",
+                                                  "status_overruns",
+                                                  "status_safe_entries",
+                                                  "status_model_force",
+                                                  "status_demand",
+                                                  "status_command"};
 
 struct Ctx {
   const std::string& path;
@@ -120,8 +139,10 @@ bool Message(const Ctx& c, const toml::table& t, const std::string& name, CanPro
         }
         spec.counter = si;
       } else {
-        if (layout.length != 8 || layout.is_signed || layout.factor != 1.0 || layout.offset != 0.0) {
-          return c.Fail(&v, full + ": a checksum is an unsigned 8-bit signal with factor 1, offset 0");
+        if (layout.length != 8 || layout.is_signed || layout.factor != 1.0 ||
+            layout.offset != 0.0) {
+          return c.Fail(&v,
+                        full + ": a checksum is an unsigned 8-bit signal with factor 1, offset 0");
         }
         spec.checksum = si;
       }
@@ -151,8 +172,9 @@ bool Message(const Ctx& c, const toml::table& t, const std::string& name, CanPro
     } else if (key == "timeout_ms") {
       if (!Millis(c, v, full, 0.1, 60000.0, &spec.timeout_ns)) return false;
     } else {
-      return c.Fail(&v, full + ": unknown key (counter, checksum, checksum_kind, crc_poly, "
-                               "crc_init, crc_xor, checksum_covers_id, period_ms, timeout_ms)");
+      return c.Fail(&v, full +
+                            ": unknown key (counter, checksum, checksum_kind, crc_poly, "
+                            "crc_init, crc_xor, checksum_covers_id, period_ms, timeout_ms)");
     }
   }
   if ((spec.checksum >= 0) != (spec.checksum_kind != ChecksumKind::kNone)) {
@@ -216,8 +238,8 @@ bool LoadCanProfile(const std::string& path, CanProfile* out, std::string* error
   return ParseCanProfile(text, path, nullptr, out, error);
 }
 
-bool ParseCanProfile(const std::string& text, const std::string& path,
-                     const std::string* dbc_text, CanProfile* out, std::string* error) {
+bool ParseCanProfile(const std::string& text, const std::string& path, const std::string* dbc_text,
+                     CanProfile* out, std::string* error) {
   *out = CanProfile{};
   out->path = path;
   const Ctx c{path, error};
@@ -225,16 +247,17 @@ bool ParseCanProfile(const std::string& text, const std::string& path,
   try {
     root = toml::parse(text, path);
   } catch (const toml::parse_error& e) {
-    *error = path + ":" + std::to_string(e.source().begin.line) + ": " +
-             std::string(e.description());
+    *error =
+        path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
     return false;
   }
   try {
     // The DBC first: every other key refers to it.
     const toml::node* dbc_node = root.get("dbc");
     if (dbc_node == nullptr || !dbc_node->is_string()) {
-      *error = path + ":1: dbc: expected the DBC file of the driver (a path, relative to the "
-                      "profile)";
+      *error = path +
+               ":1: dbc: expected the DBC file of the driver (a path, relative to the "
+               "profile)";
       return false;
     }
     std::string dbc_path = *dbc_node->value<std::string>();
@@ -300,7 +323,8 @@ bool ParseCanProfile(const std::string& text, const std::string& path,
         if (t == nullptr) return c.Fail(&v, "messages: expected a table of messages");
         for (const auto& [mk, mv] : *t) {
           const toml::table* mt = mv.as_table();
-          if (mt == nullptr) return c.Fail(&mv, "messages." + std::string(mk.str()) + ": expected a table");
+          if (mt == nullptr)
+            return c.Fail(&mv, "messages." + std::string(mk.str()) + ": expected a table");
           if (!Message(c, *mt, std::string(mk.str()), out)) return false;
         }
       } else if (key == "command") {
@@ -315,8 +339,9 @@ bool ParseCanProfile(const std::string& text, const std::string& path,
         if (!ParseCanopenSection(*t, path, out, error)) return false;
       } else if (key != "dbc" && key != "inputs" && key != "outputs" && key != "description" &&
                  key != "pwm") {  // [pwm]: the PWM output's part (pwm_profile.cpp)
-        return c.Fail(&v, key + ": unknown key (name, description, dbc, inputs, outputs, "
-                                "messages, command, canopen, pwm)");
+        return c.Fail(&v, key +
+                              ": unknown key (name, description, dbc, inputs, outputs, "
+                              "messages, command, canopen, pwm)");
       }
     }
     if (out->name.empty()) {

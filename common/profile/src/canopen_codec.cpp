@@ -53,12 +53,15 @@ constexpr AbortText kAborts[] = {
     {0x060A0023, "resource not available: SDO connection"},
     {0x08000000, "general error"},
     {0x08000020, "data cannot be transferred or stored to the application"},
-    {0x08000021, "data cannot be transferred or stored to the application because of local "
-                 "control"},
-    {0x08000022, "data cannot be transferred or stored to the application because of the "
-                 "present device state"},
-    {0x08000023, "object dictionary dynamic generation fails or no object dictionary is "
-                 "present"},
+    {0x08000021,
+     "data cannot be transferred or stored to the application because of local "
+     "control"},
+    {0x08000022,
+     "data cannot be transferred or stored to the application because of the "
+     "present device state"},
+    {0x08000023,
+     "object dictionary dynamic generation fails or no object dictionary is "
+     "present"},
     {0x08000024, "no data available"},
 };
 
@@ -66,11 +69,16 @@ constexpr AbortText kAborts[] = {
 
 const char* NmtStateName(std::uint8_t state) {
   switch (state & 0x7FU) {
-    case kStateBootUp: return "boot-up";
-    case kStateStopped: return "stopped";
-    case kStateOperational: return "operational";
-    case kStatePreOperational: return "pre-operational";
-    default: return "unknown";
+    case kStateBootUp:
+      return "boot-up";
+    case kStateStopped:
+      return "stopped";
+    case kStateOperational:
+      return "operational";
+    case kStatePreOperational:
+      return "pre-operational";
+    default:
+      return "unknown";
   }
 }
 

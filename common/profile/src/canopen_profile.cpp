@@ -25,8 +25,8 @@ bool Integer(const Ctx& c, const toml::node& n, const std::string& key, std::int
              std::int64_t hi, std::int64_t* out) {
   const auto v = n.value_exact<std::int64_t>();
   if (!v || *v < lo || *v > hi) {
-    return c.Fail(n, key + ": expected an integer in " + std::to_string(lo) + ".." +
-                         std::to_string(hi));
+    return c.Fail(
+        n, key + ": expected an integer in " + std::to_string(lo) + ".." + std::to_string(hi));
   }
   *out = *v;
   return true;
@@ -178,7 +178,8 @@ bool ParseCanopenSection(const toml::table& t, const std::string& path, CanProfi
       std::set<std::pair<int, int>> objects;
       for (const toml::node& e : *a) {
         const toml::table* et = e.as_table();
-        if (et == nullptr) return c.Fail(e, full + ": each entry must be a table ([[canopen.sdo]])");
+        if (et == nullptr)
+          return c.Fail(e, full + ": each entry must be a table ([[canopen.sdo]])");
         SdoDownload s;
         if (!Sdo(c, *et, &s)) return false;
         if (!names.insert(s.name).second) {
@@ -194,9 +195,10 @@ bool ParseCanopenSection(const toml::table& t, const std::string& path, CanProfi
         co.sdo.push_back(std::move(s));
       }
     } else {
-      return c.Fail(n, full + ": unknown key (node_id, own_node_id, heartbeat_ms, "
-                            "drive_heartbeat_timeout_ms, nmt_start, sync_period_ms, "
-                            "sdo_timeout_ms, sdo)");
+      return c.Fail(n, full +
+                           ": unknown key (node_id, own_node_id, heartbeat_ms, "
+                           "drive_heartbeat_timeout_ms, nmt_start, sync_period_ms, "
+                           "sdo_timeout_ms, sdo)");
     }
   }
   if (!has_node) return c.Fail(t, "canopen.node_id: missing (the drive's node id, 1..127)");

@@ -39,7 +39,8 @@ bool CommandMap::LoadCalibration(const std::string& path, std::string* error) {
     if (line.find_first_not_of(" \t") == std::string::npos) continue;
     if (header) {  // "E,<unit>": the names are for people; two columns are required
       header = false;
-      if (line.find(',') == std::string::npos) return fail("header: expected two columns (E,value)");
+      if (line.find(',') == std::string::npos)
+        return fail("header: expected two columns (E,value)");
       continue;
     }
     const auto comma = line.find(',');

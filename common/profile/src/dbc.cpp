@@ -118,9 +118,10 @@ std::string Where(const std::string& path, int line) {
 // Keywords whose statements end with ';' (and may span lines).
 bool SemicolonStatement(std::string_view kw) {
   static constexpr std::string_view kWords[] = {
-      "CM_", "BA_DEF_", "BA_DEF_DEF_", "BA_", "VAL_", "VAL_TABLE_", "BO_TX_BU_", "EV_",
-      "SIG_VALTYPE_", "BA_DEF_REL_", "BA_REL_", "BA_DEF_DEF_REL_", "SIG_GROUP_", "SGTYPE_",
-      "SIG_TYPE_REF_", "ENVVAR_DATA_", "SIG_MUL_VAL_", "BU_SG_REL_", "BU_EV_REL_", "BU_BO_REL_"};
+      "CM_",          "BA_DEF_",         "BA_DEF_DEF_", "BA_",          "VAL_",
+      "VAL_TABLE_",   "BO_TX_BU_",       "EV_",         "SIG_VALTYPE_", "BA_DEF_REL_",
+      "BA_REL_",      "BA_DEF_DEF_REL_", "SIG_GROUP_",  "SGTYPE_",      "SIG_TYPE_REF_",
+      "ENVVAR_DATA_", "SIG_MUL_VAL_",    "BU_SG_REL_",  "BU_EV_REL_",   "BU_BO_REL_"};
   for (std::string_view w : kWords) {
     if (kw == w) return true;
   }
@@ -146,8 +147,8 @@ class Parser {
     if (!sc.Eat(':')) return Fail(line, "BO_ " + m.name + ": expected ':' after the name");
     if (!sc.Unsigned(64, &dlc)) return Fail(line, "BO_ " + m.name + ": expected the length");
     if (dlc > 8) {
-      return Fail(line, "BO_ " + m.name + ": length " + std::to_string(dlc) +
-                            " bytes (classic CAN: 0..8)");
+      return Fail(
+          line, "BO_ " + m.name + ": length " + std::to_string(dlc) + " bytes (classic CAN: 0..8)");
     }
     std::string tx;
     (void)sc.Ident(&tx);
@@ -189,10 +190,12 @@ class Parser {
       return Fail(line, at + "expected <start>|<length>@");
     }
     const bool intel = sc.Eat('1');
-    if (!intel && !sc.Eat('0')) return Fail(line, at + "byte order must be @0 (Motorola) or @1 (Intel)");
+    if (!intel && !sc.Eat('0'))
+      return Fail(line, at + "byte order must be @0 (Motorola) or @1 (Intel)");
     const bool is_signed = sc.Eat('-');
     if (!is_signed && !sc.Eat('+')) return Fail(line, at + "expected + (unsigned) or - (signed)");
-    if (!sc.Eat('(') || !sc.Number(&factor) || !sc.Eat(',') || !sc.Number(&offset) || !sc.Eat(')')) {
+    if (!sc.Eat('(') || !sc.Number(&factor) || !sc.Eat(',') || !sc.Number(&offset) ||
+        !sc.Eat(')')) {
       return Fail(line, at + "expected (<factor>,<offset>)");
     }
     if (!sc.Eat('[') || !sc.Number(&min) || !sc.Eat('|') || !sc.Number(&max) || !sc.Eat(']')) {
@@ -256,7 +259,9 @@ class Parser {
           found = true;
         }
       }
-      if (!found) return Fail(c.line, "GenMsgCycleTime of message id " + std::to_string(c.id) + ", which no BO_ defines");
+      if (!found)
+        return Fail(c.line, "GenMsgCycleTime of message id " + std::to_string(c.id) +
+                                ", which no BO_ defines");
     }
     return true;
   }

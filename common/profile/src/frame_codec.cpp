@@ -13,9 +13,7 @@ const protocol::SignalLayout& LayoutOf(const DbcMessage& m, int signal) {
 
 }  // namespace
 
-canid_t WireId(const DbcMessage& m) {
-  return m.extended ? (m.id | CAN_EFF_FLAG) : m.id;
-}
+canid_t WireId(const DbcMessage& m) { return m.extended ? (m.id | CAN_EFF_FLAG) : m.id; }
 
 FrameCodec::FrameCodec(const CanProfile& profile) : profile_(&profile) {}
 

@@ -26,11 +26,21 @@ double Decode(const ModbusProfile& p, const ModbusPoint& pt, std::uint16_t w0, s
   const std::uint32_t u32 = (hi << 16) | lo;
   double raw = 0.0;
   switch (pt.type) {
-    case ModbusType::kInt16: raw = static_cast<std::int16_t>(w0); break;
-    case ModbusType::kUint16: raw = w0; break;
-    case ModbusType::kBit: raw = w0 != 0 ? 1.0 : 0.0; break;
-    case ModbusType::kInt32: raw = static_cast<std::int32_t>(u32); break;
-    case ModbusType::kUint32: raw = u32; break;
+    case ModbusType::kInt16:
+      raw = static_cast<std::int16_t>(w0);
+      break;
+    case ModbusType::kUint16:
+      raw = w0;
+      break;
+    case ModbusType::kBit:
+      raw = w0 != 0 ? 1.0 : 0.0;
+      break;
+    case ModbusType::kInt32:
+      raw = static_cast<std::int32_t>(u32);
+      break;
+    case ModbusType::kUint32:
+      raw = u32;
+      break;
     case ModbusType::kFloat32: {
       float f = 0.0F;
       std::memcpy(&f, &u32, sizeof f);
@@ -67,9 +77,8 @@ bool Encode(const ModbusProfile& p, const ModbusPoint& pt, double value, std::ui
       const double lo = pt.type == ModbusType::kInt32 ? -2147483648.0 : 0.0;
       const double hi = pt.type == ModbusType::kInt32 ? 2147483647.0 : 4294967295.0;
       if (r < lo || r > hi) return false;
-      u32 = pt.type == ModbusType::kInt32
-                ? static_cast<std::uint32_t>(static_cast<std::int32_t>(r))
-                : static_cast<std::uint32_t>(r);
+      u32 = pt.type == ModbusType::kInt32 ? static_cast<std::uint32_t>(static_cast<std::int32_t>(r))
+                                          : static_cast<std::uint32_t>(r);
       break;
     }
     case ModbusType::kFloat32: {
@@ -166,7 +175,8 @@ int PutModbusWrite(const ModbusRequest& r, const std::uint16_t* words, std::uint
       pdu[5] = static_cast<std::uint8_t>(bytes);
       std::memset(pdu + 6, 0, static_cast<std::size_t>(bytes));
       for (int i = 0; i < r.count; ++i) {
-        if (words[i] != 0) pdu[6 + i / 8] = static_cast<std::uint8_t>(pdu[6 + i / 8] | (1U << (i % 8)));
+        if (words[i] != 0)
+          pdu[6 + i / 8] = static_cast<std::uint8_t>(pdu[6 + i / 8] | (1U << (i % 8)));
       }
       return 6 + bytes;
     }

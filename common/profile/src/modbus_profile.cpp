@@ -15,20 +15,38 @@
 namespace mrd::profile {
 namespace {
 
-constexpr const char* kInNames[kNumCanIn] = {
-    "velocity", "displacement", "demand", "body_velocity", "force",
-    "fault_line", "body_acceleration", "wheel_velocity", "floor_acceleration_1",
-    "floor_acceleration_2", "floor_acceleration_3", "sensor_seq", "driver_faults",
-    "driver_current", "grant"};
-constexpr const char* kOutNames[kNumModbusOut] = {
-    "command", "enable", "safe", "echo", "heartbeat",
-    "status_safe", "status_causes", "status_overruns", "status_safe_entries",
-    "status_model_force", "status_demand", "status_command"};
+constexpr const char* kInNames[kNumCanIn] = {"velocity",
+                                             "displacement",
+                                             "demand",
+                                             "body_velocity",
+                                             "force",
+                                             "fault_line",
+                                             "body_acceleration",
+                                             "wheel_velocity",
+                                             "floor_acceleration_1",
+                                             "floor_acceleration_2",
+                                             "floor_acceleration_3",
+                                             "sensor_seq",
+                                             "driver_faults",
+                                             "driver_current",
+                                             "grant"};
+constexpr const char* kOutNames[kNumModbusOut] = {"command",
+                                                  "enable",
+                                                  "safe",
+                                                  "echo",
+                                                  "heartbeat",
+                                                  "status_safe",
+                                                  "status_causes",
+                                                  "status_overruns",
+                                                  "status_safe_entries",
+                                                  "status_model_force",
+                                                  "status_demand",
+                                                  "status_command"};
 
-constexpr int kMaxReadRegisters = 125;  // 0x03 / 0x04
-constexpr int kMaxReadBits = 2000;      // 0x01 / 0x02
-constexpr int kMaxWriteRegisters = 123; // 0x10
-constexpr int kMaxWriteBits = 1968;     // 0x0F
+constexpr int kMaxReadRegisters = 125;   // 0x03 / 0x04
+constexpr int kMaxReadBits = 2000;       // 0x01 / 0x02
+constexpr int kMaxWriteRegisters = 123;  // 0x10
+constexpr int kMaxWriteBits = 1968;      // 0x0F
 
 struct Ctx {
   const std::string& path;
@@ -49,10 +67,14 @@ bool IsBit(ModbusTable t) { return t == ModbusTable::kCoil || t == ModbusTable::
 
 std::uint8_t ReadFunction(ModbusTable t) {
   switch (t) {
-    case ModbusTable::kCoil: return 0x01;
-    case ModbusTable::kDiscrete: return 0x02;
-    case ModbusTable::kHolding: return 0x03;
-    case ModbusTable::kInput: return 0x04;
+    case ModbusTable::kCoil:
+      return 0x01;
+    case ModbusTable::kDiscrete:
+      return 0x02;
+    case ModbusTable::kHolding:
+      return 0x03;
+    case ModbusTable::kInput:
+      return 0x04;
   }
   return 0x03;
 }
@@ -99,8 +121,10 @@ bool Point(const Ctx& c, const toml::node& n, const std::string& full, bool outp
     } else if (key == "type") {
       const auto s = v.value<std::string>();
       static const std::pair<const char*, ModbusType> kTypes[] = {
-          {"int16", ModbusType::kInt16}, {"uint16", ModbusType::kUint16},
-          {"int32", ModbusType::kInt32}, {"uint32", ModbusType::kUint32},
+          {"int16", ModbusType::kInt16},
+          {"uint16", ModbusType::kUint16},
+          {"int32", ModbusType::kInt32},
+          {"uint32", ModbusType::kUint32},
           {"float32", ModbusType::kFloat32}};
       bool found = false;
       for (const auto& [name, type] : kTypes) {
@@ -187,7 +211,7 @@ void Group(std::array<ModbusPoint, N>& points, int max_gap, int cap_registers, i
     r.table = pt->table;
     r.address = pt->address;
     r.count = pt->count();
-    r.function = !writes ? ReadFunction(pt->table)
+    r.function = !writes            ? ReadFunction(pt->table)
                  : IsBit(pt->table) ? (single ? 0x05 : 0x0F)
                                     : (single ? 0x06 : 0x10);
     pt->request = static_cast<int>(out->size());
@@ -226,8 +250,8 @@ bool ParseModbusProfile(const std::string& text, const std::string& path, Modbus
   try {
     root = toml::parse(text, path);
   } catch (const toml::parse_error& e) {
-    *error = path + ":" + std::to_string(e.source().begin.line) + ": " +
-             std::string(e.description());
+    *error =
+        path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
     return false;
   }
   try {
@@ -287,8 +311,9 @@ bool ParseModbusProfile(const std::string& text, const std::string& path, Modbus
         out->max_read = static_cast<int>(*n);
         max_read_node = &v;
       } else if (key != "inputs" && key != "outputs") {
-        return c.Fail(&v, full + ": unknown key (word_order, write_function, align32, max_read, "
-                                 "inputs, outputs)");
+        return c.Fail(&v, full +
+                              ": unknown key (word_order, write_function, align32, max_read, "
+                              "inputs, outputs)");
       }
     }
     (void)max_read_node;
@@ -325,8 +350,9 @@ bool ParseModbusProfile(const std::string& text, const std::string& path, Modbus
                                 " (align32: the device needs even addresses)");
         }
         if (output && pt.count() == 2 && out->write_function == 6) {
-          return c.Fail(&v, full + ": a 32-bit value cannot be written with write_function 6 "
-                                   "(one register per request); use 16");
+          return c.Fail(&v, full +
+                                ": a 32-bit value cannot be written with write_function 6 "
+                                "(one register per request); use 16");
         }
         for (int i = 0; i < pt.count(); ++i) {
           const auto at = std::make_tuple(int{pt.unit}, static_cast<int>(pt.table), pt.address + i);

@@ -75,8 +75,9 @@ bool Pwm(const Ctx& c, const toml::table& t, PwmProfile* p) {
 bool Command(const Ctx& c, const toml::node* node, const std::string& dir, PwmProfile* p) {
   const toml::table* t = node != nullptr ? node->as_table() : nullptr;
   if (t == nullptr) {
-    return c.Fail(node, "command: a [pwm] profile needs a [command] table with min and max (the "
-                        "driver's input range that min_duty..max_duty stands for)");
+    return c.Fail(node,
+                  "command: a [pwm] profile needs a [command] table with min and max (the "
+                  "driver's input range that min_duty..max_duty stands for)");
   }
   CommandSection cmd{p->command_unit, NAN, NAN, 0.0};
   const toml::node* bad = nullptr;
@@ -133,14 +134,16 @@ bool ParsePwmProfile(const std::string& text, const std::string& path, PwmProfil
     try {
       root = toml::parse(text, path);
     } catch (const toml::parse_error& e) {
-      *error = path + ":" + std::to_string(e.source().begin.line) + ": " +
-               std::string(e.description());
+      *error =
+          path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
       return false;
     }
     if (const auto name = root["name"].value<std::string>()) out->name = *name;
     const toml::node* pwm = root.get("pwm");
-    if (pwm == nullptr) return c.Fail(nullptr, "pwm: no [pwm] section (period_ns, polarity, "
-                                               "min_duty, max_duty)");
+    if (pwm == nullptr)
+      return c.Fail(nullptr,
+                    "pwm: no [pwm] section (period_ns, polarity, "
+                    "min_duty, max_duty)");
     if (!pwm->is_table()) return c.Fail(pwm, "pwm: expected a table");
     if (!Pwm(c, *pwm->as_table(), out)) return false;
     return Command(c, root.get("command"), Directory(path), out);

@@ -177,7 +177,8 @@ Reject Encode(const DriverCommand& m, can_frame* frame) {
 Reject Encode(const TimeGrant& m, can_frame* frame) {
   if (m.time_us > kMaxGrantUs) return Reject::kOutOfRange;
   Start(kTimeGrantId, kFrameDlc, frame);
-  for (int i = 0; i < 6; ++i) frame->data[i] = static_cast<std::uint8_t>((m.time_us >> (8 * i)) & 0xFFU);
+  for (int i = 0; i < 6; ++i)
+    frame->data[i] = static_cast<std::uint8_t>((m.time_us >> (8 * i)) & 0xFFU);
   Seal(m.counter, kCounterByte, frame);
   return Reject::kNone;
 }

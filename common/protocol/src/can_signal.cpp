@@ -72,8 +72,8 @@ void InsertRaw(std::uint8_t* data, const SignalLayout& s, std::int64_t raw) {
 
 SignalError DecodeSignal(const std::uint8_t* data, const SignalLayout& s, double* physical) {
   const std::int64_t raw = ExtractRaw(data, s);
-  const double v = s.is_signed ? static_cast<double>(raw)
-                               : static_cast<double>(static_cast<std::uint64_t>(raw));
+  const double v =
+      s.is_signed ? static_cast<double>(raw) : static_cast<double>(static_cast<std::uint64_t>(raw));
   *physical = v * s.factor + s.offset;
   if (LimitsSet(s) && (*physical < s.min || *physical > s.max)) return SignalError::kOutOfRange;
   return SignalError::kNone;
@@ -85,7 +85,8 @@ SignalError EncodeSignal(std::uint8_t* data, const SignalLayout& s, double physi
   const double r = std::nearbyint((physical - s.offset) / s.factor);
   // The field's raw range (64-bit fields: within what a double holds exactly enough).
   const double lo = s.is_signed ? -std::ldexp(1.0, s.length - 1) : 0.0;
-  const double hi = s.is_signed ? std::ldexp(1.0, s.length - 1) - 1.0 : std::ldexp(1.0, s.length) - 1.0;
+  const double hi =
+      s.is_signed ? std::ldexp(1.0, s.length - 1) - 1.0 : std::ldexp(1.0, s.length) - 1.0;
   if (!(r >= lo && r <= hi) || std::fabs(r) >= 9.2e18) return SignalError::kOutOfRange;
   InsertRaw(data, s, static_cast<std::int64_t>(r));
   return SignalError::kNone;

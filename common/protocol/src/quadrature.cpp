@@ -17,8 +17,8 @@ int Phase(bool a, bool b) {
 
 QuadratureLevels LevelsForCount(std::int64_t count) {
   const auto phase = static_cast<int>(((count % 4) + 4) % 4);
-  constexpr QuadratureLevels kTable[4] = {{false, false}, {true, false}, {true, true},
-                                          {false, true}};
+  constexpr QuadratureLevels kTable[4] = {
+      {false, false}, {true, false}, {true, true}, {false, true}};
   return kTable[phase];
 }
 

@@ -67,22 +67,30 @@ struct Cursor {
 
 std::size_t TypeSize(Type type) {
   switch (type) {
-    case Type::kU8: return 1;
-    case Type::kU32: return 4;
+    case Type::kU8:
+      return 1;
+    case Type::kU32:
+      return 4;
     case Type::kU64:
     case Type::kI64:
-    case Type::kF64: return 8;
+    case Type::kF64:
+      return 8;
   }
   return 0;
 }
 
 const char* TypeName(Type type) {
   switch (type) {
-    case Type::kU8: return "u8";
-    case Type::kU32: return "u32";
-    case Type::kU64: return "u64";
-    case Type::kI64: return "i64";
-    case Type::kF64: return "f64";
+    case Type::kU8:
+      return "u8";
+    case Type::kU32:
+      return "u32";
+    case Type::kU64:
+      return "u64";
+    case Type::kI64:
+      return "i64";
+    case Type::kF64:
+      return "f64";
   }
   return "?";
 }
@@ -112,7 +120,8 @@ std::string EncodeHeader(const Header& h) {
   const std::size_t size_at = s.size();
   AppendU32(&s, 0);  // header bytes, below
   std::uint32_t record = 0;
-  for (std::size_t i = 0; i < nf; ++i) record += static_cast<std::uint32_t>(TypeSize(h.fields[i].type));
+  for (std::size_t i = 0; i < nf; ++i)
+    record += static_cast<std::uint32_t>(TypeSize(h.fields[i].type));
   AppendU32(&s, record);
   AppendU32(&s, h.file_index);
   AppendU64(&s, static_cast<std::uint64_t>(h.period_ns));
@@ -233,8 +242,8 @@ bool DecodeLog(std::string_view bytes, Log* log, std::string* error) {
       log->damage_reason = std::move(why);
     };
     if (left < kBlockHeaderBytes) {
-      damaged(Damage::kTruncated, "the file ends " + std::to_string(left) +
-                                      " bytes into a block header");
+      damaged(Damage::kTruncated,
+              "the file ends " + std::to_string(left) + " bytes into a block header");
       break;
     }
     const std::uint8_t* b = p + at;
@@ -252,7 +261,8 @@ bool DecodeLog(std::string_view bytes, Log* log, std::string* error) {
     }
     const std::uint64_t payload = count * record_bytes;
     if (left - kBlockHeaderBytes < payload) {
-      damaged(Damage::kTruncated, "the file ends " + std::to_string(left) + " bytes into a block of " +
+      damaged(Damage::kTruncated, "the file ends " + std::to_string(left) +
+                                      " bytes into a block of " +
                                       std::to_string(kBlockHeaderBytes + payload) + " bytes");
       break;
     }
@@ -326,13 +336,17 @@ bool ReadLog(const std::string& path, Log* log, std::string* error, std::uint64_
 
 double Value(const Log& log, const std::vector<std::uint32_t>& offsets, std::uint64_t r,
              std::size_t i) {
-  const std::uint8_t* p = log.records.data() +
-                          static_cast<std::size_t>(r * log.header.record_bytes() + offsets[i]);
+  const std::uint8_t* p =
+      log.records.data() + static_cast<std::size_t>(r * log.header.record_bytes() + offsets[i]);
   switch (log.header.fields[i].type) {
-    case Type::kU8: return p[0];
-    case Type::kU32: return static_cast<double>(Get(p, 4));
-    case Type::kU64: return static_cast<double>(Get(p, 8));
-    case Type::kI64: return static_cast<double>(static_cast<std::int64_t>(Get(p, 8)));
+    case Type::kU8:
+      return p[0];
+    case Type::kU32:
+      return static_cast<double>(Get(p, 4));
+    case Type::kU64:
+      return static_cast<double>(Get(p, 8));
+    case Type::kI64:
+      return static_cast<double>(static_cast<std::int64_t>(Get(p, 8)));
     case Type::kF64: {
       const std::uint64_t u = Get(p, 8);
       double d = 0.0;

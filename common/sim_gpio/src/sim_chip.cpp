@@ -5,8 +5,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <csignal>
 #include <cerrno>
+#include <csignal>
 #include <cstdint>
 #include <cstring>
 #include <ctime>
@@ -181,8 +181,8 @@ bool SimChip::Open(const std::string& path, bool create, std::string* error) {
   }
   const int slot = Register(l);
   if (slot < 0) {
-    *error = Why(path, "more than " + std::to_string(kMaxMapped) +
-                           " simulated chips open in this process");
+    *error = Why(
+        path, "more than " + std::to_string(kMaxMapped) + " simulated chips open in this process");
     munmap(l, sizeof(Layout));
     close(fd);
     return false;

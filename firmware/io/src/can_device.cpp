@@ -39,7 +39,9 @@ IoError ErrorOf(pc::Reject r) {
 namespace pf = profile;
 
 // A role's signal reference in the profile.
-pf::SignalRef In(const pf::CanProfile& p, pf::CanIn r) { return p.inputs[static_cast<std::size_t>(r)]; }
+pf::SignalRef In(const pf::CanProfile& p, pf::CanIn r) {
+  return p.inputs[static_cast<std::size_t>(r)];
+}
 pf::SignalRef Out(const pf::CanProfile& p, pf::CanOut r) {
   return p.outputs[static_cast<std::size_t>(r)];
 }
@@ -55,20 +57,27 @@ std::uint32_t EchoMask(const pf::CanProfile& p) {
 std::shared_ptr<const pf::CanProfile> ProfileOf(const CanConfig& config) {
   if (config.can_profile != nullptr) return config.can_profile;
   // The built-in profile lives as long as the program: no ownership to share.
-  return std::shared_ptr<const pf::CanProfile>(&pf::NativeCanProfile(), [](const pf::CanProfile*) {});
+  return std::shared_ptr<const pf::CanProfile>(&pf::NativeCanProfile(),
+                                               [](const pf::CanProfile*) {});
 }
 
 }  // namespace
 
 CanDevice::CanDevice(const CanConfig& config)
-    : config_(config), profile_(ProfileOf(config)), codec_(*profile_), command_(profile_->command),
+    : config_(config),
+      profile_(ProfileOf(config)),
+      codec_(*profile_),
+      command_(profile_->command),
       reopenable_(true) {
   Index();
   Publish();
 }
 
 CanDevice::CanDevice(const CanConfig& config, int fd)
-    : config_(config), profile_(ProfileOf(config)), codec_(*profile_), command_(profile_->command),
+    : config_(config),
+      profile_(ProfileOf(config)),
+      codec_(*profile_),
+      command_(profile_->command),
       reopenable_(false) {
   Index();
   iface_.Attach(fd);
@@ -87,14 +96,14 @@ void CanDevice::Index() {
     if (m >= 0 && std::find(v->begin(), v->end(), m) == v->end()) v->push_back(m);
   };
   for (const pf::CanOut r : {pf::CanOut::kCommand, pf::CanOut::kEnable, pf::CanOut::kEnableValid,
-                            pf::CanOut::kSafe, pf::CanOut::kEcho}) {
+                             pf::CanOut::kSafe, pf::CanOut::kEcho}) {
     add(&command_msgs_, Out(p, r).message);
   }
   add(&heartbeat_msgs_, Out(p, pf::CanOut::kHeartbeatSafe).message);
-  for (const pf::CanOut r : {pf::CanOut::kStatusSafe, pf::CanOut::kStatusCauses,
-                            pf::CanOut::kStatusOverruns, pf::CanOut::kStatusSafeEntries,
-                            pf::CanOut::kStatusModelForce, pf::CanOut::kStatusDemand,
-                            pf::CanOut::kStatusCommand}) {
+  for (const pf::CanOut r :
+       {pf::CanOut::kStatusSafe, pf::CanOut::kStatusCauses, pf::CanOut::kStatusOverruns,
+        pf::CanOut::kStatusSafeEntries, pf::CanOut::kStatusModelForce, pf::CanOut::kStatusDemand,
+        pf::CanOut::kStatusCommand}) {
     add(&status_msgs_, Out(p, r).message);
   }
   status_driver_msg_ = In(p, pf::CanIn::kDriverFaults).message;
@@ -218,7 +227,9 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
     return false;
   }
   ++counters_.rx_ok;
-  const auto has = [roles](pf::CanIn role) { return ((roles >> static_cast<unsigned>(role)) & 1U) != 0; };
+  const auto has = [roles](pf::CanIn role) {
+    return ((roles >> static_cast<unsigned>(role)) & 1U) != 0;
+  };
   if (config_.lockstep) stamp = granted_ns_;
   bool fresh = false;
   for (std::size_t i = 0; i <= static_cast<std::size_t>(pf::CanIn::kFloorAcceleration3); ++i) {
@@ -236,13 +247,15 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
     last_seq_ = static_cast<std::uint32_t>(v[static_cast<std::size_t>(pf::CanIn::kSensorSeq)]);
   }
   if (has(pf::CanIn::kDriverFaults)) {
-    driver_faults_ = static_cast<std::uint32_t>(v[static_cast<std::size_t>(pf::CanIn::kDriverFaults)]);
+    driver_faults_ =
+        static_cast<std::uint32_t>(v[static_cast<std::size_t>(pf::CanIn::kDriverFaults)]);
     driver_status_ns_ = Now();
   }
   if (has(pf::CanIn::kDriverCurrent)) {
     driver_current_ = v[static_cast<std::size_t>(pf::CanIn::kDriverCurrent)];
   }
-  if (has(pf::CanIn::kGrant) && config_.lockstep) Grant(v[static_cast<std::size_t>(pf::CanIn::kGrant)]);
+  if (has(pf::CanIn::kGrant) && config_.lockstep)
+    Grant(v[static_cast<std::size_t>(pf::CanIn::kGrant)]);
   return fresh;
 }
 

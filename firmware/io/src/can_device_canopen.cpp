@@ -102,9 +102,9 @@ bool CanDevice::StartCanopen(std::string* error) {
       if (now >= until) {
         char id[8];
         std::snprintf(id, sizeof id, "%03X", co::SdoResponseId(canopen_->node_id));
-        *error = "can: drive (node " + std::to_string(canopen_->node_id) +
-                 ") did not answer SDO " + profile::DescribeSdo(s) + " within " +
-                 std::to_string(timeout / 1'000'000) + " ms (no SDO response on 0x" + id + ")";
+        *error = "can: drive (node " + std::to_string(canopen_->node_id) + ") did not answer SDO " +
+                 profile::DescribeSdo(s) + " within " + std::to_string(timeout / 1'000'000) +
+                 " ms (no SDO response on 0x" + id + ")";
         return false;
       }
       const std::int64_t wait = until - now < 2'000'000 ? until - now : 2'000'000;
@@ -174,9 +174,9 @@ void CanDevice::ReconfigureNext(std::int64_t now) {
 
 bool CanDevice::IsCanopenManagement(const can_frame& f) const {
   const std::uint32_t id = StandardId(f);
-  return id == co::kNmtId || (id >= co::kSyncId && id <= 0x0FFU) ||  // SYNC, EMCY
+  return id == co::kNmtId || (id >= co::kSyncId && id <= 0x0FFU) ||           // SYNC, EMCY
          (id >= 0x581U && id <= 0x5FFU) || (id >= 0x601U && id <= 0x67FU) ||  // SDO
-         (id >= 0x701U && id <= 0x77FU);                                       // heartbeat
+         (id >= 0x701U && id <= 0x77FU);                                      // heartbeat
 }
 
 bool CanDevice::DriveFault() {

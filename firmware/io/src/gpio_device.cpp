@@ -11,8 +11,7 @@ namespace mrd::firmware {
 namespace {
 
 std::unique_ptr<GpioChip> ChipFor(const GpioConfig& config) {
-  return config.sim_chip.empty() ? MakeLibgpiodChip(config.chip)
-                                 : MakeSimGpioChip(config.sim_chip);
+  return config.sim_chip.empty() ? MakeLibgpiodChip(config.chip) : MakeSimGpioChip(config.sim_chip);
 }
 
 // Discards the pending edges of a line. false on a failed read.

@@ -122,8 +122,8 @@ class LibgpiodChip final : public GpioChip {
       *error = "gpio: more than " + std::to_string(kMaxLines) + " lines requested";
       return nullptr;
     }
-    gpiod_line* line = offset >= 0 ? gpiod_chip_get_line(chip_, static_cast<unsigned>(offset))
-                                   : nullptr;
+    gpiod_line* line =
+        offset >= 0 ? gpiod_chip_get_line(chip_, static_cast<unsigned>(offset)) : nullptr;
     if (line == nullptr) {
       *error = "gpio: chip '" + name_ + "' has no line " + std::to_string(offset) + " (" +
                std::strerror(errno) + ")";

@@ -1,9 +1,8 @@
 #include "mrd/firmware/io/modbus_device.hpp"
 
+#include <poll.h>
 #include <pthread.h>
 #include <sched.h>
-
-#include <poll.h>
 #include <sys/eventfd.h>
 #include <unistd.h>
 
@@ -19,9 +18,9 @@
 #include "mrd/common/clock.hpp"
 #include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/telemetry.hpp"
+#include "mrd/profile/modbus_profile.hpp"
 #include "mrd/protocol/modbus_frame.hpp"
 #include "mrd/protocol/modbus_map.hpp"
-#include "mrd/profile/modbus_profile.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -33,9 +32,9 @@ constexpr std::int64_t kBackoffMinNs = 5'000'000;
 constexpr std::int64_t kBackoffMaxNs = 200'000'000;
 constexpr int kReadAttempts = 4;  // seqlock attempts per Read on the tick
 
-constexpr std::int64_t kLockstepIdleNs = 20'000;             // between reads without a new grant
+constexpr std::int64_t kLockstepIdleNs = 20'000;              // between reads without a new grant
 constexpr std::int64_t kLockstepCommandWaitNs = 100'000'000;  // for the tick's command
-constexpr std::int64_t kLockstepHandOverNs = 100'000'000;  // the worker writing a published tick
+constexpr std::int64_t kLockstepHandOverNs = 100'000'000;     // the worker writing a published tick
 
 // Short worker pauses; a failing sleep (never with CLOCK_MONOTONIC) just ends the pause.
 void SleepUntil(std::int64_t t_ns) { (void)common::SleepUntilNs(t_ns); }
@@ -79,8 +78,9 @@ ModbusDevice::ModbusDevice(const ModbusConfig& config)
   if (profile_ != nullptr) {
     command_map_ = profile_->command;
     const double sp = command_map_.Calibrate(0.0);
-    safe_setpoint_ = sp < command_map_.min() ? command_map_.min()
-                     : sp > command_map_.max() ? command_map_.max() : sp;
+    safe_setpoint_ = sp < command_map_.min()   ? command_map_.min()
+                     : sp > command_map_.max() ? command_map_.max()
+                                               : sp;
     words_ = std::make_unique<std::uint16_t[]>(2000);  // the largest request (bits)
   }
 }
@@ -146,7 +146,8 @@ bool ModbusDevice::Activate(std::string* error) {
     sp.sched_priority = config_.priority;
     const int err = pthread_setschedparam(thread_, SCHED_FIFO, &sp);
     if (err != 0) {
-      std::fprintf(stderr, "warning: modbus: SCHED_FIFO priority %d refused for the I/O thread "
+      std::fprintf(stderr,
+                   "warning: modbus: SCHED_FIFO priority %d refused for the I/O thread "
                    "(%s); a safe block may reach the wire later than the loop's period\n",
                    config_.priority, std::strerror(err));
     }
@@ -280,8 +281,8 @@ ModbusDevice::Outcome ModbusDevice::WriteOnce(const Command& c, IoError* why, bo
   const int len = map::PutWriteRequest(map::kCommandBase, regs, map::kCommandCount, pdu);
   int reply_len = 0;
   writing_safe_ = c.safe;
-  const ModbusLink::Result r = link_->Transact(pdu, len, reply, &reply_len, why,
-                                               interruptible ? wake_ : -1, waker_.get());
+  const ModbusLink::Result r =
+      link_->Transact(pdu, len, reply, &reply_len, why, interruptible ? wake_ : -1, waker_.get());
   writing_safe_ = false;
   if (r == ModbusLink::Result::kAbandoned) {
     if (!link_->broken()) written_safe_ = c.safe;  // it went out; its reply will be dropped
@@ -289,8 +290,8 @@ ModbusDevice::Outcome ModbusDevice::WriteOnce(const Command& c, IoError* why, bo
   }
   if (r == ModbusLink::Result::kOk) {
     std::uint8_t exception = 0;
-    switch (map::CheckWriteReply(reply, reply_len, map::kCommandBase, map::kCommandCount,
-                                 &exception)) {
+    switch (
+        map::CheckWriteReply(reply, reply_len, map::kCommandBase, map::kCommandCount, &exception)) {
       case map::Reply::kOk:
         tx_ok_.fetch_add(1, std::memory_order_relaxed);
         written_safe_ = c.safe;
@@ -600,7 +601,8 @@ bool ModbusDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
     // The worker signals every new grant; a signal consumed by an earlier call leaves the
     // sample to be seen on the next pass.
     const std::int64_t wait = until - now;
-    const timespec ts{static_cast<time_t>(wait / 1'000'000'000), static_cast<long>(wait % 1'000'000'000)};
+    const timespec ts{static_cast<time_t>(wait / 1'000'000'000),
+                      static_cast<long>(wait % 1'000'000'000)};
     pollfd p{grant_event_, POLLIN, 0};
     if (ppoll(&p, 1, &ts, nullptr) > 0) {
       std::uint64_t n = 0;

@@ -23,12 +23,18 @@ bool Retriable(IoError e) { return e == IoError::kTimeout || e == IoError::kCrc;
 // A counter (echo, heartbeat) wrapped into what its register holds, so it never overflows.
 double WrapCounter(const pf::ModbusPoint& pt, std::uint64_t n) {
   switch (pt.type) {
-    case pf::ModbusType::kInt16: return static_cast<double>(n & 0x7FFFU);
-    case pf::ModbusType::kUint16: return static_cast<double>(n & 0xFFFFU);
-    case pf::ModbusType::kInt32: return static_cast<double>(n & 0x7FFFFFFFU);
-    case pf::ModbusType::kUint32: return static_cast<double>(n & 0xFFFFFFFFU);
-    case pf::ModbusType::kFloat32: return static_cast<double>(n & 0xFFFFFFU);  // exact in float
-    case pf::ModbusType::kBit: return static_cast<double>(n & 1U);
+    case pf::ModbusType::kInt16:
+      return static_cast<double>(n & 0x7FFFU);
+    case pf::ModbusType::kUint16:
+      return static_cast<double>(n & 0xFFFFU);
+    case pf::ModbusType::kInt32:
+      return static_cast<double>(n & 0x7FFFFFFFU);
+    case pf::ModbusType::kUint32:
+      return static_cast<double>(n & 0xFFFFFFFFU);
+    case pf::ModbusType::kFloat32:
+      return static_cast<double>(n & 0xFFFFFFU);  // exact in float
+    case pf::ModbusType::kBit:
+      return static_cast<double>(n & 1U);
   }
   return 0.0;
 }
@@ -119,7 +125,7 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
   s.read_failed = false;
   const bool has_seq = p.In(pf::CanIn::kSensorSeq).mapped;
   const double sv = value(pf::CanIn::kSensorSeq);
-  const std::uint32_t seq = !has_seq ? s.seq + 1
+  const std::uint32_t seq = !has_seq                         ? s.seq + 1
                             : sv >= 0.0 && sv < 4294967296.0 ? static_cast<std::uint32_t>(sv)
                                                              : 0U;
   if (!have_seq_ || seq != s.seq) {  // a repeated seq is not new data
@@ -218,8 +224,8 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
     link_->set_unit(req.unit);
     int reply_len = 0;
     writing_safe_ = safe;
-    const ModbusLink::Result r = link_->Transact(pdu, len, reply, &reply_len, why,
-                                                 interruptible ? wake_ : -1, waker_.get());
+    const ModbusLink::Result r =
+        link_->Transact(pdu, len, reply, &reply_len, why, interruptible ? wake_ : -1, waker_.get());
     writing_safe_ = false;
     if (r == ModbusLink::Result::kAbandoned) {
       if (!link_->broken()) written_safe_ = safe;  // it went out; its reply will be dropped

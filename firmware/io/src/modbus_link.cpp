@@ -212,8 +212,7 @@ ModbusLink::Result ModbusLink::ReceiveRtu(std::uint8_t function, std::uint8_t* r
     if (len > 0 && have >= len) {
       // A whole frame from this unit that answers another function: a late reply to an
       // earlier request (RTU has no transaction id). Dropped; the wait goes on.
-      const bool ours =
-          buf_[1] == function || buf_[1] == (function | mb::kExceptionFlag);
+      const bool ours = buf_[1] == function || buf_[1] == (function | mb::kExceptionFlag);
       if (ours || buf_[0] != unit_ || !mb::RtuCrcValid(buf_, len)) break;
       std::memmove(buf_, buf_ + len, static_cast<std::size_t>(have - len));
       have -= len;
@@ -262,9 +261,7 @@ ModbusLink::Result ModbusLink::Transact(const std::uint8_t* pdu, int len, std::u
   std::int64_t wait_ns = config_.response_timeout_ns;
   if (config_.mode == ModbusMode::kTcp) {
     ++transaction_;
-    mb::PutMbap({transaction_, 0, static_cast<std::uint16_t>(len + 1),
-                 unit_},
-                adu);
+    mb::PutMbap({transaction_, 0, static_cast<std::uint16_t>(len + 1), unit_}, adu);
     std::memcpy(adu + mb::kMbapSize, pdu, static_cast<std::size_t>(len));
     n = mb::kMbapSize + len;
   } else {

@@ -33,7 +33,8 @@ bool WriteAttr(const std::string& path, const char* text, std::string* error) {
                   write(fd, buf, static_cast<std::size_t>(n)) == n;
   const int e = errno;
   close(fd);
-  if (!ok) *error = "pwm: cannot write '" + std::string(text) + "' to " + path + ": " + std::strerror(e);
+  if (!ok)
+    *error = "pwm: cannot write '" + std::string(text) + "' to " + path + ": " + std::strerror(e);
   return ok;
 }
 
@@ -47,7 +48,8 @@ bool ReadAttr(const std::string& path, std::int64_t* value, std::string* error) 
   char* end = nullptr;
   const long long v = n > 0 ? std::strtoll(buf, &end, 10) : -1;
   if (n <= 0 || end == buf || (*end != '\n' && *end != '\0') || v < 0) {
-    *error = "pwm: cannot read a number from " + path + (n < 0 ? ": " + std::string(std::strerror(e)) : "");
+    *error = "pwm: cannot read a number from " + path +
+             (n < 0 ? ": " + std::string(std::strerror(e)) : "");
     return false;
   }
   *value = v;
@@ -71,8 +73,9 @@ bool PwmDevice::Configure(std::string* error) {
   const profile::PwmProfile& p = config_.profile;
   if (config_.channel < 0 || p.period_ns <= 0 || !(p.min_duty >= 0.0) || !(p.max_duty <= 1.0) ||
       !(p.min_duty < p.max_duty) || !(p.command.min() < p.command.max())) {
-    *error = "pwm: channel >= 0, period > 0, 0 <= min_duty < max_duty <= 1 and a command range "
-             "required";
+    *error =
+        "pwm: channel >= 0, period > 0, 0 <= min_duty < max_duty <= 1 and a command range "
+        "required";
     return false;
   }
   if (stat(dir_.c_str(), &st) != 0) {

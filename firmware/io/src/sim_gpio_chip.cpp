@@ -53,9 +53,9 @@ class SimGpioChip final : public GpioChip {
     std::size_t n = 0;
     while (n < max) {
       std::uint64_t dropped = 0;
-      const std::size_t got = chip_.ReadEvents(static_cast<std::size_t>(offset), &h->cursor,
-                                               events.data(), std::min(events.size(), max - n),
-                                               &dropped);
+      const std::size_t got =
+          chip_.ReadEvents(static_cast<std::size_t>(offset), &h->cursor, events.data(),
+                           std::min(events.size(), max - n), &dropped);
       *lost += dropped;
       for (std::size_t i = 0; i < got; ++i) out[n++] = {events[i].t_ns, events[i].rising};
       if (got == 0) break;
@@ -75,8 +75,8 @@ class SimGpioChip final : public GpioChip {
       return false;
     }
     if (offset < 0 || static_cast<std::size_t>(offset) >= sim_gpio::kNumLines) {
-      *error = "gpio: sim chip " + path_ + " has no line " + std::to_string(offset) +
-               " (lines 0-" + std::to_string(sim_gpio::kNumLines - 1) + ")";
+      *error = "gpio: sim chip " + path_ + " has no line " + std::to_string(offset) + " (lines 0-" +
+               std::to_string(sim_gpio::kNumLines - 1) + ")";
       return false;
     }
     if (count_ >= kMaxLines) {

@@ -75,7 +75,8 @@ bool ParseClippedOptimalGains(std::string_view text, const std::string& source_r
         control = node.as_table();
       }
       if (control == nullptr) {
-        *error = source + ":1: no table " + kWhere + " (the file mrd-structure design --out writes)";
+        *error =
+            source + ":1: no table " + kWhere + " (the file mrd-structure design --out writes)";
         return false;
       }
       const toml::table* tbl = nullptr;
@@ -92,7 +93,7 @@ bool ParseClippedOptimalGains(std::string_view text, const std::string& source_r
         return false;
       }
       ClippedOptimalGains g;
-      const ArrayKey arrays[] = {{"ad", g.ad, kN * kN}, {"bd", g.bd, kN}, {"cy", g.cy, kM * kN},
+      const ArrayKey arrays[] = {{"ad", g.ad, kN * kN}, {"bd", g.bd, kN},    {"cy", g.cy, kM * kN},
                                  {"dy", g.dy, kM},      {"l", g.l, kN * kM}, {"k", g.k, kN}};
       for (const auto& [name, node] : *tbl) {
         bool known = name.str() == "v_max" || name.str() == "v_min";
@@ -155,8 +156,8 @@ bool ParseClippedOptimalGains(std::string_view text, const std::string& source_r
       *gains = g;
       return true;
     } catch (const toml::parse_error& e) {
-      *error = source + ":" + std::to_string(e.source().begin.line) + ": " +
-               Printable(e.description());
+      *error =
+          source + ":" + std::to_string(e.source().begin.line) + ": " + Printable(e.description());
       return false;
     }
   } catch (const std::exception& e) {  // std::bad_alloc

@@ -3,13 +3,6 @@
 
 #include <toml++/toml.h>
 
-#include "mrd/common/input_file.hpp"
-#include "mrd/firmware/clipped_optimal_file.hpp"
-#include "mrd/firmware/period_log.hpp"
-#include "mrd/profile/can_profile.hpp"
-#include "mrd/profile/modbus_profile.hpp"
-#include "mrd/profile/pwm_profile.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +11,13 @@
 #include <functional>
 #include <sstream>
 #include <vector>
+
+#include "mrd/common/input_file.hpp"
+#include "mrd/firmware/clipped_optimal_file.hpp"
+#include "mrd/firmware/period_log.hpp"
+#include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/modbus_profile.hpp"
+#include "mrd/profile/pwm_profile.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -33,7 +33,7 @@ struct Key {
   std::string accepts;                // accepted values in words
   const char* unit;                   // "" when none
   const char* description;
-  const char* type = "";              // "float", "integer", "bool", "choice", "string", "list"
+  const char* type = "";                // "float", "integer", "bool", "choice", "string", "list"
   Tunable tunable = Tunable::kRestart;  // when a change takes effect (params.hpp)
 };
 
@@ -64,7 +64,8 @@ Key Number(const char* name, double* out, double lo, double hi, const char* unit
   Setter set = [=](const toml::node& n, std::string* why) {
     const auto v = n.value<double>();
     if (!v) return *why = "must be a number", false;
-    if (!std::isfinite(*v) || *v < lo || *v > hi) return *why = "must be in " + Range(lo, hi), false;
+    if (!std::isfinite(*v) || *v < lo || *v > hi)
+      return *why = "must be in " + Range(lo, hi), false;
     *out = *v;
     return true;
   };
@@ -82,7 +83,7 @@ Key Integer(const char* name, Int* out, std::int64_t lo, std::int64_t hi, const 
     *out = static_cast<Int>(*v);
     return true;
   };
-  return {name, set, [out] { return std::to_string(*out); }, range + " (integer)", unit,
+  return {name,        set,      [out] { return std::to_string(*out); }, range + " (integer)", unit,
           description, "integer"};
 }
 
@@ -117,8 +118,9 @@ Key Bool(const char* name, bool* out, const char* description) {
     *out = *v;
     return true;
   };
-  return {name, set, [out] { return std::string(*out ? "true" : "false"); }, "true | false", "",
-          description, "bool"};
+  return {name,           set, [out] { return std::string(*out ? "true" : "false"); },
+          "true | false", "",  description,
+          "bool"};
 }
 
 // A string the firmware hands to the system (an interface, host or path): 1 ... max_len bytes,
@@ -141,25 +143,25 @@ Key Text(const char* name, std::string* out, std::size_t max_len, const char* li
       if (c < 0x20 || c == 0x7f) {
         char hex[5];
         std::snprintf(hex, sizeof hex, "\\x%02x", c);
-        return *why = std::string("must not contain control characters (has ") + hex + ")",
-               false;
+        return *why = std::string("must not contain control characters (has ") + hex + ")", false;
       }
       if (std::strchr(banned, ch) != nullptr) {
         return *why = std::string("must not contain ") +
-                          (ch == ' ' ? std::string("blanks") : "'" + std::string(1, ch) + "'"),
+                      (ch == ' ' ? std::string("blanks") : "'" + std::string(1, ch) + "'"),
                false;
       }
     }
     if (v->size() > max_len) {
       return *why = "is " + std::to_string(v->size()) + " bytes long; at most " +
-                        std::to_string(max_len) + " (" + limit_why + ")",
+                    std::to_string(max_len) + " (" + limit_why + ")",
              false;
     }
     *out = *v;
     return true;
   };
-  return {name, set, [out] { return out->empty() ? std::string("(none)") : "\"" + *out + "\""; },
-          accepts, "", description, "string"};
+  return {name,    set, [out] { return out->empty() ? std::string("(none)") : "\"" + *out + "\""; },
+          accepts, "",  description,
+          "string"};
 }
 
 // A duration given in a unit of unit_ns nanoseconds (1e3: us, 1e6: ms), kept in ns.
@@ -168,12 +170,14 @@ Key Duration(const char* name, std::int64_t* out_ns, double unit_ns, double lo, 
   Setter set = [=](const toml::node& n, std::string* why) {
     const auto v = n.value<double>();
     if (!v) return *why = "must be a number", false;
-    if (!std::isfinite(*v) || *v < lo || *v > hi) return *why = "must be in " + Range(lo, hi), false;
+    if (!std::isfinite(*v) || *v < lo || *v > hi)
+      return *why = "must be in " + Range(lo, hi), false;
     *out_ns = static_cast<std::int64_t>(std::llround(*v * unit_ns));
     return true;
   };
-  return {name, set, [=] { return Show(static_cast<double>(*out_ns) / unit_ns); }, Range(lo, hi),
-          unit, description, "float"};
+  return {name,          set,  [=] { return Show(static_cast<double>(*out_ns) / unit_ns); },
+          Range(lo, hi), unit, description,
+          "float"};
 }
 
 // A GPIO line offset; -1 (the default) is "not wired".
@@ -197,8 +201,8 @@ Key Names(const char* name, std::uint32_t* mask, std::vector<std::string> allowe
     std::uint32_t m = 0;
     for (const toml::node& e : *a) {
       const auto v = e.value_exact<std::string>();
-      const auto it = v && !v->empty() ? std::find(allowed.begin(), allowed.end(), *v)
-                                       : allowed.end();
+      const auto it =
+          v && !v->empty() ? std::find(allowed.begin(), allowed.end(), *v) : allowed.end();
       if (it == allowed.end()) {
         return *why = "has '" + (v ? *v : std::string("?")) + "'; allowed: " + names, false;
       }
@@ -246,8 +250,9 @@ Key CtlSocket(std::string* out) {
                  "socket. A stale socket file is replaced; one a live firmware serves is "
                  "refused. Overridden by --ctl-socket.");
   key.show = [out] {
-    return out->empty() ? std::string("($XDG_RUNTIME_DIR/mrd-firmware.sock, else "
-                                      "/run/mrd-firmware/ctl.sock)")
+    return out->empty() ? std::string(
+                              "($XDG_RUNTIME_DIR/mrd-firmware.sock, else "
+                              "/run/mrd-firmware/ctl.sock)")
                         : "\"" + *out + "\"";
   };
   return key;
@@ -294,25 +299,26 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                  "wall time the harness is taken for gone and the firmware stops in the safe "
                  "state (exit 1, clock.missed_grants 1).")}},
       {"control",
-       {Runtime(Choice("law", &k.law.mode,
-               {{"force", ControlMode::kForceTracking},
-                {"constant", ControlMode::kConstantVoltage},
-                {"skyhook-on-off", ControlMode::kSkyhookOnOff},
-                {"skyhook", ControlMode::kSkyhookContinuous},
-                {"open-loop", ControlMode::kOpenLoop},
-                {"groundhook", ControlMode::kGroundhook},
-                {"groundhook-on-off", ControlMode::kGroundhookOnOff},
-                {"hybrid", ControlMode::kHybrid},
-                {"add", ControlMode::kAdd},
-                {"sh-add", ControlMode::kSkyhookAdd},
-                {"clipped-optimal", ControlMode::kClippedOptimal}},
-               "Control law: track a force demand through the inverted model, a constant "
-               "voltage, skyhook (on-off or continuous), open-loop (the demand input is a "
-               "voltage command in mV, clamped to [E_min, E_max]: the harness's replay), "
-               "groundhook (continuous or on-off), hybrid skyhook-groundhook, add "
-               "(acceleration-driven damper), sh-add (mixed skyhook-ADD) or clipped-optimal "
-               "(Dyke et al. 1996, on three floor accelerations and the measured force; "
-               "[clipped_optimal]); docs/control_laws.md.")),
+       {Runtime(
+            Choice("law", &k.law.mode,
+                   {{"force", ControlMode::kForceTracking},
+                    {"constant", ControlMode::kConstantVoltage},
+                    {"skyhook-on-off", ControlMode::kSkyhookOnOff},
+                    {"skyhook", ControlMode::kSkyhookContinuous},
+                    {"open-loop", ControlMode::kOpenLoop},
+                    {"groundhook", ControlMode::kGroundhook},
+                    {"groundhook-on-off", ControlMode::kGroundhookOnOff},
+                    {"hybrid", ControlMode::kHybrid},
+                    {"add", ControlMode::kAdd},
+                    {"sh-add", ControlMode::kSkyhookAdd},
+                    {"clipped-optimal", ControlMode::kClippedOptimal}},
+                   "Control law: track a force demand through the inverted model, a constant "
+                   "voltage, skyhook (on-off or continuous), open-loop (the demand input is a "
+                   "voltage command in mV, clamped to [E_min, E_max]: the harness's replay), "
+                   "groundhook (continuous or on-off), hybrid skyhook-groundhook, add "
+                   "(acceleration-driven damper), sh-add (mixed skyhook-ADD) or clipped-optimal "
+                   "(Dyke et al. 1996, on three floor accelerations and the measured force; "
+                   "[clipped_optimal]); docs/control_laws.md.")),
         Runtime(e_max),
         Runtime(Number("constant_voltage", &k.law.constant_voltage, -1e3, 1e3, "V",
                        "Command of law = \"constant\" (passive-off 0, passive-on E_max).")),
@@ -336,13 +342,13 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                     "--out` writes ([control.clipped_optimal]: ad, bd, cy, dy, l, k, v_max, "
                     "v_min), relative to this file; read and checked at start-up and on a "
                     "reload. The law needs it.")),
-        Runtime(Choice("command", &k.law.clipped_command,
-                       {{"clipped", ClippedCommand::kClipped},
-                        {"inverse", ClippedCommand::kInverse}},
-                       "What law = \"clipped-optimal\" commands: the clipped rule's voltage "
-                       "(the gains' v_max when the damper force must grow towards the desired "
-                       "force, else v_min; clamped to [E_min, E_max]), or the model's inverse "
-                       "at the desired force (limited to force_limit)."))}},
+        Runtime(
+            Choice("command", &k.law.clipped_command,
+                   {{"clipped", ClippedCommand::kClipped}, {"inverse", ClippedCommand::kInverse}},
+                   "What law = \"clipped-optimal\" commands: the clipped rule's voltage "
+                   "(the gains' v_max when the damper force must grow towards the desired "
+                   "force, else v_min; clamped to [E_min, E_max]), or the model's inverse "
+                   "at the desired force (limited to force_limit)."))}},
       {"velocity",
        {Reload(Choice("source", &k.velocity_source,
                       {{"measured", VelocitySource::kMeasured},
@@ -390,21 +396,20 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                "Dry-run plant: frequency of the body velocity."),
         Number("body_phase_rad", &s.body_phase_rad, -10.0, 10.0, "rad",
                "Dry-run plant: phase of the body velocity."),
-        Integer("substeps", &s.substeps, 1, 10000, "",
-                "Dry-run plant: RK4 steps per period.")}},
+        Integer("substeps", &s.substeps, 1, 10000, "", "Dry-run plant: RK4 steps per period.")}},
       {"can",
-       {Names("inputs", &io.can.inputs,
-              InputNames({Input::kVelocity, Input::kDisplacement, Input::kDemand,
-                          Input::kBodyVelocity, Input::kForce, Input::kFaultLine,
-                          Input::kBodyAcceleration, Input::kWheelVelocity,
-                          Input::kFloorAcceleration1, Input::kFloorAcceleration2,
-                          Input::kFloorAcceleration3}),
-              "Signals read from CAN (in the profile's messages; docs/can_bus.md)."),
+       {Names(
+            "inputs", &io.can.inputs,
+            InputNames({Input::kVelocity, Input::kDisplacement, Input::kDemand,
+                        Input::kBodyVelocity, Input::kForce, Input::kFaultLine,
+                        Input::kBodyAcceleration, Input::kWheelVelocity, Input::kFloorAcceleration1,
+                        Input::kFloorAcceleration2, Input::kFloorAcceleration3}),
+            "Signals read from CAN (in the profile's messages; docs/can_bus.md)."),
         Names("outputs", &io.can.outputs,
               OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
               "Signals sent on CAN."),
-        Text("interface", &io.can.interface, kMaxInterface, "IFNAMSIZ", "/: ",
-             "SocketCAN interface (e.g. \"can0\"); or local_bus."),
+        Text("interface", &io.can.interface, kMaxInterface, "IFNAMSIZ",
+             "/: ", "SocketCAN interface (e.g. \"can0\"); or local_bus."),
         Text("local_bus", &io.can.local_bus, kMaxSocketPath, "a UNIX socket path", "",
              "UNIX socket path of a local frame bus (mrd-canbus; machines without AF_CAN)."),
         Text("profile", &io.can.profile, kMaxPath, "PATH_MAX", "",
@@ -419,26 +424,24 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Duration("heartbeat_period_ms", &io.can.heartbeat_period_ns, 1e6, 1.0, 1e4, "ms",
                  "Period of the heartbeat frame.")}},
       {"modbus",
-       {Names("inputs", &io.modbus.inputs,
-              InputNames({Input::kVelocity, Input::kDisplacement, Input::kDemand,
-                          Input::kBodyVelocity, Input::kForce, Input::kFaultLine,
-                          Input::kBodyAcceleration, Input::kWheelVelocity,
-                          Input::kFloorAcceleration1, Input::kFloorAcceleration2,
-                          Input::kFloorAcceleration3}),
-              "Signals read over Modbus (docs/modbus_registers.md)."),
+       {Names(
+            "inputs", &io.modbus.inputs,
+            InputNames({Input::kVelocity, Input::kDisplacement, Input::kDemand,
+                        Input::kBodyVelocity, Input::kForce, Input::kFaultLine,
+                        Input::kBodyAcceleration, Input::kWheelVelocity, Input::kFloorAcceleration1,
+                        Input::kFloorAcceleration2, Input::kFloorAcceleration3}),
+            "Signals read over Modbus (docs/modbus_registers.md)."),
         Names("outputs", &io.modbus.outputs,
               OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
               "Signals written over Modbus."),
         Choice("mode", &io.modbus.mode, {{"tcp", ModbusMode::kTcp}, {"rtu", ModbusMode::kRtu}},
                "Modbus TCP or RTU (serial)."),
-        Text("host", &io.modbus.host, kMaxHost, "a DNS name", " ",
-             "TCP: the server's address."),
+        Text("host", &io.modbus.host, kMaxHost, "a DNS name", " ", "TCP: the server's address."),
         Integer("port", &io.modbus.port, 1, 65535, "", "TCP: the server's port."),
         Text("device", &io.modbus.device, kMaxPath, "PATH_MAX", "",
              "RTU: the serial device (e.g. /dev/ttyS1)."),
         Integer("baud", &io.modbus.baud, 50, 4'000'000, "bit/s", "RTU: baud rate."),
-        Choice("parity", &io.modbus.parity, {{"N", 'N'}, {"E", 'E'}, {"O", 'O'}},
-               "RTU: parity."),
+        Choice("parity", &io.modbus.parity, {{"N", 'N'}, {"E", 'E'}, {"O", 'O'}}, "RTU: parity."),
         Integer("data_bits", &io.modbus.data_bits, 5, 8, "", "RTU: data bits."),
         Integer("stop_bits", &io.modbus.stop_bits, 1, 2, "", "RTU: stop bits."),
         Integer("slave", &io.modbus.slave, 1, 247, "", "Unit / slave id of the current driver."),
@@ -446,10 +449,11 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
              "Modbus device profile (docs/devices.md): unit, table, address and type of each "
              "input and output, relative to this file; default: the built-in map "
              "(docs/modbus_registers.md, unit 'slave')."),
-        Duration("response_timeout_ms", &io.modbus.response_timeout_ns, 1e6, 0.1, 1e4, "ms",
-                 "A reply must be complete within it (RTU: plus the frames' time on the "
-                 "wire); also the TCP connect timeout. A stop takes at most twice it (RTU: plus that "
-                 "wire time)."),
+        Duration(
+            "response_timeout_ms", &io.modbus.response_timeout_ns, 1e6, 0.1, 1e4, "ms",
+            "A reply must be complete within it (RTU: plus the frames' time on the "
+            "wire); also the TCP connect timeout. A stop takes at most twice it (RTU: plus that "
+            "wire time)."),
         Integer("retries", &io.modbus.retries, 0, 10, "",
                 "Extra attempts per transaction after a timeout or CRC error."),
         Duration("poll_period_us", &io.modbus.poll_period_ns, 1e3, 100.0, 1e6, "us",
@@ -584,26 +588,24 @@ bool CheckLawInputsServed(const std::string& source, const ControllerConfig& k,
   }
   const ControlMode m = k.law.mode;
   if (ControlLaw::NeedsBodyVelocity(m) &&
-      !need(Input::kBodyVelocity, m == ControlMode::kSkyhookOnOff ||
-                                          m == ControlMode::kSkyhookContinuous
-                                      ? "skyhook laws"
-                                      : m == ControlMode::kHybrid ? "law \"hybrid\""
-                                                                  : "law \"sh-add\"")) {
+      !need(Input::kBodyVelocity,
+            m == ControlMode::kSkyhookOnOff || m == ControlMode::kSkyhookContinuous ? "skyhook laws"
+            : m == ControlMode::kHybrid ? "law \"hybrid\""
+                                        : "law \"sh-add\"")) {
     return false;
   }
   if (ControlLaw::NeedsWheelVelocity(m) &&
-      !need(Input::kWheelVelocity, m == ControlMode::kHybrid ? "law \"hybrid\""
-                                                             : "groundhook laws")) {
+      !need(Input::kWheelVelocity,
+            m == ControlMode::kHybrid ? "law \"hybrid\"" : "groundhook laws")) {
     return false;
   }
   if (ControlLaw::NeedsBodyAcceleration(m) &&
-      !need(Input::kBodyAcceleration, m == ControlMode::kAdd ? "law \"add\""
-                                                             : "law \"sh-add\"")) {
+      !need(Input::kBodyAcceleration, m == ControlMode::kAdd ? "law \"add\"" : "law \"sh-add\"")) {
     return false;
   }
   if (ControlLaw::NeedsFloorAccelerations(m)) {
-    for (const Input i : {Input::kFloorAcceleration1, Input::kFloorAcceleration2,
-                          Input::kFloorAcceleration3}) {
+    for (const Input i :
+         {Input::kFloorAcceleration1, Input::kFloorAcceleration2, Input::kFloorAcceleration3}) {
       if (!need(i, "law \"clipped-optimal\"")) return false;
     }
   }
@@ -730,7 +732,9 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
   } else {
     where = Where(root, source, "can", "inputs");
   }
-  const auto mapped_in = [&](profile::CanIn r) { return p->inputs[static_cast<std::size_t>(r)].mapped(); };
+  const auto mapped_in = [&](profile::CanIn r) {
+    return p->inputs[static_cast<std::size_t>(r)].mapped();
+  };
   const auto mapped_out = [&](profile::CanOut r) {
     return p->outputs[static_cast<std::size_t>(r)].mapped();
   };
@@ -745,12 +749,12 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
     Output output;
     std::initializer_list<profile::CanOut> any;
   };
-  const Need needs[] = {
-      {Output::kCommand, {profile::CanOut::kCommand}},
-      {Output::kEnable, {profile::CanOut::kEnable}},
-      {Output::kHeartbeat, {profile::CanOut::kHeartbeatSafe}},
-      {Output::kStatus, {profile::CanOut::kStatusSafe, profile::CanOut::kStatusCauses,
-                         profile::CanOut::kStatusOverruns, profile::CanOut::kStatusSafeEntries}}};
+  const Need needs[] = {{Output::kCommand, {profile::CanOut::kCommand}},
+                        {Output::kEnable, {profile::CanOut::kEnable}},
+                        {Output::kHeartbeat, {profile::CanOut::kHeartbeatSafe}},
+                        {Output::kStatus,
+                         {profile::CanOut::kStatusSafe, profile::CanOut::kStatusCauses,
+                          profile::CanOut::kStatusOverruns, profile::CanOut::kStatusSafeEntries}}};
   for (const Need& n : needs) {
     if ((can.outputs & Bit(n.output)) == 0) continue;
     bool any = false;
@@ -758,8 +762,8 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
     // A CANopen drive watches the firmware's CANopen heartbeat (0x700 + own node).
     if (n.output == Output::kHeartbeat && p->canopen && p->canopen->heartbeat_ns > 0) any = true;
     if (!any) {
-      *error = where + "profile " + p->name + " maps no signal to output '" +
-               OutputName(n.output) + "' ([outputs] of the profile)";
+      *error = where + "profile " + p->name + " maps no signal to output '" + OutputName(n.output) +
+               "' ([outputs] of the profile)";
       return false;
     }
   }
@@ -781,9 +785,9 @@ bool LoadModbusProfileOf(const toml::table& root, const std::string& source, Fir
   if (mb.profile.empty()) {
     // The built-in register map (docs/modbus_registers.md) has no chassis or structure
     // registers.
-    for (const Input i : {Input::kBodyAcceleration, Input::kWheelVelocity,
-                          Input::kFloorAcceleration1, Input::kFloorAcceleration2,
-                          Input::kFloorAcceleration3}) {
+    for (const Input i :
+         {Input::kBodyAcceleration, Input::kWheelVelocity, Input::kFloorAcceleration1,
+          Input::kFloorAcceleration2, Input::kFloorAcceleration3}) {
       if ((mb.inputs & Bit(i)) != 0) {
         *error = Where(root, source, "modbus", "inputs") + "input '" + InputName(i) +
                  "' needs a Modbus device profile (the built-in register map has none)";
@@ -808,8 +812,8 @@ bool LoadModbusProfileOf(const toml::table& root, const std::string& source, Fir
   const auto out = [&](profile::ModbusOut r) { return p->Out(r).mapped; };
   for (std::size_t i = 0; i < kNumInputs; ++i) {
     const auto role = static_cast<profile::CanIn>(i);  // the same order as Input
-    const bool mapped = in(role) || (role == profile::CanIn::kFaultLine &&
-                                     in(profile::CanIn::kDriverFaults));
+    const bool mapped =
+        in(role) || (role == profile::CanIn::kFaultLine && in(profile::CanIn::kDriverFaults));
     if ((mb.inputs & (1U << i)) != 0 && !mapped) {
       *error = where + "profile " + p->name + " maps no register to input '" +
                InputName(static_cast<Input>(i)) + "' ([modbus.inputs] of the profile)";
@@ -826,8 +830,8 @@ bool LoadModbusProfileOf(const toml::table& root, const std::string& source, Fir
                             out(profile::ModbusOut::kStatusSafeEntries)}};
   for (const auto& [output, mapped] : needs) {
     if ((mb.outputs & Bit(output)) != 0 && !mapped) {
-      *error = where + "profile " + p->name + " maps no register to output '" +
-               OutputName(output) + "' ([modbus.outputs] of the profile)";
+      *error = where + "profile " + p->name + " maps no register to output '" + OutputName(output) +
+               "' ([modbus.outputs] of the profile)";
       return false;
     }
   }
@@ -851,8 +855,9 @@ bool LoadPwmProfileOf(const toml::table& root, const std::string& source, Firmwa
     file = c->io.can.profile;
     where = Where(root, source, "pwm", "outputs");
     if (file.empty()) {
-      *error = where + "[pwm] needs a device profile with a [pwm] section: give 'profile' (or a "
-                       "[can] profile that has one)";
+      *error = where +
+               "[pwm] needs a device profile with a [pwm] section: give 'profile' (or a "
+               "[can] profile that has one)";
       return false;
     }
   }
@@ -873,8 +878,7 @@ bool LoadPwmProfileOf(const toml::table& root, const std::string& source, Firmwa
 bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c,
            std::string* error) {
   Scratch x{static_cast<double>(c->period_ns) / 1e3,
-            static_cast<double>(c->controller.watchdog.max_age_ns) / 1e6,
-            c->e_max.value_or(NAN)};
+            static_cast<double>(c->controller.watchdog.max_age_ns) / 1e6, c->e_max.value_or(NAN)};
   ControllerConfig& k = c->controller;
   const Sections sections = KeyTable(c, &x);
   auto fail = [&](const toml::node& n, const std::string& what) {  // what may echo input
@@ -882,10 +886,10 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
     return false;
   };
   for (const auto& [name, node] : root) {
-    const auto section = std::find_if(sections.begin(), sections.end(), [&](const auto& sec) {
-      return sec.first == name.str();
-    });
-    if (section == sections.end()) return fail(node, "unknown section '" + std::string(name.str()) + "'");
+    const auto section = std::find_if(sections.begin(), sections.end(),
+                                      [&](const auto& sec) { return sec.first == name.str(); });
+    if (section == sections.end())
+      return fail(node, "unknown section '" + std::string(name.str()) + "'");
     const toml::table* tbl = node.as_table();
     if (tbl == nullptr) return fail(node, "'" + std::string(name.str()) + "' must be a table");
     if (name.str() == "can") c->io.can.enabled = true;
@@ -894,9 +898,10 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
     if (name.str() == "pwm") c->io.pwm.enabled = true;
     for (const auto& [key, value] : *tbl) {
       const auto entry = std::find_if(section->second.begin(), section->second.end(),
-                                       [&](const Key& e) { return key.str() == e.name; });
+                                      [&](const Key& e) { return key.str() == e.name; });
       if (entry == section->second.end()) {
-        return fail(value, "unknown key '" + std::string(key.str()) + "' in [" + section->first + "]");
+        return fail(value,
+                    "unknown key '" + std::string(key.str()) + "' in [" + section->first + "]");
       }
       std::string why;
       if (!entry->set(value, &why)) {
@@ -913,8 +918,8 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
     }
     std::string why;
     if (!LoadClippedOptimalGains(path, &k.clipped_gains, &why)) {
-      *error = Where(root, source, "clipped_optimal", "gains") + "[clipped_optimal] gains: " +
-               Printable(why);
+      *error = Where(root, source, "clipped_optimal", "gains") +
+               "[clipped_optimal] gains: " + Printable(why);
       return false;
     }
     k.clipped_gains_loaded = true;
@@ -945,7 +950,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   c->io.can.lockstep = c->clock == LoopClock::kGrant;
   c->io.modbus.lockstep = c->clock == LoopClock::kGrant && !c->io.can.enabled;
   c->io.can.max_age_ns = k.watchdog.max_age_ns;  // the CAN device's last check before sending
-  c->io.modbus.priority = c->priority;  // the worker that writes the loop's safe block
+  c->io.modbus.priority = c->priority;           // the worker that writes the loop's safe block
   c->io.can.period_ns = c->period_ns;
   c->io.modbus.period_ns = c->period_ns;
   c->io.pwm.period_ns = c->period_ns;
@@ -981,10 +986,12 @@ std::string ConfigReference() {
       for (const Key& key : keys) {
         const std::string def = key.show();
         std::string accepts;  // '|' would end the Markdown cell
-        for (const char ch : key.accepts) accepts += ch == '|' ? std::string("or") : std::string(1, ch);
-        out += std::string("| `") + key.name + "` | " + (def.empty()       ? std::string("table's")
-                                           : def[0] == '(' ? def.substr(1, def.size() - 2)
-                                                           : "`" + def + "`") +
+        for (const char ch : key.accepts)
+          accepts += ch == '|' ? std::string("or") : std::string(1, ch);
+        out += std::string("| `") + key.name + "` | " +
+               (def.empty()     ? std::string("table's")
+                : def[0] == '(' ? def.substr(1, def.size() - 2)
+                                : "`" + def + "`") +
                " | " + key.unit + " | " + accepts + " | " + TunableName(key.tunable) + " | " +
                key.description + " |\n";
       }
@@ -997,9 +1004,12 @@ std::string ConfigReference() {
 
 const char* TunableName(Tunable t) {
   switch (t) {
-    case Tunable::kRestart: return "restart";
-    case Tunable::kReload: return "reload";
-    case Tunable::kRuntime: return "runtime";
+    case Tunable::kRestart:
+      return "restart";
+    case Tunable::kReload:
+      return "reload";
+    case Tunable::kRuntime:
+      return "runtime";
   }
   return "restart";
 }
@@ -1014,8 +1024,7 @@ namespace {
 
 Scratch ScratchOf(const FirmwareConfig& c) {
   return Scratch{static_cast<double>(c.period_ns) / 1e3,
-                 static_cast<double>(c.controller.watchdog.max_age_ns) / 1e6,
-                 c.controller.e_max};
+                 static_cast<double>(c.controller.watchdog.max_age_ns) / 1e6, c.controller.e_max};
 }
 
 }  // namespace
@@ -1145,8 +1154,8 @@ bool ParseConfig(std::string_view text, const std::string& source, FirmwareConfi
       *config = c;
       return true;
     } catch (const toml::parse_error& e) {
-      *error = shown + ":" + std::to_string(e.source().begin.line) + ": " +
-               Printable(e.description());
+      *error =
+          shown + ":" + std::to_string(e.source().begin.line) + ": " + Printable(e.description());
       return false;
     }
   } catch (const std::exception& e) {  // std::bad_alloc

@@ -3,9 +3,8 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
-#include <unistd.h>
-
 #include <toml++/toml.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
@@ -144,8 +143,8 @@ std::string SaveConfigFile(const std::string& path, const FirmwareConfig& runnin
     for (std::size_t i = 0; i < now.size() && i < after.size(); ++i) {
       if (now[i].tunable != Tunable::kRuntime || now[i].name == "control.e_max") continue;
       if (now[i].value != after[i].value) {
-        return "internal error: the saved file would give " + now[i].name + " = " +
-               after[i].value + ", not " + now[i].value + "; nothing saved";
+        return "internal error: the saved file would give " + now[i].name + " = " + after[i].value +
+               ", not " + now[i].value + "; nothing saved";
       }
     }
     if (running.e_max.has_value() && check.e_max != running.e_max) {

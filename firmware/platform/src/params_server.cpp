@@ -104,14 +104,17 @@ std::string ParamsServer::Open(const std::string& path) {
   struct stat st {};
   if (::lstat(path.c_str(), &st) == 0) {
     if (!S_ISSOCK(st.st_mode)) {
-      return "control socket " + shown + " exists and is not a socket: refused (remove it or "
+      return "control socket " + shown +
+             " exists and is not a socket: refused (remove it or "
              "give another path)";
     }
     const int probe = Connect(path, 2);
     if (probe >= 0) {
       ::close(probe);
-      return "control socket " + shown + " is in use by a running firmware (mrd-firmware ctl "
-             "--socket " + shown + " list talks to it): refused; stop it or give another path";
+      return "control socket " + shown +
+             " is in use by a running firmware (mrd-firmware ctl "
+             "--socket " +
+             shown + " list talks to it): refused; stop it or give another path";
     }
     if (errno != ECONNREFUSED) return Errno("control socket " + shown + ": cannot check it");
     if (::unlink(path.c_str()) != 0) {  // stale: its firmware is gone
@@ -202,7 +205,8 @@ std::string ParamsServer::Handle(const std::string& request) {
     for (const ParamInfo& p : params_.List()) {
       if (p.name == rest) return Row(p) + "ok\n";
     }
-    return "refused: unknown parameter '" + Printable(rest) + "' (mrd-firmware ctl list names them)\n";
+    return "refused: unknown parameter '" + Printable(rest) +
+           "' (mrd-firmware ctl list names them)\n";
   }
   if (cmd == "set") {
     const auto sp2 = rest.find(' ');
@@ -212,7 +216,8 @@ std::string ParamsServer::Handle(const std::string& request) {
     const std::string name = rest.substr(0, sp2);
     const std::string value = rest.substr(rest.find_first_not_of(' ', sp2));
     const RuntimeParams::Result r = params_.Set(name, value);
-    if (r.status == RuntimeParams::Status::kRefused) return "refused: " + Printable(r.message) + "\n";
+    if (r.status == RuntimeParams::Status::kRefused)
+      return "refused: " + Printable(r.message) + "\n";
     if (r.status == RuntimeParams::Status::kFailed) return "error: " + Printable(r.message) + "\n";
     std::string now;
     for (const ParamInfo& p : params_.List()) {

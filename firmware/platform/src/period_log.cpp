@@ -59,7 +59,8 @@ constexpr FieldDef kFields[] = {
      [](const PeriodRecord& r) { return Signed(Age(r.frame[Input::kForce], r.t_ns)); }},
     {"fault_line", Type::kU8, "",
      [](const PeriodRecord& r) { return std::uint64_t{r.frame.fault_line ? 1U : 0U}; }},
-    {"bus_faults", Type::kU32, "", [](const PeriodRecord& r) { return std::uint64_t{r.frame.bus_faults}; }},
+    {"bus_faults", Type::kU32, "",
+     [](const PeriodRecord& r) { return std::uint64_t{r.frame.bus_faults}; }},
     {"read_status", Type::kU8, "",
      [](const PeriodRecord& r) { return static_cast<std::uint64_t>(r.read); }},
     {"write_status", Type::kU8, "",
@@ -70,8 +71,10 @@ constexpr FieldDef kFields[] = {
     {"force_demand", Type::kF64, "N", [](const PeriodRecord& r) { return Bits(r.force_demand); }},
     {"e_law", Type::kF64, "V", [](const PeriodRecord& r) { return Bits(r.e_law); }},
     {"command", Type::kF64, "V", [](const PeriodRecord& r) { return Bits(r.command_v); }},
-    {"force_law", Type::kU8, "", [](const PeriodRecord& r) { return std::uint64_t{r.force_law ? 1U : 0U}; }},
-    {"reachable", Type::kU8, "", [](const PeriodRecord& r) { return std::uint64_t{r.reachable ? 1U : 0U}; }},
+    {"force_law", Type::kU8, "",
+     [](const PeriodRecord& r) { return std::uint64_t{r.force_law ? 1U : 0U}; }},
+    {"reachable", Type::kU8, "",
+     [](const PeriodRecord& r) { return std::uint64_t{r.reachable ? 1U : 0U}; }},
     {"safe", Type::kU8, "", [](const PeriodRecord& r) { return std::uint64_t{r.safe ? 1U : 0U}; }},
     {"causes", Type::kU32, "", [](const PeriodRecord& r) { return std::uint64_t{r.causes}; }},
     {"param_version", Type::kU32, "",
@@ -96,11 +99,17 @@ void EncodePeriodRecord(const PeriodRecord& r, std::uint8_t* out) {
   for (const FieldDef& d : kFields) {
     const std::uint64_t v = d.get(r);
     switch (d.type) {
-      case Type::kU8: runlog::PutU8(out, static_cast<std::uint8_t>(v)); break;
-      case Type::kU32: runlog::PutU32(out, static_cast<std::uint32_t>(v)); break;
+      case Type::kU8:
+        runlog::PutU8(out, static_cast<std::uint8_t>(v));
+        break;
+      case Type::kU32:
+        runlog::PutU32(out, static_cast<std::uint32_t>(v));
+        break;
       case Type::kU64:
       case Type::kI64:
-      case Type::kF64: runlog::PutU64(out, v); break;
+      case Type::kF64:
+        runlog::PutU64(out, v);
+        break;
     }
     out += runlog::TypeSize(d.type);
   }
@@ -120,8 +129,10 @@ void PeriodLog::Start(const LogConfig& config, std::int64_t period_ns, const std
   record_bytes_ = h.record_bytes();
   const std::uint64_t capacity = RoundUpPow2(config_.ring_records < 2 ? 2 : config_.ring_records);
   mask_ = capacity - 1;
-  ring_ = std::make_unique<PeriodRecord[]>(static_cast<std::size_t>(capacity));  // value-initialised: every page touched
-  for (std::uint64_t i = 0; i < capacity; ++i) ring_[static_cast<std::size_t>(i)].period = i;  // and written
+  ring_ = std::make_unique<PeriodRecord[]>(
+      static_cast<std::size_t>(capacity));  // value-initialised: every page touched
+  for (std::uint64_t i = 0; i < capacity; ++i)
+    ring_[static_cast<std::size_t>(i)].period = i;  // and written
   pending_.assign(static_cast<std::size_t>(config_.block_records) * record_bytes_, 0);
   block_.reserve(runlog::kBlockHeaderBytes + pending_.size());
   // A log from an earlier start (a restart after a crash) is kept as PATH.1 (a regular file
@@ -269,8 +280,9 @@ void PeriodLog::WriterMain() {
       std::uint64_t t = tail_.load(std::memory_order_relaxed);
       const std::uint64_t h = head_.load(std::memory_order_acquire);
       while (t != h) {
-        EncodePeriodRecord(ring_[static_cast<std::size_t>(t & mask_)],
-                           pending_.data() + static_cast<std::size_t>(pending_count_) * record_bytes_);
+        EncodePeriodRecord(
+            ring_[static_cast<std::size_t>(t & mask_)],
+            pending_.data() + static_cast<std::size_t>(pending_count_) * record_bytes_);
         ++t;
         tail_.store(t, std::memory_order_release);
         if (++pending_count_ == config_.block_records) {

@@ -98,8 +98,8 @@ RuntimeParams::Result RuntimeParams::PostSetLocked(std::string_view name, std::s
 }
 
 RuntimeParams::Result RuntimeParams::Reload(const FirmwareConfig& config,
-                                            const CoefficientTable& table,
-                                            const ReloadCheck& check, std::int64_t timeout_ms) {
+                                            const CoefficientTable& table, const ReloadCheck& check,
+                                            std::int64_t timeout_ms) {
   const std::lock_guard<std::mutex> lock(mu_);
   const Result r = PostReloadLocked(config, table, check);
   return r.status == Status::kOk ? WaitLocked(timeout_ms) : r;

@@ -96,22 +96,25 @@ std::string Content(const TableDiagnosis& d) {
   const Model& m = t.model;
   const std::size_t i = d.check.index;
   switch (d.check.problem) {
-    case ModelProblem::kNone: return "";
-    case ModelProblem::kNoChannels: return "no channels";
+    case ModelProblem::kNone:
+      return "";
+    case ModelProblem::kNoChannels:
+      return "no channels";
     case ModelProblem::kTooManyChannels:
     case ModelProblem::kTooManyRegressors:
     case ModelProblem::kTooManyTerms:
-    case ModelProblem::kTooManyFactors: return "a count over the format's capacity";
-    case ModelProblem::kOutputChannel: return "output channel index out of range";
+    case ModelProblem::kTooManyFactors:
+      return "a count over the format's capacity";
+    case ModelProblem::kOutputChannel:
+      return "output channel index out of range";
     case ModelProblem::kChannelName:
       return "channel " + std::to_string(i) +
              " name is empty, has no NUL in its 16 bytes or is not printable ASCII";
     case ModelProblem::kChannelScaleNonFinite:
     case ModelProblem::kChannelScale:
       return "channel " + Name(t, i) + " normalisation offset " + Num(m.scales[i].offset) +
-             ", scale " + Num(m.scales[i].scale) + " (needs |offset| <= " +
-             Num(kMaxChannelOffset) + ", scale in [" + Num(kMinChannelScale) + ", " +
-             Num(kMaxChannelScale) + "])";
+             ", scale " + Num(m.scales[i].scale) + " (needs |offset| <= " + Num(kMaxChannelOffset) +
+             ", scale in [" + Num(kMinChannelScale) + ", " + Num(kMaxChannelScale) + "])";
     case ModelProblem::kChannelNameRepeated:
       return "channels " + std::to_string(d.check.count) + " and " + std::to_string(i) +
              " are both named " + Name(t, i);
@@ -128,8 +131,8 @@ std::string Content(const TableDiagnosis& d) {
     case ModelProblem::kFactorRegressor:
       return "term " + std::to_string(i) + " uses no regressor";
     case ModelProblem::kFactorDelay:
-      return "term " + std::to_string(i) + " uses delay " + std::to_string(d.check.count) +
-             " > " + std::to_string(kMaxDelay);
+      return "term " + std::to_string(i) + " uses delay " + std::to_string(d.check.count) + " > " +
+             std::to_string(kMaxDelay);
     case ModelProblem::kFactorPower:
       return "term " + std::to_string(i) + " uses power " + std::to_string(d.check.count) +
              " (1 ... " + std::to_string(kMaxPower) + ")";
@@ -137,7 +140,8 @@ std::string Content(const TableDiagnosis& d) {
       return "term " + std::to_string(i) + " uses the output at delay 0";
     case ModelProblem::kCoefficient:
       return "coefficient " + std::to_string(i) + " is not finite";
-    case ModelProblem::kInputChannel: return "input channel missing or the output";
+    case ModelProblem::kInputChannel:
+      return "input channel missing or the output";
     case ModelProblem::kVoltageNonFinite:
     case ModelProblem::kVoltageRange:
       return "input range [" + Num(t.e_min) + ", " + Num(t.e_max) + "] V (needs 0 <= E_min < " +

@@ -1,15 +1,14 @@
 // mrd-structure — the three-story structure of Dyke, Spencer, Sain & Carlson (1996) with an MR
 // damper between the ground and the first floor: modal check, off-line LQG design of the
 // clipped-optimal law, and the in-process El Centro study (docs/structure.md).
-#include <CLI/CLI.hpp>
+#include <fcntl.h>
+#include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <iostream>
 #include <string>
 #include <vector>
-
-#include <fcntl.h>
-#include <unistd.h>
 
 #include "mrd/structure/design.hpp"
 #include "mrd/structure/study.hpp"
@@ -45,13 +44,15 @@ bool WriteAtomically(const std::string& path, const std::string& text, std::stri
 void AddDesignOptions(CLI::App* cmd, mrd::structure::DesignOptions* d) {
   cmd->add_option("--period", d->period_s, "Control period T [s]")->capture_default_str();
   cmd->add_option("--q-displacement", d->q_displacement,
-                  "LQR weight on each floor displacement [1/m^2]")->capture_default_str();
+                  "LQR weight on each floor displacement [1/m^2]")
+      ->capture_default_str();
   cmd->add_option("--q-drift", d->q_drift, "LQR weight on each inter-story drift [1/m^2]")
       ->capture_default_str();
   cmd->add_option("--r-force", d->r_force, "LQR weight on the damper force [1/N^2]")
       ->capture_default_str();
   cmd->add_option("--noise-ratio", d->noise_ratio,
-                  "Ground-acceleration / measurement-noise PSD ratio")->capture_default_str();
+                  "Ground-acceleration / measurement-noise PSD ratio")
+      ->capture_default_str();
   cmd->add_option("--v-max", d->v_max, "Clipped rule's (and passive-on) voltage [V]")
       ->capture_default_str();
 }
@@ -59,8 +60,9 @@ void AddDesignOptions(CLI::App* cmd, mrd::structure::DesignOptions* d) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"mrd-structure: three-story structure with an MR damper (Dyke et al. 1996): "
-               "modes, clipped-optimal design, El Centro study"};
+  CLI::App app{
+      "mrd-structure: three-story structure with an MR damper (Dyke et al. 1996): "
+      "modes, clipped-optimal design, El Centro study"};
   app.require_subcommand(1);
   mrd::structure::DesignOptions design;
   mrd::structure::StudyOptions study;
@@ -73,8 +75,9 @@ int main(int argc, char** argv) {
   design_cmd->add_option("--out", design_out, "Write the gains TOML here (atomically)");
 
   auto* study_cmd = app.add_subcommand(
-      "study", "Uncontrolled, passive-off, passive-on and clipped-optimal under the record: "
-               "peak and RMS response table");
+      "study",
+      "Uncontrolled, passive-off, passive-on and clipped-optimal under the record: "
+      "peak and RMS response table");
   std::string record_path = MRD_STRUCTURE_RECORD;
   std::string preset = "spencer1997";
   std::string study_out;
@@ -144,8 +147,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::vector<mrd::structure::Response> rows;
-  for (Case c : {Case::kUncontrolled, Case::kPassiveOff, Case::kPassiveOn,
-                 Case::kClippedOptimal}) {
+  for (Case c : {Case::kUncontrolled, Case::kPassiveOff, Case::kPassiveOn, Case::kClippedOptimal}) {
     std::fprintf(stderr, "running %s ...\n", mrd::structure::CaseName(c));
     mrd::structure::Response r;
     if (!mrd::structure::RunCase(c, record, frame, damper, gains, study, &r, &error)) {

@@ -2,10 +2,10 @@
 
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
-#include <unsupported/Eigen/MatrixFunctions>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <unsupported/Eigen/MatrixFunctions>
 
 namespace mrd::structure {
 
@@ -52,8 +52,7 @@ bool SolveDare(const Mat& A, const Mat& B, const Mat& Q, const Mat& R, Mat* P) {
   for (int it = 0; it < 2000000; ++it) {
     const Mat S = R + B.transpose() * X * B;
     const Mat next =
-        Q + A.transpose() * X * A -
-        A.transpose() * X * B * S.ldlt().solve(B.transpose() * X * A);
+        Q + A.transpose() * X * A - A.transpose() * X * B * S.ldlt().solve(B.transpose() * X * A);
     const double change = (next - X).norm();
     X = 0.5 * (next + next.transpose());
     if (!std::isfinite(change)) return false;
@@ -81,7 +80,8 @@ Modes FrameModes(const ShearFrameParams& frame) {
   std::array<std::complex<double>, 3> poles{};
   int n = 0;
   for (int i = 0; i < es.eigenvalues().size() && n < 3; ++i) {
-    if (es.eigenvalues()(i).imag() > 0.0) poles[static_cast<std::size_t>(n++)] = es.eigenvalues()(i);
+    if (es.eigenvalues()(i).imag() > 0.0)
+      poles[static_cast<std::size_t>(n++)] = es.eigenvalues()(i);
   }
   std::sort(poles.begin(), poles.begin() + n,
             [](auto a, auto b) { return std::abs(a) < std::abs(b); });
@@ -99,8 +99,9 @@ bool DesignClippedOptimal(const ShearFrameParams& frame, const DesignOptions& o,
   if (!(o.period_s > 0.0) || !(o.r_force > 0.0) || !(o.q_displacement >= 0.0) ||
       !(o.q_drift >= 0.0) || !(o.q_displacement + o.q_drift > 0.0) || !(o.noise_ratio > 0.0) ||
       !std::isfinite(o.v_max)) {
-    *error = "design: period, r_force, noise_ratio must be > 0; q_displacement, q_drift >= 0 "
-             "and not both 0";
+    *error =
+        "design: period, r_force, noise_ratio must be > 0; q_displacement, q_drift >= 0 "
+        "and not both 0";
     return false;
   }
   const Continuous m = Model(frame);
@@ -141,8 +142,7 @@ bool DesignClippedOptimal(const ShearFrameParams& frame, const DesignOptions& o,
     *error = "design: the Kalman Riccati iteration did not converge";
     return false;
   }
-  const Mat L =
-      Ad * S * m.Cy.transpose() * (m.Cy * S * m.Cy.transpose() + V).inverse();
+  const Mat L = Ad * S * m.Cy.transpose() * (m.Cy * S * m.Cy.transpose() + V).inverse();
 
   Store(Ad, gains->ad);
   Store(Bd, gains->bd);
@@ -159,8 +159,8 @@ std::string GainsToml(const firmware::ClippedOptimalGains& g, const DesignOption
   std::ostringstream out;
   out.precision(17);
   out << "# Clipped-optimal gains (mrd-structure design): period " << o.period_s
-      << " s, q_displacement " << o.q_displacement << ", q_drift " << o.q_drift
-      << ", r_force " << o.r_force << ", noise_ratio " << o.noise_ratio << "\n";
+      << " s, q_displacement " << o.q_displacement << ", q_drift " << o.q_drift << ", r_force "
+      << o.r_force << ", noise_ratio " << o.noise_ratio << "\n";
   out << "[control.clipped_optimal]\n";
   const auto array = [&](const char* name, const double* v, int count) {
     out << name << " = [";

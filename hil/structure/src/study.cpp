@@ -70,10 +70,14 @@ bool LoadGroundMotion(const std::string& path, GroundMotion* out, std::string* e
 
 const char* CaseName(Case c) {
   switch (c) {
-    case Case::kUncontrolled: return "uncontrolled";
-    case Case::kPassiveOff: return "passive-off";
-    case Case::kPassiveOn: return "passive-on";
-    case Case::kClippedOptimal: return "clipped-optimal";
+    case Case::kUncontrolled:
+      return "uncontrolled";
+    case Case::kPassiveOff:
+      return "passive-off";
+    case Case::kPassiveOn:
+      return "passive-on";
+    case Case::kClippedOptimal:
+      return "clipped-optimal";
   }
   return "unknown";
 }
@@ -129,8 +133,8 @@ bool RunCase(Case which, const GroundMotion& record, const ShearFrameParams& fra
     s = frame.Step(T, ag_at(t0), ag_at(t0 + T), E);
     metrics.Add(s);
     if (!std::isfinite(s.x[2]) || !std::isfinite(s.force)) {
-      *error = std::string("study: ") + CaseName(which) + " diverged at t = " +
-               std::to_string(t0) + " s";
+      *error = std::string("study: ") + CaseName(which) + " diverged at t = " + std::to_string(t0) +
+               " s";
       return false;
     }
   }
@@ -160,9 +164,9 @@ std::string ResponseTable(const std::vector<Response>& rows) {
   for (const Response& r : rows) {
     std::snprintf(buf, sizeof buf,
                   "| %s | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.0f | %.0f | %.0f | %.0f |\n",
-                  CaseName(r.which), r.peak_x_cm[0], r.peak_x_cm[1], r.peak_x_cm[2],
-                  r.peak_d_cm[0], r.peak_d_cm[1], r.peak_d_cm[2], r.peak_xa_cm_s2[0],
-                  r.peak_xa_cm_s2[1], r.peak_xa_cm_s2[2], r.peak_force_n);
+                  CaseName(r.which), r.peak_x_cm[0], r.peak_x_cm[1], r.peak_x_cm[2], r.peak_d_cm[0],
+                  r.peak_d_cm[1], r.peak_d_cm[2], r.peak_xa_cm_s2[0], r.peak_xa_cm_s2[1],
+                  r.peak_xa_cm_s2[2], r.peak_force_n);
     out << buf;
   }
   out << "\nRMS responses (same units; mean command E [V]):\n\n"

@@ -1,13 +1,12 @@
 // Identify (the search path: sem/search/search_path.hpp), the data checks and channel scales,
 // SimulateCost, SelectIteration and TransformSignal.
-#include "mrd/host/sem.hpp"
-
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 
 #include "mrd/host/input_error.hpp"
+#include "mrd/host/sem.hpp"
 #include "sem/estimate/replay.hpp"
 #include "sem/internal.hpp"
 #include "sem/search/search_path.hpp"

@@ -2,11 +2,10 @@
 // Shared by the SEM engine (sem/identify.cpp, sem/engine/, sem/search/) and its model
 // selection (sem/select/selection.cpp); not public.
 
+#include <Eigen/Dense>
 #include <functional>
 #include <limits>
 #include <span>
-
-#include <Eigen/Dense>
 #include <vector>
 
 #include "mrd/host/sem.hpp"

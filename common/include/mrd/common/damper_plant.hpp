@@ -12,7 +12,8 @@
 //   vb(t) = B sin(2 pi f_b t + phi)                          body velocity [cm/s]
 //   ab(t) = 2 pi f_b B cos(2 pi f_b t + phi)                 body acceleration [cm/s^2]
 //   vw(t) = vb(t) - v(t)                                     wheel velocity [cm/s]
-//   xa_i(t) = 0.01 ab(t) (1, 1.5, 2)_i                        floor accelerations [m/s^2] (stand-in)
+//   xa_i(t) = 0.01 ab(t) (1, 1.5, 2)_i                        floor accelerations [m/s^2]
+//   (stand-in)
 // Pure and allocation-free; Step is real-time safe.
 
 #include <cstdint>
@@ -22,24 +23,24 @@
 namespace mrd {
 
 struct PlantExcitation {
-  double amplitude_cm = 1.0;          // A
-  double frequency_hz = 2.0;          // f
-  double demand_amplitude_n = 1200.0; // D
-  double demand_frequency_hz = 0.5;   // f_d
-  double body_amplitude = 8.0;        // B [cm/s]
-  double body_frequency_hz = 1.3;     // f_b
-  double body_phase_rad = 0.7;        // phi
-  int substeps = 20;                  // RK4 steps per period (>= 1)
+  double amplitude_cm = 1.0;           // A
+  double frequency_hz = 2.0;           // f
+  double demand_amplitude_n = 1200.0;  // D
+  double demand_frequency_hz = 0.5;    // f_d
+  double body_amplitude = 8.0;         // B [cm/s]
+  double body_frequency_hz = 1.3;      // f_b
+  double body_phase_rad = 0.7;         // phi
+  int substeps = 20;                   // RK4 steps per period (>= 1)
 };
 
 // What the plant's sensors read at one instant.
 struct PlantSample {
-  double t_s = 0.0;            // plant time [s]
-  double x = 0.0;              // [cm]
-  double v = 0.0;              // [cm/s]
-  double demand = 0.0;         // [N]
-  double body_velocity = 0.0;  // [cm/s]
-  double force = 0.0;          // damper force [N]
+  double t_s = 0.0;                // plant time [s]
+  double x = 0.0;                  // [cm]
+  double v = 0.0;                  // [cm/s]
+  double demand = 0.0;             // [N]
+  double body_velocity = 0.0;      // [cm/s]
+  double force = 0.0;              // damper force [N]
   double body_acceleration = 0.0;  // absolute body acceleration [cm/s^2]
   double wheel_velocity = 0.0;     // absolute wheel (unsprung) velocity [cm/s]
   // The plant has a body and a wheel (the quarter car): the harness serves the two above on

@@ -16,10 +16,10 @@ namespace mrd {
 // file of `size` bytes (the caller closes it). fd < 0: refused, for the reason below.
 struct InputFile {
   int fd = -1;
-  std::uint64_t size = 0;   // [bytes]
-  int error = 0;            // errno of a failed open or fstat (0 otherwise)
-  const char* kind = "";    // what the path is when it is not a regular file ("a directory")
-  bool too_large = false;   // a regular file over the limit
+  std::uint64_t size = 0;  // [bytes]
+  int error = 0;           // errno of a failed open or fstat (0 otherwise)
+  const char* kind = "";   // what the path is when it is not a regular file ("a directory")
+  bool too_large = false;  // a regular file over the limit
 };
 
 // Opens path for reading if it is a regular file of at most max_bytes. No allocation.

@@ -5,8 +5,8 @@
 //   y(k) = sum_i theta_i * prod_j r_{a_ij}(k - d_ij)^{p_ij}
 //
 // where each elementary regressor r_a(k) = T_a(s_c(k)) is a transform T_a of one normalised
-// channel s_c (identity, |s|^e, sign(s), tanh(s/a), clamp(s,-c,c)) or a first-order low-pass of an input channel
-// (noisy or lagging command signals of real rigs). The output channel enters only at
+// channel s_c (identity, |s|^e, sign(s), tanh(s/a), clamp(s,-c,c)) or a first-order low-pass of an
+// input channel (noisy or lagging command signals of real rigs). The output channel enters only at
 // delays >= 1 and only through memoryless transforms.
 // Normalisation: s = (raw - offset) / scale per channel; the output is denormalised the
 // same way.
@@ -148,7 +148,7 @@ class BasicRegressorHistory {
 
   std::array<std::array<T, kDepth>, kMaxRegressors> values_{};
   std::array<T, kMaxRegressors> pole_{};  // low-pass poles (Reset)
-  std::size_t head_ = 0;  // slot of delay 0
+  std::size_t head_ = 0;                  // slot of delay 0
 };
 using RegressorHistory = BasicRegressorHistory<double>;
 

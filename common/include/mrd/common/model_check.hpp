@@ -22,33 +22,33 @@ inline constexpr double kMaxChannelScale = 1e6;
 
 enum class ModelProblem : std::uint8_t {
   kNone = 0,
-  kNoChannels,           // num_channels == 0
-  kTooManyChannels,      // num_channels > kMaxChannels (count)
-  kTooManyRegressors,    // num_regressors > kMaxRegressors (count)
-  kTooManyTerms,         // num_terms > kMaxTerms (count)
-  kOutputChannel,        // output_channel >= num_channels
-  kChannelName,          // channel (index) name without NUL, empty or not printable ASCII
+  kNoChannels,             // num_channels == 0
+  kTooManyChannels,        // num_channels > kMaxChannels (count)
+  kTooManyRegressors,      // num_regressors > kMaxRegressors (count)
+  kTooManyTerms,           // num_terms > kMaxTerms (count)
+  kOutputChannel,          // output_channel >= num_channels
+  kChannelName,            // channel (index) name without NUL, empty or not printable ASCII
   kChannelScaleNonFinite,  // channel (index) offset or scale not finite
-  kChannelScale,         // channel (index) |offset| > kMaxChannelOffset or scale outside
-                         // [kMinChannelScale, kMaxChannelScale]
-  kChannelNameRepeated,  // channel (index) has the name of channel (count) before it
-  kRegressorChannel,     // regressor (index) reads no channel
-  kRegressorTransform,   // regressor (index) has an unknown transform
-  kRegressorExponent,    // regressor (index) exponent not finite
-  kAbsPowExponent,       // regressor (index) abs_pow exponent <= 0
-  kLowPass,              // regressor (index) low-pass tau out of (0, kMaxLowPassTau] or on the output
-  kSaturation,           // regressor (index) tanh scale or clip limit <= 0
-  kTooManyFactors,       // term (index) has count > kMaxFactors factors
-  kFactorRegressor,      // term (index) uses no regressor
-  kFactorDelay,          // term (index) uses delay (count) > kMaxDelay
-  kFactorPower,          // term (index) uses power (count) outside 1 ... kMaxPower
-  kOutputAtDelayZero,    // term (index) reads the output at delay 0
-  kCoefficient,          // coefficient (index) not finite
-  kInputChannel,         // table input channel missing or the output
-  kVoltageNonFinite,     // table e_min or e_max not finite
-  kVoltageRange,         // table e_min >= e_max, or outside [0, kMaxCommandVoltage]
-  kEnvelopeNonFinite,    // table envelope of channel (index) not finite
-  kEnvelopeRange,        // table envelope of channel (index) has min > max
+  kChannelScale,           // channel (index) |offset| > kMaxChannelOffset or scale outside
+                           // [kMinChannelScale, kMaxChannelScale]
+  kChannelNameRepeated,    // channel (index) has the name of channel (count) before it
+  kRegressorChannel,       // regressor (index) reads no channel
+  kRegressorTransform,     // regressor (index) has an unknown transform
+  kRegressorExponent,      // regressor (index) exponent not finite
+  kAbsPowExponent,         // regressor (index) abs_pow exponent <= 0
+  kLowPass,            // regressor (index) low-pass tau out of (0, kMaxLowPassTau] or on the output
+  kSaturation,         // regressor (index) tanh scale or clip limit <= 0
+  kTooManyFactors,     // term (index) has count > kMaxFactors factors
+  kFactorRegressor,    // term (index) uses no regressor
+  kFactorDelay,        // term (index) uses delay (count) > kMaxDelay
+  kFactorPower,        // term (index) uses power (count) outside 1 ... kMaxPower
+  kOutputAtDelayZero,  // term (index) reads the output at delay 0
+  kCoefficient,        // coefficient (index) not finite
+  kInputChannel,       // table input channel missing or the output
+  kVoltageNonFinite,   // table e_min or e_max not finite
+  kVoltageRange,       // table e_min >= e_max, or outside [0, kMaxCommandVoltage]
+  kEnvelopeNonFinite,  // table envelope of channel (index) not finite
+  kEnvelopeRange,      // table envelope of channel (index) has min > max
 };
 
 struct ModelCheck {
@@ -74,8 +74,8 @@ struct TableDiagnosis {
   bool stray_byte = false;   // a byte the encoder writes as zero is not (reserved, unused slot)
   std::size_t byte = 0;      // its offset
   std::uint8_t byte_value = 0;
-  std::size_t size = 0;      // the image's size [bytes]
-  CoefficientTable table;    // as decoded, when the counts were in range (names the values)
+  std::size_t size = 0;    // the image's size [bytes]
+  CoefficientTable table;  // as decoded, when the counts were in range (names the values)
 };
 // DecodeTable, with *why filled in (also on success: error kOk).
 Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes, TableDiagnosis* why);

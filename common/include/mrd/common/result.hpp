@@ -31,7 +31,7 @@ template <typename T>
 class Result {
  public:
   Result(T value) : value_(std::move(value)), error_(Error::kOk) {}  // NOLINT: implicit
-  Result(Error error) : value_(), error_(error) {}                    // NOLINT: implicit
+  Result(Error error) : value_(), error_(error) {}                   // NOLINT: implicit
 
   bool ok() const { return error_ == Error::kOk; }
   Error error() const { return error_; }

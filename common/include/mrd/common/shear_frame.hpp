@@ -23,8 +23,8 @@ struct ShearFrameParams {
   static constexpr int kFloors = 3;
   double mass_kg[kFloors] = {98.3, 98.3, 98.3};
   // Row-major 3x3 stiffness [N/m] and damping [N s/m] of Dyke et al. (1996).
-  double stiffness[kFloors * kFloors] = {12.0e5, -6.84e5, 0.0,    -6.84e5, 13.7e5,
-                                         -6.84e5, 0.0,    -6.84e5, 6.84e5};
+  double stiffness[kFloors * kFloors] = {12.0e5,  -6.84e5, 0.0,     -6.84e5, 13.7e5,
+                                         -6.84e5, 0.0,     -6.84e5, 6.84e5};
   double damping[kFloors * kFloors] = {175.0, -50.0, 0.0, -50.0, 100.0, -50.0, 0.0, -50.0, 50.0};
   bool with_damper = true;  // false: the bare frame (no damper force at all)
 

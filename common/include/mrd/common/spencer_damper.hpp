@@ -16,20 +16,20 @@
 namespace mrd {
 
 struct SpencerParams {
-  double c0a = 20.2;      // [N s/cm]
-  double c0b = 2.68;      // [N s/(cm V)]
-  double k0 = 15.0;       // [N/cm]
-  double c1a = 350.0;     // [N s/cm]
-  double c1b = 70.7;      // [N s/(cm V)]
-  double k1 = 5.37;       // [N/cm]
-  double x0 = 0.0;        // [cm]
-  double alpha_a = 44.9;  // [N/cm]
-  double alpha_b = 638.0; // [N/(cm V)]
-  double gamma = 39.3;    // [1/cm^2]
-  double beta = 39.3;     // [1/cm^2]
-  double A = 47.2;        // [-]
-  double n = 2.0;         // [-], > 0
-  double eta = 251.0;     // [1/s]
+  double c0a = 20.2;       // [N s/cm]
+  double c0b = 2.68;       // [N s/(cm V)]
+  double k0 = 15.0;        // [N/cm]
+  double c1a = 350.0;      // [N s/cm]
+  double c1b = 70.7;       // [N s/(cm V)]
+  double k1 = 5.37;        // [N/cm]
+  double x0 = 0.0;         // [cm]
+  double alpha_a = 44.9;   // [N/cm]
+  double alpha_b = 638.0;  // [N/(cm V)]
+  double gamma = 39.3;     // [1/cm^2]
+  double beta = 39.3;      // [1/cm^2]
+  double A = 47.2;         // [-]
+  double n = 2.0;          // [-], > 0
+  double eta = 251.0;      // [1/s]
 
   // The seed paper's values (default).
   static SpencerParams Paper() { return SpencerParams{}; }

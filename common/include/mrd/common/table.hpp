@@ -42,11 +42,11 @@ inline constexpr std::size_t kTableTermRecord = 16;
 inline constexpr std::size_t kTableCoefficientsOffset =
     kTableTermsOffset + kTableTerms * kTableTermRecord;  // 1572
 inline constexpr std::size_t kTableEnvelopeOffset =
-    kTableCoefficientsOffset + kTableTerms * 8;  // 2084 (version 1: the CRC)
+    kTableCoefficientsOffset + kTableTerms * 8;          // 2084 (version 1: the CRC)
 inline constexpr std::size_t kTableEnvelopeRecord = 16;  // min f64, max f64
 inline constexpr std::size_t kTableCrcOffset =
-    kTableEnvelopeOffset + kTableChannels * kTableEnvelopeRecord;  // 2212
-inline constexpr std::size_t kTableSize = kTableCrcOffset + 4;    // 2216
+    kTableEnvelopeOffset + kTableChannels * kTableEnvelopeRecord;       // 2212
+inline constexpr std::size_t kTableSize = kTableCrcOffset + 4;          // 2216
 inline constexpr std::size_t kTableCrcOffsetV1 = kTableEnvelopeOffset;  // 2084
 inline constexpr std::size_t kTableSizeV1 = kTableCrcOffsetV1 + 4;      // 2088
 
@@ -102,7 +102,8 @@ InversionCheck CheckInversion(const CoefficientTable& table);
 
 // True when the factor is the input E(k) itself: the table's input channel at delay 0.
 inline bool IsDirectInput(const CoefficientTable& table, const Factor& factor) {
-  return factor.delay == 0 && table.model.regressors[factor.regressor].channel == table.input_channel;
+  return factor.delay == 0 &&
+         table.model.regressors[factor.regressor].channel == table.input_channel;
 }
 
 // Encodes a table into its fixed-size image. Refuses (never truncates) a table that does not

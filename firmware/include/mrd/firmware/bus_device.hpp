@@ -44,19 +44,19 @@ const char* IoErrorName(IoError error);
 
 // What the loop sends each period.
 struct DriverCommand {
-  double volts = 0.0;     // [V], within [E_min, E_max] (the safe voltage when safe)
-  bool enable = false;    // driver enable line / bit
-  bool safe = true;       // the safe state is commanded
-  std::uint64_t tick = 0; // period count since start (heartbeats derive their toggling)
+  double volts = 0.0;      // [V], within [E_min, E_max] (the safe voltage when safe)
+  bool enable = false;     // driver enable line / bit
+  bool safe = true;        // the safe state is commanded
+  std::uint64_t tick = 0;  // period count since start (heartbeats derive their toggling)
 };
 
 // Per device; updated by the device's own thread(s) or the tick, read by anyone (copies).
 struct DeviceCounters {
-  std::uint64_t rx_ok = 0;        // frames / replies / edges accepted
-  std::uint64_t rx_rejected = 0;  // rejected (why: errors[])
-  std::uint64_t tx_ok = 0;        // frames / writes sent
-  std::uint64_t tx_failed = 0;    // not sent (why: errors[])
-  std::uint64_t reconnects = 0;   // successful recoveries after kDisconnected
+  std::uint64_t rx_ok = 0;                  // frames / replies / edges accepted
+  std::uint64_t rx_rejected = 0;            // rejected (why: errors[])
+  std::uint64_t tx_ok = 0;                  // frames / writes sent
+  std::uint64_t tx_failed = 0;              // not sent (why: errors[])
+  std::uint64_t reconnects = 0;             // successful recoveries after kDisconnected
   std::uint64_t errors[kNumIoErrors] = {};  // count per IoError
   IoError last_error = IoError::kNone;
 };
@@ -68,7 +68,7 @@ class BusDevice {
   BusDevice(const BusDevice&) = delete;
   BusDevice& operator=(const BusDevice&) = delete;
 
-  virtual const char* name() const = 0;       // "can", "modbus", "gpio"
+  virtual const char* name() const = 0;        // "can", "modbus", "gpio"
   virtual FaultCause fault_cause() const = 0;  // the watchdog cause of this bus
 
   // Start-up. false with *error = reason (e.g. "can: cannot open can0: No such device").

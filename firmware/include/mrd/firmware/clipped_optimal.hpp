@@ -49,8 +49,8 @@ class ClippedOptimal {
   // damper force [N]. Returns the voltage [V] to apply for the next period. Real-time safe.
   Real Update(const Real* accel, Real force);
 
-  Real desired_force() const { return fc_; }       // f_c of the last Update [N]
-  const Real* estimate() const { return xh_; }     // state estimate after the last Update
+  Real desired_force() const { return fc_; }    // f_c of the last Update [N]
+  const Real* estimate() const { return xh_; }  // state estimate after the last Update
 
  private:
   Real ad_[kStates * kStates] = {};

@@ -67,9 +67,9 @@ enum class ClippedCommand : std::uint8_t { kClipped = 0, kInverse };
 
 struct ControlLawConfig {
   ControlMode mode = ControlMode::kForceTracking;
-  double constant_voltage = 0.0;  // [V], kConstantVoltage
-  double skyhook_gain = 100.0;    // [N s/cm], kSkyhookContinuous
-  double force_limit = 5000.0;    // [N], |force demand| limit, > 0
+  double constant_voltage = 0.0;   // [V], kConstantVoltage
+  double skyhook_gain = 100.0;     // [N s/cm], kSkyhookContinuous
+  double force_limit = 5000.0;     // [N], |force demand| limit, > 0
   double groundhook_gain = 100.0;  // [N s/cm], kGroundhook
   double hybrid_gain = 100.0;      // [N s/cm], kHybrid
   double hybrid_alpha = 0.5;       // kHybrid blend in [0, 1]: 1 skyhook, 0 groundhook
@@ -80,10 +80,10 @@ struct ControlLawConfig {
 };
 
 struct ControlInputs {
-  Real v = Real(0);              // relative (damper) velocity [cm/s]
-  Real demand = Real(0);         // force demand [N] (kForceTracking)
-  Real body_velocity = Real(0);  // [cm/s] (skyhook, hybrid, SH-ADD)
-  Real wheel_velocity = Real(0);  // [cm/s] (groundhook, hybrid)
+  Real v = Real(0);                  // relative (damper) velocity [cm/s]
+  Real demand = Real(0);             // force demand [N] (kForceTracking)
+  Real body_velocity = Real(0);      // [cm/s] (skyhook, hybrid, SH-ADD)
+  Real wheel_velocity = Real(0);     // [cm/s] (groundhook, hybrid)
   Real body_acceleration = Real(0);  // [cm/s^2] (ADD, SH-ADD)
 };
 

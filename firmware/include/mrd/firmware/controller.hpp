@@ -43,9 +43,9 @@ struct ControllerConfig {
   ControlLawConfig law;
   WatchdogConfig watchdog;
   VelocitySource velocity_source = VelocitySource::kMeasured;
-  double cutoff_hz = 50.0;      // displacement differentiator cut-off [Hz]
-  double e_max = 2.25;          // highest command [V], within the table's range
-  double safe_voltage = 0.0;    // [V], within the table's range
+  double cutoff_hz = 50.0;    // displacement differentiator cut-off [Hz]
+  double e_max = 2.25;        // highest command [V], within the table's range
+  double safe_voltage = 0.0;  // [V], within the table's range
   // Plausibility limits: |v| [cm/s] (measured or derived) and |x| [cm] above them are
   // implausible (a sensor fault, or far outside the range the model was identified on): safe
   // state, and the model keeps the last plausible value. 0: no limit. The displacement limit
@@ -66,13 +66,13 @@ struct ControllerConfig {
 };
 
 struct ControllerOutput {
-  double volts = 0.0;        // command [V]
-  bool safe = true;          // send as EnterSafeState(volts)
-  double model_force = 0.0;  // model force at the command [N]
-  double force_demand = 0.0; // force the law asked for [N] (0 for a voltage law)
-  bool force_law = false;    // the law produced a force demand this period
-  bool reachable = true;     // the force demand was reachable (false: saturated)
-  std::uint32_t causes = 0;  // active watchdog causes (Watchdog::Bit)
+  double volts = 0.0;         // command [V]
+  bool safe = true;           // send as EnterSafeState(volts)
+  double model_force = 0.0;   // model force at the command [N]
+  double force_demand = 0.0;  // force the law asked for [N] (0 for a voltage law)
+  bool force_law = false;     // the law produced a force demand this period
+  bool reachable = true;      // the force demand was reachable (false: saturated)
+  std::uint32_t causes = 0;   // active watchdog causes (Watchdog::Bit)
 };
 
 class Controller {

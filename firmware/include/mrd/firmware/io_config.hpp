@@ -39,8 +39,8 @@ enum class Input : std::uint8_t {
   kBodyVelocity,
   kForce,
   kFaultLine,
-  kBodyAcceleration,  // [cm/s^2] (ADD, SH-ADD)
-  kWheelVelocity,     // [cm/s] (groundhook, hybrid)
+  kBodyAcceleration,    // [cm/s^2] (ADD, SH-ADD)
+  kWheelVelocity,       // [cm/s] (groundhook, hybrid)
   kFloorAcceleration1,  // absolute floor accelerations [m/s^2] (clipped-optimal)
   kFloorAcceleration2,
   kFloorAcceleration3,
@@ -62,7 +62,6 @@ constexpr std::uint32_t Bit(Output o) { return 1U << static_cast<unsigned>(o); }
 const char* InputName(Input input);
 const char* OutputName(Output output);
 
-
 struct CanConfig {
   bool enabled = false;
   std::uint32_t inputs = 0;   // Bit(Input)
@@ -75,10 +74,10 @@ struct CanConfig {
   // the configuration (the pointer; empty for mrd-native).
   std::string profile;
   std::shared_ptr<const profile::CanProfile> can_profile;
-  std::int64_t tx_deadline_ns = 500'000;   // a frame not sent by then is dropped [ns]
-  std::int64_t period_ns = 1'000'000;      // the control period (the command's slew step) [ns]
-  std::int64_t status_period_ns = 100'000'000;     // status frame period [ns]
-  std::int64_t heartbeat_period_ns = 10'000'000;   // heartbeat frame period [ns]
+  std::int64_t tx_deadline_ns = 500'000;        // a frame not sent by then is dropped [ns]
+  std::int64_t period_ns = 1'000'000;           // the control period (the command's slew step) [ns]
+  std::int64_t status_period_ns = 100'000'000;  // status frame period [ns]
+  std::int64_t heartbeat_period_ns = 10'000'000;  // heartbeat frame period [ns]
   // Lockstep ([loop] clock = "grant"): the device is the loop's TimeGrantSource, stamps and
   // schedules in granted time instead of CLOCK_MONOTONIC. Not a [can] key: set from [loop].
   bool lockstep = false;
@@ -108,7 +107,7 @@ struct ModbusConfig {
   std::shared_ptr<const profile::ModbusProfile> modbus_profile;
   std::int64_t period_ns = 1'000'000;  // the control period (the command's slew step) [ns]
   std::int64_t response_timeout_ns = 20'000'000;  // per request [ns]
-  int retries = 1;                 // extra attempts per transaction after a timeout or CRC error
+  int retries = 1;  // extra attempts per transaction after a timeout or CRC error
   std::int64_t poll_period_ns = 1'000'000;  // worker's read/write cycle [ns]
   // Lockstep ([loop] clock = "grant" without a [can] bus): the device is the loop's
   // TimeGrantSource (the grant register, docs/modbus_registers.md). Set from [loop].
@@ -126,9 +125,9 @@ struct GpioConfig {
   // or the path of a simulated chip shared with a test peer or the HIL harness.
   std::string chip;
   std::string sim_chip;
-  int enable_line = -1;      // output offsets; -1: not wired
+  int enable_line = -1;  // output offsets; -1: not wired
   int heartbeat_line = -1;
-  int fault_line = -1;       // input offsets
+  int fault_line = -1;  // input offsets
   int encoder_a_line = -1;
   int encoder_b_line = -1;
   bool fault_active_low = false;
@@ -138,10 +137,10 @@ struct GpioConfig {
 // The set-point as a PWM duty through the kernel's sysfs PWM interface (docs/devices.md).
 struct PwmOutputConfig {
   bool enabled = false;
-  std::uint32_t outputs = 0;  // Bit(Output::kCommand) only
+  std::uint32_t outputs = 0;             // Bit(Output::kCommand) only
   std::string sysfs = "/sys/class/pwm";  // the class directory (tests: a tree of the same ABI)
-  int chip = 0;     // pwmchipN
-  int channel = 0;  // pwmM of that chip
+  int chip = 0;                          // pwmchipN
+  int channel = 0;                       // pwmM of that chip
   // The device profile with the [pwm] section ("": the [can] section's profile file), loaded
   // with the configuration.
   std::string profile;

@@ -18,26 +18,26 @@ class Controller;
 // One period as the loop saw it. Inputs are as received (NaN and age -1 when never sampled);
 // "used" values are what the model ran on (last valid, held to the table's envelope).
 struct PeriodRecord {
-  std::uint64_t period = 0;          // tick number, from 0
-  std::int64_t t_ns = 0;             // period time (loop clock) [ns]
-  std::int64_t latency_ns = 0;       // wake-up minus deadline [ns] (0 for a bare Tick)
-  std::int64_t exec_ns = 0;          // work of this period [ns] (0 for a bare Tick)
-  SensorFrame frame;                 // inputs as received (values and stamps)
+  std::uint64_t period = 0;     // tick number, from 0
+  std::int64_t t_ns = 0;        // period time (loop clock) [ns]
+  std::int64_t latency_ns = 0;  // wake-up minus deadline [ns] (0 for a bare Tick)
+  std::int64_t exec_ns = 0;     // work of this period [ns] (0 for a bare Tick)
+  SensorFrame frame;            // inputs as received (values and stamps)
   IoStatus read = IoStatus::kOk;
   IoStatus write = IoStatus::kOk;
-  double v_used = 0.0;               // [cm/s]
-  double x_used = 0.0;               // [cm]
-  double model_force = 0.0;          // [N]
-  double force_demand = 0.0;         // [N] (0 for a voltage law)
-  double e_law = 0.0;                // the law's command before clamping/safe state: the
-                                     // inverse at the demand (force laws) or the law's voltage
-                                     // [V]; NaN in the safe state (Controller::law_volts)
-  double command_v = 0.0;            // command written [V] (safe voltage when safe)
+  double v_used = 0.0;        // [cm/s]
+  double x_used = 0.0;        // [cm]
+  double model_force = 0.0;   // [N]
+  double force_demand = 0.0;  // [N] (0 for a voltage law)
+  double e_law = 0.0;         // the law's command before clamping/safe state: the
+                              // inverse at the demand (force laws) or the law's voltage
+                              // [V]; NaN in the safe state (Controller::law_volts)
+  double command_v = 0.0;     // command written [V] (safe voltage when safe)
   bool force_law = false;
   bool reachable = true;
   bool safe = true;
-  std::uint32_t causes = 0;          // watchdog causes (Watchdog::Bit)
-  std::uint32_t param_version = 0;   // bumped by every applied parameter change or reload
+  std::uint32_t causes = 0;         // watchdog causes (Watchdog::Bit)
+  std::uint32_t param_version = 0;  // bumped by every applied parameter change or reload
 };
 
 class PeriodHook {

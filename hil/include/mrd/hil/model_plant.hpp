@@ -21,9 +21,9 @@
 namespace mrd::hil {
 
 struct PlantModel {
-  std::string file;    // the model file (as resolved against the scenario)
-  int iteration = 0;   // the iteration played
-  Model model;         // channels: output (force) first, then those the terms read
+  std::string file;            // the model file (as resolved against the scenario)
+  int iteration = 0;           // the iteration played
+  Model model;                 // channels: output (force) first, then those the terms read
   int v = -1, x = -1, e = -1;  // channel of velocity, displacement, command (-1: not read)
   bool has_envelope = false;
   std::array<double, kMaxChannels> lo{}, hi{};  // envelope with margin [raw units]

@@ -40,13 +40,13 @@ const char* RideMetricTitle(RideMetric m);
 
 // One run's ride figures (after the settle time).
 struct RidePoint {
-  double volts = 0.0;             // the held voltage (passive) or the mean command (a law) [V]
-  double body_accel_rms = 0.0;    // [m/s^2]
-  double body_accel_wk_rms = 0.0; // ISO 2631-1 Wk weighted [m/s^2]
-  double tyre_load_rms_n = 0.0;   // [N]
-  double travel_rms_cm = 0.0;     // [cm]
+  double volts = 0.0;              // the held voltage (passive) or the mean command (a law) [V]
+  double body_accel_rms = 0.0;     // [m/s^2]
+  double body_accel_wk_rms = 0.0;  // ISO 2631-1 Wk weighted [m/s^2]
+  double tyre_load_rms_n = 0.0;    // [N]
+  double travel_rms_cm = 0.0;      // [cm]
   std::uint64_t samples = 0;
-  std::uint64_t lift_off = 0;     // samples with the wheel off the ground
+  std::uint64_t lift_off = 0;  // samples with the wheel off the ground
 };
 double MetricOf(const RidePoint& p, RideMetric m);
 
@@ -78,8 +78,7 @@ RidePoint RunRide(QuarterCarPlant* plant, double duration_s, double settle_s, co
 
 // lo, lo + step, ... <= hi (+ hi itself when the step does not land on it; within 1e-9 V it
 // does). false with *error: step not > 0, lo > hi, non-finite, or more than 100000 points.
-bool GridVoltages(double lo, double hi, double step, std::vector<double>* out,
-                  std::string* error);
+bool GridVoltages(double lo, double hi, double step, std::vector<double>* out, std::string* error);
 
 struct PassiveBest {
   std::size_t index = 0;  // into the grid's points
@@ -97,12 +96,12 @@ std::optional<PassiveBest> BestComfortAtRoadHolding(const std::vector<RidePoint>
 double ImprovementPercent(double best, double value);
 
 struct PassiveComparison {
-  std::array<PassiveBest, kNumRideMetrics> best{};     // per metric, over the grid
-  std::array<double, kNumRideMetrics> improvement{};   // controlled vs best, [%]
-  std::optional<PassiveBest> comfort_at_holding;       // BestComfortAtRoadHolding
+  std::array<PassiveBest, kNumRideMetrics> best{};       // per metric, over the grid
+  std::array<double, kNumRideMetrics> improvement{};     // controlled vs best, [%]
+  std::optional<PassiveBest> comfort_at_holding;         // BestComfortAtRoadHolding
   std::optional<double> comfort_at_holding_improvement;  // body acc, [%]
-  std::optional<PassiveBest> wk_at_holding;            // the same for the Wk-weighted RMS
-  std::optional<double> wk_at_holding_improvement;     // [%]
+  std::optional<PassiveBest> wk_at_holding;              // the same for the Wk-weighted RMS
+  std::optional<double> wk_at_holding_improvement;       // [%]
 };
 PassiveComparison Compare(const std::vector<RidePoint>& grid, const RidePoint& controlled);
 

@@ -34,28 +34,28 @@ enum class SensorFault : std::uint8_t {
 struct SensorOutput {
   SensorFault fault = SensorFault::kNone;
   PlantSample sample;
-  std::uint32_t seq = 0;      // step number (CAN rolling counter / Modbus sequence register)
-  std::int64_t t_ns = 0;      // CLOCK_MONOTONIC when published
-  bool fault_line = false;    // fault input asserted (GPIO / status register)
+  std::uint32_t seq = 0;    // step number (CAN rolling counter / Modbus sequence register)
+  std::int64_t t_ns = 0;    // CLOCK_MONOTONIC when published
+  bool fault_line = false;  // fault input asserted (GPIO / status register)
   bool drive_heartbeat_loss = false;  // CANopen: the drive's heartbeat not sent this step
 };
 
 // What arrived from the firmware since the last Poll; each port sets only what it carries.
 struct DriverInput {
   bool has_command = false;
-  double volts = 0.0;              // set-point [V] as received (may be anything: the invariant
-                                   // check is the harness's job)
-  std::int64_t command_ns = 0;     // when the latest command arrived
+  double volts = 0.0;           // set-point [V] as received (may be anything: the invariant
+                                // check is the harness's job)
+  std::int64_t command_ns = 0;  // when the latest command arrived
   bool has_echo = false;
-  std::uint32_t echo = 0;          // sensor seq the command was computed from (latency)
+  std::uint32_t echo = 0;  // sensor seq the command was computed from (latency)
   bool has_enable = false;
   bool enable = false;
-  std::int64_t heartbeat_ns = 0;   // latest heartbeat seen (0: none yet)
-  std::uint64_t heartbeats = 0;    // heartbeats heard so far (lockstep: freshness per step)
-  bool has_safe = false;           // the command carried the firmware's safe-state flag
+  std::int64_t heartbeat_ns = 0;  // latest heartbeat seen (0: none yet)
+  std::uint64_t heartbeats = 0;   // heartbeats heard so far (lockstep: freshness per step)
+  bool has_safe = false;          // the command carried the firmware's safe-state flag
   bool safe = false;
-  bool has_status = false;         // a firmware status arrived since the last Poll
-  std::uint16_t status_causes = 0; // its active watchdog causes (bit i = cause i)
+  bool has_status = false;          // a firmware status arrived since the last Poll
+  std::uint16_t status_causes = 0;  // its active watchdog causes (bit i = cause i)
   bool status_safe = false;
 };
 
@@ -112,8 +112,8 @@ class PlantPort {
 // RTU; the simulated chip path (with optional line settings, gpio_port.hpp) for GPIO. nullptr
 // when the transport is not in this build (GPIO: or the endpoint does not parse).
 // CAN: in the messages of a device profile (nullptr: the built-in mrd-native one).
-std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint,
-                                       std::shared_ptr<const profile::CanProfile> profile = nullptr);
+std::unique_ptr<PlantPort> MakeCanPort(
+    const std::string& endpoint, std::shared_ptr<const profile::CanProfile> profile = nullptr);
 std::unique_ptr<PlantPort> MakeModbusTcpPort(const std::string& endpoint);
 std::unique_ptr<PlantPort> MakeModbusRtuPort(const std::string& endpoint);
 // Modbus TCP (rtu false) or RTU on a device profile's map, at every unit id it names

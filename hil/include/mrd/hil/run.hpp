@@ -21,10 +21,11 @@
 // steps the coil is driven by a non-safe command, over all of them and over the reachable ones
 // (d within the forces the damper would give on that step from its present state at 0 V and
 // at E_max: Plant::Probe), next to the same figures for two shadow plants on the same
-// excitation held at 0 V (passive-off) and E_max (passive-on); the invariant (every received command finite and within [0, E_max]); per
-// fault, periods to detection (first step whose firmware status names a cause, or the driver's
-// heartbeat loss), to the safe state (first safe command, or coil dropped by the driver) and to
-// recovery after the fault clears (first non-safe, driven command).
+// excitation held at 0 V (passive-off) and E_max (passive-on); the invariant (every received
+// command finite and within [0, E_max]); per fault, periods to detection (first step whose firmware
+// status names a cause, or the driver's heartbeat loss), to the safe state (first safe command, or
+// coil dropped by the driver) and to recovery after the fault clears (first non-safe, driven
+// command).
 
 #include <atomic>
 #include <cstdint>
@@ -43,17 +44,17 @@
 namespace mrd::hil {
 
 struct RunOptions {
-  std::string transport = "can";    // can | modbus-tcp | modbus-rtu
-  std::string clock;                // lockstep | realtime; "": lockstep
-  std::string table;                // table file for the firmware; "": its compiled-in table
-  std::string excitation;           // CSV replacing the scenario's excitation ("": keep it)
-  std::string firmware;             // mrd-firmware to start
-  std::string profile;              // device profile file: CAN ("": the built-in mrd-native) or
-                                    // Modbus (a [modbus] section; --transport modbus-tcp|rtu)
-  std::string sdo_refuse;           // CANopen profiles, a test hook: "INDEX[:SUB]=ABORT" (hex
-                                    // or decimal): the drive refuses that SDO download
-  bool attach = false;              // do not start it: wait for one started by hand
-  std::string work_dir;             // config, sockets, firmware output (created if absent)
+  std::string transport = "can";  // can | modbus-tcp | modbus-rtu
+  std::string clock;              // lockstep | realtime; "": lockstep
+  std::string table;              // table file for the firmware; "": its compiled-in table
+  std::string excitation;         // CSV replacing the scenario's excitation ("": keep it)
+  std::string firmware;           // mrd-firmware to start
+  std::string profile;            // device profile file: CAN ("": the built-in mrd-native) or
+                                  // Modbus (a [modbus] section; --transport modbus-tcp|rtu)
+  std::string sdo_refuse;         // CANopen profiles, a test hook: "INDEX[:SUB]=ABORT" (hex
+                                  // or decimal): the drive refuses that SDO download
+  bool attach = false;            // do not start it: wait for one started by hand
+  std::string work_dir;           // config, sockets, firmware output (created if absent)
   // Every frame on the harness's local CAN bus, both directions, in candump -L format
   // ("(SECONDS) mrdbus ID#DATA"; SECONDS: the run's time, simulated in lockstep). "": none.
   std::string can_log;
@@ -65,22 +66,22 @@ struct RunOptions {
   // Set (to the signal number) by the caller's SIGTERM/SIGINT/SIGHUP handler: the run stops,
   // forwards the signal to the firmware child, reaps it and returns 1 (error "interrupted").
   const std::atomic<int>* interrupt = nullptr;
-  bool keep_trace = true;           // record per-step signals and score (false: benchmark;
-                                    // no probes, no passive twins, no tracking scores)
+  bool keep_trace = true;  // record per-step signals and score (false: benchmark;
+                           // no probes, no passive twins, no tracking scores)
   // Real devices instead of the build machine's stand-ins (e.g. on the virtual board):
-  std::string can_interface;        // SocketCAN interface (CAN_RAW, e.g. "vcan0"); "": the
-                                    // local frame bus the harness owns
-  std::string gpio_sim;             // configfs directory of a live gpio-sim device (its bank0
-                                    // is the firmware's chip); "": a simulated chip file in
-                                    // work_dir ([gpio] scenarios only)
+  std::string can_interface;  // SocketCAN interface (CAN_RAW, e.g. "vcan0"); "": the
+                              // local frame bus the harness owns
+  std::string gpio_sim;       // configfs directory of a live gpio-sim device (its bank0
+                              // is the firmware's chip); "": a simulated chip file in
+                              // work_dir ([gpio] scenarios only)
 };
 
 struct TrackingScores {
-  std::uint64_t steps = 0;            // controlled steps scored
+  std::uint64_t steps = 0;  // controlled steps scored
   std::uint64_t reachable_steps = 0;
-  double error_all = 0.0, error_reachable = 0.0;              // controlled run
-  double off_all = 0.0, off_reachable = 0.0;                  // passive-off (0 V)
-  double on_all = 0.0, on_reachable = 0.0;                    // passive-on (E_max)
+  double error_all = 0.0, error_reachable = 0.0;  // controlled run
+  double off_all = 0.0, off_reachable = 0.0;      // passive-off (0 V)
+  double on_all = 0.0, on_reachable = 0.0;        // passive-on (E_max)
   double rms_force_n = 0.0, rms_demand_n = 0.0;
 };
 
@@ -91,7 +92,7 @@ struct RideFigures {
   double travel_rms_cm = 0.0;    // suspension travel [cm]
   double tyre_load_rms_n = 0.0;  // tyre load variation [N]
   double max_travel_cm = 0.0;
-  std::uint64_t lift_off = 0;    // samples with the wheel off the ground
+  std::uint64_t lift_off = 0;  // samples with the wheel off the ground
 };
 struct RideScores {
   RideFigures controlled, passive_off, passive_on;  // the run; twins at 0 V and at E_max
@@ -99,7 +100,7 @@ struct RideScores {
 
 struct FaultResult {
   Fault fault;
-  std::int64_t onset_step = 0, clear_step = 0;  // clear_step: steps when it never clears
+  std::int64_t onset_step = 0, clear_step = 0;            // clear_step: steps when it never clears
   std::optional<std::int64_t> detection, safe, recovery;  // periods after onset / after clearing
   bool detection_required = true;
   bool ok = true;
@@ -118,34 +119,34 @@ struct StepRecord {
 };
 
 struct RunResult {
-  std::string clock;               // lockstep | realtime
+  std::string clock;  // lockstep | realtime
   std::string transport;
   std::uint64_t steps = 0;
   std::uint64_t commands = 0;
   std::uint64_t invariant_violations = 0;
-  std::uint64_t command_timeouts = 0;   // lockstep: ticks whose command did not come in time
+  std::uint64_t command_timeouts = 0;  // lockstep: ticks whose command did not come in time
   std::uint64_t heartbeat_timeouts = 0;
   std::uint64_t driven_steps = 0;
   std::uint64_t safe_commands = 0;
-  std::uint64_t late_steps = 0;         // realtime: wake-ups after the next deadline
+  std::uint64_t late_steps = 0;  // realtime: wake-ups after the next deadline
   TrackingScores tracking;
-  std::optional<RideScores> ride;       // quarter-car scenarios (needs keep_trace)
+  std::optional<RideScores> ride;            // quarter-car scenarios (needs keep_trace)
   std::optional<StructureScores> structure;  // structure scenarios (needs keep_trace)
-  std::optional<PassiveBaseline> passive;  // quarter car: the best passive baseline (filled by
-                                           // ComputePassiveBaseline, not by RunScenario)
-  std::optional<ReplayScores> replay;   // replay scenarios: plant force vs measured f
-  std::optional<PlantHolds> plant_holds;  // [plant] model = "narx": envelope holds
+  std::optional<PassiveBaseline> passive;    // quarter car: the best passive baseline (filled by
+                                             // ComputePassiveBaseline, not by RunScenario)
+  std::optional<ReplayScores> replay;        // replay scenarios: plant force vs measured f
+  std::optional<PlantHolds> plant_holds;     // [plant] model = "narx": envelope holds
   std::vector<FaultResult> faults;
-  int firmware_exit = -1;               // -1: still running / not started by us
-  int interrupted = 0;                  // the signal that stopped the run (RunOptions::interrupt)
-  std::string firmware_json;            // the firmware's --json summary (last instance)
+  int firmware_exit = -1;     // -1: still running / not started by us
+  int interrupted = 0;        // the signal that stopped the run (RunOptions::interrupt)
+  std::string firmware_json;  // the firmware's --json summary (last instance)
   std::string firmware_stderr;
   std::optional<std::uint64_t> missed_grants;  // from the firmware's summary (lockstep)
   int firmware_starts = 0;
   double wall_s = 0.0;
-  double speed_x = 0.0;                 // plant time / wall time
-  LatencyStats latency;                 // sensor publish -> command computed from it
-  LatencyStats wake_jitter;             // realtime: wake-up minus deadline
+  double speed_x = 0.0;      // plant time / wall time
+  LatencyStats latency;      // sensor publish -> command computed from it
+  LatencyStats wake_jitter;  // realtime: wake-up minus deadline
   std::vector<std::pair<std::string, PortCounters>> ports;
   std::vector<StepRecord> trace;
   std::string config_path;

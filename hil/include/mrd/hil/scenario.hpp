@@ -56,7 +56,7 @@ struct ScenarioGpio {
 // by the harness: motion x, v and the demand (the preset damper's force on it).
 enum class ExcitationKind : std::uint8_t { kPeriodic, kCsv, kProfile, kReplay };
 
-struct PlantModel;  // model_plant.hpp: an identified NARX model playing the damper
+struct PlantModel;      // model_plant.hpp: an identified NARX model playing the damper
 struct StructureSetup;  // structure_plant.hpp: the three-story frame and its ground motion
 
 struct Scenario {
@@ -66,18 +66,18 @@ struct Scenario {
   double heartbeat_timeout_s = 0.05;  // simulated driver: coil to 0 V without a heartbeat
   // [plant]
   std::string preset = "paper";
-  std::string params_file;            // [plant] params (resolved against the scenario's folder)
-  SpencerParams damper;               // the plant's damper: preset or params file, then the
-                                      // [plant.spencer] overrides (plant_params.cpp)
+  std::string params_file;  // [plant] params (resolved against the scenario's folder)
+  SpencerParams damper;     // the plant's damper: preset or params file, then the
+                            // [plant.spencer] overrides (plant_params.cpp)
   int substeps = 20;
-  bool quarter_car = false;           // model = "quarter-car": the damper in a quarter car on
-                                      // an ISO 8608 road ([quarter_car], [road]); else the
-                                      // damper alone on [excitation]
+  bool quarter_car = false;  // model = "quarter-car": the damper in a quarter car on
+                             // an ISO 8608 road ([quarter_car], [road]); else the
+                             // damper alone on [excitation]
   QuarterCarParams car;
   RoadParams road;
-  double ride_settle_s = 2.0;         // quarter car: ride figures scored after this [s]
-  double passive_step_v = 0.05;       // quarter car: passive grid step over [0, e_max] [V];
-                                      // 0: no passive grid (passive_baseline.hpp)
+  double ride_settle_s = 2.0;    // quarter car: ride figures scored after this [s]
+  double passive_step_v = 0.05;  // quarter car: passive grid step over [0, e_max] [V];
+                                 // 0: no passive grid (passive_baseline.hpp)
   // model = "narx": an identified model (file, iteration) plays the damper on the excitation's
   // motion; loaded and checked by LoadScenario (model_plant.hpp). nullptr: the Spencer damper.
   std::shared_ptr<const PlantModel> plant_model;
@@ -88,20 +88,20 @@ struct Scenario {
   // [excitation]
   ExcitationKind excitation = ExcitationKind::kPeriodic;
   PlantExcitation periodic;
-  std::string csv_file;               // resolved against the scenario's folder
+  std::string csv_file;  // resolved against the scenario's folder
   std::string demand_column = "f";
-  std::string profile;                // kProfile: v1, v2, ... (ReferenceProfileNames)
+  std::string profile;  // kProfile: v1, v2, ... (ReferenceProfileNames)
   std::uint64_t profile_seed = 1;
   // [control]
-  std::string law = "force";          // force | passive-off | passive-on | constant | skyhook |
-                                      // open-loop (replay: the measured E, replay.hpp)
+  std::string law = "force";  // force | passive-off | passive-on | constant | skyhook |
+                              // open-loop (replay: the measured E, replay.hpp)
   double constant_voltage = 0.0;
   double skyhook_gain = 50.0;
-  double groundhook_gain = 50.0;  // [N s/cm]
-  double hybrid_gain = 50.0;      // [N s/cm]
-  double hybrid_alpha = 0.5;      // [0, 1]
-  double sh_add_alpha = 9.42;     // [rad/s]
-  std::string clipped_gains;      // law "clipped-optimal": the gains file (resolved)
+  double groundhook_gain = 50.0;            // [N s/cm]
+  double hybrid_gain = 50.0;                // [N s/cm]
+  double hybrid_alpha = 0.5;                // [0, 1]
+  double sh_add_alpha = 9.42;               // [rad/s]
+  std::string clipped_gains;                // law "clipped-optimal": the gains file (resolved)
   std::string clipped_command = "clipped";  // clipped | inverse
   // [firmware] settings of the generated configuration
   double max_age_ms = 5.0;
@@ -114,13 +114,13 @@ struct Scenario {
   std::uint64_t max_invariant_violations = 0;
   std::optional<double> max_error_reachable;  // ||f - d|| / ||d|| over reachable demands
   std::optional<double> max_error_all;
-  std::optional<double> min_replay_fit;       // replay: plant force vs measured f [%]
+  std::optional<double> min_replay_fit;  // replay: plant force vs measured f [%]
   std::optional<std::uint64_t> max_missed_grants;
   int max_detection_to_safe_periods = 2;
   bool require_recovery = true;
-  std::optional<int> expect_firmware_exit;    // e.g. 2 for a refused table
-  bool body_accel_below_passive = false;      // quarter car: controlled < passive-off and -on
-  bool tyre_load_below_passive_off = false;   // quarter car: tyre load RMS < passive-off's
+  std::optional<int> expect_firmware_exit;   // e.g. 2 for a refused table
+  bool body_accel_below_passive = false;     // quarter car: controlled < passive-off and -on
+  bool tyre_load_below_passive_off = false;  // quarter car: tyre load RMS < passive-off's
   // Structure: the controlled run's largest peak drift / peak absolute floor acceleration
   // (over the floors) not above passive-on's; the peak damper force at most this [N].
   bool peak_drift_below_passive_on = false;
@@ -136,8 +136,8 @@ bool LoadScenario(const std::string& path, Scenario* scenario, std::string* erro
 // each "KEY=VALUE", KEY a dotted path (control.skyhook_gain), VALUE typed as TOML (a word that
 // is no TOML value is a string). The same checks apply; an error caused by an override names
 // it ("--set KEY=VALUE: reason").
-bool LoadScenario(const std::string& path, const std::vector<std::string>& sets,
-                  Scenario* scenario, std::string* error);
+bool LoadScenario(const std::string& path, const std::vector<std::string>& sets, Scenario* scenario,
+                  std::string* error);
 // Every key with its meaning (for --help).
 const char* ScenarioKeysHelp();
 // The laws that read body acceleration or wheel velocity (groundhook, groundhook-on-off,

@@ -23,9 +23,9 @@ struct ServeOptions {
   SpencerParams params;
   PlantExcitation excitation;
   double period_s = 1e-3;
-  double duration_s = 5.0;             // <= 0: until stop
-  double e_max = 2.25;                 // [V], the invariant's upper bound
-  double heartbeat_timeout_s = 0.05;   // no heartbeat for this long: coil to 0 V
+  double duration_s = 5.0;            // <= 0: until stop
+  double e_max = 2.25;                // [V], the invariant's upper bound
+  double heartbeat_timeout_s = 0.05;  // no heartbeat for this long: coil to 0 V
   // The fault line is asserted from fault_start_s to fault_end_s (seconds since the start of
   // serving) on the ports that carry one (GPIO line, Modbus sensor block); fault_start_s < 0:
   // never.
@@ -53,8 +53,8 @@ struct ServeResult {
   std::uint64_t fault_driven_steps = 0;    // steps driven after one that published it asserted
   std::uint64_t fault_reaction_steps = 0;  // from the first assertion to the coil off (0: never)
   std::uint64_t driven_after_fault_steps = 0;  // steps with the coil driven after the window
-  std::uint64_t enable_falls = 0;          // enable high -> low transitions heard
-  LatencyStats latency;                    // sensor publish -> command computed from it
+  std::uint64_t enable_falls = 0;              // enable high -> low transitions heard
+  LatencyStats latency;                        // sensor publish -> command computed from it
   std::vector<std::pair<std::string, PortCounters>> ports;
 };
 

@@ -17,7 +17,9 @@ struct StructureFigures {
   double peak_d_cm[3] = {}, rms_d_cm[3] = {};          // inter-story drift
   double peak_xa_cm_s2[3] = {}, rms_xa_cm_s2[3] = {};  // absolute acceleration
   double peak_force_n = 0.0, rms_force_n = 0.0;        // damper force
-  double peak_drift_cm() const { return std::fmax(peak_d_cm[0], std::fmax(peak_d_cm[1], peak_d_cm[2])); }
+  double peak_drift_cm() const {
+    return std::fmax(peak_d_cm[0], std::fmax(peak_d_cm[1], peak_d_cm[2]));
+  }
   double peak_accel_cm_s2() const {
     return std::fmax(peak_xa_cm_s2[0], std::fmax(peak_xa_cm_s2[1], peak_xa_cm_s2[2]));
   }

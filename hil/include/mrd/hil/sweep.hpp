@@ -19,8 +19,8 @@ struct SweepAxis {
 };
 
 struct SweepGrid {
-  std::vector<std::string> fixed;   // plain KEY=VALUE sets, applied to every point
-  std::vector<SweepAxis> axes;      // in --set order; the first varies fastest
+  std::vector<std::string> fixed;  // plain KEY=VALUE sets, applied to every point
+  std::vector<SweepAxis> axes;     // in --set order; the first varies fastest
   // The points (each the KEY=VALUE sets of the swept keys, in axis order).
   std::vector<std::vector<std::string>> Points() const;
 };
@@ -36,10 +36,10 @@ bool ParseSweepGrid(const std::vector<std::string>& sets, SweepGrid* grid, std::
 struct SweepScores {
   bool pass = false;
   std::uint64_t invariant_violations = 0;
-  double error_all = 0.0, error_reachable = 0.0;          // force tracking
-  bool ride = false;                                      // quarter car: the figures below
+  double error_all = 0.0, error_reachable = 0.0;  // force tracking
+  bool ride = false;                              // quarter car: the figures below
   double body_accel_rms = 0.0, travel_rms_cm = 0.0, tyre_load_rms_n = 0.0;
-  double body_accel_off = 0.0, body_accel_on = 0.0;       // passive twins [m/s^2]
+  double body_accel_off = 0.0, body_accel_on = 0.0;  // passive twins [m/s^2]
 };
 SweepScores ScoresOf(const RunResult& r);
 

@@ -38,10 +38,10 @@ struct ElementaryRegressor {
   std::string name;
   std::string signal;
   Transform transform = Transform::kIdentity;
-  double exponent = 1.0;     // abs_pow: the exponent; low_pass: tau [samples]; tanh: scale;
-                             // clip: limit (normalised units)
-  std::vector<int> powers;   // sorted, unique, 1 ... kMaxPower
-  std::vector<int> delays;   // sorted, unique, 0 ... kMaxDelay [samples]
+  double exponent = 1.0;        // abs_pow: the exponent; low_pass: tau [samples]; tanh: scale;
+                                // clip: limit (normalised units)
+  std::vector<int> powers;      // sorted, unique, 1 ... kMaxPower
+  std::vector<int> delays;      // sorted, unique, 0 ... kMaxDelay [samples]
   std::size_t line = 0;         // line of [[regressor]] in the spec file, for messages
   std::size_t signal_line = 0;  // line of its 'signal' key
   // Transforms to choose among (spec key 'family'; empty: `transform` is fixed). While
@@ -77,9 +77,9 @@ struct SemSpec {
   std::size_t output_line = 0;  // line of the 'output' key
   std::vector<ElementaryRegressor> regressors;
   // Limits on candidate terms.
-  int max_factors = 3;   // most elementary factors (distinct regressor/delay pairs) per term
-  int max_degree = 0;    // most summed powers per term; 0: no limit
-  bool constant = false; // the constant term is a candidate
+  int max_factors = 3;    // most elementary factors (distinct regressor/delay pairs) per term
+  int max_degree = 0;     // most summed powers per term; 0: no limit
+  bool constant = false;  // the constant term is a candidate
   // Most candidate combinations (counted before any is built, duplicates included); a larger
   // set is refused with its count ([limits] max_candidates, mrd identify --max-candidates).
   std::int64_t max_candidates = kDefaultMaxCandidates;
@@ -89,10 +89,10 @@ struct SemSpec {
   double floor = 0.1;
   // Algorithm.
   Strategy strategy = Strategy::kFirst;  // default chosen on the recovery suite (issue 15)
-  double threshold_percent = 2.0;  // least relative decrease of J to accept a candidate [%]
+  double threshold_percent = 2.0;        // least relative decrease of J to accept a candidate [%]
   int max_iterations = 20;
-  double target_j = 0.0;           // stop once J <= target_j
-  double divergence_limit = 1e3;   // |normalised ysim| above this rejects a candidate
+  double target_j = 0.0;          // stop once J <= target_j
+  double divergence_limit = 1e3;  // |normalised ysim| above this rejects a candidate
   // Model pick without validation data: cross-validation of the free-run cost inside the
   // identification data (default) or the tolerance rule on the identification J.
   Selection selection = Selection::kCrossValidation;
@@ -102,7 +102,7 @@ struct SemSpec {
   bool exchange = true;        // exchange moves after add and prune (sem.hpp)
   bool one_step_start = true;  // second search path from the one-step forward regression
   bool refine = true;          // output-error refinement of every iteration's coefficients
-  std::vector<std::string> initial;          // initial structure, term strings
+  std::vector<std::string> initial;  // initial structure, term strings
   StressSpec stress;
 
   // Index of a regressor by name, or -1.

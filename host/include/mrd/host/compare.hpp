@@ -8,10 +8,9 @@
 // (<stem>_compare.png), written through a staging directory (staging_dir.hpp).
 
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/model_judge.hpp"
@@ -19,9 +18,9 @@
 namespace mrd::host {
 
 struct CompareOptions {
-  std::vector<std::string> models;  // model files (JSON), at least one
-  std::vector<std::string> data;    // data files (CSV), at least one
-  std::string out_dir;              // "" : no files, table on stdout only
+  std::vector<std::string> models;                   // model files (JSON), at least one
+  std::vector<std::string> data;                     // data files (CSV), at least one
+  std::string out_dir;                               // "" : no files, table on stdout only
   std::function<void(const std::string&)> progress;  // one line per step
 };
 
@@ -30,17 +29,17 @@ struct CompareRow {
   int iteration = 0;
   std::size_t terms = 0;
   SimMetrics metrics;
-  std::string weighting;    // CostWeightingShort of the model
-  std::string unit;         // output unit ("N"), may be ""
+  std::string weighting;  // CostWeightingShort of the model
+  std::string unit;       // output unit ("N"), may be ""
   std::vector<EnvelopeCheck> envelope;
 };
 
 struct CompareResult {
-  std::vector<CompareRow> rows;        // model-major: every file of model 1, then model 2 ...
-  std::string table;                   // text of compare.txt
-  nlohmann::json json;                 // compare.json
-  std::vector<std::string> warnings;   // envelope warnings, one line each
-  std::vector<std::string> files;      // written (under out_dir)
+  std::vector<CompareRow> rows;       // model-major: every file of model 1, then model 2 ...
+  std::string table;                  // text of compare.txt
+  nlohmann::json json;                // compare.json
+  std::vector<std::string> warnings;  // envelope warnings, one line each
+  std::vector<std::string> files;     // written (under out_dir)
 };
 
 // Reads every model and data file first (InputError naming the file and the reason, nothing

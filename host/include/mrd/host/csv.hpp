@@ -10,10 +10,10 @@
 namespace mrd::host {
 
 struct DataSet {
-  std::string path;                        // source file, for messages
-  std::vector<std::string> names;          // column names, in file order
+  std::string path;                          // source file, for messages
+  std::vector<std::string> names;            // column names, in file order
   std::vector<std::vector<double>> columns;  // columns[i] holds names[i]
-  double dt = 0.0;                         // sampling interval [s] (from column t)
+  double dt = 0.0;                           // sampling interval [s] (from column t)
 
   std::size_t rows() const { return columns.empty() ? 0 : columns.front().size(); }
   bool Has(const std::string& name) const;

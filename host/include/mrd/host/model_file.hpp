@@ -24,9 +24,9 @@
 
 #include "mrd/common/model.hpp"
 #include "mrd/common/table.hpp"
+#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/sem.hpp"
 #include "mrd/host/sem_family.hpp"
-#include "mrd/host/candidate_spec.hpp"
 
 namespace mrd::host {
 

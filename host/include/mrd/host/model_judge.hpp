@@ -3,10 +3,9 @@
 // weighting, and the operating-envelope (range) check of the inputs. Used wherever a model
 // meets data: `mrd simulate`, `mrd report`, `mrd compare`, `mrd resid`.
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/model_file.hpp"
@@ -29,7 +28,7 @@ std::string CostWeightingShort(const ModelFile& m);
 // [env_min, env_max] (raw units) against the data's samples.
 struct EnvelopeCheck {
   std::string channel;
-  std::string unit;              // SignalUnit(channel), may be ""
+  std::string unit;  // SignalUnit(channel), may be ""
   double env_min = 0.0, env_max = 0.0;
   double data_min = 0.0, data_max = 0.0;
   std::size_t samples = 0;       // rows of the data file

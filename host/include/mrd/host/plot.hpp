@@ -8,8 +8,8 @@ namespace mrd::host {
 
 struct PlotSeries {
   std::string title;
-  std::vector<double> x, y;  // same length; a non-finite point (or y <= 0 on a log y axis)
-                             // is left out and breaks the line there (a gap)
+  std::vector<double> x, y;     // same length; a non-finite point (or y <= 0 on a log y axis)
+                                // is left out and breaks the line there (a gap)
   std::string style = "lines";  // gnuplot style: lines, points, linespoints, with options
                                 // (e.g. "points pointtype 7 pointsize 1.5")
 };
@@ -24,7 +24,7 @@ struct PlotSpec {
   std::string title, xlabel, ylabel;
   std::vector<PlotSeries> series;
   bool log_y = false;
-  int width = 900, height = 600;  // [px]; ignored for a panel of a PlotFigure
+  int width = 900, height = 600;           // [px]; ignored for a panel of a PlotFigure
   std::vector<PlotMarker> x_markers = {};  // vertical lines, e.g. a selected iteration
 };
 

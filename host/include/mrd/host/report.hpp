@@ -6,10 +6,11 @@
 // force-velocity loops (a loop is skipped, with a note, when the file has no `x` / `v`
 // column) and as time series with the error; the cost J of every iteration of the model on
 // the file; the residual correlations (residuals.hpp, <stem>_residuals.png) and the range
-// check of the inputs (model_judge.hpp; warnings also through progress). For the model: J per iteration (identification, each validation set of the model
-// file, each data file) on a log axis with the selected iteration marked. The summary lists
-// the model's terms and coefficients, per data file J, MSE, RMSE, RRSE and fit %, the J per
-// iteration table, notes (skipped plots, diverged iterations) and the files written.
+// check of the inputs (model_judge.hpp; warnings also through progress). For the model: J per
+// iteration (identification, each validation set of the model file, each data file) on a log axis
+// with the selected iteration marked. The summary lists the model's terms and coefficients, per
+// data file J, MSE, RMSE, RRSE and fit %, the J per iteration table, notes (skipped plots, diverged
+// iterations) and the files written.
 //
 // Output directory: every input is read and checked first (model file, iteration, data files
 // and the signals the model needs: InputError, nothing written). The files are then built in

@@ -13,10 +13,9 @@
 // +-2.58/sqrt(N); the lags outside (tau != 0 for autocorrelations) are listed. A constant
 // signal (zero variance) gives correlations of 0.
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/model_file.hpp"
@@ -27,10 +26,10 @@ namespace mrd::host {
 inline constexpr double kBand99 = 2.58;  // 99 % two-sided normal quantile
 
 struct Correlation {
-  std::string name;         // e.g. "free-run: autocorrelation", "one-step: v x residual"
+  std::string name;  // e.g. "free-run: autocorrelation", "one-step: v x residual"
   std::vector<int> lags;
-  std::vector<double> r;    // r[i] at lags[i]
-  std::vector<int> outside; // lags with |r| > band (lag 0 left out of autocorrelations)
+  std::vector<double> r;     // r[i] at lags[i]
+  std::vector<int> outside;  // lags with |r| > band (lag 0 left out of autocorrelations)
 };
 
 // Autocorrelation at lags 0...max_lag; cross-correlation at -max_lag...max_lag. band: the
@@ -45,12 +44,12 @@ std::string FormatLags(const std::vector<int>& lags);
 struct ResidualAnalysis {
   std::size_t samples = 0;  // N scored samples
   int max_lag = 0;
-  double band = 0.0;        // 2.58 / sqrt(N)
-  std::vector<std::string> inputs;  // input channels of the model, as in the data
+  double band = 0.0;                       // 2.58 / sqrt(N)
+  std::vector<std::string> inputs;         // input channels of the model, as in the data
   std::vector<double> free_run, one_step;  // residuals [output units]
   double rms_free_run = 0.0, rms_one_step = 0.0;
-  bool diverged = false;    // the free run diverged (its residual correlations are then
-                            // meaningless but still computed on the finite values)
+  bool diverged = false;  // the free run diverged (its residual correlations are then
+                          // meaningless but still computed on the finite values)
   // [0] free-run autocorrelation, [1] one-step autocorrelation, then per input u:
   // free-run u x residual, one-step u x residual.
   std::vector<Correlation> correlations;

@@ -22,8 +22,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/host/csv.hpp"
 #include "mrd/host/candidate_spec.hpp"
+#include "mrd/host/csv.hpp"
 
 namespace mrd::host {
 
@@ -42,9 +42,9 @@ struct ChannelInfo {
 struct StressVerdict {
   bool checked = false;  // the spec has [stress]
   bool pass = true;
-  double peak = 0.0;     // largest |simulated output| on the stress input / largest |output|
-                         // of the data (+inf: diverged)
-  std::string reason;    // why it failed ("" when it passed)
+  double peak = 0.0;   // largest |simulated output| on the stress input / largest |output|
+                       // of the data (+inf: diverged)
+  std::string reason;  // why it failed ("" when it passed)
 };
 
 struct SemIteration {
@@ -53,11 +53,11 @@ struct SemIteration {
   std::vector<double> coefficients;  // normalised units
   double j = 0.0;                    // identification cost
   std::vector<double> validation_j;  // one per validation data set
-  std::vector<double> cv_j;  // per fold: cross-validated J, prefiltered, as the selection
-                             // by cross-validation scored it; empty when it did not run
+  std::vector<double> cv_j;          // per fold: cross-validated J, prefiltered, as the selection
+                                     // by cross-validation scored it; empty when it did not run
   double elapsed_s = 0.0;            // since the start of Identify
-  int rejected = 0;  // candidates of this iteration's search rejected: diverging free run
-                     // (non-finite or beyond divergence_limit) or linearly dependent column
+  int rejected = 0;         // candidates of this iteration's search rejected: diverging free run
+                            // (non-finite or beyond divergence_limit) or linearly dependent column
   int stress_rejected = 0;  // of them, candidates that failed the stress check
   StressVerdict stress;     // of this iteration's model
 };
@@ -72,21 +72,21 @@ struct SemOptions {
   std::optional<double> threshold_percent;
   std::optional<int> max_iterations;
   std::optional<double> target_j;
-  std::optional<std::vector<std::string>> initial;  // term strings
-  std::optional<std::int64_t> max_candidates;       // overrides [limits] max_candidates
-  int threads = 1;                                  // worker threads (>= 1)
+  std::optional<std::vector<std::string>> initial;    // term strings
+  std::optional<std::int64_t> max_candidates;         // overrides [limits] max_candidates
+  int threads = 1;                                    // worker threads (>= 1)
   std::function<void(const SemIteration&)> progress;  // called after every iteration
 };
 
 struct SemResult {
   std::vector<ChannelInfo> channels;  // spec.Signals() order; channels[0] is the output
   std::vector<SemIteration> iterations;
-  int selected = 0;                   // iteration picked automatically (SelectModel)
-  std::string selection_rule;         // how `selected` was picked, in words
+  int selected = 0;            // iteration picked automatically (SelectModel)
+  std::string selection_rule;  // how `selected` was picked, in words
   std::size_t num_candidates = 0;
-  bool fast_path = false;             // free run by the y(k-1) polynomial recursion
-  int exhausted_rejected = -1;        // >= 0: the search stopped because all candidates
-                                      // were rejected (this many)
+  bool fast_path = false;       // free run by the y(k-1) polynomial recursion
+  int exhausted_rejected = -1;  // >= 0: the search stopped because all candidates
+                                // were rejected (this many)
   // What the search's extras cost (wall time [s], for the progress output only): the first
   // path without its exchange moves, the exchange moves of every path (spec `exchange`), the
   // second start's path (spec `one_step_start`; -1: not run) and its start's size, which is

@@ -21,9 +21,9 @@
 #include <string>
 #include <vector>
 
+#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/sem.hpp"
-#include "mrd/host/candidate_spec.hpp"
 
 namespace mrd::host {
 

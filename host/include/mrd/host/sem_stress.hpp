@@ -10,15 +10,15 @@
 //
 // A model passes when its free run (reference per-sample evaluation, seeded with the measured
 // output like SimulateCost) stays finite and |y| <= force_bound * max |y of the data| on every
-// stress record. The search rejects candidates that fail (host/src/sem/identify.cpp); selection skips
-// iterations that fail (SelectIteration).
+// stress record. The search rejects candidates that fail (host/src/sem/identify.cpp); selection
+// skips iterations that fail (SelectIteration).
 
 #include <span>
 #include <vector>
 
+#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/sem.hpp"
-#include "mrd/host/candidate_spec.hpp"
 
 namespace mrd::host {
 

@@ -1,17 +1,18 @@
 #pragma once
 // Fits the Spencer et al. 1997 phenomenological model (all 14 parameters, bounded) to measured
 // damper data by nonlinear least squares (Ceres Solver, trust-region Levenberg-Marquardt,
-// exact Jacobians of the simulator by forward sensitivities, host/src/spencer_sensitivity.hpp). The simulator is the harness's plant:
-// SpencerDamper (common/) stepped one sample at a time with RK4 sub-steps, the measured x and v
-// interpolated as TracePlant does, the measured E of the interval's end held over it (as `mrd
-// generate` and the harness's replay hold it; clamped to [0, e_max] as the firmware clamps
-// it), started at rest at the first row with u = 0 V.
-// Residual: simulated - measured force [N] at every sample.
+// exact Jacobians of the simulator by forward sensitivities, host/src/spencer_sensitivity.hpp). The
+// simulator is the harness's plant: SpencerDamper (common/) stepped one sample at a time with RK4
+// sub-steps, the measured x and v interpolated as TracePlant does, the measured E of the interval's
+// end held over it (as `mrd generate` and the harness's replay hold it; clamped to [0, e_max] as
+// the firmware clamps it), started at rest at the first row with u = 0 V. Residual: simulated -
+// measured force [N] at every sample.
 //
 // Multi-start: the presets paper and spencer1997 plus a deterministic scatter of starts
 // (log-uniform around spencer1997, seed); each start is fitted on a search window (the first
 // search_s seconds of each file), the starts in parallel threads; the best few are then
-// polished on all rows, one after the other, each Jacobian's columns split over the threads. Units as spencer_damper.hpp (x cm, v cm/s, E V, f N).
+// polished on all rows, one after the other, each Jacobian's columns split over the threads. Units
+// as spencer_damper.hpp (x cm, v cm/s, E V, f N).
 
 #include <cstdint>
 #include <functional>
@@ -36,22 +37,22 @@ struct FitScore {
 };
 
 struct SpencerFitOptions {
-  int substeps = 20;        // RK4 steps per sample (the harness's [plant] substeps)
-  double e_max = 2.25;      // [V] the measured E is clamped to [0, e_max]
-  int scatter_starts = 6;   // starts besides the two presets
+  int substeps = 20;       // RK4 steps per sample (the harness's [plant] substeps)
+  double e_max = 2.25;     // [V] the measured E is clamped to [0, e_max]
+  int scatter_starts = 6;  // starts besides the two presets
   std::uint64_t seed = 1;
-  double search_s = 2.0;    // search window per file [s] (0: whole runs)
+  double search_s = 2.0;  // search window per file [s] (0: whole runs)
   int search_iterations = 12;
-  int polish_starts = 1;    // best starts polished on all rows (one after the other)
+  int polish_starts = 1;  // best starts polished on all rows (one after the other)
   int polish_iterations = 30;
   int threads = 2;
   std::function<void(const std::string&)> progress;  // one line per event (may be empty)
 };
 
 struct SpencerFitStart {
-  std::string label;     // "paper", "spencer1997", "scatter 3"
-  double search_cost = 0.0;  // 0.5 sum r^2 on the search window after the search
-  double polish_cost = -1.0; // after the polish (-1: not polished)
+  std::string label;          // "paper", "spencer1997", "scatter 3"
+  double search_cost = 0.0;   // 0.5 sum r^2 on the search window after the search
+  double polish_cost = -1.0;  // after the polish (-1: not polished)
   SpencerParams params;
 };
 

@@ -1,8 +1,8 @@
 #pragma once
 // The SEM engine's data and free runs (used by host/src/sem/identify.cpp's Identify through Search,
-// host/src/sem/search/search.hpp): the identification records stacked and normalised, the elementary power
-// columns, the candidates with their Gram sums, and the free run of many jobs at once
-// (host/src/sem/engine/kernels.hpp gives the cost model). Not public.
+// host/src/sem/search/search.hpp): the identification records stacked and normalised, the
+// elementary power columns, the candidates with their Gram sums, and the free run of many jobs at
+// once (host/src/sem/engine/kernels.hpp gives the cost model). Not public.
 
 #include <algorithm>
 #include <atomic>
@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "mrd/host/sem.hpp"
-#include "sem/internal.hpp"
 #include "sem/engine/kernels.hpp"
+#include "sem/internal.hpp"
 
 namespace mrd::host::internal {
 
@@ -134,8 +134,8 @@ class Engine {
 
   // Free run of the fast path (y(k-1) only): y(k) = sum_q c_q(k) y(k-1)^q with
   // c_q(k) = sum over terms of y-power q of theta_i u_i(k) (+ the job's extra candidate).
-  // Jobs go through in lane groups of up to kMaxLanes (host/src/sem/engine/kernels.hpp gives the cost model);
-  // the bound is checked every kBlock samples, as are divergence and finiteness.
+  // Jobs go through in lane groups of up to kMaxLanes (host/src/sem/engine/kernels.hpp gives the
+  // cost model); the bound is checked every kBlock samples, as are divergence and finiteness.
   void SimulateFast(const std::vector<int>& terms, std::span<Job> jobs,
                     const std::atomic<double>& bound, std::vector<double>& scratch);
 

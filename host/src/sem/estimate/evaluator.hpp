@@ -1,14 +1,13 @@
 #pragma once
 // One identification record prepared for free-run evaluation outside the search engine: the
-// cross-validation (host/src/sem/select/selection.cpp) and the output-error refinement (host/src/sem/estimate/refine.cpp). Not
-// public.
+// cross-validation (host/src/sem/select/selection.cpp) and the output-error refinement
+// (host/src/sem/estimate/refine.cpp). Not public.
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
-
-#include <Eigen/Dense>
 
 #include "mrd/host/sem.hpp"
 #include "sem/internal.hpp"
@@ -134,8 +133,8 @@ class Evaluator {
         if (x.empty()) {
           std::size_t s = 0;
           while (s < p.slots.size() &&
-                 !(p.slots[s].transform == reg.transform &&
-                   p.slots[s].exponent == reg.exponent && p.slots[s].delay == d)) {
+                 !(p.slots[s].transform == reg.transform && p.slots[s].exponent == reg.exponent &&
+                   p.slots[s].delay == d)) {
             ++s;
           }
           if (s == p.slots.size()) p.slots.push_back({reg.transform, reg.exponent, d, 0});
@@ -245,6 +244,5 @@ class Evaluator {
   const SemSpec& spec_;
   Record rec_;
 };
-
 
 }  // namespace mrd::host::internal

@@ -1,12 +1,11 @@
-// Output-error refinement of a structure's coefficients (host/src/sem/internal.hpp): Levenberg-Marquardt
-// on the free-run cost J, started from the one-step least squares. Least squares on the one-step
-// regression is biased when the noise enters the output (the measured output in the regressors
-// is noisy); minimising J itself removes that bias, so a spurious term no longer lowers J by
-// compensating it.
+// Output-error refinement of a structure's coefficients (host/src/sem/internal.hpp):
+// Levenberg-Marquardt on the free-run cost J, started from the one-step least squares. Least
+// squares on the one-step regression is biased when the noise enters the output (the measured
+// output in the regressors is noisy); minimising J itself removes that bias, so a spurious term no
+// longer lowers J by compensating it.
+#include <Eigen/Dense>
 #include <cmath>
 #include <limits>
-
-#include <Eigen/Dense>
 
 #include "sem/estimate/evaluator.hpp"
 #include "sem/internal.hpp"
@@ -44,9 +43,8 @@ bool Residual(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Pre
   for (std::size_t i = 0; i < ev.size(); ++i) {
     const Record& rec = ev[i].record();
     w.e.clear();
-    const double cost =
-        ev[i].FreeRun(prepared[i], theta, rec.first, rec.y.size(), w.run, &w.e,
-                      jac->data() + row * static_cast<Eigen::Index>(m));
+    const double cost = ev[i].FreeRun(prepared[i], theta, rec.first, rec.y.size(), w.run, &w.e,
+                                      jac->data() + row * static_cast<Eigen::Index>(m));
     if (!std::isfinite(cost)) {
       return false;
     }

@@ -18,8 +18,9 @@ Replay::Replay(const SemSpec& spec, const std::vector<ChannelInfo>& channels, co
   w_.resize(n_);
   for (std::size_t k = 0; k < n_; ++k) {
     y_[k] = yc[k] / channels[0].scale;
-    w_[k] = spec.weighting == CostWeighting::kRelative ? 1.0 / std::max(std::fabs(y_[k]), spec.floor)
-                                                        : 1.0;
+    w_[k] = spec.weighting == CostWeighting::kRelative
+                ? 1.0 / std::max(std::fabs(y_[k]), spec.floor)
+                : 1.0;
   }
   input_.resize(spec.regressors.size());
   pow_index_.resize(spec.regressors.size());

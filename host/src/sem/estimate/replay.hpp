@@ -1,16 +1,17 @@
 #pragma once
 // A data set prepared once for many reference free runs (SimulateCost's per-sample evaluation):
-// the validation runs and stress checks of every iteration and candidate (host/src/sem/identify.cpp,
-// host/src/sem/stress/stress.cpp) run on the same records, so the normalised output, the row weights and the
-// transformed inputs to each offered power are computed once instead of per run. Run gives
-// SimulateCost's result bit for bit (same operations in the same order). Not public.
+// the validation runs and stress checks of every iteration and candidate
+// (host/src/sem/identify.cpp, host/src/sem/stress/stress.cpp) run on the same records, so the
+// normalised output, the row weights and the transformed inputs to each offered power are computed
+// once instead of per run. Run gives SimulateCost's result bit for bit (same operations in the same
+// order). Not public.
 
 #include <string>
 #include <vector>
 
+#include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/sem.hpp"
-#include "mrd/host/candidate_spec.hpp"
 
 namespace mrd::host::internal {
 
@@ -29,10 +30,10 @@ class Replay {
   const SemSpec& spec_;
   std::string path_;
   std::size_t n_ = 0, d0_ = 0;
-  std::vector<double> y_, w_;                  // normalised output, cost weight per row
-  std::vector<std::vector<double>> input_;     // [regressor]: transformed (empty: output)
-  std::vector<std::vector<int>> pow_index_;    // [regressor][power] -> pow_ (-1: none)
-  std::vector<std::vector<double>> pow_;       // input_[r]^p per row (Pow's product)
+  std::vector<double> y_, w_;                // normalised output, cost weight per row
+  std::vector<std::vector<double>> input_;   // [regressor]: transformed (empty: output)
+  std::vector<std::vector<int>> pow_index_;  // [regressor][power] -> pow_ (-1: none)
+  std::vector<std::vector<double>> pow_;     // input_[r]^p per row (Pow's product)
 };
 
 // CheckStress (sem_stress.hpp) on stress records prepared as Replay.

@@ -1,5 +1,3 @@
-#include "mrd/host/sem_family.hpp"
-
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -9,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mrd/host/input_error.hpp"
+#include "mrd/host/sem_family.hpp"
 
 namespace mrd::host {
 namespace {

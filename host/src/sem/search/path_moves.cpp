@@ -21,10 +21,9 @@ void SearchPath::Record(int iteration, int rejected, int stress_rejected) {
   it.j = j_;
   FinishRecorded();
   if (o_.threads > 1) {
-    refining_ = std::async(std::launch::async,
-                           [this, it = std::move(it), terms = model_]() mutable {
-                             Complete(std::move(it), terms);
-                           });
+    refining_ = std::async(
+        std::launch::async,
+        [this, it = std::move(it), terms = model_]() mutable { Complete(std::move(it), terms); });
   } else {
     Complete(std::move(it), model_);
   }
@@ -83,8 +82,7 @@ bool SearchPath::Add(int iteration) {
     Prune(j_prev);
   }
   if (exchanges > 0) {
-    res_.exchange_s +=
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - tx).count();
+    res_.exchange_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - tx).count();
   }
   Record(iteration, rejected, stress_rejected);
   return true;

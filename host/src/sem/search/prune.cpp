@@ -1,5 +1,6 @@
-// Pruning step of the SEM search (host/src/sem/search/search.hpp, Search::BestDrop): the reduced models (one
-// term dropped each) solved by least squares, then run in parallel under a shared bound.
+// Pruning step of the SEM search (host/src/sem/search/search.hpp, Search::BestDrop): the reduced
+// models (one term dropped each) solved by least squares, then run in parallel under a shared
+// bound.
 #include <atomic>
 #include <span>
 

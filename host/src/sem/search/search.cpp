@@ -189,9 +189,9 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
     run_chunk(0, pilot, scratch[0]);
     lower_bound_to(0, pilot);
     const std::size_t rest = order.size() - pilot;
-    const std::size_t per = std::max<std::size_t>(
-        1, std::min(kSweep, (rest + static_cast<std::size_t>(threads_) - 1) /
-                                static_cast<std::size_t>(threads_)));
+    const std::size_t per =
+        std::max<std::size_t>(1, std::min(kSweep, (rest + static_cast<std::size_t>(threads_) - 1) /
+                                                      static_cast<std::size_t>(threads_)));
     const std::size_t chunks = (rest + per - 1) / per;
     ParallelFor(chunks, threads_, [&](std::size_t item, int worker) {
       run_chunk(pilot + item * per, std::min(order.size(), pilot + (item + 1) * per),

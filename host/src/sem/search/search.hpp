@@ -1,6 +1,6 @@
 #pragma once
-// The SEM search's candidate trials (used by host/src/sem/identify.cpp's Identify): least squares of every
-// candidate added to a model (bordered on the model's Cholesky factor), its one-step rank,
+// The SEM search's candidate trials (used by host/src/sem/identify.cpp's Identify): least squares
+// of every candidate added to a model (bordered on the model's Cholesky factor), its one-step rank,
 // and the free runs that pick one by J, first or best improvement. Not public.
 
 #include <atomic>
@@ -37,13 +37,13 @@ class Search {
   // candidate it refuses is skipped (counted in stress_rejected) for the next best.
   // limit > 0: simulate only the `limit` candidates of best one-step rank. bound0: only
   // candidates whose J is below it are admissible (early stop from the start).
-  // Best single-term drop (host/src/sem/identify.cpp's pruning, host/src/sem/search/prune.cpp): the index in model of the term
-  // whose removal gives the lowest free-run J (least squares of the reduced model), that J and
-  // the reduced model's coefficients (theta). Only reduced models with J <= bound count; none:
-  // returns kInf (drop and theta unchanged). Ties: the lowest index. The reduced models run in
-  // parallel under a shared early-stop bound (the lowest J completed so far): exact, since a
-  // partial cost only grows, so the run stopped never has the lowest J; the result is the
-  // same for every thread count.
+  // Best single-term drop (host/src/sem/identify.cpp's pruning, host/src/sem/search/prune.cpp): the
+  // index in model of the term whose removal gives the lowest free-run J (least squares of the
+  // reduced model), that J and the reduced model's coefficients (theta). Only reduced models with J
+  // <= bound count; none: returns kInf (drop and theta unchanged). Ties: the lowest index. The
+  // reduced models run in parallel under a shared early-stop bound (the lowest J completed so far):
+  // exact, since a partial cost only grows, so the run stopped never has the lowest J; the result
+  // is the same for every thread count.
   double BestDrop(const std::vector<int>& model, double bound, std::size_t* drop,
                   std::vector<double>* theta);
 

@@ -96,8 +96,7 @@ class SearchPath {
 
   // Local search under the selection's score (score_search.cpp).
   void LocalSearch(const SelectionCriterion& criterion);
-  std::vector<Move> ScoreMoves(const std::vector<int>& pick,
-                               const SelectionCriterion& criterion);
+  std::vector<Move> ScoreMoves(const std::vector<int>& pick, const SelectionCriterion& criterion);
   const Move* BestMove(const std::vector<Move>& mv, double score, StressVerdict* stress) const;
 
   const SemSpec& spec_;

@@ -1,13 +1,13 @@
 // Automatic pick of the compact model (sem.hpp): the validation rule, the tolerance rule and the
 // cross-validation of the free-run cost inside the identification data.
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <thread>
-
-#include <Eigen/Dense>
-#include <fmt/format.h>
 
 #include "mrd/host/sem.hpp"
 #include "sem/estimate/evaluator.hpp"
@@ -73,8 +73,8 @@ double FoldRun(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Pr
   return cost;
 }
 
-std::vector<double> FoldCosts(const std::vector<Evaluator>& ev,
-                              const std::vector<SemTerm>& terms, int folds, const Prefilter& l) {
+std::vector<double> FoldCosts(const std::vector<Evaluator>& ev, const std::vector<SemTerm>& terms,
+                              int folds, const Prefilter& l) {
   const auto prepared = PrepareAll(ev, terms);
   const auto m = static_cast<Eigen::Index>(terms.size());
   const auto nf = static_cast<std::size_t>(folds);
@@ -112,9 +112,9 @@ std::vector<double> FoldCosts(const std::vector<Evaluator>& ev,
     if (m > 0) {
       const Eigen::MatrixXd gf = gt - g[fi];
       Eigen::LLT<Eigen::MatrixXd> llt(gf);
-      theta = llt.info() == Eigen::Success ? Eigen::VectorXd(llt.solve(bt - b[fi]))
-                                            : Eigen::VectorXd(gf.completeOrthogonalDecomposition()
-                                                                  .solve(bt - b[fi]));
+      theta = llt.info() == Eigen::Success
+                  ? Eigen::VectorXd(llt.solve(bt - b[fi]))
+                  : Eigen::VectorXd(gf.completeOrthogonalDecomposition().solve(bt - b[fi]));
     }
     if (!theta.allFinite()) {
       out[fi] = kInf;
@@ -265,8 +265,7 @@ int SelectByCrossValidation(const std::vector<SemIteration>& its,
   double best = kInf;
   for (std::size_t i = 0; i < its.size(); ++i) {
     if (failed(its[i])) continue;
-    const double score =
-        CrossValidationScore(Sum(cv[i]), its[i].terms.size(), candidates, samples);
+    const double score = CrossValidationScore(Sum(cv[i]), its[i].terms.size(), candidates, samples);
     if (!std::isfinite(score)) continue;
     if (pick < 0 || score < best) {
       pick = static_cast<int>(i);
@@ -289,9 +288,8 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   for (const DataSet& d : identification) {
     shortest = std::min(shortest, d.rows() - static_cast<std::size_t>(spec.MaxDelay()));
   }
-  const bool cv_possible =
-      !identification.empty() &&
-      shortest >= kMinFoldSamples * static_cast<std::size_t>(kSelectionFolds);
+  const bool cv_possible = !identification.empty() &&
+                           shortest >= kMinFoldSamples * static_cast<std::size_t>(kSelectionFolds);
   if (validation || spec.selection == Selection::kTolerance || !cv_possible) {
     res->selected = SelectIteration(its, spec.selection_tolerance_percent);
     res->selection_rule = fmt::format(
@@ -363,14 +361,13 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   for (std::size_t i = 0; i < l.size(); ++i) {
     filter += fmt::format(" {} {:.3g} q^-{}", l[i] < 0.0 ? "+" : "-", std::fabs(l[i]), i + 1);
   }
-  res->selected =
-      SelectByCrossValidation(its, cv, n_eff, static_cast<double>(res->num_candidates));
+  res->selected = SelectByCrossValidation(its, cv, n_eff, static_cast<double>(res->num_candidates));
   if (criterion != nullptr) {
     criterion->samples = n_eff;
     criterion->candidates = static_cast<double>(res->num_candidates);
-    criterion->fold_costs = [shared_ev, l, refine = spec.refine](
-                                const std::vector<SemTerm>& terms,
-                                std::vector<double>* coefficients, double* j) {
+    criterion->fold_costs = [shared_ev, l, refine = spec.refine](const std::vector<SemTerm>& terms,
+                                                                 std::vector<double>* coefficients,
+                                                                 double* j) {
       if (refine) return RefinedFoldCosts(*shared_ev, terms, kSelectionFolds, l, coefficients, j);
       Eigen::VectorXd theta(static_cast<Eigen::Index>(coefficients->size()));
       for (std::size_t i = 0; i < coefficients->size(); ++i) {
@@ -386,8 +383,8 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
       "{} candidates), N = {:.0f} effective samples of the lowest-J iteration's free-run residual; "
       "residuals prefiltered by L(q) = {}, the AR({}) whitening filter of that residual (order by "
       "BIC, at most {})",
-      kSelectionFolds, spec.refine ? "output-error refined" : "least-squares",
-      res->num_candidates, n_eff, filter, l.size(), kMaxPrefilterOrder);
+      kSelectionFolds, spec.refine ? "output-error refined" : "least-squares", res->num_candidates,
+      n_eff, filter, l.size(), kMaxPrefilterOrder);
 }
 
 }  // namespace mrd::host

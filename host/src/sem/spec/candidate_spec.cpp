@@ -1,5 +1,8 @@
 #include "mrd/host/candidate_spec.hpp"
 
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -7,10 +10,6 @@
 #include <map>
 #include <set>
 #include <sstream>
-
-#include <fmt/format.h>
-
-#include <toml++/toml.h>
 
 #include "mrd/host/input_error.hpp"
 
@@ -243,12 +242,14 @@ ElementaryRegressor ParseRegressor(const std::string& path, const toml::table& t
     throw InputError(path, line, "transform \"low_pass\" needs 'tau' (time constant [samples])");
   }
   if (has_scale != (r.transform == Transform::kTanh)) {
-    throw InputError(path, line, has_scale ? "'scale' is only valid with transform = \"tanh\""
-                                           : "transform \"tanh\" needs 'scale' (> 0)");
+    throw InputError(path, line,
+                     has_scale ? "'scale' is only valid with transform = \"tanh\""
+                               : "transform \"tanh\" needs 'scale' (> 0)");
   }
   if (has_limit != (r.transform == Transform::kClip)) {
-    throw InputError(path, line, has_limit ? "'limit' is only valid with transform = \"clip\""
-                                           : "transform \"clip\" needs 'limit' (> 0)");
+    throw InputError(path, line,
+                     has_limit ? "'limit' is only valid with transform = \"clip\""
+                               : "transform \"clip\" needs 'limit' (> 0)");
   }
   return r;
 }
@@ -430,9 +431,9 @@ void ParseSection(const std::string& path, const std::string& k, const toml::nod
   for (const auto& [skey, sn] : *t) {
     const std::string sk(skey.str());
     const bool known = k == "limits" ? ParseLimitsKey(path, sk, sn, s)
-                       : k == "cost" ? ParseCostKey(path, sk, sn, s)
-                                     : ParseSelectionKey(path, sk, sn, s) ||
-                                           ParseSearchKey(path, sk, sn, s);
+                       : k == "cost"
+                           ? ParseCostKey(path, sk, sn, s)
+                           : ParseSelectionKey(path, sk, sn, s) || ParseSearchKey(path, sk, sn, s);
     if (!known) Fail(path, sn, fmt::format("unknown key '{}' in [{}]", sk, k));
   }
 }
@@ -706,12 +707,12 @@ std::int64_t CountCandidateCombinations(const SemSpec& spec) {
 
 std::vector<SemTerm> GenerateCandidates(const SemSpec& spec) {
   if (const std::int64_t n = CountCandidateCombinations(spec); n > spec.max_candidates) {
-    throw InputError(spec.path, 0,
-                     fmt::format("candidate set too large: {}{} factor combinations > limit {} "
-                                 "(lower max_factors/max_degree, powers or delays, or raise "
-                                 "[limits] max_candidates / --max-candidates)",
-                                 n >= (std::int64_t{1} << 62) ? ">= " : "", n,
-                                 spec.max_candidates));
+    throw InputError(
+        spec.path, 0,
+        fmt::format("candidate set too large: {}{} factor combinations > limit {} "
+                    "(lower max_factors/max_degree, powers or delays, or raise "
+                    "[limits] max_candidates / --max-candidates)",
+                    n >= (std::int64_t{1} << 62) ? ">= " : "", n, spec.max_candidates));
   }
   struct Slot {
     int regressor;

@@ -1,11 +1,10 @@
-#include "mrd/host/sem_stress.hpp"
-
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
+#include "mrd/host/sem_stress.hpp"
 #include "sem/estimate/replay.hpp"
 
 namespace mrd::host {
@@ -89,8 +88,7 @@ StressVerdict CheckStress(const SemSpec& spec, const std::vector<ChannelInfo>& c
   return internal::CheckStressPrepared(spec, terms, coefficients, prepared);
 }
 
-StressVerdict internal::CheckStressPrepared(const SemSpec& spec,
-                                            const std::vector<SemTerm>& terms,
+StressVerdict internal::CheckStressPrepared(const SemSpec& spec, const std::vector<SemTerm>& terms,
                                             const std::vector<double>& coefficients,
                                             const std::vector<Replay>& stress) {
   StressVerdict v;

@@ -20,11 +20,10 @@
 #include <linux/can.h>
 #include <sys/types.h>
 
-#include <ctime>
-
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <ctime>
 
 namespace mrd::canbus {
 

@@ -88,7 +88,7 @@ class LocalBusRelay {
   Log log_ = nullptr;
   void* log_context_ = nullptr;
   int listen_fd_ = -1;
-  int spare_fd_ = -1;                // given up to take a connection when out of descriptors
+  int spare_fd_ = -1;  // given up to take a connection when out of descriptors
   std::int64_t listen_paused_until_ns_ = 0;  // accept() failing otherwise: listener not polled
   std::vector<int> nodes_;
   // Step's scratch (kept: no allocation per round once the node count is steady).

@@ -28,14 +28,14 @@ namespace mrd::profile {
 // Signals the firmware receives. Every role is optional; the firmware's [can] inputs say
 // which it uses, and a role it uses must be mapped.
 enum class CanIn : std::uint8_t {
-  kVelocity = 0,   // relative damper velocity [cm/s]
-  kDisplacement,   // relative displacement [cm]
-  kDemand,         // force demand [N]
-  kBodyVelocity,   // absolute body velocity [cm/s]
-  kForce,          // measured force [N]
-  kFaultLine,      // external fault input, non-zero = asserted
-  kBodyAcceleration,  // absolute body acceleration [cm/s^2]
-  kWheelVelocity,     // absolute wheel (unsprung) velocity [cm/s]
+  kVelocity = 0,        // relative damper velocity [cm/s]
+  kDisplacement,        // relative displacement [cm]
+  kDemand,              // force demand [N]
+  kBodyVelocity,        // absolute body velocity [cm/s]
+  kForce,               // measured force [N]
+  kFaultLine,           // external fault input, non-zero = asserted
+  kBodyAcceleration,    // absolute body acceleration [cm/s^2]
+  kWheelVelocity,       // absolute wheel (unsprung) velocity [cm/s]
   kFloorAcceleration1,  // absolute floor accelerations of a structure [m/s^2]
   kFloorAcceleration2,
   kFloorAcceleration3,
@@ -50,15 +50,15 @@ inline constexpr std::size_t kNumCanIn = 15;  // <= 16: role masks are 16-bit
 
 // Signals the firmware sends.
 enum class CanOut : std::uint8_t {
-  kCommand = 0,     // set-point in the driver's unit (after the calibration)
-  kEnable,          // driver enable, 1 = on
-  kEnableValid,     // 1 when the enable travels on this bus
-  kSafe,            // 1 while the firmware commands its safe state
-  kEcho,            // the sensor seq the command was computed from
-  kHeartbeatSafe,   // the heartbeat message's safe flag (the message is the heartbeat)
-  kStatusSafe,      // firmware status: safe flag
-  kStatusCauses,    // firmware status: active watchdog causes (bit i = cause i)
-  kStatusOverruns,  // firmware status: loop overruns, saturating
+  kCommand = 0,        // set-point in the driver's unit (after the calibration)
+  kEnable,             // driver enable, 1 = on
+  kEnableValid,        // 1 when the enable travels on this bus
+  kSafe,               // 1 while the firmware commands its safe state
+  kEcho,               // the sensor seq the command was computed from
+  kHeartbeatSafe,      // the heartbeat message's safe flag (the message is the heartbeat)
+  kStatusSafe,         // firmware status: safe flag
+  kStatusCauses,       // firmware status: active watchdog causes (bit i = cause i)
+  kStatusOverruns,     // firmware status: loop overruns, saturating
   kStatusSafeEntries,  // firmware status: normal -> safe transitions, saturating
   kStatusModelForce,   // live telemetry: the model's force of the period [N]
   kStatusDemand,       // live telemetry: the force demand of the period [N]
@@ -73,9 +73,9 @@ enum class ChecksumKind : std::uint8_t { kNone = 0, kCrc8, kSum8 };
 
 // How one message is protected and timed.
 struct MessageSpec {
-  int message = -1;            // index into Dbc::messages
-  int counter = -1;            // signal index of the rolling counter (+1 mod 2^length)
-  int checksum = -1;           // signal index of the checksum (8 bits)
+  int message = -1;   // index into Dbc::messages
+  int counter = -1;   // signal index of the rolling counter (+1 mod 2^length)
+  int checksum = -1;  // signal index of the checksum (8 bits)
   ChecksumKind checksum_kind = ChecksumKind::kNone;
   std::uint8_t crc_poly = 0x1D, crc_init = 0xFF, crc_xor = 0xFF;
   bool checksum_covers_id = true;  // the id's low then high byte come before the data
@@ -118,8 +118,8 @@ struct CanProfile {
 bool LoadCanProfile(const std::string& path, CanProfile* out, std::string* error);
 // The same from text: `path` names it in errors; with dbc_text the DBC is that text (named by
 // the profile's `dbc` value) instead of the file the profile names.
-bool ParseCanProfile(const std::string& text, const std::string& path,
-                     const std::string* dbc_text, CanProfile* out, std::string* error);
+bool ParseCanProfile(const std::string& text, const std::string& path, const std::string* dbc_text,
+                     CanProfile* out, std::string* error);
 // The built-in mrd-native profile (firmware/profiles/mrd-native.toml with docs/mrd.dbc,
 // compiled in): the firmware's and the harness's default. Never fails on a correct build.
 const CanProfile& NativeCanProfile();

@@ -21,12 +21,14 @@ inline constexpr std::uint32_t kNmtId = 0x000;
 inline constexpr std::uint32_t kSyncId = 0x080;
 constexpr std::uint32_t EmcyId(int node) { return 0x080U + static_cast<std::uint32_t>(node); }
 constexpr std::uint32_t SdoRequestId(int node) { return 0x600U + static_cast<std::uint32_t>(node); }
-constexpr std::uint32_t SdoResponseId(int node) { return 0x580U + static_cast<std::uint32_t>(node); }
+constexpr std::uint32_t SdoResponseId(int node) {
+  return 0x580U + static_cast<std::uint32_t>(node);
+}
 constexpr std::uint32_t HeartbeatId(int node) { return 0x700U + static_cast<std::uint32_t>(node); }
 
 // NMT commands (byte 0 of an NMT frame).
-inline constexpr std::uint8_t kNmtStart = 0x01;        // start remote node -> operational
-inline constexpr std::uint8_t kNmtStop = 0x02;         // -> stopped
+inline constexpr std::uint8_t kNmtStart = 0x01;  // start remote node -> operational
+inline constexpr std::uint8_t kNmtStop = 0x02;   // -> stopped
 inline constexpr std::uint8_t kNmtPreOperational = 0x80;
 inline constexpr std::uint8_t kNmtResetNode = 0x81;
 inline constexpr std::uint8_t kNmtResetCommunication = 0x82;

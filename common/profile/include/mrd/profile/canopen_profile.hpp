@@ -40,8 +40,8 @@ struct SdoDownload {
 };
 
 struct CanopenConfig {
-  int node_id = 0;      // the drive
-  int own_node_id = 0;  // the firmware (heartbeat producer)
+  int node_id = 0;                                        // the drive
+  int own_node_id = 0;                                    // the firmware (heartbeat producer)
   std::int64_t heartbeat_ns = 10'000'000;                 // 0: no heartbeat produced
   std::int64_t drive_heartbeat_timeout_ns = 100'000'000;  // 0: the drive's not watched
   bool nmt_start = true;

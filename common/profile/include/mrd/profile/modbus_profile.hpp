@@ -32,18 +32,18 @@ enum class ModbusType : std::uint8_t { kInt16 = 0, kUint16, kInt32, kUint32, kFl
 
 // Signals the firmware writes.
 enum class ModbusOut : std::uint8_t {
-  kCommand = 0,       // set-point in the driver's unit (after [command])
-  kEnable,            // driver enable, 1 = on
-  kSafe,              // 1 while the firmware commands its safe state
-  kEcho,              // the sensor_seq the command was computed from
-  kHeartbeat,         // loop period count (low bits): changes every period while the loop runs
-  kStatusSafe,        // firmware status: safe flag
-  kStatusCauses,      // firmware status: active watchdog causes (bit i = cause i)
-  kStatusOverruns,    // firmware status: loop overruns (not carried by the Modbus device: 0)
-  kStatusSafeEntries, // firmware status: normal -> safe transitions (not carried: 0)
-  kStatusModelForce,  // live telemetry: the model's force of the period [N]
-  kStatusDemand,      // live telemetry: the force demand of the period [N]
-  kStatusCommand,     // live telemetry: the command voltage E of the period [V]
+  kCommand = 0,        // set-point in the driver's unit (after [command])
+  kEnable,             // driver enable, 1 = on
+  kSafe,               // 1 while the firmware commands its safe state
+  kEcho,               // the sensor_seq the command was computed from
+  kHeartbeat,          // loop period count (low bits): changes every period while the loop runs
+  kStatusSafe,         // firmware status: safe flag
+  kStatusCauses,       // firmware status: active watchdog causes (bit i = cause i)
+  kStatusOverruns,     // firmware status: loop overruns (not carried by the Modbus device: 0)
+  kStatusSafeEntries,  // firmware status: normal -> safe transitions (not carried: 0)
+  kStatusModelForce,   // live telemetry: the model's force of the period [N]
+  kStatusDemand,       // live telemetry: the force demand of the period [N]
+  kStatusCommand,      // live telemetry: the command voltage E of the period [V]
 };
 inline constexpr std::size_t kNumModbusOut = 12;
 const char* ModbusOutName(ModbusOut role);
@@ -52,15 +52,14 @@ struct ModbusPoint {
   bool mapped = false;
   std::uint8_t unit = 0;  // 1..247
   ModbusTable table = ModbusTable::kHolding;
-  int address = 0;        // 0-based protocol address
+  int address = 0;  // 0-based protocol address
   ModbusType type = ModbusType::kUint16;
   double scale = 1.0, offset = 0.0;
-  int line = 0;           // where it was defined
-  int request = -1;       // index into reads (inputs) or writes (outputs)
-  int index = 0;          // offset in that request: registers, or bits for coils
-  int count() const {     // registers (or bits) it takes
-    return type == ModbusType::kInt32 || type == ModbusType::kUint32 ||
-                   type == ModbusType::kFloat32
+  int line = 0;        // where it was defined
+  int request = -1;    // index into reads (inputs) or writes (outputs)
+  int index = 0;       // offset in that request: registers, or bits for coils
+  int count() const {  // registers (or bits) it takes
+    return type == ModbusType::kInt32 || type == ModbusType::kUint32 || type == ModbusType::kFloat32
                ? 2
                : 1;
   }
@@ -72,17 +71,17 @@ struct ModbusRequest {
   ModbusTable table = ModbusTable::kHolding;
   std::uint8_t function = 0;  // 0x01 0x02 0x03 0x04 (reads), 0x05 0x06 0x0F 0x10 (writes)
   int address = 0;
-  int count = 0;              // registers or bits
+  int count = 0;  // registers or bits
 };
 
 struct ModbusProfile {
   static constexpr int kMaxGap = 8;  // registers (bits) a read bridges between points
   std::string path;
   std::string name;
-  bool swapped = false;      // 32-bit values: low word at the lower address
-  int write_function = 16;   // 16 or 6
-  bool align32 = false;      // 32-bit values at even addresses only
-  int max_read = 125;        // registers per read (coils and discrete inputs: 2000)
+  bool swapped = false;     // 32-bit values: low word at the lower address
+  int write_function = 16;  // 16 or 6
+  bool align32 = false;     // 32-bit values at even addresses only
+  int max_read = 125;       // registers per read (coils and discrete inputs: 2000)
   std::array<ModbusPoint, kNumCanIn> inputs{};
   std::array<ModbusPoint, kNumModbusOut> outputs{};
   std::vector<ModbusRequest> reads;   // grouped, in (unit, table, address) order

@@ -21,15 +21,15 @@ struct SignalLayout {
   std::uint8_t length = 1;      // bits, 1..64
   ByteOrder order = ByteOrder::kIntel;
   bool is_signed = false;
-  double factor = 1.0;          // != 0
+  double factor = 1.0;  // != 0
   double offset = 0.0;
   double min = 0.0, max = 0.0;  // accepted physical range; min == max == 0: no limit (DBC)
 };
 
 enum class SignalError : std::uint8_t {
   kNone = 0,
-  kOutOfRange,   // decoded value outside [min, max], or value to encode outside it / the field
-  kNotFinite,    // value to encode is NaN or infinite
+  kOutOfRange,  // decoded value outside [min, max], or value to encode outside it / the field
+  kNotFinite,   // value to encode is NaN or infinite
 };
 
 // True when every bit of the signal lies within a payload of dlc bytes.

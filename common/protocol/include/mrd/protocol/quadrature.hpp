@@ -26,11 +26,11 @@ struct QuadratureLevels {
 QuadratureLevels LevelsForCount(std::int64_t count);
 
 enum class QuadratureStep : std::uint8_t {
-  kNone = 0,   // levels unchanged
-  kForward,    // count + 1
-  kBackward,   // count - 1
-  kGlitch,     // both lines changed, or an edge that contradicts the level: rejected
-  kOverflow,   // the step would leave the int64 range: refused
+  kNone = 0,  // levels unchanged
+  kForward,   // count + 1
+  kBackward,  // count - 1
+  kGlitch,    // both lines changed, or an edge that contradicts the level: rejected
+  kOverflow,  // the step would leave the int64 range: refused
 };
 
 // One edge on one line with its (kernel) timestamp [ns].

@@ -8,10 +8,10 @@
 namespace mrd::protocol {
 
 struct FieldScale {
-  double scale = 1.0;    // physical units per raw count (> 0)
-  double offset = 0.0;   // physical value at raw 0
-  int bits = 16;         // field width, 1..32
-  bool is_signed = true; // two's complement
+  double scale = 1.0;     // physical units per raw count (> 0)
+  double offset = 0.0;    // physical value at raw 0
+  int bits = 16;          // field width, 1..32
+  bool is_signed = true;  // two's complement
 };
 
 // Encodes value; false (and *raw untouched) when it is non-finite or outside the field's

@@ -79,17 +79,17 @@ struct Log {
   Header header;
   std::vector<std::uint8_t> records;  // num_records * record_bytes
   std::uint64_t num_records = 0;
-  std::uint64_t blocks = 0;           // whole, valid blocks read
-  std::uint64_t first_sequence = 0;   // of the first block (0 without blocks)
+  std::uint64_t blocks = 0;          // whole, valid blocks read
+  std::uint64_t first_sequence = 0;  // of the first block (0 without blocks)
   std::uint64_t last_sequence = 0;
-  std::uint64_t sequence_gaps = 0;    // blocks missing between sequences
-  std::uint64_t dropped = 0;          // from the last valid block
+  std::uint64_t sequence_gaps = 0;  // blocks missing between sequences
+  std::uint64_t dropped = 0;        // from the last valid block
   std::uint64_t file_bytes = 0;
-  std::uint64_t valid_bytes = 0;      // header and whole valid blocks
+  std::uint64_t valid_bytes = 0;  // header and whole valid blocks
   Damage damage = Damage::kNone;
-  std::uint64_t damage_block = 0;     // index (from 0, in this file) of the damaged block
-  std::uint64_t damage_offset = 0;    // its byte offset
-  std::string damage_reason;          // e.g. "CRC mismatch", "ends after 12 of 6168 bytes"
+  std::uint64_t damage_block = 0;   // index (from 0, in this file) of the damaged block
+  std::uint64_t damage_offset = 0;  // its byte offset
+  std::string damage_reason;        // e.g. "CRC mismatch", "ends after 12 of 6168 bytes"
 };
 
 // Decodes a whole file's bytes. false with *error for what is not a readable log: not a log

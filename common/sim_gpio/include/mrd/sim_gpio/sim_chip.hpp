@@ -32,13 +32,13 @@
 namespace mrd::sim_gpio {
 
 inline constexpr std::size_t kNumLines = 64;
-inline constexpr std::size_t kRingSize = 256;   // events kept per line
+inline constexpr std::size_t kRingSize = 256;                   // events kept per line
 inline constexpr std::uint64_t kMagic = 0x4f4950474d49534dULL;  // "MSIMGPIO"
 inline constexpr std::uint32_t kVersion = 1;
 
 struct Event {
-  std::uint64_t seq = 0;   // 1, 2, ... per line (0: none)
-  std::int64_t t_ns = 0;   // CLOCK_MONOTONIC of the edge [ns]
+  std::uint64_t seq = 0;  // 1, 2, ... per line (0: none)
+  std::int64_t t_ns = 0;  // CLOCK_MONOTONIC of the edge [ns]
   bool rising = false;
 };
 

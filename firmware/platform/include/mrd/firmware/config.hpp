@@ -36,10 +36,10 @@ struct FirmwareConfig {
   std::optional<double> e_max;  // [V]; unset: the table's
   ControllerConfig controller;
   SimulationConfig simulation;
-  IoConfig io;  // [can], [modbus], [gpio], [pwm]; none: dry run on the simulated damper
+  IoConfig io;              // [can], [modbus], [gpio], [pwm]; none: dry run on the simulated damper
   bool ctl_enable = false;  // [ctl]: serve the control socket (params_server.hpp)
   std::string ctl_socket;   // its path; "": DefaultCtlSocket()
-  LogConfig log;  // [log]: the per-period log (period_log.hpp)
+  LogConfig log;            // [log]: the per-period log (period_log.hpp)
   // [clipped_optimal] gains: the gains file as given (relative to the config file); loaded
   // into controller.clipped_gains by the parse (clipped_optimal_file.hpp).
   std::string clipped_gains_path;

@@ -27,15 +27,15 @@ std::vector<runlog::Field> PeriodLogFields();
 void EncodePeriodRecord(const PeriodRecord& r, std::uint8_t* out);
 
 struct PeriodLogStats {
-  std::uint64_t pushed = 0;    // records the loop handed over
-  std::uint64_t dropped = 0;   // ring full: not logged
-  std::uint64_t written = 0;   // records in blocks written to files
-  std::uint64_t lost = 0;      // drained after the log stopped (write error): not logged
+  std::uint64_t pushed = 0;   // records the loop handed over
+  std::uint64_t dropped = 0;  // ring full: not logged
+  std::uint64_t written = 0;  // records in blocks written to files
+  std::uint64_t lost = 0;     // drained after the log stopped (write error): not logged
   std::uint64_t blocks = 0;
-  std::uint64_t bytes = 0;     // all files
-  std::uint32_t files = 0;     // files opened (rotations + 1)
-  bool failed = false;         // the log stopped on an error
-  std::string error;           // why ("" when not failed)
+  std::uint64_t bytes = 0;  // all files
+  std::uint32_t files = 0;  // files opened (rotations + 1)
+  bool failed = false;      // the log stopped on an error
+  std::string error;        // why ("" when not failed)
 };
 
 class PeriodLog final : public PeriodObserver {
@@ -71,8 +71,8 @@ class PeriodLog final : public PeriodObserver {
 
  private:
   void WriterMain();
-  void Fail(const std::string& why);       // writer thread: stop logging, say so once
-  bool OpenFile();                          // writer thread (and Start): PATH + header
+  void Fail(const std::string& why);  // writer thread: stop logging, say so once
+  bool OpenFile();                    // writer thread (and Start): PATH + header
   bool ShiftFiles();
   bool Rotate();
   bool WriteAll(const std::string& bytes);

@@ -35,14 +35,14 @@ class RuntimeParams : public PeriodHook {
   enum class Status : std::uint8_t { kOk = 0, kRefused, kFailed };
   struct Result {
     Status status = Status::kOk;
-    std::string message;         // why, when not ok
-    std::uint64_t period = 0;    // the period it was applied at (tick number, from 0)
-    std::uint32_t version = 0;   // parameter version from that period on
+    std::string message;        // why, when not ok
+    std::uint64_t period = 0;   // the period it was applied at (tick number, from 0)
+    std::uint32_t version = 0;  // parameter version from that period on
   };
   // Extra checks of a reload's config, table and configured controller (the application's:
   // e.g. the buses serve what the model reads); "" when fine.
-  using ReloadCheck = std::function<std::string(const FirmwareConfig&, const CoefficientTable&,
-                                                const Controller&)>;
+  using ReloadCheck =
+      std::function<std::string(const FirmwareConfig&, const CoefficientTable&, const Controller&)>;
 
   // table and config: what the running controller was configured with (config.controller
   // with the effective e_max). Not real-time.
@@ -95,7 +95,7 @@ class RuntimeParams : public PeriodHook {
   ControllerConfig slot_config_;
   Controller* slot_controller_ = nullptr;  // non-null: a reload
   std::atomic<int> state_{kIdle};
-  std::atomic<bool> slot_ok_{false};         // the loop applied it (Retune accepted)
+  std::atomic<bool> slot_ok_{false};  // the loop applied it (Retune accepted)
   std::atomic<std::uint64_t> slot_period_{0};
   std::atomic<std::uint32_t> version_{0};
   std::atomic<std::uint64_t> changes_{0};

@@ -13,12 +13,12 @@
 namespace mrd::structure {
 
 struct DesignOptions {
-  double period_s = 1e-3;          // control period T [s]
-  double q_displacement = 1e10;    // LQR weight on each floor displacement [1/m^2]
-  double q_drift = 0.0;            // LQR weight on each inter-story drift [1/m^2]
-  double r_force = 1.0;            // LQR weight on the force [1/N^2]
-  double noise_ratio = 25.0;       // ground-acceleration / measurement-noise PSD ratio (gamma_g)
-  double v_max = 2.25;             // clipped rule voltage [V]
+  double period_s = 1e-3;        // control period T [s]
+  double q_displacement = 1e10;  // LQR weight on each floor displacement [1/m^2]
+  double q_drift = 0.0;          // LQR weight on each inter-story drift [1/m^2]
+  double r_force = 1.0;          // LQR weight on the force [1/N^2]
+  double noise_ratio = 25.0;     // ground-acceleration / measurement-noise PSD ratio (gamma_g)
+  double v_max = 2.25;           // clipped rule voltage [V]
 };
 
 // Modal frequencies [Hz] and damping ratios [-] of the bare frame, ascending.

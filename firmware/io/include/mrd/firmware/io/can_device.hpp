@@ -43,11 +43,10 @@
 // frames, then its grant), heartbeat and status are scheduled in granted time. A wait that
 // ends without a grant is no fault: the clock keeps waiting (grant_clock.hpp).
 
-#include <cstdint>
-#include <string>
-
 #include <array>
+#include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "mrd/canbus/can_iface.hpp"
@@ -156,8 +155,8 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   std::uint32_t last_seq_ = 0;
   std::uint32_t driver_faults_ = 0;
   double driver_current_ = 0.0;
-  bool fault_input_ = false;              // the fault_line role, non-zero
-  std::int64_t driver_status_ns_ = 0;     // device time of the latest driver status
+  bool fault_input_ = false;           // the fault_line role, non-zero
+  std::int64_t driver_status_ns_ = 0;  // device time of the latest driver status
   int rejects_since_read_ = 0;
   std::int64_t flood_until_ns_ = 0;  // a babbling node's fault holds until then (Now())
   std::array<Stamped, profile::kNumCanIn> values_{};  // latest value of each input role
@@ -174,7 +173,7 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   const profile::CanopenConfig* canopen_ = nullptr;
   std::vector<can_frame> sdo_frames_;  // the SDO list's requests, in order
   std::uint8_t drive_state_ = kDriveStateUnknown;
-  std::int64_t drive_heartbeat_ns_ = 0;  // device time of the drive's latest heartbeat
+  std::int64_t drive_heartbeat_ns_ = 0;     // device time of the drive's latest heartbeat
   bool drive_heartbeat_unstamped_ = false;  // lockstep: stamped by the grant that follows
   std::int64_t next_own_heartbeat_ns_ = 0, next_sync_ns_ = 0;
   // Re-configuration after a boot-up: the SDO entry awaiting its answer (-1: none), since.

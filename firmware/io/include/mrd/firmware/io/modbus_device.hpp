@@ -129,9 +129,9 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
 
   ModbusConfig config_;
   const profile::ModbusProfile* profile_ = nullptr;  // config_.modbus_profile (null: built-in)
-  profile::CommandMap command_map_;                   // loop side: E -> set-point
-  double safe_setpoint_ = 0.0;                        // set-point of the safe state
-  std::unique_ptr<std::uint16_t[]> words_;            // worker: one write request's words
+  profile::CommandMap command_map_;                  // loop side: E -> set-point
+  double safe_setpoint_ = 0.0;                       // set-point of the safe state
+  std::unique_ptr<std::uint16_t[]> words_;           // worker: one write request's words
   std::unique_ptr<ModbusLink> link_;
   std::unique_ptr<Waker> waker_;
   bool configured_ = false;
@@ -153,15 +153,15 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   std::atomic<std::uint32_t> status_ticks_{0};
 
   // Worker side.
-  bool resync_ = false;           // RTU: wait for a quiet line before the next request
+  bool resync_ = false;                   // RTU: wait for a quiet line before the next request
   std::int64_t unanswered_since_ns_ = 0;  // RTU: a read sent then that may be answered late
-  bool timed_out_ = false;        // a transaction of this cycle timed out (link suspect)
-  bool session_good_ = false;     // this connection carried a good exchange
+  bool timed_out_ = false;                // a transaction of this cycle timed out (link suspect)
+  bool session_good_ = false;             // this connection carried a good exchange
   bool any_written_ = false;
   std::uint64_t written_tick_ = 0;
-  bool written_safe_ = true;      // the latest block written was a safe one
-  bool writing_safe_ = false;     // the write in flight carries the safe state
-  bool safe_acknowledged_ = false;          // the last acknowledged block was a safe one...
+  bool written_safe_ = true;                  // the latest block written was a safe one
+  bool writing_safe_ = false;                 // the write in flight carries the safe state
+  bool safe_acknowledged_ = false;            // the last acknowledged block was a safe one...
   std::uint64_t safe_acknowledged_tick_ = 0;  // ...of this tick
   bool have_seq_ = false;
   std::int64_t backoff_ns_ = 0;
@@ -172,14 +172,14 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   std::uint64_t seen_accepted_ = 0;
   std::uint32_t last_seq_ = 0;
   bool last_write_failed_ = false;
-  bool posted_safe_ = true;       // the latest command posted was a safe one
+  bool posted_safe_ = true;  // the latest command posted was a safe one
   // Lockstep: the tick of the last command followed by PublishStatus (loop side), and the tick
   // of the last command the worker wrote or failed to write (worker side).
   std::uint64_t published_tick_ = 0;
   bool published_ = false;
   std::atomic<std::uint64_t> handled_tick_{0};
   std::atomic<bool> handled_any_{false};
-  std::int64_t granted_ns_ = 0;   // the latest grant WaitGrant returned
+  std::int64_t granted_ns_ = 0;  // the latest grant WaitGrant returned
   IoError last_why_ = IoError::kNone;
 
   // Counters, written by the worker, read by anyone.

@@ -33,11 +33,11 @@ namespace mrd::firmware {
 
 struct PwmConfig {
   bool enabled = false;
-  std::string chip;                 // sysfs directory, e.g. /sys/class/pwm/pwmchip0
-  int channel = 0;                  // M of pwmM
-  profile::PwmProfile profile;      // period, polarity, duty range, E -> set-point map
-  double safe_volts = 0.0;          // [V] the duty the channel starts with
-  double period_s = 1e-3;           // the control period (the map's slew-limit step) [s]
+  std::string chip;             // sysfs directory, e.g. /sys/class/pwm/pwmchip0
+  int channel = 0;              // M of pwmM
+  profile::PwmProfile profile;  // period, polarity, duty range, E -> set-point map
+  double safe_volts = 0.0;      // [V] the duty the channel starts with
+  double period_s = 1e-3;       // the control period (the map's slew-limit step) [s]
 };
 
 class PwmDevice final : public BusDevice {
@@ -65,7 +65,7 @@ class PwmDevice final : public BusDevice {
 
   PwmConfig config_;
   profile::CommandMap map_;  // config_.profile.command's copy with its slew state
-  std::string dir_;  // CHIP/pwmN
+  std::string dir_;          // CHIP/pwmN
   int duty_fd_ = -1;
   int enable_fd_ = -1;
   std::int64_t last_duty_ns_ = -1;
