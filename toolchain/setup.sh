@@ -15,7 +15,7 @@ packages=(
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libtomlplusplus-dev libfmt-dev libspdlog-dev
   libmodbus5 libmodbus-dev libgpiod2 libgpiod-dev
-  gnuplot-nox shellcheck
+  gnuplot-nox shellcheck clang-format
   # Arm cross builds and their tests under qemu-user (target libraries: toolchain/sysroot.sh).
   g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
   # Modbus interop tests: an independent implementation (pymodbus, with its serial deps).
