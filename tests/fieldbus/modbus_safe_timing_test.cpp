@@ -76,6 +76,22 @@ class RecordingDriver final : public CurrentDriver {
   std::atomic<std::size_t> n_{0};
 };
 
+// Injected faults ([t [s], kind] each) at whose time the loop was driving (its last tick at or
+// before the fault not safe): each starts one safe entry.
+std::size_t FaultsFindingTheLoopDriving(const json& faults, const RecordingDriver& driver) {
+  std::size_t n = 0;
+  for (const auto& f : faults) {
+    const auto tf = static_cast<std::int64_t>(f[0].get<double>() * 1e9);
+    std::size_t lo = 0, hi = driver.count();  // the last tick at or before the fault
+    while (hi - lo > 1) {
+      const std::size_t mid = (lo + hi) / 2;
+      (driver.t(mid) <= tf ? lo : hi) = mid;
+    }
+    if (driver.t(lo) <= tf && !driver.safe(lo)) ++n;
+  }
+  return n;
+}
+
 class ModbusSafeTimingTest : public ::testing::TestWithParam<bool> {};  // true: RTU
 
 TEST_P(ModbusSafeTimingTest, FirstSafeBlockWithinTwoPeriodsOfTheLoopGoingSafe) {
@@ -215,16 +231,7 @@ TEST_P(ModbusSafeTimingTest, FirstSafeBlockWithinTwoPeriodsOfTheLoopGoingSafe) {
   RecordProperty("max_periods", std::to_string(max));
   // One safe entry per fault that finds the loop driving; a fault that lands while the loop is
   // still safe (from the previous fault, or a late sample on a loaded host) starts none.
-  std::size_t expected = 0;
-  for (const auto& f : log["faults"]) {
-    const auto tf = static_cast<std::int64_t>(f[0].get<double>() * 1e9);
-    std::size_t lo = 0, hi = driver.count();  // the last tick at or before the fault
-    while (hi - lo > 1) {
-      const std::size_t mid = (lo + hi) / 2;
-      (driver.t(mid) <= tf ? lo : hi) = mid;
-    }
-    if (driver.t(lo) <= tf && !driver.safe(lo)) ++expected;
-  }
+  const std::size_t expected = FaultsFindingTheLoopDriving(log["faults"], driver);
   EXPECT_GE(expected, 90U) << "faults that found the loop driving";
   EXPECT_GE(delays.size(), expected) << "safe entries measured (one per fault that found the "
                                         "loop driving, at least)";

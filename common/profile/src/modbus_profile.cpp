@@ -241,6 +241,145 @@ bool IsModbusProfileFile(const std::string& path) {
   }
 }
 
+namespace {
+
+// Top-level keys (name, description, command; [modbus] is read by ReadModbusKeys).
+bool ReadTopLevel(const Ctx& c, const toml::table& root, const std::string& path,
+                  ModbusProfile* out) {
+  for (const auto& [k, v] : root) {
+    const std::string key(k.str());
+    if (key == "name") {
+      const auto s = v.value<std::string>();
+      if (!s || s->empty()) return c.Fail(&v, "name: expected a non-empty string");
+      out->name = *s;
+    } else if (key == "description") {
+      if (!v.is_string()) return c.Fail(&v, "description: expected a string");
+    } else if (key == "command") {
+      const toml::table* t = v.as_table();
+      if (t == nullptr) return c.Fail(&v, "command: expected a table");
+      if (!Command(c, *t, Directory(path), out)) return false;
+    } else if (key != "modbus") {
+      return c.Fail(&v, key + ": unknown key (name, description, modbus, command)");
+    }
+  }
+  if (out->name.empty()) {
+    *c.error = path + ":1: name: missing (the profile's name, shown in logs and summaries)";
+    return false;
+  }
+  return true;
+}
+
+// The [modbus] table's own keys (the inputs and outputs tables: ReadRoles).
+bool ReadModbusKeys(const Ctx& c, const toml::table& modbus, ModbusProfile* out) {
+  for (const auto& [k, v] : modbus) {
+    const std::string key(k.str());
+    const std::string full = "modbus." + key;
+    if (key == "word_order") {
+      const auto s = v.value<std::string>();
+      if (s && *s == "big") {
+        out->swapped = false;
+      } else if (s && *s == "swapped") {
+        out->swapped = true;
+      } else {
+        return c.Fail(&v, full + ": expected \"big\" (high word first) or \"swapped\"");
+      }
+    } else if (key == "write_function") {
+      const auto n = v.value<std::int64_t>();
+      if (!n || (*n != 16 && *n != 6)) {
+        return c.Fail(&v, full + ": expected 16 (write multiple) or 6 (write single)");
+      }
+      out->write_function = static_cast<int>(*n);
+    } else if (key == "align32") {
+      const auto b = v.value<bool>();
+      if (!b) return c.Fail(&v, full + ": expected true or false");
+      out->align32 = *b;
+    } else if (key == "max_read") {
+      const auto n = v.value<std::int64_t>();
+      if (!n || *n < 1 || *n > kMaxReadRegisters) {
+        return c.Fail(&v, full + ": registers per read outside 1..125 (the Modbus limit)");
+      }
+      out->max_read = static_cast<int>(*n);
+    } else if (key != "inputs" && key != "outputs") {
+      return c.Fail(&v, full +
+                            ": unknown key (word_order, write_function, align32, max_read, "
+                            "inputs, outputs)");
+    }
+  }
+  return true;
+}
+
+// Register (bit) of a unit's table -> the role that carries it, for the overlap check.
+using RegisterOwners = std::map<std::tuple<int, int, int>, std::string>;
+
+// One roles table (modbus.inputs or modbus.outputs), in file order (toml++ keeps keys sorted):
+// an overlap names the later line.
+bool ReadRoles(const Ctx& c, const toml::table& modbus, const char* section,
+               const char* const* names, std::size_t count, ModbusPoint* points, bool output,
+               const ModbusProfile& profile, RegisterOwners* owner) {
+  const toml::node* node = modbus.get(section);
+  if (node == nullptr) return true;
+  const toml::table* t = node->as_table();
+  const std::string sec = std::string("modbus.") + section;
+  if (t == nullptr) return c.Fail(node, sec + ": expected a table");
+  std::vector<std::pair<std::string, const toml::node*>> in_order;
+  for (const auto& [k, v] : *t) in_order.emplace_back(std::string(k.str()), &v);
+  std::stable_sort(in_order.begin(), in_order.end(), [](const auto& a, const auto& b) {
+    return a.second->source().begin.line < b.second->source().begin.line;
+  });
+  for (const auto& [key, vp] : in_order) {
+    const toml::node& v = *vp;
+    std::size_t r = 0;
+    while (r < count && key != names[r]) ++r;
+    const std::string full = sec + "." + key;
+    if (r == count) {
+      std::string known;
+      for (std::size_t i = 0; i < count; ++i) known += (i ? ", " : "") + std::string(names[i]);
+      return c.Fail(&v, full + ": unknown role (" + known + ")");
+    }
+    // toml++ refuses a key twice in one table; a role is mapped once by construction.
+    ModbusPoint& pt = points[r];
+    if (!Point(c, v, full, output, &pt)) return false;
+    if (profile.align32 && pt.count() == 2 && pt.address % 2 != 0) {
+      return c.Fail(&v, full + ": 32-bit value at odd address " + std::to_string(pt.address) +
+                            " (align32: the device needs even addresses)");
+    }
+    if (output && pt.count() == 2 && profile.write_function == 6) {
+      return c.Fail(&v, full +
+                            ": a 32-bit value cannot be written with write_function 6 "
+                            "(one register per request); use 16");
+    }
+    for (int i = 0; i < pt.count(); ++i) {
+      const auto at = std::make_tuple(int{pt.unit}, static_cast<int>(pt.table), pt.address + i);
+      if (const auto it = owner->find(at); it != owner->end()) {
+        return c.Fail(&v, full + ": register " + std::to_string(pt.address + i) + " of unit " +
+                              std::to_string(pt.unit) + " already carries " + it->second);
+      }
+      (*owner)[at] = full;
+    }
+  }
+  return true;
+}
+
+// The request carrying the command goes last (the harness takes it as the cycle's end).
+void PutCommandLast(ModbusProfile* out) {
+  ModbusPoint& cmd = out->outputs[static_cast<std::size_t>(ModbusOut::kCommand)];
+  if (!cmd.mapped || cmd.request == static_cast<int>(out->writes.size()) - 1) return;
+  const int from = cmd.request;
+  const ModbusRequest moved = out->writes[static_cast<std::size_t>(from)];
+  out->writes.erase(out->writes.begin() + from);
+  out->writes.push_back(moved);
+  for (auto& pt : out->outputs) {
+    if (!pt.mapped) continue;
+    if (pt.request == from) {
+      pt.request = static_cast<int>(out->writes.size()) - 1;
+    } else if (pt.request > from) {
+      --pt.request;
+    }
+  }
+}
+
+}  // namespace
+
 bool ParseModbusProfile(const std::string& text, const std::string& path, ModbusProfile* out,
                         std::string* error) {
   *out = ModbusProfile{};
@@ -260,133 +399,20 @@ bool ParseModbusProfile(const std::string& text, const std::string& path, Modbus
     if (modbus == nullptr) {
       return c.Fail(modbus_node, "modbus: expected the [modbus] table of the device's map");
     }
-    for (const auto& [k, v] : root) {
-      const std::string key(k.str());
-      if (key == "name") {
-        const auto s = v.value<std::string>();
-        if (!s || s->empty()) return c.Fail(&v, "name: expected a non-empty string");
-        out->name = *s;
-      } else if (key == "description") {
-        if (!v.is_string()) return c.Fail(&v, "description: expected a string");
-      } else if (key == "command") {
-        const toml::table* t = v.as_table();
-        if (t == nullptr) return c.Fail(&v, "command: expected a table");
-        if (!Command(c, *t, Directory(path), out)) return false;
-      } else if (key != "modbus") {
-        return c.Fail(&v, key + ": unknown key (name, description, modbus, command)");
-      }
-    }
-    if (out->name.empty()) {
-      *error = path + ":1: name: missing (the profile's name, shown in logs and summaries)";
+    if (!ReadTopLevel(c, root, path, out) || !ReadModbusKeys(c, *modbus, out)) return false;
+    // Roles, then the overlap of every register (bit) of a unit's table.
+    RegisterOwners owner;
+    if (!ReadRoles(c, *modbus, "inputs", kInNames, kNumCanIn, out->inputs.data(), false, *out,
+                   &owner) ||
+        !ReadRoles(c, *modbus, "outputs", kOutNames, kNumModbusOut, out->outputs.data(), true, *out,
+                   &owner)) {
       return false;
     }
-    const toml::node* max_read_node = nullptr;
-    for (const auto& [k, v] : *modbus) {
-      const std::string key(k.str());
-      const std::string full = "modbus." + key;
-      if (key == "word_order") {
-        const auto s = v.value<std::string>();
-        if (s && *s == "big") {
-          out->swapped = false;
-        } else if (s && *s == "swapped") {
-          out->swapped = true;
-        } else {
-          return c.Fail(&v, full + ": expected \"big\" (high word first) or \"swapped\"");
-        }
-      } else if (key == "write_function") {
-        const auto n = v.value<std::int64_t>();
-        if (!n || (*n != 16 && *n != 6)) {
-          return c.Fail(&v, full + ": expected 16 (write multiple) or 6 (write single)");
-        }
-        out->write_function = static_cast<int>(*n);
-      } else if (key == "align32") {
-        const auto b = v.value<bool>();
-        if (!b) return c.Fail(&v, full + ": expected true or false");
-        out->align32 = *b;
-      } else if (key == "max_read") {
-        const auto n = v.value<std::int64_t>();
-        if (!n || *n < 1 || *n > kMaxReadRegisters) {
-          return c.Fail(&v, full + ": registers per read outside 1..125 (the Modbus limit)");
-        }
-        out->max_read = static_cast<int>(*n);
-        max_read_node = &v;
-      } else if (key != "inputs" && key != "outputs") {
-        return c.Fail(&v, full +
-                              ": unknown key (word_order, write_function, align32, max_read, "
-                              "inputs, outputs)");
-      }
-    }
-    (void)max_read_node;
-    // Roles, then the overlap of every register (bit) of a unit's table.
-    std::map<std::tuple<int, int, int>, std::string> owner;
-    const auto roles = [&](const char* section, const char* const* names, std::size_t count,
-                           ModbusPoint* points, bool output) {
-      const toml::node* node = modbus->get(section);
-      if (node == nullptr) return true;
-      const toml::table* t = node->as_table();
-      const std::string sec = std::string("modbus.") + section;
-      if (t == nullptr) return c.Fail(node, sec + ": expected a table");
-      // In file order (toml++ keeps keys sorted): an overlap names the later line.
-      std::vector<std::pair<std::string, const toml::node*>> in_order;
-      for (const auto& [k, v] : *t) in_order.emplace_back(std::string(k.str()), &v);
-      std::stable_sort(in_order.begin(), in_order.end(), [](const auto& a, const auto& b) {
-        return a.second->source().begin.line < b.second->source().begin.line;
-      });
-      for (const auto& [key, vp] : in_order) {
-        const toml::node& v = *vp;
-        std::size_t r = 0;
-        while (r < count && key != names[r]) ++r;
-        const std::string full = sec + "." + key;
-        if (r == count) {
-          std::string known;
-          for (std::size_t i = 0; i < count; ++i) known += (i ? ", " : "") + std::string(names[i]);
-          return c.Fail(&v, full + ": unknown role (" + known + ")");
-        }
-        // toml++ refuses a key twice in one table; a role is mapped once by construction.
-        ModbusPoint& pt = points[r];
-        if (!Point(c, v, full, output, &pt)) return false;
-        if (out->align32 && pt.count() == 2 && pt.address % 2 != 0) {
-          return c.Fail(&v, full + ": 32-bit value at odd address " + std::to_string(pt.address) +
-                                " (align32: the device needs even addresses)");
-        }
-        if (output && pt.count() == 2 && out->write_function == 6) {
-          return c.Fail(&v, full +
-                                ": a 32-bit value cannot be written with write_function 6 "
-                                "(one register per request); use 16");
-        }
-        for (int i = 0; i < pt.count(); ++i) {
-          const auto at = std::make_tuple(int{pt.unit}, static_cast<int>(pt.table), pt.address + i);
-          if (const auto it = owner.find(at); it != owner.end()) {
-            return c.Fail(&v, full + ": register " + std::to_string(pt.address + i) + " of unit " +
-                                  std::to_string(pt.unit) + " already carries " + it->second);
-          }
-          owner[at] = full;
-        }
-      }
-      return true;
-    };
-    if (!roles("inputs", kInNames, kNumCanIn, out->inputs.data(), false)) return false;
-    if (!roles("outputs", kOutNames, kNumModbusOut, out->outputs.data(), true)) return false;
     const bool single = out->write_function == 6;
     Group(out->inputs, ModbusProfile::kMaxGap, out->max_read, kMaxReadBits, false, false,
           &out->reads);
     Group(out->outputs, 0, kMaxWriteRegisters, kMaxWriteBits, single, true, &out->writes);
-    // The request carrying the command goes last (the harness takes it as the cycle's end).
-    ModbusPoint& cmd = out->outputs[static_cast<std::size_t>(ModbusOut::kCommand)];
-    if (cmd.mapped && cmd.request != static_cast<int>(out->writes.size()) - 1) {
-      const int from = cmd.request;
-      const ModbusRequest moved = out->writes[static_cast<std::size_t>(from)];
-      out->writes.erase(out->writes.begin() + from);
-      out->writes.push_back(moved);
-      for (auto& pt : out->outputs) {
-        if (!pt.mapped) continue;
-        if (pt.request == from) {
-          pt.request = static_cast<int>(out->writes.size()) - 1;
-        } else if (pt.request > from) {
-          --pt.request;
-        }
-      }
-    }
+    PutCommandLast(out);
   } catch (const std::exception& e) {
     *error = path + ": " + e.what();
     return false;
