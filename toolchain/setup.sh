@@ -8,6 +8,15 @@
 # libgpiod) are also brought up to the newest version the archive offers (security updates).
 # Every failure prints one line, "setup: error: what failed; what to do", and exits non-zero.
 set -euo pipefail
+case "${1:-}" in
+  -h | --help)
+    sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'
+    echo "Usage: toolchain/setup.sh   (no arguments; toolchain/build.sh and test.sh run it)"
+    exit 0
+    ;;
+  "") ;;
+  *) echo "setup: error: unknown argument '$1' (try --help)" >&2; exit 2 ;;
+esac
 
 packages=(
   build-essential cmake ninja-build pkg-config clang
