@@ -10,25 +10,13 @@
 #include <utility>
 #include <vector>
 
-#include "mrd/host/candidate_spec.hpp"
-#include "mrd/host/sem.hpp"
-#include "sem/engine/engine.hpp"
 #include "sem/search/search.hpp"
-#include "sem_test_util.hpp"
+#include "sem_engine_fixture.hpp"
 
 namespace mrd::host::internal {
 namespace {
 
-struct Fixture {
-  SemSpec spec = LoadSemSpec(std::string(MRD_SOURCE_DIR) + "/host/specs/paper.toml");
-  std::vector<DataSet> data{test::DamperData("identification", 4001)};
-  std::vector<ChannelInfo> ch = ComputeScales(spec, data);
-  Engine eng{spec, data, ch, 2};
-  Fixture() {
-    for (const SemTerm& t : GenerateCandidates(spec)) eng.AddCandidate(t);
-    eng.PrepareCandidates();
-  }
-};
+using Fixture = PaperEngineFixture;
 
 struct Outcome {
   Trial trial;
