@@ -16,7 +16,8 @@
 // 4 lanes) run in lockstep: u_i(k) is loaded once for all lanes, the recursion and the sums
 // have 16 independent chains, a 4 x 4 transpose turns per-candidate columns into lanes, and a
 // sweep serves a work item's jobs (up to kSweep = 256 in best improvement, kRound / threads in
-// first improvement: host/src/sem/search/search.cpp). Profile of the result (perf, 1 thread): lane sums ~22 %, extras ~20 %, Gram ~14 %, recursion ~12 %.
+// first improvement: host/src/sem/search/search.cpp). Profile of the result (perf, 1 thread): lane
+// sums ~22 %, extras ~20 %, Gram ~14 %, recursion ~12 %.
 //
 // Each job's arithmetic is exactly the sequence of the scalar reference (same operations in
 // the same order, no FMA), so every J, coefficient and decision is bit for bit the same on
