@@ -8,11 +8,13 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
+#include "sem/spec/spec_table.hpp"
 
 namespace mrd::host {
 namespace {
@@ -82,51 +84,48 @@ json SpecToJson(const SemSpec& s) {
   return out;
 }
 
-// The spec is stored in the same shape as the TOML; rebuild it through the TOML parser so
-// that both go through one validation. Values are written with full precision.
-std::string JsonValueToToml(const json& v, const std::string& key, const std::string& path) {
-  if (v.is_string()) return json(v.get<std::string>()).dump();  // JSON escapes are TOML-valid
-  if (v.is_boolean()) return v.get<bool>() ? "true" : "false";
-  if (v.is_number_integer()) return std::to_string(v.get<long long>());
-  if (v.is_number()) return fmt::format("{:.17g}", v.get<double>());
+// The spec is stored in the same shape as the TOML: the JSON becomes a TOML table in memory
+// (no text in between, so values keep full precision) and goes through the spec file's own
+// validation (SemSpecFromTable).
+std::unique_ptr<toml::node> JsonToToml(const json& v, const std::string& key,
+                                       const std::string& path) {
+  if (v.is_string()) return std::make_unique<toml::value<std::string>>(v.get<std::string>());
+  if (v.is_boolean()) return std::make_unique<toml::value<bool>>(v.get<bool>());
+  if (v.is_number_unsigned() &&
+      v.get<std::uint64_t>() >
+          static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
+    throw InputError(path, 0, fmt::format("spec: '{}' = {} is too large", key, v.dump()));
+  }
+  if (v.is_number_integer())
+    return std::make_unique<toml::value<std::int64_t>>(v.get<std::int64_t>());
+  if (v.is_number()) return std::make_unique<toml::value<double>>(v.get<double>());
   if (v.is_array()) {
-    std::string s = "[";
-    for (std::size_t i = 0; i < v.size(); ++i) {
-      s += (i ? ", " : "") + JsonValueToToml(v[i], key, path);
-    }
-    return s + "]";
+    auto arr = std::make_unique<toml::array>();
+    for (const auto& e : v) arr->push_back(std::move(*JsonToToml(e, key, path)));
+    return arr;
+  }
+  if (v.is_object()) {
+    auto tbl = std::make_unique<toml::table>();
+    for (const auto& [k, e] : v.items())
+      tbl->insert(k, std::move(*JsonToToml(e, key + "." + k, path)));
+    return tbl;
   }
   throw InputError(path, 0,
-                   fmt::format("spec: '{}' is {}, expected a number, string, boolean "
-                               "or array",
+                   fmt::format("spec: '{}' is {}, expected a number, string, boolean, array or "
+                               "table",
                                key, v.type_name()));
 }
 
 SemSpec SpecFromJson(const json& j, const std::string& path) {
-  std::string toml;
-  for (const auto& [k, v] : j.items()) {
-    if (!v.is_object() && !(v.is_array() && k == "regressor")) {
-      toml += k + " = " + JsonValueToToml(v, k, path) + "\n";
-    }
+  if (!j.is_object()) {
+    throw InputError(
+        path, 0,
+        fmt::format("bad spec in model file: 'spec' must be an object, found {}", j.type_name()));
   }
-  for (const auto& [k, v] : j.items()) {
-    if (v.is_object()) {
-      toml += "[" + k + "]\n";
-      for (const auto& [kk, vv] : v.items()) {
-        toml += kk + " = " + JsonValueToToml(vv, k + "." + kk, path) + "\n";
-      }
-    }
-  }
-  if (j.contains("regressor")) {
-    for (const auto& r : j.at("regressor")) {
-      toml += "[[regressor]]\n";
-      for (const auto& [kk, vv] : r.items()) {
-        toml += kk + " = " + JsonValueToToml(vv, "regressor." + kk, path) + "\n";
-      }
-    }
-  }
+  toml::table tbl;
+  for (const auto& [k, v] : j.items()) tbl.insert(k, std::move(*JsonToToml(v, k, path)));
   try {
-    return ParseSemSpec(toml, path);
+    return SemSpecFromTable(tbl, path);
   } catch (const InputError& e) {
     throw InputError(path, 0, fmt::format("bad spec in model file: {}", e.what()));
   }

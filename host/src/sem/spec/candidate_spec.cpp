@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "mrd/host/input_error.hpp"
+#include "spec_table.hpp"
 
 namespace mrd::host {
 namespace {
@@ -500,6 +501,10 @@ SemSpec ParseSemSpec(const std::string& text, const std::string& path) {
   } catch (const toml::parse_error& e) {
     throw InputError(path, e.source().begin.line, std::string(e.description()));
   }
+  return SemSpecFromTable(tbl, path);
+}
+
+SemSpec SemSpecFromTable(const toml::table& tbl, const std::string& path) {
   SemSpec s;
   s.path = path;
   for (const auto& [key, node] : tbl) {
