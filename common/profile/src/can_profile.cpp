@@ -12,6 +12,7 @@
 #include "canopen_section.hpp"
 #include "command_section.hpp"
 #include "file_text.hpp"
+#include "profile_context.hpp"
 
 namespace mrd::profile {
 namespace {
@@ -45,23 +46,8 @@ constexpr const char* kCanOutNames[kNumCanOut] = {"command",
                                                   "status_demand",
                                                   "status_command"};
 
-struct Ctx {
-  const std::string& path;
-  std::string* error;
-  bool Fail(const toml::node* at, const std::string& why) const {
-    const int line = at != nullptr ? static_cast<int>(at->source().begin.line) : 0;
-    *error = path + ":" + std::to_string(line) + ": " + why;
-    return false;
-  }
-};
-
-std::string Directory(const std::string& path) {
-  const auto slash = path.rfind('/');
-  return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
-}
-
 // "Message.Signal" -> indices in the DBC.
-bool Resolve(const Ctx& c, const toml::node& n, const std::string& key, const Dbc& dbc,
+bool Resolve(const ProfileContext& c, const toml::node& n, const std::string& key, const Dbc& dbc,
              SignalRef* out) {
   const auto v = n.value<std::string>();
   if (!v) return c.Fail(&n, key + ": expected \"Message.Signal\" (a string)");
@@ -89,15 +75,15 @@ int SignalIndex(const DbcMessage& m, std::string_view name) {
   return -1;
 }
 
-bool Byte(const Ctx& c, const toml::node& n, const std::string& key, std::uint8_t* out) {
+bool Byte(const ProfileContext& c, const toml::node& n, const std::string& key, std::uint8_t* out) {
   const auto v = n.value<std::int64_t>();
   if (!v || *v < 0 || *v > 255) return c.Fail(&n, key + ": expected an integer 0..255");
   *out = static_cast<std::uint8_t>(*v);
   return true;
 }
 
-bool Millis(const Ctx& c, const toml::node& n, const std::string& key, double lo, double hi,
-            std::int64_t* out_ns) {
+bool Millis(const ProfileContext& c, const toml::node& n, const std::string& key, double lo,
+            double hi, std::int64_t* out_ns) {
   const auto v = n.value<double>();
   if (!v || !std::isfinite(*v) || *v < lo || *v > hi) {
     return c.Fail(&n, key + ": expected milliseconds in [" + std::to_string(lo) + ", " +
@@ -107,7 +93,8 @@ bool Millis(const Ctx& c, const toml::node& n, const std::string& key, double lo
   return true;
 }
 
-bool Message(const Ctx& c, const toml::table& t, const std::string& name, CanProfile* p) {
+bool Message(const ProfileContext& c, const toml::table& t, const std::string& name,
+             CanProfile* p) {
   const Dbc& dbc = p->dbc;
   int index = -1;
   for (std::size_t m = 0; m < dbc.messages.size(); ++m) {
@@ -185,7 +172,7 @@ bool Message(const Ctx& c, const toml::table& t, const std::string& name, CanPro
 }
 
 // [command]: unit, calibration (a CSV relative to the profile), min, max, slew_per_s.
-bool Command(const Ctx& c, const toml::table& t, const std::string& dir, CanProfile* p) {
+bool Command(const ProfileContext& c, const toml::table& t, const std::string& dir, CanProfile* p) {
   CommandSection cmd{p->command_unit, -1e300, 1e300, 0.0};
   const toml::node* bad = nullptr;
   std::string reason;
@@ -242,15 +229,9 @@ bool ParseCanProfile(const std::string& text, const std::string& path, const std
                      CanProfile* out, std::string* error) {
   *out = CanProfile{};
   out->path = path;
-  const Ctx c{path, error};
+  const ProfileContext c{path, error};
   toml::table root;
-  try {
-    root = toml::parse(text, path);
-  } catch (const toml::parse_error& e) {
-    *error =
-        path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
-    return false;
-  }
+  if (!ParseProfileToml(text, path, &root, error)) return false;
   try {
     // The DBC first: every other key refers to it.
     const toml::node* dbc_node = root.get("dbc");
@@ -264,7 +245,8 @@ bool ParseCanProfile(const std::string& text, const std::string& path, const std
     if (dbc_text != nullptr) {
       if (!ParseDbc(*dbc_text, dbc_path, &out->dbc, error)) return false;
     } else {
-      if (dbc_path.empty() || dbc_path[0] != '/') dbc_path = Directory(path) + "/" + dbc_path;
+      if (dbc_path.empty() || dbc_path[0] != '/')
+        dbc_path = ProfileDirectory(path) + "/" + dbc_path;
       if (!LoadDbc(dbc_path, &out->dbc, error)) return false;
     }
     if (out->dbc.messages.size() > 64) {
@@ -330,7 +312,7 @@ bool ParseCanProfile(const std::string& text, const std::string& path, const std
       } else if (key == "command") {
         const toml::table* t = v.as_table();
         if (t == nullptr) return c.Fail(&v, "command: expected a table");
-        if (!Command(c, *t, dbc_text != nullptr ? std::string(".") : Directory(path), out)) {
+        if (!Command(c, *t, dbc_text != nullptr ? std::string(".") : ProfileDirectory(path), out)) {
           return false;
         }
       } else if (key == "canopen") {

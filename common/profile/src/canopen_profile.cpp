@@ -8,20 +8,12 @@
 
 #include "canopen_section.hpp"
 #include "mrd/profile/canopen_codec.hpp"
+#include "profile_context.hpp"
 
 namespace mrd::profile {
 namespace {
 
-struct Ctx {
-  const std::string& path;
-  std::string* error;
-  bool Fail(const toml::node& at, const std::string& why) const {
-    *error = path + ":" + std::to_string(at.source().begin.line) + ": " + why;
-    return false;
-  }
-};
-
-bool Integer(const Ctx& c, const toml::node& n, const std::string& key, std::int64_t lo,
+bool Integer(const ProfileContext& c, const toml::node& n, const std::string& key, std::int64_t lo,
              std::int64_t hi, std::int64_t* out) {
   const auto v = n.value_exact<std::int64_t>();
   if (!v || *v < lo || *v > hi) {
@@ -32,7 +24,7 @@ bool Integer(const Ctx& c, const toml::node& n, const std::string& key, std::int
   return true;
 }
 
-bool Node(const Ctx& c, const toml::node& n, const std::string& key, int* out) {
+bool Node(const ProfileContext& c, const toml::node& n, const std::string& key, int* out) {
   std::int64_t v = 0;
   if (!Integer(c, n, key, 1, 127, &v)) return false;
   *out = static_cast<int>(v);
@@ -40,7 +32,7 @@ bool Node(const Ctx& c, const toml::node& n, const std::string& key, int* out) {
 }
 
 // One [[canopen.sdo]] entry.
-bool Sdo(const Ctx& c, const toml::table& t, SdoDownload* s) {
+bool Sdo(const ProfileContext& c, const toml::table& t, SdoDownload* s) {
   s->line = static_cast<int>(t.source().begin.line);
   bool has_index = false, has_value = false;
   std::int64_t v = 0;
@@ -141,7 +133,7 @@ std::string SdoRefusalMessage(const SdoDownload& sdo, std::uint32_t abort_code) 
 
 bool ParseCanopenSection(const toml::table& t, const std::string& path, CanProfile* p,
                          std::string* error) {
-  const Ctx c{path, error};
+  const ProfileContext c{path, error};
   CanopenConfig co;
   bool has_node = false, has_own = false;
   std::int64_t v = 0;

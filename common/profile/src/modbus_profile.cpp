@@ -11,6 +11,7 @@
 
 #include "command_section.hpp"
 #include "file_text.hpp"
+#include "profile_context.hpp"
 
 namespace mrd::profile {
 namespace {
@@ -48,21 +49,6 @@ constexpr int kMaxReadBits = 2000;       // 0x01 / 0x02
 constexpr int kMaxWriteRegisters = 123;  // 0x10
 constexpr int kMaxWriteBits = 1968;      // 0x0F
 
-struct Ctx {
-  const std::string& path;
-  std::string* error;
-  bool Fail(const toml::node* at, const std::string& why) const {
-    const int line = at != nullptr ? static_cast<int>(at->source().begin.line) : 1;
-    *error = path + ":" + std::to_string(line) + ": " + why;
-    return false;
-  }
-};
-
-std::string Directory(const std::string& path) {
-  const auto slash = path.rfind('/');
-  return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
-}
-
 bool IsBit(ModbusTable t) { return t == ModbusTable::kCoil || t == ModbusTable::kDiscrete; }
 
 std::uint8_t ReadFunction(ModbusTable t) {
@@ -80,7 +66,7 @@ std::uint8_t ReadFunction(ModbusTable t) {
 }
 
 // One role's inline table: { unit, table, address, type, scale, offset }.
-bool Point(const Ctx& c, const toml::node& n, const std::string& full, bool output,
+bool Point(const ProfileContext& c, const toml::node& n, const std::string& full, bool output,
            ModbusPoint* pt) {
   const toml::table* t = n.as_table();
   if (t == nullptr) {
@@ -166,7 +152,8 @@ bool Point(const Ctx& c, const toml::node& n, const std::string& full, bool outp
 }
 
 // [command]: unit, calibration (a CSV relative to the profile), min, max, slew_per_s.
-bool Command(const Ctx& c, const toml::table& t, const std::string& dir, ModbusProfile* p) {
+bool Command(const ProfileContext& c, const toml::table& t, const std::string& dir,
+             ModbusProfile* p) {
   CommandSection cmd{p->command_unit, -1e300, 1e300, 0.0};
   const toml::node* bad = nullptr;
   std::string reason;
@@ -244,7 +231,7 @@ bool IsModbusProfileFile(const std::string& path) {
 namespace {
 
 // Top-level keys (name, description, command; [modbus] is read by ReadModbusKeys).
-bool ReadTopLevel(const Ctx& c, const toml::table& root, const std::string& path,
+bool ReadTopLevel(const ProfileContext& c, const toml::table& root, const std::string& path,
                   ModbusProfile* out) {
   for (const auto& [k, v] : root) {
     const std::string key(k.str());
@@ -257,7 +244,7 @@ bool ReadTopLevel(const Ctx& c, const toml::table& root, const std::string& path
     } else if (key == "command") {
       const toml::table* t = v.as_table();
       if (t == nullptr) return c.Fail(&v, "command: expected a table");
-      if (!Command(c, *t, Directory(path), out)) return false;
+      if (!Command(c, *t, ProfileDirectory(path), out)) return false;
     } else if (key != "modbus") {
       return c.Fail(&v, key + ": unknown key (name, description, modbus, command)");
     }
@@ -270,7 +257,7 @@ bool ReadTopLevel(const Ctx& c, const toml::table& root, const std::string& path
 }
 
 // The [modbus] table's own keys (the inputs and outputs tables: ReadRoles).
-bool ReadModbusKeys(const Ctx& c, const toml::table& modbus, ModbusProfile* out) {
+bool ReadModbusKeys(const ProfileContext& c, const toml::table& modbus, ModbusProfile* out) {
   for (const auto& [k, v] : modbus) {
     const std::string key(k.str());
     const std::string full = "modbus." + key;
@@ -313,7 +300,7 @@ using RegisterOwners = std::map<std::tuple<int, int, int>, std::string>;
 
 // One roles table (modbus.inputs or modbus.outputs), in file order (toml++ keeps keys sorted):
 // an overlap names the later line.
-bool ReadRoles(const Ctx& c, const toml::table& modbus, const char* section,
+bool ReadRoles(const ProfileContext& c, const toml::table& modbus, const char* section,
                const char* const* names, std::size_t count, ModbusPoint* points, bool output,
                const ModbusProfile& profile, RegisterOwners* owner) {
   const toml::node* node = modbus.get(section);
@@ -384,15 +371,9 @@ bool ParseModbusProfile(const std::string& text, const std::string& path, Modbus
                         std::string* error) {
   *out = ModbusProfile{};
   out->path = path;
-  const Ctx c{path, error};
+  const ProfileContext c{path, error};
   toml::table root;
-  try {
-    root = toml::parse(text, path);
-  } catch (const toml::parse_error& e) {
-    *error =
-        path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
-    return false;
-  }
+  if (!ParseProfileToml(text, path, &root, error)) return false;
   try {
     const toml::node* modbus_node = root.get("modbus");
     const toml::table* modbus = modbus_node != nullptr ? modbus_node->as_table() : nullptr;

@@ -9,26 +9,12 @@
 
 #include "command_section.hpp"
 #include "file_text.hpp"
+#include "profile_context.hpp"
 
 namespace mrd::profile {
 namespace {
 
-struct Ctx {
-  const std::string& path;
-  std::string* error;
-  bool Fail(const toml::node* at, const std::string& why) const {
-    const int line = at != nullptr ? static_cast<int>(at->source().begin.line) : 1;
-    *error = path + ":" + std::to_string(line) + ": " + why;
-    return false;
-  }
-};
-
-std::string Directory(const std::string& path) {
-  const auto slash = path.rfind('/');
-  return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
-}
-
-bool Fraction(const Ctx& c, const toml::node& v, const std::string& key, double* out) {
+bool Fraction(const ProfileContext& c, const toml::node& v, const std::string& key, double* out) {
   const auto d = v.value<double>();
   if (!d || !std::isfinite(*d) || *d < 0.0 || *d > 1.0) {
     return c.Fail(&v, key + ": expected a duty fraction in [0, 1]");
@@ -37,7 +23,7 @@ bool Fraction(const Ctx& c, const toml::node& v, const std::string& key, double*
   return true;
 }
 
-bool Pwm(const Ctx& c, const toml::table& t, PwmProfile* p) {
+bool Pwm(const ProfileContext& c, const toml::table& t, PwmProfile* p) {
   for (const auto& [k, v] : t) {
     const std::string key(k.str());
     const std::string full = "pwm." + key;
@@ -72,7 +58,8 @@ bool Pwm(const Ctx& c, const toml::table& t, PwmProfile* p) {
 
 // [command] as can_profile.cpp reads it, with min and max required: they are the driver's
 // input range the duty range stands for.
-bool Command(const Ctx& c, const toml::node* node, const std::string& dir, PwmProfile* p) {
+bool Command(const ProfileContext& c, const toml::node* node, const std::string& dir,
+             PwmProfile* p) {
   const toml::table* t = node != nullptr ? node->as_table() : nullptr;
   if (t == nullptr) {
     return c.Fail(node,
@@ -128,16 +115,10 @@ bool ParsePwmProfile(const std::string& text, const std::string& path, PwmProfil
                      std::string* error) {
   *out = PwmProfile{};
   out->path = path;
-  const Ctx c{path, error};
+  const ProfileContext c{path, error};
   try {
     toml::table root;
-    try {
-      root = toml::parse(text, path);
-    } catch (const toml::parse_error& e) {
-      *error =
-          path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
-      return false;
-    }
+    if (!ParseProfileToml(text, path, &root, error)) return false;
     if (const auto name = root["name"].value<std::string>()) out->name = *name;
     const toml::node* pwm = root.get("pwm");
     if (pwm == nullptr)
@@ -146,7 +127,7 @@ bool ParsePwmProfile(const std::string& text, const std::string& path, PwmProfil
                     "min_duty, max_duty)");
     if (!pwm->is_table()) return c.Fail(pwm, "pwm: expected a table");
     if (!Pwm(c, *pwm->as_table(), out)) return false;
-    return Command(c, root.get("command"), Directory(path), out);
+    return Command(c, root.get("command"), ProfileDirectory(path), out);
   } catch (const std::exception& e) {
     *error = path + ": " + e.what();
     return false;
