@@ -14,12 +14,12 @@
 #include <string>
 #include <vector>
 
-#include "mrd/common/quarter_car.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/inverter.hpp"
 #include "mrd/firmware/model_runtime.hpp"
 #include "mrd/firmware/table_file.hpp"
+#include "mrd/sim/quarter_car.hpp"
 
 namespace {
 

@@ -2,7 +2,7 @@
 
 #include <utility>
 
-#include "mrd/common/reference_profiles.hpp"
+#include "mrd/sim/reference_profiles.hpp"
 
 namespace mrd::hil {
 

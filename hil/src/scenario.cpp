@@ -11,10 +11,10 @@
 #include <map>
 
 #include "mrd/common/input_file.hpp"
-#include "mrd/common/reference_profiles.hpp"
-#include "mrd/common/spencer_damper.hpp"
 #include "mrd/hil/model_plant.hpp"
 #include "mrd/hil/structure_plant.hpp"
+#include "mrd/sim/reference_profiles.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 #include "plant_params.hpp"
 #include "replay_scenario.hpp"
 #include "scenario_set.hpp"

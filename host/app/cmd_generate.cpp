@@ -28,7 +28,7 @@ void RunGenerate(const GenerateOptions& o) {
   const SpencerParams params =
       o.params_file.empty() ? SpencerPreset(o.preset) : LoadSpencerParams(o.params_file);
   const Excitation ex = MakeExcitation(o.profile, o.seed);
-  const std::vector<double> f = SimulateDamper(params, ex, o.substeps);
+  const std::vector<double> f = SimulateReferenceDamper(params, ex, o.substeps);
   const auto [fmin, fmax] = std::minmax_element(f.begin(), f.end());
   const auto [emin, emax] = std::minmax_element(ex.E.begin(), ex.E.end());
   const auto [vmin, vmax] = std::minmax_element(ex.v.begin(), ex.v.end());
@@ -47,9 +47,10 @@ void RegisterGenerate(CLI::App& app) {
       app.add_subcommand("generate",
                          "Simulate the Spencer reference damper on a reference profile; write CSV "
                          "t,x,v,E,f at 1 ms.");
-  cmd->add_option("--profile", o->profile, fmt::format("{}", fmt::join(ProfileNames(), " | ")))
+  cmd->add_option("--profile", o->profile,
+                  fmt::format("{}", fmt::join(ReferenceProfileNames(), " | ")))
       ->required()
-      ->check(CLI::IsMember(ProfileNames()));
+      ->check(CLI::IsMember(ReferenceProfileNames()));
   cmd->add_option("--seed", o->seed, "Seed of the random parts (deterministic)")
       ->capture_default_str();
   auto* preset = cmd->add_option("--preset", o->preset, "Damper parameters: paper | spencer1997")

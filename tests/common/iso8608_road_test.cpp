@@ -1,7 +1,7 @@
-// ISO 8608 road (common/include/mrd/common/iso8608_road.hpp): class levels, the realised
+// ISO 8608 road (common/sim/include/mrd/sim/iso8608_road.hpp): class levels, the realised
 // variance against the class's PSD integral, the slope variance (the w = 2 shape), the class
 // ratio, determinism from the seed.
-#include "mrd/common/iso8608_road.hpp"
+#include "mrd/sim/iso8608_road.hpp"
 
 #include <gtest/gtest.h>
 

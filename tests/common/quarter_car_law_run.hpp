@@ -7,9 +7,9 @@
 #include <cmath>
 #include <cstdint>
 
-#include "mrd/common/quarter_car.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "mrd/sim/quarter_car.hpp"
 
 namespace mrd::test {
 

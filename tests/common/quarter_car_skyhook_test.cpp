@@ -13,9 +13,9 @@
 #include <cmath>
 #include <cstdio>
 
-#include "mrd/common/quarter_car.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "mrd/sim/quarter_car.hpp"
 #include "quarter_car_law_run.hpp"
 
 namespace mrd {

@@ -1,7 +1,7 @@
-// Quarter car (common/include/mrd/common/quarter_car.hpp): equilibrium, outputs, voltage
+// Quarter car (common/sim/include/mrd/sim/quarter_car.hpp): equilibrium, outputs, voltage
 // handling, integration convergence, determinism, stroke on class C, lift-off, no allocation.
 // This executable replaces operator new to count allocations.
-#include "mrd/common/quarter_car.hpp"
+#include "mrd/sim/quarter_car.hpp"
 
 #include <gtest/gtest.h>
 

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "mrd/common/spencer_damper.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 
 namespace mrd {
 namespace {

@@ -8,8 +8,8 @@
 #include <numbers>
 #include <vector>
 
-#include "mrd/common/spencer_damper.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 #include "support/demo_model.hpp"
 
 namespace mrd::firmware {

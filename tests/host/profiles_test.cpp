@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace mrd::host {
 namespace {
@@ -27,7 +29,7 @@ TEST(ProfilesTest, IdentificationCoversVoltageRangeAndVelocity) {
 }
 
 TEST(ProfilesTest, VelocityIsTheDerivativeOfDisplacement) {
-  for (const std::string& name : ProfileNames()) {
+  for (const std::string& name : ReferenceProfileNames()) {
     const Excitation ex = MakeExcitation(name, 7);
     // The trapezoidal integral of v reproduces x; ramp corners between samples cost
     // O(dt * jump) each, far below the tolerance, while a wrong derivative would not.
@@ -64,7 +66,7 @@ TEST(ProfilesTest, V3IsAtConstantFullVoltageWithPeakVelocity15) {
 
 TEST(ProfilesTest, IdentificationForceIsOfOrder1500N) {
   const Excitation ex = MakeExcitation("identification", 1);
-  const auto f = SimulateDamper(SpencerParams::Paper(), ex);
+  const auto f = SimulateReferenceDamper(SpencerParams::Paper(), ex);
   const auto [fmin, fmax] = std::minmax_element(f.begin(), f.end());
   EXPECT_GT(*fmax, 1000.0);
   EXPECT_LT(*fmax, 2200.0);
@@ -74,6 +76,16 @@ TEST(ProfilesTest, IdentificationForceIsOfOrder1500N) {
 
 TEST(ProfilesTest, UnknownProfileThrows) {
   EXPECT_THROW(MakeExcitation("v9", 1), std::invalid_argument);
+}
+
+// The list in the message is built from ReferenceProfileNames(); today's text, word for word.
+TEST(ProfilesTest, UnknownProfileNamesTheExpectedOnes) {
+  try {
+    MakeExcitation("v9", 1);
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "unknown profile 'v9' (expected identification, v1, v2, v3 or wide)");
+  }
 }
 
 }  // namespace

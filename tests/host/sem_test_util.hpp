@@ -36,7 +36,7 @@ inline host::DataSet DamperData(const std::string& profile, std::size_t rows = 0
                                 std::uint64_t seed = 1) {
   const SpencerParams p = host::SpencerPreset("paper");
   const host::Excitation ex = host::MakeExcitation(profile, seed);
-  const std::vector<double> f = host::SimulateDamper(p, ex, 100);
+  const std::vector<double> f = SimulateReferenceDamper(p, ex, 100);
   host::DataSet d = MakeDataSet(profile, {"x", "v", "E", "f"}, {ex.x, ex.v, ex.E, f});
   if (rows > 0 && rows < d.rows()) {
     for (auto& c : d.columns) c.resize(rows);

@@ -6,9 +6,9 @@
 #include <cmath>
 #include <string>
 
-#include "mrd/common/shear_frame.hpp"
 #include "mrd/firmware/clipped_optimal.hpp"
 #include "mrd/firmware/control_law.hpp"
+#include "mrd/sim/shear_frame.hpp"
 #include "mrd/structure/design.hpp"
 #include "mrd/structure/study.hpp"
 

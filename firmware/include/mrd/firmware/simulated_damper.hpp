@@ -1,5 +1,5 @@
 #pragma once
-// The dry-run plant: the reference damper plant (common/damper_plant.hpp, the one the HIL
+// The dry-run plant: the reference damper plant (mrd/sim/damper_plant.hpp, the one the HIL
 // harness serves) behind the same SensorSource and CurrentDriver interfaces as the bus
 // drivers, so the loop cannot tell them apart. The plant advances to the clock's time in whole
 // periods at each Read, with the last commanded voltage held (zero-order hold), and reports
@@ -7,8 +7,8 @@
 
 #include <cstdint>
 
-#include "mrd/common/damper_plant.hpp"
 #include "mrd/firmware/io.hpp"
+#include "mrd/sim/damper_plant.hpp"
 
 namespace mrd::firmware {
 

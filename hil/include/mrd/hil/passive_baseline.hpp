@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "mrd/common/iso2631_weighting.hpp"
-#include "mrd/common/quarter_car.hpp"
 #include "mrd/common/welch_psd.hpp"
+#include "mrd/sim/quarter_car.hpp"
 
 namespace mrd::hil {
 

@@ -1,18 +1,18 @@
 #pragma once
 // The plant a scenario drives, as the harness sees it: one Step(volts) per control period
-// (voltage held) -> the sample its sensors read. DamperPlant (common/) fits through an adapter;
-// a trace-driven damper plays a recorded excitation (CSV x, v[, demand]); the quarter car of
-// common/ (damper between body and wheel on an ISO 8608 road) plugs in the same way and adds its
-// ride figures through Ride() (body acceleration, suspension travel, tyre load).
+// (voltage held) -> the sample its sensors read. DamperPlant (common/sim/) fits through an
+// adapter; a trace-driven damper plays a recorded excitation (CSV x, v[, demand]); the quarter
+// car of common/sim/ (damper between body and wheel on an ISO 8608 road) plugs in the same way
+// and adds its ride figures through Ride() (body acceleration, suspension travel, tyre load).
 
 #include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include "mrd/common/damper_plant.hpp"
-#include "mrd/common/quarter_car.hpp"
-#include "mrd/common/shear_frame.hpp"
+#include "mrd/sim/damper_plant.hpp"
+#include "mrd/sim/quarter_car.hpp"
+#include "mrd/sim/shear_frame.hpp"
 
 namespace mrd::hil {
 

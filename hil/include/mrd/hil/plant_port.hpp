@@ -8,7 +8,7 @@
 #include <memory>
 #include <string>
 
-#include "mrd/common/damper_plant.hpp"
+#include "mrd/sim/damper_plant.hpp"
 
 namespace mrd::canbus {
 class LocalBusRelay;

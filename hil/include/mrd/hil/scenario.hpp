@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "mrd/common/damper_plant.hpp"
-#include "mrd/common/iso8608_road.hpp"
-#include "mrd/common/quarter_car.hpp"
+#include "mrd/sim/damper_plant.hpp"
+#include "mrd/sim/iso8608_road.hpp"
+#include "mrd/sim/quarter_car.hpp"
 
 namespace mrd::hil {
 
@@ -52,7 +52,7 @@ struct ScenarioGpio {
   bool any() const { return displacement || fault_line || enable || heartbeat; }
 };
 
-// kProfile: a reference profile of `mrd generate` (common/reference_profiles.hpp), generated
+// kProfile: a reference profile of `mrd generate` (mrd/sim/reference_profiles.hpp), generated
 // by the harness: motion x, v and the demand (the preset damper's force on it).
 enum class ExcitationKind : std::uint8_t { kPeriodic, kCsv, kProfile, kReplay };
 

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/common/damper_plant.hpp"
 #include "mrd/hil/plant_port.hpp"
+#include "mrd/sim/damper_plant.hpp"
 
 namespace mrd::hil {
 

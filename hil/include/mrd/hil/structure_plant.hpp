@@ -1,6 +1,6 @@
 #pragma once
 // The three-story structure as a harness plant ([plant] model = "structure"): the shear frame
-// of common/ (shear_frame.hpp, Dyke et al. 1996) with the Spencer damper between the ground and
+// of common/sim/ (shear_frame.hpp, Dyke et al. 1996) with the Spencer damper between the ground and
 // the first floor, excited by a ground-acceleration record (El Centro 1940 NS:
 // hil/data/el_centro_1940_ns.csv) played time_scale times faster at amplitude times its
 // level, linear between samples, still ground after its end. The same arithmetic as the
@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/common/shear_frame.hpp"
 #include "mrd/hil/plant.hpp"
+#include "mrd/sim/shear_frame.hpp"
 
 namespace mrd::hil {
 

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "mrd/common/shear_frame.hpp"
+#include "mrd/sim/shear_frame.hpp"
 
 namespace mrd::hil {
 

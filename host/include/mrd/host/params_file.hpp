@@ -9,7 +9,7 @@
 
 #include <string>
 
-#include "mrd/common/spencer_damper.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 
 namespace mrd::host {
 

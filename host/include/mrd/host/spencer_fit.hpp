@@ -2,11 +2,11 @@
 // Fits the Spencer et al. 1997 phenomenological model (all 14 parameters, bounded) to measured
 // damper data by nonlinear least squares (Ceres Solver, trust-region Levenberg-Marquardt,
 // exact Jacobians of the simulator by forward sensitivities, host/src/spencer_sensitivity.hpp). The
-// simulator is the harness's plant: SpencerDamper (common/) stepped one sample at a time with RK4
-// sub-steps, the measured x and v interpolated as TracePlant does, the measured E of the interval's
-// end held over it (as `mrd generate` and the harness's replay hold it; clamped to [0, e_max] as
-// the firmware clamps it), started at rest at the first row with u = 0 V. Residual: simulated -
-// measured force [N] at every sample.
+// simulator is the harness's plant: SpencerDamper (common/sim/) stepped one sample at a time with
+// RK4 sub-steps, the measured x and v interpolated as TracePlant does, the measured E of the
+// interval's end held over it (as `mrd generate` and the harness's replay hold it; clamped to [0,
+// e_max] as the firmware clamps it), started at rest at the first row with u = 0 V. Residual:
+// simulated - measured force [N] at every sample.
 //
 // Multi-start: the presets paper and spencer1997 plus a deterministic scatter of starts
 // (log-uniform around spencer1997, seed); each start is fitted on a search window (the first
@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "mrd/common/spencer_damper.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 
 namespace mrd::host {
 

@@ -12,7 +12,7 @@
 #include <cstddef>
 #include <string>
 
-#include "mrd/common/spencer_damper.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 
 namespace mrd::params {
 

@@ -7,8 +7,8 @@
 #include <array>
 #include <string>
 
-#include "mrd/common/shear_frame.hpp"
 #include "mrd/firmware/clipped_optimal.hpp"
+#include "mrd/sim/shear_frame.hpp"
 
 namespace mrd::structure {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "mrd/common/shear_frame.hpp"
+#include "mrd/sim/shear_frame.hpp"
 #include "mrd/structure/design.hpp"
 
 namespace mrd::structure {

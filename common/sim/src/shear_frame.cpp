@@ -1,4 +1,4 @@
-#include "mrd/common/shear_frame.hpp"
+#include "mrd/sim/shear_frame.hpp"
 
 #include <cmath>
 

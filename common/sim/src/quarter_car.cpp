@@ -11,7 +11,7 @@
 //   small inputs (a harsh passive car). Without the ratio (r = 1) the 0 V damper alone is
 //   already zeta ~0.39 and there is little left for a semi-active law to win on comfort.
 //   Travel on class C at 20 m/s stays within a few cm (the tests check the peak).
-#include "mrd/common/quarter_car.hpp"
+#include "mrd/sim/quarter_car.hpp"
 
 #include <cmath>
 

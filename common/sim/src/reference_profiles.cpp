@@ -1,4 +1,4 @@
-#include "mrd/common/reference_profiles.hpp"
+#include "mrd/sim/reference_profiles.hpp"
 
 #include <algorithm>
 #include <cmath>

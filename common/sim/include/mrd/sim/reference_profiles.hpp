@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "mrd/common/spencer_damper.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 
 namespace mrd {
 

@@ -1,4 +1,4 @@
-#include "mrd/common/iso8608_road.hpp"
+#include "mrd/sim/iso8608_road.hpp"
 
 #include <cmath>
 #include <numbers>

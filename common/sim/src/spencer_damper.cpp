@@ -1,4 +1,4 @@
-#include "mrd/common/spencer_damper.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 
 #include <cmath>
 

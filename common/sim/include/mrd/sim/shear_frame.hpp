@@ -15,7 +15,7 @@
 // Coupling: the 6 structural and 3 damper states (y, z, u) advance together in one RK4 step,
 // `substeps` per period; ag is linear between the period's ends and E is held.
 
-#include "mrd/common/spencer_damper.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 
 namespace mrd {
 

@@ -18,7 +18,7 @@
 
 #include <cstdint>
 
-#include "mrd/common/spencer_damper.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 
 namespace mrd {
 

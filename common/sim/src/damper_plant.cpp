@@ -1,4 +1,4 @@
-#include "mrd/common/damper_plant.hpp"
+#include "mrd/sim/damper_plant.hpp"
 
 #include <cmath>
 #include <numbers>

@@ -25,9 +25,9 @@
 
 #include <cstdint>
 
-#include "mrd/common/damper_plant.hpp"
-#include "mrd/common/iso8608_road.hpp"
-#include "mrd/common/spencer_damper.hpp"
+#include "mrd/sim/damper_plant.hpp"
+#include "mrd/sim/iso8608_road.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 
 namespace mrd {
 
