@@ -8,12 +8,12 @@ bool FieldbusIo::Add(BusDevice* device) {
   return true;
 }
 
-IoStatus FieldbusIo::Read(SensorFrame* frame) {
+IoStatus FieldbusIo::Read(const IoTime& t, SensorFrame* frame) {
   bool any_data = false;
   bool any_fault = false;
   for (std::size_t i = 0; i < count_; ++i) {
     IoError why = IoError::kNone;
-    const IoStatus s = devices_[i]->Read(frame, &why);
+    const IoStatus s = devices_[i]->Read(t, frame, &why);
     if (s == IoStatus::kFault) {
       any_fault = true;
       frame->bus_faults |= Watchdog::Bit(devices_[i]->fault_cause());
@@ -25,25 +25,25 @@ IoStatus FieldbusIo::Read(SensorFrame* frame) {
   return any_data ? IoStatus::kOk : IoStatus::kNoData;
 }
 
-IoStatus FieldbusIo::Write(const DriverCommand& cmd) {
+IoStatus FieldbusIo::Write(const IoTime& t, const DriverCommand& cmd) {
   bool fault = false;
   for (std::size_t i = 0; i < count_; ++i) {
     IoError why = IoError::kNone;
-    if (devices_[i]->Write(cmd, &why) == IoStatus::kFault) fault = true;
+    if (devices_[i]->Write(t, cmd, &why) == IoStatus::kFault) fault = true;
   }
   return fault ? IoStatus::kFault : IoStatus::kOk;
 }
 
-IoStatus FieldbusIo::Command(double volts) {
-  return Write({volts, /*enable=*/true, /*safe=*/false, tick_++});
+IoStatus FieldbusIo::Command(const IoTime& t, double volts) {
+  return Write(t, {volts, /*enable=*/true, /*safe=*/false, tick_++});
 }
 
-IoStatus FieldbusIo::EnterSafeState(double safe_volts) {
-  return Write({safe_volts, /*enable=*/false, /*safe=*/true, tick_++});
+IoStatus FieldbusIo::EnterSafeState(const IoTime& t, double safe_volts) {
+  return Write(t, {safe_volts, /*enable=*/false, /*safe=*/true, tick_++});
 }
 
-void FieldbusIo::PublishStatus(const TelemetrySnapshot& stats) {
-  for (std::size_t i = 0; i < count_; ++i) devices_[i]->PublishStatus(stats);
+void FieldbusIo::PublishStatus(const IoTime& t, const TelemetrySnapshot& stats) {
+  for (std::size_t i = 0; i < count_; ++i) devices_[i]->PublishStatus(t, stats);
 }
 
 }  // namespace mrd::firmware

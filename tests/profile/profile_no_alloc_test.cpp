@@ -5,6 +5,13 @@
 // its counters and checksums by the test, as the driver and sensors would), rejected frames, a
 // silent stretch, the set-point through the profile's command map. This executable replaces
 // the allocator (alloc_counter.hpp). Labels profile, fieldbus.
+//
+// The periods run on simulated time handed in (Loop::Tick(IoTime)), not on the wall clock: a
+// loaded machine cannot delay a period, so every period runs its schedules (status every
+// period, heartbeat) and the frame counts are exact. The simulated time lies in the past of
+// CLOCK_MONOTONIC and the test's frames carry their send time as the bus's stamp
+// (LocalBusPacket), so the device's receive stamps are simulated time too (a receive stamp is
+// never later than the packet's).
 #include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -15,6 +22,8 @@
 #include <memory>
 #include <string>
 
+#include "mrd/canbus/can_iface.hpp"
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/io/can_device.hpp"
@@ -77,14 +86,17 @@ void LoopPeriodsAllocateNothing(const char* file) {
   Controller controller;
   ASSERT_EQ(controller.Configure(test::DemoDamperTable(), {}), Error::kOk);
   Telemetry telemetry;
-  MonotonicClock clock;
+  // Simulated time, a minute behind CLOCK_MONOTONIC (every real stamp is later).
+  const std::int64_t start = common::MonotonicNs() - 60'000'000'000;
+  LockstepClock clock(start);
   Loop loop(clock, io, io, controller, telemetry, kPeriod);
 
   // The test's side of the bus: its own codec on the same profile.
   profile::FrameCodec peer_codec(*p);
   const int motion = in(CanIn::kVelocity).message, demand = in(CanIn::kDemand).message;
   const int command = out(CanOut::kCommand).message;
-  const auto send = [&](int m, double v, double x, double f, int k) {
+  // Sent at simulated time t_ns: the packet's bus stamp.
+  const auto send = [&](int m, double v, double x, double f, int k, std::int64_t t_ns) {
     can_frame frame{};
     peer_codec.Begin(m, &frame);
     if (m == motion) {
@@ -98,7 +110,8 @@ void LoopPeriodsAllocateNothing(const char* file) {
     }
     if (m == demand) (void)peer_codec.Set(&frame, in(CanIn::kDemand), f);
     peer_codec.Seal(m, &frame);
-    (void)write(peer, &frame, sizeof frame);
+    const canbus::LocalBusPacket packet{frame, t_ns};
+    (void)write(peer, &packet, sizeof packet);
     return frame;
   };
 
@@ -107,13 +120,14 @@ void LoopPeriodsAllocateNothing(const char* file) {
   test::AllocationGuard guard;
   std::int64_t deadline = clock.Now();
   for (int k = 0; k < kPeriods; ++k) {
-    const bool silent = k >= 300 && k < 350;  // sensors stop: stale data
+    const bool silent = k >= 300 && k < 350;           // sensors stop: stale data
+    const std::int64_t sent = deadline + kPeriod / 2;  // mid-period
     if (!silent) {
       const double t = k * 1e-3;
       const double v = 12.0 * std::cos(12.566 * t), x = std::sin(12.566 * t);
       const double f = 800.0 * std::tanh(6.0 * std::cos(12.566 * t));
-      can_frame last = send(motion, v, x, f, k);
-      if (demand != motion) last = send(demand, v, x, f, k);
+      can_frame last = send(motion, v, x, f, k, sent);
+      if (demand != motion) last = send(demand, v, x, f, k, sent);
       if (k == 500) {  // rejected: a repeated frame (counter or checksum), a wrong length
         (void)write(peer, &last, sizeof last);
         last.len = static_cast<__u8>(last.len == 1 ? 2 : 1);
@@ -121,8 +135,8 @@ void LoopPeriodsAllocateNothing(const char* file) {
       }
     }
     deadline += kPeriod;
-    clock.SleepUntil(deadline);
-    loop.Tick(clock.Now());
+    clock.SleepUntil(deadline);                   // simulated: no sleeping
+    loop.Tick(IoTime{clock.Now(), clock.Now()});  // one clock for the loop and the device
     can_frame f{};
     while (recv(peer, &f, sizeof f, MSG_DONTWAIT) > 0) {
       if (peer_codec.Find(f) >= 0 && (!command_on_can || peer_codec.Find(f) == command)) {
@@ -130,7 +144,7 @@ void LoopPeriodsAllocateNothing(const char* file) {
       }
     }
   }
-  loop.Shutdown();
+  loop.Shutdown(IoTime{clock.Now(), clock.Now()});
   EXPECT_EQ(guard.count(), 0U) << file;
   // The paths really ran.
   const DeviceCounters c = device.counters();

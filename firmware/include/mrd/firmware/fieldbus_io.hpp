@@ -22,16 +22,16 @@ class FieldbusIo final : public SensorSource, public CurrentDriver {
   // Devices are not owned and outlive this. false when more than kMaxDevices are added.
   bool Add(BusDevice* device);
 
-  IoStatus Read(SensorFrame* frame) override;
-  IoStatus Command(double volts) override;
-  IoStatus EnterSafeState(double safe_volts) override;
-  void PublishStatus(const TelemetrySnapshot& stats) override;
+  IoStatus Read(const IoTime& t, SensorFrame* frame) override;
+  IoStatus Command(const IoTime& t, double volts) override;
+  IoStatus EnterSafeState(const IoTime& t, double safe_volts) override;
+  void PublishStatus(const IoTime& t, const TelemetrySnapshot& stats) override;
 
   std::size_t size() const { return count_; }
   BusDevice* device(std::size_t i) const { return devices_[i]; }
 
  private:
-  IoStatus Write(const DriverCommand& cmd);
+  IoStatus Write(const IoTime& t, const DriverCommand& cmd);
 
   std::array<BusDevice*, kMaxDevices> devices_{};
   std::size_t count_ = 0;
