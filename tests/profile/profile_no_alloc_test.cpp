@@ -6,12 +6,13 @@
 // silent stretch, the set-point through the profile's command map. This executable replaces
 // the allocator (alloc_counter.hpp). Labels profile, fieldbus.
 //
-// The periods run on simulated time handed in (Loop::Tick(IoTime)), not on the wall clock: a
-// loaded machine cannot delay a period, so every period runs its schedules (status every
-// period, heartbeat) and the frame counts are exact. The simulated time lies in the past of
-// CLOCK_MONOTONIC and the test's frames carry their send time as the bus's stamp
-// (LocalBusPacket), so the device's receive stamps are simulated time too (a receive stamp is
-// never later than the packet's).
+// Each period runs at its exact deadline handed in (Loop::Tick(IoTime)), not at the time the
+// test wakes up: a loaded machine that wakes the test late cannot merge two periods into one
+// millisecond of wall time, so every period runs its schedules (the status every period, the
+// heartbeat) and the frame counts are exact. The test still sleeps until each deadline, so
+// CLOCK_MONOTONIC is never behind the handed-in time; its frames carry the previous period's
+// time as the bus's stamp (LocalBusPacket; a receive stamp is the earlier of the packet's and
+// the arrival's), so the device's sample stamps are the handed-in time too.
 #include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -23,7 +24,6 @@
 #include <string>
 
 #include "mrd/canbus/can_iface.hpp"
-#include "mrd/common/clock.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/io/can_device.hpp"
@@ -86,16 +86,14 @@ void LoopPeriodsAllocateNothing(const char* file) {
   Controller controller;
   ASSERT_EQ(controller.Configure(test::DemoDamperTable(), {}), Error::kOk);
   Telemetry telemetry;
-  // Simulated time, a minute behind CLOCK_MONOTONIC (every real stamp is later).
-  const std::int64_t start = common::MonotonicNs() - 60'000'000'000;
-  LockstepClock clock(start);
+  MonotonicClock clock;
   Loop loop(clock, io, io, controller, telemetry, kPeriod);
 
   // The test's side of the bus: its own codec on the same profile.
   profile::FrameCodec peer_codec(*p);
   const int motion = in(CanIn::kVelocity).message, demand = in(CanIn::kDemand).message;
   const int command = out(CanOut::kCommand).message;
-  // Sent at simulated time t_ns: the packet's bus stamp.
+  // Sent at t_ns (the packet's bus stamp; never later than CLOCK_MONOTONIC at the send).
   const auto send = [&](int m, double v, double x, double f, int k, std::int64_t t_ns) {
     can_frame frame{};
     peer_codec.Begin(m, &frame);
@@ -120,8 +118,8 @@ void LoopPeriodsAllocateNothing(const char* file) {
   test::AllocationGuard guard;
   std::int64_t deadline = clock.Now();
   for (int k = 0; k < kPeriods; ++k) {
-    const bool silent = k >= 300 && k < 350;           // sensors stop: stale data
-    const std::int64_t sent = deadline + kPeriod / 2;  // mid-period
+    const bool silent = k >= 300 && k < 350;  // sensors stop: stale data
+    const std::int64_t sent = deadline;       // the previous period's time: passed already
     if (!silent) {
       const double t = k * 1e-3;
       const double v = 12.0 * std::cos(12.566 * t), x = std::sin(12.566 * t);
@@ -135,8 +133,8 @@ void LoopPeriodsAllocateNothing(const char* file) {
       }
     }
     deadline += kPeriod;
-    clock.SleepUntil(deadline);                   // simulated: no sleeping
-    loop.Tick(IoTime{clock.Now(), clock.Now()});  // one clock for the loop and the device
+    clock.SleepUntil(deadline);             // CLOCK_MONOTONIC at least the period's time
+    loop.Tick(IoTime{deadline, deadline});  // the exact period time, however late the wake-up
     can_frame f{};
     while (recv(peer, &f, sizeof f, MSG_DONTWAIT) > 0) {
       if (peer_codec.Find(f) >= 0 && (!command_on_can || peer_codec.Find(f) == command)) {
@@ -144,7 +142,7 @@ void LoopPeriodsAllocateNothing(const char* file) {
       }
     }
   }
-  loop.Shutdown(IoTime{clock.Now(), clock.Now()});
+  loop.Shutdown(IoTime{deadline, deadline});
   EXPECT_EQ(guard.count(), 0U) << file;
   // The paths really ran.
   const DeviceCounters c = device.counters();
