@@ -52,7 +52,7 @@ Started Start(const GpioConfig& c) {
 IoStatus ReadOnce(GpioDevice& d, SensorFrame* frame, IoError* why) {
   *frame = SensorFrame{};
   *why = IoError::kNone;
-  return d.Read(frame, why);
+  return d.Read(::mrd::test::NowIo(), frame, why);
 }
 
 TEST(GpioDevice, EnableIsHighOnlyWhenTheLoopCommandsTheDriverEnabled) {

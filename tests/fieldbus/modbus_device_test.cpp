@@ -67,7 +67,7 @@ IoStatus ReadFresh(ModbusDevice& d, SensorFrame* f, IoError* why) {
   IoStatus s = IoStatus::kNoData;
   WaitFor([&] {
     *f = SensorFrame{};
-    s = d.Read(f, why);
+    s = d.Read(::mrd::test::NowIo(), f, why);
     return s == IoStatus::kOk;
   });
   return s;
