@@ -243,16 +243,25 @@ void PrefaultStack() {
   for (std::size_t i = 0; i < sizeof stack; i += 4096) stack[i] = 0;
 }
 
-// Per-device counters, a text line each.
-void PrintDevices(const std::vector<std::unique_ptr<BusDevice>>& devices) {
-  for (const auto& d : devices) {
-    const DeviceCounters c = d->counters();
-    const auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
+// Per-device counters, a text line each, and the loop's faulted periods (faults[i] of
+// devices[i]; none: a dry run).
+void PrintDevices(const std::vector<std::unique_ptr<BusDevice>>& devices,
+                  const std::vector<DeviceFaults>& faults) {
+  const auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
+  for (std::size_t i = 0; i < devices.size(); ++i) {
+    const BusDevice& d = *devices[i];
+    const DeviceCounters c = d.counters();
     std::printf(
         "  %-8s rx %llu (rejected %llu), tx %llu (failed %llu), reconnects %llu, "
         "last error %s\n",
-        d->name(), u(c.rx_ok), u(c.rx_rejected), u(c.tx_ok), u(c.tx_failed), u(c.reconnects),
+        d.name(), u(c.rx_ok), u(c.rx_rejected), u(c.tx_ok), u(c.tx_failed), u(c.reconnects),
         IoErrorName(c.last_error));
+    if (i < faults.size()) {
+      const DeviceFaults& f = faults[i];
+      std::printf("  %-8s faulted periods: read %llu (last %s), write %llu (last %s)\n", "",
+                  u(f.read_periods()), IoErrorName(f.last_read), u(f.write_periods()),
+                  IoErrorName(f.last_write));
+    }
   }
 }
 
@@ -270,6 +279,7 @@ struct RunSummary {
   const RealTime& rt;
   const char* table_name;
   const std::vector<std::unique_ptr<BusDevice>>& devices;
+  const std::vector<DeviceFaults>& faults;  // per device (empty: a dry run)
   const ClockInfo& ci;
   const RuntimeParams& params;
   const PeriodLogStats* log;  // nullptr: no log
@@ -291,7 +301,11 @@ void PrintSummaryJson(const TelemetrySnapshot& s, const RunSummary& r) {
   info.memory_locked = r.rt.memory_locked;
   info.rms_model_error_n = r.rms_model;
   info.rms_tracking_error_n = r.rms_tracking;
-  for (const auto& d : r.devices) info.devices.push_back({d->name(), d->counters()});
+  for (std::size_t i = 0; i < r.devices.size(); ++i) {
+    const BusDevice& d = *r.devices[i];
+    info.devices.push_back(
+        {d.name(), d.counters(), i < r.faults.size() ? r.faults[i] : DeviceFaults{}});
+  }
   info.clock = r.ci.mode;
   info.grants = r.ci.grants;
   info.missed_grants = r.ci.missed;
@@ -356,7 +370,7 @@ void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
                 static_cast<unsigned long long>(ci.missed));
     std::printf("  devices:\n");
   }
-  PrintDevices(r.devices);
+  PrintDevices(r.devices, r.faults);
   if (log != nullptr) {
     const auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
     std::printf(
@@ -374,7 +388,8 @@ void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
 
 void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareConfig& cfg,
                   const RealTime& rt, const char* table_name,
-                  const std::vector<std::unique_ptr<BusDevice>>& devices, const ClockInfo& ci,
+                  const std::vector<std::unique_ptr<BusDevice>>& devices,
+                  const std::vector<DeviceFaults>& faults, const ClockInfo& ci,
                   const RuntimeParams& params, const PeriodLogStats* log) {
   const bool buses = !devices.empty();
   const double seconds =
@@ -387,7 +402,7 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
       s.tracking_samples > 0
           ? std::sqrt(s.sum_sq_tracking_error / static_cast<double>(s.tracking_samples))
           : 0.0;
-  const RunSummary r{o,      cfg, rt,    table_name, devices,   ci,
+  const RunSummary r{o,      cfg, rt,    table_name, devices,   faults,      ci,
                      params, log, buses, seconds,    rms_model, rms_tracking};
   if (o.json) {
     PrintSummaryJson(s, r);
@@ -661,6 +676,7 @@ struct RunOutcome {
   Telemetry telemetry;
   RealTime rt;
   std::vector<std::unique_ptr<BusDevice>> devices;
+  std::vector<DeviceFaults> faults;  // per device (FieldbusIo), after the run
   ClockInfo clock_info;
   bool grant_lost = false;  // lockstep: the harness stopped granting time
 };
@@ -716,6 +732,7 @@ int RunOnBuses(const Options& o, const FirmwareConfig& cfg, Controller& controll
     RunRealTime(cfg, io, io, controller, out->telemetry, duration_ns, &out->rt, &params,
                 log.observer());
   }
+  for (std::size_t i = 0; i < io.size(); ++i) out->faults.push_back(io.faults(i));
   for (auto& d : devices) d->Deactivate();
   return kContinue;
 }
@@ -797,8 +814,8 @@ int Run(const Options& o) {
   log.log().Stop();
   const PeriodLogStats log_stats = log.log().stats();
   const TelemetrySnapshot s = out.telemetry.Read();
-  PrintSummary(s, o, params.config(), out.rt, table_name, out.devices, out.clock_info, params,
-               log.observer() != nullptr ? &log_stats : nullptr);
+  PrintSummary(s, o, params.config(), out.rt, table_name, out.devices, out.faults, out.clock_info,
+               params, log.observer() != nullptr ? &log_stats : nullptr);
   return s.safe && !out.grant_lost ? kExitOk : kExitFailure;
 }
 

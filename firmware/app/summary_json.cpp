@@ -66,13 +66,23 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
       for (std::size_t i = 0; i < kNumIoErrors; ++i) {
         errors[IoErrorName(static_cast<IoError>(i))] = c.errors[i];
       }
+      // The loop's view: periods whose read (write) of this device faulted, per reason.
+      Json read = Json::object(), write = Json::object();
+      for (std::size_t i = 0; i < kNumIoErrors; ++i) {
+        read[IoErrorName(static_cast<IoError>(i))] = d.faults.read[i];
+        write[IoErrorName(static_cast<IoError>(i))] = d.faults.write[i];
+      }
       devices[d.name] = {{"rx_ok", c.rx_ok},
                          {"rx_rejected", c.rx_rejected},
                          {"tx_ok", c.tx_ok},
                          {"tx_failed", c.tx_failed},
                          {"reconnects", c.reconnects},
                          {"last_error", IoErrorName(c.last_error)},
-                         {"errors", errors}};
+                         {"errors", errors},
+                         {"faulted_periods", {{"read", read}, {"write", write}}},
+                         {"last_period_fault",
+                          {{"read", IoErrorName(d.faults.last_read)},
+                           {"write", IoErrorName(d.faults.last_write)}}}};
     }
     j["devices"] = devices;
     j["final_safe_state"] = s.safe;

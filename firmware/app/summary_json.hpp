@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "mrd/firmware/bus_device.hpp"
+#include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/period_log.hpp"
 #include "mrd/firmware/telemetry.hpp"
 
@@ -25,6 +26,7 @@ struct SummaryInfo {
   struct Device {
     const char* name;
     DeviceCounters counters;
+    DeviceFaults faults;  // the loop's faulted periods of this device, per reason
   };
   std::vector<Device> devices;
   const char* clock = "monotonic";      // bus mode: "monotonic" | "grant" (lockstep)

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "mrd/common/clock.hpp"
+
 namespace mrd::firmware {
 
 Loop::Loop(Clock& clock, SensorSource& source, CurrentDriver& driver, Controller& controller,
@@ -14,6 +16,11 @@ Loop::Loop(Clock& clock, SensorSource& source, CurrentDriver& driver, Controller
       period_ns_(period_ns) {}
 
 void Loop::Tick(std::int64_t now_ns) {
+  Tick(IoTime{now_ns, clock_.IsMonotonic() ? now_ns : common::MonotonicNs()});
+}
+
+void Loop::Tick(const IoTime& io) {
+  const std::int64_t now_ns = io.loop_ns;
   // A period boundary: pending parameter changes and reloads apply here.
   if (hook_ != nullptr) {
     Controller* next = hook_->BeforePeriod(*controller_, stats_.ticks, now_ns);
@@ -34,7 +41,7 @@ void Loop::Tick(std::int64_t now_ns) {
   }
   // Read inputs.
   frame_ = SensorFrame{};
-  const IoStatus read = source_.Read(&frame_);
+  const IoStatus read = source_.Read(io, &frame_);
   if (read == IoStatus::kFault) ++stats_.read_faults;
 
   // Clamp dt to [period / 2, 2 period].
@@ -49,10 +56,11 @@ void Loop::Tick(std::int64_t now_ns) {
       controller_->Update(frame_, read, driver_fault_, now_ns, static_cast<double>(clamped) * 1e-9);
 
   // Write; a failed command falls back to the safe state at once.
-  IoStatus write = out.safe ? driver_.EnterSafeState(out.volts) : driver_.Command(out.volts);
+  IoStatus write =
+      out.safe ? driver_.EnterSafeState(io, out.volts) : driver_.Command(io, out.volts);
   if (write == IoStatus::kFault) {
     ++stats_.write_faults;
-    if (!out.safe) (void)driver_.EnterSafeState(controller_->config().safe_voltage);
+    if (!out.safe) (void)driver_.EnterSafeState(io, controller_->config().safe_voltage);
   }
   driver_fault_ = write == IoStatus::kFault;
 
@@ -86,7 +94,7 @@ void Loop::Tick(std::int64_t now_ns) {
     }
   }
   telemetry_.Write(stats_);
-  driver_.PublishStatus(stats_);
+  driver_.PublishStatus(io, stats_);
 
   // The period's record (timing filled in by Run).
   record_.period = stats_.ticks - 1;
@@ -113,7 +121,12 @@ void Loop::Tick(std::int64_t now_ns) {
 }
 
 void Loop::Shutdown() {
-  if (driver_.EnterSafeState(controller_->config().safe_voltage) == IoStatus::kFault) {
+  // After the last period: the loop's time stays that period's; the wall clock is read now.
+  Shutdown(IoTime{last_tick_ns_, common::MonotonicNs()});
+}
+
+void Loop::Shutdown(const IoTime& t) {
+  if (driver_.EnterSafeState(t, controller_->config().safe_voltage) == IoStatus::kFault) {
     ++stats_.write_faults;
   }
   stats_.safe = true;

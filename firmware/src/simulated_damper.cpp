@@ -25,7 +25,8 @@ void SimulatedDamper::Advance(std::int64_t to_ns) {
   }
 }
 
-IoStatus SimulatedDamper::Read(SensorFrame* frame) {
+IoStatus SimulatedDamper::Read(const IoTime& t, SensorFrame* frame) {
+  (void)t;  // the plant runs on the loop's clock, read here as before (a bare Tick in tests)
   Advance(clock_.Now());
   (*frame)[Input::kDisplacement] = {sample_.x, plant_ns_};
   (*frame)[Input::kVelocity] = {sample_.v, plant_ns_};
@@ -41,14 +42,16 @@ IoStatus SimulatedDamper::Read(SensorFrame* frame) {
   return IoStatus::kOk;
 }
 
-IoStatus SimulatedDamper::Command(double volts) {
+IoStatus SimulatedDamper::Command(const IoTime& t, double volts) {
+  (void)t;
   volts_ = volts;
   safe_ = false;
   ++commands_;
   return IoStatus::kOk;
 }
 
-IoStatus SimulatedDamper::EnterSafeState(double safe_volts) {
+IoStatus SimulatedDamper::EnterSafeState(const IoTime& t, double safe_volts) {
+  (void)t;
   volts_ = safe_volts;
   safe_ = true;
   ++commands_;

@@ -14,6 +14,7 @@
 #include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/io/can_device.hpp"
 #include "mrd/protocol/can_codec.hpp"
+#include "support/io_time.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -57,7 +58,7 @@ TEST_F(CanDeviceConformance, ABacklogIsDrainedToTheNewestFrame) {
   EXPECT_EQ(device_->counters().rx_ok, static_cast<std::uint64_t>(kBacklog));
   EXPECT_DOUBLE_EQ(frame[Input::kVelocity].value, 0.01 * (kBacklog - 1));  // the newest sample
   IoError why = IoError::kNone;
-  ASSERT_EQ(device_->Write({1.0, true, false, 0}, &why), IoStatus::kOk);
+  ASSERT_EQ(device_->Write(::mrd::test::NowIo(), {1.0, true, false, 0}, &why), IoStatus::kOk);
   pc::DriverCommand cmd;
   int commands = 0;
   for (const can_frame& f : PeerDrain()) {
@@ -82,7 +83,7 @@ TEST_F(CanDeviceConformance, ABabblingNodeIsAFloodAndABusFault) {
   FieldbusIo io;
   ASSERT_TRUE(io.Add(device_.get()));
   SensorFrame composite;
-  EXPECT_EQ(io.Read(&composite), IoStatus::kFault);
+  EXPECT_EQ(io.Read(::mrd::test::NowIo(), &composite), IoStatus::kFault);
   EXPECT_EQ(composite.bus_faults, Watchdog::Bit(FaultCause::kCanBus));
   // Once the flood is drained, the good frame behind it is taken; the bus fault holds for
   // kFloodHoldNs after the last flooded period, then a clean bus is healthy again.
@@ -114,13 +115,14 @@ TEST_F(CanDeviceConformance, NoDrivingCommandLeavesOnASampleOlderThanMaxAge) {
   SensorFrame frame;
   ASSERT_EQ(Read(&frame), IoStatus::kOk);
   IoError why = IoError::kNone;
-  ASSERT_EQ(device_->Write({1.5, true, false, 0}, &why), IoStatus::kOk);  // fresh: driven
+  ASSERT_EQ(device_->Write(::mrd::test::NowIo(), {1.5, true, false, 0}, &why),
+            IoStatus::kOk);  // fresh: driven
   // The tick is held up between the watchdog's check and the write (a stopped process).
   std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  EXPECT_EQ(device_->Write({1.5, true, false, 1}, &why), IoStatus::kFault);
+  EXPECT_EQ(device_->Write(::mrd::test::NowIo(), {1.5, true, false, 1}, &why), IoStatus::kFault);
   EXPECT_EQ(why, IoError::kTimeout);
   // The safe command the loop then sends goes out.
-  EXPECT_EQ(device_->Write({0.0, false, true, 1}, &why), IoStatus::kOk);
+  EXPECT_EQ(device_->Write(::mrd::test::NowIo(), {0.0, false, true, 1}, &why), IoStatus::kOk);
   std::vector<pc::DriverCommand> commands;
   for (const can_frame& f : PeerDrain()) {
     pc::DriverCommand m;
@@ -171,7 +173,7 @@ TEST_F(CanDeviceConformance, ADriverFaultInDriverStatusAssertsTheFaultLine) {
   FieldbusIo io;
   ASSERT_TRUE(io.Add(device_.get()));
   SensorFrame composite;
-  io.Read(&composite);
+  io.Read(::mrd::test::NowIo(), &composite);
   EXPECT_TRUE(composite.fault_line);
 }
 

@@ -14,6 +14,7 @@
 
 #include "mrd/firmware/io/can_device.hpp"
 #include "mrd/protocol/can_codec.hpp"
+#include "support/io_time.hpp"
 
 namespace mrd::firmware {
 
@@ -67,7 +68,7 @@ class CanDevicePeerTest : public ::testing::Test {
   }
   IoStatus Read(SensorFrame* frame, IoError* why = nullptr) {
     IoError w = IoError::kNone;
-    const IoStatus s = device_->Read(frame, &w);
+    const IoStatus s = device_->Read(::mrd::test::NowIo(), frame, &w);
     if (why != nullptr) *why = w;
     return s;
   }

@@ -25,6 +25,7 @@
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/frame_codec.hpp"
 #include "mrd/protocol/can_codec.hpp"
+#include "support/io_time.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -248,8 +249,8 @@ TEST_F(CanDeviceTest, CommandCarriesSetPointEnableAndTheLatestSensorSeq) {
   SensorFrame frame;
   ASSERT_EQ(Read(&frame), IoStatus::kOk);
   IoError why = IoError::kNone;
-  ASSERT_EQ(device_->Write({1.75, true, false, 0}, &why), IoStatus::kOk);
-  ASSERT_EQ(device_->Write({0.0, false, true, 1}, &why), IoStatus::kOk);
+  ASSERT_EQ(device_->Write(::mrd::test::NowIo(), {1.75, true, false, 0}, &why), IoStatus::kOk);
+  ASSERT_EQ(device_->Write(::mrd::test::NowIo(), {0.0, false, true, 1}, &why), IoStatus::kOk);
   std::vector<pc::DriverCommand> commands;
   int heartbeats = 0;
   for (const can_frame& f : PeerDrain()) {
@@ -275,7 +276,7 @@ TEST_F(CanDeviceTest, CommandCarriesSetPointEnableAndTheLatestSensorSeq) {
 TEST_F(CanDeviceTest, ACommandThatCannotBeRepresentedGoesOutAsTheSafeStateAndFails) {
   for (double bad : {std::numeric_limits<double>::quiet_NaN(), 30.0, -1.0}) {
     IoError why = IoError::kNone;
-    EXPECT_EQ(device_->Write({bad, true, false, 0}, &why), IoStatus::kFault);
+    EXPECT_EQ(device_->Write(::mrd::test::NowIo(), {bad, true, false, 0}, &why), IoStatus::kFault);
     EXPECT_EQ(why, IoError::kBadValue);
   }
   int commands = 0;
@@ -304,8 +305,9 @@ TEST_F(CanDeviceTest, HeartbeatAndStatusGoOutAtTheirOwnPeriods) {
   int writes = 0;
   while (std::chrono::steady_clock::now() - start < std::chrono::milliseconds(100)) {
     IoError why = IoError::kNone;
-    device_->Write({1.0, true, false, static_cast<std::uint64_t>(writes)}, &why);
-    device_->PublishStatus(stats);
+    device_->Write(::mrd::test::NowIo(), {1.0, true, false, static_cast<std::uint64_t>(writes)},
+                   &why);
+    device_->PublishStatus(::mrd::test::NowIo(), stats);
     ++writes;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
     PeerDrainInto();
@@ -330,7 +332,7 @@ TEST_F(CanDeviceTest, APeerThatDisappearsIsAFaultOnReadAndWrite) {
   IoError why = IoError::kNone;
   EXPECT_EQ(Read(&frame, &why), IoStatus::kFault);
   EXPECT_EQ(why, IoError::kDisconnected);
-  EXPECT_EQ(device_->Write({0.0, false, true, 0}, &why), IoStatus::kFault);
+  EXPECT_EQ(device_->Write(::mrd::test::NowIo(), {0.0, false, true, 0}, &why), IoStatus::kFault);
   EXPECT_EQ(why, IoError::kDisconnected);
   EXPECT_EQ(Read(&frame, &why), IoStatus::kFault);  // stays faulted (cannot reopen an fd)
   EXPECT_EQ(Errors(IoError::kDisconnected), 1U);
@@ -354,12 +356,12 @@ TEST(CanDeviceLocalBus, ReconnectsWhenTheBusComesBack) {
   relay.reset();  // the bus disappears
   SensorFrame frame;
   IoError why = IoError::kNone;
-  EXPECT_EQ(device.Read(&frame, &why), IoStatus::kFault);
+  EXPECT_EQ(device.Read(::mrd::test::NowIo(), &frame, &why), IoStatus::kFault);
   EXPECT_EQ(why, IoError::kDisconnected);
   // Nobody serves: still faulted after the reconnect interval, and the tick never waits.
   std::this_thread::sleep_for(std::chrono::milliseconds(120));
   const std::int64_t t0 = common::MonotonicNs();
-  EXPECT_EQ(device.Read(&frame, &why), IoStatus::kFault);
+  EXPECT_EQ(device.Read(::mrd::test::NowIo(), &frame, &why), IoStatus::kFault);
   EXPECT_LT(common::MonotonicNs() - t0, 50'000'000);
   EXPECT_EQ(device.counters().reconnects, 0U);
 
@@ -377,7 +379,7 @@ TEST(CanDeviceLocalBus, ReconnectsWhenTheBusComesBack) {
       ASSERT_EQ(write(peer, &f, sizeof f), static_cast<ssize_t>(sizeof f));
       relay->Step(2);
     }
-    ok = device.Read(&frame, &why) == IoStatus::kOk;
+    ok = device.Read(::mrd::test::NowIo(), &frame, &why) == IoStatus::kOk;
     std::this_thread::sleep_for(std::chrono::milliseconds(3));
   }
   EXPECT_TRUE(ok);

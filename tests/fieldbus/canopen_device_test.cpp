@@ -24,6 +24,7 @@
 #include "mrd/profile/canopen_codec.hpp"
 #include "mrd/profile/frame_codec.hpp"
 #include "support/alloc_counter.hpp"
+#include "support/io_time.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -161,8 +162,8 @@ class CanopenDeviceTest : public ::testing::Test {
     EXPECT_EQ(t, t_ms * 1'000'000LL);
     SensorFrame frame;
     IoError why = IoError::kNone;
-    (void)device_->Read(&frame, &why);
-    (void)device_->Write(DriverCommand{1.0, true, false, 0}, &why);
+    (void)device_->Read(::mrd::test::NowIo(), &frame, &why);
+    (void)device_->Write(::mrd::test::NowIo(), DriverCommand{1.0, true, false, 0}, &why);
     PeerDrain();
     for (const can_frame& s : sent_) {
       if (s.can_id == co::HeartbeatId(1) && own_heartbeats_.size() < own_heartbeats_.capacity()) {

@@ -8,6 +8,7 @@
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "support/demo_model.hpp"
+#include "support/io_time.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -21,7 +22,7 @@ class FakeDevice final : public BusDevice {
   bool Configure(std::string*) override { return true; }
   bool Activate(std::string*) override { return true; }
   void Deactivate() override {}
-  IoStatus Read(SensorFrame* frame, IoError* why) override {
+  IoStatus Read(const IoTime&, SensorFrame* frame, IoError* why) override {
     if (fail_read) {
       *why = IoError::kTimeout;
       return IoStatus::kFault;
@@ -30,7 +31,7 @@ class FakeDevice final : public BusDevice {
     if (demand) (*frame)[Input::kDemand] = {*demand, stamp};
     return velocity || demand ? IoStatus::kOk : IoStatus::kNoData;
   }
-  IoStatus Write(const DriverCommand& cmd, IoError* why) override {
+  IoStatus Write(const IoTime&, const DriverCommand& cmd, IoError* why) override {
     last = cmd;
     ++writes;
     if (fail_write) {
@@ -39,7 +40,7 @@ class FakeDevice final : public BusDevice {
     }
     return IoStatus::kOk;
   }
-  void PublishStatus(const TelemetrySnapshot& s) override { status_ticks = s.ticks; }
+  void PublishStatus(const IoTime&, const TelemetrySnapshot& s) override { status_ticks = s.ticks; }
   DeviceCounters counters() const override { return {}; }
 
   std::optional<double> velocity, demand;
@@ -64,7 +65,7 @@ TEST(FieldbusIoTest, MergesTheInputsOfEveryDevice) {
   ASSERT_TRUE(io.Add(&can));
   ASSERT_TRUE(io.Add(&modbus));
   SensorFrame f;
-  EXPECT_EQ(io.Read(&f), IoStatus::kOk);
+  EXPECT_EQ(io.Read(::mrd::test::NowIo(), &f), IoStatus::kOk);
   EXPECT_EQ(f[Input::kVelocity].value, 3.0);
   EXPECT_EQ(f[Input::kVelocity].stamp_ns, 10);
   EXPECT_EQ(f[Input::kDemand].value, -200.0);
@@ -80,7 +81,7 @@ TEST(FieldbusIoTest, AFaultedDeviceNamesItsBusAndKeepsTheOthersSamples) {
   io.Add(&can);
   io.Add(&gpio);
   SensorFrame f;
-  EXPECT_EQ(io.Read(&f), IoStatus::kFault);
+  EXPECT_EQ(io.Read(::mrd::test::NowIo(), &f), IoStatus::kFault);
   EXPECT_EQ(f.bus_faults, Watchdog::Bit(FaultCause::kGpioBus));
   EXPECT_EQ(f[Input::kVelocity].value, 1.5);
 }
@@ -90,7 +91,7 @@ TEST(FieldbusIoTest, NoDataWhenNoDeviceHasAnything) {
   FieldbusIo io;
   io.Add(&can);
   SensorFrame f;
-  EXPECT_EQ(io.Read(&f), IoStatus::kNoData);
+  EXPECT_EQ(io.Read(::mrd::test::NowIo(), &f), IoStatus::kNoData);
 }
 
 TEST(FieldbusIoTest, CommandEnablesAndSafeStateDisablesEveryDevice) {
@@ -98,12 +99,12 @@ TEST(FieldbusIoTest, CommandEnablesAndSafeStateDisablesEveryDevice) {
   FieldbusIo io;
   io.Add(&can);
   io.Add(&gpio);
-  EXPECT_EQ(io.Command(1.25), IoStatus::kOk);
+  EXPECT_EQ(io.Command(::mrd::test::NowIo(), 1.25), IoStatus::kOk);
   EXPECT_EQ(can.last.volts, 1.25);
   EXPECT_TRUE(can.last.enable);
   EXPECT_FALSE(can.last.safe);
   EXPECT_TRUE(gpio.last.enable);
-  EXPECT_EQ(io.EnterSafeState(0.0), IoStatus::kOk);
+  EXPECT_EQ(io.EnterSafeState(::mrd::test::NowIo(), 0.0), IoStatus::kOk);
   EXPECT_EQ(can.last.volts, 0.0);
   EXPECT_FALSE(can.last.enable);
   EXPECT_TRUE(can.last.safe);
@@ -117,7 +118,7 @@ TEST(FieldbusIoTest, AFailedWriteOnAnyDeviceIsAFaultButAllAreWritten) {
   FieldbusIo io;
   io.Add(&can);
   io.Add(&gpio);
-  EXPECT_EQ(io.EnterSafeState(0.0), IoStatus::kFault);
+  EXPECT_EQ(io.EnterSafeState(::mrd::test::NowIo(), 0.0), IoStatus::kFault);
   EXPECT_EQ(gpio.writes, 1);
   EXPECT_FALSE(gpio.last.enable);
 }

@@ -17,6 +17,7 @@
 #include "gpio_test_peer.hpp"
 #include "mrd/common/clock.hpp"
 #include "mrd/firmware/io/devices.hpp"
+#include "support/io_time.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -51,7 +52,7 @@ Started Start(const GpioConfig& c) {
 IoStatus ReadOnce(GpioDevice& d, SensorFrame* frame, IoError* why) {
   *frame = SensorFrame{};
   *why = IoError::kNone;
-  return d.Read(frame, why);
+  return d.Read(::mrd::test::NowIo(), frame, why);
 }
 
 TEST(GpioDevice, EnableIsHighOnlyWhenTheLoopCommandsTheDriverEnabled) {
@@ -62,18 +63,20 @@ TEST(GpioDevice, EnableIsHighOnlyWhenTheLoopCommandsTheDriverEnabled) {
   ASSERT_NE(s.device, nullptr) << s.error;
   EXPECT_FALSE(peer.enable());  // requested low
   IoError why = IoError::kNone;
-  EXPECT_EQ(s.device->Write({1.0, true, false, 0}, &why), IoStatus::kOk);
+  EXPECT_EQ(s.device->Write(::mrd::test::NowIo(), {1.0, true, false, 0}, &why), IoStatus::kOk);
   EXPECT_TRUE(peer.enable());
   EXPECT_TRUE(s.device->enable_level());
-  EXPECT_EQ(s.device->Write({0.0, false, true, 1}, &why), IoStatus::kOk);  // safe state
+  EXPECT_EQ(s.device->Write(::mrd::test::NowIo(), {0.0, false, true, 1}, &why),
+            IoStatus::kOk);  // safe state
   EXPECT_FALSE(peer.enable());
-  EXPECT_EQ(s.device->Write({0.5, true, true, 2}, &why), IoStatus::kOk);  // safe wins
+  EXPECT_EQ(s.device->Write(::mrd::test::NowIo(), {0.5, true, true, 2}, &why),
+            IoStatus::kOk);  // safe wins
   EXPECT_FALSE(peer.enable());
-  EXPECT_EQ(s.device->Write({0.5, true, false, 3}, &why), IoStatus::kOk);
+  EXPECT_EQ(s.device->Write(::mrd::test::NowIo(), {0.5, true, false, 3}, &why), IoStatus::kOk);
   EXPECT_TRUE(peer.enable());
   s.device->Deactivate();
   EXPECT_FALSE(peer.enable());
-  EXPECT_EQ(s.device->Write({0.5, true, false, 4}, &why), IoStatus::kFault);
+  EXPECT_EQ(s.device->Write(::mrd::test::NowIo(), {0.5, true, false, 4}, &why), IoStatus::kFault);
   EXPECT_EQ(why, IoError::kDisconnected);
   EXPECT_GE(s.device->counters().tx_ok, 8U);
   EXPECT_EQ(s.device->counters().tx_failed, 1U);
@@ -89,7 +92,8 @@ TEST(GpioDevice, HeartbeatTogglesOncePerWriteInEveryState) {
   IoError why = IoError::kNone;
   for (int k = 0; k < 20; ++k) {
     const bool safe = k % 3 == 0;
-    ASSERT_EQ(s.device->Write({safe ? 0.0 : 1.0, !safe, safe, static_cast<std::uint64_t>(k)}, &why),
+    ASSERT_EQ(s.device->Write(::mrd::test::NowIo(),
+                              {safe ? 0.0 : 1.0, !safe, safe, static_cast<std::uint64_t>(k)}, &why),
               IoStatus::kOk);
     EXPECT_NE(peer.heartbeat(), level) << "write " << k;
     level = peer.heartbeat();
@@ -264,7 +268,7 @@ TEST(GpioDevice, StartUpErrorsSayWhy) {
 
   IoError why = IoError::kNone;
   SensorFrame f;
-  EXPECT_EQ(board.Read(&f, &why), IoStatus::kFault);
+  EXPECT_EQ(board.Read(::mrd::test::NowIo(), &f, &why), IoStatus::kFault);
   EXPECT_EQ(why, IoError::kDisconnected);
 }
 
@@ -282,7 +286,7 @@ TEST(GpioDevice, WorkPerPeriodIsMicroseconds) {
     peer.MoveTo(peer.count() + (k % 400 < 200 ? 5 : -5));
     const std::int64_t t0 = common::MonotonicNs();
     ReadOnce(*s.device, &f, &why);
-    s.device->Write({1.0, true, false, static_cast<std::uint64_t>(k)}, &why);
+    s.device->Write(::mrd::test::NowIo(), {1.0, true, false, static_cast<std::uint64_t>(k)}, &why);
     us.push_back(static_cast<double>(common::MonotonicNs() - t0) * 1e-3);
   }
   std::sort(us.begin(), us.end());

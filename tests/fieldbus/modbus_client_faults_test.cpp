@@ -16,6 +16,7 @@
 #include "modbus_raw_peer.hpp"
 #include "modbus_test_peers.hpp"
 #include "mrd/firmware/io/modbus_device.hpp"
+#include "support/io_time.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -61,7 +62,7 @@ TEST_F(ModbusClientFaultsTest, ReplyFromAnotherUnitIdIsARejectedFrame) {
       << "rx_ok " << device_->counters().rx_ok;
   SensorFrame f;
   IoError why = IoError::kNone;
-  EXPECT_EQ(device_->Read(&f, &why), IoStatus::kFault);
+  EXPECT_EQ(device_->Read(::mrd::test::NowIo(), &f, &why), IoStatus::kFault);
   EXPECT_EQ(why, IoError::kRejectedFrame);
   device_->Deactivate();
   const DeviceCounters c = device_->counters();
@@ -88,7 +89,7 @@ TEST_F(ModbusClientFaultsTest, BadValueKeepsTheConnection) {
   ASSERT_TRUE(WaitFor([&] { return peer_->reads() >= 300; }, 20.0)) << peer_->reads();
   SensorFrame f;
   IoError why = IoError::kNone;
-  EXPECT_EQ(device_->Read(&f, &why), IoStatus::kFault);
+  EXPECT_EQ(device_->Read(::mrd::test::NowIo(), &f, &why), IoStatus::kFault);
   EXPECT_EQ(why, IoError::kBadValue);
   device_->Deactivate();
   EXPECT_GE(Errors(IoError::kBadValue), 250U);
@@ -125,7 +126,7 @@ TEST_F(ModbusClientFaultsTest, LateReplyIsStampedWithItsRequest) {
       [&] {
         SensorFrame f;
         IoError why = IoError::kNone;
-        if (device_->Read(&f, &why) == IoStatus::kOk) {
+        if (device_->Read(::mrd::test::NowIo(), &f, &why) == IoStatus::kOk) {
           const std::uint32_t seq = SeqOf(f);
           const std::int64_t arrival = peer_->ReadArrival(seq);
           EXPECT_GT(arrival, 0) << "seq " << seq;
@@ -149,7 +150,7 @@ TEST_F(ModbusClientFaultsTest, TrickledReplyIsNeverDeliveredAsFresh) {
   while (std::chrono::steady_clock::now() < until) {
     SensorFrame f;
     IoError why = IoError::kNone;
-    if (device_->Read(&f, &why) == IoStatus::kOk) {
+    if (device_->Read(::mrd::test::NowIo(), &f, &why) == IoStatus::kOk) {
       const std::uint32_t seq = SeqOf(f);
       EXPECT_LE(f[Input::kVelocity].stamp_ns, peer_->ReadArrival(seq))
           << "seq " << seq << " delivered as fresh "

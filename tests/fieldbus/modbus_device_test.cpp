@@ -15,6 +15,7 @@
 #include "modbus_test_peers.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/protocol/modbus_map.hpp"
+#include "support/io_time.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -66,7 +67,7 @@ IoStatus ReadFresh(ModbusDevice& d, SensorFrame* f, IoError* why) {
   IoStatus s = IoStatus::kNoData;
   WaitFor([&] {
     *f = SensorFrame{};
-    s = d.Read(f, why);
+    s = d.Read(::mrd::test::NowIo(), f, why);
     return s == IoStatus::kOk;
   });
   return s;
@@ -89,7 +90,7 @@ void ExchangeWithHilPort(hil::PlantPort& port, ModbusDevice& device) {
   EXPECT_FALSE(f.fault_line);
   EXPECT_GT(f[Input::kVelocity].stamp_ns, 0);
 
-  EXPECT_EQ(device.Write({1.234, true, false, 7}, &why), IoStatus::kOk);
+  EXPECT_EQ(device.Write(::mrd::test::NowIo(), {1.234, true, false, 7}, &why), IoStatus::kOk);
   hil::DriverInput in;
   ASSERT_TRUE(WaitFor([&] {
     port.Poll(&in);
@@ -151,7 +152,8 @@ TEST(ModbusDeviceTest, ExceptionResponseIsAFaultAndCounted) {
   ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
   SensorFrame f;
   IoError why = IoError::kNone;
-  ASSERT_TRUE(WaitFor([&] { return device.Read(&f, &why) == IoStatus::kFault; }));
+  ASSERT_TRUE(
+      WaitFor([&] { return device.Read(::mrd::test::NowIo(), &f, &why) == IoStatus::kFault; }));
   EXPECT_EQ(why, IoError::kException);
   EXPECT_TRUE(std::isnan(f[Input::kVelocity].value));  // nothing was ever accepted
   const DeviceCounters c = device.counters();
@@ -173,7 +175,7 @@ TEST(ModbusDeviceTest, SilentPeerTimesOutAndTheTickKeepsReturning) {
   int reads = 0;
   ASSERT_TRUE(WaitFor([&] {
     ++reads;
-    return device.Read(&f, &why) == IoStatus::kFault;
+    return device.Read(::mrd::test::NowIo(), &f, &why) == IoStatus::kFault;
   }));
   EXPECT_EQ(why, IoError::kTimeout);
   EXPECT_GT(reads, 1);  // Read returned (kNoData) while the worker waited on the peer
@@ -192,8 +194,9 @@ TEST(ModbusDeviceTest, RtuCrcErrorIsRejectedAndCounted) {
   ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
   SensorFrame f;
   IoError why = IoError::kNone;
-  ASSERT_TRUE(
-      WaitFor([&] { return device.Read(&f, &why) == IoStatus::kFault && why == IoError::kCrc; }));
+  ASSERT_TRUE(WaitFor([&] {
+    return device.Read(::mrd::test::NowIo(), &f, &why) == IoStatus::kFault && why == IoError::kCrc;
+  }));
   EXPECT_GT(peer.answers(), 0);
   const DeviceCounters c = device.counters();
   EXPECT_GT(c.errors[static_cast<int>(IoError::kCrc)], 0U);
@@ -213,7 +216,7 @@ TEST(ModbusDeviceTest, RtuLateReplyIsDiscardedNotTakenForTheNextRequest) {
   IoError why = IoError::kNone;
   std::uint64_t tick = 0;
   ASSERT_TRUE(WaitFor([&] {  // reads and writes interleaved, as the loop drives them
-    (void)device.Write({1.0, true, false, ++tick}, &why);
+    (void)device.Write(::mrd::test::NowIo(), {1.0, true, false, ++tick}, &why);
     return peer.answers() > 40;
   }));
   device.Deactivate();
@@ -236,7 +239,8 @@ TEST(ModbusDeviceTest, ReservedFaultBitsAreABadValue) {
   ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
   SensorFrame f;
   IoError why = IoError::kNone;
-  ASSERT_TRUE(WaitFor([&] { return device.Read(&f, &why) == IoStatus::kFault; }));
+  ASSERT_TRUE(
+      WaitFor([&] { return device.Read(::mrd::test::NowIo(), &f, &why) == IoStatus::kFault; }));
   EXPECT_EQ(why, IoError::kBadValue);
   EXPECT_EQ(device.counters().rx_ok, 0U);
   EXPECT_GT(device.counters().errors[static_cast<int>(IoError::kBadValue)], 0U);
@@ -256,7 +260,7 @@ TEST(ModbusDeviceTest, FrozenSensorBlockIsNotNewDataAndKeepsItsStamp) {
   const int before = server.requests();
   ASSERT_TRUE(WaitFor([&] { return server.requests() > before + 5; }));
   SensorFrame g;
-  EXPECT_EQ(device.Read(&g, &why), IoStatus::kNoData);
+  EXPECT_EQ(device.Read(::mrd::test::NowIo(), &g, &why), IoStatus::kNoData);
   EXPECT_EQ(g[Input::kVelocity].stamp_ns, stamp);  // the latest value, with its old stamp
   EXPECT_EQ(device.counters().rx_ok, 1U);
 }
@@ -268,16 +272,16 @@ TEST(ModbusDeviceTest, SetPointOutsideTheRegisterIsNotSent) {
   std::string error;
   ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
   IoError why = IoError::kNone;
-  (void)device.Write({100.0, true, false, 1}, &why);  // > 32.767 V
+  (void)device.Write(::mrd::test::NowIo(), {100.0, true, false, 1}, &why);  // > 32.767 V
   ASSERT_TRUE(WaitFor([&] { return device.counters().tx_failed > 0; }));
   EXPECT_EQ(device.counters().errors[static_cast<int>(IoError::kBadValue)], 1U);
   EXPECT_EQ(server.Register(map::kCommandBase + map::kSetPoint), 0U);  // never written
   // The loop hears of it (same tick: nothing new to send).
   EXPECT_TRUE(WaitFor([&] {
-    return device.Write({100.0, true, false, 1}, &why) == IoStatus::kFault;
+    return device.Write(::mrd::test::NowIo(), {100.0, true, false, 1}, &why) == IoStatus::kFault;
   }));
   EXPECT_EQ(why, IoError::kBadValue);
-  (void)device.Write({1.0, true, false, 2}, &why);
+  (void)device.Write(::mrd::test::NowIo(), {1.0, true, false, 2}, &why);
   ASSERT_TRUE(
       WaitFor([&] { return server.Register(map::kCommandBase + map::kSetPoint) == 1000U; }));
 }
@@ -299,12 +303,12 @@ TEST(ModbusDeviceTest, PeerGoneIsDisconnectedAndReconnectsWhenItComesBack) {
   port.reset();
   ASSERT_TRUE(WaitFor([&] {
     f = SensorFrame{};
-    return device.Read(&f, &why) == IoStatus::kFault;
+    return device.Read(::mrd::test::NowIo(), &f, &why) == IoStatus::kFault;
   }));
   EXPECT_EQ(why, IoError::kDisconnected);
   EXPECT_EQ(f[Input::kVelocity].stamp_ns, stamp);  // stale: the old stamp ages
   EXPECT_TRUE(WaitFor([&] {
-    return device.Write({1.0, true, false, 3}, &why) == IoStatus::kFault;
+    return device.Write(::mrd::test::NowIo(), {1.0, true, false, 3}, &why) == IoStatus::kFault;
   }));
 
   auto again = hil::MakeModbusTcpPort("127.0.0.1:" + std::to_string(p));

@@ -20,6 +20,7 @@
 #include "mrd/firmware/io/modbus_device.hpp"
 #include "mrd/firmware/telemetry.hpp"
 #include "mrd/profile/modbus_profile.hpp"
+#include "support/io_time.hpp"
 #include "support/process.hpp"
 
 namespace mrd::test {
@@ -95,7 +96,7 @@ TEST_P(ModbusProfilePymodbusTest, ReadsUnit1AndWritesUnit2OfThePymodbusServer) {
   firmware::IoStatus s = firmware::IoStatus::kNoData;
   while (s != firmware::IoStatus::kOk && std::chrono::steady_clock::now() < until) {
     f = firmware::SensorFrame{};
-    s = device.Read(&f, &why);
+    s = device.Read(::mrd::test::NowIo(), &f, &why);
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   ASSERT_EQ(s, firmware::IoStatus::kOk) << firmware::IoErrorName(why) << server->Stderr();
@@ -113,12 +114,12 @@ TEST_P(ModbusProfilePymodbusTest, ReadsUnit1AndWritesUnit2OfThePymodbusServer) {
   stats.model_force_n = 321.5;
   stats.force_demand_n = -45.25;
   stats.last_command_v = 1.234;
-  device.PublishStatus(stats);
+  device.PublishStatus(::mrd::test::NowIo(), stats);
   // Commands until pymodbus has seen two heartbeats with the set-point and the enable on.
   std::uint64_t tick = 0;
   while (server->Stdout().empty() && std::chrono::steady_clock::now() < until) {
-    (void)device.Read(&f, &why);
-    (void)device.Write({1.234, true, false, ++tick}, &why);
+    (void)device.Read(::mrd::test::NowIo(), &f, &why);
+    (void)device.Write(::mrd::test::NowIo(), {1.234, true, false, ++tick}, &why);
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
   ASSERT_EQ(server->Wait(5.0), 0) << server->Stdout() << server->Stderr();
@@ -166,7 +167,7 @@ TEST_P(ModbusProfilePymodbusTest, ANanFromTheServerIsABadValue) {
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(12);
   while (s != firmware::IoStatus::kFault && std::chrono::steady_clock::now() < until) {
     f = firmware::SensorFrame{};
-    s = device.Read(&f, &why);
+    s = device.Read(::mrd::test::NowIo(), &f, &why);
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   device.Deactivate();

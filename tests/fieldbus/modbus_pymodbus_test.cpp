@@ -16,6 +16,7 @@
 
 #include "modbus_test_peers.hpp"
 #include "mrd/firmware/io/modbus_device.hpp"
+#include "support/io_time.hpp"
 #include "support/process.hpp"
 
 namespace mrd::test {
@@ -72,7 +73,7 @@ TEST_P(PymodbusTest, DeviceReadsAndWritesThePymodbusServer) {
   firmware::IoStatus s = firmware::IoStatus::kNoData;
   while (s != firmware::IoStatus::kOk && std::chrono::steady_clock::now() < until) {
     f = firmware::SensorFrame{};
-    s = device.Read(&f, &why);
+    s = device.Read(::mrd::test::NowIo(), &f, &why);
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   ASSERT_EQ(s, firmware::IoStatus::kOk) << firmware::IoErrorName(why) << server.Stderr();
@@ -86,8 +87,8 @@ TEST_P(PymodbusTest, DeviceReadsAndWritesThePymodbusServer) {
   // Commands until pymodbus has seen two heartbeats with the set-point and enable on.
   std::uint64_t tick = 0;
   while (server.Stdout().empty() && std::chrono::steady_clock::now() < until) {
-    (void)device.Read(&f, &why);
-    (void)device.Write({1.234, true, false, ++tick}, &why);
+    (void)device.Read(::mrd::test::NowIo(), &f, &why);
+    (void)device.Write(::mrd::test::NowIo(), {1.234, true, false, ++tick}, &why);
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
   ASSERT_EQ(server.Wait(5.0), 0) << server.Stdout() << server.Stderr();

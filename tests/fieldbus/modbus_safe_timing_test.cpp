@@ -46,15 +46,17 @@ using common::MonotonicNs;
 class RecordingDriver final : public CurrentDriver {
  public:
   explicit RecordingDriver(FieldbusIo& io) : io_(io), t_(kMax), safe_(kMax) {}
-  IoStatus Command(double volts) override {
+  IoStatus Command(const IoTime& t, double volts) override {
     Record(false);
-    return io_.Command(volts);
+    return io_.Command(t, volts);
   }
-  IoStatus EnterSafeState(double volts) override {
+  IoStatus EnterSafeState(const IoTime& t, double volts) override {
     Record(true);
-    return io_.EnterSafeState(volts);
+    return io_.EnterSafeState(t, volts);
   }
-  void PublishStatus(const TelemetrySnapshot& stats) override { io_.PublishStatus(stats); }
+  void PublishStatus(const IoTime& t, const TelemetrySnapshot& stats) override {
+    io_.PublishStatus(t, stats);
+  }
   std::size_t count() const { return n_.load(); }
   std::int64_t t(std::size_t i) const { return t_[i]; }
   bool safe(std::size_t i) const { return safe_[i] != 0; }

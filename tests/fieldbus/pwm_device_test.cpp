@@ -28,6 +28,7 @@
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
 #include "support/alloc_counter.hpp"
+#include "support/io_time.hpp"
 #pragma GCC diagnostic pop
 
 namespace mrd::firmware {
@@ -94,13 +95,16 @@ TEST(PwmDeviceTest, SetsUpTheChannelAndWritesTheDutyOfEachCommand) {
   EXPECT_EQ(chip.Attr("enable"), "1");
   EXPECT_EQ(chip.Attr("duty_cycle"), "0");
   IoError why = IoError::kNone;
-  EXPECT_EQ(pwm.Write({25.0, true, false, 1}, &why), IoStatus::kOk);
+  EXPECT_EQ(pwm.Write(::mrd::test::NowIo(), {25.0, true, false, 1}, &why), IoStatus::kOk);
   EXPECT_EQ(chip.Attr("duty_cycle"), "10000");
-  EXPECT_EQ(pwm.Write({250.0, true, false, 2}, &why), IoStatus::kOk);  // clamped: duty = period
+  EXPECT_EQ(pwm.Write(::mrd::test::NowIo(), {250.0, true, false, 2}, &why),
+            IoStatus::kOk);  // clamped: duty = period
   EXPECT_EQ(chip.Attr("duty_cycle"), "40000");
-  EXPECT_EQ(pwm.Write({NAN, true, false, 3}, &why), IoStatus::kOk);  // non-finite: the low end
+  EXPECT_EQ(pwm.Write(::mrd::test::NowIo(), {NAN, true, false, 3}, &why),
+            IoStatus::kOk);  // non-finite: the low end
   EXPECT_EQ(chip.Attr("duty_cycle"), "0");
-  EXPECT_EQ(pwm.Write({0.0, false, true, 4}, &why), IoStatus::kOk);  // safe: 0 V
+  EXPECT_EQ(pwm.Write(::mrd::test::NowIo(), {0.0, false, true, 4}, &why),
+            IoStatus::kOk);  // safe: 0 V
   EXPECT_EQ(chip.Attr("duty_cycle"), "0");
   pwm.Deactivate();
   EXPECT_EQ(chip.Attr("enable"), "0");
@@ -188,11 +192,11 @@ TEST(PwmDeviceTest, DutyRangeAndSlewLimitOfTheProfile) {
   ASSERT_TRUE(pwm.Activate(&error)) << error;
   EXPECT_EQ(chip.Attr("duty_cycle"), "2000");  // 0 A: 5 %
   IoError why = IoError::kNone;
-  EXPECT_EQ(pwm.Write({2.0, true, false, 1}, &why), IoStatus::kOk);
+  EXPECT_EQ(pwm.Write(::mrd::test::NowIo(), {2.0, true, false, 1}, &why), IoStatus::kOk);
   EXPECT_EQ(chip.Attr("duty_cycle"), "20000");  // 1 A after one period: 50 %
-  EXPECT_EQ(pwm.Write({2.0, true, false, 2}, &why), IoStatus::kOk);
+  EXPECT_EQ(pwm.Write(::mrd::test::NowIo(), {2.0, true, false, 2}, &why), IoStatus::kOk);
   EXPECT_EQ(chip.Attr("duty_cycle"), "38000");  // 2 A: 95 %
-  EXPECT_EQ(pwm.Write({0.0, false, true, 3}, &why), IoStatus::kOk);
+  EXPECT_EQ(pwm.Write(::mrd::test::NowIo(), {0.0, false, true, 3}, &why), IoStatus::kOk);
   EXPECT_EQ(chip.Attr("duty_cycle"), "2000");  // safe: at once
   EXPECT_EQ(pwm.last_duty_ns(), 2000);
 }
@@ -229,10 +233,12 @@ TEST(PwmDeviceTest, ThroughTheCalibrationWithoutAllocation) {
   IoError why = IoError::kNone;
   test::AllocationGuard guard;
   for (int k = 0; k < 1000; ++k) {
-    (void)pwm.Write({2.25 * (k % 10) / 9.0, true, false, static_cast<std::uint64_t>(k)}, &why);
+    (void)pwm.Write(::mrd::test::NowIo(),
+                    {2.25 * (k % 10) / 9.0, true, false, static_cast<std::uint64_t>(k)}, &why);
   }
   EXPECT_EQ(guard.count(), 0U);
-  EXPECT_EQ(pwm.Write({1.125, true, false, 1000}, &why), IoStatus::kOk);  // 50 %
+  EXPECT_EQ(pwm.Write(::mrd::test::NowIo(), {1.125, true, false, 1000}, &why),
+            IoStatus::kOk);  // 50 %
   EXPECT_EQ(chip.Attr("duty_cycle"), "20000");
 }
 
@@ -251,7 +257,7 @@ TEST(PwmDeviceTest, RefusesWhatIsNotAChipAndFaultsOnAFailedWrite) {
   EXPECT_FALSE(broken.Configure(&error));
   EXPECT_NE(error.find("pwm0/duty_cycle"), std::string::npos) << error;
   IoError why = IoError::kNone;
-  EXPECT_EQ(broken.Write({1.0, true, false, 1}, &why), IoStatus::kFault);
+  EXPECT_EQ(broken.Write(::mrd::test::NowIo(), {1.0, true, false, 1}, &why), IoStatus::kFault);
   EXPECT_EQ(why, IoError::kSystem);
 }
 
@@ -290,14 +296,15 @@ TEST(PwmDeviceTest, FieldbusPeriodsThroughTheConfiguredDeviceAllocateNothing) {
     test::AllocationGuard guard;
     for (int k = 0; k < 2000; ++k) {
       const double e = 2.0 * (k % 100) / 100.0;
-      const IoStatus s = k % 500 < 10 ? fio.EnterSafeState(0.0) : fio.Command(e);
+      const IoStatus s = k % 500 < 10 ? fio.EnterSafeState(::mrd::test::NowIo(), 0.0)
+                                      : fio.Command(::mrd::test::NowIo(), e);
       if (s != IoStatus::kOk) ADD_FAILURE() << "period " << k;
     }
     allocations = guard.count();
   }
   EXPECT_EQ(allocations, 0U);
   // pwm-enable: 1.0 V -> 0.2 A (5-ohm coil) -> 0.095 of 50 us.
-  EXPECT_EQ(fio.Command(1.0), IoStatus::kOk);
+  EXPECT_EQ(fio.Command(::mrd::test::NowIo(), 1.0), IoStatus::kOk);
   EXPECT_EQ(Slurp(root + "/pwmchip3/pwm1/duty_cycle").substr(0, 5), "4750\n");
   devices[0]->Deactivate();
   (void)!system(("rm -rf " + root).c_str());

@@ -28,9 +28,9 @@ class FaultySource final : public SensorSource {
   double spike_velocity = 500.0;     // [cm/s]
   double spike_displacement = 50.0;  // [cm]
 
-  IoStatus Read(SensorFrame* frame) override {
+  IoStatus Read(const firmware::IoTime& t, SensorFrame* frame) override {
     const std::uint64_t n = reads_++;
-    IoStatus s = inner_.Read(frame);
+    IoStatus s = inner_.Read(t, frame);
     if (stall.contains(n)) {
       *frame = frozen_;
     } else {
@@ -61,17 +61,17 @@ class FaultyDriver final : public CurrentDriver {
   std::uint64_t safe_calls = 0;
   double last_volts = -1.0;
 
-  IoStatus Command(double volts) override {
+  IoStatus Command(const firmware::IoTime& t, double volts) override {
     const std::uint64_t n = calls_++;
     last_volts = volts;
     if (n >= fail_from && n < fail_to) return IoStatus::kFault;
-    return inner_.Command(volts);
+    return inner_.Command(t, volts);
   }
-  IoStatus EnterSafeState(double volts) override {
+  IoStatus EnterSafeState(const firmware::IoTime& t, double volts) override {
     ++calls_;
     ++safe_calls;
     last_volts = volts;
-    return inner_.EnterSafeState(volts);
+    return inner_.EnterSafeState(t, volts);
   }
 
  private:

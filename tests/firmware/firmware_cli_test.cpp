@@ -204,5 +204,31 @@ TEST(FirmwareCliTest, SigtermStopsTheLoopInTheSafeState) {
   EXPECT_NE(r.output.find("status=0"), std::string::npos) << r.output;
 }
 
+// The loop's faulted periods per device and reason reach the summaries: a Modbus TCP peer
+// nobody serves (connection refused) faults every period's read and write as "disconnected".
+TEST(FirmwareCliTest, SummaryNamesTheReasonOfFaultedPeriods) {
+  TempDir dir;
+  const std::string cfg = dir.Write(
+      "refused.toml",
+      "[control]\nlaw = \"force\"\n[modbus]\nmode = \"tcp\"\nhost = \"127.0.0.1\"\nport = 1\n"
+      "inputs = [\"velocity\", \"displacement\", \"demand\"]\noutputs = [\"command\"]\n");
+  const CommandResult j =
+      test::Run(Firmware() + " --config " + cfg + " --duration 0.05 --allow-demo-table --json");
+  EXPECT_EQ(j.status, 0) << j.output;  // ended in the safe state
+  const std::string periods =
+      "\"faulted_periods\": {\"read\": {\"none\": 0, \"timeout\": 0, "
+      "\"crc\": 0, \"disconnected\": ";
+  const auto at = j.output.find(periods);
+  ASSERT_NE(at, std::string::npos) << j.output;
+  EXPECT_GT(std::stoll(j.output.substr(at + periods.size())), 0) << j.output;
+  EXPECT_NE(j.output.find(
+                "\"last_period_fault\": {\"read\": \"disconnected\", \"write\": \"disconnected\"}"),
+            std::string::npos)
+      << j.output;
+  const CommandResult t =
+      test::Run(Firmware() + " --config " + cfg + " --duration 0.05 --allow-demo-table");
+  EXPECT_NE(t.output.find("(last disconnected), write "), std::string::npos) << t.output;
+}
+
 }  // namespace
 }  // namespace mrd::test

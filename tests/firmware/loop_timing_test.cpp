@@ -18,7 +18,7 @@ class TimedSource final : public SensorSource {
  public:
   explicit TimedSource(LockstepClock& clock) : clock_(clock) {}
   std::map<std::uint64_t, std::int64_t> work_ns;
-  IoStatus Read(SensorFrame* frame) override {
+  IoStatus Read(const IoTime&, SensorFrame* frame) override {
     const std::int64_t now = clock_.Now();
     (*frame)[Input::kVelocity] = {2.0, now};
     (*frame)[Input::kDisplacement] = {0.1, now};
@@ -53,8 +53,8 @@ class LateClock final : public Clock {
 
 class NullDriver final : public CurrentDriver {
  public:
-  IoStatus Command(double) override { return IoStatus::kOk; }
-  IoStatus EnterSafeState(double) override { return IoStatus::kOk; }
+  IoStatus Command(const IoTime&, double) override { return IoStatus::kOk; }
+  IoStatus EnterSafeState(const IoTime&, double) override { return IoStatus::kOk; }
 };
 
 struct TimedRig {

@@ -14,6 +14,7 @@
 
 #include "mrd/firmware/io/gpio_device.hpp"
 #include "mrd/sim_gpio/sim_chip.hpp"
+#include "support/io_time.hpp"
 
 namespace mrd {
 namespace {
@@ -128,15 +129,17 @@ TEST(SimChipTruncation, TheFirmwaresGpioDeviceReportsAFault) {
   ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
   firmware::SensorFrame frame;
   firmware::IoError why = firmware::IoError::kNone;
-  EXPECT_NE(device.Read(&frame, &why), firmware::IoStatus::kFault);
-  EXPECT_EQ(device.Write({1.0, true, false, 1}, &why), firmware::IoStatus::kOk);
+  EXPECT_NE(device.Read(::mrd::test::NowIo(), &frame, &why), firmware::IoStatus::kFault);
+  EXPECT_EQ(device.Write(::mrd::test::NowIo(), {1.0, true, false, 1}, &why),
+            firmware::IoStatus::kOk);
   file.Truncate(0);
   frame = firmware::SensorFrame{};
-  EXPECT_EQ(device.Read(&frame, &why), firmware::IoStatus::kFault);
+  EXPECT_EQ(device.Read(::mrd::test::NowIo(), &frame, &why), firmware::IoStatus::kFault);
   EXPECT_EQ(why, firmware::IoError::kSystem);
   EXPECT_TRUE(frame.fault_line);  // an unreadable fault line counts as asserted
   EXPECT_EQ(device.fault_cause(), firmware::FaultCause::kGpioBus);
-  EXPECT_EQ(device.Write({1.0, true, false, 2}, &why), firmware::IoStatus::kFault);
+  EXPECT_EQ(device.Write(::mrd::test::NowIo(), {1.0, true, false, 2}, &why),
+            firmware::IoStatus::kFault);
   device.Deactivate();
 }
 

@@ -170,6 +170,17 @@ TEST(HilRunTest, SensorFaultsDetectedSafeAndRecovered) {
   EXPECT_GT(errors["crc"].get<int>(), 0);
   EXPECT_GT(errors["bad_value"].get<int>(), 0);
   EXPECT_GT(errors["rejected_frame"].get<int>(), 0);
+  // Refused frames are the device's business: no period of the loop's reads or writes of the
+  // CAN device faulted (the watchdog's stale and implausible causes did the detecting).
+  const json& can = r.j["firmware"]["summary"]["devices"]["can"];
+  ASSERT_TRUE(can.contains("faulted_periods") && can.contains("last_period_fault")) << can.dump();
+  for (const char* side : {"read", "write"}) {
+    ASSERT_EQ(can["faulted_periods"][side].size(), 10U) << can.dump();  // every IoError
+    for (const auto& [reason, n] : can["faulted_periods"][side].items()) {
+      EXPECT_EQ(n.get<int>(), 0) << side << " " << reason;
+    }
+    EXPECT_EQ(can["last_period_fault"][side], "none");
+  }
 }
 
 TEST(HilRunTest, KillPlantSideAndRestart) {

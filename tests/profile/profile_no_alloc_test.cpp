@@ -5,6 +5,14 @@
 // its counters and checksums by the test, as the driver and sensors would), rejected frames, a
 // silent stretch, the set-point through the profile's command map. This executable replaces
 // the allocator (alloc_counter.hpp). Labels profile, fieldbus.
+//
+// Each period runs at its exact deadline handed in (Loop::Tick(IoTime)), not at the time the
+// test wakes up: a loaded machine that wakes the test late cannot merge two periods into one
+// millisecond of wall time, so every period runs its schedules (the status every period, the
+// heartbeat) and the frame counts are exact. The test still sleeps until each deadline, so
+// CLOCK_MONOTONIC is never behind the handed-in time; its frames carry the previous period's
+// time as the bus's stamp (LocalBusPacket; a receive stamp is the earlier of the packet's and
+// the arrival's), so the device's sample stamps are the handed-in time too.
 #include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -15,6 +23,7 @@
 #include <memory>
 #include <string>
 
+#include "mrd/canbus/can_iface.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/io/can_device.hpp"
@@ -84,7 +93,8 @@ void LoopPeriodsAllocateNothing(const char* file) {
   profile::FrameCodec peer_codec(*p);
   const int motion = in(CanIn::kVelocity).message, demand = in(CanIn::kDemand).message;
   const int command = out(CanOut::kCommand).message;
-  const auto send = [&](int m, double v, double x, double f, int k) {
+  // Sent at t_ns (the packet's bus stamp; never later than CLOCK_MONOTONIC at the send).
+  const auto send = [&](int m, double v, double x, double f, int k, std::int64_t t_ns) {
     can_frame frame{};
     peer_codec.Begin(m, &frame);
     if (m == motion) {
@@ -98,7 +108,8 @@ void LoopPeriodsAllocateNothing(const char* file) {
     }
     if (m == demand) (void)peer_codec.Set(&frame, in(CanIn::kDemand), f);
     peer_codec.Seal(m, &frame);
-    (void)write(peer, &frame, sizeof frame);
+    const canbus::LocalBusPacket packet{frame, t_ns};
+    (void)write(peer, &packet, sizeof packet);
     return frame;
   };
 
@@ -108,12 +119,13 @@ void LoopPeriodsAllocateNothing(const char* file) {
   std::int64_t deadline = clock.Now();
   for (int k = 0; k < kPeriods; ++k) {
     const bool silent = k >= 300 && k < 350;  // sensors stop: stale data
+    const std::int64_t sent = deadline;       // the previous period's time: passed already
     if (!silent) {
       const double t = k * 1e-3;
       const double v = 12.0 * std::cos(12.566 * t), x = std::sin(12.566 * t);
       const double f = 800.0 * std::tanh(6.0 * std::cos(12.566 * t));
-      can_frame last = send(motion, v, x, f, k);
-      if (demand != motion) last = send(demand, v, x, f, k);
+      can_frame last = send(motion, v, x, f, k, sent);
+      if (demand != motion) last = send(demand, v, x, f, k, sent);
       if (k == 500) {  // rejected: a repeated frame (counter or checksum), a wrong length
         (void)write(peer, &last, sizeof last);
         last.len = static_cast<__u8>(last.len == 1 ? 2 : 1);
@@ -121,8 +133,8 @@ void LoopPeriodsAllocateNothing(const char* file) {
       }
     }
     deadline += kPeriod;
-    clock.SleepUntil(deadline);
-    loop.Tick(clock.Now());
+    clock.SleepUntil(deadline);             // CLOCK_MONOTONIC at least the period's time
+    loop.Tick(IoTime{deadline, deadline});  // the exact period time, however late the wake-up
     can_frame f{};
     while (recv(peer, &f, sizeof f, MSG_DONTWAIT) > 0) {
       if (peer_codec.Find(f) >= 0 && (!command_on_can || peer_codec.Find(f) == command)) {
@@ -130,7 +142,7 @@ void LoopPeriodsAllocateNothing(const char* file) {
       }
     }
   }
-  loop.Shutdown();
+  loop.Shutdown(IoTime{deadline, deadline});
   EXPECT_EQ(guard.count(), 0U) << file;
   // The paths really ran.
   const DeviceCounters c = device.counters();

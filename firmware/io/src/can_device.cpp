@@ -134,13 +134,13 @@ bool CanDevice::Configure(std::string* error) {
   return true;
 }
 
-std::int64_t CanDevice::Now() const {
-  return config_.lockstep ? granted_ns_ : common::MonotonicNs();
+std::int64_t CanDevice::Now(std::int64_t wall_ns) const {
+  return config_.lockstep ? granted_ns_ : wall_ns;
 }
 
 bool CanDevice::Activate(std::string* error) {
   if (canopen_ != nullptr && !StartCanopen(error)) return false;
-  const std::int64_t now = Now();
+  const std::int64_t now = Now(common::MonotonicNs());
   next_heartbeat_ns_ = now;
   next_status_ns_ = now;
   next_reconnect_ns_ = now;
@@ -203,8 +203,8 @@ void CanDevice::Grant(double time_us) {
   got_grant_ = true;
 }
 
-bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
-  if (canopen_ != nullptr && HandleCanopen(f)) return false;
+bool CanDevice::Handle(const can_frame& f, std::int64_t stamp, std::int64_t wall_ns) {
+  if (canopen_ != nullptr && HandleCanopen(f, wall_ns)) return false;
   const int m = codec_.Find(f);
   if (m < 0) {
     if (canopen_ != nullptr && IsCanopenManagement(f)) return false;  // another node's
@@ -249,7 +249,7 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
   if (has(pf::CanIn::kDriverFaults)) {
     driver_faults_ =
         static_cast<std::uint32_t>(v[static_cast<std::size_t>(pf::CanIn::kDriverFaults)]);
-    driver_status_ns_ = Now();
+    driver_status_ns_ = Now(wall_ns);
   }
   if (has(pf::CanIn::kDriverCurrent)) {
     driver_current_ = v[static_cast<std::size_t>(pf::CanIn::kDriverCurrent)];
@@ -259,8 +259,10 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp) {
   return fresh;
 }
 
-IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
-  const std::int64_t now = common::MonotonicNs();
+IoStatus CanDevice::Read(const IoTime& t, SensorFrame* frame, IoError* why) {
+  // Wall time of the period (deadlines, reconnects); Now(now): granted time in lockstep, which
+  // a grant drained below may move on (the next step's), so not t.loop_ns.
+  const std::int64_t now = t.wall_ns;
   if (!iface_.is_open()) TryReconnect(now);
   IoError fault = IoError::kNone;
   bool fresh = fresh_in_wait_;
@@ -284,7 +286,7 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
       if (r == canbus::CanResult::kOk) {
         if (k == 0) first_stamp = stamp;
         last_stamp = stamp;
-        fresh = Handle(f, stamp) || fresh;
+        fresh = Handle(f, stamp, now) || fresh;
       } else if (r == canbus::CanResult::kBadFrame) {
         Reject(pc::Reject::kWrongDlc);
       } else if (r == canbus::CanResult::kDisconnected) {
@@ -306,11 +308,12 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
     const bool babble = rejects_since_read_ > kMaxRejectsPerRead;
     flooded = babble || (k == kMaxFramesPerRead && !config_.lockstep &&
                          last_stamp - first_stamp < kFloodSpanNs && iface_.Readable());
-    if (babble) flood_until_ns_ = Now() + kFloodHoldNs;
+    if (babble) flood_until_ns_ = Now(now) + kFloodHoldNs;
   }
   rejects_since_read_ = 0;
   if (flooded) Count(IoError::kOverflow);
-  if ((flooded || Now() < flood_until_ns_) && fault == IoError::kNone) fault = IoError::kOverflow;
+  if ((flooded || Now(now) < flood_until_ns_) && fault == IoError::kNone)
+    fault = IoError::kOverflow;
   MergeRouted(config_.inputs, frame,
               [this](Input i) { return values_[static_cast<std::size_t>(i)]; });
   if ((config_.inputs & Bit(Input::kFaultLine)) != 0 && fault_input_) frame->fault_line = true;
@@ -321,10 +324,10 @@ IoStatus CanDevice::Read(SensorFrame* frame, IoError* why) {
   if (status_driver_msg_ >= 0 && active_) {
     const std::int64_t timeout =
         profile_->specs[static_cast<std::size_t>(status_driver_msg_)].timeout_ns;
-    if (timeout > 0 && Now() - driver_status_ns_ > timeout) frame->fault_line = true;
+    if (timeout > 0 && Now(now) - driver_status_ns_ > timeout) frame->fault_line = true;
   }
   // A CANopen drive whose heartbeat stopped or says other than operational.
-  if (canopen_ != nullptr && active_ && DriveFault()) frame->fault_line = true;
+  if (canopen_ != nullptr && active_ && DriveFault(now)) frame->fault_line = true;
   Publish();
   if (fault != IoError::kNone) {
     *why = fault;
@@ -366,8 +369,8 @@ bool CanDevice::Send(const can_frame& f, std::int64_t now) {
   return false;
 }
 
-IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
-  const std::int64_t now = common::MonotonicNs();
+IoStatus CanDevice::Write(const IoTime& io, const DriverCommand& cmd, IoError* why) {
+  const std::int64_t now = io.wall_ns;
   if (!iface_.is_open()) {
     ++counters_.tx_failed;
     Publish();
@@ -389,7 +392,7 @@ IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
     }
     ok = SendCommand(cmd, now);
   }
-  const std::int64_t t = Now();  // schedules run in granted time in lockstep
+  const std::int64_t t = Now(now);  // schedules run in granted time in lockstep
   if ((out & Bit(Output::kHeartbeat)) != 0 && t >= next_heartbeat_ns_) {
     next_heartbeat_ns_ += config_.heartbeat_period_ns;
     if (next_heartbeat_ns_ <= t) next_heartbeat_ns_ = t + config_.heartbeat_period_ns;
@@ -410,10 +413,10 @@ IoStatus CanDevice::Write(const DriverCommand& cmd, IoError* why) {
   return IoStatus::kOk;
 }
 
-void CanDevice::PublishStatus(const TelemetrySnapshot& stats) {
+void CanDevice::PublishStatus(const IoTime& io, const TelemetrySnapshot& stats) {
   if ((config_.outputs & Bit(Output::kStatus)) == 0 || !iface_.is_open()) return;
-  const std::int64_t now = common::MonotonicNs();
-  const std::int64_t t = Now();
+  const std::int64_t now = io.wall_ns;
+  const std::int64_t t = Now(now);
   if (t < next_status_ns_) return;
   next_status_ns_ += config_.status_period_ns;
   if (next_status_ns_ <= t) next_status_ns_ = t + config_.status_period_ns;
@@ -491,7 +494,7 @@ bool CanDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
       std::int64_t stamp = 0;
       const canbus::CanResult r = iface_.Receive(&f, &stamp);
       if (r == canbus::CanResult::kOk) {
-        fresh_in_wait_ = Handle(f, stamp) || fresh_in_wait_;
+        fresh_in_wait_ = Handle(f, stamp, now) || fresh_in_wait_;
         continue;
       }
       if (r == canbus::CanResult::kBadFrame) {

@@ -90,7 +90,7 @@ bool CanDevice::StartCanopen(std::string* error) {
           answered = reply == co::SdoReply::kAck;
         } else {
           // Sensors, grants, the drive's heartbeat: taken as in the loop.
-          (void)Handle(f, stamp);
+          (void)Handle(f, stamp, now);
         }
         continue;
       }
@@ -117,7 +117,7 @@ bool CanDevice::StartCanopen(std::string* error) {
   return true;
 }
 
-bool CanDevice::HandleCanopen(const can_frame& f) {
+bool CanDevice::HandleCanopen(const can_frame& f, std::int64_t wall_ns) {
   const std::uint32_t id = StandardId(f);
   const int node = canopen_->node_id;
   if (id == co::HeartbeatId(node)) {
@@ -126,7 +126,7 @@ bool CanDevice::HandleCanopen(const can_frame& f) {
       return true;
     }
     ++counters_.rx_ok;
-    drive_heartbeat_ns_ = Now();
+    drive_heartbeat_ns_ = Now(wall_ns);
     // Lockstep: the heartbeat belongs to the step whose grant follows it (as sensor values).
     drive_heartbeat_unstamped_ = config_.lockstep;
     const auto state = static_cast<std::uint8_t>(f.data[0] & 0x7FU);
@@ -137,7 +137,7 @@ bool CanDevice::HandleCanopen(const can_frame& f) {
       ++drive_boot_ups_;
       reconfig_sdo_ = -1;
       reconfig_failed_ = false;
-      ReconfigureNext(common::MonotonicNs());
+      ReconfigureNext(wall_ns);
     }
     return true;
   }
@@ -148,7 +148,7 @@ bool CanDevice::HandleCanopen(const can_frame& f) {
       const co::SdoReply reply = co::DecodeSdoReply(f.data, f.len, s.index, s.subindex, &code);
       if (reply == co::SdoReply::kAck) {
         ++sdo_downloads_;
-        ReconfigureNext(common::MonotonicNs());
+        ReconfigureNext(wall_ns);
       } else if (reply == co::SdoReply::kAbort) {
         reconfig_sdo_ = -1;  // refused: no NMT start; the fault holds until the next boot-up
         reconfig_failed_ = true;
@@ -164,7 +164,7 @@ void CanDevice::ReconfigureNext(std::int64_t now) {
   const int next = reconfig_sdo_ + 1;
   if (static_cast<std::size_t>(next) < sdo_frames_.size()) {
     reconfig_sdo_ = next;
-    reconfig_sent_ns_ = Now();
+    reconfig_sent_ns_ = Now(now);
     (void)Send(sdo_frames_[static_cast<std::size_t>(next)], now);
     return;
   }
@@ -179,8 +179,8 @@ bool CanDevice::IsCanopenManagement(const can_frame& f) const {
          (id >= 0x701U && id <= 0x77FU);                                      // heartbeat
 }
 
-bool CanDevice::DriveFault() {
-  const std::int64_t now = Now();
+bool CanDevice::DriveFault(std::int64_t wall_ns) {
+  const std::int64_t now = Now(wall_ns);
   if (reconfig_sdo_ >= 0 && now - reconfig_sent_ns_ > canopen_->sdo_timeout_ns) {
     reconfig_sdo_ = -1;  // no answer: the fault holds until the next boot-up
     reconfig_failed_ = true;

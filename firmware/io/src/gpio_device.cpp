@@ -186,7 +186,7 @@ void GpioDevice::ReadEncoder(std::int64_t now, IoError* fault) {
   if (stamp > displacement_.stamp_ns) displacement_.stamp_ns = stamp;
 }
 
-IoStatus GpioDevice::Read(SensorFrame* frame, IoError* why) {
+IoStatus GpioDevice::Read(const IoTime& t, SensorFrame* frame, IoError* why) {
   if (!open_) {
     *why = IoError::kDisconnected;
     return IoStatus::kFault;
@@ -207,7 +207,7 @@ IoStatus GpioDevice::Read(SensorFrame* frame, IoError* why) {
   }
   if (Routed(Input::kDisplacement)) {
     const std::int64_t before = displacement_.stamp_ns;
-    ReadEncoder(common::MonotonicNs(), &fault);
+    ReadEncoder(t.wall_ns, &fault);  // wall-clock stamps, as the edge thread's
     fresh = fresh || displacement_.stamp_ns != before;
   }
   // The encoder is the one value input a GPIO device serves (configuration checks).
@@ -220,7 +220,8 @@ IoStatus GpioDevice::Read(SensorFrame* frame, IoError* why) {
   return fresh ? IoStatus::kOk : IoStatus::kNoData;
 }
 
-IoStatus GpioDevice::Write(const DriverCommand& cmd, IoError* why) {
+IoStatus GpioDevice::Write(const IoTime& t, const DriverCommand& cmd, IoError* why) {
+  (void)t;
   if (!open_) {
     ++counters_.tx_failed;
     Publish();

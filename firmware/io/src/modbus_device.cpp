@@ -495,7 +495,8 @@ void ModbusDevice::WorkLockstep() {
   }
 }
 
-IoStatus ModbusDevice::Read(SensorFrame* frame, IoError* why) {
+IoStatus ModbusDevice::Read(const IoTime& t, SensorFrame* frame, IoError* why) {
+  (void)t;  // the samples carry their requests' stamps (worker thread)
   bool got = false;
   for (int i = 0; i < kReadAttempts && !got; ++i) got = sample_.TryRead(&cached_);
   const Sample& s = cached_;  // the worker is publishing right now: the previous copy
@@ -525,13 +526,14 @@ IoStatus ModbusDevice::Read(SensorFrame* frame, IoError* why) {
   return status;
 }
 
-IoStatus ModbusDevice::Write(const DriverCommand& cmd, IoError* why) {
+IoStatus ModbusDevice::Write(const IoTime& t, const DriverCommand& cmd, IoError* why) {
   // Lockstep: the published tick's command goes out before a later one replaces it in the
   // one-slot mailbox (only the shutdown's safe block follows a tick without a grant between;
   // otherwise the harness's next grant already came after that command). Bounded wait; in
   // simulated time only.
   if (config_.lockstep && published_) {
-    const std::int64_t until = common::MonotonicNs() + kLockstepHandOverNs;
+    // A polling wait: it reads the clock itself (t.wall_ns is the period's start).
+    const std::int64_t until = t.wall_ns + kLockstepHandOverNs;
     while (running_.load(std::memory_order_relaxed) &&
            !(handled_any_.load(std::memory_order_acquire) &&
              handled_tick_.load(std::memory_order_acquire) >= published_tick_) &&
@@ -567,7 +569,8 @@ IoStatus ModbusDevice::Write(const DriverCommand& cmd, IoError* why) {
   return IoStatus::kOk;
 }
 
-void ModbusDevice::PublishStatus(const TelemetrySnapshot& stats) {
+void ModbusDevice::PublishStatus(const IoTime& t, const TelemetrySnapshot& stats) {
+  (void)t;
   status_causes_.store(static_cast<std::uint16_t>(stats.active_causes & 0xFFFFU),
                        std::memory_order_relaxed);
   status_ticks_.store(static_cast<std::uint32_t>(stats.ticks & 0xFFFFFFFFU),

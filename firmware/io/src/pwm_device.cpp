@@ -157,13 +157,15 @@ void PwmDevice::Deactivate() {
   active_ = false;
 }
 
-IoStatus PwmDevice::Read(SensorFrame* frame, IoError* why) {
+IoStatus PwmDevice::Read(const IoTime& t, SensorFrame* frame, IoError* why) {
+  (void)t;
   (void)frame;
   (void)why;
   return IoStatus::kNoData;
 }
 
-IoStatus PwmDevice::Write(const DriverCommand& cmd, IoError* why) {
+IoStatus PwmDevice::Write(const IoTime& t, const DriverCommand& cmd, IoError* why) {
+  (void)t;
   // A non-finite command maps to the range's low end (CommandMap::Apply); never wrapped.
   const std::int64_t ns = DutyOf(cmd.volts, cmd.safe);
   if (!active_ || !WriteDuty(ns)) {

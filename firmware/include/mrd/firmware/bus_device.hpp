@@ -77,14 +77,20 @@ class BusDevice {
   // Shutdown: safe outputs, stop threads. Idempotent.
   virtual void Deactivate() = 0;
 
+  // t: the period's time (io.hpp IoTime); deadlines, timeouts and schedules on the tick run
+  // on t.wall_ns (CLOCK_MONOTONIC) instead of a clock read of their own.
   // Merges the latest samples of the routed inputs into *frame, each with its own sample
-  // stamp (CLOCK_MONOTONIC [ns]); leaves the other fields alone. kNoData: nothing new;
-  // kFault: *why says why (stale samples keep their old stamps). Real-time safe.
-  virtual IoStatus Read(SensorFrame* frame, IoError* why) = 0;
+  // stamp (CLOCK_MONOTONIC [ns]; granted time in lockstep); leaves the other fields alone.
+  // kNoData: nothing new; kFault: *why says why (stale samples keep their old stamps).
+  // Real-time safe.
+  virtual IoStatus Read(const IoTime& t, SensorFrame* frame, IoError* why) = 0;
   // Sends the routed outputs of cmd. Real-time safe, never waits on the bus.
-  virtual IoStatus Write(const DriverCommand& cmd, IoError* why) = 0;
+  virtual IoStatus Write(const IoTime& t, const DriverCommand& cmd, IoError* why) = 0;
   // Status output (if routed here), at the device's own rate. Real-time safe.
-  virtual void PublishStatus(const TelemetrySnapshot& stats) { (void)stats; }
+  virtual void PublishStatus(const IoTime& t, const TelemetrySnapshot& stats) {
+    (void)t;
+    (void)stats;
+  }
 
   virtual DeviceCounters counters() const = 0;
   // The loop's time grants when this device carries them (lockstep); else nullptr.

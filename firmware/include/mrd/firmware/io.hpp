@@ -70,24 +70,40 @@ void MergeRouted(std::uint32_t routed, SensorFrame* frame, ValueOf&& value_of) {
 
 struct TelemetrySnapshot;
 
+// The period's time, handed in by the loop (read once per period, as ros2_control's
+// read(time, period)). Two clocks, never mixed:
+//   loop_ns  the loop's clock [ns]: the period's time (the harness-granted simulated time in
+//            lockstep runs; CLOCK_MONOTONIC otherwise)
+//   wall_ns  CLOCK_MONOTONIC [ns], for the devices' send deadlines, reply timeouts, backoffs
+//            and wall-clock sample stamps (equal to loop_ns when the loop runs on CLOCK_MONOTONIC)
+// The devices' own I/O threads (Modbus worker, reconnects) keep reading the clock themselves.
+struct IoTime {
+  std::int64_t loop_ns = 0;
+  std::int64_t wall_ns = 0;
+};
+
 class SensorSource {
  public:
   virtual ~SensorSource() = default;
-  // Fills *frame with the latest values. kFault: the frame may be partial. Real-time safe.
-  virtual IoStatus Read(SensorFrame* frame) = 0;
+  // Fills *frame with the latest values at the period's time t. kFault: the frame may be
+  // partial. Real-time safe.
+  virtual IoStatus Read(const IoTime& t, SensorFrame* frame) = 0;
 };
 
 class CurrentDriver {
  public:
   virtual ~CurrentDriver() = default;
-  // Commands the coil voltage [V]. Real-time safe.
-  virtual IoStatus Command(double volts) = 0;
+  // Commands the coil voltage [V] at the period's time t. Real-time safe.
+  virtual IoStatus Command(const IoTime& t, double volts) = 0;
   // Puts the driver in its safe state at safe_volts [V] (e.g. 0 V, or disabled). Must
   // succeed whenever the hardware can; also used at shutdown. Real-time safe.
-  virtual IoStatus EnterSafeState(double safe_volts) = 0;
+  virtual IoStatus EnterSafeState(const IoTime& t, double safe_volts) = 0;
   // The loop's counters after each period (status frames, registers). Real-time safe; must
   // not block (a driver sends at its own lower rate). Default: nothing to publish.
-  virtual void PublishStatus(const TelemetrySnapshot& stats) { (void)stats; }
+  virtual void PublishStatus(const IoTime& t, const TelemetrySnapshot& stats) {
+    (void)t;
+    (void)stats;
+  }
 };
 
 // Time source of the loop: CLOCK_MONOTONIC with absolute sleeps on a target, or a lockstep
@@ -101,6 +117,9 @@ class Clock {
   // True once time can no longer advance (a lockstep clock whose harness is gone): the loop
   // then ends instead of ticking.
   virtual bool Halted() const { return false; }
+  // True when Now() is CLOCK_MONOTONIC itself: the loop then hands Now() in as the wall time
+  // too (IoTime) instead of reading the clock a second time.
+  virtual bool IsMonotonic() const { return false; }
 };
 
 // CLOCK_MONOTONIC; SleepUntil uses clock_nanosleep(TIMER_ABSTIME) and resumes after signals.
@@ -108,6 +127,7 @@ class MonotonicClock final : public Clock {
  public:
   std::int64_t Now() override;
   void SleepUntil(std::int64_t t_ns) override;
+  bool IsMonotonic() const override { return true; }
 };
 
 // Simulated time: SleepUntil jumps there. Starts at start_ns.

@@ -27,10 +27,15 @@ class Loop {
   // Runs periods until stop is set or duration_ns has elapsed (<= 0: until stop), then puts
   // the driver in the safe state. Real-time safe after entry (no allocation).
   void Run(const std::atomic<bool>& stop, std::int64_t duration_ns);
-  // One period at time now_ns. Real-time safe.
+  // One period at the loop's time now_ns; the devices' wall time (IoTime) is now_ns on a
+  // CLOCK_MONOTONIC clock, else CLOCK_MONOTONIC read once. Real-time safe.
   void Tick(std::int64_t now_ns);
-  // Safe state on the driver (shutdown path). Real-time safe.
+  // One period at the time handed in (t.loop_ns is the loop's time). Real-time safe.
+  void Tick(const IoTime& t);
+  // Safe state on the driver (shutdown path), at the wall time read now or handed in.
+  // Real-time safe.
   void Shutdown();
+  void Shutdown(const IoTime& t);
 
   const TelemetrySnapshot& stats() const { return stats_; }
   // The controller running now (another one after a reload).

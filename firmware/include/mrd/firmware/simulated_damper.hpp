@@ -24,9 +24,9 @@ class SimulatedDamper final : public SensorSource, public CurrentDriver {
 
   // Real-time safe (fixed-step integration, bounded by the elapsed periods, at most 1000 per
   // call — a longer gap is skipped: the plant resumes where it stopped).
-  IoStatus Read(SensorFrame* frame) override;
-  IoStatus Command(double volts) override;
-  IoStatus EnterSafeState(double safe_volts) override;
+  IoStatus Read(const IoTime& t, SensorFrame* frame) override;
+  IoStatus Command(const IoTime& t, double volts) override;
+  IoStatus EnterSafeState(const IoTime& t, double safe_volts) override;
 
   double held_volts() const { return volts_; }
   bool in_safe_state() const { return safe_; }

@@ -88,9 +88,9 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   bool Configure(std::string* error) override;
   bool Activate(std::string* error) override;
   void Deactivate() override;
-  IoStatus Read(SensorFrame* frame, IoError* why) override;
-  IoStatus Write(const DriverCommand& cmd, IoError* why) override;
-  void PublishStatus(const TelemetrySnapshot& stats) override;
+  IoStatus Read(const IoTime& t, SensorFrame* frame, IoError* why) override;
+  IoStatus Write(const IoTime& io, const DriverCommand& cmd, IoError* why) override;
+  void PublishStatus(const IoTime& io, const TelemetrySnapshot& stats) override;
   DeviceCounters counters() const override { return published_.Read(); }
   // Lockstep only (config.lockstep); bounded wait, no allocation.
   bool WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) override;
@@ -112,10 +112,10 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   void TryReconnect(std::int64_t now);
   void Reject(protocol::can::Reject reason);
   void Count(IoError error);
-  bool Handle(const can_frame& f, std::int64_t stamp);
+  bool Handle(const can_frame& f, std::int64_t stamp, std::int64_t wall_ns);
   void Grant(double time_us);
   // The device's time: CLOCK_MONOTONIC, or the latest granted time in lockstep.
-  std::int64_t Now() const;
+  std::int64_t Now(std::int64_t wall_ns) const;
   // Queues one frame; false (and counted) when it failed.
   bool Send(const can_frame& f, std::int64_t now);
   // Real time: the latest motion sample (routed here) is older than max_age at now.
@@ -128,7 +128,7 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   // NMT start and the SDO list, each answered (Activate; waits, allocates the error text).
   bool StartCanopen(std::string* error);
   // A frame of the drive's heartbeat or SDO answer (true: consumed).
-  bool HandleCanopen(const can_frame& f);
+  bool HandleCanopen(const can_frame& f, std::int64_t wall_ns);
   // Another node's CANopen management frame (NMT, SYNC, EMCY, SDO, heartbeat id ranges).
   bool IsCanopenManagement(const can_frame& f) const;
   void SendNmtStart(std::int64_t now);
@@ -137,7 +137,7 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   // The heartbeat and SYNC schedules (Write).
   bool ProduceCanopen(std::int64_t now, std::int64_t t);
   // fault_line from the drive's heartbeat; the re-configuration's answer timeout (Read).
-  bool DriveFault();
+  bool DriveFault(std::int64_t wall_ns);
 
   CanConfig config_;
   std::shared_ptr<const profile::CanProfile> profile_;

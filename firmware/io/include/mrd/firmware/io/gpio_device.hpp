@@ -68,8 +68,8 @@ class GpioDevice final : public BusDevice {
   bool Activate(std::string* error) override;
   // Enable low, lines released. Idempotent.
   void Deactivate() override;
-  IoStatus Read(SensorFrame* frame, IoError* why) override;
-  IoStatus Write(const DriverCommand& cmd, IoError* why) override;
+  IoStatus Read(const IoTime& t, SensorFrame* frame, IoError* why) override;
+  IoStatus Write(const IoTime& t, const DriverCommand& cmd, IoError* why) override;
   DeviceCounters counters() const override { return published_.Read(); }
 
   // Loop-thread views (tests and diagnostics).

@@ -58,9 +58,9 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   // up (one attempt, at most one response timeout), closes the link.
   void Deactivate() override;
 
-  IoStatus Read(SensorFrame* frame, IoError* why) override;
-  IoStatus Write(const DriverCommand& cmd, IoError* why) override;
-  void PublishStatus(const TelemetrySnapshot& stats) override;
+  IoStatus Read(const IoTime& t, SensorFrame* frame, IoError* why) override;
+  IoStatus Write(const IoTime& t, const DriverCommand& cmd, IoError* why) override;
+  void PublishStatus(const IoTime& t, const TelemetrySnapshot& stats) override;
   DeviceCounters counters() const override;
   bool WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) override;
   TimeGrantSource* grant_source() override { return config_.lockstep ? this : nullptr; }

@@ -52,8 +52,8 @@ class PwmDevice final : public BusDevice {
   bool Configure(std::string* error) override;
   bool Activate(std::string* error) override;
   void Deactivate() override;
-  IoStatus Read(SensorFrame* frame, IoError* why) override;
-  IoStatus Write(const DriverCommand& cmd, IoError* why) override;
+  IoStatus Read(const IoTime& t, SensorFrame* frame, IoError* why) override;
+  IoStatus Write(const IoTime& t, const DriverCommand& cmd, IoError* why) override;
   DeviceCounters counters() const override { return counters_; }
 
   std::int64_t last_duty_ns() const { return last_duty_ns_; }
