@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "mrd/common/crc32.hpp"
+#include "mrd/common/model_check.hpp"
 #include "mrd/common/table.hpp"
 #include "support/demo_model.hpp"
 
@@ -181,6 +182,17 @@ TEST(TableLayoutTest, DecoderRejectsAnyUndefinedFlagWithValidCrc) {
   EXPECT_EQ(b[6], 0);
   EXPECT_EQ(b[7], 0);
   EXPECT_TRUE(DecodeTable(b).ok());
+}
+
+// The diagnosis of an undefined flag says flags, not a stray byte: the firmware's refusal
+// ("a flag other than bit 0 is set") is built from it.
+TEST(TableLayoutTest, AnUndefinedFlagIsDiagnosedAsAFlagNotAStrayByte) {
+  TableBytes b = Encoded(test::DemoDamperTable());
+  b[6] = 0x02;
+  FixCrc(b);
+  TableDiagnosis d;
+  EXPECT_EQ(DecodeTable(b, &d).error(), Error::kOutOfRange);
+  EXPECT_FALSE(d.stray_byte) << "byte " << d.byte;
 }
 
 }  // namespace

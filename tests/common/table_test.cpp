@@ -113,6 +113,11 @@ TEST(TableTest, DecoderRejectsWrongVersion) {
   b[4] = 0;
   FixCrc(b);
   EXPECT_EQ(DecodeError(b), Error::kBadVersion);
+  // The version is 16 bits: a high byte makes 0x0102, not version 2.
+  b[4] = 2;
+  b[5] = 1;
+  FixCrc(b);
+  EXPECT_EQ(DecodeError(b), Error::kBadVersion);
 }
 
 TEST(TableTest, DecoderRejectsWrongSize) {
