@@ -166,7 +166,9 @@ TEST(ModbusDeviceTest, SilentPeerTimesOutAndTheTickKeepsReturning) {
   const int p = test::FreeTcpPort();
   test::ScriptedTcpServer server(p, test::PeerBehaviour::kSilent);
   ModbusConfig cfg = TcpConfig(p);
-  cfg.response_timeout_ns = 5'000'000;
+  // Long enough that the test's first Read comes before the timeout even when a loaded
+  // machine deschedules the test thread for a while (it did at 5 ms).
+  cfg.response_timeout_ns = 200'000'000;
   ModbusDevice device(cfg);
   std::string error;
   ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
