@@ -120,8 +120,10 @@ for m in "${mutant_lines[@]}"; do
   cp "$scratch/orig" "$src/$file"
 done
 
+launcher=()  # ccache (when installed) makes each mutant's rebuild after the revert cheap
+command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 cmake -S "$src" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DMRD_BUILD_BENCHMARKS=OFF \
-  -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >"$log/configure.txt" 2>&1 ||
+  "${launcher[@]}" >"$log/configure.txt" 2>&1 ||
   { echo "error: configure failed (see $log/configure.txt)" >&2; exit 1; }
 
 used_groups=$(for m in "${mutant_lines[@]}"; do cut -f3 <<<"$m"; done | sort -u)
@@ -158,7 +160,7 @@ for m in "${mutant_lines[@]}"; do
     killed=$((killed + 1))
   fi
   cp "$scratch/orig" "$src/$file"
-  touch "$src/$file"  # the next build recompiles it (ccache makes that cheap)
+  touch "$src/$file"  # the next build recompiles it
   failed=$(grep -oE '[0-9]+ - [A-Za-z0-9_./]+ \((Failed|Timeout)\)' "$log/$id.txt" | head -3 |
            sed -E 's/^[0-9]+ - //' | paste -sd' ' || true)
   printf '%-4s %-8s %4ss  %s%s\n' "$id" "$verdict" "$(($(date +%s) - t0))" "$desc" \

@@ -3,6 +3,8 @@
 // part differentiates each of those operations.
 #include "spencer_sensitivity.hpp"
 
+#include "mrd/sim/spencer_damper.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -144,16 +146,8 @@ bool SpencerSensitivity(const double* p, const FitRun& run, int substeps, double
   for (std::size_t k = 0; k + 1 < rows; ++k) {
     const double E = std::clamp(run.E[k + 1], 0.0, e_max);
     const double x0 = xs[k], v0 = vs[k], x1 = xs[k + 1], v1 = vs[k + 1];
-    // As SpencerDamper::Step's cubic Hermite excitation.
     const auto excitation = [&](double sn, double* x, double* v) {
-      const double s2 = sn * sn;
-      const double s3 = s2 * sn;
-      const double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + sn;
-      const double h01 = -2 * s3 + 3 * s2, h11 = s3 - s2;
-      *x = h00 * x0 + h10 * dt * v0 + h01 * x1 + h11 * dt * v1;
-      const double d00 = 6 * s2 - 6 * sn, d10 = 3 * s2 - 4 * sn + 1;
-      const double d01 = -6 * s2 + 6 * sn, d11 = 3 * s2 - 2 * sn;
-      *v = (d00 * x0 + d01 * x1) / dt + d10 * v0 + d11 * v1;
+      HermiteExcitation(dt, x0, v0, x1, v1, sn, x, v);
     };
     for (int i = 0; i < steps; ++i) {
       const double sa = i * ds;

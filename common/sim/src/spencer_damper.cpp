@@ -99,16 +99,8 @@ double SpencerDamper::ForceAt(const SpencerState& at, double x, double xdot) con
 }
 
 double SpencerDamper::Step(double dt, double x0, double v0, double x1, double v1, double E) {
-  // Cubic Hermite on [0, dt]: position and velocity at normalised time s in [0, 1].
   const auto excitation = [&](double s, double* x, double* v) {
-    const double s2 = s * s;
-    const double s3 = s2 * s;
-    const double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + s;
-    const double h01 = -2 * s3 + 3 * s2, h11 = s3 - s2;
-    *x = h00 * x0 + h10 * dt * v0 + h01 * x1 + h11 * dt * v1;
-    const double d00 = 6 * s2 - 6 * s, d10 = 3 * s2 - 4 * s + 1;
-    const double d01 = -6 * s2 + 6 * s, d11 = 3 * s2 - 2 * s;
-    *v = (d00 * x0 + d01 * x1) / dt + d10 * v0 + d11 * v1;
+    HermiteExcitation(dt, x0, v0, x1, v1, s, x, v);
   };
   const auto axpy = [](const SpencerState& a, double h, const SpencerState& d) {
     return SpencerState{a.y + h * d.y, a.z + h * d.z, a.u + h * d.u};

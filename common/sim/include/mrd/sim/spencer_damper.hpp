@@ -49,6 +49,20 @@ struct SpencerState {
   double u = 0.0;  // filtered voltage [V]
 };
 
+// Cubic Hermite interpolant on one sample interval [0, dt] through (x0, v0) and (x1, v1):
+// position *x [cm] and velocity *v [cm/s] at normalised time s in [0, 1].
+inline void HermiteExcitation(double dt, double x0, double v0, double x1, double v1, double s,
+                              double* x, double* v) {
+  const double s2 = s * s;
+  const double s3 = s2 * s;
+  const double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + s;
+  const double h01 = -2 * s3 + 3 * s2, h11 = s3 - s2;
+  *x = h00 * x0 + h10 * dt * v0 + h01 * x1 + h11 * dt * v1;
+  const double d00 = 6 * s2 - 6 * s, d10 = 3 * s2 - 4 * s + 1;
+  const double d01 = -6 * s2 + 6 * s, d11 = 3 * s2 - 2 * s;
+  *v = (d00 * x0 + d01 * x1) / dt + d10 * v0 + d11 * v1;
+}
+
 // Fixed-step RK4 integration of the model over sampling intervals. Within one interval the
 // displacement follows the cubic Hermite interpolant of (x, xdot) at both ends and E is held
 // (zero-order hold, as a current driver holds its command).
