@@ -4,6 +4,8 @@
 # prints KILLED / SURVIVED / INVALID per mutant and the score killed / (killed + survived).
 #
 #   toolchain/mutate.sh [SELECTOR...]
+#   toolchain/mutate.sh --check      (the list only: every original text found exactly once in
+#                                     the tree, ids unique, groups known; no build; a CTest test)
 #
 # SELECTOR: a mutant id (C01), an area (common, firmware, host) or a test group of the list
 # (see the `group` lines); none: every mutant. Takes minutes: run by hand, and before resolving
@@ -21,6 +23,8 @@ set -euo pipefail
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 list=${MRD_MUTANTS:-$root/toolchain/mutants.tsv}
+check_only=0
+[[ ${1:-} == --check ]] && { check_only=1; shift; }
 scratch=${MRD_MUTATE_DIR:-/tmp/mrd-mutate}
 jobs=${MRD_MUTATE_JOBS:-2}
 timeout=${MRD_MUTATE_TIMEOUT:-300}
@@ -28,29 +32,13 @@ min_score=${MRD_MUTATE_MIN_SCORE:-90}
 py=/usr/bin/python3
 [[ -x $py ]] || py=python3
 
-src=$scratch/src
-build=$scratch/build
-log=$scratch/log
-mkdir -p "$src" "$build" "$log"
-
-# Scratch copy of the working tree (tracked and untracked sources, no build trees, no .git).
-# Only files that differ are copied (new mtime), so the scratch build stays incremental and an
-# interrupted run's mutated file is replaced and rebuilt.
-(cd "$root" && find . \( -path ./.git -o -path './build*' -o -path ./.cache \) -prune -o \
-   -type f -print0) |
-  while IFS= read -r -d '' f; do
-    if ! cmp -s "$root/$f" "$src/$f"; then
-      mkdir -p "$(dirname "$src/$f")"
-      cp "$root/$f" "$src/$f"
-    fi
-  done
-
 # The list: "group<TAB>name<TAB>targets<TAB>ctest regex" and
 # "mutant<TAB>id<TAB>file<TAB>original<TAB>replacement<TAB>group<TAB>description".
 # Selected mutants as id|file|group|description lines, and groups as name|targets|regex lines.
+# With check_root set: only checks that every original text is found exactly once below it.
 read_list() {
-  "$py" - "$list" "$@" <<'EOF'
-import sys
+  check_root=$check_root "$py" - "$list" "$@" <<'EOF'
+import os, sys
 path, selectors = sys.argv[1], set(sys.argv[2:])
 groups, mutants, ids = {}, [], set()
 for n, line in enumerate(open(path, encoding="utf-8"), 1):
@@ -69,6 +57,19 @@ for n, line in enumerate(open(path, encoding="utf-8"), 1):
         mutants.append(f[1:])
     else:
         sys.exit(f"error: {path}:{n}: expected a group (4 fields) or mutant (7 fields) line")
+if os.environ.get("check_root"):
+    stale = 0
+    for mid, file, orig, *_ in mutants:
+        try:
+            count = open(os.path.join(os.environ["check_root"], file), encoding="utf-8").read().count(orig)
+        except OSError as e:
+            count = f"no file ({e.strerror})"
+        if count != 1:
+            stale += 1
+            print(f"error: {path}: mutant {mid}: original text found {count} times in {file}: "
+                  f"{orig!r}", file=sys.stderr)
+    print(f"{len(mutants)} mutants, {len(groups)} groups" + (f", {stale} stale" if stale else ""))
+    sys.exit(3 if stale else 0)
 for mid, file, orig, repl, group, desc in mutants:
     area = file.split("/")[0]
     if not selectors or selectors & {mid, area, group}:
@@ -77,6 +78,31 @@ for name, (targets, regex) in groups.items():
     print("G", name, targets, regex, sep="\t")
 EOF
 }
+
+check_root=""
+if ((check_only)); then
+  check_root=$root
+  read_list
+  exit
+fi
+
+src=$scratch/src
+build=$scratch/build
+log=$scratch/log
+mkdir -p "$src" "$build" "$log"
+
+# Scratch copy of the working tree (tracked and untracked sources, no build trees, no .git).
+# Only files that differ are copied (new mtime), so the scratch build stays incremental and an
+# interrupted run's mutated file is replaced and rebuilt.
+(cd "$root" && find . \( -path ./.git -o -path './build*' -o -path ./.cache \) -prune -o \
+   -type f -print0) |
+  while IFS= read -r -d '' f; do
+    if ! cmp -s "$root/$f" "$src/$f"; then
+      mkdir -p "$(dirname "$src/$f")"
+      cp "$root/$f" "$src/$f"
+    fi
+  done
+
 
 # apply FILE ID: replaces the mutant's original text (exactly one occurrence) in the scratch
 # copy; exit 3 when it is not found exactly once.
