@@ -3,11 +3,11 @@
 // part differentiates each of those operations.
 #include "spencer_sensitivity.hpp"
 
-#include "mrd/sim/spencer_damper.hpp"
-
 #include <algorithm>
 #include <array>
 #include <cmath>
+
+#include "mrd/sim/spencer_damper.hpp"
 
 namespace mrd::host {
 namespace {
