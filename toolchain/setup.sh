@@ -27,8 +27,8 @@ packages=(
   gnuplot-nox shellcheck clang-format
   # Arm cross builds and their tests under qemu-user (target libraries: toolchain/sysroot.sh).
   g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
-  # Modbus interop tests: an independent implementation (pymodbus, with its serial deps).
-  python3-pymodbus python3-serial python3-serial-asyncio
+  # Modbus interop tests: independent implementations (pymodbus, with its serial deps; mbpoll).
+  python3-pymodbus python3-serial python3-serial-asyncio mbpoll
   # The virtual board: an arm64 kernel from Debian's source, QEMU, the initramfs tools.
   linux-source qemu-system-arm flex bison bc cpio
 )
