@@ -35,7 +35,8 @@ py=/usr/bin/python3
 # The list: "group<TAB>name<TAB>targets<TAB>ctest regex" and
 # "mutant<TAB>id<TAB>file<TAB>original<TAB>replacement<TAB>group<TAB>description".
 # Selected mutants as id|file|group|description lines, and groups as name|targets|regex lines.
-# With check_root set: only checks that every original text is found exactly once below it.
+# With check_root set: only checks that every selected original text is found exactly once
+# below it (exit 3 and a line per stale mutant otherwise).
 read_list() {
   check_root=$check_root "$py" - "$list" "$@" <<'EOF'
 import os, sys
@@ -57,11 +58,16 @@ for n, line in enumerate(open(path, encoding="utf-8"), 1):
         mutants.append(f[1:])
     else:
         sys.exit(f"error: {path}:{n}: expected a group (4 fields) or mutant (7 fields) line")
+def selected(mid, file, group):
+    return not selectors or bool(selectors & {mid, file.split("/")[0], group})
 if os.environ.get("check_root"):
     stale = 0
-    for mid, file, orig, *_ in mutants:
+    for mid, file, orig, _, group, _ in mutants:
+        if not selected(mid, file, group):
+            continue
         try:
-            count = open(os.path.join(os.environ["check_root"], file), encoding="utf-8").read().count(orig)
+            with open(os.path.join(os.environ["check_root"], file), encoding="utf-8") as f:
+                count = f.read().count(orig)
         except OSError as e:
             count = f"no file ({e.strerror})"
         if count != 1:
@@ -71,8 +77,7 @@ if os.environ.get("check_root"):
     print(f"{len(mutants)} mutants, {len(groups)} groups" + (f", {stale} stale" if stale else ""))
     sys.exit(3 if stale else 0)
 for mid, file, orig, repl, group, desc in mutants:
-    area = file.split("/")[0]
-    if not selectors or selectors & {mid, area, group}:
+    if selected(mid, file, group):
         print("M", mid, file, group, desc, sep="\t")
 for name, (targets, regex) in groups.items():
     print("G", name, targets, regex, sep="\t")
@@ -102,7 +107,6 @@ mkdir -p "$src" "$build" "$log"
       cp "$root/$f" "$src/$f"
     fi
   done
-
 
 # apply FILE ID: replaces the mutant's original text (exactly one occurrence) in the scratch
 # copy; exit 3 when it is not found exactly once.
@@ -138,13 +142,8 @@ while IFS=$'\t' read -r kind a b c d; do
 done < <(read_list "$@")
 [[ ${#mutant_lines[@]} -gt 0 ]] || { echo "error: no mutant matches: $*" >&2; exit 2; }
 
-# Every original text must be found exactly once before anything runs.
-for m in "${mutant_lines[@]}"; do
-  IFS=$'\t' read -r id file group desc <<<"$m"
-  cp "$src/$file" "$scratch/orig"
-  apply "$id" || exit 3
-  cp "$scratch/orig" "$src/$file"
-done
+# Every selected original text must be found exactly once before anything runs.
+check_root=$src read_list "$@" >/dev/null || exit 3
 
 launcher=()  # ccache (when installed) makes each mutant's rebuild after the revert cheap
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
