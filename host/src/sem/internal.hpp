@@ -14,7 +14,8 @@ namespace mrd::host::internal {
 
 inline constexpr double kInf = std::numeric_limits<double>::infinity();
 
-class Evaluator;  // host/src/sem/estimate/evaluator.hpp
+class Evaluator;         // host/src/sem/estimate/evaluator.hpp
+struct RefineWorkspace;  // ditto
 
 // Jacobian of the weighted free-run residual, one row per scored row (row-major: the free
 // run's sensitivities are produced row by row).
@@ -26,9 +27,11 @@ using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::Ro
 // sensitivity recursion): about two free runs' work per step.
 // jacobian / residual (optional): d residual / d coefficient and the weighted residual
 // sqrt(w) (y - ysim) at the refined coefficients, rows = scored rows of every record in order.
+// ws (optional): buffers kept across calls (one call at a time), so repeated refinements
+// allocate and touch no fresh memory; the result does not depend on it.
 double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm>& terms,
                      std::vector<double>* coefficients, Jacobian* jacobian = nullptr,
-                     Eigen::VectorXd* residual = nullptr);
+                     Eigen::VectorXd* residual = nullptr, RefineWorkspace* ws = nullptr);
 
 // Every signal of the spec is a column of every data set (InputError with the spec's line of
 // the signal) and every set is longer than the largest delay + 1 (InputError).

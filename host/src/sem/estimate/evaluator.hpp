@@ -118,7 +118,19 @@ class Evaluator {
   };
   Prepared Prepare(const std::vector<SemTerm>& terms) const {
     Prepared p;
+    Prepare(terms, &p);
+    return p;
+  }
+  // The same into *out, reusing its buffers' capacity (a refinement per iteration then touches
+  // no fresh pages: rows x m doubles, megabytes on long records).
+  void Prepare(const std::vector<SemTerm>& terms, Prepared* out) const {
+    Prepared& p = *out;
     p.m = terms.size();
+    p.slots.clear();
+    p.groups.clear();
+    p.group_of.clear();
+    p.max_delay = 0;
+    p.max_power = 0;
     const std::size_t rows = rec_.y.size();
     p.input.resize(rows * p.m);
     std::vector<double> in;  // the term's input part, every row
@@ -154,7 +166,6 @@ class Evaluator {
       p.groups[g].terms.push_back(i);
       p.group_of.push_back(g);
     }
-    return p;
   }
 
   // FreeRun's buffers, reused across runs: the output history (measured before the run's first
@@ -243,6 +254,15 @@ class Evaluator {
  private:
   const SemSpec& spec_;
   Record rec_;
+};
+
+// RefineFreeRun's buffers (internal.hpp): the prepared structure per record, the free run's
+// scratch, and the residual and Jacobian of the current and the trial coefficients.
+struct RefineWorkspace {
+  std::vector<Evaluator::Prepared> prepared;
+  Evaluator::Scratch run;
+  std::vector<double> e;
+  std::vector<double> r[2], jac[2];  // [current / trial]: rows, rows x m (row-major)
 };
 
 }  // namespace mrd::host::internal

@@ -21,37 +21,29 @@ constexpr double kRelStop = 1e-6;  // stop when an accepted step lowers J by les
 constexpr double kLambda0 = 1e-4;
 constexpr double kLambdaMax = 1e12;
 
-// Buffers of Residual, reused across the steps.
-struct Work {
-  Evaluator::Scratch run;
-  std::vector<double> e;
-};
+using Rows = Eigen::Map<Eigen::VectorXd>;
+using JacRows = Eigen::Map<Jacobian>;
 
 // Weighted free-run residual r_k = sqrt(w_k) (y_k - ysim_k) over every scored row of every
-// record, and its Jacobian d r / d theta = -sqrt(w_k) d ysim_k / d theta from the sensitivity
-// recursion (exact, one pass for all columns); false when a run diverges.
-bool Residual(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Prepared>& prepared,
-              const Eigen::VectorXd& theta, Work& w, Eigen::VectorXd* r, Jacobian* jac) {
+// record into r (rows), and its Jacobian d r / d theta = -sqrt(w_k) d ysim_k / d theta from the
+// sensitivity recursion (exact, one pass for all columns) into jac (rows x m, row-major);
+// false when a run diverges.
+bool Residual(const std::vector<Evaluator>& ev, const Eigen::VectorXd& theta, RefineWorkspace& w,
+              double* r, double* jac) {
   const auto m = static_cast<std::size_t>(theta.size());
-  Eigen::Index rows = 0;
-  for (const Evaluator& e : ev) {
-    rows += static_cast<Eigen::Index>(e.record().y.size() - e.record().first);
-  }
-  r->resize(rows);
-  jac->resize(rows, theta.size());
-  Eigen::Index row = 0;
+  std::size_t row = 0;
   for (std::size_t i = 0; i < ev.size(); ++i) {
     const Record& rec = ev[i].record();
     w.e.clear();
-    const double cost = ev[i].FreeRun(prepared[i], theta, rec.first, rec.y.size(), w.run, &w.e,
-                                      jac->data() + row * static_cast<Eigen::Index>(m));
+    const double cost =
+        ev[i].FreeRun(w.prepared[i], theta, rec.first, rec.y.size(), w.run, &w.e, jac + row * m);
     if (!std::isfinite(cost)) {
       return false;
     }
     for (std::size_t k = 0; k < w.e.size(); ++k, ++row) {
       const double sw = std::sqrt(rec.w[rec.first + k]);
-      (*r)(row) = sw * w.e[k];
-      double* jr = jac->data() + row * static_cast<Eigen::Index>(m);
+      r[row] = sw * w.e[k];
+      double* jr = jac + row * m;
       for (std::size_t j = 0; j < m; ++j) jr[j] *= -sw;  // d ysim / d theta -> d r / d theta
     }
   }
@@ -62,24 +54,34 @@ bool Residual(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Pre
 
 double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm>& terms,
                      std::vector<double>* coefficients, Jacobian* jacobian,
-                     Eigen::VectorXd* residual) {
+                     Eigen::VectorXd* residual, RefineWorkspace* ws) {
+  RefineWorkspace local;
+  RefineWorkspace& w = ws != nullptr ? *ws : local;
   const auto m = static_cast<Eigen::Index>(terms.size());
   Eigen::VectorXd theta(m);
   for (Eigen::Index i = 0; i < m; ++i) theta(i) = (*coefficients)[static_cast<std::size_t>(i)];
-  std::vector<Evaluator::Prepared> prepared;
-  for (const Evaluator& e : ev) prepared.push_back(e.Prepare(terms));
-  Work work;
-  Eigen::VectorXd r, rt;
-  Jacobian jac, jt;
-  if (!Residual(ev, prepared, theta, work, &r, &jac)) return kInf;
-  double j = r.squaredNorm();
+  w.prepared.resize(ev.size());
+  Eigen::Index rows = 0;
+  for (std::size_t i = 0; i < ev.size(); ++i) {
+    ev[i].Prepare(terms, &w.prepared[i]);
+    rows += static_cast<Eigen::Index>(ev[i].record().y.size() - ev[i].record().first);
+  }
+  for (int b = 0; b < 2; ++b) {  // resize keeps the capacity: no fresh pages after the first
+    w.r[b].resize(static_cast<std::size_t>(rows));
+    w.jac[b].resize(static_cast<std::size_t>(rows * m));
+  }
+  int cur = 0;  // w.r[cur], w.jac[cur]: the current coefficients'; 1 - cur: the trial's
+  auto r = [&](int b) { return Rows(w.r[b].data(), rows); };
+  auto jac = [&](int b) { return JacRows(w.jac[b].data(), rows, m); };
+  if (!Residual(ev, theta, w, w.r[0].data(), w.jac[0].data())) return kInf;
+  double j = r(cur).squaredNorm();
   Eigen::MatrixXd a;  // J^T J
   Eigen::VectorXd g;  // J^T r
   auto normal_equations = [&]() {
     Eigen::MatrixXd low = Eigen::MatrixXd::Zero(m, m);  // lower half only: half the work
-    low.selfadjointView<Eigen::Lower>().rankUpdate(jac.transpose());
+    low.selfadjointView<Eigen::Lower>().rankUpdate(jac(cur).transpose());
     a = low.selfadjointView<Eigen::Lower>();
-    g.noalias() = jac.transpose() * r;
+    g.noalias() = jac(cur).transpose() * r(cur);
   };
   normal_equations();
   double lambda = kLambda0;
@@ -93,12 +95,13 @@ double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm
     const double predicted = -(2.0 * g.dot(delta) + delta.dot(a * delta));
     if (!(predicted > kRelStop * j)) break;
     const Eigen::VectorXd cand = theta + delta;
-    if (Residual(ev, prepared, cand, work, &rt, &jt) && rt.squaredNorm() < j) {
-      const double jn = rt.squaredNorm();
+    const int trial = 1 - cur;
+    if (Residual(ev, cand, w, w.r[trial].data(), w.jac[trial].data()) &&
+        r(trial).squaredNorm() < j) {
+      const double jn = r(trial).squaredNorm();
       const bool done = j - jn < kRelStop * j;
       theta = cand;
-      r.swap(rt);
-      jac.swap(jt);
+      cur = trial;
       j = jn;
       if (done) break;
       normal_equations();
@@ -109,8 +112,8 @@ double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm
     }
   }
   for (Eigen::Index i = 0; i < m; ++i) (*coefficients)[static_cast<std::size_t>(i)] = theta(i);
-  if (jacobian != nullptr) *jacobian = jac;
-  if (residual != nullptr) *residual = r;
+  if (jacobian != nullptr) *jacobian = jac(cur);
+  if (residual != nullptr) *residual = r(cur);
   return j;
 }
 

@@ -42,7 +42,7 @@ void SearchPath::Complete(SemIteration it, const std::vector<int>& terms) {
 // did, and, with validation data, makes no validation set's J worse.
 void SearchPath::Refine(SemIteration& it, const std::vector<int>& terms) const {
   std::vector<double> refined = it.coefficients;
-  const double jr = RefineFreeRun(evaluators_, it.terms, &refined);
+  const double jr = RefineFreeRun(evaluators_, it.terms, &refined, nullptr, nullptr, &refine_ws_);
   const bool lower = jr < it.j;
   const StressVerdict sv = lower ? StressOf(terms, refined) : StressVerdict{};
   const std::vector<double> vj = lower ? Validate(it.terms, refined) : std::vector<double>{};

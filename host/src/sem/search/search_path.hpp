@@ -120,6 +120,9 @@ class SearchPath {
   // Stress and validation records prepared once for their many reference runs.
   std::vector<Replay> stress_runs_, validation_runs_;
   std::vector<Evaluator> evaluators_;  // for the output-error refinement
+  // Its buffers, kept across the iterations (one refinement runs at a time: Record joins the
+  // previous one before it starts the next).
+  mutable RefineWorkspace refine_ws_;
 
   std::vector<int> model_;  // current structure (candidate indices)
   std::vector<double> theta_;
