@@ -8,6 +8,7 @@
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
+#include "sem/engine/kernels.hpp"
 #include "sem_test_util.hpp"
 
 namespace mrd::host {
@@ -100,6 +101,31 @@ TEST(SemEngineTest, SameResultWithOneAndTwoThreads) {
       EXPECT_EQ(reported[i].second, b.iterations[i].j);
     }
   }
+}
+
+// The kernels at 8 doubles per vector (AVX-512F) and at 4 give the same search, bit for bit:
+// terms, coefficients, J and the rejected counts of every iteration.
+TEST(SemEngineTest, SameResultAtEveryVectorWidth) {
+  if (!internal::SetLaneWidth(8)) GTEST_SKIP() << "no AVX-512F here: one vector width only";
+  struct Restore {
+    ~Restore() { internal::SetLaneWidth(0); }
+  } restore;
+  const SemSpec spec = PaperSpec();
+  const std::vector<DataSet> id{ShortDamperData()};
+  SemOptions o;
+  o.max_iterations = 8;
+  o.threads = 2;
+  const SemResult wide = Identify(spec, id, {}, o);
+  ASSERT_TRUE(internal::SetLaneWidth(4));
+  const SemResult narrow = Identify(spec, id, {}, o);
+  ASSERT_EQ(wide.iterations.size(), narrow.iterations.size());
+  for (std::size_t i = 0; i < wide.iterations.size(); ++i) {
+    EXPECT_EQ(wide.iterations[i].terms, narrow.iterations[i].terms) << i;
+    EXPECT_EQ(wide.iterations[i].coefficients, narrow.iterations[i].coefficients) << i;
+    EXPECT_EQ(wide.iterations[i].j, narrow.iterations[i].j) << i;
+    EXPECT_EQ(wide.iterations[i].rejected, narrow.iterations[i].rejected) << i;
+  }
+  EXPECT_EQ(wide.selected, narrow.selected);
 }
 
 TEST(SemEngineTest, InitialStructureIsKept) {

@@ -193,12 +193,13 @@ void Engine::GramSums(const double* x, double* out) {
 void Engine::GramItem(std::size_t item, const double* x, double* out) const {
   const std::size_t c_begin = item * kGramItem;
   const std::size_t c_end = std::min(cands_.size(), c_begin + kGramItem);
-  // Per group of kMaxLanes: factor columns [lane * nf + k], padded with ones.
+  // Per group of 4 vectors: factor columns [lane * nf + k], padded with ones.
+  const std::size_t width = LaneWidth(), group = 4 * width;
   std::vector<std::vector<const double*>> f;
   std::vector<std::size_t> nf;
-  for (std::size_t c0 = c_begin; c0 < c_end; c0 += kMaxLanes) {
-    const std::size_t nc = std::min(kMaxLanes, c_end - c0);
-    const std::size_t lanes = (nc + kLaneWidth - 1) / kLaneWidth * kLaneWidth;
+  for (std::size_t c0 = c_begin; c0 < c_end; c0 += group) {
+    const std::size_t nc = std::min(group, c_end - c0);
+    const std::size_t lanes = (nc + width - 1) / width * width;
     std::size_t n = 1;
     for (std::size_t l = 0; l < nc; ++l) n = std::max(n, factor_cols_[c0 + l].size());
     std::vector<const double*> fg(lanes * n, ones_.data());
@@ -209,12 +210,12 @@ void Engine::GramItem(std::size_t item, const double* x, double* out) const {
     f.push_back(std::move(fg));
     nf.push_back(n);
   }
-  std::vector<double> acc(f.size() * kMaxLanes, 0.0);
+  std::vector<double> acc(f.size() * group, 0.0);
   for (std::size_t g0 = 0; g0 < n_; g0 += kBlock) {
     const std::size_t len = std::min(kBlock, n_ - g0);
     for (std::size_t g = 0; g < f.size(); ++g) {
-      const int nv = static_cast<int>(f[g].size() / nf[g] / kLaneWidth);
-      LaneGram(nv, f[g].data(), nf[g], g0, x, len, &acc[g * kMaxLanes]);
+      const int nv = static_cast<int>(f[g].size() / nf[g] / width);
+      LaneGram(nv, f[g].data(), nf[g], g0, x, len, &acc[g * group]);
     }
   }
   std::copy(acc.begin(), acc.begin() + static_cast<std::ptrdiff_t>(c_end - c_begin), out + c_begin);
@@ -243,6 +244,7 @@ void Engine::SimulateFast(const std::vector<int>& terms, std::span<Job> jobs,
     by_q[q].push_back(i);
     u_q[q].push_back(U(terms[i]).data());
   }
+  const std::size_t width = LaneWidth(), group = 4 * width;  // jobs per lane group
   std::vector<char> no_terms(nq);
   for (std::size_t q = 0; q < nq; ++q) no_terms[q] = by_q[q].empty();
   // Lane sums c[q][s][lane], thetas theta[term][lane] (by_q order), one input block.
@@ -268,10 +270,10 @@ void Engine::SimulateFast(const std::vector<int>& terms, std::span<Job> jobs,
           if (!jobs[j].dead && ExtraPow(jobs[j]) == q) alive.push_back(j);
         }
       }
-      for (std::size_t a0 = 0; a0 < alive.size(); a0 += kMaxLanes) {
-        const std::size_t na = std::min(kMaxLanes, alive.size() - a0);
-        const std::size_t nv = (na + kLaneWidth - 1) / kLaneWidth;
-        const std::size_t lanes = nv * kLaneWidth;  // unused lanes: theta 0, output 0
+      for (std::size_t a0 = 0; a0 < alive.size(); a0 += group) {
+        const std::size_t na = std::min(group, alive.size() - a0);
+        const std::size_t nv = (na + width - 1) / width;
+        const std::size_t lanes = nv * width;  // unused lanes: theta 0, output 0
         double p[kMaxLanes] = {}, acc[kMaxLanes] = {};
         bool bad[kMaxLanes] = {};
         std::size_t col = 0;

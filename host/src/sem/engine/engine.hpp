@@ -84,7 +84,7 @@ class Engine {
   double divergence_limit() const { return spec_.divergence_limit; }
 
   // Cross products phi_t' phi_c for every candidate c (cached; sums in sample order,
-  // kMaxLanes candidates at a time).
+  // a lane group of candidates at a time).
   const std::vector<double>& Cross(int t);
 
   // Input part of a candidate, whole stacked length (cached).
@@ -116,12 +116,12 @@ class Engine {
   static constexpr std::size_t kBlock = 256;  // samples per block of the free-run pass
 
   // out[c] = sum_k phi_c(k) x(k) for every candidate c (x == nullptr: phi_c(k)^2), summed in
-  // sample order, kMaxLanes candidates at a time (host/src/sem/engine/kernels.hpp).
+  // sample order, a lane group of candidates at a time (host/src/sem/engine/kernels.hpp).
   void GramSums(const double* x, double* out);
 
   // GramSums of the candidates [item * kGramItem, ...): one sweep over the samples for all of
   // them (a block's columns stay in cache).
-  static constexpr std::size_t kGramItem = 8 * kMaxLanes;
+  static constexpr std::size_t kGramItem = 4 * kMaxLanes;  // a multiple of every group size
   void GramItem(std::size_t item, const double* x, double* out) const;
 
   // Input part of candidate c (product of its input factors; 1 without) over [g0, g0 + len).
@@ -134,7 +134,7 @@ class Engine {
 
   // Free run of the fast path (y(k-1) only): y(k) = sum_q c_q(k) y(k-1)^q with
   // c_q(k) = sum over terms of y-power q of theta_i u_i(k) (+ the job's extra candidate).
-  // Jobs go through in lane groups of up to kMaxLanes (host/src/sem/engine/kernels.hpp gives the
+  // Jobs go through in lane groups of 4 vectors (host/src/sem/engine/kernels.hpp gives the
   // cost model); the bound is checked every kBlock samples, as are divergence and finiteness.
   void SimulateFast(const std::vector<int>& terms, std::span<Job> jobs,
                     const std::atomic<double>& bound, std::vector<double>& scratch);

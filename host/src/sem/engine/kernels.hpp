@@ -22,33 +22,43 @@
 // Each job's arithmetic is exactly the sequence of the scalar reference (same operations in
 // the same order, no FMA), so every J, coefficient and decision is bit for bit the same on
 // every CPU and thread count; AVX2 is used when the CPU has it (function multi-versioning),
-// SSE2 otherwise.
+// SSE2 otherwise. Where the CPU has AVX-512F, the same code runs 8 lanes per vector (32 jobs
+// per group, 8 x 8 transposes; kernels_avx512.cpp): the same bits, fewer instructions.
 
 #include <cstddef>
 
 namespace mrd::host::internal {
 
-inline constexpr std::size_t kLaneWidth = 4;              // doubles per SIMD vector
-inline constexpr std::size_t kMaxLanes = 4 * kLaneWidth;  // jobs per lane group
-inline constexpr std::size_t kSubBlock = 32;              // samples per pass (lane sums stay in L1)
+inline constexpr std::size_t kMaxLaneWidth = 8;
+inline constexpr std::size_t kMaxLanes = 4 * kMaxLaneWidth;  // most jobs per lane group
+inline constexpr std::size_t kSubBlock = 32;  // samples per pass (lane sums stay in L1)
 
-// Lane sums over one group of model terms (those of one y power q), for lanes = 4 * nv jobs:
-// c[s * lanes + l] = sum_j theta[j * lanes + l] * u[j][off + s], s < len, j < m, summed as
+// Doubles per vector of the kernels in use: 8 where the build has the AVX-512 kernels (x86-64)
+// and the CPU has AVX-512F, else 4. A lane group is nv <= 4 vectors: 4 * LaneWidth() jobs.
+std::size_t LaneWidth();
+
+// Makes the kernels use vectors of w doubles (4, or 8 where available; 0: the widest
+// available); false, and nothing changed, when w is not available. For tests and benchmarks
+// (not while kernels run).
+bool SetLaneWidth(std::size_t w);
+
+// Lane sums over one group of model terms (those of one y power q), for lanes = LaneWidth() * nv
+// jobs: c[s * lanes + l] = sum_j theta[j * lanes + l] * u[j][off + s], s < len, j < m, summed as
 // the scalar reference: terms in fours ((t0 a0 + t1 a1) + (t2 a2 + t3 a3)), then singly;
 // 0 when m = 0.
 void LaneSums(int nv, const double* const* u, std::size_t off, const double* theta, std::size_t m,
               std::size_t len, double* c);
 
-// Advances lanes = 4 * nv free runs y(k) = sum_q c_q(k) y(k-1)^q (Horner) over len samples,
-// c_q(s) = c[(q * stride + s) * lanes + l]; per lane: p the previous output (in/out), acc the
-// running sum of w (y - y_sim)^2 (in/out), bad set when |y_sim| > lim or NaN (in/out).
+// Advances lanes = LaneWidth() * nv free runs y(k) = sum_q c_q(k) y(k-1)^q (Horner) over len
+// samples, c_q(s) = c[(q * stride + s) * lanes + l]; per lane: p the previous output (in/out), acc
+// the running sum of w (y - y_sim)^2 (in/out), bad set when |y_sim| > lim or NaN (in/out).
 void LaneFreeRun(int nv, std::size_t nq, const double* c, std::size_t stride, const double* y,
                  const double* w, std::size_t len, double lim, double* p, double* acc, bool* bad);
 
 // Adds each lane's extra candidate: c[(q[l] * c_stride + s) * lanes + l] += th[l] * x_l(s)
-// for s < len (<= kSubBlock) and lanes l (4 * nv) with 0 <= q[l] < nq (q[l] < 0: none), x_l(s)
-// the product of f[l * nf + k][off + s] over k < nf (nf >= 1) in order of k (pad with columns
-// of ones: x * 1 = x exactly). fresh[q] != 0: c_q is not read but written as 0 + the extras
+// for s < len (<= kSubBlock) and lanes l (LaneWidth() * nv) with 0 <= q[l] < nq (q[l] < 0: none),
+// x_l(s) the product of f[l * nf + k][off + s] over k < nf (nf >= 1) in order of k (pad with
+// columns of ones: x * 1 = x exactly). fresh[q] != 0: c_q is not read but written as 0 + the extras
 // (the y power q has no model term; LaneSums was not called for it).
 void LaneExtra(int nv, const double* const* f, std::size_t nf, std::size_t off, const double* th,
                const int* q, std::size_t nq, const char* fresh, std::size_t len, double* c,
@@ -58,7 +68,7 @@ void LaneExtra(int nv, const double* const* f, std::size_t nf, std::size_t off, 
 void Product(const double* const* cols, std::size_t n, std::size_t off, std::size_t len,
              double* out);
 
-// Gram sums of lanes = 4 * nv regressors: acc[l] += sum_i phi_l(i) x(i) (x == nullptr:
+// Gram sums of lanes = LaneWidth() * nv regressors: acc[l] += sum_i phi_l(i) x(i) (x == nullptr:
 // phi_l(i)^2) over i in [off, off + len), each sum in order of i (the scalar reference's
 // order); phi_l(i) the product of f[l * nf + k][i] over k < nf (nf >= 1) in order of k.
 void LaneGram(int nv, const double* const* f, std::size_t nf, std::size_t off, const double* x,
