@@ -77,6 +77,19 @@ TEST(SemEngineTest, LowPassCostAgreesWithModelRunner) {
   EXPECT_TRUE(uses_low_pass);  // the filtered command is picked, so the check means something
 }
 
+// Two runs of the same search: every iteration's terms, coefficients, J and rejected count,
+// and the selection, the same bits.
+void ExpectSameSearch(const SemResult& a, const SemResult& b) {
+  ASSERT_EQ(a.iterations.size(), b.iterations.size());
+  for (std::size_t i = 0; i < a.iterations.size(); ++i) {
+    EXPECT_EQ(a.iterations[i].terms, b.iterations[i].terms) << i;
+    EXPECT_EQ(a.iterations[i].coefficients, b.iterations[i].coefficients) << i;
+    EXPECT_EQ(a.iterations[i].j, b.iterations[i].j) << i;
+    EXPECT_EQ(a.iterations[i].rejected, b.iterations[i].rejected) << i;
+  }
+  EXPECT_EQ(a.selected, b.selected);
+}
+
 TEST(SemEngineTest, SameResultWithOneAndTwoThreads) {
   const SemSpec spec = PaperSpec();
   const std::vector<DataSet> id{ShortDamperData()};
@@ -90,12 +103,9 @@ TEST(SemEngineTest, SameResultWithOneAndTwoThreads) {
     std::vector<std::pair<int, double>> reported;  // progress: iteration, J
     o.progress = [&](const SemIteration& it) { reported.emplace_back(it.iteration, it.j); };
     const SemResult b = Identify(spec, id, {}, o);
-    ASSERT_EQ(a.iterations.size(), b.iterations.size());
+    ExpectSameSearch(a, b);
     ASSERT_EQ(reported.size(), b.iterations.size());
-    for (std::size_t i = 0; i < a.iterations.size(); ++i) {
-      EXPECT_EQ(a.iterations[i].terms, b.iterations[i].terms);
-      EXPECT_EQ(a.iterations[i].coefficients, b.iterations[i].coefficients);
-      EXPECT_EQ(a.iterations[i].j, b.iterations[i].j);
+    for (std::size_t i = 0; i < b.iterations.size(); ++i) {
       // reported in order, each once, with the refined J it is stored with
       EXPECT_EQ(reported[i].first, b.iterations[i].iteration);
       EXPECT_EQ(reported[i].second, b.iterations[i].j);
@@ -117,15 +127,7 @@ TEST(SemEngineTest, SameResultAtEveryVectorWidth) {
   o.threads = 2;
   const SemResult wide = Identify(spec, id, {}, o);
   ASSERT_TRUE(internal::SetLaneWidth(4));
-  const SemResult narrow = Identify(spec, id, {}, o);
-  ASSERT_EQ(wide.iterations.size(), narrow.iterations.size());
-  for (std::size_t i = 0; i < wide.iterations.size(); ++i) {
-    EXPECT_EQ(wide.iterations[i].terms, narrow.iterations[i].terms) << i;
-    EXPECT_EQ(wide.iterations[i].coefficients, narrow.iterations[i].coefficients) << i;
-    EXPECT_EQ(wide.iterations[i].j, narrow.iterations[i].j) << i;
-    EXPECT_EQ(wide.iterations[i].rejected, narrow.iterations[i].rejected) << i;
-  }
-  EXPECT_EQ(wide.selected, narrow.selected);
+  ExpectSameSearch(wide, Identify(spec, id, {}, o));
 }
 
 TEST(SemEngineTest, InitialStructureIsKept) {

@@ -18,21 +18,6 @@
 #undef MRD_KERNEL_W
 
 namespace mrd::host::internal {
-
-#if MRD_SEM_AVX512
-namespace w8 {  // kernels_avx512.cpp: nv vectors of 8 lanes
-void LaneSums(int nv, const double* const* u, std::size_t off, const double* theta, std::size_t m,
-              std::size_t len, double* c);
-void LaneFreeRun(int nv, std::size_t nq, const double* c, std::size_t stride, const double* y,
-                 const double* w, std::size_t len, double lim, double* p, double* acc, bool* bad);
-void LaneExtra(int nv, const double* const* f, std::size_t nf, std::size_t off, const double* th,
-               const int* q, std::size_t nq, const char* fresh, std::size_t len, double* c,
-               std::size_t c_stride);
-void LaneGram(int nv, const double* const* f, std::size_t nf, std::size_t off, const double* x,
-              std::size_t len, double* acc);
-}  // namespace w8
-#endif
-
 namespace {
 
 // 8 where this build has the AVX-512 kernels and the CPU (and OS) has AVX-512F, else 4.
@@ -50,14 +35,15 @@ std::atomic<std::size_t>& Width() {
   return w;
 }
 
-bool Wide() {
+// The kernels of the width in use.
+const KernelSet& Kernels() {
 #if MRD_SEM_AVX512
-  return Width().load(std::memory_order_relaxed) == 8;
-#else
-  return false;
+  if (Width().load(std::memory_order_relaxed) == 8) return w8::kKernels;
 #endif
+  return w4::kKernels;
 }
 
+// out = the product of the columns (Product in kernels.hpp); one width: it is not a lane kernel.
 MRD_MULTIVERSION void ProductT(const double* const* cols, std::size_t n, std::size_t off,
                                std::size_t len, double* out) {
   if (n == 0) {
@@ -97,34 +83,26 @@ bool SetLaneWidth(std::size_t w) {
 }
 
 // One lane group is nv vectors of LaneWidth() lanes.
-#if MRD_SEM_AVX512
-#define MRD_DISPATCH(fn, ...) return Wide() ? w8::fn(__VA_ARGS__) : w4::fn(__VA_ARGS__)
-#else
-#define MRD_DISPATCH(fn, ...) return w4::fn(__VA_ARGS__)
-#endif
-
 void LaneSums(int nv, const double* const* u, std::size_t off, const double* theta, std::size_t m,
               std::size_t len, double* c) {
-  MRD_DISPATCH(LaneSums, nv, u, off, theta, m, len, c);
+  Kernels().lane_sums(nv, u, off, theta, m, len, c);
 }
 
 void LaneFreeRun(int nv, std::size_t nq, const double* c, std::size_t stride, const double* y,
                  const double* w, std::size_t len, double lim, double* p, double* acc, bool* bad) {
-  MRD_DISPATCH(LaneFreeRun, nv, nq, c, stride, y, w, len, lim, p, acc, bad);
+  Kernels().lane_free_run(nv, nq, c, stride, y, w, len, lim, p, acc, bad);
 }
 
 void LaneExtra(int nv, const double* const* f, std::size_t nf, std::size_t off, const double* th,
                const int* q, std::size_t nq, const char* fresh, std::size_t len, double* c,
                std::size_t c_stride) {
-  MRD_DISPATCH(LaneExtra, nv, f, nf, off, th, q, nq, fresh, len, c, c_stride);
+  Kernels().lane_extra(nv, f, nf, off, th, q, nq, fresh, len, c, c_stride);
 }
 
 void LaneGram(int nv, const double* const* f, std::size_t nf, std::size_t off, const double* x,
               std::size_t len, double* acc) {
-  MRD_DISPATCH(LaneGram, nv, f, nf, off, x, len, acc);
+  Kernels().lane_gram(nv, f, nf, off, x, len, acc);
 }
-
-#undef MRD_DISPATCH
 
 void Product(const double* const* cols, std::size_t n, std::size_t off, std::size_t len,
              double* out) {

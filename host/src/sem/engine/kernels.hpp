@@ -74,4 +74,19 @@ void Product(const double* const* cols, std::size_t n, std::size_t off, std::siz
 void LaneGram(int nv, const double* const* f, std::size_t nf, std::size_t off, const double* x,
               std::size_t len, double* acc);
 
+// The kernels of one vector width (kernels_impl.inc), the functions above dispatch to: w4
+// (4 doubles per vector) and, in x86-64 builds, w8 (8 doubles, AVX-512F; kernels_avx512.cpp).
+struct KernelSet {
+  decltype(&LaneSums) lane_sums;
+  decltype(&LaneFreeRun) lane_free_run;
+  decltype(&LaneExtra) lane_extra;
+  decltype(&LaneGram) lane_gram;
+};
+namespace w4 {
+extern const KernelSet kKernels;
+}
+namespace w8 {
+extern const KernelSet kKernels;
+}
+
 }  // namespace mrd::host::internal
