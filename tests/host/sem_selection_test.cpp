@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mrd/host/candidate_spec.hpp"
@@ -80,6 +81,7 @@ TEST(SemSpecDocTest, DocumentedExampleParsesAsWritten) {
   EXPECT_EQ(s.strategy, Strategy::kFirst);
   EXPECT_EQ(s.selection, Selection::kCrossValidation);
   EXPECT_DOUBLE_EQ(s.selection_tolerance_percent, 5.0);
+  EXPECT_EQ(s.selection_noise, SelectionNoise::kAuto);
   EXPECT_EQ(s.initial.size(), 2u);
   // The documented values are the built-in defaults.
   const SemSpec d = ParseSemSpec(
@@ -88,6 +90,7 @@ TEST(SemSpecDocTest, DocumentedExampleParsesAsWritten) {
       "min.toml");
   EXPECT_EQ(d.strategy, s.strategy);
   EXPECT_EQ(d.selection, s.selection);
+  EXPECT_EQ(d.selection_noise, s.selection_noise);
   EXPECT_EQ(d.threshold_percent, s.threshold_percent);
   EXPECT_EQ(d.max_iterations, s.max_iterations);
   EXPECT_EQ(d.weighting, s.weighting);
@@ -107,6 +110,35 @@ TEST(SemSpecDocTest, UnknownSelectionIsRefusedWithItsLine) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("unknown selection 'aic'"), std::string::npos) << e.what();
   }
+}
+
+TEST(SemSpecDocTest, SelectionNoiseTakesItsThreeValuesAndRefusesOthersWithTheLine) {
+  const std::string text = DocumentedExample();
+  const std::string key = "selection_noise = \"auto\"";
+  const std::size_t at = text.find(key);
+  ASSERT_NE(at, std::string::npos);
+  const auto line =
+      1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n');
+  for (const auto& [value, noise] : {std::pair{"output", SelectionNoise::kOutput},
+                                     std::pair{"equation", SelectionNoise::kEquation}}) {
+    std::string t = text;
+    t.replace(at, key.size(), std::string("selection_noise = \"") + value + "\"");
+    EXPECT_EQ(ParseSemSpec(t, "x.toml").selection_noise, noise) << value;
+  }
+  std::string bad = text;
+  bad.replace(at, key.size(), "selection_noise = \"white\"");
+  try {
+    ParseSemSpec(bad, "x.toml");
+    FAIL() << "accepted selection_noise = \"white\"";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("x.toml:" + std::to_string(line) + ":", 0), 0u) << what;
+    EXPECT_NE(what.find("unknown selection_noise 'white' (expected auto, output or equation)"),
+              std::string::npos)
+        << what;
+  }
+  bad.replace(bad.find("\"white\""), 7, "1");
+  EXPECT_THROW(ParseSemSpec(bad, "x.toml"), InputError);  // not a string
 }
 
 TEST(ParseTermOfferTest, RefusesPowersAndDelaysNotOffered) {
@@ -179,12 +211,16 @@ TEST(SemSelectionTest, CrossValidatedCostOfTheTrueStructureIsNearTheNoiseLevel) 
 TEST(SemSelectionTest, EquationErrorNoiseIsWhitenedBeforeCrossValidation) {
   // billings, equation-error noise, N = 500, seed 17: the free-run residual is the noise through
   // 1 / (1 - 0.5 q^-1). Unfiltered, the cross-validated J preferred y(k-2)^3 over the true
-  // y(k-2)^2; whitened by the fitted AR(1) filter it picks the true structure.
+  // y(k-2)^2; whitened by the fitted AR(1) filter it picks the true structure. The free-run
+  // score as selection_noise = "output" keeps it (the default scores this noise by the one-step
+  // error: EquationNoiseIsScoredByTheOneStepError).
   const auto sys = test::RecoverySystems()[0];
   const std::size_t n = 500;
   const std::vector<DataSet> ee{test::SuiteData(sys, test::Noise::kEquation, n, 17)};
   const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
-  const SemResult a = Identify(spec, ee, {}, SemOptions{});
+  SemSpec free_run = spec;
+  free_run.selection_noise = SelectionNoise::kOutput;
+  const SemResult a = Identify(free_run, ee, {}, SemOptions{});
   EXPECT_EQ(test::SelectedTerms(spec, a), sys.terms);
   const std::string key = "L(q) = 1 - ";
   const std::size_t at = a.selection_rule.find(key);
@@ -193,10 +229,76 @@ TEST(SemSelectionTest, EquationErrorNoiseIsWhitenedBeforeCrossValidation) {
   EXPECT_GT(a1, 0.35);
   EXPECT_LT(a1, 0.65);
   EXPECT_NE(a.selection_rule.find("the AR(1) whitening filter"), std::string::npos);
-  // Output-error noise: the residual is white and the J is not filtered.
+  EXPECT_FALSE(a.cv_one_step);
+  // Output-error noise, default selection_noise (auto): the residual is white, the free run is
+  // scored and its J is not filtered.
   const std::vector<DataSet> oe{test::SuiteData(sys, test::Noise::kOutput, n, 17)};
   const SemResult b = Identify(spec, oe, {}, SemOptions{});
   EXPECT_NE(b.selection_rule.find("L(q) = 1, the AR(0)"), std::string::npos) << b.selection_rule;
+  EXPECT_FALSE(b.cv_one_step);
+}
+
+TEST(SemSelectionTest, EquationNoiseIsScoredByTheOneStepError) {
+  // metamss_s3 (cubic output feedback 0.2 y(k-1)^3), equation-error noise, N = 1000, seed 7.
+  // The noise reaches the free run through the cubic term, so the free run of the truth is not
+  // the best free run: scored by the free run (selection_noise = "output"), the pick is the
+  // truth plus y(k-2)*u(k-1). The default sees the coloured free-run residual and scores the
+  // one-step prediction error, the likelihood of this noise: the truth.
+  const auto& sys = test::RecoverySystemNamed("metamss_s3");
+  const std::vector<DataSet> ee{test::SuiteData(sys, test::Noise::kEquation, 1000, 7)};
+  const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
+  EXPECT_EQ(spec.selection_noise, SelectionNoise::kAuto);
+  const SemResult a = Identify(spec, ee, {}, SemOptions{});
+  EXPECT_EQ(test::SelectedTerms(spec, a), sys.terms);
+  EXPECT_TRUE(a.cv_one_step);
+  EXPECT_NE(a.selection_rule.find("cross-validation of the one-step prediction error"),
+            std::string::npos)
+      << a.selection_rule;
+  EXPECT_NE(a.selection_rule.find("% of the one-step one is unpredictable from its own past"),
+            std::string::npos)
+      << a.selection_rule;
+  EXPECT_NE(a.selection_rule.find("L(q) = 1 - "), std::string::npos) << a.selection_rule;
+  SemSpec free_run = spec;
+  free_run.selection_noise = SelectionNoise::kOutput;
+  const SemResult b = Identify(free_run, ee, {}, SemOptions{});
+  EXPECT_FALSE(b.cv_one_step);
+  EXPECT_NE(b.selection_rule.find("refined free-run J"), std::string::npos) << b.selection_rule;
+  std::set<std::string> extra = test::SelectedTerms(spec, b);
+  for (const std::string& t : sys.terms) EXPECT_EQ(extra.erase(t), 1u) << t;
+  EXPECT_EQ(extra, std::set<std::string>{"y(k-2)*u(k-1)"});
+  // Forced by the spec on output-error data, whose free-run residual is white: said so.
+  SemSpec forced = spec;
+  forced.selection_noise = SelectionNoise::kEquation;
+  const auto& billings = test::RecoverySystemNamed("billings");
+  const std::vector<DataSet> oe{test::SuiteData(billings, test::Noise::kOutput, 500, 17)};
+  const SemResult c = Identify(forced, oe, {}, SemOptions{});
+  EXPECT_TRUE(c.cv_one_step);
+  EXPECT_NE(c.selection_rule.find("(noise in the equation: selection_noise = \"equation\")"),
+            std::string::npos)
+      << c.selection_rule;
+}
+
+TEST(SemSelectionTest, NoiseFreeDamperDataKeepTheFreeRunScore) {
+  // The paper spec on 4 s of the reference damper's identification profile, no noise: the
+  // residual is model mismatch, coloured in the free run and mostly predictable in the one-step
+  // prediction too, so auto keeps the free-run score (the control-oriented one) and says why.
+  SemSpec spec = LoadSemSpec(std::string(MRD_SOURCE_DIR) + "/host/specs/paper.toml");
+  spec.selection = Selection::kCrossValidation;
+  spec.drop_terms = spec.score_exchange = false;
+  ASSERT_EQ(spec.selection_noise, SelectionNoise::kAuto);
+  const std::vector<DataSet> data{test::DamperData("identification", 4001)};
+  SemOptions o;
+  o.max_iterations = 8;
+  o.threads = 2;
+  const SemResult a = Identify(spec, data, {}, o);
+  EXPECT_FALSE(a.cv_one_step) << a.selection_rule;
+  EXPECT_NE(a.selection_rule.find("refined free-run J"), std::string::npos) << a.selection_rule;
+  const std::string why = "free run scored: ";
+  const std::size_t at = a.selection_rule.find(why);
+  ASSERT_NE(at, std::string::npos) << a.selection_rule;
+  EXPECT_LT(std::stod(a.selection_rule.substr(at + why.size())), 100.0 * kEquationNoiseShare)
+      << a.selection_rule;
+  EXPECT_NE(a.selection_rule.find("model mismatch, not noise in the equation"), std::string::npos);
 }
 
 double SumOf(const std::vector<double>& v) {
@@ -217,9 +319,13 @@ TEST(SemSelectionTest, PickedStructureDropsTermsWhileTheScoreFalls) {
   // 0.00640); no path drops that term (the truth's J is 0.00676), so the truth is on no path
   // and the pick carries it. Dropping it lowers the cross-validated score: the truth is selected
   // as a further iteration.
+  // Scored by the free run (selection_noise = "output"). The default scores this noise by the
+  // one-step error; there the pick is the one-step start itself, which drops its
+  // y(k-1)^2*u(k-1) the same way.
   const auto& sys = test::RecoverySystemNamed("linear2");
   const std::vector<DataSet> ee{test::SuiteData(sys, test::Noise::kEquation, 1000, 7)};
-  const SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
+  SemSpec spec = ParseSemSpec(test::kRecoverySpec, "recovery.toml");
+  spec.selection_noise = SelectionNoise::kOutput;
   const SemResult a = Identify(spec, ee, {}, SemOptions{});
   EXPECT_EQ(test::SelectedTerms(spec, a), sys.terms);
   EXPECT_NE(a.selection_rule.find(MovedPickRule(a.selected, "dropped y(k-1)^2*y(k-2)")),

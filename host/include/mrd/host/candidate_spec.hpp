@@ -55,6 +55,10 @@ enum class Strategy { kBest, kFirst };
 // Automatic model pick without validation data (sem.hpp: SelectByCrossValidation,
 // SelectIteration).
 enum class Selection { kCrossValidation, kTolerance };
+// Where the cross-validated pick takes the noise to enter (sem.hpp, SelectByCrossValidation):
+// at the output (score: free-run error), in the equation (score: one-step prediction error),
+// or auto: output when the lowest-J iteration's free-run residual is white, else equation.
+enum class SelectionNoise { kAuto, kOutput, kEquation };
 
 // Stress check of the search ([stress]; host/include/mrd/host/sem_stress.hpp).
 struct StressSpec {
@@ -96,7 +100,8 @@ struct SemSpec {
   // Model pick without validation data: cross-validation of the free-run cost inside the
   // identification data (default) or the tolerance rule on the identification J.
   Selection selection = Selection::kCrossValidation;
-  double selection_tolerance_percent = 5.0;  // tolerance rule, see SelectIteration
+  double selection_tolerance_percent = 5.0;                // tolerance rule, see SelectIteration
+  SelectionNoise selection_noise = SelectionNoise::kAuto;  // cross-validation: its score
   bool drop_terms = true;      // cross-validation: terms of the pick dropped while it scores lower
   bool score_exchange = true;  // cross-validation: terms of the pick exchanged likewise
   bool exchange = true;        // exchange moves after add and prune (sem.hpp)

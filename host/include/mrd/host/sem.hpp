@@ -53,8 +53,9 @@ struct SemIteration {
   std::vector<double> coefficients;  // normalised units
   double j = 0.0;                    // identification cost
   std::vector<double> validation_j;  // one per validation data set
-  std::vector<double> cv_j;          // per fold: cross-validated J, prefiltered, as the selection
-                                     // by cross-validation scored it; empty when it did not run
+  std::vector<double> cv_j;          // per fold: cross-validated cost as the selection by
+                                     // cross-validation scored it (free-run J, prefiltered, or
+                                     // one-step J: SemResult::cv_one_step); empty: did not run
   double elapsed_s = 0.0;            // since the start of Identify
   int rejected = 0;         // candidates of this iteration's search rejected: diverging free run
                             // (non-finite or beyond divergence_limit) or linearly dependent column
@@ -83,6 +84,8 @@ struct SemResult {
   std::vector<SemIteration> iterations;
   int selected = 0;            // iteration picked automatically (SelectModel)
   std::string selection_rule;  // how `selected` was picked, in words
+  bool cv_one_step = false;    // the cross-validated pick scored the one-step prediction error
+                               // (noise in the equation: spec selection_noise), not the free run
   std::size_t num_candidates = 0;
   bool fast_path = false;       // free run by the y(k-1) polynomial recursion
   int exhausted_rejected = -1;  // >= 0: the search stopped because all candidates
@@ -130,11 +133,20 @@ std::vector<double> CrossValidatedCost(const SemSpec& spec, const std::vector<Ch
                                        const std::vector<SemTerm>& terms,
                                        std::span<const DataSet> data, int folds);
 
+// selection_noise = "auto": the cross-validation scores the one-step error when the lowest-J
+// iteration's free-run residual is coloured and at least this share of its one-step residual's
+// power is unpredictable from that residual's own past (an AR whitening fit, order <= 4 by
+// BIC), and that share exceeds the free-run residual's; else the free run.
+inline constexpr double kEquationNoiseShare = 0.5;
+
 // Largest order of the AR whitening prefilter of the cross-validation selection (below).
 inline constexpr int kMaxPrefilterOrder = 4;
 
 // Pick by cross-validation with no tolerance to tune: cv[i] = fold costs of iterations[i]
-// (CrossValidatedCost, or its output-error refined form when spec.refine). In Identify the
+// (CrossValidatedCost, or its output-error refined form when spec.refine; or, when the noise is
+// taken to be in the equation (spec selection_noise, kEquationNoiseShare), the one-step form:
+// least squares on the other folds, the weighted one-step squared error over the fold, N from
+// the lowest-J iteration's one-step residual, no prefilter). In Identify the
 // fold's weighted free-run residual z is first filtered by L(q) = 1 - a_1 q^-1 - ... - a_p q^-p,
 // the least-squares AR fit of the lowest-J iteration's residual (p <= kMaxPrefilterOrder by
 // BIC): output-error noise leaves that residual white (p = 0, L = 1, the plain free-run J);

@@ -59,8 +59,9 @@ double Score(Rule rule, const SemSpec& spec, std::span<const DataSet> identifica
       s = Sum(sel.validation_j);
       break;
     case Rule::kCrossValidation: {
+      // A one-step pick's fold costs are no free-run J: recomputed so members compare alike.
       const double cv = Sum(
-          sel.cv_j.size() == static_cast<std::size_t>(kSelectionFolds)
+          sel.cv_j.size() == static_cast<std::size_t>(kSelectionFolds) && !r.cv_one_step
               ? sel.cv_j
               : CrossValidatedCost(spec, r.channels, sel.terms, identification, kSelectionFolds));
       s = CrossValidationScore(cv, sel.terms.size(), static_cast<double>(r.num_candidates),

@@ -12,20 +12,18 @@
 #include "mrd/host/sem.hpp"
 #include "sem/estimate/evaluator.hpp"
 #include "sem/internal.hpp"
+#include "sem/select/one_step_cv.hpp"
 
 namespace mrd::host {
 namespace {
 
 using internal::Evaluator;
+using internal::FoldBound;
+using internal::OneStepFoldCosts;
+using internal::OneStepResidual;
 using internal::Record;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// Fold boundaries of a record's scored rows: part f is [Bound(f), Bound(f + 1)).
-std::size_t Bound(const Record& r, int f, int folds) {
-  const std::size_t n = r.y.size() - r.first;
-  return r.first + n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
-}
 
 std::vector<Evaluator::Prepared> PrepareAll(const std::vector<Evaluator>& ev,
                                             const std::vector<SemTerm>& terms) {
@@ -64,9 +62,9 @@ double FoldRun(const std::vector<Evaluator>& ev, const std::vector<Evaluator::Pr
   std::vector<double> e;
   double cost = 0.0;
   for (std::size_t i = 0; i < ev.size(); ++i) {
-    const std::size_t a = Bound(ev[i].record(), f, folds);
+    const std::size_t a = FoldBound(ev[i].record(), f, folds);
     e.clear();
-    const double c = ev[i].FreeRun(prepared[i], theta, a, Bound(ev[i].record(), f + 1, folds),
+    const double c = ev[i].FreeRun(prepared[i], theta, a, FoldBound(ev[i].record(), f + 1, folds),
                                    scratch, l.empty() ? nullptr : &e);
     cost += l.empty() || !std::isfinite(c) ? c : FilteredCost(Weighted(ev[i].record(), a, e), l);
   }
@@ -86,7 +84,7 @@ std::vector<double> FoldCosts(const std::vector<Evaluator>& ev, const std::vecto
     const Record& r = e.record();
     for (int f = 0; f < folds; ++f) {
       const auto fi = static_cast<std::size_t>(f);
-      const std::size_t a = Bound(r, f, folds), len = Bound(r, f + 1, folds) - a;
+      const std::size_t a = FoldBound(r, f, folds), len = FoldBound(r, f + 1, folds) - a;
       Eigen::MatrixXd phi(static_cast<Eigen::Index>(len), m);
       for (Eigen::Index i = 0; i < m; ++i) {
         for (std::size_t k = 0; k < len; ++k) {
@@ -152,8 +150,9 @@ std::vector<double> RefinedFoldCosts(const std::vector<Evaluator>& ev,
     Eigen::Index row = 0;  // first row of the record in jac
     for (const Evaluator& e : ev) {
       const Record& rec = e.record();
-      const auto a = static_cast<Eigen::Index>(Bound(rec, f, folds) - rec.first);
-      const auto len = static_cast<Eigen::Index>(Bound(rec, f + 1, folds) - Bound(rec, f, folds));
+      const auto a = static_cast<Eigen::Index>(FoldBound(rec, f, folds) - rec.first);
+      const auto len =
+          static_cast<Eigen::Index>(FoldBound(rec, f + 1, folds) - FoldBound(rec, f, folds));
       const auto rows = jac.middleRows(row + a, len);
       g.noalias() -= rows.transpose() * rows;
       b.noalias() -= rows.transpose() * r.segment(row + a, len);
@@ -223,6 +222,17 @@ Prefilter FitPrefilter(const std::vector<std::vector<double>>& z) {
     }
   }
   return best;
+}
+
+// Share of the residuals' power that their own past does not predict: the innovation power
+// after the whitening prefilter l over the power, in [0, 1] (1: white, or no power).
+double Unpredictable(const std::vector<std::vector<double>>& z, const Prefilter& l) {
+  double total = 0.0, innovation = 0.0;
+  for (const auto& r : z) {
+    total += FilteredCost(r, {});
+    innovation += FilteredCost(r, l);
+  }
+  return total > 0.0 ? std::min(innovation / total, 1.0) : 1.0;
 }
 
 double Sum(const std::vector<double>& v) {
@@ -327,12 +337,30 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
     }
   }
   const Prefilter l = FitPrefilter(z);
+  // Where the noise enters (auto): at the output, the free-run residual of a right structure is
+  // white; in the equation, the one-step residual is, and the noise reaches the free run
+  // through the model's dynamics, coloured. There the one-step error is the likelihood and the
+  // free-run error is not (with a nonlinear feedback term the truth's free run is not the best
+  // free run). A one-step residual mostly predictable from its own past is model mismatch (as
+  // on noise-free damper data), not noise: the free run, the control-oriented score, is kept.
+  bool one_step = spec.selection_noise == SelectionNoise::kEquation;
+  double share_free = 1.0, share_one_step = 0.0;
+  if (spec.selection_noise == SelectionNoise::kAuto && !l.empty()) {
+    std::vector<std::vector<double>> r1;
+    for (const Evaluator& d : ev) r1.push_back(OneStepResidual(d, its[low].terms));
+    share_free = Unpredictable(z, l);
+    share_one_step = Unpredictable(r1, FitPrefilter(r1));
+    one_step = share_one_step >= kEquationNoiseShare && share_one_step > share_free;
+  }
   std::vector<std::vector<double>> cv(its.size());
   const int w = std::max(1, std::min<int>(threads, static_cast<int>(its.size())));
   auto run = [&](int worker) {
     for (std::size_t i = static_cast<std::size_t>(worker); i < its.size();
          i += static_cast<std::size_t>(w)) {
-      if (spec.refine) {  // coefficients already refined: converges at once, gives the Jacobian
+      if (one_step) {
+        cv[i] = OneStepFoldCosts(ev, its[i].terms, kSelectionFolds);
+      } else if (spec.refine) {  // coefficients already refined: converges at once, gives the
+                                 // Jacobian
         double jr = kInf;
         std::vector<double> th = its[i].coefficients;
         cv[i] = RefinedFoldCosts(ev, its[i].terms, kSelectionFolds, l, &th, &jr);
@@ -350,13 +378,17 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   run(0);
   for (auto& t : pool) t.join();
   for (std::size_t i = 0; i < its.size(); ++i) its[i].cv_j = cv[i];
-  // Effective sample size of the (unfiltered) residual: the prefiltered one would count
-  // coloured equation-error noise as independent samples and let spurious terms in.
+  // Effective sample size of the scored residual: the one-step residual of the lowest-J
+  // structure, or the (unfiltered) free-run residual: the prefiltered one would count coloured
+  // equation-error noise as independent samples and let spurious terms in.
   double n_eff = 0.0;
   for (std::size_t d = 0; d < ev.size(); ++d) {
     const Record& rec = ev[d].record();
-    n_eff += e[d].empty() ? static_cast<double>(rec.y.size() - rec.first) : EffectiveSamples(e[d]);
+    n_eff += one_step       ? EffectiveSamples(OneStepResidual(ev[d], its[low].terms))
+             : e[d].empty() ? static_cast<double>(rec.y.size() - rec.first)
+                            : EffectiveSamples(e[d]);
   }
+  res->cv_one_step = one_step;
   std::string filter = "1";
   for (std::size_t i = 0; i < l.size(); ++i) {
     filter += fmt::format(" {} {:.3g} q^-{}", l[i] < 0.0 ? "+" : "-", std::fabs(l[i]), i + 1);
@@ -365,17 +397,41 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   if (criterion != nullptr) {
     criterion->samples = n_eff;
     criterion->candidates = static_cast<double>(res->num_candidates);
-    criterion->fold_costs = [shared_ev, l, refine = spec.refine](const std::vector<SemTerm>& terms,
-                                                                 std::vector<double>* coefficients,
-                                                                 double* j) {
-      if (refine) return RefinedFoldCosts(*shared_ev, terms, kSelectionFolds, l, coefficients, j);
-      Eigen::VectorXd theta(static_cast<Eigen::Index>(coefficients->size()));
-      for (std::size_t i = 0; i < coefficients->size(); ++i) {
-        theta(static_cast<Eigen::Index>(i)) = (*coefficients)[i];
+    criterion->fold_costs = [shared_ev, l, refine = spec.refine, one_step](
+                                const std::vector<SemTerm>& terms,
+                                std::vector<double>* coefficients, double* j) {
+      if (refine && !one_step) {
+        return RefinedFoldCosts(*shared_ev, terms, kSelectionFolds, l, coefficients, j);
       }
-      *j = FoldRun(*shared_ev, PrepareAll(*shared_ev, terms), theta, 0, 1, {});
-      return FoldCosts(*shared_ev, terms, kSelectionFolds, l);
+      if (refine) {
+        *j = internal::RefineFreeRun(*shared_ev, terms, coefficients);
+      } else {
+        Eigen::VectorXd theta(static_cast<Eigen::Index>(coefficients->size()));
+        for (std::size_t i = 0; i < coefficients->size(); ++i) {
+          theta(static_cast<Eigen::Index>(i)) = (*coefficients)[i];
+        }
+        *j = FoldRun(*shared_ev, PrepareAll(*shared_ev, terms), theta, 0, 1, {});
+      }
+      return one_step ? OneStepFoldCosts(*shared_ev, terms, kSelectionFolds)
+                      : FoldCosts(*shared_ev, terms, kSelectionFolds, l);
     };
+  }
+  if (one_step) {
+    res->selection_rule = fmt::format(
+        "{}-fold cross-validation of the one-step prediction error inside the identification "
+        "data (noise in the equation: {}): the iteration of lowest N ln(CV J) + m ln(N) + 2 ln(C "
+        "choose m) (extended BIC, m terms of C = {} candidates), N = {:.0f} effective samples of "
+        "the lowest-J iteration's one-step residual; each fold's coefficients are the least "
+        "squares on the other folds",
+        kSelectionFolds,
+        spec.selection_noise == SelectionNoise::kEquation
+            ? "selection_noise = \"equation\""
+            : fmt::format("of the lowest-J iteration's residuals, {:.0f} % of the one-step one "
+                          "is unpredictable from its own past, {:.0f} % of the free-run one, "
+                          "L(q) = {}",
+                          100.0 * share_one_step, 100.0 * share_free, filter),
+        res->num_candidates, n_eff);
+    return;
   }
   res->selection_rule = fmt::format(
       "{}-fold cross-validation of the {} free-run J inside the identification data: the "
@@ -385,6 +441,13 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
       "BIC, at most {})",
       kSelectionFolds, spec.refine ? "output-error refined" : "least-squares", res->num_candidates,
       n_eff, filter, l.size(), kMaxPrefilterOrder);
+  if (spec.selection_noise == SelectionNoise::kAuto && !l.empty()) {
+    res->selection_rule += fmt::format(
+        " (free run scored: {:.0f} % of the one-step residual's power is unpredictable from its "
+        "own past, {:.0f} % of the free-run residual's; the one-step score needs at least {:.0f} "
+        "% and more than the free run's: model mismatch, not noise in the equation)",
+        100.0 * share_one_step, 100.0 * share_free, 100.0 * kEquationNoiseShare);
+  }
 }
 
 }  // namespace mrd::host

@@ -374,6 +374,19 @@ bool ParseSelectionKey(const std::string& path, const std::string& sk, const tom
     if (s.selection_tolerance_percent < 0.0) {
       Fail(path, sn, "'selection_tolerance_percent' must be >= 0");
     }
+  } else if (sk == "selection_noise") {
+    const std::string sn_value = GetString(path, sn, sk);
+    if (sn_value == "auto") {
+      s.selection_noise = SelectionNoise::kAuto;
+    } else if (sn_value == "output") {
+      s.selection_noise = SelectionNoise::kOutput;
+    } else if (sn_value == "equation") {
+      s.selection_noise = SelectionNoise::kEquation;
+    } else {
+      Fail(path, sn,
+           fmt::format("unknown selection_noise '{}' (expected auto, output or equation)",
+                       sn_value));
+    }
   } else if (sk == "drop_terms") {
     s.drop_terms = GetBool(path, sn, sk);
   } else if (sk == "score_exchange") {
