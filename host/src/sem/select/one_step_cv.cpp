@@ -23,7 +23,8 @@ Eigen::MatrixXd Regressors(const Evaluator& e, const std::vector<SemTerm>& terms
   return phi;
 }
 
-// Solves the normal equations g theta = b; the minimum-norm solution when g is singular.
+}  // namespace
+
 Eigen::VectorXd SolveNormal(const Eigen::MatrixXd& g, const Eigen::VectorXd& b) {
   if (g.rows() == 0) return Eigen::VectorXd();
   Eigen::LLT<Eigen::MatrixXd> llt(g);
@@ -32,7 +33,16 @@ Eigen::VectorXd SolveNormal(const Eigen::MatrixXd& g, const Eigen::VectorXd& b) 
              : Eigen::VectorXd(g.completeOrthogonalDecomposition().solve(b));
 }
 
-}  // namespace
+void FoldTotals(const std::vector<Eigen::MatrixXd>& g, const std::vector<Eigen::VectorXd>& b,
+                Eigen::MatrixXd* gt, Eigen::VectorXd* bt) {
+  const Eigen::Index m = g.empty() ? 0 : g.front().rows();
+  *gt = Eigen::MatrixXd::Zero(m, m);
+  *bt = Eigen::VectorXd::Zero(m);
+  for (std::size_t f = 0; f < g.size(); ++f) {
+    *gt += g[f];
+    *bt += b[f];
+  }
+}
 
 std::vector<double> OneStepFoldCosts(const std::vector<Evaluator>& ev,
                                      const std::vector<SemTerm>& terms, int folds) {
@@ -56,12 +66,9 @@ std::vector<double> OneStepFoldCosts(const std::vector<Evaluator>& ev,
       b[fi].noalias() += rows.transpose() * w.cwiseProduct(y);
     }
   }
-  Eigen::MatrixXd gt = Eigen::MatrixXd::Zero(m, m);
-  Eigen::VectorXd bt = Eigen::VectorXd::Zero(m);
-  for (std::size_t f = 0; f < nf; ++f) {
-    gt += g[f];
-    bt += b[f];
-  }
+  Eigen::MatrixXd gt;
+  Eigen::VectorXd bt;
+  FoldTotals(g, b, &gt, &bt);
   std::vector<double> out(nf, 0.0);
   for (int f = 0; f < folds; ++f) {
     const auto fi = static_cast<std::size_t>(f);

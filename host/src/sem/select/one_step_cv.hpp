@@ -1,6 +1,8 @@
 #pragma once
-// The one-step (prediction-error) form of the selection's cross-validation (selection.cpp):
-// used when the noise is taken to be in the equation (spec selection_noise).
+// The one-step (prediction-error) form of the selection's cross-validation, and the fold helpers
+// it shares with the free-run form (selection.cpp). The one-step form is used when the noise is
+// taken to be in the equation (spec selection_noise).
+#include <Eigen/Core>
 #include <cstddef>
 #include <vector>
 
@@ -15,6 +17,15 @@ inline std::size_t FoldBound(const Record& r, int f, int folds) {
   const std::size_t n = r.y.size() - r.first;
   return r.first + n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
 }
+
+// Solves the normal equations g theta = b (Cholesky); the minimum-norm solution when g is not
+// positive definite. Empty g: an empty theta.
+Eigen::VectorXd SolveNormal(const Eigen::MatrixXd& g, const Eigen::VectorXd& b);
+
+// Totals over all folds of the per-fold normal equations (Gram matrices g, right-hand sides b),
+// from which a fold's own rows are subtracted to fit on the other folds.
+void FoldTotals(const std::vector<Eigen::MatrixXd>& g, const std::vector<Eigen::VectorXd>& b,
+                Eigen::MatrixXd* gt, Eigen::VectorXd* bt);
 
 // Per fold f: the weighted least squares on every other fold of every record, and the weighted
 // one-step squared error sum_k w_k (y_k - phi_k theta)^2 over fold f (regressors from the

@@ -19,9 +19,11 @@ namespace {
 
 using internal::Evaluator;
 using internal::FoldBound;
+using internal::FoldTotals;
 using internal::OneStepFoldCosts;
 using internal::OneStepResidual;
 using internal::Record;
+using internal::SolveNormal;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
@@ -97,23 +99,14 @@ std::vector<double> FoldCosts(const std::vector<Evaluator>& ev, const std::vecto
       b[fi].noalias() += phi.transpose() * y;
     }
   }
-  Eigen::MatrixXd gt = Eigen::MatrixXd::Zero(m, m);
-  Eigen::VectorXd bt = Eigen::VectorXd::Zero(m);
-  for (std::size_t f = 0; f < nf; ++f) {
-    gt += g[f];
-    bt += b[f];
-  }
+  Eigen::MatrixXd gt;
+  Eigen::VectorXd bt;
+  FoldTotals(g, b, &gt, &bt);
   std::vector<double> out(nf, 0.0);
   for (int f = 0; f < folds; ++f) {
     const auto fi = static_cast<std::size_t>(f);
-    Eigen::VectorXd theta = Eigen::VectorXd::Zero(m);
-    if (m > 0) {
-      const Eigen::MatrixXd gf = gt - g[fi];
-      Eigen::LLT<Eigen::MatrixXd> llt(gf);
-      theta = llt.info() == Eigen::Success
-                  ? Eigen::VectorXd(llt.solve(bt - b[fi]))
-                  : Eigen::VectorXd(gf.completeOrthogonalDecomposition().solve(bt - b[fi]));
-    }
+    const Eigen::VectorXd theta =
+        m > 0 ? SolveNormal(gt - g[fi], bt - b[fi]) : Eigen::VectorXd(Eigen::VectorXd::Zero(m));
     if (!theta.allFinite()) {
       out[fi] = kInf;
       continue;
