@@ -57,7 +57,8 @@ enum class Strategy { kBest, kFirst };
 enum class Selection { kCrossValidation, kTolerance };
 // Where the cross-validated pick takes the noise to enter (sem.hpp, SelectByCrossValidation):
 // at the output (score: free-run error), in the equation (score: one-step prediction error),
-// or auto: output when the lowest-J iteration's free-run residual is white, else equation.
+// or auto: equation when the lowest-J iteration's free-run residual is coloured and its one-step
+// residual is the whiter, at least half unpredictable (sem.hpp, kEquationNoiseShare), else output.
 enum class SelectionNoise { kAuto, kOutput, kEquation };
 
 // Stress check of the search ([stress]; host/include/mrd/host/sem_stress.hpp).

@@ -338,9 +338,11 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   // on noise-free damper data), not noise: the free run, the control-oriented score, is kept.
   bool one_step = spec.selection_noise == SelectionNoise::kEquation;
   double share_free = 1.0, share_one_step = 0.0;
-  if (spec.selection_noise == SelectionNoise::kAuto && !l.empty()) {
-    std::vector<std::vector<double>> r1;
+  std::vector<std::vector<double>> r1;  // the lowest-J iteration's one-step residual per record
+  if (one_step || (spec.selection_noise == SelectionNoise::kAuto && !l.empty())) {
     for (const Evaluator& d : ev) r1.push_back(OneStepResidual(d, its[low].terms));
+  }
+  if (spec.selection_noise == SelectionNoise::kAuto && !l.empty()) {
     share_free = Unpredictable(z, l);
     share_one_step = Unpredictable(r1, FitPrefilter(r1));
     one_step = share_one_step >= kEquationNoiseShare && share_one_step > share_free;
@@ -377,7 +379,7 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   double n_eff = 0.0;
   for (std::size_t d = 0; d < ev.size(); ++d) {
     const Record& rec = ev[d].record();
-    n_eff += one_step       ? EffectiveSamples(OneStepResidual(ev[d], its[low].terms))
+    n_eff += one_step       ? EffectiveSamples(r1[d])
              : e[d].empty() ? static_cast<double>(rec.y.size() - rec.first)
                             : EffectiveSamples(e[d]);
   }
