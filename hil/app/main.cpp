@@ -675,7 +675,7 @@ CLI::App* AddStudy(CLI::App& app, mrd::hil::StudyOptions* study_o) {
   auto* study = app.add_subcommand(
       "study",
       "Comfort / road-holding study of a quarter-car scenario, in process and "
-      "deterministic: per road class x speed the best passive constant voltage (grid "
+      "deterministic: per motion ratio x road class x speed the best passive constant voltage (grid "
       "over 0 .. E_max) and each firmware law (its Controller at 1 kHz); one table "
       "(text, CSV, JSON) and plots in --out (docs/study.md). Exit 0 done, 1 write "
       "error, 2 bad input.");
@@ -688,6 +688,10 @@ CLI::App* AddStudy(CLI::App& app, mrd::hil::StudyOptions* study_o) {
       ->capture_default_str();
   study->add_option("--speeds", study_o->speeds, "vehicle speeds [m/s], comma-separated")
       ->capture_default_str();
+  study->add_option("--motion-ratios", study_o->motion_ratios,
+                    "damper travel / wheel travel, each in [0.01, 1], comma-separated: the "
+                    "same damper mounted on a different lever (default: the scenario's "
+                    "quarter_car.motion_ratio)");
   study
       ->add_option("--laws", study_o->laws,
                    "firmware laws ([control] law names of the firmware's config), comma-"
@@ -705,7 +709,8 @@ CLI::App* AddStudy(CLI::App& app, mrd::hil::StudyOptions* study_o) {
       ->check(CLI::Range(0.0, 1e3));
   study->add_option("--out", study_o->out_dir,
                     "directory for study.txt, study.csv, study.json, study.png, "
-                    "comfort-CLASS-SPEED.png (default study-NAME, NAME the scenario's stem)");
+                    "comfort-CLASS-SPEED[-rRATIO].png (default study-NAME, NAME the "
+                    "scenario's stem)");
   study->add_flag("--json", study_o->json, "print the study as JSON instead of the table");
   return study;
 }

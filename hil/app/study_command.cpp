@@ -35,6 +35,7 @@ struct LawResult {
 struct StudyCase {
   char road_class = 'C';
   double speed = 20.0;
+  double motion_ratio = 0.7;  // damper / wheel travel
   std::vector<RidePoint> grid;
   std::vector<LawResult> laws;
 };
@@ -60,27 +61,37 @@ std::string Signed(double v) {
   return buf;
 }
 
-std::string CaseName(const StudyCase& c) {
-  return std::string(1, c.road_class) + "-" + Num(c.speed);
+// CLASS-SPEED, with -rRATIO when the study runs several motion ratios.
+std::string CaseName(const StudyCase& c, bool with_ratio) {
+  return std::string(1, c.road_class) + "-" + Num(c.speed) +
+         (with_ratio ? "-r" + Num(c.motion_ratio) : "");
+}
+
+bool SeveralRatios(const std::vector<StudyCase>& cases) {
+  for (const StudyCase& c : cases) {
+    if (c.motion_ratio != cases.front().motion_ratio) return true;
+  }
+  return false;
 }
 
 // The Markdown table: one row per case.
 std::string Table(const std::vector<StudyCase>& cases, const std::vector<FirmwareLaw>& laws) {
   std::ostringstream o;
-  o << "| class | speed [m/s] | passive-off body acc [m/s^2] | best passive body acc [m/s^2] "
-       "| best passive Wk [m/s^2] | best passive tyre load [N]";
+  o << "| class | speed [m/s] | motion ratio | passive-off body acc [m/s^2] "
+       "| best passive body acc [m/s^2] | best passive Wk [m/s^2] | best passive tyre load [N]";
   for (const FirmwareLaw& l : laws) {
     o << " | " << l.spec << ": body acc [m/s^2], tyre load [N] | " << l.spec
       << ": vs best passive at no-worse tyre load";
   }
-  o << " |\n|---|---|---|---|---|---";
+  o << " |\n|---|---|---|---|---|---|---";
   for (std::size_t i = 0; i < laws.size(); ++i) o << "|---|---";
   o << "|\n";
   for (const StudyCase& c : cases) {
     const PassiveBest b = BestOf(c.grid, RideMetric::kBodyAccel);
     const PassiveBest w = BestOf(c.grid, RideMetric::kBodyAccelWk);
     const PassiveBest t = BestOf(c.grid, RideMetric::kTyreLoad);
-    o << "| " << c.road_class << " | " << Num(c.speed) << " | " << Num(c.grid[0].body_accel_rms)
+    o << "| " << c.road_class << " | " << Num(c.speed) << " | " << Num(c.motion_ratio) << " | "
+      << Num(c.grid[0].body_accel_rms)
       << " | " << Num(b.value) << " (" << Num(b.volts, 3) << " V) | " << Num(w.value) << " ("
       << Num(w.volts, 3) << " V) | " << Num(t.value) << " (" << Num(t.volts, 3) << " V)";
     for (const LawResult& l : c.laws) {
@@ -103,7 +114,7 @@ std::string Table(const std::vector<StudyCase>& cases, const std::vector<Firmwar
 std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareLaw>& laws) {
   std::ostringstream o;
   o.precision(9);
-  o << "class,speed_m_s,law,passive_off_body_accel_rms,best_body_accel_rms,best_body_accel_v,"
+  o << "class,speed_m_s,motion_ratio,law,passive_off_body_accel_rms,best_body_accel_rms,best_body_accel_v,"
        "best_body_accel_wk_rms,best_body_accel_wk_v,best_tyre_load_rms_n,best_tyre_load_v,"
        "best_travel_rms_cm,best_travel_v,law_body_accel_rms,law_body_accel_wk_rms,"
        "law_tyre_load_rms_n,law_travel_rms_cm,law_mean_v,law_violations,"
@@ -112,7 +123,8 @@ std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareL
   for (const StudyCase& c : cases) {
     for (std::size_t i = 0; i < laws.size(); ++i) {
       const LawResult& l = c.laws[i];
-      o << c.road_class << ',' << c.speed << ',' << laws[i].spec << ',' << c.grid[0].body_accel_rms;
+      o << c.road_class << ',' << c.speed << ',' << c.motion_ratio << ',' << laws[i].spec << ','
+        << c.grid[0].body_accel_rms;
       for (const PassiveBest& b : l.cmp.best) o << ',' << b.value << ',' << b.volts;
       const RidePoint& p = l.run.ride;
       o << ',' << p.body_accel_rms << ',' << p.body_accel_wk_rms << ',' << p.tyre_load_rms_n << ','
@@ -146,6 +158,7 @@ nlohmann::json Json(const Scenario& s, double step, const std::vector<StudyCase>
     nlohmann::json jc;
     jc["class"] = std::string(1, c.road_class);
     jc["speed_m_s"] = c.speed;
+    jc["motion_ratio"] = c.motion_ratio;
     jc["passive_off"] = RidePointJson(c.grid[0]);
     for (const RideMetric m : kRideMetrics) {
       const PassiveBest b = BestOf(c.grid, m);
@@ -182,13 +195,14 @@ nlohmann::json Json(const Scenario& s, double step, const std::vector<StudyCase>
   return j;
 }
 
-// Plots: comfort-CLASS-SPEED.png per case, study.png (improvement against speed).
+// Plots: comfort-CASE.png per case (CaseName), study.png (improvement against speed).
 bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
                 const std::vector<FirmwareLaw>& laws, std::string* error, std::string* warning) {
   std::ostringstream gp;
   gp << "set grid\nset key inside\n";
+  const bool with_ratio = SeveralRatios(cases);
   for (const StudyCase& c : cases) {
-    const std::string name = CaseName(c);
+    const std::string name = CaseName(c, with_ratio);
     const std::string dat = dir + "/grid-" + name + ".dat";
     if (!WriteAtomically(dat, GridData(c.grid), error)) return false;
     std::vector<PlotPoint> points;
@@ -197,21 +211,23 @@ bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
     gp << "set terminal pngcairo noenhanced size 1400,600\nset output '" << dir << "/comfort-"
        << name << ".png'\nset multiplot layout 1,2\n"
        << ComfortPanels(dat, points,
-                        "class " + std::string(1, c.road_class) + ", " + Num(c.speed) + " m/s")
+                        "class " + std::string(1, c.road_class) + ", " + Num(c.speed) +
+                            " m/s, motion ratio " + Num(c.motion_ratio))
        << "unset multiplot\n";
   }
-  // Improvement at equal road holding against speed: one block per class x law.
+  // Improvement at equal road holding against speed: one block per (ratio x) class x law.
   std::ostringstream dat;
   dat.precision(9);
   std::vector<std::string> titles;
-  std::set<char> classes;
-  for (const StudyCase& c : cases) classes.insert(c.road_class);
-  for (const char cls : classes) {
+  std::set<std::pair<double, char>> groups;
+  for (const StudyCase& c : cases) groups.insert({c.motion_ratio, c.road_class});
+  for (const auto& [ratio, cls] : groups) {
     for (std::size_t i = 0; i < laws.size(); ++i) {
       if (!titles.empty()) dat << "\n\n";
-      titles.push_back("class " + std::string(1, cls) + ", " + laws[i].spec);
+      titles.push_back((with_ratio ? "r " + Num(ratio) + ", " : std::string()) + "class " +
+                       std::string(1, cls) + ", " + laws[i].spec);
       for (const StudyCase& c : cases) {
-        if (c.road_class != cls) continue;
+        if (c.road_class != cls || c.motion_ratio != ratio) continue;
         const auto& imp = c.laws[i].cmp.comfort_at_holding_improvement;
         dat << c.speed << ' ' << (imp ? Num(*imp, 9) : std::string("NaN")) << '\n';
       }
@@ -244,6 +260,7 @@ struct StudyInputs {
   std::vector<double> volts;
   std::vector<char> classes;
   std::vector<double> speeds;
+  std::vector<double> ratios;  // motion ratios
   std::vector<FirmwareLaw> laws;
 };
 
@@ -280,6 +297,27 @@ int ParseClassesAndSpeeds(const StudyOptions& o, StudyInputs* in) {
   return 0;
 }
 
+// --motion-ratios: each in [0.01, 1] (the scenario key's range), no repeats; "" the scenario's.
+int ParseMotionRatios(const StudyOptions& o, StudyInputs* in) {
+  if (o.motion_ratios.empty()) {
+    in->ratios.push_back(in->base.car.motion_ratio);
+    return 0;
+  }
+  for (const std::string& v : Split(o.motion_ratios)) {
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str(), &end);
+    if (v.empty() || end != v.c_str() + v.size() || !(x >= 0.01 && x <= 1.0)) {
+      return Bad("--motion-ratios '" + o.motion_ratios + "': '" + v +
+                 "' is not a motion ratio in [0.01, 1]");
+    }
+    for (const double k : in->ratios) {
+      if (k == x) return Bad("--motion-ratios '" + o.motion_ratios + "': names " + v + " twice");
+    }
+    in->ratios.push_back(x);
+  }
+  return 0;
+}
+
 int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
   Scenario& base = in->base;
   std::string error;
@@ -302,6 +340,7 @@ int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
   if (in->volts.size() > 10000)
     return Bad("--passive-step " + Num(in->step) + ": more than 10000 points");
   if (const int rc = ParseClassesAndSpeeds(o, in); rc != 0) return rc;
+  if (const int rc = ParseMotionRatios(o, in); rc != 0) return rc;
   for (const std::string& spec : Split(o.laws)) {
     FirmwareLaw law;
     if (!MakeFirmwareLaw(spec, base.skyhook_gain, base.e_max, &law, &error)) return Bad(error);
@@ -314,18 +353,17 @@ int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
   return 0;
 }
 
-// One road class x speed: the passive grid and each law, with progress on stderr. false:
-// *error (a law could not run).
-bool RunStudyCase(const StudyInputs& in, char cls, double speed, std::size_t index,
-                  std::size_t n_cases, const std::function<double()>& wall, StudyCase* c,
-                  std::string* error) {
-  c->road_class = cls;
-  c->speed = speed;
+// One motion ratio x road class x speed (as set in c): the passive grid and each law, with
+// progress on stderr. false: *error (a law could not run).
+bool RunStudyCase(const StudyInputs& in, std::size_t index, std::size_t n_cases,
+                  const std::function<double()>& wall, StudyCase* c, std::string* error) {
   Scenario s = in.base;
-  RoadClassFromChar(cls, &s.road.road_class);
-  s.car.speed_m_s = speed;
-  std::fprintf(stderr, "[%zu/%zu] class %c, %g m/s: passive grid (%zu settings)...\n", index,
-               n_cases, cls, speed, in.volts.size());
+  RoadClassFromChar(c->road_class, &s.road.road_class);
+  s.car.speed_m_s = c->speed;
+  s.car.motion_ratio = c->motion_ratio;
+  std::fprintf(stderr,
+               "[%zu/%zu] class %c, %g m/s, motion ratio %g: passive grid (%zu settings)...\n",
+               index, n_cases, c->road_class, c->speed, c->motion_ratio, in.volts.size());
   c->grid = RunPassiveGrid(s, in.step);
   const PassiveBest best = BestOf(c->grid, RideMetric::kBodyAccel);
   std::fprintf(stderr, "[%zu/%zu]   best passive body acc RMS %.4f m/s^2 at %.3g V (%.1f s)\n",
@@ -371,14 +409,17 @@ int StudyCommand(const StudyOptions& o) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
   std::vector<StudyCase> cases;
-  const std::size_t n_cases = in.classes.size() * in.speeds.size();
-  for (const char cls : in.classes) {
-    for (const double speed : in.speeds) {
-      StudyCase c;
-      if (!RunStudyCase(in, cls, speed, cases.size() + 1, n_cases, wall, &c, &error)) {
-        return Bad(error);
+  const std::size_t n_cases = in.ratios.size() * in.classes.size() * in.speeds.size();
+  for (const double ratio : in.ratios) {
+    for (const char cls : in.classes) {
+      for (const double speed : in.speeds) {
+        StudyCase c;
+        c.road_class = cls;
+        c.speed = speed;
+        c.motion_ratio = ratio;
+        if (!RunStudyCase(in, cases.size() + 1, n_cases, wall, &c, &error)) return Bad(error);
+        cases.push_back(std::move(c));
       }
-      cases.push_back(std::move(c));
     }
   }
   const std::string table = Table(cases, laws);
@@ -400,7 +441,8 @@ int StudyCommand(const StudyOptions& o) {
               << base.road.seed << ", passive grid " << in.volts.size() << " settings (0 .. "
               << base.e_max << " V, step " << in.step << " V)\n"
               << table << "files: " << dir << "/study.txt, study.csv, study.json, study.png, "
-              << "comfort-CLASS-SPEED.png (" << cases.size() * (in.volts.size() + laws.size())
+              << (in.ratios.size() > 1 ? "comfort-CLASS-SPEED-rRATIO.png (" : "comfort-CLASS-SPEED.png (")
+              << cases.size() * (in.volts.size() + laws.size())
               << " runs, " << Num(wall(), 3) << " s wall)\n";
   }
   return std::cout ? 0 : 1;

@@ -6,6 +6,11 @@ control), on the quarter car shortened to a few seconds:
     drops the grid;
   - study: the table has every cell (each class x speed x law), the CSV and JSON agree, the
     files and plots exist; the same study twice gives the same CSV and JSON byte for byte;
+  - --motion-ratios: one case per ratio x class x speed, the ratio in every output and in the
+    plot names; on the full 25 s class C road at 20 m/s, SH-ADD is >= 15 % more comfortable
+    than the best passive setting at no worse road holding when the damper sits at motion
+    ratio 0.5, and at the shipped 0.7 the 0 V damper is the most comfortable passive setting
+    (the floor that limits every law there: docs/study.md);
   - bad flags: exit 2 with a message naming the flag, nothing written.
 
 Usage: study_cli_test.py BIN_DIR SOURCE_DIR WORK_DIR
@@ -150,6 +155,41 @@ for name in ("study.csv", "study.json", "study.txt"):
     b = open(os.path.join(outs[1], name), "rb").read()
     check(a == b, f"same study twice: identical {name}")
 
+# --- motion ratios ----------------------------------------------------------------------
+d = os.path.join(WORK, "ratios")
+p = hil("study", *short(**{"--classes": "C", "--speeds": "20"}), "--motion-ratios", "0.5,0.7",
+        "--out", d)
+check(p.returncode == 0, f"study --motion-ratios exit 0 ({p.returncode}) {p.stderr[-400:]}")
+rows = list(csv.DictReader(open(os.path.join(d, "study.csv"))))
+check(sorted((float(r["motion_ratio"]), r["law"]) for r in rows) ==
+      [(0.5, "skyhook"), (0.5, "skyhook-on-off"), (0.7, "skyhook"), (0.7, "skyhook-on-off")],
+      "CSV: one row per motion ratio x law")
+rj = json.load(open(os.path.join(d, "study.json")))
+check([c["motion_ratio"] for c in rj["cases"]] == [0.5, 0.7], "JSON: each case's motion ratio")
+check(len(rj["cases"]) == 2 and rj["cases"][0]["grid"] != rj["cases"][1]["grid"],
+      "the ratio reaches the plant: the two passive grids differ")
+for name in ("comfort-C-20-r0.5.png", "comfort-C-20-r0.7.png"):
+    check(os.path.exists(os.path.join(d, name)), f"study wrote {name}")
+check("motion ratio 0.5" in p.stderr, "progress names the motion ratio")
+table = open(os.path.join(d, "study.txt")).read()
+check("| motion ratio |" in table and "| 0.5 |" in table, "text table has the motion ratio")
+
+# The comfort goal on the full road: SH-ADD against the best passive at no worse tyre load.
+d = os.path.join(WORK, "goal")
+p = hil("study", "--scenario", SCENARIO, "--classes", "C", "--speeds", "20", "--laws", "sh-add",
+        "--motion-ratios", "0.5,0.7", "--out", d)
+check(p.returncode == 0, f"goal study exit 0 ({p.returncode}) {p.stderr[-400:]}")
+gj = json.load(open(os.path.join(d, "study.json")))
+by_ratio = {c["motion_ratio"]: c for c in gj["cases"]}
+eq = by_ratio[0.5]["laws"][0]["comfort_at_equal_road_holding"]
+check(eq is not None and eq["improvement_percent"] >= 15.0,
+      f"motion ratio 0.5: SH-ADD >= 15 % over the best passive at no worse tyre load "
+      f"({eq and eq['improvement_percent']})")
+check(by_ratio[0.7]["best_passive"]["body_accel_rms"]["volts"] == 0.0,
+      "motion ratio 0.7: 0 V is the most comfortable passive setting")
+check(by_ratio[0.5]["best_passive"]["body_accel_rms"]["volts"] > 0.0,
+      "motion ratio 0.5: a harder setting than 0 V is the most comfortable passive one")
+
 # --- refusals ---------------------------------------------------------------------------
 bad_dir = os.path.join(WORK, "bad")
 for args, words in [
@@ -167,7 +207,11 @@ for args, words in [
         (["--duration", "-5"], ["--duration"]),
         (["--classes", ""], ["--classes"]),
         (["--speeds", ""], ["--speeds"]),
-        (["--laws", ""], ["--laws"])]:
+        (["--laws", ""], ["--laws"]),
+        (["--motion-ratios", "0"], ["--motion-ratios", "[0.01, 1]"]),
+        (["--motion-ratios", "0.5,1.5"], ["--motion-ratios", "'1.5'"]),
+        (["--motion-ratios", "half"], ["--motion-ratios", "'half'"]),
+        (["--motion-ratios", "0.5,0.5"], ["--motion-ratios", "twice"])]:
     p = hil("study", *short(**{args[0]: args[1]}), "--out", bad_dir)
     check(p.returncode == 2 and all(w in p.stderr for w in words),
           f"study {' '.join(args)}: exit 2 naming it ({p.returncode}: {p.stderr.strip()[:200]})")
@@ -186,7 +230,8 @@ check(p.returncode == 2 and "--passive-step" in p.stderr, "run --passive-step -1
 p = hil("run", SCENARIO, "--set", "quarter_car.passive_step_v=0.00001")
 check(p.returncode == 2 and "passive_step_v" in p.stderr, "scenario passive_step_v too fine: exit 2")
 p = hil("study", "--help")
-check(p.returncode == 0 and "--classes" in p.stdout and "--laws" in p.stdout, "study --help")
+check(p.returncode == 0 and "--classes" in p.stdout and "--laws" in p.stdout and
+      "--motion-ratios" in p.stdout, "study --help")
 
 print(f"{len(failures)} failure(s)")
 sys.exit(1 if failures else 0)
