@@ -675,7 +675,8 @@ CLI::App* AddStudy(CLI::App& app, mrd::hil::StudyOptions* study_o) {
   auto* study = app.add_subcommand(
       "study",
       "Comfort / road-holding study of a quarter-car scenario, in process and "
-      "deterministic: per motion ratio x road class x speed the best passive constant voltage (grid "
+      "deterministic: per motion ratio x road class x speed the best passive constant voltage "
+      "(grid "
       "over 0 .. E_max) and each firmware law (its Controller at 1 kHz); one table "
       "(text, CSV, JSON) and plots in --out (docs/study.md). Exit 0 done, 1 write "
       "error, 2 bad input.");

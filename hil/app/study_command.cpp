@@ -91,9 +91,9 @@ std::string Table(const std::vector<StudyCase>& cases, const std::vector<Firmwar
     const PassiveBest w = BestOf(c.grid, RideMetric::kBodyAccelWk);
     const PassiveBest t = BestOf(c.grid, RideMetric::kTyreLoad);
     o << "| " << c.road_class << " | " << Num(c.speed) << " | " << Num(c.motion_ratio) << " | "
-      << Num(c.grid[0].body_accel_rms)
-      << " | " << Num(b.value) << " (" << Num(b.volts, 3) << " V) | " << Num(w.value) << " ("
-      << Num(w.volts, 3) << " V) | " << Num(t.value) << " (" << Num(t.volts, 3) << " V)";
+      << Num(c.grid[0].body_accel_rms) << " | " << Num(b.value) << " (" << Num(b.volts, 3)
+      << " V) | " << Num(w.value) << " (" << Num(w.volts, 3) << " V) | " << Num(t.value) << " ("
+      << Num(t.volts, 3) << " V)";
     for (const LawResult& l : c.laws) {
       o << " | " << Num(l.run.ride.body_accel_rms) << ", " << Num(l.run.ride.tyre_load_rms_n)
         << " | ";
@@ -114,7 +114,8 @@ std::string Table(const std::vector<StudyCase>& cases, const std::vector<Firmwar
 std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareLaw>& laws) {
   std::ostringstream o;
   o.precision(9);
-  o << "class,speed_m_s,motion_ratio,law,passive_off_body_accel_rms,best_body_accel_rms,best_body_accel_v,"
+  o << "class,speed_m_s,motion_ratio,law,passive_off_body_accel_rms,best_body_accel_rms,best_body_"
+       "accel_v,"
        "best_body_accel_wk_rms,best_body_accel_wk_v,best_tyre_load_rms_n,best_tyre_load_v,"
        "best_travel_rms_cm,best_travel_v,law_body_accel_rms,law_body_accel_wk_rms,"
        "law_tyre_load_rms_n,law_travel_rms_cm,law_mean_v,law_violations,"
@@ -441,9 +442,10 @@ int StudyCommand(const StudyOptions& o) {
               << base.road.seed << ", passive grid " << in.volts.size() << " settings (0 .. "
               << base.e_max << " V, step " << in.step << " V)\n"
               << table << "files: " << dir << "/study.txt, study.csv, study.json, study.png, "
-              << (in.ratios.size() > 1 ? "comfort-CLASS-SPEED-rRATIO.png (" : "comfort-CLASS-SPEED.png (")
-              << cases.size() * (in.volts.size() + laws.size())
-              << " runs, " << Num(wall(), 3) << " s wall)\n";
+              << (in.ratios.size() > 1 ? "comfort-CLASS-SPEED-rRATIO.png ("
+                                       : "comfort-CLASS-SPEED.png (")
+              << cases.size() * (in.volts.size() + laws.size()) << " runs, " << Num(wall(), 3)
+              << " s wall)\n";
   }
   return std::cout ? 0 : 1;
 }

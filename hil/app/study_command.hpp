@@ -1,7 +1,7 @@
 #pragma once
 // `mrd-hil study`: the comfort / road-holding study of a quarter-car scenario (docs/study.md).
-// For each motion ratio x road class x speed it runs the best-passive grid (every constant voltage) and each
-// firmware law in process (firmware_law.hpp) on the same road (the scenario's seed), and
+// For each motion ratio x road class x speed it runs the best-passive grid (every constant voltage)
+// and each firmware law in process (firmware_law.hpp) on the same road (the scenario's seed), and
 // tabulates per case the best passive comfort and each law's body-acceleration RMS improvement
 // over the best passive setting whose tyre-load RMS is no worse than the law's. Writes
 // DIR/study.txt, study.csv, study.json (atomic) and plots (gnuplot). Deterministic.

@@ -1,4 +1,5 @@
-// mrd-structure through the executable: help, modes, design --out, the study's refusals.
+// mrd-structure through the executable: help, modes, design --out, the study's refusals, and
+// the study against a reference table (--reference, --tolerance; exit 3 when it disagrees).
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -71,6 +72,70 @@ TEST(StructureCliTest, BadInputIsRefusedWithExit2) {
     EXPECT_NE(p.Stderr().find(c.message), std::string::npos) << p.Stderr();
     EXPECT_FALSE(std::ifstream(out).good()) << "nothing written: " << c.message;
   }
+}
+
+// The study's own peak table as a reference CSV (the printed digits), one cell scaled.
+std::string OwnReference(const std::string& study_stdout, double scale_passive_on_x1) {
+  std::istringstream in(study_stdout);
+  std::string line, csv = "# this study's own figures\ncase,x1,x2,x3,d1,d2,d3,xa1,xa2,xa3,f\n";
+  int rows = 0;
+  while (std::getline(in, line) && rows < 4) {
+    if (line.rfind("| ", 0) != 0 || line.rfind("| case", 0) == 0) continue;
+    std::vector<std::string> cells;
+    std::stringstream ss(line.substr(2));
+    std::string cell;
+    while (std::getline(ss, cell, '|')) {
+      while (!cell.empty() && cell.back() == ' ') cell.pop_back();
+      while (!cell.empty() && cell.front() == ' ') cell.erase(0, 1);
+      if (!cell.empty()) cells.push_back(cell);
+    }
+    if (cells.size() != 11) continue;
+    if (cells[0] == "passive-on") {
+      cells[1] = std::to_string(std::stod(cells[1]) * scale_passive_on_x1);
+    }
+    for (std::size_t i = 0; i < cells.size(); ++i) csv += (i ? "," : "") + cells[i];
+    csv += "\n";
+    ++rows;
+  }
+  return csv;
+}
+
+TEST(StructureCliTest, StudyAgainstAReferenceTable) {
+  const std::string dir = TempDir();
+  ChildProcess plain({kBin, "study"});
+  ASSERT_EQ(plain.Wait(120), 0) << plain.Stderr();
+  Write(dir + "/same.csv", OwnReference(plain.Stdout(), 1.0));
+  ChildProcess same({kBin, "study", "--reference", dir + "/same.csv", "--out", dir + "/t.md"});
+  EXPECT_EQ(same.Wait(120), 0) << same.Stdout();
+  EXPECT_NE(same.Stdout().find("40 of 40 cells within +-20 %"), std::string::npos) << same.Stdout();
+  EXPECT_NE(same.Stdout().find("clipped-optimal changes in the reference's direction"),
+            std::string::npos);
+  EXPECT_NE(same.Stdout().find("this study's own figures"), std::string::npos);
+
+  // passive-on x1 published 1.5 times larger: outside 20 %, exit 3, the cell marked.
+  Write(dir + "/off.csv", OwnReference(plain.Stdout(), 1.5));
+  ChildProcess off({kBin, "study", "--reference", dir + "/off.csv"});
+  EXPECT_EQ(off.Wait(120), 3) << off.Stdout();
+  EXPECT_NE(off.Stdout().find("39 of 40 cells within +-20 %"), std::string::npos) << off.Stdout();
+  EXPECT_NE(off.Stdout().find("/ -33.3*"), std::string::npos) << off.Stdout();
+  // Published twice as large (0.14 cm, above clipped-optimal's 0.124): within a 60 % tolerance,
+  // but then clipped-optimal lowers x1 against passive-on in the reference and raises it here.
+  Write(dir + "/twice.csv", OwnReference(plain.Stdout(), 2.0));
+  ChildProcess loose({kBin, "study", "--reference", dir + "/twice.csv", "--tolerance", "60"});
+  EXPECT_EQ(loose.Wait(120), 3) << loose.Stdout();
+  EXPECT_NE(loose.Stdout().find("40 of 40 cells within +-60 %"), std::string::npos)
+      << loose.Stdout();
+  EXPECT_NE(loose.Stdout().find("+77 / -12*"), std::string::npos) << loose.Stdout();
+
+  Write(dir + "/bad.csv", "case,x1,x2,x3,d1,d2,d3,xa1,xa2,xa3,f\npassive-on,1,2\n");
+  ChildProcess bad({kBin, "study", "--reference", dir + "/bad.csv", "--out", dir + "/b.md"});
+  EXPECT_EQ(bad.Wait(60), 2);
+  EXPECT_NE(bad.Stderr().find("--reference: " + dir + "/bad.csv:2: expected 11 cells"),
+            std::string::npos)
+      << bad.Stderr();
+  EXPECT_FALSE(std::ifstream(dir + "/b.md").good()) << "nothing written";
+  ChildProcess neg({kBin, "study", "--reference", dir + "/same.csv", "--tolerance", "-1"});
+  EXPECT_EQ(neg.Wait(60), 2);
 }
 
 }  // namespace

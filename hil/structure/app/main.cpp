@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "mrd/structure/design.hpp"
+#include "mrd/structure/reference.hpp"
 #include "mrd/structure/study.hpp"
 
 namespace {
@@ -95,6 +96,16 @@ int main(int argc, char** argv) {
   study_cmd->add_option("--damper", preset, "Damper preset: spencer1997 (Dyke 1996) or paper")
       ->capture_default_str();
   study_cmd->add_option("--out", study_out, "Also write the table here (atomically)");
+  std::string reference_path;
+  double tolerance = 20.0;
+  study_cmd->add_option("--reference", reference_path,
+                        "Published peak responses to compare with: CSV with the header "
+                        "case,x1,x2,x3,d1,d2,d3,xa1,xa2,xa3,f (docs/structure.md); exit 3 "
+                        "when a cell differs by more than --tolerance or clipped-optimal "
+                        "changes a peak the other way");
+  study_cmd->add_option("--tolerance", tolerance, "Allowed difference from --reference [%]")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
 
   try {
     app.parse(argc, argv);
@@ -140,6 +151,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return 2;
   }
+  mrd::structure::Reference reference;
+  if (!reference_path.empty() &&
+      !mrd::structure::LoadReference(reference_path, &reference, &error)) {
+    std::fprintf(stderr, "--reference: %s\n", error.c_str());
+    return 2;
+  }
   mrd::firmware::ClippedOptimalGains gains;
   std::fprintf(stderr, "designing the clipped-optimal law ...\n");
   if (!mrd::structure::DesignClippedOptimal(frame, study.design, &gains, &error)) {
@@ -156,11 +173,18 @@ int main(int argc, char** argv) {
     }
     rows.push_back(r);
   }
-  const std::string table = mrd::structure::ResponseTable(rows);
+  std::string table = mrd::structure::ResponseTable(rows);
+  bool matches = true;
+  if (!reference_path.empty()) {
+    const mrd::structure::ReferenceCheck check =
+        mrd::structure::CompareWithReference(rows, reference, tolerance);
+    table += "\n" + check.table;
+    matches = check.outside == 0 && check.changes_matched == check.changes;
+  }
   std::fputs(table.c_str(), stdout);
   if (!study_out.empty() && !WriteAtomically(study_out, table, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return 1;
   }
-  return 0;
+  return matches ? 0 : 3;
 }
