@@ -79,6 +79,7 @@ json SpecToJson(const SemSpec& s) {
                      {"sweep_signals", s.stress.sweep_signals},
                      {"sweep_period", s.stress.sweep_period},
                      {"hold", s.stress.hold},
+                     {"rest", s.stress.rest},
                      {"force_bound", s.stress.force_bound}};
   }
   return out;

@@ -104,6 +104,7 @@ TEST(SaturatingSpecTest, BadInputIsRefusedWithFileAndLine) {
       {"force_bound = 2.5", "force_bound = 0", "'force_bound' must be a finite number > 0"},
       {"hold = 200", "hold = -1", "hold"},
       {"hold = 200", "holds = 200", "unknown key 'holds' in [stress]"},
+      {"hold = 200", "hold = 200\nrest = -5", "rest"},
       {"sweep_signals = [\"E\"]", "sweep_signals = [\"q\"]", "'q' is not an input signal"},
       {"stretch_signals = [\"v\"]", "stretch_signals = [\"f\"]", "'f' is not an input signal"},
       {"transform = \"tanh\"", "transform = \"tan\"", "unknown transform 'tan'"},
@@ -167,6 +168,53 @@ TEST(StressCheckTest, ExplodingModelFailsBoundedModelPasses) {
   EXPECT_NE(over.reason.find("bound 0.5"), std::string::npos) << over.reason;
   // Without [stress]: unchecked.
   EXPECT_FALSE(host::CheckStress(s, ch, {}, {}, {}).checked);
+}
+
+// The rest records: no motion, every other input at its data minimum or maximum, the output
+// seeded at +-max|y|; `rest` samples each (default 3000), none with rest = 0.
+TEST(StressCheckTest, RestRecordsHoldStillWithTheOtherInputsAtTheirEnds) {
+  const host::SemSpec s = host::ParseSemSpec(kSatSpec, "sat.toml");
+  EXPECT_EQ(s.stress.rest, 3000);
+  const host::DataSet id = DamperData("identification", 3000);
+  const std::vector<host::DataSet> ids{id};
+  const auto rest = host::BuildRestData(s, ids);
+  ASSERT_EQ(rest.size(), 4u);
+  double e_lo = 1e9, e_hi = -1e9, f_max = 0.0;
+  for (double x : id.Column("E")) e_lo = std::min(e_lo, x), e_hi = std::max(e_hi, x);
+  for (double x : id.Column("f")) f_max = std::max(f_max, std::fabs(x));
+  for (std::size_t r = 0; r < 4; ++r) {
+    ASSERT_EQ(rest[r].rows(), 3000u);
+    EXPECT_EQ(rest[r].Column("v"), std::vector<double>(3000, 0.0)) << r;
+    EXPECT_EQ(rest[r].Column("E"), std::vector<double>(3000, r < 2 ? e_lo : e_hi)) << r;
+    EXPECT_EQ(rest[r].Column("f").front(), (r % 2 == 0 ? 1.0 : -1.0) * f_max) << r;
+  }
+  EXPECT_NE(rest[0].path.find("rest (v = 0, other inputs at their data minimum"), std::string::npos)
+      << rest[0].path;
+  host::SemSpec none = s;
+  none.stress.rest = 0;
+  EXPECT_TRUE(host::BuildRestData(none, ids).empty());
+  none.stress = host::StressSpec{};  // no [stress]
+  EXPECT_TRUE(host::BuildRestData(none, ids).empty());
+}
+
+// y(k) = (1.004 - 0.1 u1(k)) y(k-1): its pole leaves the unit circle at rest at the lowest
+// command only, so only the rest records at the data minimum fail it; 0.999 passes.
+TEST(StressCheckTest, AModelThatGrowsAtRestFailsTheRestRecords) {
+  const host::SemSpec s = host::ParseSemSpec(kSatSpec, "sat.toml");
+  const std::vector<host::DataSet> ids{DamperData("identification", 3000)};
+  const auto ch = host::ComputeScales(s, ids);
+  const auto rest = host::BuildRestData(s, ids);
+  const std::vector<host::SemTerm> terms = {host::ParseTerm(s, "y(k-1)"),
+                                            host::ParseTerm(s, "y(k-1)*u1(k)")};
+  const host::StressVerdict grows = host::CheckStress(s, ch, terms, {1.004, -0.1}, rest);
+  EXPECT_FALSE(grows.pass);
+  EXPECT_NE(grows.reason.find("data minimum"), std::string::npos) << grows.reason;
+  const std::vector<host::DataSet> at_max(rest.begin() + 2, rest.end());
+  EXPECT_TRUE(host::CheckStress(s, ch, terms, {1.004, -0.1}, at_max).pass)
+      << "stable at the highest command";
+  const host::StressVerdict decays = host::CheckStress(s, ch, terms, {0.999, 0.0}, rest);
+  EXPECT_TRUE(decays.pass) << decays.reason;
+  EXPECT_LE(decays.peak, 1.0 + 1e-12);
 }
 
 TEST(StressCheckTest, SelectionNeverPicksAFailedIteration) {
@@ -336,6 +384,26 @@ TEST(ExtrapolationTest, SaturatingSpecHoldsOnWide) {
     EXPECT_NE(rep.output.find("pass "), std::string::npos) << rep.output;
     EXPECT_NE(rep.output.find("operating envelope"), std::string::npos) << rep.output;
   }
+}
+
+// The default spec without validation data: the cross-validated pick's moves are stress-checked
+// on the rest records too. Before them, an exchange gave y(k-1) the coefficient 1.004 at 0 V:
+// the model grew without bound through V2's 3 s at rest and its free run diverged.
+TEST(ExtrapolationTest, CrossValidatedPickOfTheDefaultSpecStaysBoundedAtRest) {
+  TempDir dir;
+  for (const std::string p : {"identification", "v2"}) {
+    ASSERT_EQ(test::Run(Bin("mrd") + " generate --profile " + p + " --seed 1 --out " +
+                        dir.File(p + ".csv"))
+                  .status,
+              0);
+  }
+  const std::string model = dir.File("cv.json");
+  const auto id = test::Run(Bin("mrd") + " identify --data " + dir.File("identification.csv") +
+                            " --threads 2 --out " + model);
+  ASSERT_EQ(id.status, 0) << id.output;
+  const auto v = SimulateJson(model, dir.File("v2.csv"));
+  ASSERT_FALSE(v["diverged"].get<bool>());
+  EXPECT_GE(v["fit_percent"].get<double>(), 90.0);
 }
 
 }  // namespace

@@ -1,14 +1,14 @@
 // Published figures beside the structure study (mrd/structure/reference.hpp): the reference
 // file's refusals with FILE:LINE, the per-cell differences against a tolerance, and whether
 // clipped-optimal changes each peak the way the reference does.
-#include "mrd/structure/reference.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <fstream>
 #include <string>
 #include <vector>
+
+#include "mrd/structure/reference.hpp"
 
 namespace {
 
@@ -49,9 +49,9 @@ std::string Row(const char* name, double scale) {
 }
 
 TEST(StructureReferenceTest, ReadsTheTableWithItsSourceAndEmptyCells) {
-  const std::string path = TempFile(
-      "ref.csv", std::string("# Some et al., Table 2\n# second comment\n") + kHeader +
-                     Row("passive-on", 1.0) + "clipped-optimal,1,2,3,4,5,6,7,8,9,\n");
+  const std::string path =
+      TempFile("ref.csv", std::string("# Some et al., Table 2\n# second comment\n") + kHeader +
+                              Row("passive-on", 1.0) + "clipped-optimal,1,2,3,4,5,6,7,8,9,\n");
   Reference ref;
   std::string error;
   ASSERT_TRUE(mrd::structure::LoadReference(path, &ref, &error)) << error;
@@ -77,8 +77,7 @@ TEST(StructureReferenceTest, BadFilesAreRefusedWithTheLine) {
       {std::string(kHeader) + Row("semi-active", 1.0), ":2: unknown case 'semi-active'"},
       {std::string(kHeader) + Row("passive-on", 1.0) + Row("passive-on", 2.0),
        ":3: case 'passive-on' given twice"},
-      {std::string(kHeader) + "passive-on,1,2,3,4,5,6,7,8,abc,10\n",
-       ":2: xa3 'abc' is not a peak"},
+      {std::string(kHeader) + "passive-on,1,2,3,4,5,6,7,8,abc,10\n", ":2: xa3 'abc' is not a peak"},
       {std::string(kHeader) + "passive-on,1,2,3,4,5,6,7,8,9,-10\n", ":2: f '-10' is not a peak"},
   };
   for (const Bad& c : cases) {
@@ -102,9 +101,9 @@ TEST(StructureReferenceTest, CountsCellsOutsideTheToleranceAndChangesTheOtherWay
                                           Uniform(Case::kPassiveOn, 1.0),
                                           Uniform(Case::kClippedOptimal, 1.5)};
   // Reference 10 % above: every cell within 20 %, every change the same way.
-  std::string path = TempFile("near.csv", std::string(kHeader) + Row("passive-off", 2.2) +
-                                              Row("passive-on", 1.1) +
-                                              Row("clipped-optimal", 1.65));
+  std::string path =
+      TempFile("near.csv", std::string(kHeader) + Row("passive-off", 2.2) + Row("passive-on", 1.1) +
+                               Row("clipped-optimal", 1.65));
   Reference ref;
   std::string error;
   ASSERT_TRUE(mrd::structure::LoadReference(path, &ref, &error)) << error;
@@ -128,8 +127,8 @@ TEST(StructureReferenceTest, CountsCellsOutsideTheToleranceAndChangesTheOtherWay
   EXPECT_NE(check.table.find("+50 / -20*"), std::string::npos) << check.table;
 
   // A change within +-5 % on both sides counts as the same; +3 % against -4 % too.
-  path = TempFile("flat.csv", std::string(kHeader) + Row("passive-on", 1.0) +
-                                  Row("clipped-optimal", 0.96));
+  path = TempFile("flat.csv",
+                  std::string(kHeader) + Row("passive-on", 1.0) + Row("clipped-optimal", 0.96));
   ASSERT_TRUE(mrd::structure::LoadReference(path, &ref, &error)) << error;
   const std::vector<Response> flat = {Uniform(Case::kPassiveOn, 1.0),
                                       Uniform(Case::kClippedOptimal, 1.03)};

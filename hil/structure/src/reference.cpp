@@ -144,8 +144,8 @@ ReferenceCheck CompareWithReference(const std::vector<Response>& measured,
   std::ostringstream o;
   o << "Against the reference (" << reference.path << ")"
     << (reference.source.empty() ? std::string() : ": " + reference.source)
-    << "\npeak measured / reference / difference [%]; * outside +-"
-    << Fmt("%g", tolerance_percent) << " %:\n\n| case |";
+    << "\npeak measured / reference / difference [%]; * outside +-" << Fmt("%g", tolerance_percent)
+    << " %:\n\n| case |";
   for (const char* name : kReferenceColumnNames) o << ' ' << name << " |";
   o << "\n|---|";
   for (std::size_t j = 0; j < kReferenceColumns; ++j) o << "---|";
@@ -182,8 +182,7 @@ ReferenceCheck CompareWithReference(const std::vector<Response>& measured,
     if (ref_co == nullptr || ref_p == nullptr || m_co == nullptr || m_p == nullptr) continue;
     changes << "| vs " << CaseName(passive) << " |";
     for (std::size_t j = 0; j < kReferenceColumns; ++j) {
-      if (!ref_co->given[j] || !ref_p->given[j] || ref_p->value[j] == 0.0 ||
-          Peak(*m_p, j) == 0.0) {
+      if (!ref_co->given[j] || !ref_p->given[j] || ref_p->value[j] == 0.0 || Peak(*m_p, j) == 0.0) {
         changes << " — |";
         continue;
       }
@@ -192,8 +191,7 @@ ReferenceCheck CompareWithReference(const std::vector<Response>& measured,
       const bool same = Sign(r) == Sign(v);
       ++check.changes;
       if (same) ++check.changes_matched;
-      changes << ' ' << Fmt("%+.0f", v) << " / " << Fmt("%+.0f", r) << (same ? "" : "*")
-              << " |";
+      changes << ' ' << Fmt("%+.0f", v) << " / " << Fmt("%+.0f", r) << (same ? "" : "*") << " |";
     }
     changes << '\n';
   }

@@ -69,6 +69,7 @@ struct StressSpec {
   std::vector<std::string> sweep_signals;    // triangle over [min, max] of the data
   int sweep_period = 2000;                   // [samples]
   int hold = 1000;                           // [samples] of held inputs after each record
+  int rest = 3000;                           // [samples] of each at-rest record; 0: none
   double force_bound = 3.0;                  // |output| bound / largest |output| in the data
   std::size_t line = 0;                      // line of [stress], for messages
 };

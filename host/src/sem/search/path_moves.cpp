@@ -99,7 +99,7 @@ void SearchPath::Prune(double j_prev) {
     if (!stress_.empty()) {  // a pruned model must pass the stress check too
       std::vector<int> reduced = model_;
       reduced.erase(reduced.begin() + static_cast<std::ptrdiff_t>(drop));
-      if (!StressOf(reduced, best_theta).pass) break;
+      if (!SearchStressOf(reduced, best_theta).pass) break;
     }
     model_.erase(model_.begin() + static_cast<std::ptrdiff_t>(drop));
     theta_ = best_theta;

@@ -28,6 +28,7 @@ SearchPath::SearchPath(const SemSpec& spec, std::span<const DataSet> identificat
   res_.channels = ComputeScales(spec, identification);
   RecordEnvelope(identification, &res_.channels);
   stress_ = BuildStressData(spec, identification);
+  rest_ = BuildRestData(spec, identification);
   CheckSettings();
   BuildCandidates();
   search_.emplace(*eng_, o.threads);
@@ -115,6 +116,7 @@ void SearchPath::BuildCandidates() {
 
 void SearchPath::PrepareRuns() {
   for (const DataSet& d : stress_) stress_runs_.emplace_back(spec_, res_.channels, d);
+  for (const DataSet& d : rest_) rest_runs_.emplace_back(spec_, res_.channels, d);
   for (const DataSet& d : validation_) validation_runs_.emplace_back(spec_, res_.channels, d);
   if (spec_.refine) {
     for (const DataSet& d : identification_) evaluators_.emplace_back(spec_, res_.channels, d);
@@ -131,9 +133,18 @@ std::vector<SemTerm> SearchPath::Terms(const std::vector<int>& model) const {
   return t;
 }
 
+StressVerdict SearchPath::SearchStressOf(const std::vector<int>& terms,
+                                         const std::vector<double>& th) const {
+  return CheckStressPrepared(spec_, Terms(terms), th, stress_runs_);
+}
+
 StressVerdict SearchPath::StressOf(const std::vector<int>& terms,
                                    const std::vector<double>& th) const {
-  return CheckStressPrepared(spec_, Terms(terms), th, stress_runs_);
+  const StressVerdict a = SearchStressOf(terms, th);
+  if (!a.pass || rest_runs_.empty()) return a;
+  StressVerdict r = CheckStressPrepared(spec_, Terms(terms), th, rest_runs_);
+  r.peak = std::max(r.peak, a.peak);
+  return r;
 }
 
 Search::Accept SearchPath::AcceptFor(const std::vector<int>& base) const {
@@ -141,7 +152,7 @@ Search::Accept SearchPath::AcceptFor(const std::vector<int>& base) const {
   return [this, base](int cand, const std::vector<double>& th) {
     std::vector<int> terms = base;
     terms.push_back(cand);
-    return StressOf(terms, th).pass;
+    return SearchStressOf(terms, th).pass;
   };
 }
 

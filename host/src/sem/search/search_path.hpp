@@ -71,8 +71,11 @@ class SearchPath {
   // Shared helpers.
   double Elapsed() const;  // [s] since the start
   std::vector<SemTerm> Terms(const std::vector<int>& model) const;
+  // The stress check of a recorded iteration or a move of the pick: stretched, swept and rest
+  // records; SearchStressOf: the search's, without the rest records (sem_stress.hpp).
   StressVerdict StressOf(const std::vector<int>& terms, const std::vector<double>& th) const;
-  // The stress check of base + candidate (none without [stress]).
+  StressVerdict SearchStressOf(const std::vector<int>& terms, const std::vector<double>& th) const;
+  // The stress check of base + candidate (SearchStressOf; none without [stress]).
   Search::Accept AcceptFor(const std::vector<int>& base) const;
   std::vector<double> Validate(const std::vector<SemTerm>& terms,
                                const std::vector<double>& coefficients) const;
@@ -111,14 +114,14 @@ class SearchPath {
   const std::vector<std::string>& initial_;
 
   SemResult res_;
-  std::vector<DataSet> stress_;
+  std::vector<DataSet> stress_, rest_;
   std::size_t samples_ = 0;     // scored samples of the identification data
   std::size_t max_params_ = 0;  // samples_ / kMinSamplesPerParameter
   std::optional<Engine> eng_;
   std::map<std::string, int> by_key_;  // TermKey -> candidate
   std::optional<Search> search_;
   // Stress and validation records prepared once for their many reference runs.
-  std::vector<Replay> stress_runs_, validation_runs_;
+  std::vector<Replay> stress_runs_, rest_runs_, validation_runs_;
   std::vector<Evaluator> evaluators_;  // for the output-error refinement
   // Its buffers, kept across the iterations (one refinement runs at a time: Record joins the
   // previous one before it starts the next).

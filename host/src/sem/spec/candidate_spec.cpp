@@ -281,6 +281,8 @@ StressSpec ParseStress(const std::string& path, const toml::node& node) {
       st.sweep_period = GetInt(path, sn, sk, 2, 100000000);
     } else if (sk == "hold") {
       st.hold = GetInt(path, sn, sk, 0, 100000000);
+    } else if (sk == "rest") {
+      st.rest = GetInt(path, sn, sk, 0, 100000000);
     } else if (sk == "force_bound") {
       st.force_bound = GetNumber(path, sn, sk);
       if (!(st.force_bound > 0.0) || !std::isfinite(st.force_bound)) {

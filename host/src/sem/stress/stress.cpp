@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "mrd/host/sem_stress.hpp"
 #include "sem/estimate/replay.hpp"
@@ -22,18 +23,17 @@ double Triangle(std::size_t k, int period, double lo, double hi) {
   return lo + (hi - lo) * up;
 }
 
-}  // namespace
-
-std::vector<DataSet> BuildStressData(const SemSpec& spec, std::span<const DataSet> identification) {
-  std::vector<DataSet> out;
+// A stretch signal of the spec: an input that is listed in stretch_signals (every input not
+// swept when the list is empty).
+bool Stretched(const SemSpec& spec, const std::string& s) {
   const StressSpec& st = spec.stress;
-  if (!st.enabled) return out;
-  const auto signals = spec.Signals();
-  auto stretched = [&](const std::string& s) {
-    if (s == spec.output || Contains(st.sweep_signals, s)) return false;
-    return st.stretch_signals.empty() || Contains(st.stretch_signals, s);
-  };
-  // Data range of each sweep signal over all identification data.
+  if (s == spec.output || Contains(st.sweep_signals, s)) return false;
+  return st.stretch_signals.empty() || Contains(st.stretch_signals, s);
+}
+
+// [min, max] of each signal over all identification data.
+std::vector<std::pair<double, double>> Ranges(const std::vector<std::string>& signals,
+                                              std::span<const DataSet> identification) {
   std::vector<std::pair<double, double>> range(signals.size(), {0.0, 0.0});
   for (std::size_t i = 0; i < signals.size(); ++i) {
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
@@ -45,6 +45,17 @@ std::vector<DataSet> BuildStressData(const SemSpec& spec, std::span<const DataSe
     }
     range[i] = {lo, hi};
   }
+  return range;
+}
+
+}  // namespace
+
+std::vector<DataSet> BuildStressData(const SemSpec& spec, std::span<const DataSet> identification) {
+  std::vector<DataSet> out;
+  const StressSpec& st = spec.stress;
+  if (!st.enabled) return out;
+  const auto signals = spec.Signals();
+  const auto range = Ranges(signals, identification);
   const std::size_t hold = static_cast<std::size_t>(st.hold);
   for (const auto& d : identification) {
     DataSet a;
@@ -53,7 +64,7 @@ std::vector<DataSet> BuildStressData(const SemSpec& spec, std::span<const DataSe
     a.dt = d.dt;
     for (const auto& s : signals) {
       std::vector<double> col = d.Column(s);
-      if (stretched(s)) {
+      if (Stretched(spec, s)) {
         for (double& v : col) v *= st.stretch;
       }
       const double last = col.empty() ? 0.0 : col.back();
@@ -74,6 +85,41 @@ std::vector<DataSet> BuildStressData(const SemSpec& spec, std::span<const DataSe
       out.push_back(std::move(b));
     } else {
       out.push_back(std::move(a));
+    }
+  }
+  return out;
+}
+
+std::vector<DataSet> BuildRestData(const SemSpec& spec, std::span<const DataSet> identification) {
+  std::vector<DataSet> out;
+  const std::size_t n = static_cast<std::size_t>(spec.stress.rest);
+  if (!spec.stress.enabled || n == 0 || identification.empty()) return out;
+  const auto signals = spec.Signals();
+  const auto range = Ranges(signals, identification);
+  double ymax = 0.0;
+  for (const auto& d : identification) {
+    for (const double y : d.Column(spec.output)) ymax = std::max(ymax, std::fabs(y));
+  }
+  std::string still;
+  for (const auto& s : signals) {
+    if (Stretched(spec, s)) still += (still.empty() ? "" : ", ") + s;
+  }
+  for (const bool at_max : {false, true}) {
+    for (const double sign : {1.0, -1.0}) {
+      DataSet r;
+      r.path = fmt::format("rest ({} = 0, other inputs at their data {}, output from {:+g})",
+                           still.empty() ? "no stretched signal" : still,
+                           at_max ? "maximum" : "minimum", sign * ymax);
+      r.names = signals;
+      r.dt = identification.front().dt;
+      for (std::size_t i = 0; i < signals.size(); ++i) {
+        double v = sign * ymax;  // the output column only seeds the run
+        if (signals[i] != spec.output) {
+          v = Stretched(spec, signals[i]) ? 0.0 : (at_max ? range[i].second : range[i].first);
+        }
+        r.columns.emplace_back(n, v);
+      }
+      out.push_back(std::move(r));
     }
   }
   return out;
