@@ -104,11 +104,12 @@ TEST_P(ModbusIntegrationTest, FirmwareClosesTheLoopOverModbus) {
   EXPECT_GT(tx_ok, ticks / 4) << d.dump();
   // No peer fault here, but a loaded machine may delay a reply past the 20 ms timeout: rare
   // (at most 1 % of the exchanges). The driver discards such a late reply, so it never
-  // becomes a refused frame or a CRC error, and a write fails only when its retry timed out
-  // too (two timeouts).
+  // becomes a refused frame or a CRC error, and a write in the loop fails only when its retry
+  // timed out too (two timeouts). The safe block written once at shutdown (Deactivate: best
+  // effort, one attempt) fails on one timeout; CI saw exactly that once (1 timeout, 1 failed).
   const auto timeouts = d["errors"]["timeout"].get<std::uint64_t>();
   EXPECT_LE(100 * timeouts, rx_ok + tx_ok) << d.dump();
-  EXPECT_LE(2 * d["tx_failed"].get<std::uint64_t>(), timeouts) << d.dump();
+  EXPECT_LE(2 * d["tx_failed"].get<std::uint64_t>(), timeouts + 1) << d.dump();
   EXPECT_EQ(d["rx_rejected"].get<std::uint64_t>(), 0U) << d.dump();
   EXPECT_EQ(d["errors"]["rejected_frame"].get<std::uint64_t>(), 0U) << d.dump();
   EXPECT_EQ(d["errors"]["crc"].get<std::uint64_t>(), 0U) << d.dump();

@@ -91,7 +91,8 @@ TEST(StructureReferenceTest, BadFilesAreRefusedWithTheLine) {
   Reference ref;
   std::string error;
   EXPECT_FALSE(mrd::structure::LoadReference("/nonexistent/ref.csv", &ref, &error));
-  EXPECT_NE(error.find("/nonexistent/ref.csv: cannot open"), std::string::npos) << error;
+  EXPECT_NE(error.find("/nonexistent/ref.csv: No such file or directory"), std::string::npos)
+      << error;
 }
 
 TEST(StructureReferenceTest, CountsCellsOutsideTheToleranceAndChangesTheOtherWay) {
@@ -135,6 +136,16 @@ TEST(StructureReferenceTest, CountsCellsOutsideTheToleranceAndChangesTheOtherWay
   check = mrd::structure::CompareWithReference(flat, ref, 20.0);
   EXPECT_EQ(check.changes, 10);
   EXPECT_EQ(check.changes_matched, 10);
+}
+
+TEST(StructureReferenceTest, ADirectoryOrAnOversizedFileIsRefused) {
+  Reference ref;
+  std::string error;
+  EXPECT_FALSE(mrd::structure::LoadReference("/tmp", &ref, &error));
+  EXPECT_NE(error.find("directory"), std::string::npos) << error;
+  const std::string big = TempFile("big.csv", std::string(kHeader) + std::string(2u << 20, '#'));
+  EXPECT_FALSE(mrd::structure::LoadReference(big, &ref, &error));
+  EXPECT_NE(error.find("larger than the limit"), std::string::npos) << error;
 }
 
 TEST(StructureReferenceTest, ZeroAndMissingCells) {

@@ -3,8 +3,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <sstream>
+
+#include "mrd/common/input_file.hpp"
 
 namespace mrd::structure {
 
@@ -14,6 +15,7 @@ const std::array<const char*, kReferenceColumns> kReferenceColumnNames = {
 namespace {
 
 constexpr char kHeader[] = "case,x1,x2,x3,d1,d2,d3,xa1,xa2,xa3,f";
+constexpr std::uint64_t kMaxReferenceBytes = std::uint64_t{1} << 20;  // a table, not data
 constexpr double kSameChangePercent = 5.0;  // changes within +-5 % count as "no change"
 constexpr Case kCases[] = {Case::kUncontrolled, Case::kPassiveOff, Case::kPassiveOn,
                            Case::kClippedOptimal};
@@ -80,25 +82,24 @@ int Sign(double change_percent) {
 }  // namespace
 
 bool LoadReference(const std::string& path, Reference* out, std::string* error) {
-  std::ifstream in(path);
-  if (!in) {
-    *error = path + ": cannot open";
-    return false;
-  }
+  std::string text;
+  if (!ReadInputFile(path, kMaxReferenceBytes, &text, error)) return false;
+  const std::string where = Printable(path);
+  std::istringstream in(text);
   Reference ref;
-  ref.path = path;
+  ref.path = where;
   std::string line;
   int number = 0;
   bool header = false;
   const auto fail = [&](const std::string& why) {
-    *error = path + ":" + std::to_string(number) + ": " + why;
+    *error = where + ":" + std::to_string(number) + ": " + why;
     return false;
   };
   while (std::getline(in, line)) {
     ++number;
     if (Trim(line).empty()) continue;
     if (line[0] == '#') {
-      if (ref.source.empty()) ref.source = Trim(line.substr(1));
+      if (ref.source.empty()) ref.source = Printable(Trim(line.substr(1)));
       continue;
     }
     if (!header) {
@@ -114,7 +115,7 @@ bool LoadReference(const std::string& path, Reference* out, std::string* error) 
     ReferenceRow row;
     const std::string name = Trim(cells[0]);
     if (!CaseFromName(name, &row.which)) {
-      return fail("unknown case '" + name +
+      return fail("unknown case '" + Printable(name) +
                   "' (uncontrolled, passive-off, passive-on, clipped-optimal)");
     }
     if (Find(ref.rows, row.which) != nullptr) return fail("case '" + name + "' given twice");
@@ -124,7 +125,7 @@ bool LoadReference(const std::string& path, Reference* out, std::string* error) 
       char* end = nullptr;
       const double v = std::strtod(cell.c_str(), &end);
       if (end != cell.c_str() + cell.size() || !std::isfinite(v) || v < 0.0) {
-        return fail(std::string(kReferenceColumnNames[j]) + " '" + cell +
+        return fail(std::string(kReferenceColumnNames[j]) + " '" + Printable(cell) +
                     "' is not a peak (a number >= 0, or empty)");
       }
       row.value[j] = v;
