@@ -114,13 +114,13 @@ std::string Table(const std::vector<StudyCase>& cases, const std::vector<Firmwar
 std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareLaw>& laws) {
   std::ostringstream o;
   o.precision(9);
-  o << "class,speed_m_s,motion_ratio,law,passive_off_body_accel_rms,best_body_accel_rms,best_body_"
-       "accel_v,"
-       "best_body_accel_wk_rms,best_body_accel_wk_v,best_tyre_load_rms_n,best_tyre_load_v,"
-       "best_travel_rms_cm,best_travel_v,law_body_accel_rms,law_body_accel_wk_rms,"
-       "law_tyre_load_rms_n,law_travel_rms_cm,law_mean_v,law_violations,"
-       "equal_holding_v,equal_holding_body_accel_rms,comfort_improvement_percent,"
-       "equal_holding_wk_v,equal_holding_body_accel_wk_rms,wk_comfort_improvement_percent\n";
+  o << "class,speed_m_s,motion_ratio,law,passive_off_body_accel_rms,best_body_accel_rms,"
+       "best_body_accel_v,best_body_accel_wk_rms,best_body_accel_wk_v,best_tyre_load_rms_n,"
+       "best_tyre_load_v,best_travel_rms_cm,best_travel_v,law_body_accel_rms,"
+       "law_body_accel_wk_rms,law_tyre_load_rms_n,law_travel_rms_cm,law_mean_v,"
+       "law_violations,equal_holding_v,equal_holding_body_accel_rms,"
+       "comfort_improvement_percent,equal_holding_wk_v,equal_holding_body_accel_wk_rms,"
+       "wk_comfort_improvement_percent\n";
   for (const StudyCase& c : cases) {
     for (std::size_t i = 0; i < laws.size(); ++i) {
       const LawResult& l = c.laws[i];
@@ -270,6 +270,25 @@ int Bad(const std::string& what) {
   return kBadInput;
 }
 
+// A comma-separated list of distinct numbers, each accepted by `in_range`; `what` names one in
+// the message ("a speed in (0, 100] m/s"). 0, or the exit code after the message naming flag.
+template <typename InRange>
+int ParseNumbers(const char* flag, const std::string& text, const InRange& in_range,
+                 const char* what, std::vector<double>* out) {
+  for (const std::string& v : Split(text)) {
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str(), &end);
+    if (v.empty() || end != v.c_str() + v.size() || !in_range(x)) {
+      return Bad(std::string(flag) + " '" + text + "': '" + v + "' is not " + what);
+    }
+    for (const double k : *out) {
+      if (k == x) return Bad(std::string(flag) + " '" + text + "': names " + v + " twice");
+    }
+    out->push_back(x);
+  }
+  return 0;
+}
+
 int ParseClassesAndSpeeds(const StudyOptions& o, StudyInputs* in) {
   for (const std::string& c : Split(o.classes)) {
     RoadClass rc{};
@@ -282,16 +301,11 @@ int ParseClassesAndSpeeds(const StudyOptions& o, StudyInputs* in) {
     }
     in->classes.push_back(upper);
   }
-  for (const std::string& v : Split(o.speeds)) {
-    char* end = nullptr;
-    const double x = std::strtod(v.c_str(), &end);
-    if (v.empty() || end != v.c_str() + v.size() || !(x > 0.0 && x <= 100.0)) {
-      return Bad("--speeds '" + o.speeds + "': '" + v + "' is not a speed in (0, 100] m/s");
-    }
-    for (const double k : in->speeds) {
-      if (k == x) return Bad("--speeds '" + o.speeds + "': names " + v + " twice");
-    }
-    in->speeds.push_back(x);
+  const auto speed = [](double x) { return x > 0.0 && x <= 100.0; };
+  if (const int rc =
+          ParseNumbers("--speeds", o.speeds, speed, "a speed in (0, 100] m/s", &in->speeds);
+      rc != 0) {
+    return rc;
   }
   if (in->classes.empty()) return Bad("--classes: no road class given");
   if (in->speeds.empty()) return Bad("--speeds: no speed given");
@@ -304,19 +318,9 @@ int ParseMotionRatios(const StudyOptions& o, StudyInputs* in) {
     in->ratios.push_back(in->base.car.motion_ratio);
     return 0;
   }
-  for (const std::string& v : Split(o.motion_ratios)) {
-    char* end = nullptr;
-    const double x = std::strtod(v.c_str(), &end);
-    if (v.empty() || end != v.c_str() + v.size() || !(x >= 0.01 && x <= 1.0)) {
-      return Bad("--motion-ratios '" + o.motion_ratios + "': '" + v +
-                 "' is not a motion ratio in [0.01, 1]");
-    }
-    for (const double k : in->ratios) {
-      if (k == x) return Bad("--motion-ratios '" + o.motion_ratios + "': names " + v + " twice");
-    }
-    in->ratios.push_back(x);
-  }
-  return 0;
+  const auto ratio = [](double x) { return x >= 0.01 && x <= 1.0; };
+  return ParseNumbers("--motion-ratios", o.motion_ratios, ratio, "a motion ratio in [0.01, 1]",
+                      &in->ratios);
 }
 
 int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
