@@ -48,12 +48,15 @@ TEST(StructureCliTest, BadInputIsRefusedWithExit2) {
   Write(dir + "/header.csv", "# c\ntime,acc\n0,0\n");
   Write(dir + "/text.csv", "t_s,ag_g\n0,0.1\n0.02,abc\n");
   Write(dir + "/uneven.csv", "t_s,ag_g\n0,0.1\n0.02,0.2\n0.05,0.1\n");
+  Write(dir + "/strong.csv", "t_s,ag_g\n0,0.1\n0.02,10.5\n");
   struct Case {
     std::vector<std::string> args;
     std::string message;
   };
   const Case cases[] = {
-      {{"--record", dir + "/missing.csv"}, dir + "/missing.csv: cannot open"},
+      {{"--record", dir + "/missing.csv"}, dir + "/missing.csv: No such file or directory"},
+      {{"--record", dir}, dir + ": is a directory, not a regular file"},
+      {{"--record", dir + "/strong.csv"}, dir + "/strong.csv:3: ground acceleration beyond 10 g"},
       {{"--record", dir + "/header.csv"}, dir + "/header.csv:2: expected the header t_s,ag_g"},
       {{"--record", dir + "/text.csv"}, dir + "/text.csv:3: expected 't_s,ag_g' numbers"},
       {{"--record", dir + "/uneven.csv"}, dir + "/uneven.csv:4: samples are not equally spaced"},

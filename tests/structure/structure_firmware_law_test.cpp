@@ -71,9 +71,9 @@ TEST(StructureFirmwareLawTest, TheControllerInClosedLoopIsTheStudysClippedOptima
   const LoopResult loop = RunLoop(firmware::ClippedCommand::kClipped);
   EXPECT_EQ(loop.safe_periods, 0U);
   EXPECT_EQ(loop.force_law_periods, 0U);
-  structure::GroundMotion record;
+  GroundRecord record;
   std::string error;
-  ASSERT_TRUE(structure::LoadGroundMotion(kRecord, &record, &error)) << error;
+  ASSERT_TRUE(LoadGroundRecord(kRecord, &record, &error)) << error;
   firmware::ClippedOptimalGains gains;
   ASSERT_TRUE(firmware::LoadClippedOptimalGains(kGains, &gains, &error)) << error;
   structure::Response study;

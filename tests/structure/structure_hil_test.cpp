@@ -111,8 +111,8 @@ TEST(StructurePlantTest, PassiveOffEqualsTheStudy) {
     plant.Step(0.0);
     m.Add(*plant.Structure());
   }
-  structure::GroundMotion record;
-  ASSERT_TRUE(structure::LoadGroundMotion(kRecord, &record, &error)) << error;
+  GroundRecord record;
+  ASSERT_TRUE(LoadGroundRecord(kRecord, &record, &error)) << error;
   structure::StudyOptions o;
   structure::Response r;
   ASSERT_TRUE(structure::RunCase(structure::Case::kPassiveOff, record, ShearFrameParams{},
@@ -170,9 +170,9 @@ TEST(StructureRunTest, TheShippedScenarioPassesCloseToTheStudy) {
   ASSERT_TRUE(a.j.contains("structure")) << a.j.dump();
   EXPECT_TRUE(a.j.value("pass", false));
   EXPECT_EQ(a.j["steps"], 7236);
-  structure::GroundMotion record;
+  GroundRecord record;
   std::string error;
-  ASSERT_TRUE(structure::LoadGroundMotion(kRecord, &record, &error)) << error;
+  ASSERT_TRUE(LoadGroundRecord(kRecord, &record, &error)) << error;
   firmware::ClippedOptimalGains gains;
   ASSERT_TRUE(firmware::LoadClippedOptimalGains(kGains, &gains, &error)) << error;
   structure::StudyOptions o;

@@ -212,9 +212,9 @@ TEST(ObserverTest, ConvergesOnANoiseFreeRun) {
   // The frame with the passive-off damper shaken by 2 s of El Centro, then at rest on still
   // ground: with measured force and noise-free accelerations the estimate must close in on
   // the true state once the unknown ground motion stops.
-  GroundMotion record;
+  GroundRecord record;
   std::string error;
-  ASSERT_TRUE(LoadGroundMotion(kRecord, &record, &error)) << error;
+  ASSERT_TRUE(LoadGroundRecord(kRecord, &record, &error)) << error;
   ClippedOptimalGains g;
   ASSERT_TRUE(DesignClippedOptimal(ShearFrameParams{}, DesignOptions{}, &g, &error)) << error;
   ClippedOptimal law;
@@ -247,10 +247,10 @@ TEST(ObserverTest, ConvergesOnANoiseFreeRun) {
   EXPECT_LT(err_end, 0.05 * err_shaking);
 }
 
-TEST(GroundMotionTest, TheShippedRecord) {
-  GroundMotion r;
+TEST(GroundRecordTest, TheShippedRecord) {
+  GroundRecord r;
   std::string error;
-  ASSERT_TRUE(LoadGroundMotion(kRecord, &r, &error)) << error;
+  ASSERT_TRUE(LoadGroundRecord(kRecord, &r, &error)) << error;
   EXPECT_EQ(r.ag_g.size(), 1560U);
   EXPECT_DOUBLE_EQ(r.dt_s, 0.02);
   double peak = 0.0;
@@ -259,9 +259,9 @@ TEST(GroundMotionTest, TheShippedRecord) {
 }
 
 TEST(StudyTest, ProducesEveryCellAndTheClippedOptimalReductions) {
-  GroundMotion record;
+  GroundRecord record;
   std::string error;
-  ASSERT_TRUE(LoadGroundMotion(kRecord, &record, &error)) << error;
+  ASSERT_TRUE(LoadGroundRecord(kRecord, &record, &error)) << error;
   const StudyOptions o;
   ClippedOptimalGains g;
   ASSERT_TRUE(DesignClippedOptimal(ShearFrameParams{}, o.design, &g, &error)) << error;

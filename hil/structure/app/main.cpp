@@ -146,8 +146,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "--damper: unknown preset '%s' (spencer1997, paper)\n", preset.c_str());
     return 2;
   }
-  mrd::structure::GroundMotion record;
-  if (!mrd::structure::LoadGroundMotion(record_path, &record, &error)) {
+  mrd::GroundRecord record;
+  if (!mrd::LoadGroundRecord(record_path, &record, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return 2;
   }

@@ -2,71 +2,12 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <fstream>
 #include <sstream>
 
 #include "mrd/firmware/clipped_optimal.hpp"
 #include "mrd/hil/structure_scores.hpp"
 
 namespace mrd::structure {
-
-bool LoadGroundMotion(const std::string& path, GroundMotion* out, std::string* error) {
-  std::ifstream in(path);
-  if (!in) {
-    *error = path + ": cannot open";
-    return false;
-  }
-  std::vector<double> t, a;
-  std::string line;
-  int number = 0;
-  bool header = false;
-  while (std::getline(in, line)) {
-    ++number;
-    if (line.empty() || line[0] == '#') continue;
-    if (!header) {
-      header = true;
-      if (line.rfind("t_s,ag_g", 0) != 0) {
-        *error = path + ":" + std::to_string(number) + ": expected the header t_s,ag_g";
-        return false;
-      }
-      continue;
-    }
-    const char* s = line.c_str();
-    char* end = nullptr;
-    const double tv = std::strtod(s, &end);
-    if (end == s || *end != ',') {
-      *error = path + ":" + std::to_string(number) + ": expected 't_s,ag_g' numbers";
-      return false;
-    }
-    const char* s2 = end + 1;
-    const double av = std::strtod(s2, &end);
-    while (*end == ' ' || *end == '\r') ++end;
-    if (end == s2 || *end != '\0' || !std::isfinite(tv) || !std::isfinite(av)) {
-      *error = path + ":" + std::to_string(number) + ": expected 't_s,ag_g' numbers";
-      return false;
-    }
-    if (t.size() >= 2) {
-      const double dt = t[1] - t[0];
-      if (std::fabs((tv - t.back()) - dt) > 1e-6 * (1.0 + dt)) {
-        *error = path + ":" + std::to_string(number) + ": samples are not equally spaced";
-        return false;
-      }
-    } else if (!t.empty() && !(tv > t.back())) {
-      *error = path + ":" + std::to_string(number) + ": time does not increase";
-      return false;
-    }
-    t.push_back(tv);
-    a.push_back(av);
-  }
-  if (t.size() < 2) {
-    *error = path + ": fewer than 2 samples";
-    return false;
-  }
-  out->ag_g = std::move(a);
-  out->dt_s = t[1] - t[0];
-  return true;
-}
 
 const char* CaseName(Case c) {
   switch (c) {
@@ -82,7 +23,7 @@ const char* CaseName(Case c) {
   return "unknown";
 }
 
-bool RunCase(Case which, const GroundMotion& record, const ShearFrameParams& frame_params,
+bool RunCase(Case which, const GroundRecord& record, const ShearFrameParams& frame_params,
              const SpencerParams& damper, const firmware::ClippedOptimalGains& gains,
              const StudyOptions& o, Response* out, std::string* error) {
   if (!(o.time_scale > 0.0) || !std::isfinite(o.amplitude) || !(o.design.period_s > 0.0) ||

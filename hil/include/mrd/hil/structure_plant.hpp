@@ -14,22 +14,11 @@
 #include <string>
 #include <vector>
 
+#include "mrd/common/ground_record.hpp"
 #include "mrd/hil/plant.hpp"
 #include "mrd/sim/shear_frame.hpp"
 
 namespace mrd::hil {
-
-// A ground-acceleration record: equally spaced samples [g].
-struct GroundRecord {
-  std::string path;
-  std::vector<double> ag_g;
-  double dt_s = 0.02;  // spacing [s]
-};
-
-// Reads a CSV of `t_s,ag_g` rows ('#' comment lines, one header line `t_s,ag_g`), equally
-// spaced, at least 2 samples, a regular file of at most 64 MiB. false: *error =
-// "FILE:LINE: reason" (or "FILE: reason").
-bool LoadGroundRecord(const std::string& path, GroundRecord* record, std::string* error);
 
 struct StructureSetup {
   GroundRecord record;

@@ -6,19 +6,11 @@
 #include <string>
 #include <vector>
 
+#include "mrd/common/ground_record.hpp"
 #include "mrd/sim/shear_frame.hpp"
 #include "mrd/structure/design.hpp"
 
 namespace mrd::structure {
-
-struct GroundMotion {
-  std::vector<double> ag_g;  // ground acceleration [g] at equal spacing
-  double dt_s = 0.02;        // record spacing [s]
-};
-
-// Reads a CSV of `t_s,ag_g` rows ('#' comment lines and one header line allowed), equally spaced.
-// On bad input returns false with *error = "FILE:LINE: reason".
-bool LoadGroundMotion(const std::string& path, GroundMotion* out, std::string* error);
 
 enum class Case { kUncontrolled, kPassiveOff, kPassiveOn, kClippedOptimal };
 const char* CaseName(Case c);
@@ -43,7 +35,7 @@ struct Response {
 
 // Runs one case; gains are used for kClippedOptimal only. Returns false with *error on bad
 // options. progress: called per case with its name (may be null).
-bool RunCase(Case which, const GroundMotion& record, const ShearFrameParams& frame,
+bool RunCase(Case which, const GroundRecord& record, const ShearFrameParams& frame,
              const SpencerParams& damper, const firmware::ClippedOptimalGains& gains,
              const StudyOptions& options, Response* out, std::string* error);
 
