@@ -189,6 +189,7 @@ bool Command(const ProfileContext& c, const toml::table& t, const std::string& d
 }  // namespace
 
 const char* CanInName(CanIn role) { return kCanInNames[static_cast<std::size_t>(role)]; }
+const char* const* CanInNames() { return kCanInNames; }
 const char* CanOutName(CanOut role) { return kCanOutNames[static_cast<std::size_t>(role)]; }
 
 std::uint8_t FrameChecksum(const MessageSpec& spec, const protocol::SignalLayout& checksum,

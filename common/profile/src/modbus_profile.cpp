@@ -16,21 +16,6 @@
 namespace mrd::profile {
 namespace {
 
-constexpr const char* kInNames[kNumCanIn] = {"velocity",
-                                             "displacement",
-                                             "demand",
-                                             "body_velocity",
-                                             "force",
-                                             "fault_line",
-                                             "body_acceleration",
-                                             "wheel_velocity",
-                                             "floor_acceleration_1",
-                                             "floor_acceleration_2",
-                                             "floor_acceleration_3",
-                                             "sensor_seq",
-                                             "driver_faults",
-                                             "driver_current",
-                                             "grant"};
 constexpr const char* kOutNames[kNumModbusOut] = {"command",
                                                   "enable",
                                                   "safe",
@@ -383,7 +368,7 @@ bool ParseModbusProfile(const std::string& text, const std::string& path, Modbus
     if (!ReadTopLevel(c, root, path, out) || !ReadModbusKeys(c, *modbus, out)) return false;
     // Roles, then the overlap of every register (bit) of a unit's table.
     RegisterOwners owner;
-    if (!ReadRoles(c, *modbus, "inputs", kInNames, kNumCanIn, out->inputs.data(), false, *out,
+    if (!ReadRoles(c, *modbus, "inputs", CanInNames(), kNumCanIn, out->inputs.data(), false, *out,
                    &owner) ||
         !ReadRoles(c, *modbus, "outputs", kOutNames, kNumModbusOut, out->outputs.data(), true, *out,
                    &owner)) {

@@ -67,6 +67,9 @@ enum class CanOut : std::uint8_t {
 inline constexpr std::size_t kNumCanOut = 13;
 
 const char* CanInName(CanIn role);
+// The kNumCanIn input role names in CanIn order (the keys of a profile's [inputs] table,
+// CAN and Modbus alike).
+const char* const* CanInNames();
 const char* CanOutName(CanOut role);
 
 enum class ChecksumKind : std::uint8_t { kNone = 0, kCrc8, kSum8 };
