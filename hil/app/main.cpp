@@ -419,8 +419,9 @@ void AddServe(CLI::App& app, ServeArgs* a) {
       ->check(CLI::Range(0.0, 1e3))
       ->capture_default_str();
   serve
-      ->add_option("--heartbeat-timeout", o.heartbeat_timeout_s,
-                   "driver drops the coil to 0 V without a heartbeat this long [s]")
+      ->add_option(
+          "--heartbeat-timeout", o.heartbeat_timeout_s,
+          "driver drops the coil to 0 V when heartbeats, once received, stop this long [s]")
       ->check(CLI::Range(1e-3, 10.0))
       ->capture_default_str();
   serve->add_option("--fault-line", a->fault_window,

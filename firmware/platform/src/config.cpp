@@ -404,7 +404,8 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                         Input::kBodyVelocity, Input::kForce, Input::kFaultLine,
                         Input::kBodyAcceleration, Input::kWheelVelocity, Input::kFloorAcceleration1,
                         Input::kFloorAcceleration2, Input::kFloorAcceleration3}),
-            "Signals read from CAN (in the profile's messages; docs/can_bus.md)."),
+            "Signals read from CAN: those the profile maps (the built-in mrd-native maps all but "
+            "fault_line; docs/can_bus.md)."),
         Names("outputs", &io.can.outputs,
               OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
               "Signals sent on CAN."),
@@ -430,7 +431,9 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                         Input::kBodyVelocity, Input::kForce, Input::kFaultLine,
                         Input::kBodyAcceleration, Input::kWheelVelocity, Input::kFloorAcceleration1,
                         Input::kFloorAcceleration2, Input::kFloorAcceleration3}),
-            "Signals read over Modbus (docs/modbus_registers.md)."),
+            "Signals read over Modbus: the built-in map (docs/modbus_registers.md) carries "
+            "velocity, displacement, demand, body_velocity, force and fault_line; the others "
+            "need a profile (docs/devices.md)."),
         Names("outputs", &io.modbus.outputs,
               OutputNames({Output::kCommand, Output::kEnable, Output::kHeartbeat, Output::kStatus}),
               "Signals written over Modbus."),

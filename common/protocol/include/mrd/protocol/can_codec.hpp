@@ -1,7 +1,10 @@
 #pragma once
 // The CAN frame set of docs/mrd.dbc on `struct can_frame` (<linux/can.h>): IDs, layout,
-// scaling, ranges, the 4-bit rolling counter and the CRC-8 checksum. Shared by the firmware's
-// CAN device and the HIL harness. Pure: no I/O, no allocation, no exceptions.
+// scaling, ranges, the 4-bit rolling counter and the CRC-8 checksum. The firmware's CAN device
+// and the HIL harness use its IDs, reject reasons and checksum; their frames are built and
+// checked by the DBC-driven profile::FrameCodec (mrd-native profile). Encode/Decode here are
+// a hand-written reference codec of the native frames that the tests hold that codec and the
+// DBC to. Pure: no I/O, no allocation, no exceptions.
 //
 // All frames are CAN 2.0A data frames (11-bit IDs), signals little-endian (Intel) at fixed
 // byte positions. Safety-relevant frames (sensor motion, sensor force, time grant, driver
