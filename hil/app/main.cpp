@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "mrd/common/cli_checks.hpp"
 #include "mrd/hil/gpio_port.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/hil/run.hpp"
@@ -407,22 +408,22 @@ void AddServe(CLI::App& app, ServeArgs* a) {
   serve->add_option("--duration", o.duration_s, "seconds to run (<= 0: until SIGINT/SIGTERM)")
       ->capture_default_str();
   serve->add_option("--amplitude", o.excitation.amplitude_cm, "displacement amplitude [cm]")
-      ->check(CLI::Range(0.0, 100.0))
+      ->check(mrd::cli::FiniteRange(0.0, 100.0))
       ->capture_default_str();
   serve->add_option("--frequency", o.excitation.frequency_hz, "displacement frequency [Hz]")
-      ->check(CLI::Range(0.0, 1000.0))
+      ->check(mrd::cli::FiniteRange(0.0, 1000.0))
       ->capture_default_str();
   serve->add_option("--demand", o.excitation.demand_amplitude_n, "force demand amplitude [N]")
-      ->check(CLI::Range(0.0, 1e6))
+      ->check(mrd::cli::FiniteRange(0.0, 1e6))
       ->capture_default_str();
   serve->add_option("--e-max", o.e_max, "highest admissible command [V]")
-      ->check(CLI::Range(0.0, 1e3))
+      ->check(mrd::cli::FiniteRange(0.0, 1e3))
       ->capture_default_str();
   serve
       ->add_option(
           "--heartbeat-timeout", o.heartbeat_timeout_s,
           "driver drops the coil to 0 V when heartbeats, once received, stop this long [s]")
-      ->check(CLI::Range(1e-3, 10.0))
+      ->check(mrd::cli::FiniteRange(1e-3, 10.0))
       ->capture_default_str();
   serve->add_option("--fault-line", a->fault_window,
                     "START:END: assert the fault line (GPIO line, Modbus sensor block, CAN "
@@ -438,7 +439,7 @@ void AddServe(CLI::App& app, ServeArgs* a) {
                    "SCHED_FIFO priority (1-99) of the plant and its bus servers, so they "
                    "answer in time on a loaded host as a drive's own processor does; 0: normal "
                    "priority. Refused (no privilege): a warning, normal priority")
-      ->check(CLI::Range(0, 99))
+      ->check(mrd::cli::FiniteRange(0, 99))
       ->capture_default_str();
 }
 
@@ -587,11 +588,11 @@ void AddRun(CLI::App& app, RunArgs* a) {
   run->add_option("--startup-timeout", ro.startup_timeout_s,
                   "seconds to wait for the firmware's first answer (default 10, 120 with "
                   "--attach); a firmware that never answers ends the run with an error")
-      ->check(CLI::Range(0.1, 3600.0));
+      ->check(mrd::cli::FiniteRange(0.1, 3600.0));
   run->add_option("--command-timeout", ro.command_timeout_s,
                   "lockstep liveness: a firmware silent this long (wall clock) ends the run "
                   "with an error; a slow answer never changes the result [s]")
-      ->check(CLI::Range(0.1, 3600.0))
+      ->check(mrd::cli::FiniteRange(0.1, 3600.0))
       ->capture_default_str();
   run->add_option("--can-interface", ro.can_interface,
                   "CAN: a SocketCAN interface (CAN_RAW with filters, e.g. vcan0) for harness and "
@@ -604,7 +605,7 @@ void AddRun(CLI::App& app, RunArgs* a) {
   run->add_option("--passive-step", a->passive_step,
                   "quarter car: step of the best-passive grid over 0 .. E_max [V] (default: the "
                   "scenario's quarter_car.passive_step_v, 0.05); 0: no grid")
-      ->check(CLI::Range(0.0, 1e3));
+      ->check(mrd::cli::FiniteRange(0.0, 1e3));
 }
 
 // `bench`: its options (BenchCommand runs it).
@@ -621,7 +622,7 @@ void AddBench(CLI::App& app, BenchArgs* a) {
       "Benchmark: lockstep speed over the local CAN bus (x real time) and the real-time "
       "mode's wake-up jitter (median, p99, max), closed loop with mrd-firmware.");
   bench->add_option("--seconds", a->seconds, "plant seconds per mode")
-      ->check(CLI::Range(0.1, 3600.0))
+      ->check(mrd::cli::FiniteRange(0.1, 3600.0))
       ->capture_default_str();
   bench->add_option("--firmware", a->o.firmware, "mrd-firmware (default: beside mrd-hil)");
   bench->add_option("--table", a->o.table, "coefficient table for the firmware");
@@ -703,12 +704,12 @@ CLI::App* AddStudy(CLI::App& app, mrd::hil::StudyOptions* study_o) {
   study
       ->add_option("--duration", study_o->duration_s,
                    "seconds per run (default: the scenario's duration_s)")
-      ->check(CLI::Range(0.0, 1e5));
+      ->check(mrd::cli::FiniteRange(0.0, 1e5));
   study
       ->add_option("--passive-step", study_o->passive_step_v,
                    "passive grid step over 0 .. E_max [V] (default: the scenario's "
                    "quarter_car.passive_step_v, 0.05)")
-      ->check(CLI::Range(0.0, 1e3));
+      ->check(mrd::cli::FiniteRange(0.0, 1e3));
   study->add_option("--out", study_o->out_dir,
                     "directory for study.txt, study.csv, study.json, study.png, "
                     "comfort-CLASS-SPEED[-rRATIO].png (default study-NAME, NAME the "

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "mrd/common/cli_checks.hpp"
 #include "mrd/host/atomic_write.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
@@ -124,33 +125,33 @@ void RegisterFitSpencer(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--substeps", o->fit.substeps,
                   "RK4 steps per sample (as the scenario's [plant] substeps)")
-      ->check(CLI::Range(1, 1000))
+      ->check(mrd::cli::FiniteRange(1, 1000))
       ->capture_default_str();
   cmd->add_option("--e-max", o->fit.e_max, "Measured E clamped to [0, E_MAX] [V]")
-      ->check(CLI::Range(0.01, 24.0))
+      ->check(mrd::cli::FiniteRange(0.01, 24.0))
       ->capture_default_str();
   cmd->add_option("--starts", o->fit.scatter_starts,
                   "Scattered starts besides the presets paper and spencer1997")
-      ->check(CLI::Range(0, 1000))
+      ->check(mrd::cli::FiniteRange(0, 1000))
       ->capture_default_str();
   cmd->add_option("--seed", o->fit.seed, "Seed of the scattered starts")->capture_default_str();
   cmd->add_option("--search-seconds", o->fit.search_s,
                   "Starts are searched on the first SECONDS of each run (0: all rows)")
-      ->check(CLI::Range(0.0, 1e6))
+      ->check(mrd::cli::FiniteRange(0.0, 1e6))
       ->capture_default_str();
   cmd->add_option("--search-iterations", o->fit.search_iterations,
                   "Levenberg-Marquardt iterations per start in the search")
-      ->check(CLI::Range(1, 10000))
+      ->check(mrd::cli::FiniteRange(1, 10000))
       ->capture_default_str();
   cmd->add_option("--polish", o->fit.polish_starts, "Best starts polished on all rows")
-      ->check(CLI::Range(1, 1000))
+      ->check(mrd::cli::FiniteRange(1, 1000))
       ->capture_default_str();
   cmd->add_option("--iterations", o->fit.polish_iterations,
                   "Levenberg-Marquardt iterations of each polish")
-      ->check(CLI::Range(1, 10000))
+      ->check(mrd::cli::FiniteRange(1, 10000))
       ->capture_default_str();
   cmd->add_option("--threads", o->fit.threads, "Threads (starts run in parallel)")
-      ->check(CLI::Range(1, 256))
+      ->check(mrd::cli::FiniteRange(1, 256))
       ->capture_default_str();
   cmd->callback([o] { RunFit(*o); });
 }

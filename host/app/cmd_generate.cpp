@@ -7,6 +7,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "mrd/common/cli_checks.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/params_file.hpp"
@@ -60,7 +61,7 @@ void RegisterGenerate(CLI::App& app) {
       ->check(CLI::ExistingFile)
       ->excludes(preset);
   cmd->add_option("--substeps", o->substeps, "RK4 sub-steps per 1 ms sample")
-      ->check(CLI::Range(1, 10000))
+      ->check(mrd::cli::FiniteRange(1, 10000))
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Output CSV file")->required();
   cmd->callback([o] { RunGenerate(*o); });

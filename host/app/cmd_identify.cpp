@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "mrd/common/cli_checks.hpp"
 #include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/default_spec.hpp"
@@ -120,16 +121,16 @@ void RegisterIdentify(CLI::App& app) {
   cmd->add_option("--out", o->out, "Model file to write (JSON)")->required();
   cmd->add_option("--threshold", o->threshold,
                   "Least decrease of J to accept a candidate [%] (first improvement)")
-      ->check(CLI::Range(0.0, 99.999));
+      ->check(mrd::cli::FiniteRange(0.0, 99.999));
   cmd->add_option("--max-iterations", o->max_iterations, "Most major iterations")
-      ->check(CLI::Range(0, 100000));
+      ->check(mrd::cli::FiniteRange(0, 100000));
   cmd->add_option("--target-j", o->target_j, "Stop once J is at or below this (finite)");
   cmd->add_option("--max-candidates", o->max_candidates,
                   "Most candidate factor combinations (default: the spec's [limits] "
                   "max_candidates, else 200000)")
-      ->check(CLI::Range(std::int64_t{1}, std::int64_t{2000000000}));
+      ->check(mrd::cli::FiniteRange(std::int64_t{1}, std::int64_t{2000000000}));
   cmd->add_option("--threads", o->threads, "Worker threads (0: all cores)")
-      ->check(CLI::Range(0, 256))
+      ->check(mrd::cli::FiniteRange(0, 256))
       ->capture_default_str();
   cmd->add_option("--initial", o->initial,
                   "Initial structure: terms like y(k-1)^2*u1(k), comma separated")

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "mrd/common/cli_checks.hpp"
 #include "mrd/host/report.hpp"
 
 namespace mrd::host::cli {
@@ -47,7 +48,7 @@ void RegisterReport(CLI::App& app) {
   cmd->add_option("--out", o->out_dir, "Output directory (its parent must exist)")->required();
   cmd->add_option("--iteration", o->iteration, "Iteration to report (default: selected)");
   cmd->add_option("--max-lag", o->max_lag, "Largest lag of the residual correlations [samples]")
-      ->check(CLI::Range(1, 100000))
+      ->check(mrd::cli::FiniteRange(1, 100000))
       ->capture_default_str();
   cmd->callback([o] { RunReport(*o); });
 }

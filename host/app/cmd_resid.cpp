@@ -10,6 +10,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "mrd/common/cli_checks.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
@@ -106,7 +107,7 @@ void RegisterResid(CLI::App& app) {
   cmd->add_option("--data", o->data, "Data file (CSV)")->required();
   cmd->add_option("--iteration", o->iteration, "Iteration (default: selected)");
   cmd->add_option("--max-lag", o->max_lag, "Largest lag [samples]")
-      ->check(CLI::Range(1, 100000))
+      ->check(mrd::cli::FiniteRange(1, 100000))
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Output directory for the plot and the numbers");
   cmd->add_flag("--json", o->json, "Print one JSON object (correlations, bands, lags outside)");

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "mrd/common/cli_checks.hpp"
 #include "mrd/structure/design.hpp"
 #include "mrd/structure/reference.hpp"
 #include "mrd/structure/study.hpp"
@@ -105,7 +106,7 @@ int main(int argc, char** argv) {
                         "changes a peak the other way");
   study_cmd->add_option("--tolerance", tolerance, "Allowed difference from --reference [%]")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 1e6));
+      ->check(mrd::cli::FiniteRange(0.0, 1e6));
 
   try {
     app.parse(argc, argv);
