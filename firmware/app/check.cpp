@@ -1,5 +1,7 @@
 #include "check.hpp"
 
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -72,9 +74,14 @@ int RunMaintenance(int argc, char** argv) {
   }
   if (command == "--install-table") {
     if (to == nullptr) return Refuse("--install-table needs --to DEST", true);
+    const bool had_one = access(to, F_OK) == 0;  // a table to keep as DEST.prev
     const std::string why = InstallTable(file, to, config);
     if (!why.empty()) return Refuse(why + " (nothing installed)");
-    std::printf("table %s installed as %s (previous kept as %s.prev)\n", file, to, to);
+    if (had_one) {
+      std::printf("table %s installed as %s (previous kept as %s.prev)\n", file, to, to);
+    } else {
+      std::printf("table %s installed as %s (no previous table)\n", file, to);
+    }
     return kOk;
   }
   if (!rollback) {

@@ -33,6 +33,7 @@
 #include "report.hpp"
 #include "study_command.hpp"
 #include "sweep_command.hpp"
+#include "table_check.hpp"
 
 namespace {
 
@@ -213,10 +214,7 @@ int PrepareRun(const std::string& scenario_path, const std::vector<std::string>&
                  o.firmware.c_str());
     return kExitBadInput;
   }
-  if (!o.table.empty() && access(o.table.c_str(), R_OK) != 0) {
-    std::fprintf(stderr, "error: %s: cannot read the table\n", o.table.c_str());
-    return kExitBadInput;
-  }
+  if (!mrd::hil::TableIsUsable(o.table.empty() ? s.table_file : o.table)) return kExitBadInput;
   if (!out.empty()) {
     o.work_dir = out;
     o.firmware_log = "firmware.mrdlog";  // beside trace.csv (mrd log info/export/plot)
@@ -326,6 +324,7 @@ int BenchCommand(double seconds, mrd::hil::RunOptions o, bool json) {
                  o.firmware.c_str());
     return kExitBadInput;
   }
+  if (!mrd::hil::TableIsUsable(o.table)) return kExitBadInput;
   mrd::hil::Scenario s;
   s.path = "(bench)";
   s.name = "bench";
@@ -406,7 +405,8 @@ void AddServe(CLI::App& app, ServeArgs* a) {
                    "enable=17 heartbeat=18 counts_per_cm=400 fault_active_low=0)")
       ->required();
   serve->add_option("--duration", o.duration_s, "seconds to run (<= 0: until SIGINT/SIGTERM)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(mrd::cli::Finite);
   serve->add_option("--amplitude", o.excitation.amplitude_cm, "displacement amplitude [cm]")
       ->check(mrd::cli::FiniteRange(0.0, 100.0))
       ->capture_default_str();

@@ -26,6 +26,14 @@ nlohmann::json Opt(const std::optional<std::int64_t>& v) {
   return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
 }
 
+// As the summary's stream prints it (4 significant digits).
+std::string Num(double v) {
+  std::ostringstream s;
+  s.precision(4);
+  s << v;
+  return s.str();
+}
+
 }  // namespace
 
 int Gnuplot(const std::string& script, const std::string& log) {
@@ -160,10 +168,15 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
       << r.replay->fit_percent << " %, RMSE " << r.replay->rmse_n << " N\n";
   }
   if ((!r.ride || s.law == "force") && s.law != "open-loop" && !r.structure) {
+    // n/a: nothing to normalise by (no step, or a zero demand).
+    const auto all = [&](double v) { return t.all_scored ? Num(v) : std::string("n/a"); };
+    const auto reach = [&](double v) { return t.reachable_scored ? Num(v) : std::string("n/a"); };
     o << "  tracking ||f-d||/||d|| over " << t.steps << " controlled steps (" << t.reachable_steps
-      << " reachable): all " << t.error_all << ", reachable " << t.error_reachable << "\n";
-    o << "    passive-off (0 V): all " << t.off_all << ", reachable " << t.off_reachable
-      << "; passive-on (E_max): all " << t.on_all << ", reachable " << t.on_reachable << "\n";
+      << " reachable): all " << all(t.error_all) << ", reachable " << reach(t.error_reachable)
+      << "\n";
+    o << "    passive-off (0 V): all " << all(t.off_all) << ", reachable " << reach(t.off_reachable)
+      << "; passive-on (E_max): all " << all(t.on_all) << ", reachable " << reach(t.on_reachable)
+      << "\n";
   }
   if (s.plant_model != nullptr) {
     const PlantModel& pm = *s.plant_model;

@@ -16,11 +16,11 @@
 #include <sstream>
 
 #include "firmware_law.hpp"
+#include "mrd/common/write_atomically.hpp"
 #include "mrd/hil/passive_baseline.hpp"
 #include "mrd/hil/scenario.hpp"
 #include "passive_report.hpp"
 #include "report.hpp"
-#include "write_atomically.hpp"
 
 namespace mrd::hil {
 namespace {

@@ -10,9 +10,10 @@
 #include <iostream>
 #include <sstream>
 
+#include "mrd/common/write_atomically.hpp"
 #include "mrd/hil/sweep.hpp"
 #include "report.hpp"
-#include "write_atomically.hpp"
+#include "table_check.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -97,9 +98,8 @@ int SweepCommand(const std::string& scenario_path, const std::vector<std::string
                  o.firmware.c_str());
     return 2;
   }
-  if (!o.table.empty() && access(o.table.c_str(), R_OK) != 0) {
-    std::fprintf(stderr, "error: %s: cannot read the table\n", o.table.c_str());
-    return 2;
+  for (const Scenario& sc : scenarios) {
+    if (!TableIsUsable(o.table.empty() ? sc.table_file : o.table)) return 2;
   }
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);

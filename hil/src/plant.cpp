@@ -87,7 +87,7 @@ bool LoadTrace(const std::string& path, const std::string& demand_column, Trace*
     const auto it = std::find(names.begin(), names.end(), n);
     return it == names.end() ? -1 : static_cast<int>(it - names.begin());
   };
-  const int cx = col("x"), cv = col("v");
+  const int cx = col("x"), cv = col("v"), ct = col("t");
   const int cd = demand_column.empty() ? -1 : col(demand_column);
   if (cx < 0 || cv < 0) {
     *error = path + ":1: header needs columns 'x' and 'v'";
@@ -99,6 +99,8 @@ bool LoadTrace(const std::string& path, const std::string& demand_column, Trace*
   }
   Trace t;
   int lineno = 1;
+  bool have_time = false;
+  double last_time = 0.0;  // [s]
   while (std::getline(in, line)) {
     ++lineno;
     if (line.empty() || line == "\r") continue;
@@ -121,9 +123,29 @@ bool LoadTrace(const std::string& path, const std::string& demand_column, Trace*
                " fields, header has " + std::to_string(names.size());
       return false;
     }
-    t.x.push_back(row[static_cast<std::size_t>(cx)]);
-    t.v.push_back(row[static_cast<std::size_t>(cv)]);
-    t.demand.push_back(cd >= 0 ? row[static_cast<std::size_t>(cd)] : 0.0);
+    if (ct >= 0) {  // one row per period: a trace at another rate would play slower or faster
+      const double time = row[static_cast<std::size_t>(ct)];
+      if (have_time && std::fabs(time - last_time - kTracePeriodS) > 1e-3 * kTracePeriodS) {
+        *error = Printable(path) + ":" + std::to_string(lineno) + ": t steps by " +
+                 Printable(std::to_string(time - last_time)) +
+                 " s; the harness plays one row per 1 ms period (resample: mrd import --rate "
+                 "1000)";
+        return false;
+      }
+      have_time = true;
+      last_time = time;
+    }
+    // Bounds far beyond any bench, so a squared sum cannot overflow: x [cm], v [cm/s], d [N].
+    const double x = row[static_cast<std::size_t>(cx)], v = row[static_cast<std::size_t>(cv)];
+    const double d = cd >= 0 ? row[static_cast<std::size_t>(cd)] : 0.0;
+    if (std::fabs(x) > 1e4 || std::fabs(v) > 1e6 || std::fabs(d) > 1e9) {
+      *error = Printable(path) + ":" + std::to_string(lineno) +
+               ": beyond |x| <= 1e4 cm, |v| <= 1e6 cm/s, |demand| <= 1e9 N";
+      return false;
+    }
+    t.x.push_back(x);
+    t.v.push_back(v);
+    t.demand.push_back(d);
   }
   if (t.x.size() < 2) {
     *error = path + ":" + std::to_string(lineno) + ": needs at least two data rows";

@@ -6,7 +6,11 @@
 namespace mrd::hil {
 namespace {
 std::string At(const std::string& path, std::size_t line, const std::string& why) {
-  return Printable(path) + ":" + std::to_string(line) + ": " + Printable(why);
+  std::string out = Printable(path);
+  if (line > 0) out.append(":").append(std::to_string(line));
+  out += ": ";
+  out += Printable(why);
+  return out;
 }
 }  // namespace
 

@@ -44,6 +44,8 @@ void ScoreRun(const Scenario& s, RunResult* r) {
   t.off_all = Ratio(off2, d2);
   t.on_all = Ratio(on2, d2);
   t.error_reachable = Ratio(er2, dr2);
+  t.all_scored = d2 > 0.0;
+  t.reachable_scored = dr2 > 0.0;
   t.off_reachable = Ratio(offr2, dr2);
   t.on_reachable = Ratio(onr2, dr2);
   if (t.steps > 0) {
@@ -131,15 +133,21 @@ void EvaluatePass(const Scenario& s, RunResult* r) {
   }
   const bool table_only = !s.faults.empty() && s.faults.front().kind == FaultKind::kCorruptTable;
   if (!table_only) {
-    if (s.max_error_reachable && r->tracking.error_reachable > *s.max_error_reachable) {
-      f.push_back("tracking error on reachable demands " + Fmt(r->tracking.error_reachable) +
-                  " > " + Fmt(*s.max_error_reachable));
+    // A NaN error (a diverged plant) fails; so does an error with nothing to normalise it by
+    // (no reachable step, or a zero demand): 0/0 is no score.
+    const TrackingScores& t = r->tracking;
+    if (s.max_error_reachable && !(t.error_reachable <= *s.max_error_reachable)) {
+      f.push_back("tracking error on reachable demands " + Fmt(t.error_reachable) + " > " +
+                  Fmt(*s.max_error_reachable));
     }
-    if (s.max_error_all && r->tracking.error_all > *s.max_error_all) {
-      f.push_back("tracking error " + Fmt(r->tracking.error_all) + " > " + Fmt(*s.max_error_all));
+    if (s.max_error_all && !(t.error_all <= *s.max_error_all)) {
+      f.push_back("tracking error " + Fmt(t.error_all) + " > " + Fmt(*s.max_error_all));
     }
-    if ((s.max_error_reachable || s.max_error_all) && r->tracking.steps == 0) {
+    if ((s.max_error_reachable || s.max_error_all) && t.steps == 0) {
       f.push_back("no controlled step to score");
+    } else if ((s.max_error_all && !t.all_scored) ||
+               (s.max_error_reachable && !t.reachable_scored)) {
+      f.push_back("no non-zero demand to score the tracking error on");
     }
     if (r->commands == 0) f.push_back("no command from the firmware");
     if (s.max_missed_grants && r->clock == "lockstep") {

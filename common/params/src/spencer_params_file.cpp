@@ -3,8 +3,11 @@
 #include <toml++/toml.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <sstream>
+
+#include "mrd/common/input_file.hpp"
 
 namespace mrd::params {
 
@@ -79,9 +82,16 @@ bool CheckPhysical(const SpencerParams& p, std::string* why) {
 }
 
 bool LoadSpencerParamsFile(const std::string& path, SpencerParams* out, ParamsError* error) {
+  // A regular file of at most 1 MiB (a directory, FIFO or device is refused, not parsed).
+  std::string text, refusal;
+  if (!ReadInputFile(path, std::uint64_t{1} << 20, &text, &refusal)) {
+    const std::string prefix = Printable(path) + ": ";
+    *error = {0, refusal.rfind(prefix, 0) == 0 ? refusal.substr(prefix.size()) : refusal};
+    return false;
+  }
   toml::table tbl;
   try {
-    tbl = toml::parse_file(path);
+    tbl = toml::parse(text, path);
   } catch (const toml::parse_error& e) {
     *error = {e.source().begin.line, std::string(e.description())};
     return false;

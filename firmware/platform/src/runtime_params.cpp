@@ -16,11 +16,22 @@ std::string Num(double v) {
 // Why Configure refused (the values it checks, in words, then the reason).
 std::string ConfigureWhy(const ConfigureStatus& s, const CoefficientTable& table,
                          const ControllerConfig& c) {
+  std::string why = "out of range for the table: ";
+  if (s.fault == ConfigureFault::kEMax) {
+    why.append("E_max ").append(Num(c.e_max)).append(" V must be above its E_min ");
+    why.append(Num(table.e_min)).append(" V and at most its E_max ").append(Num(table.e_max));
+    why.append(" V");
+  } else if (s.fault == ConfigureFault::kSafeVoltage) {
+    why.append("the safe voltage ").append(Num(c.safe_voltage)).append(" V must lie in its [");
+    why.append(Num(table.e_min)).append(", ").append(Num(table.e_max)).append("] V");
+  } else if (s.fault != ConfigureFault::kTable) {
+    why.append("E_max ").append(Num(c.e_max)).append(" V and the safe voltage ");
+    why.append(Num(c.safe_voltage)).append(" V must lie in its [").append(Num(table.e_min));
+    why.append(", ").append(Num(table.e_max));
+    why.append("] V, a constant voltage in [E_min, E_max]");
+  }
   if (s.fault != ConfigureFault::kTable) {
-    return "out of range for the table: E_max " + Num(c.e_max) + " V and the safe voltage " +
-           Num(c.safe_voltage) + " V must lie in its [" + Num(table.e_min) + ", " +
-           Num(table.e_max) + "] V, a constant voltage in [E_min, E_max] (" +
-           ConfigureFaultName(s.fault) + ")";
+    return why.append(" (").append(ConfigureFaultName(s.fault)).append(")");
   }
   return std::string("the table does not configure a controller: ") + ErrorName(s.error);
 }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "mrd/common/cli_checks.hpp"
+#include "mrd/common/write_atomically.hpp"
 #include "mrd/structure/design.hpp"
 #include "mrd/structure/reference.hpp"
 #include "mrd/structure/study.hpp"
@@ -19,44 +20,29 @@ namespace {
 
 using mrd::structure::Case;
 
-// temp + fsync + rename; false with *error on failure (nothing half-written).
-bool WriteAtomically(const std::string& path, const std::string& text, std::string* error) {
-  const std::string tmp = path + ".tmp";
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  if (fd < 0) {
-    *error = path + ": cannot write";
-    return false;
-  }
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n <= 0) break;
-    done += static_cast<std::size_t>(n);
-  }
-  const bool ok = done == text.size() && ::fsync(fd) == 0;
-  ::close(fd);
-  if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
-    ::unlink(tmp.c_str());
-    *error = path + ": cannot write";
-    return false;
-  }
-  return true;
-}
+using mrd::WriteAtomically;
 
 void AddDesignOptions(CLI::App* cmd, mrd::structure::DesignOptions* d) {
-  cmd->add_option("--period", d->period_s, "Control period T [s]")->capture_default_str();
+  cmd->add_option("--period", d->period_s, "Control period T [s]")
+      ->capture_default_str()
+      ->check(mrd::cli::FiniteRange(1e-4, 0.05));
   cmd->add_option("--q-displacement", d->q_displacement,
                   "LQR weight on each floor displacement [1/m^2]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(mrd::cli::FiniteRange(0.0, 1e15));
   cmd->add_option("--q-drift", d->q_drift, "LQR weight on each inter-story drift [1/m^2]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(mrd::cli::FiniteRange(0.0, 1e15));
   cmd->add_option("--r-force", d->r_force, "LQR weight on the damper force [1/N^2]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(mrd::cli::Finite);
   cmd->add_option("--noise-ratio", d->noise_ratio,
                   "Ground-acceleration / measurement-noise PSD ratio")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(mrd::cli::Finite);
   cmd->add_option("--v-max", d->v_max, "Clipped rule's (and passive-on) voltage [V]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(mrd::cli::FiniteRange(0.01, 24.0));
 }
 
 }  // namespace
@@ -87,13 +73,17 @@ int main(int argc, char** argv) {
   study_cmd->add_option("--record", record_path, "Ground motion CSV (t_s,ag_g)")
       ->capture_default_str();
   study_cmd->add_option("--time-scale", study.time_scale, "Record played this many times faster")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(mrd::cli::FiniteRange(0.01, 100.0));
   study_cmd->add_option("--amplitude", study.amplitude, "Factor on the record's acceleration")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(mrd::cli::FiniteRange(0.0, 100.0));
   study_cmd->add_option("--substeps", study.substeps, "Plant RK4 steps per control period")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(mrd::cli::FiniteRange(1, 1000));
   study_cmd->add_option("--tail", study.tail_s, "Free vibration after the record [s]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(mrd::cli::FiniteRange(0.0, 600.0));
   study_cmd->add_option("--damper", preset, "Damper preset: spencer1997 (Dyke 1996) or paper")
       ->capture_default_str();
   study_cmd->add_option("--out", study_out, "Also write the table here (atomically)");

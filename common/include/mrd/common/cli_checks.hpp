@@ -4,7 +4,6 @@
 // infinities; Finite refuses them on an option with no range. Apps only (needs CLI11).
 
 #include <CLI/CLI.hpp>
-
 #include <cmath>
 #include <cstdlib>
 #include <string>

@@ -102,8 +102,12 @@ class TracePlant final : public Plant {
   double force_ = 0.0;
 };
 
+// The harness plays a trace one row per control period [s].
+inline constexpr double kTracePeriodS = 1e-3;
+
 // Reads a CSV trace with a header row naming at least x and v (and optionally the demand
-// column named demand_column, e.g. "f" of an `mrd generate` data set). false: *error =
+// column named demand_column, e.g. "f" of an `mrd generate` data set). A column t [s], when
+// there is one, must step by kTracePeriodS (to 0.1 %) from row to row. false: *error =
 // "FILE:LINE: reason"; a path that is not a regular file (FIFO, /dev/zero, a folder) or is
 // over 256 MiB is refused before reading.
 bool LoadTrace(const std::string& path, const std::string& demand_column, Trace* trace,

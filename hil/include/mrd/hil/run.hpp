@@ -83,6 +83,8 @@ struct TrackingScores {
   double off_all = 0.0, off_reachable = 0.0;      // passive-off (0 V)
   double on_all = 0.0, on_reachable = 0.0;        // passive-on (E_max)
   double rms_force_n = 0.0, rms_demand_n = 0.0;
+  // false: no demand to normalise by (no step, or a zero demand); the errors above read 0.
+  bool all_scored = false, reachable_scored = false;
 };
 
 // Quarter car: RMS ride figures over the steps after the scenario's settle time.
