@@ -1,14 +1,18 @@
 // mrd export: an identified model as the firmware's coefficient table (binary and/or C++
 // header). Everything is checked and encoded before anything is written.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "commands.hpp"
+#include "mrd/common/cli_checks.hpp"
 #include "mrd/host/atomic_write.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
@@ -19,22 +23,43 @@ namespace {
 
 struct ExportOptions {
   std::string model;
-  int iteration = -1;  // -1: the model file's selected iteration
+  std::optional<int> iteration;  // none: the model file's selected iteration
   std::string table, header;
   std::string symbol = "mrd::firmware::kExportedTable";
   std::string input = "E";
   double e_min = 0.0, e_max = 2.25;  // [V]
 };
 
+// The inverted input must be a signal of the model that iteration k's terms read.
+void CheckInputRead(const ModelFile& mf, int k, const mrd::Model& model, const std::string& input) {
+  const std::vector<std::string> signals = mf.spec.Signals();
+  if (input == mf.spec.output ||
+      std::find(signals.begin(), signals.end(), input) == signals.end()) {
+    throw InputError(mf.path, 0,
+                     fmt::format("--input '{}' is not an input signal of the model (it has: {})",
+                                 input, fmt::join(signals.begin() + 1, signals.end(), ",")));
+  }
+  if (model.ChannelIndex(input.c_str()) < 0) {
+    throw InputError(mf.path, 0,
+                     fmt::format("iteration {} ({} terms) does not read input '{}': nothing to "
+                                 "invert; export an iteration whose terms read it",
+                                 k, mf.Iteration(k).terms.size(), input));
+  }
+}
+
 void RunExport(const ExportOptions& o) {
   if (o.table.empty() && o.header.empty()) {
     throw InputError("", 0, "nothing to write: give --table and/or --header");
   }
+  for (const std::string* out : {&o.table, &o.header}) {
+    if (!out->empty()) CheckOutputPath(*out);
+  }
   const ModelFile mf = LoadModelFile(o.model);
-  const int k = o.iteration >= 0 ? o.iteration : mf.selected;
-  const SemIteration& it = mf.Iteration(k);
-  CoefficientTable table =
-      MakeUncheckedTable(ToRuntimeModel(mf, k), o.e_min, o.e_max, o.input, o.model);
+  const int k = o.iteration.value_or(mf.selected);
+  const SemIteration& it = mf.Iteration(k);  // InputError "no iteration K" when absent
+  const mrd::Model model = ToRuntimeModel(mf, k);
+  CheckInputRead(mf, k, model, o.input);
+  CoefficientTable table = MakeUncheckedTable(model, o.e_min, o.e_max, o.input, o.model);
   // Operating envelope (table v2); model files from before it was recorded export without.
   const bool envelope = SetTableEnvelope(mf, &table);
   // Validated once, with its envelope, then encoded once for both forms.
@@ -76,8 +101,12 @@ void RegisterExport(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--input", o->input, "Inverted input channel (the command voltage)")
       ->capture_default_str();
-  cmd->add_option("--e-min", o->e_min, "Lowest admissible command [V]")->capture_default_str();
-  cmd->add_option("--e-max", o->e_max, "Highest admissible command [V]")->capture_default_str();
+  cmd->add_option("--e-min", o->e_min, "Lowest admissible command [V]")
+      ->check(mrd::cli::Finite)
+      ->capture_default_str();
+  cmd->add_option("--e-max", o->e_max, "Highest admissible command [V]")
+      ->check(mrd::cli::Finite)
+      ->capture_default_str();
   cmd->callback([o] { RunExport(*o); });
 }
 

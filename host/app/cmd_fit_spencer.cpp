@@ -2,6 +2,7 @@
 // writes a parameter file for `mrd generate --params` and the harness's `[plant] params`.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -56,6 +57,15 @@ FitRun LoadRun(const std::string& path, double from, double to) {
   return r;
 }
 
+// A run whose force is constant has no fit % (as mrd identify: nothing to identify).
+void CheckForceVaries(const FitRun& r, const char* nothing_to) {
+  const auto [lo, hi] = std::minmax_element(r.f.begin(), r.f.end());
+  if (*lo < *hi) return;
+  throw InputError(
+      r.name, 0,
+      fmt::format("output 'f' is constant ({}) in the rows used: nothing to {}", *lo, nothing_to));
+}
+
 std::string Figures(const SpencerParams& p, const FitRun& r, const SpencerFitOptions& o) {
   const FitScore s = ScoreRun(p, r, o.substeps, o.e_max);
   if (!s.finite) return "diverges";
@@ -69,8 +79,14 @@ void RunFit(FitOptions o) {
   }
   CheckOutputPath(o.out);
   std::vector<FitRun> runs, held;
-  for (const std::string& p : o.data) runs.push_back(LoadRun(p, o.from, o.to));
-  for (const std::string& p : o.validate) held.push_back(LoadRun(p, -HUGE_VAL, HUGE_VAL));
+  for (const std::string& p : o.data) {
+    runs.push_back(LoadRun(p, o.from, o.to));
+    CheckForceVaries(runs.back(), "fit");
+  }
+  for (const std::string& p : o.validate) {
+    held.push_back(LoadRun(p, -HUGE_VAL, HUGE_VAL));
+    CheckForceVaries(held.back(), "score");
+  }
   std::size_t rows = 0;
   for (const FitRun& r : runs) rows += r.x.size();
   fmt::print(
@@ -117,8 +133,10 @@ void RegisterFitSpencer(CLI::App& app) {
       ->delimiter(',')
       ->check(CLI::ExistingFile);
   cmd->add_option("--out", o->out, "Parameter file to write (TOML)")->required();
-  cmd->add_option("--from", o->from, "Fit rows with t >= FROM [s] of each --data file");
-  cmd->add_option("--to", o->to, "Fit rows with t < TO [s] of each --data file");
+  cmd->add_option("--from", o->from, "Fit rows with t >= FROM [s] of each --data file")
+      ->check(mrd::cli::Finite);
+  cmd->add_option("--to", o->to, "Fit rows with t < TO [s] of each --data file")
+      ->check(mrd::cli::Finite);
   cmd->add_option("--validate", o->validate,
                   "Held-out run(s), FILE[,FILE...]: scored with the fit, not fitted")
       ->delimiter(',')

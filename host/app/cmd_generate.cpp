@@ -3,11 +3,13 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <string>
 
 #include "commands.hpp"
 #include "mrd/common/cli_checks.hpp"
+#include "mrd/host/atomic_write.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/params_file.hpp"
@@ -25,11 +27,27 @@ struct GenerateOptions {
   int substeps = 100;
 };
 
+// A non-finite force: the parameters made the simulation diverge (named, with the time [s]).
+void CheckForceFinite(const GenerateOptions& o, const Excitation& ex,
+                      const std::vector<double>& f) {
+  const auto bad = std::find_if(f.begin(), f.end(), [](double v) { return !std::isfinite(v); });
+  if (bad == f.end()) return;
+  const double t = ex.t[static_cast<std::size_t>(bad - f.begin())];
+  const std::string source = o.params_file.empty() ? "preset " + o.preset : "";
+  throw InputError(
+      o.params_file, 0,
+      fmt::format("{}{}the simulation diverged: non-finite force ({}) at t = {:.3f} "
+                  "s (parameters out of the damper's range?)",
+                  source, source.empty() ? "" : ": ", std::isnan(*bad) ? "NaN" : "inf", t));
+}
+
 void RunGenerate(const GenerateOptions& o) {
+  CheckOutputPath(o.out);
   const SpencerParams params =
       o.params_file.empty() ? SpencerPreset(o.preset) : LoadSpencerParams(o.params_file);
   const Excitation ex = MakeExcitation(o.profile, o.seed);
   const std::vector<double> f = SimulateReferenceDamper(params, ex, o.substeps);
+  CheckForceFinite(o, ex, f);
   const auto [fmin, fmax] = std::minmax_element(f.begin(), f.end());
   const auto [emin, emax] = std::minmax_element(ex.E.begin(), ex.E.end());
   const auto [vmin, vmax] = std::minmax_element(ex.v.begin(), ex.v.end());

@@ -9,6 +9,7 @@
 
 #include "commands.hpp"
 #include "mrd/common/cli_checks.hpp"
+#include "mrd/host/atomic_write.hpp"
 #include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/default_spec.hpp"
@@ -42,6 +43,7 @@ std::vector<DataSet> ReadAll(const std::vector<std::string>& paths,
 }
 
 void RunIdentify(const IdentifyOptions& o) {
+  CheckOutputPath(o.out);  // before the identification, which may take minutes
   // No --spec: the built-in saturating damper spec (default_spec.hpp).
   const SemSpec spec = o.spec.empty() ? ParseSemSpec(DefaultSemSpecText(), kDefaultSemSpecName)
                                       : LoadSemSpec(o.spec);
@@ -124,7 +126,8 @@ void RegisterIdentify(CLI::App& app) {
       ->check(mrd::cli::FiniteRange(0.0, 99.999));
   cmd->add_option("--max-iterations", o->max_iterations, "Most major iterations")
       ->check(mrd::cli::FiniteRange(0, 100000));
-  cmd->add_option("--target-j", o->target_j, "Stop once J is at or below this (finite)");
+  cmd->add_option("--target-j", o->target_j, "Stop once J is at or below this (finite)")
+      ->check(mrd::cli::Finite);
   cmd->add_option("--max-candidates", o->max_candidates,
                   "Most candidate factor combinations (default: the spec's [limits] "
                   "max_candidates, else 200000)")

@@ -6,6 +6,8 @@
 #include <string>
 
 #include "commands.hpp"
+#include "mrd/common/cli_checks.hpp"
+#include "mrd/host/atomic_write.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/import.hpp"
 #include "mrd/host/input_error.hpp"
@@ -23,6 +25,7 @@ struct ImportFlags {
 
 void RunImport(ImportFlags& f) {
   const auto start = std::chrono::steady_clock::now();
+  CheckOutputPath(f.out);
   f.options.map = ParseImportMap(f.map);
   if (!f.scale.empty()) f.options.scale = ParseImportScale(f.scale);
   if (f.separator == "tab" || f.separator == "\\t") f.separator = "\t";
@@ -56,17 +59,21 @@ void RegisterImport(CLI::App& app) {
   cmd->add_option("--scale", f->scale,
                   "Output name = factor, e.g. x=0.1,f=1000 (applied after mapping; on x before "
                   "differentiation)");
-  cmd->add_option("--rate", o.out_rate_hz, "Output sampling rate [Hz]")->capture_default_str();
+  cmd->add_option("--rate", o.out_rate_hz, "Output sampling rate [Hz]")
+      ->check(mrd::cli::Finite)
+      ->capture_default_str();
   cmd->add_flag("--derive-velocity", o.derive_velocity,
                 "v = d/dt x by a zero-phase Kaiser low-pass (-6 dB at --cutoff) and central "
                 "differences, at the input rate");
   cmd->add_option("--cutoff", o.velocity_cutoff_hz,
                   "Cut-off of the velocity differentiator [Hz] (-6 dB; pass band to 0.75x, stop "
                   "band from 1.25x, 60 dB)")
+      ->check(mrd::cli::Finite)
       ->capture_default_str();
   cmd->add_option("--max-jitter", o.max_jitter,
                   "Time deviation from the uniform grid allowed beyond the printed rounding of "
                   "t [sampling periods]")
+      ->check(mrd::cli::Finite)
       ->capture_default_str();
   cmd->add_option("--rate-column", o.rate_column,
                   "Column stating the sampling rate, cross-checked against t to 0.1 % ('' for "

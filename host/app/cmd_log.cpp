@@ -38,6 +38,7 @@ void Info(const LogOptions& o) {
 }
 
 void Export(const LogOptions& o) {
+  CheckOutputPath(o.csv);
   const runlog::Log log = LoadRunLog(o.file);
   Note(log, o.file);
   const std::string csv = RunLogCsv(log, o.fields);

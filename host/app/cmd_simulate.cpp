@@ -6,6 +6,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "mrd/host/atomic_write.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/model_file.hpp"
@@ -23,6 +24,7 @@ struct SimulateOptions {
 };
 
 void RunSimulate(const SimulateOptions& o) {
+  if (!o.out.empty()) CheckOutputPath(o.out);
   const ModelFile mf = LoadModelFile(o.model);
   const int k = o.iteration.value_or(mf.selected);
   const DataSet data = ReadCsv(o.data, mf.spec.Signals());

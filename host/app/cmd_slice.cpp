@@ -6,6 +6,8 @@
 #include <string>
 
 #include "commands.hpp"
+#include "mrd/common/cli_checks.hpp"
+#include "mrd/host/atomic_write.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
 
@@ -18,6 +20,7 @@ struct SliceOptions {
 };
 
 void RunSlice(const SliceOptions& o) {
+  CheckOutputPath(o.out);
   const DataSet ds = ReadCsv(o.in);
   const std::vector<double>& t = ds.Column("t");
   if (!(o.from < o.to)) {
@@ -55,8 +58,10 @@ void RegisterSlice(CLI::App& app) {
       "Cut the rows with FROM <= t < TO out of a data file (hold-out validation, "
       "k-fold segments).");
   cmd->add_option("--in", o->in, "Input data file (CSV with column t)")->required();
-  cmd->add_option("--from", o->from, "Start time [s] (inclusive)")->required();
-  cmd->add_option("--to", o->to, "End time [s] (exclusive)")->required();
+  cmd->add_option("--from", o->from, "Start time [s] (inclusive)")
+      ->required()
+      ->check(mrd::cli::Finite);
+  cmd->add_option("--to", o->to, "End time [s] (exclusive)")->required()->check(mrd::cli::Finite);
   cmd->add_option("--out", o->out, "Output CSV file")->required();
   cmd->callback([o] { RunSlice(*o); });
 }

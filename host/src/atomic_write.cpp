@@ -108,6 +108,12 @@ void CheckOutputPath(const std::string& path) {
                          ? "output exists and is a symbolic link; refusing to write through it"
                          : "output exists and is not a regular file; refusing to replace it");
   }
+  // The temporary is created beside the output: its directory must exist and be writable.
+  const std::string dir = DirOf(path);
+  if (access(dir.c_str(), W_OK | X_OK) != 0) {
+    throw InputError(path, 0,
+                     fmt::format("cannot write into directory {}: {}", dir, std::strerror(errno)));
+  }
 }
 
 AtomicFile::AtomicFile(const std::string& path) : path_(path) {

@@ -2,11 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <cerrno>
-#include <cstring>
-#include <fstream>
-#include <iterator>
-
 #include "mrd/host/input_error.hpp"
 
 namespace mrd::host::csv {
@@ -50,17 +45,6 @@ void SplitFields(std::string_view line, char sep, std::vector<std::string_view>*
   }
 }
 
-std::string ReadFile(const std::string& path) {
-  errno = 0;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    throw InputError(
-        path, 0,
-        fmt::format("cannot open file: {}", errno != 0 ? std::strerror(errno) : "unreadable"));
-  }
-  std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw InputError(path, 0, "read error");
-  return content;
-}
+std::string ReadFile(const std::string& path) { return ReadInputText(path, kMaxDataFileBytes); }
 
 }  // namespace mrd::host::csv

@@ -24,7 +24,8 @@ std::vector<Line> SplitLines(std::string_view content, const std::string& path);
 // Fields of a line, trimmed. Separators inside quotes are not supported.
 void SplitFields(std::string_view line, char sep, std::vector<std::string_view>* out);
 
-// Reads a whole file; throws InputError(path, 0, system error text) when it cannot.
+// Reads a whole regular file of at most kMaxDataFileBytes; throws InputError(path, 0, reason)
+// when it cannot (a directory, a FIFO, too large, a system error).
 std::string ReadFile(const std::string& path);
 
 }  // namespace mrd::host::csv

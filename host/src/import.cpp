@@ -545,6 +545,26 @@ void Velocity(const ImportOptions& o, const std::vector<std::string>& out_names,
   }
 }
 
+// Rows at the output rate: at least 2 (as every reader needs), at most kMaxImportRows.
+constexpr double kMaxImportRows = 1e8;  // 4 GB of doubles for 5 columns
+std::size_t OutputRows(const ImportOptions& o, std::size_t rows, double rate) {
+  const double span = static_cast<double>(rows - 1) * o.out_rate_hz / rate;  // [output periods]
+  if (!(span < kMaxImportRows)) {
+    throw InputError(o.in_path, 0,
+                     fmt::format("--rate {:g} Hz would write {:.3g} rows from {} rows at {:g} "
+                                 "Hz (at most {:g})",
+                                 o.out_rate_hz, span + 1.0, rows, rate, kMaxImportRows));
+  }
+  const std::size_t n = ResampledRows(rows, rate, o.out_rate_hz);
+  if (n < 2) {
+    throw InputError(o.in_path, 0,
+                     fmt::format("--rate {:g} Hz keeps fewer than 2 rows of the {} rows at {:g} "
+                                 "Hz ({:.6g} s)",
+                                 o.out_rate_hz, rows, rate, static_cast<double>(rows - 1) / rate));
+  }
+  return n;
+}
+
 // Phase 9b: every signal resampled at the output rate through the anti-aliasing filter.
 ImportResult ResampleAll(const ImportOptions& o, std::size_t rows, double rate,
                          const std::vector<std::string>& out_names,
@@ -555,7 +575,7 @@ ImportResult ResampleAll(const ImportOptions& o, std::size_t rows, double rate,
       "at 1024 phases/sample, DC gain 1); ends extended by odd reflection",
       aa.Describe(rate), rate / o.out_rate_hz);
   ImportResult result;
-  const std::size_t out_rows = ResampledRows(rows, rate, o.out_rate_hz);
+  const std::size_t out_rows = OutputRows(o, rows, rate);
   result.names = out_names;
   result.columns.resize(out_names.size());
   result.columns[0].resize(out_rows);

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "mrd/common/input_file.hpp"
+
 namespace mrd::host {
 namespace {
 
@@ -38,5 +40,14 @@ std::string Format(const std::string& file_raw, std::size_t line, const std::str
 
 InputError::InputError(const std::string& file, std::size_t line, const std::string& reason)
     : std::runtime_error(Format(file, line, reason)), file_(file), line_(line) {}
+
+std::string ReadInputText(const std::string& path, std::uint64_t max_bytes) {
+  std::string text, error;
+  if (ReadInputFile(path, max_bytes, &text, &error)) return text;
+  // error is "PATH: reason"; the reason alone, so that InputError names the file once.
+  const std::string prefix = mrd::Printable(path) + ": ";
+  if (error.starts_with(prefix)) error.erase(0, prefix.size());
+  throw InputError(path, 0, error);
+}
 
 }  // namespace mrd::host

@@ -6,11 +6,9 @@
 #include <array>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
@@ -248,11 +246,10 @@ void SaveModelFile(const ModelFile& m, const std::string& path) {
 }
 
 ModelFile LoadModelFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path, 0, "cannot open model file");
+  const std::string text = ReadInputText(path, kMaxModelFileBytes);
   json j;
   try {
-    j = json::parse(in);
+    j = json::parse(text);
   } catch (const json::exception& e) {  // parse_error, out_of_range (1e400), ...
     throw InputError(path, 0, fmt::format("malformed JSON: {}", e.what()));
   }

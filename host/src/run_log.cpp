@@ -136,6 +136,10 @@ std::string RunLogCsv(const runlog::Log& log, const std::vector<std::string>& fi
                        fmt::format("--fields: unknown field '{}'; the log has: {}", name,
                                    FieldList(log.header)));
     }
+    // A repeated column would make a CSV that ReadCsv refuses (duplicate column).
+    if (std::find(cols.begin(), cols.end(), static_cast<std::size_t>(i)) != cols.end()) {
+      throw InputError("", 0, fmt::format("--fields: field '{}' given twice", name));
+    }
     cols.push_back(static_cast<std::size_t>(i));
   }
   const auto off = log.header.Offsets();

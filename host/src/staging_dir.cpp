@@ -1,7 +1,10 @@
 #include "mrd/host/staging_dir.hpp"
 
 #include <fmt/format.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <stdexcept>
 #include <system_error>
 
@@ -10,6 +13,26 @@
 namespace mrd::host {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+bool Writable(const fs::path& dir) { return access(dir.c_str(), W_OK | X_OK) == 0; }
+
+// The files are staged beside out (in parent) or inside out: an existing out must be writable
+// (or empty, to be replaced by the staged directory), an absent one needs a writable parent.
+void CheckWritable(const std::string& out_dir, const fs::path& out, const fs::path& parent) {
+  std::error_code ec;
+  const bool exists = fs::is_directory(out, ec);
+  if (exists && (Writable(out) || (fs::is_empty(out, ec) && Writable(parent)))) return;
+  if (!exists && Writable(parent)) return;
+  const fs::path& dir = exists ? out : parent;
+  access(dir.c_str(), W_OK | X_OK);  // errno of the refusal
+  throw InputError("", 0,
+                   fmt::format("--out {}: cannot write into {}: {}", out_dir, dir.string(),
+                               std::strerror(errno)));
+}
+
+}  // namespace
 
 void CheckOutDir(const std::string& out_dir) {
   if (out_dir.empty()) throw InputError("", 0, "--out: empty directory name");
@@ -24,6 +47,7 @@ void CheckOutDir(const std::string& out_dir) {
         "", 0,
         fmt::format("--out {}: parent directory {} does not exist", out_dir, parent.string()));
   }
+  CheckWritable(out_dir, out, parent);
 }
 
 StagingDir::StagingDir(const std::string& out_dir, const std::string& what) {

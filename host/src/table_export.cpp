@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstring>
@@ -211,7 +213,28 @@ TableBytes TableImage(const CoefficientTable& table) {
 
 namespace {
 
-// The names of a (qualified) C++ identifier "ns::...::name"; std::invalid_argument otherwise.
+// C++20 keywords, alternative tokens and the preprocessor's own names: not usable as a name.
+// clang-format off
+constexpr std::array<std::string_view, 95> kKeywords = {
+    "alignas", "alignof", "and", "and_eq", "asm", "auto", "bitand", "bitor", "bool", "break",
+    "case", "catch", "char", "char8_t", "char16_t", "char32_t", "class", "compl", "concept",
+    "const", "consteval", "constexpr", "constinit", "const_cast", "continue", "co_await",
+    "co_return", "co_yield", "decltype", "default", "delete", "do", "double", "dynamic_cast",
+    "else", "enum", "explicit", "export", "extern", "false", "float", "for", "friend", "goto", "if",
+    "inline", "int", "long", "mutable", "namespace", "new", "noexcept", "not", "not_eq", "nullptr",
+    "operator", "or", "or_eq", "private", "protected", "public", "register", "reinterpret_cast",
+    "requires", "return", "short", "signed", "sizeof", "static", "static_assert", "static_cast",
+    "struct", "switch", "template", "this", "thread_local", "throw", "true", "try", "typedef",
+    "typeid", "typename", "union", "unsigned", "using", "virtual", "void", "volatile", "wchar_t",
+    "while", "xor", "xor_eq", "_Pragma", "__VA_ARGS__", "__VA_OPT__"};
+// clang-format on
+
+bool IsKeyword(std::string_view s) {
+  return std::find(kKeywords.begin(), kKeywords.end(), s) != kKeywords.end();
+}
+
+// The names of a (qualified) C++ identifier "ns::...::name"; std::invalid_argument otherwise
+// (a part that is not an identifier, or a keyword such as "namespace").
 std::vector<std::string_view> SymbolParts(std::string_view symbol) {
   std::vector<std::string_view> parts;
   for (std::size_t at = 0;;) {
@@ -223,6 +246,10 @@ std::vector<std::string_view> SymbolParts(std::string_view symbol) {
   for (const std::string_view p : parts) {
     if (!IsIdentifier(p)) {
       throw std::invalid_argument(fmt::format("'{}' is not a C++ identifier", symbol));
+    }
+    if (IsKeyword(p)) {
+      throw std::invalid_argument(
+          fmt::format("'{}': '{}' is a C++ keyword, not usable as a name", symbol, p));
     }
   }
   return parts;

@@ -13,7 +13,8 @@
 
 namespace mrd::host {
 
-// Throws InputError when path is empty or names something other than a regular file.
+// Throws InputError when path is empty, names something other than a regular file, or its
+// directory does not exist or is not writable. Commands call it before their work.
 void CheckOutputPath(const std::string& path);
 
 // One output file: the temporary exists from construction until Commit or destruction.

@@ -1,6 +1,7 @@
 #pragma once
 // Bad user input (data file, spec file, model file, flag): the CLI prints it and exits 2.
 
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 
@@ -18,6 +19,15 @@ class InputError : public std::runtime_error {
   std::string file_;
   std::size_t line_;
 };
+
+// Size caps of the host's input files [bytes].
+constexpr std::uint64_t kMaxDataFileBytes = std::uint64_t{1} << 30;     // CSV data, 1 GiB
+constexpr std::uint64_t kMaxModelFileBytes = std::uint64_t{256} << 20;  // model JSON, 256 MiB
+constexpr std::uint64_t kMaxSpecFileBytes = std::uint64_t{1} << 20;     // spec TOML, 1 MiB
+
+// The whole content of a regular file of at most max_bytes (mrd::ReadInputFile). Throws
+// InputError(path, 0, reason): "is a directory, not a regular file", too large, unreadable.
+std::string ReadInputText(const std::string& path, std::uint64_t max_bytes);
 
 // Exit status of the CLI for bad input.
 constexpr int kExitBadInput = 2;

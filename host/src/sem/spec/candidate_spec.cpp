@@ -6,10 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <map>
 #include <set>
-#include <sstream>
 
 #include "mrd/host/input_error.hpp"
 #include "spec_table.hpp"
@@ -553,11 +551,7 @@ SemSpec SemSpecFromTable(const toml::table& tbl, const std::string& path) {
 }
 
 SemSpec LoadSemSpec(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path, 0, "cannot open spec file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ParseSemSpec(ss.str(), path);
+  return ParseSemSpec(ReadInputText(path, kMaxSpecFileBytes), path);
 }
 
 std::string TermName(const SemSpec& spec, const SemTerm& term) {
