@@ -47,11 +47,10 @@ TEST(RobustRealDataTest, NeesModelStaysBoundedOnEndStopAndDoubledRun) {
   ok(test::Run(Bin("mrd") + " simulate --model " + model + " --data " + twice + " --out " +
                dir.File("twice-sim.csv")));
   double peak_data = 0.0, peak_sim = 0.0;
-  for (const double f : host::ReadCsv(id).Column("f"))
-    peak_data = std::max(peak_data, std::fabs(f));
-  for (const double f : host::ReadCsv(dir.File("twice-sim.csv")).Column("f_sim")) {
-    peak_sim = std::max(peak_sim, std::fabs(f));
-  }
+  // The data sets are held: a range-for over a temporary's column would dangle.
+  const host::DataSet id_data = host::ReadCsv(id), sim = host::ReadCsv(dir.File("twice-sim.csv"));
+  for (const double f : id_data.Column("f")) peak_data = std::max(peak_data, std::fabs(f));
+  for (const double f : sim.Column("f_sim")) peak_sim = std::max(peak_sim, std::fabs(f));
   EXPECT_GT(peak_sim, peak_data);  // it does respond to the doubled velocity
   EXPECT_LE(peak_sim, 3.0 * peak_data);
   // Every iteration carries its stress verdict; the selected one passed.
