@@ -580,21 +580,21 @@ int LoadRunConfig(const Options& o, const mrd::CoefficientTable& table, Firmware
   return kContinue;
 }
 
-// Configures the controller; on a refusal says why (Controller::Configure's reason).
-// kContinue or kExitBadInput.
+// Configures the controller; on a refusal says why (DescribeConfigureRefusal), naming the
+// configuration file (or the defaults) and the table. kContinue or kExitBadInput.
 int ConfigureController(const mrd::CoefficientTable& table, const char* table_name,
-                        const FirmwareConfig& cfg, Controller* controller) {
+                        const char* config_path, const FirmwareConfig& cfg,
+                        Controller* controller) {
   const ConfigureStatus configured = controller->Configure(table, cfg.controller);
   if (configured.ok()) return kContinue;
   if (configured.fault == ConfigureFault::kTable) {
     std::fprintf(stderr, "error: table %s refused: %s\n", table_name,
                  mrd::ErrorName(configured.error));
   } else {
-    std::fprintf(stderr,
-                 "error: configuration refused for table %s: %s (E_max %g V, safe voltage "
-                 "%g V, table range [%g, %g] V)\n",
-                 table_name, ConfigureFaultName(configured.fault), cfg.controller.e_max,
-                 cfg.controller.safe_voltage, table.e_min, table.e_max);
+    std::fprintf(
+        stderr, "error: %s: refused with table %s: %s\n",
+        config_path != nullptr ? config_path : "(default configuration)", table_name,
+        mrd::firmware::DescribeConfigureRefusal(configured, table, cfg.controller).c_str());
   }
   return kExitBadInput;
 }
@@ -768,7 +768,8 @@ int Run(const Options& o) {
   FirmwareConfig cfg;
   if (const int rc = LoadRunConfig(o, table, &cfg); rc != kContinue) return rc;
   Controller controller;
-  if (const int rc = ConfigureController(table, table_name, cfg, &controller); rc != kContinue) {
+  if (const int rc = ConfigureController(table, table_name, o.config, cfg, &controller);
+      rc != kContinue) {
     return rc;
   }
   if (const int rc = CheckRunMode(o, cfg, table, table_name, controller); rc != kContinue) {

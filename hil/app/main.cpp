@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "mrd/common/cli_checks.hpp"
+#include "mrd/common/input_file.hpp"
 #include "mrd/hil/gpio_port.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/hil/run.hpp"
@@ -215,6 +216,12 @@ int PrepareRun(const std::string& scenario_path, const std::vector<std::string>&
     return kExitBadInput;
   }
   if (!mrd::hil::TableIsUsable(o.table.empty() ? s.table_file : o.table)) return kExitBadInput;
+  std::error_code ec;
+  if (!out.empty() && std::filesystem::exists(out, ec) && !std::filesystem::is_directory(out, ec)) {
+    std::fprintf(stderr, "error: --out %s: exists and is not a directory\n",
+                 mrd::Printable(out).c_str());
+    return kExitBadInput;
+  }
   if (!out.empty()) {
     o.work_dir = out;
     o.firmware_log = "firmware.mrdlog";  // beside trace.csv (mrd log info/export/plot)

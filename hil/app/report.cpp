@@ -233,8 +233,12 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
       << (f.ok ? "" : "  FAILED: " + f.why) << "\n";
   }
   o << "  firmware exit " << r.firmware_exit << " (" << r.firmware_starts << " start(s))\n";
-  o << "  wall " << r.wall_s << " s (" << r.speed_x << "x real time); latency median "
-    << r.latency.median_us << " us, p99 " << r.latency.p99_us << " us";
+  o << "  wall " << r.wall_s << " s (" << r.speed_x << "x real time); latency ";
+  if (r.latency.count > 0) {
+    o << "median " << r.latency.median_us << " us, p99 " << r.latency.p99_us << " us";
+  } else {
+    o << "n/a (no command echoed a sample)";
+  }
   if (r.clock == "realtime") {
     o << "; wake-up jitter median " << r.wake_jitter.median_us << " us, p99 "
       << r.wake_jitter.p99_us << " us, max " << r.wake_jitter.max_us << " us";

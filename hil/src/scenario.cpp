@@ -384,6 +384,8 @@ class ScenarioReader {
         ok = ApplyTable(*t, keys, " in [" + key + "]", c);
       } else if (key == "fault") {
         ok = ReadFaults(v);
+      } else if (v.is_table()) {
+        return c.Fail(v, "unknown section [" + key + "]");
       } else {
         return c.Fail(v, "unknown key '" + key + "'");
       }

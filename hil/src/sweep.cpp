@@ -175,8 +175,9 @@ std::string SweepCsv(const SweepGrid& grid, const std::vector<SweepScores>& rows
   for (std::size_t i = 0; i < rows.size() && i < points.size(); ++i) {
     for (const std::string& set : points[i]) o << set.substr(set.find('=') + 1) << ',';
     const SweepScores& s = rows[i];
-    o << (s.pass ? 1 : 0) << ',' << s.invariant_violations << ',' << s.error_all << ','
-      << s.error_reachable;
+    o << (s.pass ? 1 : 0) << ',' << s.invariant_violations << ',';
+    if (!ride) o << s.error_all << ',' << s.error_reachable;  // a quarter car has no tracking
+    if (ride) o << ',';
     if (ride) {
       o << ',' << s.body_accel_rms << ',' << s.travel_rms_cm << ',' << s.tyre_load_rms_n << ','
         << s.body_accel_off << ',' << s.body_accel_on;
@@ -192,8 +193,8 @@ std::string SweepTable(const SweepGrid& grid, const std::vector<SweepScores>& ro
   for (const SweepAxis& a : grid.axes) head.push_back(a.key);
   head.push_back("pass");
   if (ride) {
-    for (const char* h :
-         {"body_accel_rms", "travel_rms_cm", "tyre_load_rms_n", "vs_off", "vs_on"}) {
+    for (const char* h : {"body_accel_rms", "travel_rms_cm", "tyre_load_rms_n", "better_than_off",
+                          "better_than_on"}) {
       head.push_back(h);
     }
   } else {
@@ -212,9 +213,9 @@ std::string SweepTable(const SweepGrid& grid, const std::vector<SweepScores>& ro
       row.push_back(Fixed(s.body_accel_rms, 4));
       row.push_back(Fixed(s.travel_rms_cm, 4));
       row.push_back(Fixed(s.tyre_load_rms_n, 1));
-      // Relative to the passive twins: -x% is better than passive.
-      row.push_back(Fixed(100.0 * (s.body_accel_rms / s.body_accel_off - 1.0), 1) + "%");
-      row.push_back(Fixed(100.0 * (s.body_accel_rms / s.body_accel_on - 1.0), 1) + "%");
+      // Body acceleration RMS against the passive twins, + is better (as mrd-hil run says).
+      row.push_back(Fixed(100.0 * (1.0 - s.body_accel_rms / s.body_accel_off), 1) + "%");
+      row.push_back(Fixed(100.0 * (1.0 - s.body_accel_rms / s.body_accel_on), 1) + "%");
     } else {
       row.push_back(Fixed(s.error_all, 4));
       row.push_back(Fixed(s.error_reachable, 4));

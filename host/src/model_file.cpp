@@ -9,7 +9,11 @@
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+#include <vector>
 
+#include "mrd/common/input_file.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
 #include "sem/spec/spec_table.hpp"
@@ -247,9 +251,22 @@ void SaveModelFile(const ModelFile& m, const std::string& path) {
 
 ModelFile LoadModelFile(const std::string& path) {
   const std::string text = ReadInputText(path, kMaxModelFileBytes);
+  // A key given twice in one object is refused (JSON leaves it open; the last would win).
+  std::vector<std::set<std::string>> open_objects;
+  const json::parser_callback_t refuse_repeats = [&](int, json::parse_event_t event, json& parsed) {
+    if (event == json::parse_event_t::object_start) open_objects.emplace_back();
+    if (event == json::parse_event_t::object_end && !open_objects.empty()) open_objects.pop_back();
+    if (event == json::parse_event_t::key && !open_objects.empty() &&
+        !open_objects.back().insert(parsed.get<std::string>()).second) {
+      throw InputError(
+          path, 0,
+          fmt::format("key '{}' given twice in one object", Printable(parsed.get<std::string>())));
+    }
+    return true;
+  };
   json j;
   try {
-    j = json::parse(text);
+    j = json::parse(text, refuse_repeats);
   } catch (const json::exception& e) {  // parse_error, out_of_range (1e400), ...
     throw InputError(path, 0, fmt::format("malformed JSON: {}", e.what()));
   }

@@ -232,8 +232,9 @@ std::string Summary(const ModelFile& mf, int k, bool k_given,
     fmt::format_to(out, "  {:3d}  {:+.12e}  {}\n", i + 1, it.coefficients[i],
                    TermName(mf.spec, it.terms[i]));
   }
-  fmt::format_to(out, "\nfit of iteration {} (free run; the first {} samples seed it):\n", k,
-                 mf.warmup_samples());
+  const std::size_t seed = mf.warmup_samples();
+  fmt::format_to(out, "\nfit of iteration {} (free run; the first {} sample{} seed{} it):\n", k,
+                 seed, seed == 1 ? "" : "s", seed == 1 ? "s" : "");
   for (const DataReport& r : reports) {
     const SimMetrics& m = r.metrics;
     fmt::format_to(out, "  {}: {} samples scored{}\n", r.data.path, m.samples,

@@ -174,7 +174,7 @@ KaiserLowPass VelocityFilter(double cutoff_hz) {
 std::vector<double> DeriveVelocity(std::span<const double> x, double rate_hz, double cutoff_hz) {
   if (!(cutoff_hz > 0.0) || !(1.25 * cutoff_hz < 0.5 * rate_hz)) {
     throw std::invalid_argument(fmt::format(
-        "velocity cut-off {} Hz: must be > 0 and 1.25 x cut-off below the Nyquist rate {} Hz",
+        "velocity cut-off {:g} Hz: must be > 0 and 1.25 x cut-off below the Nyquist rate {:g} Hz",
         cutoff_hz, 0.5 * rate_hz));
   }
   return CentralDifference(LowPassZeroPhase(x, rate_hz, VelocityFilter(cutoff_hz)), rate_hz);

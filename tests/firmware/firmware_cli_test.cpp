@@ -75,6 +75,21 @@ TEST(FirmwareCliTest, CorruptedTableExitsNonZeroNamingCrc) {
   EXPECT_NE(r.output.find("refused: CRC mismatch"), std::string::npos) << r.output;
 }
 
+// A setting only the table can judge (a constant voltage beyond its range): the file, the
+// setting and the range it must lie in.
+TEST(FirmwareCliTest, ASettingOutsideTheTableNamesTheFileAndTheRange) {
+  TempDir dir;
+  const std::string config =
+      dir.Write("cv.toml", "[control]\nlaw = \"constant\"\nconstant_voltage = 500\n");
+  const CommandResult r = test::Run(Firmware() + " --config " + config + " --dry-run 1 --lockstep");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find(config + ": refused with table compiled-in"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("the constant voltage 500 V must lie in [E_min, E_max] = [0, 2.25] V"),
+            std::string::npos)
+      << r.output;
+}
+
 TEST(FirmwareCliTest, WrongMagicAndTruncatedTableNameTheirReasons) {
   TempDir dir;
   const std::string table = WriteBuiltinTable(dir);

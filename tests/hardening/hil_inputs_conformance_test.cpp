@@ -107,6 +107,15 @@ TEST(HilInputsConformance, ATableTheFirmwareWouldRefuseIsBadInputAndNothingIsWri
   EXPECT_NE(bench.output.find(table + ": is 4000 bytes"), std::string::npos) << bench.output;
 }
 
+TEST(HilInputsConformance, AnOutputThatIsAFileIsRefused) {
+  TempDir dir;
+  const std::string file = dir.Write("taken", "x");
+  const CommandResult r = HilRun(kScenarios + "force-periodic.toml --out " + file);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("--out " + file + ": exists and is not a directory"), std::string::npos)
+      << r.output;
+}
+
 TEST(HilInputsConformance, ATraceAtAnotherRateOrWithAbsurdValuesIsRefused) {
   TempDir dir;
   const std::string fast = dir.Write("fast.csv", "t,x,v,f\n0,0,0,0\n0.0005,0,1,2\n0.001,0,2,3\n");

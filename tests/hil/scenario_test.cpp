@@ -85,6 +85,7 @@ TEST(ScenarioTest, BadInputNamesFileAndLine) {
     const char* line_and_reason;
   } cases[] = {
       {"duration_s = 1\n[control]\nlaww = \"force\"\n", ":3: unknown key 'laww'"},
+      {"duration_s = 1\n[contrl]\nlaw = \"force\"\n", ":2: unknown section [contrl]"},
       {"[control]\nlaw = \"pid\"\n", ":2: law must be"},
       {"duration_s = -1\n", ":1: 'duration_s' must be a number"},
       {"[[fault]]\nkind = \"meteor\"\n", ":1: unknown fault kind 'meteor'"},

@@ -161,8 +161,15 @@ TEST(SweepGrid, BestPointPrefersPassingThenLowestScore) {
   EXPECT_EQ(csv.substr(0, csv.find('\n')),
             "control.skyhook_gain,pass,invariant_violations,error_all,error_reachable,"
             "body_accel_rms,travel_rms_cm,tyre_load_rms_n,body_accel_rms_off,body_accel_rms_on");
-  EXPECT_NE(csv.find("\n30,1,0,0,0,1.2,"), std::string::npos) << csv;
-  EXPECT_NE(mrd::hil::SweepTable(g, rows).find("<- best"), std::string::npos);
+  // A quarter car has no tracking error: those cells stay empty.
+  EXPECT_NE(csv.find("\n30,1,0,,,1.2,"), std::string::npos) << csv;
+  rows[2].body_accel_off = 1.5;  // 20 % better than passive-off
+  rows[2].body_accel_on = 1.0;   // 20 % worse than passive-on
+  const std::string table = mrd::hil::SweepTable(g, rows);
+  EXPECT_NE(table.find("<- best"), std::string::npos);
+  EXPECT_NE(table.find("better_than_off"), std::string::npos) << table;
+  EXPECT_NE(table.find(" 20.0% "), std::string::npos) << table;
+  EXPECT_NE(table.find(" -20.0%"), std::string::npos) << table;
 }
 
 }  // namespace

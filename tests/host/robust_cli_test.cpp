@@ -1,13 +1,15 @@
 // `mrd` through the executable on bad input: directories as input files, iterations that do not
 // exist or do not read the input, rates and data that leave nothing to write or fit, non-finite
 // options, a diverging simulation, unwritable outputs, C++ keywords as symbols, repeated log
-// fields. Each refusal: exit 2, one line naming the file, nothing written.
+// fields, a model file with a key given twice. Each refusal: exit 2, one line naming the file,
+// nothing written.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -242,6 +244,21 @@ TEST_F(RobustCliTest, LogExportRefusesARepeatedField) {
   ExpectRefused("log export " + log + " --csv " + csv + " --fields t_ns,force,t_ns",
                 {"--fields: field 't_ns' given twice"});
   EXPECT_FALSE(fs::exists(csv));
+}
+
+TEST_F(RobustCliTest, AModelFileWithAKeyGivenTwiceIsRefused) {
+  std::string text = test::FileBytes(model_);
+  const std::size_t at = text.find("\"selected\":");
+  ASSERT_NE(at, std::string::npos);
+  text.insert(at, "\"selected\": 0, ");  // the later one would silently win
+  const std::string twice = out_.File("twice.json");
+  std::ofstream(twice) << text;
+  const std::string o = out_.File("s.csv");
+  ExpectRefused("simulate --model " + twice + " --data " + data_ + " --out " + o,
+                {twice, "key 'selected' given twice in one object"});
+  ExpectRefused("export --model " + twice + " --table " + out_.File("e.bin"),
+                {"key 'selected' given twice"});
+  EXPECT_FALSE(fs::exists(o));
 }
 
 }  // namespace

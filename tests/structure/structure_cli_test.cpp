@@ -63,11 +63,11 @@ TEST(StructureCliTest, BadInputIsRefusedWithExit2) {
       {{"--damper", "nope"}, "--damper: unknown preset 'nope'"},
       {{"--period", "-1"}, "period"},
       {{"--time-scale", "abc"}, "time-scale"},
-      {{"--v-max", "-1"}, "--v-max: Value -1 not in range"},
+      {{"--v-max", "-1"}, "--v-max: Value -1 not in [0.01, 24]"},
       {{"--amplitude", "nan"}, "--amplitude: Value nan is not a finite number"},
       {{"--r-force", "inf"}, "--r-force: Value inf is not a finite number"},
-      {{"--tail", "1e9"}, "--tail: Value 1e9 not in range"},
-      {{"--substeps", "100000000"}, "--substeps: Value 100000000 not in range"},
+      {{"--tail", "1e9"}, "--tail: Value 1e9 not in [0, 600]"},
+      {{"--substeps", "100000000"}, "--substeps: Value 100000000 not in [1, 1000]"},
   };
   for (const Case& c : cases) {
     std::vector<std::string> argv = {kBin, "study"};

@@ -71,8 +71,9 @@ TEST(StructureReferenceTest, BadFilesAreRefusedWithTheLine) {
   };
   const Bad cases[] = {
       {"case,x1\npassive-on,1\n", ":1: expected the header case,x1,x2"},
-      {std::string("# only a comment\n"), ":1: no header"},
-      {kHeader, ":1: no case rows"},
+      {std::string("# only a comment\n"), "bad.csv: no header"},
+      {std::string(), "bad.csv: no header"},
+      {kHeader, "bad.csv: no case rows"},
       {std::string(kHeader) + "passive-on,1,2\n", ":2: expected 11 cells, found 3"},
       {std::string(kHeader) + Row("semi-active", 1.0), ":2: unknown case 'semi-active'"},
       {std::string(kHeader) + Row("passive-on", 1.0) + Row("passive-on", 2.0),

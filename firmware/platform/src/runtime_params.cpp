@@ -13,14 +13,19 @@ std::string Num(double v) {
   return buf;
 }
 
-// Why Configure refused (the values it checks, in words, then the reason).
-std::string ConfigureWhy(const ConfigureStatus& s, const CoefficientTable& table,
-                         const ControllerConfig& c) {
+}  // namespace
+
+std::string DescribeConfigureRefusal(const ConfigureStatus& s, const CoefficientTable& table,
+                                     const ControllerConfig& c) {
   std::string why = "out of range for the table: ";
   if (s.fault == ConfigureFault::kEMax) {
     why.append("E_max ").append(Num(c.e_max)).append(" V must be above its E_min ");
     why.append(Num(table.e_min)).append(" V and at most its E_max ").append(Num(table.e_max));
     why.append(" V");
+  } else if (s.fault == ConfigureFault::kLaw && c.law.mode == ControlMode::kConstantVoltage) {
+    why.append("the constant voltage ").append(Num(c.law.constant_voltage));
+    why.append(" V must lie in [E_min, E_max] = [").append(Num(table.e_min)).append(", ");
+    why.append(Num(c.e_max)).append("] V");
   } else if (s.fault == ConfigureFault::kSafeVoltage) {
     why.append("the safe voltage ").append(Num(c.safe_voltage)).append(" V must lie in its [");
     why.append(Num(table.e_min)).append(", ").append(Num(table.e_max)).append("] V");
@@ -35,8 +40,6 @@ std::string ConfigureWhy(const ConfigureStatus& s, const CoefficientTable& table
   }
   return std::string("the table does not configure a controller: ") + ErrorName(s.error);
 }
-
-}  // namespace
 
 RuntimeParams::RuntimeParams(const CoefficientTable& table, const FirmwareConfig& config)
     : table_(table), config_(config) {}
@@ -92,7 +95,7 @@ RuntimeParams::Result RuntimeParams::PostSetLocked(std::string_view name, std::s
   if (const ConfigureStatus e = probe->Configure(table_, next.controller); !e.ok()) {
     r.status = Status::kRefused;
     r.message = std::string(name) + " = " + std::string(value) + ": " +
-                ConfigureWhy(e, table_, next.controller);
+                DescribeConfigureRefusal(e, table_, next.controller);
     return r;
   }
   if (loop_ended_.load(std::memory_order_acquire)) {
@@ -134,7 +137,7 @@ RuntimeParams::Result RuntimeParams::PostReloadLocked(const FirmwareConfig& conf
   }
   auto fresh = std::make_unique<Controller>();
   if (const ConfigureStatus e = fresh->Configure(table, config.controller); !e.ok()) {
-    r.message = ConfigureWhy(e, table, config.controller);
+    r.message = DescribeConfigureRefusal(e, table, config.controller);
     return r;
   }
   if (check) {

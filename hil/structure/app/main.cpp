@@ -117,13 +117,13 @@ int main(int argc, char** argv) {
   if (*design_cmd) {
     mrd::firmware::ClippedOptimalGains gains;
     if (!mrd::structure::DesignClippedOptimal(frame, design, &gains, &error)) {
-      std::fprintf(stderr, "%s\n", error.c_str());
+      std::fprintf(stderr, "error: %s\n", error.c_str());
       return 2;
     }
     const std::string toml = mrd::structure::GainsToml(gains, design);
     if (!design_out.empty()) {
       if (!WriteAtomically(design_out, toml, &error)) {
-        std::fprintf(stderr, "%s\n", error.c_str());
+        std::fprintf(stderr, "error: %s\n", error.c_str());
         return 1;
       }
     } else {
@@ -134,24 +134,25 @@ int main(int argc, char** argv) {
   // study
   mrd::SpencerParams damper;
   if (!mrd::SpencerParams::FromPreset(preset, &damper)) {
-    std::fprintf(stderr, "--damper: unknown preset '%s' (spencer1997, paper)\n", preset.c_str());
+    std::fprintf(stderr, "error: --damper: unknown preset '%s' (spencer1997, paper)\n",
+                 preset.c_str());
     return 2;
   }
   mrd::GroundRecord record;
   if (!mrd::LoadGroundRecord(record_path, &record, &error)) {
-    std::fprintf(stderr, "%s\n", error.c_str());
+    std::fprintf(stderr, "error: %s\n", error.c_str());
     return 2;
   }
   mrd::structure::Reference reference;
   if (!reference_path.empty() &&
       !mrd::structure::LoadReference(reference_path, &reference, &error)) {
-    std::fprintf(stderr, "--reference: %s\n", error.c_str());
+    std::fprintf(stderr, "error: --reference: %s\n", error.c_str());
     return 2;
   }
   mrd::firmware::ClippedOptimalGains gains;
   std::fprintf(stderr, "designing the clipped-optimal law ...\n");
   if (!mrd::structure::DesignClippedOptimal(frame, study.design, &gains, &error)) {
-    std::fprintf(stderr, "%s\n", error.c_str());
+    std::fprintf(stderr, "error: %s\n", error.c_str());
     return 2;
   }
   std::vector<mrd::structure::Response> rows;
@@ -159,7 +160,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "running %s ...\n", mrd::structure::CaseName(c));
     mrd::structure::Response r;
     if (!mrd::structure::RunCase(c, record, frame, damper, gains, study, &r, &error)) {
-      std::fprintf(stderr, "%s\n", error.c_str());
+      std::fprintf(stderr, "error: %s\n", error.c_str());
       return 2;
     }
     rows.push_back(r);
@@ -174,7 +175,7 @@ int main(int argc, char** argv) {
   }
   std::fputs(table.c_str(), stdout);
   if (!study_out.empty() && !WriteAtomically(study_out, table, &error)) {
-    std::fprintf(stderr, "%s\n", error.c_str());
+    std::fprintf(stderr, "error: %s\n", error.c_str());
     return 1;
   }
   return matches ? 0 : 3;

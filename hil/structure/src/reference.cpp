@@ -133,8 +133,15 @@ bool LoadReference(const std::string& path, Reference* out, std::string* error) 
     }
     ref.rows.push_back(row);
   }
-  if (!header) return fail(std::string("no header ") + kHeader);
-  if (ref.rows.empty()) return fail("no case rows");
+  // Whole-file reasons name no line (an empty file has none).
+  if (!header) {
+    *error = where + ": no header " + kHeader;
+    return false;
+  }
+  if (ref.rows.empty()) {
+    *error = where + ": no case rows";
+    return false;
+  }
   *out = ref;
   return true;
 }

@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdlib>
+#include <sstream>
 #include <string>
 
 namespace mrd::cli {
@@ -22,9 +23,15 @@ class FiniteRange : public CLI::Range {
   template <typename T>
   FiniteRange(T min, T max) : CLI::Range(min, max) {
     auto range = func_;
-    func_ = [range](std::string& text) {
+    std::ostringstream bounds;  // as given (CLI11 says "0.010000 to 24.000000")
+    bounds << "[" << min << ", " << max << "]";
+    func_ = [range, b = bounds.str()](std::string& text) {
       std::string why = FiniteOrWhy(text);
-      return why.empty() ? range(text) : why;
+      if (!why.empty()) return why;
+      why = range(text);
+      return why.empty() || why.find(" not in range ") == std::string::npos
+                 ? why
+                 : "Value " + text + " not in " + b;
     };
   }
 };

@@ -28,6 +28,11 @@
 
 namespace mrd::firmware {
 
+// Why Controller::Configure refused a configuration with this table, in words: the values it
+// checks and what they must be, then the fault's name in brackets.
+std::string DescribeConfigureRefusal(const ConfigureStatus& s, const CoefficientTable& table,
+                                     const ControllerConfig& c);
+
 class RuntimeParams : public PeriodHook {
  public:
   // What a request ended in. kRefused: bad input, nothing changed (exit 2 for the client);
