@@ -72,6 +72,12 @@ DataSet ReadCsv(const std::string& path, std::span<const std::string> required) 
         throw InputError(path, lineno,
                          fmt::format("column '{}': non-finite value '{}'", ds.names[i], f));
       }
+      // Far beyond any measurement; squared sums of such values would overflow to inf.
+      if (std::fabs(value) > kMaxDataMagnitude) {
+        throw InputError(path, lineno,
+                         fmt::format("column '{}': value {} beyond +-1e100 (not a measurement)",
+                                     ds.names[i], f));
+      }
       ds.columns[i].push_back(value);
     }
   }

@@ -54,7 +54,7 @@ TEST(ScenarioSet, BadOverridesAreRefusedNamingThem) {
        "--set control.skyhook_gain=abc: 'skyhook_gain' must be a number"},
       {"control.skyhook_gain=-1", "--set control.skyhook_gain=-1: 'skyhook_gain' must be a number"},
       {"control.gain=1", "--set control.gain=1: unknown key 'gain' in [control]"},
-      {"nosuch.key=1", "--set nosuch.key=1: unknown key 'nosuch'"},
+      {"nosuch.key=1", "--set nosuch.key=1: unknown section [nosuch]"},
       {"road.seed=1.5", "--set road.seed=1.5: 'seed' must be an integer"},
       {"control.law=magic", "--set control.law=magic: law must be"},
       {"duration_s", "--set duration_s: expected KEY=VALUE"},

@@ -246,6 +246,17 @@ TEST_F(RobustCliTest, LogExportRefusesARepeatedField) {
   EXPECT_FALSE(fs::exists(csv));
 }
 
+TEST_F(RobustCliTest, AnAbsurdlyLargeValueIsRefusedWithItsLine) {
+  const std::string huge = out_.File("huge.csv");
+  std::ofstream(huge) << "t,x,v,E,f\n0,0,0,0,0\n0.001,0,1,0,1e308\n0.002,0,2,0,1\n";
+  const std::string o = out_.File("s.csv");
+  ExpectRefused("simulate --model " + model_ + " --data " + huge + " --out " + o,
+                {huge + ":3: column 'f': value 1e308 beyond +-1e100"});
+  ExpectRefused("identify --data " + huge + " --spec " + Spec() + " --out " + out_.File("m.json"),
+                {"value 1e308 beyond"});
+  EXPECT_FALSE(fs::exists(o));
+}
+
 TEST_F(RobustCliTest, AModelFileWithAKeyGivenTwiceIsRefused) {
   std::string text = test::FileBytes(model_);
   const std::size_t at = text.find("\"selected\":");

@@ -25,6 +25,10 @@ constexpr std::uint64_t kMaxDataFileBytes = std::uint64_t{1} << 30;     // CSV d
 constexpr std::uint64_t kMaxModelFileBytes = std::uint64_t{256} << 20;  // model JSON, 256 MiB
 constexpr std::uint64_t kMaxSpecFileBytes = std::uint64_t{1} << 20;     // spec TOML, 1 MiB
 
+// Largest |value| a data file may hold: far beyond any measurement, and squares of a million
+// of them still sum to a finite number.
+constexpr double kMaxDataMagnitude = 1e100;
+
 // The whole content of a regular file of at most max_bytes (mrd::ReadInputFile). Throws
 // InputError(path, 0, reason): "is a directory, not a regular file", too large, unreadable.
 std::string ReadInputText(const std::string& path, std::uint64_t max_bytes);
