@@ -63,11 +63,11 @@ std::string InputFileRefusal(const InputFile& f, std::uint64_t max_bytes) {
   return "cannot be read";
 }
 
-bool ReadInputFile(const std::string& path, std::uint64_t max_bytes, std::string* text,
-                   std::string* error) {
+bool ReadInputFileOrWhy(const std::string& path, std::uint64_t max_bytes, std::string* text,
+                        std::string* reason) {
   const InputFile f = OpenInputFile(path.c_str(), max_bytes);
   if (f.fd < 0) {
-    *error = Printable(path) + ": " + InputFileRefusal(f, max_bytes);
+    *reason = InputFileRefusal(f, max_bytes);
     return false;
   }
   std::string out;
@@ -81,7 +81,7 @@ bool ReadInputFile(const std::string& path, std::uint64_t max_bytes, std::string
     const ssize_t r = ::read(f.fd, out.data() + n, out.size() - n);
     if (r < 0 && errno == EINTR) continue;
     if (r < 0) {
-      *error = Printable(path) + ": " + std::strerror(errno);
+      *reason = std::strerror(errno);
       ::close(f.fd);
       return false;
     }
@@ -90,13 +90,20 @@ bool ReadInputFile(const std::string& path, std::uint64_t max_bytes, std::string
   }
   ::close(f.fd);
   if (n > max_bytes) {
-    *error = Printable(path) + ": grew past the limit of " + std::to_string(max_bytes) +
-             " bytes while being read";
+    *reason = "grew past the limit of " + std::to_string(max_bytes) + " bytes while being read";
     return false;
   }
   out.resize(n);
   *text = std::move(out);
   return true;
+}
+
+bool ReadInputFile(const std::string& path, std::uint64_t max_bytes, std::string* text,
+                   std::string* error) {
+  std::string reason;
+  if (ReadInputFileOrWhy(path, max_bytes, text, &reason)) return true;
+  *error = Printable(path) + ": " + reason;
+  return false;
 }
 
 std::string Printable(std::string_view text, std::size_t max_chars) {

@@ -127,7 +127,7 @@ bool LoadTrace(const std::string& path, const std::string& demand_column, Trace*
       const double time = row[static_cast<std::size_t>(ct)];
       if (have_time && std::fabs(time - last_time - kTracePeriodS) > 1e-3 * kTracePeriodS) {
         *error = Printable(path) + ":" + std::to_string(lineno) + ": t steps by " +
-                 Printable(std::to_string(time - last_time)) +
+                 std::to_string(time - last_time) +
                  " s; the harness plays one row per 1 ms period (resample: mrd import --rate "
                  "1000)";
         return false;

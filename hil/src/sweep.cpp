@@ -176,8 +176,11 @@ std::string SweepCsv(const SweepGrid& grid, const std::vector<SweepScores>& rows
     for (const std::string& set : points[i]) o << set.substr(set.find('=') + 1) << ',';
     const SweepScores& s = rows[i];
     o << (s.pass ? 1 : 0) << ',' << s.invariant_violations << ',';
-    if (!ride) o << s.error_all << ',' << s.error_reachable;  // a quarter car has no tracking
-    if (ride) o << ',';
+    if (ride) {
+      o << ',';  // a quarter car has no tracking error: both cells empty
+    } else {
+      o << s.error_all << ',' << s.error_reachable;
+    }
     if (ride) {
       o << ',' << s.body_accel_rms << ',' << s.travel_rms_cm << ',' << s.tyre_load_rms_n << ','
         << s.body_accel_off << ',' << s.body_accel_on;

@@ -42,12 +42,9 @@ InputError::InputError(const std::string& file, std::size_t line, const std::str
     : std::runtime_error(Format(file, line, reason)), file_(file), line_(line) {}
 
 std::string ReadInputText(const std::string& path, std::uint64_t max_bytes) {
-  std::string text, error;
-  if (ReadInputFile(path, max_bytes, &text, &error)) return text;
-  // error is "PATH: reason"; the reason alone, so that InputError names the file once.
-  const std::string prefix = mrd::Printable(path) + ": ";
-  if (error.starts_with(prefix)) error.erase(0, prefix.size());
-  throw InputError(path, 0, error);
+  std::string text, reason;
+  if (ReadInputFileOrWhy(path, max_bytes, &text, &reason)) return text;
+  throw InputError(path, 0, reason);  // InputError names the file
 }
 
 }  // namespace mrd::host

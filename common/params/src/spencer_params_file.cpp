@@ -84,9 +84,8 @@ bool CheckPhysical(const SpencerParams& p, std::string* why) {
 bool LoadSpencerParamsFile(const std::string& path, SpencerParams* out, ParamsError* error) {
   // A regular file of at most 1 MiB (a directory, FIFO or device is refused, not parsed).
   std::string text, refusal;
-  if (!ReadInputFile(path, std::uint64_t{1} << 20, &text, &refusal)) {
-    const std::string prefix = Printable(path) + ": ";
-    *error = {0, refusal.rfind(prefix, 0) == 0 ? refusal.substr(prefix.size()) : refusal};
+  if (!ReadInputFileOrWhy(path, std::uint64_t{1} << 20, &text, &refusal)) {
+    *error = {0, refusal};  // the caller names the file
     return false;
   }
   toml::table tbl;

@@ -35,6 +35,11 @@ std::string InputFileRefusal(const InputFile& f, std::uint64_t max_bytes);
 bool ReadInputFile(const std::string& path, std::uint64_t max_bytes, std::string* text,
                    std::string* error);
 
+// The same with the reason alone in *reason (no path), for callers that name the file in
+// their own error format.
+bool ReadInputFileOrWhy(const std::string& path, std::uint64_t max_bytes, std::string* text,
+                        std::string* reason);
+
 // User input made safe to echo in one message line: control and non-ASCII bytes as \xNN,
 // cut after max_chars characters with "... (N more bytes)".
 inline constexpr std::size_t kMaxEchoChars = 400;
