@@ -3,12 +3,14 @@
 // granted time and its samples' stamps where they were, on CAN (the built-in mrd-native
 // profile), over Modbus TCP (the built-in register map and the modbus-float32 device profile),
 // and an encoder edge reported late after a caught-up read does not move the GPIO sample's
-// stamp back either; nor does a passed deadline move the dry run's lockstep clock.
+// stamp back either; nor does a passed deadline move the dry run's lockstep clock, nor an
+// older grant the loop's grant clock.
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <string>
 #include <thread>
@@ -16,6 +18,7 @@
 #include "can_device_peer.hpp"
 #include "gpio_test_peer.hpp"
 #include "modbus_test_peers.hpp"
+#include "mrd/firmware/grant_clock.hpp"
 #include "mrd/firmware/io.hpp"
 #include "mrd/firmware/io/gpio_device.hpp"
 #include "mrd/firmware/io/modbus_device.hpp"
@@ -40,6 +43,38 @@ TEST(LockstepClockOrder, ADeadlineInThePastLeavesTheClockWhereItIs) {
   EXPECT_EQ(clock.Now(), 5 * kMs);
   clock.SleepUntil(7 * kMs);
   EXPECT_EQ(clock.Now(), 7 * kMs);
+}
+
+// ---- The loop's grant clock ----
+
+// Hands out queued grants; an empty queue is a harness that says nothing for the slice.
+class QueuedGrants final : public TimeGrantSource {
+ public:
+  bool WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) override {
+    if (grants.empty()) {
+      std::this_thread::sleep_for(std::chrono::nanoseconds(timeout_ns));
+      return false;
+    }
+    *t_ns = grants.front();
+    grants.pop_front();
+    return true;
+  }
+  std::deque<std::int64_t> grants;
+};
+
+// An older grant is the last word before the harness goes: the clock halts at the newest
+// time it was granted, not at the older one.
+TEST(GrantClockOrder, AnOlderGrantBeforeTheHarnessGoesLeavesTheTimeWhereItWas) {
+  QueuedGrants src;
+  GrantClock clock(src, 30 * kMs);
+  src.grants = {3 * kMs};
+  clock.SleepUntil(3 * kMs);
+  ASSERT_EQ(clock.Now(), 3 * kMs);
+  src.grants = {1 * kMs};
+  clock.SleepUntil(4 * kMs);
+  EXPECT_TRUE(clock.gave_up());
+  EXPECT_EQ(clock.Now(), 3 * kMs);
+  EXPECT_EQ(clock.grants(), 2u);
 }
 
 // ---- CAN ----
