@@ -28,11 +28,13 @@ inline std::string CaseName(const testing::TestParamInfo<Case>& info) {
 }
 
 // Seeds 1 ... seeds of the case, default settings; the target as a rate: 19 in 20 at
-// N = 1000, 17 in 20 at N = 500 (seeds a multiple of 20).
-inline void ExpectTargetRate(const Case& c, int seeds) {
+// N = 1000, 17 in 20 at N = 500 (seeds a multiple of 20). workers: threads sharing the seeds
+// (CountRecovered; 0: one per core), each seed identified on one thread.
+inline void ExpectTargetRate(const Case& c, int seeds, unsigned workers = 1) {
   host::SemOptions o;
   o.threads = 1;  // CTest runs the cases in parallel
-  const RecoveryCount r = CountRecovered(RecoverySystems()[c.system], c.noise, c.n, seeds, o);
+  const RecoveryCount r =
+      CountRecovered(RecoverySystems()[c.system], c.noise, c.n, seeds, o, kRecoverySpec, workers);
   testing::Test::RecordProperty("hits", r.hits);
   EXPECT_GE(r.hits, seeds / 20 * (c.n >= 1000 ? 19 : 17)) << r.hits << "/" << seeds << "; misses:\n"
                                                           << r.misses;
