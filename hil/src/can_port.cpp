@@ -128,6 +128,16 @@ class CanPort final : public PlantPort {
   }
 
   void Publish(const SensorOutput& out) override {
+    // The step's frames go to the bus together (the relay's Hold): lockstep, with the grant
+    // (SendGrant releases them); else at the end of this call.
+    struct Batch {
+      canbus::LocalBusRelay* relay;
+      bool until_grant;
+      ~Batch() {
+        if (relay != nullptr && !until_grant) relay->Release();
+      }
+    } batch{relay_, lockstep_};
+    if (relay_ != nullptr) relay_->Hold();
     last_published_ = out.seq;
     const std::int64_t now = common::MonotonicNs();
     if (!IsOpen()) Reconnect(now);
@@ -201,6 +211,11 @@ class CanPort final : public PlantPort {
   }
 
   bool SendGrant(std::int64_t t_ns) override {
+    const bool sent = SendGrantFrame(t_ns);
+    if (relay_ != nullptr) relay_->Release();  // the step's sensor frames (Publish) and grant
+    return sent;
+  }
+  bool SendGrantFrame(std::int64_t t_ns) {
     const std::int64_t now = common::MonotonicNs();
     if (!IsOpen()) Reconnect(now);
     if (!IsOpen()) return false;
