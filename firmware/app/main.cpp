@@ -40,7 +40,9 @@
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
 #include "mrd/firmware/table_update.hpp"
+#include "mrd/params/spencer_params_file.hpp"
 #include "summary_json.hpp"
+#include "wait_bus.hpp"
 
 namespace {
 
@@ -109,11 +111,12 @@ constexpr const char* kHelp =
     "Usage:\n"
     "  mrd-firmware [--table FILE] --config FILE.toml [--duration SECONDS] [--log FILE] [--json]\n"
     "  mrd-firmware [--table FILE] [--config FILE.toml] --dry-run SECONDS [--lockstep]\n"
-    "               [--log FILE] [--json]\n"
+    "               [--plant FILE] [--ignore-buses] [--log FILE] [--json]\n"
     "  mrd-firmware [--table FILE] --write-table OUT.bin\n"
     "  mrd-firmware --print-config-reference\n"
     "  mrd-firmware --check-config FILE.toml | --check-table FILE [--config F] [--rollback]\n"
     "  mrd-firmware --install-table NEW --to DEST [--config FILE.toml]\n"
+    "  mrd-firmware --wait-for-bus FILE.toml [--timeout SECONDS]\n"
     "  mrd-firmware ctl [--socket PATH] list | get NAME | set NAME VALUE | save\n"
     "  mrd-firmware --help\n"
     "\n"
@@ -129,6 +132,11 @@ constexpr const char* kHelp =
     "  --dry-run SECONDS   run the control loop that long against the built-in simulated\n"
     "                      Spencer damper, then print the counters\n"
     "  --lockstep          dry run in simulated time (no sleeping; deterministic, fast)\n"
+    "  --plant FILE        dry run: the simulated damper's Spencer parameters from FILE (the\n"
+    "                      TOML of `mrd fit-spencer` and a HIL scenario's [plant] params;\n"
+    "                      docs/plants.md) instead of the reference damper's\n"
+    "  --ignore-buses      dry run with a config that has bus sections: leave them out and run\n"
+    "                      everything else as configured (law, limits, envelope, log)\n"
     "  --json              print the counters as JSON\n"
     "  --log FILE          write the per-period log to FILE (docs/logging.md; read it with\n"
     "                      `mrd log info FILE`); overrides [log] path; default: [log] path,\n"
@@ -141,6 +149,10 @@ constexpr const char* kHelp =
     "                      read and change runtime parameters while the loop runs with\n"
     "                      mrd-firmware ctl (docs/tuning.md); a path a live firmware serves\n"
     "                      is refused, a stale socket file replaced\n"
+    "  --wait-for-bus FILE wait until the SocketCAN interface of FILE's [can] section exists\n"
+    "                      and is up, at most --timeout SECONDS (default 30), then exit 0;\n"
+    "                      exit 1 naming the interface if it is not (the service's\n"
+    "                      ExecStartPre; nothing to wait for without a [can] interface)\n"
     "  --print-config-reference  every config key with default, unit, range (Markdown)\n"
     "  --help              this text\n"
     "\n"
@@ -160,6 +172,7 @@ struct Options {
   const char* write_table = nullptr;
   const char* ctl_socket = nullptr;
   const char* log = nullptr;
+  const char* plant = nullptr;  // --plant FILE (dry run)
   double dry_run_s = -1.0;
   double duration_s = -1.0;
   bool lockstep = false;
@@ -167,6 +180,7 @@ struct Options {
   bool help = false;
   bool print_config_reference = false;
   bool allow_demo_table = false;
+  bool ignore_buses = false;
 };
 
 bool ParseArgs(int argc, char** argv, Options* o) {
@@ -196,6 +210,10 @@ bool ParseArgs(int argc, char** argv, Options* o) {
         std::fprintf(stderr, "error: --log needs a file name\n");
         return false;
       }
+    } else if (a == "--plant") {
+      if (!value(&o->plant)) return false;
+    } else if (a == "--ignore-buses") {
+      o->ignore_buses = true;
     } else if (a == "--write-table") {
       if (!value(&o->write_table)) return false;
     } else if (a == "--dry-run") {
@@ -289,11 +307,17 @@ struct RunSummary {
   double rms_tracking;  // [N]
 };
 
+// The dry run's damper as the summary names it.
+const char* DryRunPlantName(const Options& o) {
+  return o.plant != nullptr ? o.plant : "reference damper (paper preset)";
+}
+
 // --json: one JSON object (summary_json.hpp).
 void PrintSummaryJson(const TelemetrySnapshot& s, const RunSummary& r) {
   SummaryInfo info;
   info.mode = r.buses ? "bus" : (r.o.lockstep ? "lockstep" : "realtime");
   info.table = r.table_name;
+  info.plant = r.buses ? "" : DryRunPlantName(r.o);
   info.law = ControlModeName(r.cfg.controller.law.mode);
   info.seconds = r.seconds;
   info.period_us = static_cast<double>(r.cfg.period_ns) / 1e3;
@@ -328,10 +352,11 @@ void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
   const bool buses = r.buses;
   const double seconds = r.seconds, rms_model = r.rms_model, rms_tracking = r.rms_tracking;
   const auto cause = [&](FaultCause c) { return static_cast<std::size_t>(c); };
-  std::printf("mrd-firmware %s (%s, %.6g s, period %.6g us, law %s, table %s)\n",
+  std::printf("mrd-firmware %s (%s, %.6g s, period %.6g us, law %s, table %s%s%s)\n",
               buses ? "run" : "dry run", buses ? "buses" : (o.lockstep ? "lockstep" : "real time"),
               seconds, static_cast<double>(cfg.period_ns) / 1e3,
-              ControlModeName(cfg.controller.law.mode), table_name);
+              ControlModeName(cfg.controller.law.mode), table_name, buses ? "" : ", plant ",
+              buses ? "" : mrd::Printable(DryRunPlantName(o)).c_str());
   std::printf("  real time:        SCHED_FIFO %s, memory %s\n", rt.sched_fifo ? "yes" : "no",
               rt.memory_locked ? "locked" : "not locked");
   std::printf("  ticks:            %llu\n", static_cast<unsigned long long>(s.ticks));
@@ -353,6 +378,10 @@ void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
   }
   std::printf("\n  unreachable:      %llu force demands saturated\n",
               static_cast<unsigned long long>(s.unreachable));
+  std::printf("  passive demands:  %llu (0 N or against v: E_min)\n",
+              static_cast<unsigned long long>(s.passive_demands));
+  std::printf("  non-monotone:     %llu periods (model not monotone in E at the state)\n",
+              static_cast<unsigned long long>(s.non_monotone));
   std::printf("  model resets:     %llu\n", static_cast<unsigned long long>(s.model_resets));
   std::printf("  envelope:         %llu periods with v/x held, %llu with the force held\n",
               static_cast<unsigned long long>(s.envelope_excursions),
@@ -467,6 +496,20 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
   worker.join();
 }
 
+// The command line's settings over the config's, at start-up and on every reload alike (they
+// are not config changes): --ctl-socket, --log, --ignore-buses (a dry run without the buses).
+void ApplyCommandLine(const Options& o, FirmwareConfig* cfg) {
+  if (o.ctl_socket != nullptr) {
+    cfg->ctl_socket = o.ctl_socket;
+    cfg->ctl_enable = true;
+  }
+  if (o.log != nullptr) {
+    cfg->log.path = o.log;
+    cfg->log.enabled = true;
+  }
+  if (o.ignore_buses && o.dry_run_s > 0.0) cfg->io = IoConfig{};
+}
+
 // The application's checks of a reload (as at start-up): "" or why it is refused.
 std::string ReloadCheck(const Options& o, std::uint32_t served, bool buses,
                         const FirmwareConfig& /*next*/, const mrd::CoefficientTable& table,
@@ -494,10 +537,7 @@ void ReloadNow(const Options& o, RuntimeParams& params, const RuntimeParams::Rel
     std::fprintf(stderr, "%s %s\n", keep, error.c_str());
     return;
   }
-  if (o.ctl_socket != nullptr) {
-    next.ctl_socket = o.ctl_socket;
-    next.ctl_enable = true;
-  }
+  ApplyCommandLine(o, &next);
   mrd::CoefficientTable table = kBuiltinTable;
   if (o.table != nullptr) {
     std::string reason;
@@ -573,10 +613,13 @@ int LoadRunConfig(const Options& o, const mrd::CoefficientTable& table, Firmware
     }
   }
   cfg->controller.e_max = cfg->e_max.value_or(table.e_max);
-  if (o.ctl_socket != nullptr) {
-    cfg->ctl_socket = o.ctl_socket;
-    cfg->ctl_enable = true;
+  if (o.ignore_buses && cfg->io.any()) {
+    std::fprintf(stderr,
+                 "mrd-firmware: --ignore-buses: dry run without the bus sections of %s "
+                 "([can], [modbus], [gpio], [pwm])\n",
+                 o.config != nullptr ? o.config : "the configuration");
   }
+  ApplyCommandLine(o, cfg);
   return kContinue;
 }
 
@@ -613,8 +656,13 @@ int CheckRunMode(const Options& o, const FirmwareConfig& cfg, const mrd::Coeffic
   if (buses && o.dry_run_s > 0.0) {
     std::fprintf(stderr,
                  "error: --dry-run runs the simulated damper; %s has bus sections "
-                 "([can], [modbus], [gpio], [pwm]): drop --dry-run, or use a config without them\n",
+                 "([can], [modbus], [gpio], [pwm]): drop --dry-run, use a config without them, "
+                 "or pass --ignore-buses to dry-run the rest of it\n",
                  o.config);
+    return kExitBadInput;
+  }
+  if (o.ignore_buses && o.dry_run_s <= 0.0) {
+    std::fprintf(stderr, "error: --ignore-buses is for --dry-run\n");
     return kExitBadInput;
   }
   if (!buses && o.dry_run_s <= 0.0) {
@@ -647,6 +695,25 @@ int CheckRunMode(const Options& o, const FirmwareConfig& cfg, const mrd::Coeffic
     return kExitBadInput;
   }
   if (!buses && !CheckDryRun(o.dry_run_s, cfg.period_ns)) return kExitBadInput;
+  return kContinue;
+}
+
+// The dry run's damper: --plant FILE, else the reference damper. kContinue or kExitBadInput
+// ("error: FILE:LINE: reason").
+int LoadDryRunPlant(const Options& o, mrd::SpencerParams* plant) {
+  *plant = mrd::SpencerParams::Paper();
+  if (o.plant == nullptr) return kContinue;
+  if (o.dry_run_s <= 0.0) {
+    std::fprintf(stderr, "error: --plant is for --dry-run (the simulated damper)\n");
+    return kExitBadInput;
+  }
+  mrd::params::ParamsError e;
+  if (!mrd::params::LoadSpencerParamsFile(o.plant, plant, &e)) {
+    std::fprintf(stderr, "error: %s%s: %s\n", mrd::Printable(o.plant).c_str(),
+                 e.line > 0 ? (":" + std::to_string(e.line)).c_str() : "",
+                 mrd::Printable(e.reason).c_str());
+    return kExitBadInput;
+  }
   return kContinue;
 }
 
@@ -739,12 +806,12 @@ int RunOnBuses(const Options& o, const FirmwareConfig& cfg, Controller& controll
 
 // The loop on the simulated damper for --dry-run seconds: lockstep (simulated time, as fast
 // as it goes) or in real time.
-void RunDry(const Options& o, const FirmwareConfig& cfg, Controller& controller,
-            RuntimeParams& params, RunLog& log, RunOutcome* out) {
+void RunDry(const Options& o, const FirmwareConfig& cfg, const mrd::SpencerParams& damper,
+            Controller& controller, RuntimeParams& params, RunLog& log, RunOutcome* out) {
   const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
   if (o.lockstep) {
     LockstepClock clock;
-    SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
+    SimulatedDamper plant(damper, cfg.simulation, clock, cfg.period_ns);
     Loop loop(clock, plant, plant, controller, out->telemetry, cfg.period_ns);
     loop.SetHook(&params);
     log.Start("dry run, lockstep");
@@ -752,7 +819,7 @@ void RunDry(const Options& o, const FirmwareConfig& cfg, Controller& controller,
     loop.Run(g_stop, duration_ns);
   } else {
     MonotonicClock clock;
-    SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
+    SimulatedDamper plant(damper, cfg.simulation, clock, cfg.period_ns);
     log.Start("dry run, real time");
     RunRealTime(cfg, plant, plant, controller, out->telemetry, duration_ns, &out->rt, &params,
                 log.observer());
@@ -775,10 +842,8 @@ int Run(const Options& o) {
   if (const int rc = CheckRunMode(o, cfg, table, table_name, controller); rc != kContinue) {
     return rc;
   }
-  if (o.log != nullptr) {
-    cfg.log.path = o.log;
-    cfg.log.enabled = true;
-  }
+  mrd::SpencerParams plant;
+  if (const int rc = LoadDryRunPlant(o, &plant); rc != kContinue) return rc;
   RunLog log(cfg, table_name);
   // Runtime parameters, the control socket and the SIGHUP reload watch (a thread of their
   // own, off the loop's; docs/tuning.md).
@@ -808,7 +873,7 @@ int Run(const Options& o) {
       return rc;
     }
   } else {
-    RunDry(o, cfg, controller, params, log, &out);
+    RunDry(o, cfg, plant, controller, params, log, &out);
   }
   params.LoopEnded();
   server.Stop();
@@ -825,6 +890,9 @@ int Run(const Options& o) {
 int main(int argc, char** argv) {
   if (argc >= 2 && std::strcmp(argv[1], "ctl") == 0) {
     return FinishOutput(mrd::firmware::RunCtl(argc - 1, argv + 1));
+  }
+  if (argc >= 2 && std::strcmp(argv[1], "--wait-for-bus") == 0) {
+    return FinishOutput(mrd::firmware::RunWaitForBus(argc, argv));
   }
   if (const int status = RunMaintenance(argc, argv); status >= 0) return status;
   InstallStopHandlers();

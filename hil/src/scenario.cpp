@@ -83,6 +83,9 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 table = "FILE.bin" (the firmware's table, `mrd export`, relative to the
                 scenario; --table overrides; default: the compiled-in table)
   [pass]        max_invariant_violations (0), max_error_reachable, max_error_all,
+                min_reachable_share (0.25: with max_error_reachable, the least share of the
+                controlled steps whose demand is reachable; below it the run fails, since
+                the reachable error would score a small part of it),
                 max_missed_grants, max_detection_to_safe_periods (2), require_recovery (true),
                 min_replay_fit (replay: least fit % of plant force vs measured f),
                 expect_firmware_exit (e.g. 2 with a corrupt_table fault),
@@ -313,6 +316,7 @@ class ScenarioReader {
          Int(&pass_max_viol_, 0, 1000000000, "max_invariant_violations")},
         {"max_error_reachable", Num(&err_reach_, 0.0, 1e6, "max_error_reachable")},
         {"max_error_all", Num(&err_all_, 0.0, 1e6, "max_error_all")},
+        {"min_reachable_share", Num(&s.min_reachable_share, 0.0, 1.0, "min_reachable_share")},
         {"min_replay_fit", Num(&replay_fit_, -1e9, 100.0, "min_replay_fit")},
         {"max_missed_grants", Num(&max_missed_, 0.0, 1e12, "max_missed_grants")},
         {"max_detection_to_safe_periods",

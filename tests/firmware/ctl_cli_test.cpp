@@ -258,5 +258,35 @@ TEST(CtlCliTest, SighupWithABadTableKeepsTheOldOneAGoodOneSwitches) {
   EXPECT_NE(out.find("\"final_safe_state\": true"), std::string::npos) << out;
 }
 
+// Command-line settings are not config changes: a firmware started with --log (and
+// --ctl-socket) reloads on SIGHUP, and the log keeps being written to the same file.
+TEST(CtlCliTest, SighupWithLogOnTheCommandLineReloads) {
+  TempDir dir;
+  const std::string cfg =
+      dir.Write("fw.toml", "[control]\nlaw = \"skyhook\"\nskyhook_gain = 40.0\n");
+  const std::string sock = dir.File("ctl.sock");
+  const std::string log = dir.File("run.mrdlog");
+  Running fw({"--config", cfg, "--log", log}, sock);
+  ASSERT_TRUE(fw.ready) << fw.child.Stderr();
+  dir.Write("fw.toml", "[control]\nlaw = \"skyhook\"\nskyhook_gain = 70.0\n");
+  fw.child.Signal(SIGHUP);
+  ASSERT_TRUE(Eventually([&] {
+    const std::string e = fw.child.Stderr();
+    return e.find("reloaded config") != std::string::npos ||
+           e.find("reload refused") != std::string::npos;
+  })) << fw.child.Stderr();
+  EXPECT_EQ(fw.child.Stderr().find("reload refused"), std::string::npos) << fw.child.Stderr();
+  const CommandResult r = test::Run(Ctl(sock, "get control.skyhook_gain"));
+  EXPECT_NE(r.output.find("= 70.0 "), std::string::npos) << r.output;
+  fw.child.Signal(SIGTERM);
+  ASSERT_EQ(fw.child.Wait(20.0), 0) << fw.child.Stderr();
+  const std::string out = fw.child.Stdout();
+  EXPECT_NE(out.find("\"parameters\": {\"changes\": 0, \"reloads\": 1}"), std::string::npos) << out;
+  EXPECT_NE(out.find("\"path\": \"" + log + "\""), std::string::npos) << out;
+  struct stat st {};
+  ASSERT_EQ(stat(log.c_str(), &st), 0);
+  EXPECT_GT(st.st_size, 1000) << "the log was written";
+}
+
 }  // namespace
 }  // namespace mrd::test

@@ -79,6 +79,10 @@ constexpr FieldDef kFields[] = {
     {"causes", Type::kU32, "", [](const PeriodRecord& r) { return std::uint64_t{r.causes}; }},
     {"param_version", Type::kU32, "",
      [](const PeriodRecord& r) { return std::uint64_t{r.param_version}; }},
+    {"passive", Type::kU8, "",
+     [](const PeriodRecord& r) { return std::uint64_t{r.passive ? 1U : 0U}; }},
+    {"non_monotone", Type::kU8, "",
+     [](const PeriodRecord& r) { return std::uint64_t{r.non_monotone ? 1U : 0U}; }},
 };
 
 std::uint64_t RoundUpPow2(std::uint64_t n) {

@@ -66,9 +66,10 @@ struct Scenario {
   double heartbeat_timeout_s = 0.05;  // simulated driver: coil to 0 V without a heartbeat
   // [plant]
   std::string preset = "paper";
-  std::string params_file;  // [plant] params (resolved against the scenario's folder)
-  SpencerParams damper;     // the plant's damper: preset or params file, then the
-                            // [plant.spencer] overrides (plant_params.cpp)
+  std::string params_file;       // [plant] params (resolved against the scenario's folder)
+  SpencerParams damper;          // the plant's damper: preset or params file, then the
+                                 // [plant.spencer] overrides (plant_params.cpp)
+  bool plant_overrides = false;  // [plant.spencer] has keys
   int substeps = 20;
   bool quarter_car = false;  // model = "quarter-car": the damper in a quarter car on
                              // an ISO 8608 road ([quarter_car], [road]); else the
@@ -113,6 +114,9 @@ struct Scenario {
   // [pass]
   std::uint64_t max_invariant_violations = 0;
   std::optional<double> max_error_reachable;  // ||f - d|| / ||d|| over reachable demands
+  // With max_error_reachable: the least share of the controlled steps that must be reachable
+  // for that error to score the run (below it the run fails, saying so).
+  double min_reachable_share = 0.25;
   std::optional<double> max_error_all;
   std::optional<double> min_replay_fit;  // replay: plant force vs measured f [%]
   std::optional<std::uint64_t> max_missed_grants;

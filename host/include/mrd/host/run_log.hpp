@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "mrd/common/time_window.hpp"
 #include "mrd/runlog/runlog.hpp"
 
 namespace mrd::host {
@@ -28,9 +29,12 @@ std::string RunLogDamageNote(const runlog::Log& log, const std::string& path);
 std::string RunLogCsv(const runlog::Log& log, const std::vector<std::string>& fields);
 
 // DIR/<stem>_time.png: force (model, demand, measured), voltage (command, law's E) and state
-// (safe, each watchdog cause) over time from the first record [s], the safe state shaded.
-// Returns the file written. Needs gnuplot. progress: one line per step (may be empty).
+// (safe, each watchdog cause) over a window of the log (window, or the first 5 s; time from
+// the first record [s]), sample by sample, the safe state shaded; below, an overview of the
+// whole log (the forces' envelopes) with the window marked. Returns the file written. Needs
+// gnuplot. progress: one line per step (may be empty).
 std::string PlotRunLog(const runlog::Log& log, const std::string& path, const std::string& out_dir,
+                       const TimeWindow* window,
                        const std::function<void(const std::string&)>& progress);
 
 }  // namespace mrd::host
