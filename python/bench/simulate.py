@@ -57,7 +57,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         data = os.path.join(tmp, "identification.csv")
         subprocess.run([mrd_exe, "generate", "--profile", "identification", "--seed", "1",
-                        "--out", data], check=True)
+                        "--out", data], check=True, stdout=subprocess.DEVNULL)
         model = mrd.load_model(model_path)
         arrays = {k: np.asarray(v) for k, v in mrd.read_data(data, frame=False).items()}
         samples = len(arrays["t"])

@@ -63,7 +63,7 @@ def test_simulate_other_iteration_and_the_envelope_warning(data_dir):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         r = model.simulate(data, iteration=3)
-    assert r == {**json.loads(cli.stdout), **{k: r[k] for k in ("t", "f", "f_sim")}}
+    assert {k: v for k, v in r.items() if k not in ("t", "f", "f_sim")} == json.loads(cli.stdout)
     # The CLI's stderr lines, as warnings.
     expected = [l[len("warning: "):] for l in cli.stderr.splitlines() if l.startswith("warning: ")]
     assert expected and [str(w.message) for w in caught] == expected
