@@ -152,14 +152,15 @@ DataSet MakeDataSet(const std::string& source, std::vector<std::string> names,
     }
     for (std::size_t r = 0; r < rows; ++r) {
       const double v = columns[i][r];
-      const std::string text = fmt::format("{}", v);
       if (!std::isfinite(v)) {
-        throw InputError(source, 0,
-                         fmt::format("row {}: {}", r, NonFiniteReason(ds.names[i], text)));
+        throw InputError(
+            source, 0,
+            fmt::format("row {}: {}", r, NonFiniteReason(ds.names[i], fmt::format("{}", v))));
       }
       if (std::fabs(v) > kMaxDataMagnitude) {
-        throw InputError(source, 0,
-                         fmt::format("row {}: {}", r, MagnitudeReason(ds.names[i], text)));
+        throw InputError(
+            source, 0,
+            fmt::format("row {}: {}", r, MagnitudeReason(ds.names[i], fmt::format("{}", v))));
       }
     }
   }
