@@ -32,9 +32,9 @@ def same_bits(a, b):
     return a.shape == b.shape and a.tobytes() == b.tobytes()
 
 
-@pytest.mark.parametrize("profile", ["v1", "v2", "wide"])
-def test_simulate_is_the_cli(profile, data_dir, tmp_path):
-    data = data_dir / f"{profile}.csv"
+@pytest.mark.parametrize("profile", ["v1", "v2", "wide", "nees"])
+def test_simulate_is_the_cli(profile, data_dir, nees_held, tmp_path):
+    data = nees_held if profile == "nees" else data_dir / f"{profile}.csv"
     out = tmp_path / "sim.csv"
     cli = cli_json(["mrd", "simulate", "--model", PAPER_MODEL, "--data", data, "--json",
                     "--out", out])

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import mrd
-from conftest import PAPER_MODEL, cli_error, run
+from conftest import PAPER_MODEL, SRC, cli_error, run
 
 
 def same_bits(a, b):
@@ -100,7 +100,6 @@ def test_check_table_is_the_firmware_check(tmp_path):
     with pytest.raises(ValueError) as e:
         mrd.read_table(bad)
     scenario = "hil/scenarios/force-periodic.toml"
-    from conftest import SRC
     assert str(e.value) == cli_error(["mrd-hil", "run", f"{SRC}/{scenario}", "--table", bad])
     with pytest.raises(ValueError, match="^table image: "):
         mrd.table_from_bytes(bytes(image))
