@@ -55,6 +55,11 @@ all_packages=(
   g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
   # The virtual board: an arm64 kernel from Debian's source, QEMU, the initramfs tools.
   linux-source qemu-system-arm flex bison bc cpio
+  # The Python module `import mrd` (python/, docs/python.md): its build (Python headers,
+  # pybind11, numpy), its tests (pytest; pandas for the DataFrame path), the example's plots
+  # (matplotlib), and `pip install` of the build into a virtual environment.
+  python3-dev pybind11-dev python3-numpy python3-pytest python3-pandas python3-matplotlib
+  python3-pip python3-venv python3-setuptools python3-wheel
 )
 case "$tier" in
   demo) packages=("${demo_packages[@]}") ;;

@@ -30,23 +30,6 @@ struct ExportOptions {
   double e_min = 0.0, e_max = 2.25;  // [V]
 };
 
-// The inverted input must be a signal of the model that iteration k's terms read.
-void CheckInputRead(const ModelFile& mf, int k, const mrd::Model& model, const std::string& input) {
-  const std::vector<std::string> signals = mf.spec.Signals();
-  if (input == mf.spec.output ||
-      std::find(signals.begin(), signals.end(), input) == signals.end()) {
-    throw InputError(mf.path, 0,
-                     fmt::format("--input '{}' is not an input signal of the model (it has: {})",
-                                 input, fmt::join(signals.begin() + 1, signals.end(), ",")));
-  }
-  if (model.ChannelIndex(input.c_str()) < 0) {
-    throw InputError(mf.path, 0,
-                     fmt::format("iteration {} ({} terms) does not read input '{}': nothing to "
-                                 "invert; export an iteration whose terms read it",
-                                 k, mf.Iteration(k).terms.size(), input));
-  }
-}
-
 void RunExport(const ExportOptions& o) {
   if (o.table.empty() && o.header.empty()) {
     throw InputError("", 0, "nothing to write: give --table and/or --header");
@@ -57,13 +40,8 @@ void RunExport(const ExportOptions& o) {
   const ModelFile mf = LoadModelFile(o.model);
   const int k = o.iteration.value_or(mf.selected);
   const SemIteration& it = mf.Iteration(k);  // InputError "no iteration K" when absent
-  const mrd::Model model = ToRuntimeModel(mf, k);
-  CheckInputRead(mf, k, model, o.input);
-  CoefficientTable table = MakeUncheckedTable(model, o.e_min, o.e_max, o.input, o.model);
-  // Operating envelope (table v2); model files from before it was recorded export without.
-  const bool envelope = SetTableEnvelope(mf, &table);
-  // Validated once, with its envelope, then encoded once for both forms.
-  if (std::string p = DescribeTableProblem(table); !p.empty()) throw InputError(o.model, 0, p);
+  bool envelope = false;
+  const CoefficientTable table = ExportTable(mf, k, o.input, o.e_min, o.e_max, &envelope);
   const TableBytes bytes = TableImage(table);
   // Encode both forms first, then write both or neither (WriteFilesAtomic).
   std::vector<std::pair<std::string, std::string>> files;

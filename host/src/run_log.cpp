@@ -26,12 +26,7 @@ std::string FieldList(const runlog::Header& h) {
 
 std::uint64_t Raw(const runlog::Log& log, const std::vector<std::uint32_t>& off, std::uint64_t r,
                   std::size_t i) {
-  const std::uint8_t* p =
-      log.records.data() + static_cast<std::size_t>(r * log.header.record_bytes() + off[i]);
-  const std::size_t n = runlog::TypeSize(log.header.fields[i].type);
-  std::uint64_t v = 0;
-  for (std::size_t k = n; k-- > 0;) v = (v << 8) | p[k];
-  return v;
+  return runlog::Bits(log, off, r, i);
 }
 
 std::string Text(const runlog::Log& log, const std::vector<std::uint32_t>& off, std::uint64_t r,
@@ -124,17 +119,18 @@ std::string RunLogInfo(const runlog::Log& log, const std::string& path) {
   return s;
 }
 
-std::string RunLogCsv(const runlog::Log& log, const std::vector<std::string>& fields) {
+std::vector<std::size_t> RunLogColumns(const runlog::Header& header,
+                                       const std::vector<std::string>& fields) {
   std::vector<std::size_t> cols;
   if (fields.empty()) {
-    for (std::size_t i = 0; i < log.header.fields.size(); ++i) cols.push_back(i);
+    for (std::size_t i = 0; i < header.fields.size(); ++i) cols.push_back(i);
   }
   for (const std::string& name : fields) {
-    const int i = runlog::FieldIndex(log.header, name);
+    const int i = runlog::FieldIndex(header, name);
     if (i < 0) {
-      throw InputError("", 0,
-                       fmt::format("--fields: unknown field '{}'; the log has: {}", name,
-                                   FieldList(log.header)));
+      throw InputError(
+          "", 0,
+          fmt::format("--fields: unknown field '{}'; the log has: {}", name, FieldList(header)));
     }
     // A repeated column would make a CSV that ReadCsv refuses (duplicate column).
     if (std::find(cols.begin(), cols.end(), static_cast<std::size_t>(i)) != cols.end()) {
@@ -142,6 +138,11 @@ std::string RunLogCsv(const runlog::Log& log, const std::vector<std::string>& fi
     }
     cols.push_back(static_cast<std::size_t>(i));
   }
+  return cols;
+}
+
+std::string RunLogCsv(const runlog::Log& log, const std::vector<std::string>& fields) {
+  const std::vector<std::size_t> cols = RunLogColumns(log.header, fields);
   const auto off = log.header.Offsets();
   std::string out;
   out.reserve(static_cast<std::size_t>(log.num_records) * cols.size() * 12 + 256);

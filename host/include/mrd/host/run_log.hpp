@@ -23,6 +23,11 @@ std::string RunLogInfo(const runlog::Log& log, const std::string& path);
 // A note on the damage ("" when none), e.g. "FILE: truncated: ...".
 std::string RunLogDamageNote(const runlog::Log& log, const std::string& path);
 
+// Indices of the named fields in the header, in the order given (every field when fields is
+// empty). Throws InputError for an unknown name (listing the fields) or a name given twice.
+std::vector<std::size_t> RunLogColumns(const runlog::Header& header,
+                                       const std::vector<std::string>& fields);
+
 // CSV text: header row of the field names, one row per record (integers exact, floats
 // shortest round-trip, non-finite as nan/inf). fields empty: every field; an unknown name
 // throws InputError listing the fields.
