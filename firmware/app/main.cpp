@@ -36,11 +36,15 @@
 #include "mrd/firmware/params_server.hpp"
 #include "mrd/firmware/period_log.hpp"
 #include "mrd/firmware/runtime_params.hpp"
+#include "mrd/firmware/safe_state.hpp"
 #include "mrd/firmware/sd_notify.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
 #include "mrd/firmware/table_update.hpp"
 #include "mrd/params/spencer_params_file.hpp"
+#include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/modbus_profile.hpp"
+#include "mrd/profile/pwm_profile.hpp"
 #include "summary_json.hpp"
 #include "wait_bus.hpp"
 
@@ -66,9 +70,12 @@ void InstallStopHandlers() {
   sa.sa_handler = OnSignal;
   sigemptyset(&sa.sa_mask);
   for (const int sig : {SIGINT, SIGTERM, SIGQUIT, SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM,
-                        SIGPROF, SIGXCPU, SIGXFSZ, SIGPWR, SIGSTKFLT}) {
+                        SIGPROF, SIGXCPU, SIGPWR, SIGSTKFLT}) {
     sigaction(sig, &sa, nullptr);
   }
+  // A file grown past the file-size limit (RLIMIT_FSIZE, `ulimit -f`) is the log's write
+  // error (EFBIG: the log stops, the loop keeps running), not a reason to stop the loop.
+  signal(SIGXFSZ, SIG_IGN);
   struct sigaction hup {};
   hup.sa_handler = OnReload;
   sigemptyset(&hup.sa_mask);
@@ -159,7 +166,8 @@ constexpr const char* kHelp =
     "Real time: SCHED_FIFO and mlockall are requested when the config allows; without the\n"
     "privilege a warning is printed and the loop runs at normal priority.\n"
     "SIGINT, SIGTERM, SIGQUIT, SIGPIPE and the other catchable terminating signals stop the\n"
-    "loop and leave the driver in the safe state.\n"
+    "loop and leave the driver in the safe state; SIGXFSZ (a file past `ulimit -f`) is\n"
+    "ignored: the log's write fails and stops the log, the loop keeps running.\n"
     "SIGHUP reloads the config and the table (the same paths): both are checked first (a bad\n"
     "one, or a changed key that needs a restart, is refused with the reason on stderr and the\n"
     "firmware keeps running on the old ones); otherwise a fresh controller takes over at a\n"
@@ -510,18 +518,44 @@ void ApplyCommandLine(const Options& o, FirmwareConfig* cfg) {
   if (o.ignore_buses && o.dry_run_s > 0.0) cfg->io = IoConfig{};
 }
 
+// A device profile the reload would read differently from the one the devices run on (the
+// file, its DBC or calibration changed): "" or what changed. The devices were built at
+// start-up; a new map takes a restart.
+std::string ChangedProfile(const FirmwareConfig& now, const FirmwareConfig& next) {
+  const auto digest = [](const auto& p) { return p ? p->digest : std::uint64_t{0}; };
+  const auto say = [](const std::string& section, const std::string& path) {
+    return "the [" + section + "] device profile " + (path.empty() ? "(built-in)" : path) +
+           " changed (the file, its DBC or calibration): the devices still run on the one "
+           "they started with; restart the firmware to apply it";
+  };
+  if (now.io.can.enabled && digest(now.io.can.can_profile) != digest(next.io.can.can_profile)) {
+    return say("can", next.io.can.profile);
+  }
+  if (now.io.modbus.enabled &&
+      digest(now.io.modbus.modbus_profile) != digest(next.io.modbus.modbus_profile)) {
+    return say("modbus", next.io.modbus.profile);
+  }
+  if (now.io.pwm.enabled && digest(now.io.pwm.pwm_profile) != digest(next.io.pwm.pwm_profile)) {
+    return say("pwm", next.io.pwm.profile);
+  }
+  return "";
+}
+
 // The application's checks of a reload (as at start-up): "" or why it is refused.
 std::string ReloadCheck(const Options& o, std::uint32_t served, bool buses,
-                        const FirmwareConfig& /*next*/, const mrd::CoefficientTable& table,
+                        const FirmwareConfig& next, const mrd::CoefficientTable& table,
                         const Controller& controller) {
   if (buses && controller.runtime().reads_displacement() &&
       (served & Bit(Input::kDisplacement)) == 0) {
     return "the model of the new table reads the displacement, but no bus serves input "
            "'displacement'";
   }
-  if (buses && !o.allow_demo_table && IsDemoTable(table)) {
+  // As at start-up: only a real device (not a loopback or pty simulation) needs the flag.
+  if (const std::string device = buses ? RealDeviceOf(next.io) : std::string();
+      !device.empty() && !o.allow_demo_table && IsDemoTable(table)) {
     return "the new table is the demo table, a model of the reference damper, not of yours "
-           "(start with --allow-demo-table to drive a device with it)";
+           "(start with --allow-demo-table to drive " +
+           device + " with it)";
   }
   return "";
 }
@@ -538,6 +572,10 @@ void ReloadNow(const Options& o, RuntimeParams& params, const RuntimeParams::Rel
     return;
   }
   ApplyCommandLine(o, &next);
+  if (const std::string why = ChangedProfile(params.config(), next); !why.empty()) {
+    std::fprintf(stderr, "%s %s\n", keep, mrd::Printable(why).c_str());
+    return;
+  }
   mrd::CoefficientTable table = kBuiltinTable;
   if (o.table != nullptr) {
     std::string reason;
@@ -551,6 +589,11 @@ void ReloadNow(const Options& o, RuntimeParams& params, const RuntimeParams::Rel
     table = loaded.value();
   }
   next.controller.e_max = next.e_max.value_or(table.e_max);
+  if (const SafeStateProof proof = ProveSafeState(next, next.controller.e_max);
+      !proof.error.empty()) {
+    std::fprintf(stderr, "%s %s\n", keep, mrd::Printable(proof.error).c_str());
+    return;
+  }
   const RuntimeParams::Result r = params.Reload(next, table, check);
   if (r.status != RuntimeParams::Status::kOk) {
     std::fprintf(stderr, "%s %s\n", keep, r.message.c_str());
@@ -618,6 +661,14 @@ int LoadRunConfig(const Options& o, const mrd::CoefficientTable& table, Firmware
                  "mrd-firmware: --ignore-buses: dry run without the bus sections of %s "
                  "([can], [modbus], [gpio], [pwm])\n",
                  o.config != nullptr ? o.config : "the configuration");
+  }
+  // The safe state on the wire again, with the E_max of the table the loop runs on.
+  if (const SafeStateProof proof = ProveSafeState(*cfg, cfg->controller.e_max);
+      !proof.error.empty()) {
+    std::fprintf(stderr, "error: %s: %s\n",
+                 o.config != nullptr ? mrd::Printable(o.config).c_str() : "(default configuration)",
+                 mrd::Printable(proof.error).c_str());
+    return kExitBadInput;
   }
   ApplyCommandLine(o, cfg);
   return kContinue;
@@ -844,6 +895,10 @@ int Run(const Options& o) {
   }
   mrd::SpencerParams plant;
   if (const int rc = LoadDryRunPlant(o, &plant); rc != kContinue) return rc;
+  if (const std::string why = CheckLogPath(cfg.log); !why.empty()) {
+    std::fprintf(stderr, "error: %s\n", mrd::Printable(why).c_str());
+    return kExitBadInput;
+  }
   RunLog log(cfg, table_name);
   // Runtime parameters, the control socket and the SIGHUP reload watch (a thread of their
   // own, off the loop's; docs/tuning.md).

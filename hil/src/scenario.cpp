@@ -101,8 +101,12 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 quadrature encoder the plant drives, velocity differentiated by the firmware);
                 counts_per_cm (400), velocity_cutoff_hz (50)
   [[fault]]     kind (required) = drop | delay | corrupt | stall | out_of_range | nan |
-                implausible | kill_plant | kill_firmware | corrupt_table | fault_line |
-                drive_heartbeat_loss (CANopen profiles: the drive's heartbeat stops);
+                implausible | kill_plant | kill_firmware | corrupt_table | fault_line (a
+                [gpio] line or a profile's fault_line input) |
+                drive_heartbeat_loss (CANopen profiles: the drive's heartbeat stops) |
+                driver_fault (the driver reports a fault: driver_faults, the Modbus
+                driver-fault bit) | enable_refused (Modbus profiles: the driver answers
+                writes of its enable with exception 0x04);
                 at_s (onset), duration_s (0: to the end), delay_periods (delay, 10)
 )";
 
@@ -204,7 +208,9 @@ bool ParseFaultKind(const std::string& s, FaultKind* k) {
       {"kill_firmware", FaultKind::kKillFirmware},
       {"corrupt_table", FaultKind::kCorruptTable},
       {"fault_line", FaultKind::kFaultLine},
-      {"drive_heartbeat_loss", FaultKind::kDriveHeartbeatLoss}};
+      {"drive_heartbeat_loss", FaultKind::kDriveHeartbeatLoss},
+      {"driver_fault", FaultKind::kDriverFault},
+      {"enable_refused", FaultKind::kEnableRefused}};
   const auto it = kinds.find(s);
   if (it == kinds.end()) return false;
   *k = it->second;
@@ -693,11 +699,6 @@ class ScenarioReader {
   bool CheckFaults() {
     const std::string& path = path_;
     for (const Fault& f : s.faults) {
-      if (f.kind == FaultKind::kFaultLine && !s.gpio.fault_line) {
-        *error_ = path + ":" + std::to_string(f.line) +
-                  ": a fault_line fault needs [gpio] inputs = [..., \"fault_line\"]";
-        return false;
-      }
       if (f.kind != FaultKind::kCorruptTable && f.at_s >= s.duration_s) {
         *error_ = path + ":" + std::to_string(f.line) + ": fault at_s " + std::to_string(f.at_s) +
                   " is not before the end (duration_s " + std::to_string(s.duration_s) + ")";
@@ -754,6 +755,10 @@ const char* FaultKindName(FaultKind kind) {
       return "fault_line";
     case FaultKind::kDriveHeartbeatLoss:
       return "drive_heartbeat_loss";
+    case FaultKind::kDriverFault:
+      return "driver_fault";
+    case FaultKind::kEnableRefused:
+      return "enable_refused";
   }
   return "?";
 }

@@ -6,9 +6,11 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <fstream>
 #include <string>
 
+#include "mrd/profile/frame_codec.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
 namespace mrd::profile {
@@ -152,6 +154,39 @@ TEST(CanProfileTest, RefusesBadProfilesWithFileLineAndReason) {
   ExpectRefused(head + "colour = 1\n", 3, "unknown key");
   ExpectRefused("dbc = \"mrd.dbc\"\n", 1, "name: missing");
   ExpectRefused(head + "[inputs\n", 3, "");  // TOML syntax: the parser's own words
+  // [command] beyond what the set-point signal carries (VoltageSetpoint: 0..24 V in the DBC):
+  // the safe state would stand in for every command above it.
+  const std::string command = head + "[outputs]\ncommand = \"DriverCommand.VoltageSetpoint\"\n";
+  ExpectRefused(command + "[command]\nmin = 0.0\nmax = 30.0\n", 7,
+                "command.max 30 V is beyond what DriverCommand.VoltageSetpoint");
+  ExpectRefused(command + "[command]\nmin = -1.0\nmax = 20.0\n", 6, "command.min -1 V");
+}
+
+// A sensor frame whose only sample number is its rolling counter: the counter is sensor_seq.
+TEST(CanProfileTest, ARollingCounterMayAlsoBeTheSensorSeq) {
+  ProfileFile f(
+      "name = \"x\"\ndbc = \"mrd.dbc\"\n[inputs]\nvelocity = \"SensorMotion.Velocity\"\n"
+      "sensor_seq = \"SensorMotion.MotionCounter\"\n[messages.SensorMotion]\n"
+      "counter = \"MotionCounter\"\nchecksum = \"MotionChecksum\"\nchecksum_kind = \"crc8\"\n");
+  CanProfile p;
+  std::string error;
+  ASSERT_TRUE(LoadCanProfile(f.path(), &p, &error)) << error;
+  const SignalRef seq = p.inputs[static_cast<std::size_t>(CanIn::kSensorSeq)];
+  ASSERT_TRUE(seq.mapped());
+  // Three frames: each accepted, its sensor_seq the counter (+1 mod 16 per frame).
+  FrameCodec tx(p), rx(p);
+  double first = -1;
+  for (int k = 0; k < 3; ++k) {
+    can_frame fr{};
+    tx.Begin(seq.message, &fr);
+    tx.Seal(seq.message, &fr);
+    ASSERT_EQ(rx.Check(seq.message, fr), protocol::can::Reject::kNone) << k;
+    double v = -1;
+    ASSERT_EQ(rx.Get(fr, seq, &v), protocol::SignalError::kNone);
+    if (k == 0) first = v;
+    EXPECT_EQ(v, std::fmod(first + k, 16.0)) << k;
+  }
+  // Any other role on a counter is still refused (above).
 }
 
 TEST(CanProfileTest, AMissingOrBrokenDbcIsNamed) {

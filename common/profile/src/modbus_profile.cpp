@@ -5,6 +5,7 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <map>
 #include <tuple>
@@ -50,15 +51,17 @@ std::uint8_t ReadFunction(ModbusTable t) {
   return 0x03;
 }
 
-// One role's inline table: { unit, table, address, type, scale, offset }.
+// One role's inline table: { unit, table, address, type, scale, offset, word_order }.
 bool Point(const ProfileContext& c, const toml::node& n, const std::string& full, bool output,
-           ModbusPoint* pt) {
+           bool swapped, ModbusPoint* pt) {
   const toml::table* t = n.as_table();
   if (t == nullptr) {
     return c.Fail(&n, full + ": expected { unit = ..., table = ..., address = ..., type = ... }");
   }
   *pt = ModbusPoint{};
   pt->mapped = true;
+  pt->swapped = swapped;  // the profile's word order unless the point gives its own
+  const toml::node* order_node = nullptr;
   pt->line = static_cast<int>(n.source().begin.line);
   bool have_unit = false, have_table = false, have_address = false;
   const toml::node* type_node = nullptr;
@@ -113,8 +116,16 @@ bool Point(const ProfileContext& c, const toml::node& n, const std::string& full
                                                : ": expected a finite number"));
       }
       (key == "scale" ? pt->scale : pt->offset) = *d;
+    } else if (key == "word_order") {
+      const auto s = v.value<std::string>();
+      if (!s || (*s != "big" && *s != "swapped")) {
+        return c.Fail(&v, at + ": expected \"big\" (high word first) or \"swapped\"");
+      }
+      pt->swapped = *s == "swapped";
+      order_node = &v;
     } else {
-      return c.Fail(&v, at + ": unknown key (unit, table, address, type, scale, offset)");
+      return c.Fail(&v, at + ": unknown key (unit, table, address, type, scale, offset, "
+                             "word_order)");
     }
   }
   if (!have_unit || !have_table || !have_address) {
@@ -125,6 +136,9 @@ bool Point(const ProfileContext& c, const toml::node& n, const std::string& full
       return c.Fail(type_node, full + ": a coil or discrete input is one bit: no type");
     }
     pt->type = ModbusType::kBit;
+  }
+  if (order_node != nullptr && pt->count() != 2) {
+    return c.Fail(order_node, full + ": word_order is for 32-bit values (int32, uint32, float32)");
   }
   if (output && (pt->table == ModbusTable::kInput || pt->table == ModbusTable::kDiscrete)) {
     return c.Fail(&n, full + ": an output goes to a writable table (holding, coil)");
@@ -310,7 +324,7 @@ bool ReadRoles(const ProfileContext& c, const toml::table& modbus, const char* s
     }
     // toml++ refuses a key twice in one table; a role is mapped once by construction.
     ModbusPoint& pt = points[r];
-    if (!Point(c, v, full, output, &pt)) return false;
+    if (!Point(c, v, full, output, profile.swapped, &pt)) return false;
     if (profile.align32 && pt.count() == 2 && pt.address % 2 != 0) {
       return c.Fail(&v, full + ": 32-bit value at odd address " + std::to_string(pt.address) +
                             " (align32: the device needs even addresses)");
@@ -350,6 +364,53 @@ void PutCommandLast(ModbusProfile* out) {
   }
 }
 
+// What the command register can carry (its type through scale and offset) against
+// [command], and the safe state proved (command_section).
+bool CheckSetpointRegister(const ProfileContext& c, const toml::table& root,
+                           const ModbusProfile& p) {
+  const ModbusPoint& pt = p.Out(ModbusOut::kCommand);
+  if (!pt.mapped) return true;
+  double raw_lo = 0.0, raw_hi = 1.0, step = std::fabs(pt.scale);
+  switch (pt.type) {
+    case ModbusType::kInt16:
+      raw_lo = -32768.0;
+      raw_hi = 32767.0;
+      break;
+    case ModbusType::kUint16:
+      raw_hi = 65535.0;
+      break;
+    case ModbusType::kInt32:
+      raw_lo = -2147483648.0;
+      raw_hi = 2147483647.0;
+      break;
+    case ModbusType::kUint32:
+      raw_hi = 4294967295.0;
+      break;
+    case ModbusType::kFloat32:
+      raw_lo = -static_cast<double>(FLT_MAX);
+      raw_hi = static_cast<double>(FLT_MAX);
+      step = 0.0;
+      break;
+    case ModbusType::kBit:
+      break;
+  }
+  const double a = raw_lo * pt.scale + pt.offset, b = raw_hi * pt.scale + pt.offset;
+  SetpointCarrier carrier;
+  carrier.name =
+      std::string("the command register (") + p.path + ":" + std::to_string(pt.line) + ")";
+  carrier.lo = std::min(a, b);
+  carrier.hi = std::max(a, b);
+  carrier.step = step;
+  const char* key = nullptr;
+  const std::string why = CheckCommandCarrier(p.command, p.command_unit, carrier, &key);
+  if (why.empty()) return true;
+  const toml::node* at = root.get("command");
+  if (at != nullptr && key != nullptr && at->is_table() && at->as_table()->get(key) != nullptr) {
+    at = at->as_table()->get(key);
+  }
+  return c.Fail(at != nullptr ? at : root.at_path("modbus.outputs.command").node(), why);
+}
+
 }  // namespace
 
 bool ParseModbusProfile(const std::string& text, const std::string& path, ModbusProfile* out,
@@ -379,6 +440,8 @@ bool ParseModbusProfile(const std::string& text, const std::string& path, Modbus
           &out->reads);
     Group(out->outputs, 0, kMaxWriteRegisters, kMaxWriteBits, single, true, &out->writes);
     PutCommandLast(out);
+    if (!CheckSetpointRegister(c, root, *out)) return false;
+    out->digest = TextDigest(text, out->command.digest());
   } catch (const std::exception& e) {
     *error = path + ": " + e.what();
     return false;

@@ -465,11 +465,12 @@ bool CanDevice::SendCommand(const DriverCommand& cmd, std::int64_t now) {
       return fits;
     };
     if (!std::isfinite(cmd.volts) || !fill(setpoint, cmd.enable, cmd.safe)) {
-      // Not representable (never from the loop within the profile's range): the safe state
-      // instead, and the write reported as failed.
+      // Not representable (never from the loop: the configuration proves its range): the
+      // safe state instead (the set-point of 0 V, which the configuration proves is the
+      // driver's off), and the write reported as failed.
       Count(IoError::kBadValue);
       ok = false;
-      (void)fill(0.0, false, true);
+      (void)fill(p.command.SafeSetpoint(0.0), false, true);
     }
     codec_.Seal(m, &f);
     ok = Send(f, now) && ok;

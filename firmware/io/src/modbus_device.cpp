@@ -77,10 +77,7 @@ ModbusDevice::ModbusDevice(const ModbusConfig& config)
       waker_(std::make_unique<Waker>(*this)) {
   if (profile_ != nullptr) {
     command_map_ = profile_->command;
-    const double sp = command_map_.Calibrate(0.0);
-    safe_setpoint_ = sp < command_map_.min()   ? command_map_.min()
-                     : sp > command_map_.max() ? command_map_.max()
-                                               : sp;
+    safe_setpoint_ = command_map_.SafeSetpoint(0.0);   // the driver's off (proved at load)
     words_ = std::make_unique<std::uint16_t[]>(2000);  // the largest request (bits)
   }
 }
@@ -399,6 +396,8 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
           break;
         }
         s.read_failed = false;
+        s.fault_line = b.fault_line;         // on every good read, as the profile's
+        s.driver_fault = b.driver_fault;     // honoured whether or not fault_line is routed
         if (!have_seq_ || b.seq != s.seq) {  // a repeated seq is not new data
           have_seq_ = true;
           s.seq = b.seq;
@@ -408,7 +407,6 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
           s.value(Input::kDemand) = b.demand;
           s.value(Input::kBodyVelocity) = b.body_velocity;
           s.value(Input::kForce) = b.force;
-          s.fault_line = b.fault_line || b.driver_fault;
           ++s.accepted;
           rx_ok_.fetch_add(1, std::memory_order_relaxed);
         }
@@ -514,10 +512,12 @@ IoStatus ModbusDevice::Read(const IoTime& t, SensorFrame* frame, IoError* why) {
     MergeRouted(config_.inputs, frame, [&s](Input i) {
       return Stamped{s.values[static_cast<std::size_t>(i)], s.stamp_ns};
     });
-    // OR, not overwrite: a CAN driver's fault bits may have set it already this period.
+    // OR, not overwrite: a CAN driver's fault bits may have set it already this period. A
+    // fault the current driver reports is the fault line whatever the routing (as on CAN).
     if ((config_.inputs & Bit(Input::kFaultLine)) != 0) {
       frame->fault_line = frame->fault_line || s.fault_line;
     }
+    frame->fault_line = frame->fault_line || s.driver_fault;
   }
   if (s.read_failed) {
     *why = s.why;

@@ -128,6 +128,10 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
   const std::uint32_t seq = !has_seq                         ? s.seq + 1
                             : sv >= 0.0 && sv < 4294967296.0 ? static_cast<std::uint32_t>(sv)
                                                              : 0U;
+  // The fault inputs count on every good read (a frozen sensor seq must not hide them); the
+  // driver's faults whether or not [modbus] inputs routes fault_line (as on CAN).
+  s.fault_line = value(pf::CanIn::kFaultLine) != 0.0;
+  s.driver_fault = value(pf::CanIn::kDriverFaults) != 0.0;
   if (!have_seq_ || seq != s.seq) {  // a repeated seq is not new data
     have_seq_ = true;
     s.seq = seq;
@@ -142,7 +146,6 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
     s.value(Input::kFloorAcceleration1) = value(pf::CanIn::kFloorAcceleration1);
     s.value(Input::kFloorAcceleration2) = value(pf::CanIn::kFloorAcceleration2);
     s.value(Input::kFloorAcceleration3) = value(pf::CanIn::kFloorAcceleration3);
-    s.fault_line = value(pf::CanIn::kFaultLine) != 0.0 || value(pf::CanIn::kDriverFaults) != 0.0;
     ++s.accepted;
     rx_ok_.fetch_add(1, std::memory_order_relaxed);
   }
@@ -209,7 +212,12 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
       return Outcome::kFailed;
     }
   }
-  const bool safe = c.safe || bad;
+  bool safe = c.safe || bad;
+  // A request the device refuses (an exception, a malformed or timed-out reply) does not end
+  // the cycle: the requests after it still go out, with the safe values (set-point of the safe
+  // state, enable 0, safe 1), so a driver that refuses one write (e.g. its enable coil) still
+  // hears the safe set-point and the heartbeat. Only a broken link ends the cycle at once.
+  IoError failed = IoError::kNone;
   for (std::size_t q = 0; q < p.writes.size(); ++q) {
     const pf::ModbusRequest& req = p.writes[q];
     for (int i = 0; i < req.count; ++i) words_[static_cast<std::size_t>(i)] = 0;
@@ -224,8 +232,9 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
     link_->set_unit(req.unit);
     int reply_len = 0;
     writing_safe_ = safe;
+    IoError e = IoError::kNone;
     const ModbusLink::Result r =
-        link_->Transact(pdu, len, reply, &reply_len, why, interruptible ? wake_ : -1, waker_.get());
+        link_->Transact(pdu, len, reply, &reply_len, &e, interruptible ? wake_ : -1, waker_.get());
     writing_safe_ = false;
     if (r == ModbusLink::Result::kAbandoned) {
       if (!link_->broken()) written_safe_ = safe;  // it went out; its reply will be dropped
@@ -238,13 +247,29 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
         GoodExchange();
         continue;
       }
-      *why = check == pf::ModbusReply::kException ? IoError::kException : IoError::kRejectedFrame;
+      e = check == pf::ModbusReply::kException ? IoError::kException : IoError::kRejectedFrame;
     }
-    if (*why != IoError::kDisconnected) written_safe_ = safe;  // the request went out
-    Failed(*why, false);
-    return Outcome::kFailed;
+    Failed(e, false);
+    if (failed == IoError::kNone) failed = e;
+    if (e == IoError::kDisconnected || link_->broken()) {
+      *why = failed;
+      return Outcome::kFailed;
+    }
+    written_safe_ = safe;  // the request went out
+    if (!safe) {
+      fill(safe_setpoint_, false, true);  // fits (the configuration proves it, safe_state.hpp)
+      safe = true;
+    }
+    if (resync_) {  // RTU: a late or torn reply must not meet the next request
+      resync_ = false;
+      if (!link_->Quiet(interruptible ? wake_ : -1, waker_.get())) return Outcome::kAbandoned;
+    }
   }
   written_safe_ = safe;
+  if (failed != IoError::kNone) {
+    *why = failed;
+    return Outcome::kFailed;
+  }
   if (bad) {
     *why = IoError::kBadValue;
     Failed(*why, false);

@@ -13,8 +13,10 @@
 #include <vector>
 
 #include "mrd/common/input_file.hpp"
+#include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/clipped_optimal_file.hpp"
 #include "mrd/firmware/period_log.hpp"
+#include "mrd/firmware/safe_state.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "mrd/profile/pwm_profile.hpp"
@@ -496,8 +498,9 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Text("path", &lg.path, kMaxPath, "PATH_MAX", "",
              "The log file, relative to this file; rotated files are PATH.1, PATH.2, ... "
              "(newest first). Default: none, no log (mrd-firmware --log FILE sets it)."),
-        Integer("max_bytes", &lg.max_bytes, 65536, std::int64_t{1} << 40, "bytes",
-                "Size limit of one file; the next block goes to a new file (rotation)."),
+        Integer("max_bytes", &lg.max_bytes, 65536, std::int64_t{1} << 32, "bytes",
+                "Size limit of one file; the next block goes to a new file (rotation). At "
+                "most 4 GiB: what `mrd log` reads."),
         Integer("files", &lg.files, 1, 1000, "",
                 "Files kept, the current one included (1: the file restarts when full). A "
                 "non-empty log from an earlier start becomes PATH.1 (files > 1)."),
@@ -958,6 +961,13 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   c->io.modbus.period_ns = c->period_ns;
   c->io.pwm.period_ns = c->period_ns;
   c->io.pwm.safe_volts = k.safe_voltage;
+  // The safe state on the wire (E_max: the configuration's, else the compiled-in table's; the
+  // start proves it again with the table it runs on).
+  const SafeStateProof proof = ProveSafeState(*c, c->e_max.value_or(kBuiltinTable.e_max));
+  if (!proof.error.empty()) {
+    *error = Where(root, source, proof.section, proof.key) + Printable(proof.error);
+    return false;
+  }
   return true;
 }
 

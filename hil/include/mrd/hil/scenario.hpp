@@ -28,6 +28,9 @@ enum class FaultKind : std::uint8_t {
   kCorruptTable,  // the firmware is offered a table with a flipped byte: it must refuse (exit 2)
   kFaultLine,     // the driver's fault line asserted (GPIO; needs [gpio] inputs fault_line)
   kDriveHeartbeatLoss,  // a CANopen drive stops its heartbeat (needs a [canopen] profile)
+  kDriverFault,         // the simulated driver reports a fault on its status (driver_faults)
+  kEnableRefused,       // Modbus profile: the driver answers writes of its enable with an
+                        // exception (0x04), the other writes as usual
 };
 const char* FaultKindName(FaultKind kind);
 

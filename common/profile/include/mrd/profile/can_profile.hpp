@@ -95,7 +95,8 @@ struct SignalRef {
 };
 
 struct CanProfile {
-  std::string path;  // the profile file
+  std::string path;          // the profile file
+  std::uint64_t digest = 0;  // of the profile, its DBC and calibration (a reload compares)
   std::string name;
   Dbc dbc;
   std::vector<MessageSpec> specs;  // one per DBC message, same index

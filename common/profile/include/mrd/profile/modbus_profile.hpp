@@ -7,7 +7,7 @@
 //
 //   name = "..."  description = "..."
 //   [modbus]  word_order = "big"|"swapped"  write_function = 16|6  align32 = bool  max_read
-//   [modbus.inputs]   role = { unit, table, address, type, scale, offset }
+//   [modbus.inputs]   role = { unit, table, address, type, scale, offset, word_order }
 //   [modbus.outputs]  role = { ... }
 //   [command]         unit calibration min max slew_per_s (command_map.hpp)
 //
@@ -55,10 +55,12 @@ struct ModbusPoint {
   int address = 0;  // 0-based protocol address
   ModbusType type = ModbusType::kUint16;
   double scale = 1.0, offset = 0.0;
-  int line = 0;        // where it was defined
-  int request = -1;    // index into reads (inputs) or writes (outputs)
-  int index = 0;       // offset in that request: registers, or bits for coils
-  int count() const {  // registers (or bits) it takes
+  bool swapped = false;  // 32-bit: low word at the lower address (the profile's word_order,
+                         // or the point's own)
+  int line = 0;          // where it was defined
+  int request = -1;      // index into reads (inputs) or writes (outputs)
+  int index = 0;         // offset in that request: registers, or bits for coils
+  int count() const {    // registers (or bits) it takes
     return type == ModbusType::kInt32 || type == ModbusType::kUint32 || type == ModbusType::kFloat32
                ? 2
                : 1;
@@ -77,6 +79,7 @@ struct ModbusRequest {
 struct ModbusProfile {
   static constexpr int kMaxGap = 8;  // registers (bits) a read bridges between points
   std::string path;
+  std::uint64_t digest = 0;  // of the profile and its calibration (a reload compares)
   std::string name;
   bool swapped = false;     // 32-bit values: low word at the lower address
   int write_function = 16;  // 16 or 6

@@ -17,9 +17,10 @@
 // bad_value (the read fails: safe state); a set-point or value the register cannot hold makes
 // that write a safe one (set-point 0, enable 0, safe 1) and counts bad_value. With sensor_seq
 // mapped, a repeated seq is not new data; without it every good read is. driver_faults
-// non-zero sets the fault line, as fault_line does. Activate waits (bounded) for the first
-// cycle's sample or failure, so the loop does not start on a never-sampled frame (whose
-// values are NaN: a non_finite trip at start-up).
+// non-zero sets the fault line whether [modbus] inputs routes fault_line or not (as on CAN);
+// a refused write does not end the cycle (the rest goes out with the safe values). Activate waits
+// (bounded) for the first cycle's sample or failure, so the loop does not start on a never-sampled
+// frame (whose values are NaN: a non_finite trip at start-up).
 
 #include <pthread.h>
 
@@ -49,6 +50,7 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
 
   const char* name() const override { return "modbus"; }
   FaultCause fault_cause() const override { return FaultCause::kModbusBus; }
+  bool write_faults_are_bus_faults() const override { return true; }
   // Creates the link and tries a first connection (a peer not up yet is not an error: the
   // worker keeps trying and the loop stays safe meanwhile).
   bool Configure(std::string* error) override;
@@ -74,7 +76,8 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
     std::int64_t grant_ns = 0;  // lockstep: the latest granted time (0: none yet)
     // Per Input (SensorFrame's units); body and wheel, floor accelerations: profile only.
     std::array<double, kNumInputs> values{};
-    bool fault_line = false;
+    bool fault_line = false;    // the fault_line input (counts when routed)
+    bool driver_fault = false;  // the driver reports a fault (driver_faults; always counts)
     double& value(Input i) { return values[static_cast<std::size_t>(i)]; }
     bool read_failed = false;   // the latest sensor read (after retries) failed
     bool write_failed = false;  // the latest command write (after retries) failed
