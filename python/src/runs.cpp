@@ -138,7 +138,7 @@ py::object RunScenario(const py::object& scenario, const std::vector<std::string
   const nlohmann::json summary = hil::SummaryJson(s, r);
   if (!out.is_none()) {
     std::string werror, warning;
-    if (!hil::WriteOutputs(o.work_dir, summary, r, &werror, &warning)) {
+    if (!hil::WriteOutputs(o.work_dir, summary, r, nullptr, &werror, &warning)) {
       throw FileError(werror, 0, false);
     }
     if (!warning.empty() && !progress.is_none()) progress("warning: " + warning);
