@@ -19,7 +19,8 @@ blocks with the safe flag, set-point 0 and different heartbeats after the first 
 driver-fault: a block with the safe flag and cause bit 4, fault_line) or after S seconds:
 {"fault_at": index of the first block after the fault began (null: never began),
  "blocks": [[set_point, enable, heartbeat, causes, safe], ...] (every command block written),
- "refused": enable writes refused, "writes": every write request [unit, function, address]}.
+ "refused": enable writes refused, "writes": the first 4000 write requests [unit, function,
+ address]}; unit 2 holds 16 registers: a write beyond them gets exception 0x02.
 Run with Debian's /usr/bin/python3.
 """
 import argparse
@@ -127,7 +128,7 @@ def log_execute(original):
 
 def finish():
     print(json.dumps({"fault_at": state["fault_at"], "blocks": blocks,
-                      "refused": state["refused"], "writes": writes[:200]}), flush=True)
+                      "refused": state["refused"], "writes": writes[:4000]}), flush=True)
     os._exit(0)
 
 

@@ -279,4 +279,70 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
   return Outcome::kOk;
 }
 
+bool ModbusDevice::WriteFixed(const pf::ModbusFixedWrite& w, IoError* why,
+                              std::uint8_t* exception) {
+  if (resync_) {
+    resync_ = false;
+    if (!link_->Quiet(-1, waker_.get())) {
+      *why = IoError::kDisconnected;
+      return false;
+    }
+  }
+  const pf::ModbusRequest req = w.request();
+  const std::uint16_t word = w.value;
+  std::uint8_t pdu[mb::kMaxPdu], reply[mb::kMaxPdu];
+  const int len = pf::PutModbusWrite(req, &word, pdu);
+  link_->set_unit(req.unit);
+  int reply_len = 0;
+  IoError e = IoError::kNone;
+  const ModbusLink::Result r = link_->Transact(pdu, len, reply, &reply_len, &e, -1, waker_.get());
+  if (r == ModbusLink::Result::kOk) {
+    const pf::ModbusReply check = pf::CheckModbusWrite(req, pdu, reply, reply_len, exception);
+    if (check == pf::ModbusReply::kOk) {
+      GoodExchange();
+      return true;
+    }
+    e = check == pf::ModbusReply::kException ? IoError::kException : IoError::kRejectedFrame;
+  } else if (e == IoError::kNone) {
+    e = IoError::kDisconnected;
+  }
+  Failed(e, e == IoError::kException || e == IoError::kRejectedFrame);
+  *why = e;
+  return false;
+}
+
+bool ModbusDevice::StartUpWrites(Sample* s) {
+  for (std::size_t i = 0; i < profile_->startup.size(); ++i) {
+    IoError why = IoError::kNone;
+    std::uint8_t exception = 0;
+    if (WriteFixed(profile_->startup[i], &why, &exception)) continue;
+    if (why == IoError::kException || why == IoError::kRejectedFrame) {
+      startup_exception_.store(exception);
+      startup_refused_.store(static_cast<int>(i) + 1);
+    }
+    tx_failed_.fetch_add(1, std::memory_order_relaxed);
+    s->write_failed = config_.outputs != 0 || !profile_->startup.empty();
+    s->read_failed = config_.inputs != 0 || config_.lockstep;
+    s->why = why;
+    return false;
+  }
+  return true;
+}
+
+void ModbusDevice::PeriodicWrites(Sample* s) {
+  for (std::size_t i = 0; i < profile_->periodic.size(); ++i) {
+    const pf::ModbusFixedWrite& w = profile_->periodic[i];
+    const std::int64_t now = common::MonotonicNs();
+    if (now < periodic_due_[i]) continue;
+    periodic_due_[i] = now + static_cast<std::int64_t>(w.period_ms) * 1'000'000;
+    IoError why = IoError::kNone;
+    std::uint8_t exception = 0;
+    if (WriteFixed(w, &why, &exception)) continue;
+    tx_failed_.fetch_add(1, std::memory_order_relaxed);
+    s->write_failed = true;
+    s->why = why;
+    if (link_->broken()) return;
+  }
+}
+
 }  // namespace mrd::firmware
