@@ -282,7 +282,7 @@ TEST_P(ModbusSafetyPymodbusTest, ARefusedStartUpWriteIsAStartUpErrorNamingTheReg
                      << (GetParam() ? "mode = \"rtu\"\ndevice = \"" + link_ + "\"\n"
                                     : "mode = \"tcp\"\nport = " + std::to_string(port_) + "\n")
                      << "profile = \"" << profile << "\"\ninputs = [\"velocity\", \"demand\"]\n"
-                     << "outputs = [\"command\", \"enable\"]\nresponse_timeout_ms = 200\n";
+                     << "outputs = [\"command\", \"enable\"]\nresponse_timeout_ms = 2000\n";
   auto peer = Peer("record", 6.0);
   ChildProcess fw({std::string(MRD_BIN_DIR) + "/mrd-firmware", "--config", cfg,
                    "--allow-demo-table", "--duration", "2"});
@@ -294,6 +294,37 @@ TEST_P(ModbusSafetyPymodbusTest, ARefusedStartUpWriteIsAStartUpErrorNamingTheReg
   EXPECT_NE(fw.Stderr().find(profile + ":"), std::string::npos) << fw.Stderr();  // FILE:LINE
   peer->Signal(SIGTERM);
   ASSERT_EQ(peer->Wait(5.0), 0) << peer->Stderr();
+}
+
+// (14) A driver that latches its fault until a reset edge on coil 1 (fault_reset): with the
+// firmware clean but for the driver's fault, the device edges the reset at most once per
+// fault_reset_ms (1 s); the peer ignores the first edge and clears on the second; no edge after.
+TEST_P(ModbusSafetyPymodbusTest, ALatchedDriverFaultIsResetByARateLimitedEdge) {
+  const std::string path =
+      ::testing::TempDir() + "/fault-reset-" + std::to_string(getpid()) + ".toml";
+  std::string text = Slurp(kProfile);
+  text.replace(text.find("max_read = 125\n"), 15, "max_read = 125\nfault_reset_ms = 1000\n");
+  text += "\n[modbus.outputs.fault_reset]\nunit = 2\ntable = \"coil\"\naddress = 1\n";
+  std::ofstream(path) << text;
+  auto p = std::make_shared<profile::ModbusProfile>();
+  std::string error;
+  ASSERT_TRUE(profile::LoadModbusProfile(path, p.get(), &error)) << error;
+  ASSERT_EQ(p->fault_reset_ms, 1000);
+  profile_ = p;
+  auto peer = Peer("latched-fault");
+  firmware::ModbusDevice device(Config(false));
+  ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
+  bool fault_line = false;
+  Drive(device, *peer, &fault_line);
+  ASSERT_EQ(peer->Wait(5.0), 0) << peer->Stderr();
+  device.Deactivate();
+  EXPECT_TRUE(fault_line);
+  const json c = json::parse(peer->Stdout(), nullptr, false);
+  ASSERT_FALSE(c.is_discarded()) << peer->Stdout();
+  const json& resets = c["resets"];
+  ASSERT_EQ(resets.size(), 2U) << "one edge per second until cleared, then none: " << resets.dump();
+  EXPECT_GE(resets[1].get<double>(), 0.95) << "rate-limited to one edge per fault_reset_ms";
+  EXPECT_LT(resets[1].get<double>(), 3.0) << "the second edge came late";
 }
 
 INSTANTIATE_TEST_SUITE_P(Transports, ModbusSafetyPymodbusTest, ::testing::Values(false, true),

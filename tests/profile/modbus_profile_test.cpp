@@ -399,5 +399,22 @@ TEST(ModbusProfile, StartUpAndPeriodicWrites) {
                 "not above period_ms");
 }
 
+// The fault reset: an output role (a coil or register bit) and its rate limit.
+TEST(ModbusProfile, FaultResetRoleAndRateLimit) {
+  ModbusProfile p;
+  std::string error;
+  ASSERT_TRUE(Parse(kHead + "fault_reset_ms = 2500\n[modbus.outputs]\n"
+                            "fault_reset = { unit = 2, table = \"coil\", address = 1 }\n",
+                    &p, &error))
+      << error;
+  EXPECT_EQ(p.fault_reset_ms, 2500);
+  EXPECT_TRUE(p.Out(ModbusOut::kFaultReset).mapped);
+  EXPECT_STREQ(ModbusOutName(ModbusOut::kFaultReset), "fault_reset");
+  ASSERT_TRUE(Parse(kHead, &p, &error)) << error;
+  EXPECT_EQ(p.fault_reset_ms, 1000);  // the default: at most one reset a second
+  ExpectRefused(kHead + "fault_reset_ms = 50\n", 3, "100..600000");
+  ExpectRefused(kHead + "fault_reset_ms = \"1s\"\n", 3, "100..600000");
+}
+
 }  // namespace
 }  // namespace mrd::profile

@@ -28,7 +28,8 @@ constexpr const char* kOutNames[kNumModbusOut] = {"command",
                                                   "status_safe_entries",
                                                   "status_model_force",
                                                   "status_demand",
-                                                  "status_command"};
+                                                  "status_command",
+                                                  "fault_reset"};
 
 constexpr int kMaxReadRegisters = 125;   // 0x03 / 0x04
 constexpr int kMaxReadBits = 2000;       // 0x01 / 0x02
@@ -285,10 +286,16 @@ bool ReadModbusKeys(const ProfileContext& c, const toml::table& modbus, ModbusPr
         return c.Fail(&v, full + ": registers per read outside 1..125 (the Modbus limit)");
       }
       out->max_read = static_cast<int>(*n);
+    } else if (key == "fault_reset_ms") {
+      const auto n = v.value<std::int64_t>();
+      if (!n || *n < 100 || *n > 600000) {
+        return c.Fail(&v, full + ": expected an integer in 100..600000 [ms]");
+      }
+      out->fault_reset_ms = static_cast<int>(*n);
     } else if (key != "inputs" && key != "outputs" && key != "startup" && key != "periodic") {
       return c.Fail(&v, full +
                             ": unknown key (word_order, write_function, align32, max_read, "
-                            "inputs, outputs, startup, periodic)");
+                            "fault_reset_ms, inputs, outputs, startup, periodic)");
     }
   }
   return true;

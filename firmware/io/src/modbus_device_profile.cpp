@@ -132,6 +132,7 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
   // driver's faults whether or not [modbus] inputs routes fault_line (as on CAN).
   s.fault_line = value(pf::CanIn::kFaultLine) != 0.0;
   s.driver_fault = value(pf::CanIn::kDriverFaults) != 0.0;
+  driver_fault_seen_ = s.driver_fault;
   if (!have_seq_ || seq != s.seq) {  // a repeated seq is not new data
     have_seq_ = true;
     s.seq = seq;
@@ -158,6 +159,21 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
   written_tick_ = c.tick;  // sent or failed, a command is not sent again
   any_written_ = true;
   const auto routed = [&](Output o) { return (config_.outputs & Bit(o)) != 0; };
+  // The fault reset (worker only, never at shutdown): an edge when the driver still reports a
+  // (latched) fault and the firmware has no other cause, at most once per fault_reset_ms.
+  bool reset = false;
+  if (interruptible && p.Out(pf::ModbusOut::kFaultReset).mapped && driver_fault_seen_) {
+    constexpr unsigned kDriverSide = (1U << static_cast<unsigned>(FaultCause::kDriverFault)) |
+                                     (1U << static_cast<unsigned>(FaultCause::kFaultLine));
+    const unsigned causes = status_causes_.load(std::memory_order_relaxed);
+    const std::int64_t now = common::MonotonicNs();
+    if ((causes & ~kDriverSide) == 0 &&
+        (last_reset_ns_ == 0 ||
+         now - last_reset_ns_ >= static_cast<std::int64_t>(p.fault_reset_ms) * 1'000'000)) {
+      reset = true;
+      last_reset_ns_ = now;
+    }
+  }
   // Each role's value; roles the [modbus] routing does not drive carry their safe value.
   double v[pf::kNumModbusOut] = {};
   const auto fill = [&](double setpoint, bool enable, bool safe) {
@@ -188,6 +204,7 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
     live(pf::ModbusOut::kStatusModelForce, status_model_force_);
     live(pf::ModbusOut::kStatusDemand, status_demand_);
     live(pf::ModbusOut::kStatusCommand, status_command_);
+    v[static_cast<std::size_t>(pf::ModbusOut::kFaultReset)] = reset ? 1.0 : 0.0;
   };
   // Every point must fit before anything is sent; one that does not (a non-finite set-point,
   // a value beyond its type) makes the whole cycle's write the safe one, counted bad_value.
@@ -315,7 +332,12 @@ bool ModbusDevice::StartUpWrites(Sample* s) {
   for (std::size_t i = 0; i < profile_->startup.size(); ++i) {
     IoError why = IoError::kNone;
     std::uint8_t exception = 0;
-    if (WriteFixed(profile_->startup[i], &why, &exception)) continue;
+    bool ok = false;
+    for (int attempt = 0; attempt <= config_.retries && !ok; ++attempt) {  // as other requests
+      ok = WriteFixed(profile_->startup[i], &why, &exception);
+      if (!ok && (!Retriable(why) || link_->broken())) break;
+    }
+    if (ok) continue;
     if (why == IoError::kException || why == IoError::kRejectedFrame) {
       startup_exception_.store(exception);
       startup_refused_.store(static_cast<int>(i) + 1);

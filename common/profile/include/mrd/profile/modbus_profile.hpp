@@ -7,6 +7,7 @@
 //
 //   name = "..."  description = "..."
 //   [modbus]  word_order = "big"|"swapped"  write_function = 16|6  align32 = bool  max_read
+//             fault_reset_ms
 //   [modbus.inputs]   role = { unit, table, address, type, scale, offset, word_order }
 //   [modbus.outputs]  role = { ... }
 //   [[modbus.startup]]  { unit, table, address, value }           written once per connection
@@ -46,8 +47,11 @@ enum class ModbusOut : std::uint8_t {
   kStatusModelForce,   // live telemetry: the model's force of the period [N]
   kStatusDemand,       // live telemetry: the force demand of the period [N]
   kStatusCommand,      // live telemetry: the command voltage E of the period [V]
+  kFaultReset,         // the driver's fault reset: 1 for one write (an edge) when the firmware
+                       // is clean but for a latched driver fault, at most once per
+                       // fault_reset_ms; else 0
 };
-inline constexpr std::size_t kNumModbusOut = 12;
+inline constexpr std::size_t kNumModbusOut = 13;
 const char* ModbusOutName(ModbusOut role);
 
 struct ModbusPoint {
@@ -101,10 +105,11 @@ struct ModbusProfile {
   std::string path;
   std::uint64_t digest = 0;  // of the profile and its calibration (a reload compares)
   std::string name;
-  bool swapped = false;     // 32-bit values: low word at the lower address
-  int write_function = 16;  // 16 or 6
-  bool align32 = false;     // 32-bit values at even addresses only
-  int max_read = 125;       // registers per read (coils and discrete inputs: 2000)
+  bool swapped = false;       // 32-bit values: low word at the lower address
+  int write_function = 16;    // 16 or 6
+  bool align32 = false;       // 32-bit values at even addresses only
+  int max_read = 125;         // registers per read (coils and discrete inputs: 2000)
+  int fault_reset_ms = 1000;  // fault_reset: at most one edge per this time [ms]
   std::array<ModbusPoint, kNumCanIn> inputs{};
   std::array<ModbusPoint, kNumModbusOut> outputs{};
   std::vector<ModbusRequest> reads;        // grouped, in (unit, table, address) order

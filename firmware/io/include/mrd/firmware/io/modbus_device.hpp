@@ -22,7 +22,9 @@
 // (bounded) for the first cycle's sample or failure, so the loop does not start on a never-sampled
 // frame (whose values are NaN: a non_finite trip at start-up). On every new connection the
 // profile's start-up writes go out first (one refused at start-up is a start-up error naming
-// its register); its periodic writes go out in the worker's cycle when due.
+// its register); its periodic writes go out in the worker's cycle when due. fault_reset: 1 in
+// one write while the driver reports a fault and the firmware has no other cause, at most once
+// per fault_reset_ms (a latched driver fault is reset without a power cycle).
 
 #include <pthread.h>
 
@@ -123,7 +125,7 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   // The profile's transactions (modbus_device_profile.cpp).
   Outcome ReadProfile(Sample* s, bool* new_grant);
   Outcome WriteProfileOnce(const Command& c, IoError* why, bool interruptible);
-  // The profile's start-up writes on a new connection (one attempt each); false when one
+  // The profile's start-up writes on a new connection (retried as any request); false when one
   // failed (refused: startup_refused_ names it for Activate).
   bool StartUpWrites(Sample* s);
   // The profile's periodic writes that are due (one attempt each; a failure fails the cycle's
@@ -148,6 +150,8 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   std::unique_ptr<std::uint16_t[]> words_;           // worker: one write request's words
   std::unique_ptr<std::int64_t[]> periodic_due_;     // worker: next time of each periodic write
   bool started_ = false;                             // worker: start-up writes done this session
+  bool driver_fault_seen_ = false;                   // worker: the latest good read's driver_faults
+  std::int64_t last_reset_ns_ = 0;                   // worker: the last fault_reset edge (0: none)
   // A start-up write the device refused: its index + 1 (0: none) and exception code.
   std::atomic<int> startup_refused_{0};
   std::atomic<std::uint8_t> startup_exception_{0};
