@@ -14,6 +14,10 @@
 // stores 1e30 cm/s where the type can hold it. The driver's side: driver_fault (and
 // fault_line, as on CAN) sets its driver_faults register to 1; enable_refused answers every
 // write touching the enable's registers (coils) with exception 0x04, the others as usual.
+// Start-up and periodic writes land in the tables like any write. A periodic write with
+// watchdog_ms arms the driver's communication watchdog on its first arrival; in real time,
+// once it has not come for watchdog_ms the driver drops its coil (DriverInput::watchdog_ok)
+// until it comes again (lockstep: plant time is not wall time, not supervised).
 #include <unistd.h>
 
 #include <algorithm>
@@ -49,6 +53,15 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     };
     for (const auto& pt : profile_->inputs) add(pt);
     for (const auto& pt : profile_->outputs) add(pt);
+    const auto add_fixed = [&](const pf::ModbusFixedWrite& w) {
+      pf::ModbusPoint pt;
+      pt.mapped = true;
+      pt.unit = w.unit;
+      add(pt);
+    };
+    for (const auto& w : profile_->startup) add_fixed(w);
+    for (const auto& w : profile_->periodic) add_fixed(w);
+    keepalive_ns_.assign(profile_->periodic.size(), 0);
     // The cycle's end: the command's write (without one, the enable's).
     const pf::ModbusPoint& cmd = profile_->Out(pf::ModbusOut::kCommand);
     enable_point_ = profile_->Out(pf::ModbusOut::kEnable);
@@ -139,6 +152,10 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     std::lock_guard<std::mutex> lock(mu_);
     if (heartbeat_ns_ != 0) in->heartbeat_ns = heartbeat_ns_;
     in->heartbeats = heartbeats_;
+    if (!lockstep_ && WatchdogArmedAny()) {
+      in->has_watchdog = true;
+      in->watchdog_ok = WatchdogOk(common::MonotonicNs());
+    }
     if (!pending_) return;
     pending_ = false;
     const auto mapped = [&](pf::ModbusOut r) { return profile_->Out(r).mapped; };
@@ -192,6 +209,25 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
 
   std::uint16_t* Table(const pf::ModbusPoint& pt) {
     return units_.at(pt.unit).tables[static_cast<std::size_t>(pt.table)].data();
+  }
+
+  // The communication watchdog (mu_ held): some keep-alive with watchdog_ms has arrived.
+  bool WatchdogArmedAny() const {
+    for (std::size_t i = 0; i < keepalive_ns_.size(); ++i) {
+      if (profile_->periodic[i].watchdog_ms > 0 && keepalive_ns_[i] != 0) return true;
+    }
+    return false;
+  }
+  // Every armed keep-alive came within its watchdog_ms of now.
+  bool WatchdogOk(std::int64_t now) const {
+    for (std::size_t i = 0; i < keepalive_ns_.size(); ++i) {
+      const int ms = profile_->periodic[i].watchdog_ms;
+      if (ms > 0 && keepalive_ns_[i] != 0 &&
+          now - keepalive_ns_[i] > static_cast<std::int64_t>(ms) * 1'000'000) {
+        return false;
+      }
+    }
+    return true;
   }
 
   // The driver's fault report into its driver_faults register (mu_ held): 1 or 0.
@@ -346,6 +382,13 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
                     : static_cast<std::uint16_t>(u16(6 + 2 * i));
       }
     }
+    for (std::size_t i = 0; i < keepalive_ns_.size(); ++i) {  // the watchdog's keep-alives
+      const pf::ModbusFixedWrite& w = profile_->periodic[i];
+      if (w.unit == unit && static_cast<int>(w.table) == table && w.address >= address &&
+          w.address < address + count) {
+        keepalive_ns_[i] = common::MonotonicNs();
+      }
+    }
     std::memcpy(reply, pdu, 5);  // the echo: address and count (0x0F 0x10) or value
     a.reply_len = 5;
     a.wrote = true;
@@ -415,6 +458,7 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
   bool have_heartbeat_ = false;
   std::int64_t command_ns_ = 0, heartbeat_ns_ = 0;
   std::uint64_t heartbeats_ = 0;
+  std::vector<std::int64_t> keepalive_ns_;  // per periodic write: its latest arrival (0: none)
   std::condition_variable written_;
   PortCounters counters_;
 };

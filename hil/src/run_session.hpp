@@ -177,6 +177,7 @@ class ScenarioRun {
   std::int64_t hb_step_ = 0;
   std::int64_t hb_ns_ = 0;
   bool hb_fresh_prev_ = false;
+  bool watchdog_ok_ = true;  // the driver's communication watchdog (DriverInput)
   bool awaiting_start_ = true;
   std::int64_t offered_joined_ = -1;  // lockstep start-up: port_->Joined() at the last offer
   std::uint64_t reoffers_ = 0;        // start-up offers repeated (not counted as published)

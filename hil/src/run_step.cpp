@@ -233,6 +233,7 @@ void ScenarioRun::TakeLines(std::int64_t k, const DriverInput& fresh) {
     enable_ = fresh.enable;
   }
   if (fresh.has_status) causes_ = fresh.status_causes;
+  if (fresh.has_watchdog) watchdog_ok_ = fresh.watchdog_ok;
   if (fresh.heartbeats > hb_count_) {
     hb_count_ = fresh.heartbeats;
     hb_step_ = k;
@@ -241,8 +242,8 @@ void ScenarioRun::TakeLines(std::int64_t k, const DriverInput& fresh) {
 }
 
 // The simulated current driver: the set-point while enabled and the heartbeat is fresh (in
-// plant time under lockstep, wall time in real time; only where the profile has a heartbeat);
-// else the coil's safe 0 V. [V]
+// plant time under lockstep, wall time in real time; only where the profile has a heartbeat)
+// and its communication watchdog (if any) has not tripped; else the coil's safe 0 V. [V]
 double ScenarioRun::DriverVolts(std::int64_t k) {
   const Scenario& s = s_;
   // A driver without heartbeat supervision (its profile maps none) applies every command.
@@ -253,7 +254,7 @@ double ScenarioRun::DriverVolts(std::int64_t k) {
                                       static_cast<std::int64_t>(s.heartbeat_timeout_s * 1e9));
   if (hb_fresh_prev_ && !hb_fresh) ++r_->heartbeat_timeouts;
   hb_fresh_prev_ = hb_fresh;
-  driven_ = (!carries_enable_ || enable_) && hb_fresh;
+  driven_ = (!carries_enable_ || enable_) && hb_fresh && watchdog_ok_;
   const double applied =
       driven_ && std::isfinite(set_point_) ? std::clamp(set_point_, 0.0, s.e_max) : 0.0;
   if (driven_) ++r_->driven_steps;

@@ -148,6 +148,10 @@ TEST(ModbusProfileNoAllocTest, LoopPeriodsOverTcpAllocateNothing) {
 TEST(ModbusProfileNoAllocTest, LoopPeriodsOverRtuAllocateNothing) {
   LoopPeriodsAllocateNothing(true, MRD_MODBUS_PROFILE);
 }
+// The worker's periodic writes (a keep-alive every 5 ms) allocate nothing either.
+TEST(ModbusProfileNoAllocTest, PeriodicWritesAllocateNothing) {
+  LoopPeriodsAllocateNothing(false, MRD_MODBUS_WATCHDOG_PROFILE);
+}
 #else
 TEST(ModbusNoAllocTest, LoopPeriodsOverTcpAllocateNothing) { LoopPeriodsAllocateNothing(false); }
 TEST(ModbusNoAllocTest, LoopPeriodsOverRtuAllocateNothing) { LoopPeriodsAllocateNothing(true); }

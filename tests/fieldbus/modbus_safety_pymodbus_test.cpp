@@ -221,6 +221,112 @@ TEST_P(ModbusSafetyPymodbusTest, TheFirmwareRefusesAnUnsafeProfileAndWritesNothi
   }
 }
 
+// The shipped profile with a start-up write (the driver's watchdog timeout, holding 14) and a
+// keep-alive every 50 ms (holding 15) under a 300 ms watchdog; `startup_address` moves the
+// start-up write (beyond the peer's 16 registers: refused with exception 0x02).
+std::string WithWatchdogWrites(const std::string& shipped, int startup_address) {
+  return shipped + "\n[[modbus.startup]]\nunit = 2\ntable = \"holding\"\naddress = " +
+         std::to_string(startup_address) +
+         "\nvalue = 300\n\n[[modbus.periodic]]\nunit = 2\ntable = \"holding\"\n"
+         "address = 15\nvalue = 1\nperiod_ms = 50\nwatchdog_ms = 300\n";
+}
+
+std::string Slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// (13) The start-up write goes out once, before any other write of the connection; the
+// keep-alive goes out periodically from the worker's cycle.
+TEST_P(ModbusSafetyPymodbusTest, StartUpWriteFirstThenThePeriodicKeepAlive) {
+  const std::string path = ::testing::TempDir() + "/watchdog-" + std::to_string(getpid()) + ".toml";
+  std::ofstream(path) << WithWatchdogWrites(Slurp(kProfile), 14);
+  auto p = std::make_shared<profile::ModbusProfile>();
+  std::string error;
+  ASSERT_TRUE(profile::LoadModbusProfile(path, p.get(), &error)) << error;
+  profile_ = p;
+  auto peer = Peer("record", 1.5);
+  firmware::ModbusDevice device(Config(true));
+  ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
+  bool fault_line = false;
+  Drive(device, *peer, &fault_line);
+  ASSERT_EQ(peer->Wait(5.0), 0) << peer->Stderr();
+  device.Deactivate();
+  const json c = json::parse(peer->Stdout(), nullptr, false);
+  ASSERT_FALSE(c.is_discarded()) << peer->Stdout();
+  const json& w = c["writes"];
+  ASSERT_FALSE(w.empty());
+  EXPECT_EQ(w[0], json({2, 6, 14})) << "the start-up write first, not " << w[0].dump();
+  int startups = 0, keepalives = 0, blocks = 0;
+  for (const auto& x : w) {
+    startups += x == json({2, 6, 14});
+    keepalives += x == json({2, 6, 15});
+    blocks += x[1].get<int>() == 0x10;
+  }
+  EXPECT_EQ(startups, 1);
+  EXPECT_GE(keepalives, 5) << "about 1.5 s / 50 ms expected";
+  EXPECT_GT(blocks, keepalives) << "keep-alives come at their own period, not every cycle";
+  EXPECT_EQ(device.counters().errors[static_cast<int>(firmware::IoError::kException)], 0U);
+}
+
+// (13) A start-up write the driver refuses: mrd-firmware does not start (exit 1, as for a
+// refused CANopen SDO) and names the register and the profile's line.
+TEST_P(ModbusSafetyPymodbusTest, ARefusedStartUpWriteIsAStartUpErrorNamingTheRegister) {
+  const std::string dir = ::testing::TempDir();
+  const std::string profile = dir + "/refused-startup-" + std::to_string(getpid()) + ".toml";
+  std::ofstream(profile) << WithWatchdogWrites(Slurp(kProfile), 100);
+  const std::string cfg = dir + "/fw-refused-startup-" + std::to_string(getpid()) + ".toml";
+  std::ofstream(cfg) << "[modbus]\n"
+                     << (GetParam() ? "mode = \"rtu\"\ndevice = \"" + link_ + "\"\n"
+                                    : "mode = \"tcp\"\nport = " + std::to_string(port_) + "\n")
+                     << "profile = \"" << profile << "\"\ninputs = [\"velocity\", \"demand\"]\n"
+                     << "outputs = [\"command\", \"enable\"]\nresponse_timeout_ms = 2000\n";
+  auto peer = Peer("record", 6.0);
+  ChildProcess fw({std::string(MRD_BIN_DIR) + "/mrd-firmware", "--config", cfg,
+                   "--allow-demo-table", "--duration", "2"});
+  EXPECT_EQ(fw.Wait(20.0), 1) << fw.Stderr();
+  EXPECT_NE(fw.Stderr().find("the start-up write of unit 2 holding register 100 = 300 was "
+                             "refused (exception 0x02)"),
+            std::string::npos)
+      << fw.Stderr();
+  EXPECT_NE(fw.Stderr().find(profile + ":"), std::string::npos) << fw.Stderr();  // FILE:LINE
+  peer->Signal(SIGTERM);
+  ASSERT_EQ(peer->Wait(5.0), 0) << peer->Stderr();
+}
+
+// (14) A driver that latches its fault until a reset edge on coil 1 (fault_reset): with the
+// firmware clean but for the driver's fault, the device edges the reset at most once per
+// fault_reset_ms (1 s); the peer ignores the first edge and clears on the second; no edge after.
+TEST_P(ModbusSafetyPymodbusTest, ALatchedDriverFaultIsResetByARateLimitedEdge) {
+  const std::string path =
+      ::testing::TempDir() + "/fault-reset-" + std::to_string(getpid()) + ".toml";
+  std::string text = Slurp(kProfile);
+  text.replace(text.find("max_read = 125\n"), 15, "max_read = 125\nfault_reset_ms = 1000\n");
+  text += "\n[modbus.outputs.fault_reset]\nunit = 2\ntable = \"coil\"\naddress = 1\n";
+  std::ofstream(path) << text;
+  auto p = std::make_shared<profile::ModbusProfile>();
+  std::string error;
+  ASSERT_TRUE(profile::LoadModbusProfile(path, p.get(), &error)) << error;
+  ASSERT_EQ(p->fault_reset_ms, 1000);
+  profile_ = p;
+  auto peer = Peer("latched-fault");
+  firmware::ModbusDevice device(Config(false));
+  ASSERT_TRUE(device.Configure(&error) && device.Activate(&error)) << error;
+  bool fault_line = false;
+  Drive(device, *peer, &fault_line);
+  ASSERT_EQ(peer->Wait(5.0), 0) << peer->Stderr();
+  device.Deactivate();
+  EXPECT_TRUE(fault_line);
+  const json c = json::parse(peer->Stdout(), nullptr, false);
+  ASSERT_FALSE(c.is_discarded()) << peer->Stdout();
+  const json& resets = c["resets"];
+  ASSERT_EQ(resets.size(), 2U) << "one edge per second until cleared, then none: " << resets.dump();
+  EXPECT_GE(resets[1].get<double>(), 0.95) << "rate-limited to one edge per fault_reset_ms";
+  EXPECT_LT(resets[1].get<double>(), 3.0) << "the second edge came late";
+}
+
 INSTANTIATE_TEST_SUITE_P(Transports, ModbusSafetyPymodbusTest, ::testing::Values(false, true),
                          [](const auto& p) { return std::string(p.param ? "rtu" : "tcp"); });
 

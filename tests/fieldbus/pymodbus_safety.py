@@ -13,13 +13,18 @@ driver's safety features against the firmware's Modbus client:
     MODE enable-refused  after 20 driven blocks (enable on, set-point > 0) every write of the
                          enable coil (0x0F / 0x05) gets exception 0x04 (server device failure)
     MODE driver-fault    after 20 driven blocks driver_faults reads 1
+    MODE latched-fault   after 20 driven blocks driver_faults reads 1 and stays (latched): a
+                         rising edge of coil 1 (fault_reset) is a reset; the first is ignored
+                         (the fault persists), the second clears it
     MODE record          serves and records only
 Prints one JSON object when the firmware answered the fault (enable-refused: two command
 blocks with the safe flag, set-point 0 and different heartbeats after the first refusal;
-driver-fault: a block with the safe flag and cause bit 4, fault_line) or after S seconds:
+driver-fault: a block with the safe flag and cause bit 4, fault_line;
+latched-fault: 1.5 s after the fault cleared) or after S seconds:
 {"fault_at": index of the first block after the fault began (null: never began),
  "blocks": [[set_point, enable, heartbeat, causes, safe], ...] (every command block written),
- "refused": enable writes refused, "writes": every write request [unit, function, address]}.
+ "refused": enable writes refused, "writes": the first 4000 write requests [unit, function,
+ address], "resets": seconds of each reset edge after the first}; unit 2 holds 16 registers: a write beyond them gets exception 0x02.
 Run with Debian's /usr/bin/python3.
 """
 import argparse
@@ -30,6 +35,7 @@ import os
 import signal
 import struct
 import sys
+import time
 
 from pymodbus.datastore import (ModbusSequentialDataBlock, ModbusServerContext,
                                 ModbusSlaveContext)
@@ -40,7 +46,9 @@ sys.dont_write_bytecode = True  # no __pycache__ beside the sources
 from pymodbus_common import pty_pair_relay  # noqa: E402
 
 FAULT_LINE_BIT = 1 << 4
-state = {"seq": 0, "driven": 0, "fault_at": None, "refused": 0}
+state = {"seq": 0, "driven": 0, "fault_at": None, "refused": 0, "reset_coil": 0,
+         "cleared_at": None}
+resets = []
 blocks, writes = [], []
 options = None
 
@@ -71,16 +79,24 @@ class Coils(ModbusSequentialDataBlock):
             state["refused"] += 1
             raise RuntimeError("enable write refused (the test's fault)")
         super().setValues(address, values)
+        if options.mode == "latched-fault" and address <= 1 < address + len(values):
+            reset = int(values[1 - address])
+            if reset and not state["reset_coil"] and state["fault_at"] is not None:
+                resets.append(time.monotonic())
+                if len(resets) == 2:  # the second reset clears the latched fault
+                    driver_inputs.setValues(0, [0])
+                    state["cleared_at"] = time.monotonic()
+            state["reset_coil"] = reset
 
 
-coils = Coils(0, [0] * 16)
+coils = Coils(0, [0] * 16)  # 0 enable, 1 fault_reset (latched-fault)
 driver_inputs = ModbusSequentialDataBlock(0, [0] * 16)
 
 
 def fault_began():
     if state["fault_at"] is None:
         state["fault_at"] = len(blocks)
-        if options.mode == "driver-fault":
+        if options.mode in ("driver-fault", "latched-fault"):
             driver_inputs.setValues(0, [1])
 
 
@@ -111,6 +127,9 @@ def check_answered():
         safe = [b for b in after if b[4] == 1 and b[0] == 0.0]
         if len({b[2] for b in safe}) >= 2:
             finish()
+    elif options.mode == "latched-fault":
+        if state["cleared_at"] is not None and time.monotonic() - state["cleared_at"] > 1.5:
+            finish()
     elif options.mode == "driver-fault":
         if any(b[4] == 1 and (b[3] & FAULT_LINE_BIT) for b in after):
             finish()
@@ -127,7 +146,8 @@ def log_execute(original):
 
 def finish():
     print(json.dumps({"fault_at": state["fault_at"], "blocks": blocks,
-                      "refused": state["refused"], "writes": writes[:200]}), flush=True)
+                      "refused": state["refused"], "writes": writes[:4000],
+                      "resets": [t - resets[0] for t in resets]}), flush=True)
     os._exit(0)
 
 
@@ -160,7 +180,7 @@ def main():
     p = argparse.ArgumentParser()
     p.add_argument("transport", choices=["tcp", "rtu"])
     p.add_argument("where")
-    p.add_argument("mode", choices=["enable-refused", "driver-fault", "record"])
+    p.add_argument("mode", choices=["enable-refused", "driver-fault", "latched-fault", "record"])
     p.add_argument("--seconds", type=float, default=20.0)
     options = p.parse_args()
     sys.setswitchinterval(0.0001)

@@ -5,8 +5,10 @@
 // by both sides, identically on every attempt; a driver without heartbeat supervision and
 // with a 10 ms status under a 50 ms timeout closes force-v1 in lockstep.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -200,7 +202,10 @@ TEST(DriverSafetyRunTest, UnsafeProfilesAreRefusedByBothSides) {
     const std::string profile = Write(c.name, c.text);
     std::string first;
     for (int attempt = 0; attempt < 2; ++attempt) {
-      const std::string out = dir + "/refused-" + c.name + std::to_string(attempt);
+      // Fresh per process: an earlier run's summary must not pass for this one's.
+      const std::string out =
+          dir + "/refused-" + std::to_string(::getpid()) + "-" + c.name + std::to_string(attempt);
+      std::filesystem::remove_all(out);
       const HilResult r =
           Hil({kSource + "/hil/scenarios/force-v1.toml", "--table", kPaper + "/table.bin",
                "--profile", profile, "--transport", c.transport, "--out", out});
@@ -285,6 +290,61 @@ TEST(DriverSafetyRunTest, ANoHeartbeatDriverWithA10msStatusClosesForceV1) {
       "[ figures ] no-heartbeat driver: start-up %zu periods, %d safe after, tracking "
       "%.4f, %d status frames in 20 s\n",
       first, safe_after, r.j["tracking"]["error_reachable"].get<double>(), status);
+}
+
+// The modbus-float32 driver without heartbeat supervision (its heartbeat register removed),
+// with (watchdog true) or without the communication watchdog its manual arms: a start-up write
+// of the timeout and a keep-alive every 20 ms under a 100 ms watchdog.
+std::string Float32WithoutHeartbeat(bool watchdog) {
+  std::string text = Slurp(kProfiles + "modbus-float32.toml");
+  const auto at = text.find("heartbeat = {");
+  EXPECT_NE(at, std::string::npos);
+  text.erase(at, text.find('\n', at) - at + 1);
+  if (watchdog) {
+    text +=
+        "\n[[modbus.startup]]\nunit = 2\ntable = \"holding\"\naddress = 14\nvalue = 100\n"
+        "\n[[modbus.periodic]]\nunit = 2\ntable = \"holding\"\naddress = 15\nvalue = 1\n"
+        "period_ms = 20\nwatchdog_ms = 100\n";
+  }
+  return Write(watchdog ? "modbus-watchdog.toml" : "modbus-no-watchdog.toml", text);
+}
+
+// kill -9 of the firmware (0.5 s .. 1.0 s, real time) with a driver that has no heartbeat
+// supervision: without a communication watchdog it keeps the last driving command (the coil
+// stays energised); with the profile's keep-alive under its watchdog the driver drops the
+// coil once the writes stop for 100 ms, and drives again when the restarted firmware writes.
+TEST(DriverSafetyRunTest, AKilledFirmwaresDriverWatchdogDropsTheCoil) {
+  for (const bool watchdog : {false, true}) {
+    const std::string out = ::testing::TempDir() + "/kill-watchdog-" + std::to_string(watchdog);
+    const HilResult r =
+        Hil({Scenario("kill-watchdog", 3.0,
+                      "[[fault]]\nkind = \"kill_firmware\"\nat_s = 0.5\n"
+                      "duration_s = 0.5\n"),
+             "--table", kPaper + "/table.bin", "--profile", Float32WithoutHeartbeat(watchdog),
+             "--clock", "realtime", "--out", out});
+    ASSERT_EQ(r.status, 0) << r.err << r.j.dump();
+    EXPECT_EQ(r.j["firmware"]["starts"], 2) << r.j.dump();
+    const std::vector<Row> rows = Trace(out);
+    bool driving_at_kill = false;
+    int window = 0, driven = 0, after = 0;
+    for (const Row& row : rows) {
+      if (row.t < 0.5) driving_at_kill = row.driven && !row.safe;  // the last step before it
+      // From 150 ms after the kill (the 100 ms watchdog, 50 ms to spare) to its end.
+      if (row.t >= 0.65 && row.t < 1.0) {
+        ++window;
+        driven += row.driven ? 1 : 0;
+      }
+      if (row.t >= 2.0) after += row.driven ? 1 : 0;  // the restarted firmware drives again
+    }
+    ASSERT_TRUE(driving_at_kill) << "watchdog " << watchdog << ": not driving when killed";
+    EXPECT_GT(window, 300);
+    if (watchdog) {
+      EXPECT_EQ(driven, 0) << "the watchdog must drop the coil";
+    } else {
+      EXPECT_EQ(driven, window) << "without a watchdog the driver holds the coil";
+    }
+    EXPECT_GT(after, 0) << "watchdog " << watchdog << ": the restarted firmware never drove";
+  }
 }
 
 }  // namespace

@@ -351,5 +351,70 @@ TEST(ModbusProfile, IsModbusProfileFileTellsTheKinds) {
   EXPECT_FALSE(IsModbusProfileFile("/nonexistent.toml"));
 }
 
+// Start-up and periodic writes: read in file order with their values and periods; a bad
+// entry is refused at its line with the reason.
+TEST(ModbusProfile, StartUpAndPeriodicWrites) {
+  const std::string out = kHead +
+                          "[modbus.outputs]\n"  // line 3
+                          "command = { unit = 2, table = \"holding\", address = 0 }\n";
+  const std::string text = out +
+                           "[[modbus.startup]]\nunit = 2\ntable = \"holding\"\naddress = 100\n"
+                           "value = 500\n"
+                           "[[modbus.startup]]\nunit = 2\ntable = \"coil\"\naddress = 7\n"
+                           "value = 1\n"
+                           "[[modbus.periodic]]\nunit = 2\ntable = \"holding\"\naddress = 101\n"
+                           "value = 1\nperiod_ms = 100\nwatchdog_ms = 500\n";
+  ModbusProfile p;
+  std::string error;
+  ASSERT_TRUE(Parse(text, &p, &error)) << error;
+  ASSERT_EQ(p.startup.size(), 2U);
+  EXPECT_EQ(p.startup[0].address, 100);
+  EXPECT_EQ(p.startup[0].value, 500);
+  EXPECT_EQ(p.startup[0].request().function, 0x06);
+  EXPECT_EQ(p.startup[0].line, 5);
+  EXPECT_EQ(p.startup[1].table, ModbusTable::kCoil);
+  EXPECT_EQ(p.startup[1].request().function, 0x05);
+  ASSERT_EQ(p.periodic.size(), 1U);
+  EXPECT_EQ(p.periodic[0].period_ms, 100);
+  EXPECT_EQ(p.periodic[0].watchdog_ms, 500);
+  EXPECT_EQ(p.writes.size(), 1U) << "fixed writes are not part of the cycle's requests";
+
+  const std::string s = out + "[[modbus.startup]]\n";  // the entry from line 5
+  const std::string q = out + "[[modbus.periodic]]\nunit = 2\ntable = \"holding\"\n";  // 5-7
+  ExpectRefused(s + "unit = 2\ntable = \"input\"\naddress = 1\nvalue = 1\n", 7,
+                "writable table (holding, coil)");
+  ExpectRefused(s + "unit = 2\ntable = \"holding\"\naddress = 1\nvalue = 70000\n", 9,
+                "integer in 0..65535");
+  ExpectRefused(s + "unit = 2\ntable = \"coil\"\naddress = 1\nvalue = 2\n", 9, "a coil is 0 or 1");
+  ExpectRefused(s + "unit = 2\ntable = \"holding\"\naddress = 1\n", 5,
+                "needs unit, table, address and value");
+  ExpectRefused(s + "unit = 2\ntable = \"holding\"\naddress = 1\nvalue = 1\nperiod_ms = 5\n", 10,
+                "unknown key (unit, table, address, value)");
+  ExpectRefused(s + "unit = 2\ntable = \"holding\"\naddress = 0\nvalue = 1\n", 5,
+                "register 0 of unit 2 already carries modbus.outputs.command");
+  ExpectRefused(kHead + "startup = 3\n", 3, "expected [[modbus.startup]] entries");
+  ExpectRefused(q + "address = 9\nvalue = 1\n", 5, "needs period_ms");
+  ExpectRefused(q + "address = 9\nvalue = 1\nperiod_ms = 0\n", 10, "integer in 1..60000");
+  ExpectRefused(q + "address = 9\nvalue = 1\nperiod_ms = 100\nwatchdog_ms = 100\n", 11,
+                "not above period_ms");
+}
+
+// The fault reset: an output role (a coil or register bit) and its rate limit.
+TEST(ModbusProfile, FaultResetRoleAndRateLimit) {
+  ModbusProfile p;
+  std::string error;
+  ASSERT_TRUE(Parse(kHead + "fault_reset_ms = 2500\n[modbus.outputs]\n"
+                            "fault_reset = { unit = 2, table = \"coil\", address = 1 }\n",
+                    &p, &error))
+      << error;
+  EXPECT_EQ(p.fault_reset_ms, 2500);
+  EXPECT_TRUE(p.Out(ModbusOut::kFaultReset).mapped);
+  EXPECT_STREQ(ModbusOutName(ModbusOut::kFaultReset), "fault_reset");
+  ASSERT_TRUE(Parse(kHead, &p, &error)) << error;
+  EXPECT_EQ(p.fault_reset_ms, 1000);  // the default: at most one reset a second
+  ExpectRefused(kHead + "fault_reset_ms = 50\n", 3, "100..600000");
+  ExpectRefused(kHead + "fault_reset_ms = \"1s\"\n", 3, "100..600000");
+}
+
 }  // namespace
 }  // namespace mrd::profile

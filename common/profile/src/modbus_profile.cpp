@@ -28,7 +28,8 @@ constexpr const char* kOutNames[kNumModbusOut] = {"command",
                                                   "status_safe_entries",
                                                   "status_model_force",
                                                   "status_demand",
-                                                  "status_command"};
+                                                  "status_command",
+                                                  "fault_reset"};
 
 constexpr int kMaxReadRegisters = 125;   // 0x03 / 0x04
 constexpr int kMaxReadBits = 2000;       // 0x01 / 0x02
@@ -285,10 +286,16 @@ bool ReadModbusKeys(const ProfileContext& c, const toml::table& modbus, ModbusPr
         return c.Fail(&v, full + ": registers per read outside 1..125 (the Modbus limit)");
       }
       out->max_read = static_cast<int>(*n);
-    } else if (key != "inputs" && key != "outputs") {
+    } else if (key == "fault_reset_ms") {
+      const auto n = v.value<std::int64_t>();
+      if (!n || *n < 100 || *n > 600000) {
+        return c.Fail(&v, full + ": expected an integer in 100..600000 [ms]");
+      }
+      out->fault_reset_ms = static_cast<int>(*n);
+    } else if (key != "inputs" && key != "outputs" && key != "startup" && key != "periodic") {
       return c.Fail(&v, full +
                             ": unknown key (word_order, write_function, align32, max_read, "
-                            "inputs, outputs)");
+                            "fault_reset_ms, inputs, outputs, startup, periodic)");
     }
   }
   return true;
@@ -342,6 +349,93 @@ bool ReadRoles(const ProfileContext& c, const toml::table& modbus, const char* s
       }
       (*owner)[at] = full;
     }
+  }
+  return true;
+}
+
+// [[modbus.startup]] or [[modbus.periodic]]: fixed writes, each { unit, table, address,
+// value } (periodic: period_ms, watchdog_ms), never on a register a role carries.
+bool ReadFixedWrites(const ProfileContext& c, const toml::table& modbus, const char* section,
+                     const RegisterOwners& owner, std::vector<ModbusFixedWrite>* out) {
+  const toml::node* node = modbus.get(section);
+  if (node == nullptr) return true;
+  const bool periodic = std::string(section) == "periodic";
+  const std::string sec = std::string("modbus.") + section;
+  const toml::array* arr = node->as_array();
+  if (arr == nullptr) return c.Fail(node, sec + ": expected [[" + sec + "]] entries");
+  for (const toml::node& n : *arr) {
+    const toml::table* t = n.as_table();
+    if (t == nullptr) return c.Fail(&n, sec + ": expected { unit, table, address, value }");
+    ModbusFixedWrite w;
+    w.line = static_cast<int>(n.source().begin.line);
+    bool have[4] = {false, false, false, false};  // unit, table, address, value
+    const auto integer = [&](const toml::node& v, const std::string& at, std::int64_t lo,
+                             std::int64_t hi, std::int64_t* x) {
+      const auto i = v.value<std::int64_t>();
+      if (!i || *i < lo || *i > hi) {
+        return c.Fail(
+            &v, at + ": expected an integer in " + std::to_string(lo) + ".." + std::to_string(hi));
+      }
+      *x = *i;
+      return true;
+    };
+    for (const auto& [k, v] : *t) {
+      const std::string key(k.str());
+      const std::string at = sec + "." + key;
+      std::int64_t x = 0;
+      if (key == "unit") {
+        if (!integer(v, at, 1, 247, &x)) return false;
+        w.unit = static_cast<std::uint8_t>(x);
+        have[0] = true;
+      } else if (key == "table") {
+        const auto s = v.value<std::string>();
+        if (s && *s == "holding") {
+          w.table = ModbusTable::kHolding;
+        } else if (s && *s == "coil") {
+          w.table = ModbusTable::kCoil;
+        } else {
+          return c.Fail(&v, at + ": a fixed write goes to a writable table (holding, coil)");
+        }
+        have[1] = true;
+      } else if (key == "address") {
+        if (!integer(v, at, 0, 65535, &x)) return false;
+        w.address = static_cast<int>(x);
+        have[2] = true;
+      } else if (key == "value") {
+        if (!integer(v, at, 0, 65535, &x)) return false;
+        w.value = static_cast<std::uint16_t>(x);
+        have[3] = true;
+      } else if (periodic && key == "period_ms") {
+        if (!integer(v, at, 1, 60000, &x)) return false;
+        w.period_ms = static_cast<int>(x);
+      } else if (periodic && key == "watchdog_ms") {
+        if (!integer(v, at, 1, 60000, &x)) return false;
+        w.watchdog_ms = static_cast<int>(x);
+      } else {
+        return c.Fail(&v, at + (periodic ? ": unknown key (unit, table, address, value, "
+                                           "period_ms, watchdog_ms)"
+                                         : ": unknown key (unit, table, address, value)"));
+      }
+    }
+    if (!have[0] || !have[1] || !have[2] || !have[3]) {
+      return c.Fail(&n, sec + ": needs unit, table, address and value");
+    }
+    if (periodic && w.period_ms == 0) return c.Fail(&n, sec + ": needs period_ms");
+    if (w.watchdog_ms != 0 && w.watchdog_ms <= w.period_ms) {
+      return c.Fail(t->get("watchdog_ms"),
+                    sec + ".watchdog_ms: " + std::to_string(w.watchdog_ms) +
+                        " ms is not above period_ms (" + std::to_string(w.period_ms) +
+                        " ms): the driver would drop its coil between two writes");
+    }
+    if (w.table == ModbusTable::kCoil && w.value > 1) {
+      return c.Fail(t->get("value"), sec + ".value: a coil is 0 or 1");
+    }
+    const auto at = std::make_tuple(int{w.unit}, static_cast<int>(w.table), w.address);
+    if (const auto it = owner.find(at); it != owner.end()) {
+      return c.Fail(&n, sec + ": register " + std::to_string(w.address) + " of unit " +
+                            std::to_string(w.unit) + " already carries " + it->second);
+    }
+    out->push_back(w);
   }
   return true;
 }
@@ -433,6 +527,10 @@ bool ParseModbusProfile(const std::string& text, const std::string& path, Modbus
                    &owner) ||
         !ReadRoles(c, *modbus, "outputs", kOutNames, kNumModbusOut, out->outputs.data(), true, *out,
                    &owner)) {
+      return false;
+    }
+    if (!ReadFixedWrites(c, *modbus, "startup", owner, &out->startup) ||
+        !ReadFixedWrites(c, *modbus, "periodic", owner, &out->periodic)) {
       return false;
     }
     const bool single = out->write_function == 6;

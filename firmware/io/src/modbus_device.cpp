@@ -79,6 +79,7 @@ ModbusDevice::ModbusDevice(const ModbusConfig& config)
     command_map_ = profile_->command;
     safe_setpoint_ = command_map_.SafeSetpoint(0.0);   // the driver's off (proved at load)
     words_ = std::make_unique<std::uint16_t[]>(2000);  // the largest request (bits)
+    periodic_due_ = std::make_unique<std::int64_t[]>(profile_->periodic.size() + 1);
   }
 }
 
@@ -136,6 +137,17 @@ bool ModbusDevice::Activate(std::string* error) {
     while (common::MonotonicNs() < until &&
            !(sample_.TryRead(&s) && (s.accepted > 0 || s.read_failed || s.write_failed))) {
       SleepUntil(common::MonotonicNs() + 100'000);
+    }
+    if (const int refused = startup_refused_.load(); refused > 0) {
+      const profile::ModbusFixedWrite& w = profile_->startup[static_cast<std::size_t>(refused - 1)];
+      char code[8];
+      std::snprintf(code, sizeof code, "0x%02X", startup_exception_.load());
+      *error = "modbus: " + profile_->path + ":" + std::to_string(w.line) +
+               ": the start-up write of unit " + std::to_string(w.unit) +
+               (w.table == profile::ModbusTable::kCoil ? " coil " : " holding register ") +
+               std::to_string(w.address) + " = " + std::to_string(w.value) +
+               " was refused (exception " + code + ")";
+      return false;
     }
   }
   if (config_.priority > 0) {
@@ -228,6 +240,10 @@ bool ModbusDevice::Connect(Sample* s) {
   resync_ = false;
   unanswered_since_ns_ = 0;
   have_seq_ = false;  // a new peer may restart its sequence
+  started_ = false;   // the profile's start-up writes go out again, periodic ones at once
+  if (periodic_due_ != nullptr) {
+    for (std::size_t i = 0; i < profile_->periodic.size(); ++i) periodic_due_[i] = 0;
+  }
   return true;
 }
 
@@ -442,9 +458,22 @@ ModbusDevice::CycleEnd ModbusDevice::Cycle(Sample* s, int* timed_out_cycles, boo
   const bool reads = config_.inputs != 0 || config_.lockstep;
   const bool writes = config_.outputs != 0;
   timed_out_ = false;
+  if (profile_ != nullptr && !started_) {
+    if (!StartUpWrites(s)) {
+      sample_.Write(*s);
+      EndSession();
+      *timed_out_cycles = 0;
+      return CycleEnd::kSessionEnded;
+    }
+    started_ = true;
+  }
   Outcome w = Outcome::kNothing, r = Outcome::kNothing;
   if (writes) w = WriteLatest(s);
   if (reads && w != Outcome::kAbandoned && !link_->broken()) r = ReadSensors(s, new_grant);
+  if (profile_ != nullptr && w != Outcome::kAbandoned && r != Outcome::kAbandoned &&
+      !link_->broken()) {
+    PeriodicWrites(s);
+  }
   if (!s->read_failed && !s->write_failed) s->why = IoError::kNone;
   sample_.Write(*s);
 

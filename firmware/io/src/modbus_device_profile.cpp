@@ -132,6 +132,7 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
   // driver's faults whether or not [modbus] inputs routes fault_line (as on CAN).
   s.fault_line = value(pf::CanIn::kFaultLine) != 0.0;
   s.driver_fault = value(pf::CanIn::kDriverFaults) != 0.0;
+  driver_fault_seen_ = s.driver_fault;
   if (!have_seq_ || seq != s.seq) {  // a repeated seq is not new data
     have_seq_ = true;
     s.seq = seq;
@@ -158,6 +159,21 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
   written_tick_ = c.tick;  // sent or failed, a command is not sent again
   any_written_ = true;
   const auto routed = [&](Output o) { return (config_.outputs & Bit(o)) != 0; };
+  // The fault reset (worker only, never at shutdown): an edge when the driver still reports a
+  // (latched) fault and the firmware has no other cause, at most once per fault_reset_ms.
+  bool reset = false;
+  if (interruptible && p.Out(pf::ModbusOut::kFaultReset).mapped && driver_fault_seen_) {
+    constexpr unsigned kDriverSide = (1U << static_cast<unsigned>(FaultCause::kDriverFault)) |
+                                     (1U << static_cast<unsigned>(FaultCause::kFaultLine));
+    const unsigned causes = status_causes_.load(std::memory_order_relaxed);
+    const std::int64_t now = common::MonotonicNs();
+    if ((causes & ~kDriverSide) == 0 &&
+        (last_reset_ns_ == 0 ||
+         now - last_reset_ns_ >= static_cast<std::int64_t>(p.fault_reset_ms) * 1'000'000)) {
+      reset = true;
+      last_reset_ns_ = now;
+    }
+  }
   // Each role's value; roles the [modbus] routing does not drive carry their safe value.
   double v[pf::kNumModbusOut] = {};
   const auto fill = [&](double setpoint, bool enable, bool safe) {
@@ -188,6 +204,7 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
     live(pf::ModbusOut::kStatusModelForce, status_model_force_);
     live(pf::ModbusOut::kStatusDemand, status_demand_);
     live(pf::ModbusOut::kStatusCommand, status_command_);
+    v[static_cast<std::size_t>(pf::ModbusOut::kFaultReset)] = reset ? 1.0 : 0.0;
   };
   // Every point must fit before anything is sent; one that does not (a non-finite set-point,
   // a value beyond its type) makes the whole cycle's write the safe one, counted bad_value.
@@ -277,6 +294,77 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
   }
   tx_ok_.fetch_add(1, std::memory_order_relaxed);
   return Outcome::kOk;
+}
+
+bool ModbusDevice::WriteFixed(const pf::ModbusFixedWrite& w, IoError* why,
+                              std::uint8_t* exception) {
+  if (resync_) {
+    resync_ = false;
+    if (!link_->Quiet(-1, waker_.get())) {
+      *why = IoError::kDisconnected;
+      return false;
+    }
+  }
+  const pf::ModbusRequest req = w.request();
+  const std::uint16_t word = w.value;
+  std::uint8_t pdu[mb::kMaxPdu], reply[mb::kMaxPdu];
+  const int len = pf::PutModbusWrite(req, &word, pdu);
+  link_->set_unit(req.unit);
+  int reply_len = 0;
+  IoError e = IoError::kNone;
+  const ModbusLink::Result r = link_->Transact(pdu, len, reply, &reply_len, &e, -1, waker_.get());
+  if (r == ModbusLink::Result::kOk) {
+    const pf::ModbusReply check = pf::CheckModbusWrite(req, pdu, reply, reply_len, exception);
+    if (check == pf::ModbusReply::kOk) {
+      GoodExchange();
+      return true;
+    }
+    e = check == pf::ModbusReply::kException ? IoError::kException : IoError::kRejectedFrame;
+  } else if (e == IoError::kNone) {
+    e = IoError::kDisconnected;
+  }
+  Failed(e, e == IoError::kException || e == IoError::kRejectedFrame);
+  *why = e;
+  return false;
+}
+
+bool ModbusDevice::StartUpWrites(Sample* s) {
+  for (std::size_t i = 0; i < profile_->startup.size(); ++i) {
+    IoError why = IoError::kNone;
+    std::uint8_t exception = 0;
+    bool ok = false;
+    for (int attempt = 0; attempt <= config_.retries && !ok; ++attempt) {  // as other requests
+      ok = WriteFixed(profile_->startup[i], &why, &exception);
+      if (!ok && (!Retriable(why) || link_->broken())) break;
+    }
+    if (ok) continue;
+    if (why == IoError::kException || why == IoError::kRejectedFrame) {
+      startup_exception_.store(exception);
+      startup_refused_.store(static_cast<int>(i) + 1);
+    }
+    tx_failed_.fetch_add(1, std::memory_order_relaxed);
+    s->write_failed = config_.outputs != 0 || !profile_->startup.empty();
+    s->read_failed = config_.inputs != 0 || config_.lockstep;
+    s->why = why;
+    return false;
+  }
+  return true;
+}
+
+void ModbusDevice::PeriodicWrites(Sample* s) {
+  for (std::size_t i = 0; i < profile_->periodic.size(); ++i) {
+    const pf::ModbusFixedWrite& w = profile_->periodic[i];
+    const std::int64_t now = common::MonotonicNs();
+    if (now < periodic_due_[i]) continue;
+    periodic_due_[i] = now + static_cast<std::int64_t>(w.period_ms) * 1'000'000;
+    IoError why = IoError::kNone;
+    std::uint8_t exception = 0;
+    if (WriteFixed(w, &why, &exception)) continue;
+    tx_failed_.fetch_add(1, std::memory_order_relaxed);
+    s->write_failed = true;
+    s->why = why;
+    if (link_->broken()) return;
+  }
 }
 
 }  // namespace mrd::firmware

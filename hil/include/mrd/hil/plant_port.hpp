@@ -59,6 +59,11 @@ struct DriverInput {
   bool has_status = false;          // a firmware status arrived since the last Poll
   std::uint16_t status_causes = 0;  // its active watchdog causes (bit i = cause i)
   bool status_safe = false;
+  // Modbus profile with a periodic write under watchdog_ms: the driver's communication
+  // watchdog (real time only): false once an armed keep-alive write stopped for watchdog_ms
+  // (the driver drops its coil until the writes come again).
+  bool has_watchdog = false;
+  bool watchdog_ok = true;
 };
 
 struct PortCounters {

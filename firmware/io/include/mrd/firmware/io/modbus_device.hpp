@@ -20,7 +20,11 @@
 // non-zero sets the fault line whether [modbus] inputs routes fault_line or not (as on CAN);
 // a refused write does not end the cycle (the rest goes out with the safe values). Activate waits
 // (bounded) for the first cycle's sample or failure, so the loop does not start on a never-sampled
-// frame (whose values are NaN: a non_finite trip at start-up).
+// frame (whose values are NaN: a non_finite trip at start-up). On every new connection the
+// profile's start-up writes go out first (one refused at start-up is a start-up error naming
+// its register); its periodic writes go out in the worker's cycle when due. fault_reset: 1 in
+// one write while the driver reports a fault and the firmware has no other cause, at most once
+// per fault_reset_ms (a latched driver fault is reset without a power cycle).
 
 #include <pthread.h>
 
@@ -37,6 +41,7 @@
 
 namespace mrd::profile {
 struct ModbusProfile;
+struct ModbusFixedWrite;
 }  // namespace mrd::profile
 
 namespace mrd::firmware {
@@ -120,6 +125,14 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   // The profile's transactions (modbus_device_profile.cpp).
   Outcome ReadProfile(Sample* s, bool* new_grant);
   Outcome WriteProfileOnce(const Command& c, IoError* why, bool interruptible);
+  // The profile's start-up writes on a new connection (retried as any request); false when one
+  // failed (refused: startup_refused_ names it for Activate).
+  bool StartUpWrites(Sample* s);
+  // The profile's periodic writes that are due (one attempt each; a failure fails the cycle's
+  // write, the loop goes safe).
+  void PeriodicWrites(Sample* s);
+  // One fixed write (0x05 / 0x06), one attempt. *exception: the device's code when refused.
+  bool WriteFixed(const profile::ModbusFixedWrite& w, IoError* why, std::uint8_t* exception);
   bool LatestCommand(Command* c) const;
   // The loop posted a safe block since the latest block written was a driven one.
   bool SafePending() const;
@@ -135,6 +148,13 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   profile::CommandMap command_map_;                  // loop side: E -> set-point
   double safe_setpoint_ = 0.0;                       // set-point of the safe state
   std::unique_ptr<std::uint16_t[]> words_;           // worker: one write request's words
+  std::unique_ptr<std::int64_t[]> periodic_due_;     // worker: next time of each periodic write
+  bool started_ = false;                             // worker: start-up writes done this session
+  bool driver_fault_seen_ = false;                   // worker: the latest good read's driver_faults
+  std::int64_t last_reset_ns_ = 0;                   // worker: the last fault_reset edge (0: none)
+  // A start-up write the device refused: its index + 1 (0: none) and exception code.
+  std::atomic<int> startup_refused_{0};
+  std::atomic<std::uint8_t> startup_exception_{0};
   std::unique_ptr<ModbusLink> link_;
   std::unique_ptr<Waker> waker_;
   bool configured_ = false;
