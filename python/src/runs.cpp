@@ -21,6 +21,7 @@
 #include "mrd/hil/run.hpp"
 #include "mrd/hil/scenario.hpp"
 #include "report.hpp"
+#include "table_check.hpp"
 
 namespace mrd::python {
 namespace {
@@ -135,7 +136,11 @@ py::object RunScenario(const py::object& scenario, const std::vector<std::string
     if (rc == 2) throw BadInput(text);
     throw std::runtime_error(text);
   }
-  const nlohmann::json summary = hil::SummaryJson(s, r);
+  nlohmann::json summary = hil::SummaryJson(s, r);
+  CoefficientTable run_table;  // what the run used, named as mrd-hil run names it
+  if (!hil::LoadRunTable(table_path, &run_table)) throw BadInput(table_path + ": unreadable");
+  summary["table"] = hil::TableLabel(table_path, run_table);
+  summary["plant"] = hil::PlantLabel(s);
   if (!out.is_none()) {
     std::string werror, warning;
     if (!hil::WriteOutputs(o.work_dir, summary, r, nullptr, &werror, &warning)) {

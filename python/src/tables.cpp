@@ -33,7 +33,6 @@ struct Table {
 // a firmware config file's).
 struct RunSettings {
   double e_max = 0.0;    // [V]
-  double e_start = 0.0;  // command before the first sample [V] (the safe voltage)
   bool envelope = true;
   double margin = 0.1;
 };
@@ -51,8 +50,7 @@ firmware::FirmwareConfig LoadConfig(const std::string& path) {
 }
 
 RunSettings SettingsOf(const Table& t, const std::optional<std::string>& config,
-                       std::optional<double> e_max, std::optional<double> e_start,
-                       std::optional<bool> envelope, std::optional<double> margin) {
+                       std::optional<double> e_max, std::optional<bool> envelope, std::optional<double> margin) {
   RunSettings s;
   firmware::ControllerConfig c;
   std::optional<double> config_e_max;
@@ -62,13 +60,8 @@ RunSettings SettingsOf(const Table& t, const std::optional<std::string>& config,
     config_e_max = fc.e_max;
   }
   s.e_max = e_max.value_or(config_e_max.value_or(t.table.e_max));
-  s.e_start = e_start.value_or(c.safe_voltage);
   s.envelope = envelope.value_or(c.envelope);
   s.margin = margin.value_or(c.envelope_margin);
-  if (!std::isfinite(s.e_start) || s.e_start < t.table.e_min || s.e_start > s.e_max) {
-    throw BadInput(fmt::format("e_start {} is outside the command range [{}, {}] V", s.e_start,
-                               t.table.e_min, s.e_max));
-  }
   return s;
 }
 
@@ -116,7 +109,7 @@ py::array_t<double> Simulate(const Table& t, const py::handle& v, const py::hand
                              const py::handle& E, std::optional<bool> envelope,
                              std::optional<double> margin,
                              const std::optional<std::string>& config) {
-  const RunSettings s = SettingsOf(t, config, std::nullopt, std::nullopt, envelope, margin);
+  const RunSettings s = SettingsOf(t, config, std::nullopt, envelope, margin);
   const auto in = Inputs({{"v", v}, {"x", x}, {"E", E}});
   firmware::ModelRuntime runtime;
   Configure(t, s, &runtime, nullptr);
@@ -135,14 +128,14 @@ py::array_t<double> Simulate(const Table& t, const py::handle& v, const py::hand
 }
 
 // The firmware's force-law period without its watchdog: per sample the model begins with v, x,
-// the inverter solves for the demand from the previous command, the model finishes with the
-// command. Where `command` is finite, that command is sent instead (e.g. the safe voltage of
+// the inverter solves for the demand at v (its sign the dissipative direction), the model
+// finishes with the command. Where `command` is finite, that command is sent instead (e.g. the safe voltage of
 // periods the firmware spent in the safe state) and nothing is inverted.
 py::dict Invert(const Table& t, const py::handle& v, const py::handle& x, const py::handle& demand,
                 const py::object& command, std::optional<double> e_max,
-                std::optional<double> e_start, std::optional<bool> envelope,
+                std::optional<bool> envelope,
                 std::optional<double> margin, const std::optional<std::string>& config) {
-  const RunSettings s = SettingsOf(t, config, e_max, e_start, envelope, margin);
+  const RunSettings s = SettingsOf(t, config, e_max, envelope, margin);
   const auto in = Inputs({{"v", v}, {"x", x}, {"demand", demand}});
   const std::size_t n = in[0].size();
   std::vector<double> fixed;
@@ -167,16 +160,16 @@ py::dict Invert(const Table& t, const py::handle& v, const py::handle& x, const 
   bool* ok = reachable.mutable_data();
   {
     const py::gil_scoped_release release;
-    Real E_prev = static_cast<Real>(s.e_start);
     for (std::size_t k = 0; k < n; ++k) {
-      runtime.Begin(static_cast<Real>(in[0][k]), static_cast<Real>(in[1][k]));
-      Real volts = E_prev;
+      const Real velocity = static_cast<Real>(in[0][k]);
+      runtime.Begin(velocity, static_cast<Real>(in[1][k]));
+      Real volts = Real(0);
       ok[k] = true;
       if (!fixed.empty() && std::isfinite(fixed[k])) {
         volts = static_cast<Real>(fixed[k]);
       } else {
         const firmware::Inverter::Solution sol =
-            inverter.Solve(runtime.history(), static_cast<Real>(in[2][k]), E_prev);
+            inverter.Solve(runtime.history(), static_cast<Real>(in[2][k]), velocity);
         volts = sol.E;
         ok[k] = sol.reachable;
       }
@@ -184,7 +177,6 @@ py::dict Invert(const Table& t, const py::handle& v, const py::handle& x, const 
       if (!std::isfinite(f)) runtime.Reset();  // as the firmware resets a diverged model
       E[k] = static_cast<double>(volts);
       force[k] = static_cast<double>(f);
-      E_prev = volts;
     }
   }
   py::dict out;
@@ -303,18 +295,17 @@ void RegisterTables(py::module_& m) {
       .def(
           "invert",
           [](const Table& t, const py::handle& v, const py::handle& x, const py::handle& demand,
-             const py::object& command, std::optional<double> e_max, std::optional<double> e_start,
-             std::optional<bool> envelope, std::optional<double> margin, const py::object& config) {
-            return Invert(t, v, x, demand, command, e_max, e_start, envelope, margin,
+             const py::object& command, std::optional<double> e_max, std::optional<bool> envelope, std::optional<double> margin, const py::object& config) {
+            return Invert(t, v, x, demand, command, e_max, envelope, margin,
                           OptionalPath(config));
           },
           py::arg("v"), py::arg("x"), py::arg("demand"), py::kw_only(),
           py::arg("command") = py::none(), py::arg("e_max") = py::none(),
-          py::arg("e_start") = py::none(), py::arg("envelope") = py::none(),
+          py::arg("envelope") = py::none(),
           py::arg("envelope_margin") = py::none(), py::arg("config") = py::none(),
           "The firmware's analytic inversion on arrays: per sample, the command E [V] whose "
-          "model force is the demand [N] (nearest the previous command; the closest force "
-          "when unreachable), the model advancing with it. Returns E, force and reachable. "
+          "model force is the demand [N] at v (E_min for 0 N or a demand against v; the "
+          "lowest E of the nearest force when unreachable), the model advancing with it. Returns E, force and reachable. "
           "command: optional array, finite where that command is sent instead (safe state)")
       .def("__repr__", [](const Table& t) {
         return fmt::format("<mrd.Table {}: {} terms, input {} in [{}, {}] V{}>", t.source,

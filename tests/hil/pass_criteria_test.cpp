@@ -153,6 +153,7 @@ TEST(PassCriteriaTest, AbsoluteLimitsHoldAtTheirBounds) {
   RunResult k;
   k.commands = 1000;
   k.tracking.steps = k.tracking.reachable_steps = 1000;
+  k.tracking.reachable_share = 1.0;
   k.tracking.all_scored = k.tracking.reachable_scored = true;
   k.tracking.error_reachable = 0.2;
   k.tracking.error_all = 0.3;

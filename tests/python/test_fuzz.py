@@ -75,7 +75,7 @@ def test_invert_and_simulate_survive_bad_arrays(table):
         attempt(table.invert, v, x, bad)
         attempt(table.invert, v, x, d, command=bad)
         attempt(table.simulate, v, x, bad)
-    for kw in ({"e_max": np.nan}, {"e_max": -1.0}, {"e_start": np.inf}, {"envelope_margin": np.nan},
+    for kw in ({"e_max": np.nan}, {"e_max": -1.0}, {"envelope_margin": np.nan},
                {"envelope_margin": 1e308}, {"config": "/nonexistent.toml"}, {"config": "\x00"}):
         attempt(table.invert, v, x, d, **kw)
     # Empty inputs are valid (nothing to do); extreme demands saturate, never fail.

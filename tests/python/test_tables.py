@@ -113,8 +113,6 @@ def test_inversion_check_and_settings_refusals(tmp_path):
     v = np.zeros(10)
     with pytest.raises(ValueError, match="e_max 3 V is outside the table's range"):
         table.invert(v, v, v, e_max=3.0)
-    with pytest.raises(ValueError, match="e_start"):
-        table.invert(v, v, v, e_start=-1.0)
     with pytest.raises(ValueError, match="envelope_margin"):
         table.invert(v, v, v, envelope_margin=-0.5)
     with pytest.raises(ValueError, match="^command: row 2: 5 V is outside"):
