@@ -32,7 +32,7 @@ struct Table {
 // The firmware's settings the runtime and the inverter take (ControllerConfig's defaults, or
 // a firmware config file's).
 struct RunSettings {
-  double e_max = 0.0;    // [V]
+  double e_max = 0.0;  // [V]
   bool envelope = true;
   double margin = 0.1;
 };
@@ -50,7 +50,8 @@ firmware::FirmwareConfig LoadConfig(const std::string& path) {
 }
 
 RunSettings SettingsOf(const Table& t, const std::optional<std::string>& config,
-                       std::optional<double> e_max, std::optional<bool> envelope, std::optional<double> margin) {
+                       std::optional<double> e_max, std::optional<bool> envelope,
+                       std::optional<double> margin) {
   RunSettings s;
   firmware::ControllerConfig c;
   std::optional<double> config_e_max;
@@ -129,12 +130,12 @@ py::array_t<double> Simulate(const Table& t, const py::handle& v, const py::hand
 
 // The firmware's force-law period without its watchdog: per sample the model begins with v, x,
 // the inverter solves for the demand at v (its sign the dissipative direction), the model
-// finishes with the command. Where `command` is finite, that command is sent instead (e.g. the safe voltage of
-// periods the firmware spent in the safe state) and nothing is inverted.
+// finishes with the command. Where `command` is finite, that command is sent instead (e.g. the safe
+// voltage of periods the firmware spent in the safe state) and nothing is inverted.
 py::dict Invert(const Table& t, const py::handle& v, const py::handle& x, const py::handle& demand,
                 const py::object& command, std::optional<double> e_max,
-                std::optional<bool> envelope,
-                std::optional<double> margin, const std::optional<std::string>& config) {
+                std::optional<bool> envelope, std::optional<double> margin,
+                const std::optional<std::string>& config) {
   const RunSettings s = SettingsOf(t, config, e_max, envelope, margin);
   const auto in = Inputs({{"v", v}, {"x", x}, {"demand", demand}});
   const std::size_t n = in[0].size();
@@ -295,17 +296,18 @@ void RegisterTables(py::module_& m) {
       .def(
           "invert",
           [](const Table& t, const py::handle& v, const py::handle& x, const py::handle& demand,
-             const py::object& command, std::optional<double> e_max, std::optional<bool> envelope, std::optional<double> margin, const py::object& config) {
-            return Invert(t, v, x, demand, command, e_max, envelope, margin,
-                          OptionalPath(config));
+             const py::object& command, std::optional<double> e_max, std::optional<bool> envelope,
+             std::optional<double> margin, const py::object& config) {
+            return Invert(t, v, x, demand, command, e_max, envelope, margin, OptionalPath(config));
           },
           py::arg("v"), py::arg("x"), py::arg("demand"), py::kw_only(),
           py::arg("command") = py::none(), py::arg("e_max") = py::none(),
-          py::arg("envelope") = py::none(),
-          py::arg("envelope_margin") = py::none(), py::arg("config") = py::none(),
+          py::arg("envelope") = py::none(), py::arg("envelope_margin") = py::none(),
+          py::arg("config") = py::none(),
           "The firmware's analytic inversion on arrays: per sample, the command E [V] whose "
           "model force is the demand [N] at v (E_min for 0 N or a demand against v; the "
-          "lowest E of the nearest force when unreachable), the model advancing with it. Returns E, force and reachable. "
+          "lowest E of the nearest force when unreachable), the model advancing with it. Returns "
+          "E, force and reachable. "
           "command: optional array, finite where that command is sent instead (safe state)")
       .def("__repr__", [](const Table& t) {
         return fmt::format("<mrd.Table {}: {} terms, input {} in [{}, {}] V{}>", t.source,
