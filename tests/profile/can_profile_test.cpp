@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "mrd/profile/frame_codec.hpp"
@@ -197,6 +198,53 @@ TEST(CanProfileTest, AMissingOrBrokenDbcIsNamed) {
   EXPECT_NE(error.find("nothere.dbc: cannot open"), std::string::npos) << error;
   EXPECT_FALSE(LoadCanProfile("/tmp", &p, &error));
   EXPECT_NE(error.find("not a regular file"), std::string::npos) << error;
+}
+
+// docs/mrd.dbc with a FaultReset bit in DriverCommand (bit 19, free in the native layout) and
+// one in the heartbeat message (bit 5).
+std::string DbcWithResetBits() {
+  std::ifstream in(kSource + "/docs/mrd.dbc");
+  std::string dbc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto insert = [&](const std::string& after, const std::string& line) {
+    const std::size_t at = dbc.find(after);
+    EXPECT_NE(at, std::string::npos) << after;
+    if (at != std::string::npos) dbc.insert(at + after.size(), line);
+  };
+  insert(" SG_ SafeState : 18|1@1+ (1,0) [0|1] \"\" Driver\n",
+         " SG_ FaultReset : 19|1@1+ (1,0) [0|1] \"\" Driver\n");
+  insert(" SG_ HeartbeatSafe : 4|1@1+ (1,0) [0|1] \"\" Driver\n",
+         " SG_ HeartbeatReset : 5|1@1+ (1,0) [0|1] \"\" Driver\n");
+  return dbc;
+}
+
+TEST(CanProfileTest, FaultResetIsABitOfACommandFrame) {
+  const std::string dbc = DbcWithResetBits();
+  const std::string head =
+      "name = \"x\"\ndbc = \"mrd.dbc\"\n[outputs]\ncommand = \"DriverCommand.VoltageSetpoint\"\n"
+      "heartbeat_safe = \"Heartbeat.HeartbeatSafe\"\n";
+  CanProfile p;
+  std::string error;
+  ASSERT_TRUE(ParseCanProfile(head + "fault_reset = \"DriverCommand.FaultReset\"\n", "p.toml", &dbc,
+                              &p, &error))
+      << error;
+  const SignalRef r = p.outputs[static_cast<std::size_t>(CanOut::kFaultReset)];
+  ASSERT_TRUE(r.mapped());
+  EXPECT_EQ(r.message, p.outputs[static_cast<std::size_t>(CanOut::kCommand)].message);
+  EXPECT_EQ(p.Layout(r).length, 1);
+  EXPECT_STREQ(CanOutName(CanOut::kFaultReset), "fault_reset");
+  // Refused at its line: not a bit, or a bit of a frame not sent every period.
+  const auto refused = [&](const std::string& signal, const std::string& reason) {
+    CanProfile q;
+    std::string why;
+    EXPECT_FALSE(
+        ParseCanProfile(head + "fault_reset = \"" + signal + "\"\n", "p.toml", &dbc, &q, &why))
+        << signal;
+    EXPECT_EQ(why.rfind("p.toml:6: outputs.fault_reset: ", 0), 0U) << why;
+    EXPECT_NE(why.find(reason), std::string::npos) << why;
+  };
+  refused("DriverCommand.EchoSeq", "expected a bit");
+  refused("Heartbeat.HeartbeatReset", "is not a command frame");
+  refused("FirmwareStatus.FirmwareSafe", "is not a command frame");
 }
 
 }  // namespace

@@ -45,7 +45,8 @@ constexpr const char* kCanOutNames[kNumCanOut] = {"command",
                                                   "status_safe_entries",
                                                   "status_model_force",
                                                   "status_demand",
-                                                  "status_command"};
+                                                  "status_command",
+                                                  "fault_reset"};
 
 // "Message.Signal" -> indices in the DBC.
 bool Resolve(const ProfileContext& c, const toml::node& n, const std::string& key, const Dbc& dbc,
@@ -223,6 +224,29 @@ bool CheckSetpointSignal(const ProfileContext& c, const toml::table& root, const
   return c.Fail(at != nullptr ? at : role, why);
 }
 
+// fault_reset: a bit (unsigned, 1 bit, factor 1, offset 0) of a message the firmware sends
+// every control period, i.e. one carrying a command role.
+bool CheckFaultResetSignal(const ProfileContext& c, const toml::table& root, const CanProfile& p) {
+  const SignalRef ref = p.outputs[static_cast<std::size_t>(CanOut::kFaultReset)];
+  if (!ref.mapped()) return true;
+  const toml::node* at = root.at_path("outputs.fault_reset").node();
+  const protocol::SignalLayout& l = p.Layout(ref);
+  if (l.length != 1 || l.is_signed || l.factor != 1.0 || l.offset != 0.0) {
+    return c.Fail(at,
+                  "outputs.fault_reset: expected a bit (an unsigned 1-bit signal with factor "
+                  "1, offset 0); " +
+                      std::to_string(l.length) + " bits");
+  }
+  for (const CanOut r :
+       {CanOut::kCommand, CanOut::kEnable, CanOut::kEnableValid, CanOut::kSafe, CanOut::kEcho}) {
+    if (p.outputs[static_cast<std::size_t>(r)].message == ref.message) return true;
+  }
+  return c.Fail(at, "outputs.fault_reset: message " +
+                        p.dbc.messages[static_cast<std::size_t>(ref.message)].name +
+                        " is not a command frame the firmware sends every period (map "
+                        "command, enable, enable_valid, safe or echo to it)");
+}
+
 }  // namespace
 
 const char* CanInName(CanIn role) { return kCanInNames[static_cast<std::size_t>(role)]; }
@@ -369,6 +393,7 @@ bool ParseCanProfile(const std::string& text, const std::string& path, const std
       return false;
     }
     if (!CheckSetpointSignal(c, root, *out)) return false;
+    if (!CheckFaultResetSignal(c, root, *out)) return false;
     out->digest = TextDigest(text, out->dbc.digest ^ out->command.digest());
   } catch (const std::exception& e) {
     *error = path + ": " + e.what();

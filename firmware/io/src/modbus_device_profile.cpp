@@ -161,19 +161,11 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
   const auto routed = [&](Output o) { return (config_.outputs & Bit(o)) != 0; };
   // The fault reset (worker only, never at shutdown): an edge when the driver still reports a
   // (latched) fault and the firmware has no other cause, at most once per fault_reset_ms.
-  bool reset = false;
-  if (interruptible && p.Out(pf::ModbusOut::kFaultReset).mapped && driver_fault_seen_) {
-    constexpr unsigned kDriverSide = (1U << static_cast<unsigned>(FaultCause::kDriverFault)) |
-                                     (1U << static_cast<unsigned>(FaultCause::kFaultLine));
-    const unsigned causes = status_causes_.load(std::memory_order_relaxed);
-    const std::int64_t now = common::MonotonicNs();
-    if ((causes & ~kDriverSide) == 0 &&
-        (last_reset_ns_ == 0 ||
-         now - last_reset_ns_ >= static_cast<std::int64_t>(p.fault_reset_ms) * 1'000'000)) {
-      reset = true;
-      last_reset_ns_ = now;
-    }
-  }
+  const bool reset =
+      interruptible && p.Out(pf::ModbusOut::kFaultReset).mapped &&
+      reset_rule_.Edge(driver_fault_seen_, status_causes_.load(std::memory_order_relaxed),
+                       common::MonotonicNs(),
+                       static_cast<std::int64_t>(p.fault_reset_ms) * 1'000'000);
   // Each role's value; roles the [modbus] routing does not drive carry their safe value.
   double v[pf::kNumModbusOut] = {};
   const auto fill = [&](double setpoint, bool enable, bool safe) {

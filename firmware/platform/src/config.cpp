@@ -425,7 +425,10 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                  "Period of the status messages: FirmwareStatus and the live telemetry "
                  "FirmwareTelemetry (model force, demand, command; docs/telemetry.md)."),
         Duration("heartbeat_period_ms", &io.can.heartbeat_period_ns, 1e6, 1.0, 1e4, "ms",
-                 "Period of the heartbeat frame.")}},
+                 "Period of the heartbeat frame."),
+        Duration("fault_reset_ms", &io.can.fault_reset_ns, 1e6, 100.0, 600000.0, "ms",
+                 "The profile's fault_reset bit: at most one reset edge per this time "
+                 "(docs/devices.md).")}},
       {"modbus",
        {Names(
             "inputs", &io.modbus.inputs,

@@ -36,6 +36,7 @@
 
 #include "mrd/firmware/bus_device.hpp"
 #include "mrd/firmware/grant_clock.hpp"
+#include "mrd/firmware/io/fault_reset.hpp"
 #include "mrd/firmware/seqlock.hpp"
 #include "mrd/profile/command_map.hpp"
 
@@ -151,7 +152,7 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   std::unique_ptr<std::int64_t[]> periodic_due_;     // worker: next time of each periodic write
   bool started_ = false;                             // worker: start-up writes done this session
   bool driver_fault_seen_ = false;                   // worker: the latest good read's driver_faults
-  std::int64_t last_reset_ns_ = 0;                   // worker: the last fault_reset edge (0: none)
+  FaultResetRule reset_rule_;                        // worker: the fault_reset edges
   // A start-up write the device refused: its index + 1 (0: none) and exception code.
   std::atomic<int> startup_refused_{0};
   std::atomic<std::uint8_t> startup_exception_{0};
