@@ -28,7 +28,7 @@ class FaultResetRule {
   }
 
  private:
-  bool fired_ = false;       // an edge was sent
+  bool fired_ = false;        // an edge was sent
   std::int64_t last_ns_ = 0;  // when the last edge was sent [ns]
 };
 
