@@ -776,6 +776,14 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
       return false;
     }
   }
+  // The fault_reset bit travels in the command frames: they go out only with command or enable.
+  if (mapped_out(profile::CanOut::kFaultReset) &&
+      (can.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) == 0) {
+    *error = where + "profile " + p->name +
+             " maps fault_reset, which goes out in the command frames: route 'command' or "
+             "'enable' to [can] outputs";
+    return false;
+  }
   if (c->clock == LoopClock::kGrant && !mapped_in(profile::CanIn::kGrant)) {
     *error = where + "clock = \"grant\" needs the profile's 'grant' input (profile " + p->name +
              " has none)";
