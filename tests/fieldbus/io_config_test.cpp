@@ -241,7 +241,8 @@ TEST(IoConfigTest, CanFaultResetIntervalAndItsCommandFrames) {
   std::ofstream(dir / "d.dbc") << dbc;
   std::ofstream(dir / "p.toml") << "name = \"latching\"\ndbc = \"d.dbc\"\n[inputs]\n"
                                    "velocity = \"SensorMotion.Velocity\"\n"
-                                   "demand = \"SensorForce.Demand\"\n[outputs]\n"
+                                   "demand = \"SensorForce.Demand\"\n"
+                                   "driver_faults = \"DriverStatus.DriverFaults\"\n[outputs]\n"
                                    "safe = \"DriverCommand.SafeState\"\n"
                                    "heartbeat_safe = \"Heartbeat.HeartbeatSafe\"\n"
                                    "fault_reset = \"DriverCommand.FaultReset\"\n";

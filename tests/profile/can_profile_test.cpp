@@ -220,7 +220,8 @@ std::string DbcWithResetBits() {
 TEST(CanProfileTest, FaultResetIsABitOfACommandFrame) {
   const std::string dbc = DbcWithResetBits();
   const std::string head =
-      "name = \"x\"\ndbc = \"mrd.dbc\"\n[outputs]\ncommand = \"DriverCommand.VoltageSetpoint\"\n"
+      "name = \"x\"\ndbc = \"mrd.dbc\"\n[inputs]\ndriver_faults = \"DriverStatus.DriverFaults\"\n"
+      "[outputs]\ncommand = \"DriverCommand.VoltageSetpoint\"\n"
       "heartbeat_safe = \"Heartbeat.HeartbeatSafe\"\n";
   CanProfile p;
   std::string error;
@@ -239,12 +240,22 @@ TEST(CanProfileTest, FaultResetIsABitOfACommandFrame) {
     EXPECT_FALSE(
         ParseCanProfile(head + "fault_reset = \"" + signal + "\"\n", "p.toml", &dbc, &q, &why))
         << signal;
-    EXPECT_EQ(why.rfind("p.toml:6: outputs.fault_reset: ", 0), 0U) << why;
+    EXPECT_EQ(why.rfind("p.toml:8: outputs.fault_reset: ", 0), 0U) << why;
     EXPECT_NE(why.find(reason), std::string::npos) << why;
   };
   refused("DriverCommand.EchoSeq", "expected a bit");
   refused("Heartbeat.HeartbeatReset", "is not a command frame");
   refused("FirmwareStatus.FirmwareSafe", "is not a command frame");
+  // Without driver_faults the firmware never sees a fault to reset: refused at the role's line.
+  std::string no_faults = head;
+  no_faults.erase(no_faults.find("[inputs]"),
+                  no_faults.find("[outputs]") - no_faults.find("[inputs]"));
+  CanProfile q;
+  std::string why;
+  EXPECT_FALSE(ParseCanProfile(no_faults + "fault_reset = \"DriverCommand.FaultReset\"\n", "p.toml",
+                               &dbc, &q, &why));
+  EXPECT_EQ(why.rfind("p.toml:6: outputs.fault_reset: the profile maps no driver_faults", 0), 0U)
+      << why;
 }
 
 }  // namespace

@@ -403,10 +403,17 @@ TEST(ModbusProfile, StartUpAndPeriodicWrites) {
 TEST(ModbusProfile, FaultResetRoleAndRateLimit) {
   ModbusProfile p;
   std::string error;
-  ASSERT_TRUE(Parse(kHead + "fault_reset_ms = 2500\n[modbus.outputs]\n"
-                            "fault_reset = { unit = 2, table = \"coil\", address = 1 }\n",
-                    &p, &error))
+  const std::string faults =
+      "[modbus.inputs]\ndriver_faults = { unit = 2, table = \"input\", address = 4 }\n";
+  ASSERT_TRUE(
+      Parse(kHead + "fault_reset_ms = 2500\n" + faults +
+                "[modbus.outputs]\nfault_reset = { unit = 2, table = \"coil\", address = 1 }\n",
+            &p, &error))
       << error;
+  // Without driver_faults the firmware never sees a fault to reset: refused at the role's line.
+  ExpectRefused(
+      kHead + "[modbus.outputs]\nfault_reset = { unit = 2, table = \"coil\", address = 1 }\n", 4,
+      "the profile maps no driver_faults input");
   EXPECT_EQ(p.fault_reset_ms, 2500);
   EXPECT_TRUE(p.Out(ModbusOut::kFaultReset).mapped);
   EXPECT_STREQ(ModbusOutName(ModbusOut::kFaultReset), "fault_reset");

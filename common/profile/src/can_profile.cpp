@@ -230,6 +230,12 @@ bool CheckFaultResetSignal(const ProfileContext& c, const toml::table& root, con
   const SignalRef ref = p.outputs[static_cast<std::size_t>(CanOut::kFaultReset)];
   if (!ref.mapped()) return true;
   const toml::node* at = root.at_path("outputs.fault_reset").node();
+  // The firmware resets only a fault the driver reports: without driver_faults it never edges.
+  if (!p.inputs[static_cast<std::size_t>(CanIn::kDriverFaults)].mapped()) {
+    return c.Fail(at,
+                  "outputs.fault_reset: the profile maps no driver_faults input (the reset "
+                  "edges only while the driver reports a fault)");
+  }
   const protocol::SignalLayout& l = p.Layout(ref);
   if (l.length != 1 || l.is_signed || l.factor != 1.0 || l.offset != 0.0) {
     return c.Fail(at,

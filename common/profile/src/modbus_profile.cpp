@@ -529,6 +529,12 @@ bool ParseModbusProfile(const std::string& text, const std::string& path, Modbus
                    &owner)) {
       return false;
     }
+    // The firmware resets only a fault the driver reports: without driver_faults it never edges.
+    if (out->Out(ModbusOut::kFaultReset).mapped && !out->In(CanIn::kDriverFaults).mapped) {
+      return c.Fail(modbus->at_path("outputs.fault_reset").node(),
+                    "modbus.outputs.fault_reset: the profile maps no driver_faults input (the "
+                    "reset edges only while the driver reports a fault)");
+    }
     if (!ReadFixedWrites(c, *modbus, "startup", owner, &out->startup) ||
         !ReadFixedWrites(c, *modbus, "periodic", owner, &out->periodic)) {
       return false;

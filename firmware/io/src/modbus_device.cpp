@@ -602,6 +602,7 @@ void ModbusDevice::PublishStatus(const IoTime& t, const TelemetrySnapshot& stats
   (void)t;
   status_causes_.store(static_cast<std::uint16_t>(stats.active_causes & 0xFFFFU),
                        std::memory_order_relaxed);
+  causes_known_.store(true, std::memory_order_relaxed);
   status_ticks_.store(static_cast<std::uint32_t>(stats.ticks & 0xFFFFFFFFU),
                       std::memory_order_relaxed);
   status_model_force_.store(stats.model_force_n, std::memory_order_relaxed);

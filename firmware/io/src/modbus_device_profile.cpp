@@ -161,11 +161,13 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
   const auto routed = [&](Output o) { return (config_.outputs & Bit(o)) != 0; };
   // The fault reset (worker only, never at shutdown): an edge when the driver still reports a
   // (latched) fault and the firmware has no other cause, at most once per fault_reset_ms.
-  const bool reset =
-      interruptible && p.Out(pf::ModbusOut::kFaultReset).mapped &&
-      reset_rule_.Edge(driver_fault_seen_, status_causes_.load(std::memory_order_relaxed),
-                       common::MonotonicNs(),
-                       static_cast<std::int64_t>(p.fault_reset_ms) * 1'000'000);
+  const bool reset = interruptible && p.Out(pf::ModbusOut::kFaultReset).mapped &&
+                     reset_rule_.Edge(driver_fault_seen_,
+                                      causes_known_.load(std::memory_order_relaxed)
+                                          ? status_causes_.load(std::memory_order_relaxed)
+                                          : ~0U,
+                                      common::MonotonicNs(),
+                                      static_cast<std::int64_t>(p.fault_reset_ms) * 1'000'000);
   // Each role's value; roles the [modbus] routing does not drive carry their safe value.
   double v[pf::kNumModbusOut] = {};
   const auto fill = [&](double setpoint, bool enable, bool safe) {

@@ -171,6 +171,8 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   Seqlock<Sample> sample_;
   Seqlock<Command> command_;
   std::atomic<std::uint16_t> status_causes_{0};
+  // False until the firmware's first PublishStatus: no fault reset before its causes are known.
+  std::atomic<bool> causes_known_{false};
   // Live telemetry of the last published period (profile roles status_model_force, _demand,
   // _command) [N], [N], [V].
   std::atomic<double> status_model_force_{0.0}, status_demand_{0.0}, status_command_{0.0};
