@@ -23,7 +23,7 @@ class ShippedSpecInvertibilityTest : public ::testing::TestWithParam<const char*
     dir_ = new TempDir;
     for (const char* p : {"identification", "v1", "v2", "v3"}) {
       const auto r = mrd::test::Run(Bin("mrd") + " generate --profile " + p + " --seed 1 --out " +
-                         dir_->File(std::string(p) + ".csv"));
+                                    dir_->File(std::string(p) + ".csv"));
       ASSERT_EQ(r.status, 0) << r.output;
     }
   }
@@ -40,9 +40,9 @@ TEST_P(ShippedSpecInvertibilityTest, PickIsInvertibleAndExports) {
   const std::string model = dir_->File(spec + ".json");
   const std::string val =
       dir_->File("v1.csv") + "," + dir_->File("v2.csv") + "," + dir_->File("v3.csv");
-  const auto r = mrd::test::Run(Bin("mrd") + " identify --data " + dir_->File("identification.csv") +
-                     " --validate " + val + " --spec " + MRD_SOURCE_DIR + "/host/specs/" + spec +
-                     ".toml --threads 2 --out " + model);
+  const auto r = mrd::test::Run(
+      Bin("mrd") + " identify --data " + dir_->File("identification.csv") + " --validate " + val +
+      " --spec " + MRD_SOURCE_DIR + "/host/specs/" + spec + ".toml --threads 2 --out " + model);
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("invertibility in E on ["), std::string::npos) << r.output;
   const host::ModelFile mf = host::LoadModelFile(model);
@@ -63,8 +63,8 @@ TEST_P(ShippedSpecInvertibilityTest, PickIsInvertibleAndExports) {
   ASSERT_EQ(e.status, 0) << e.output;
   EXPECT_EQ(e.output.find("not invertible"), std::string::npos) << e.output;
   const std::string bytes = FileBytes(table);
-  const auto d = DecodeTable(
-      std::span(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()));
+  const auto d =
+      DecodeTable(std::span(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()));
   ASSERT_TRUE(d.ok()) << ErrorName(d.error());
   EXPECT_TRUE(d.value().has_invertibility);
   EXPECT_GT(d.value().invertibility.states, 10000u);
