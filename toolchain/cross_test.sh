@@ -12,7 +12,9 @@
 # as a child directly (a cross build's emulator prefix does not apply to a direct exec). The bus
 # tests (labels fieldbus, hil: I/O threads, sockets, ptys, child processes on a 1 kHz wall
 # clock) run natively only for the same reason; their pure parts (codecs, register map, routing
-# config, FieldbusIo, GrantClock) run here too.
+# config, FieldbusIo, GrantClock) run here too. The cross build leaves the executables of the
+# natively-run tests out (tests/CMakeLists.txt, mrd_add_test ... EMULATED) and builds the
+# harness (hil/) only where an emulated test links it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="${1:?usage: cross_test.sh aarch64|armhf}"

@@ -5,7 +5,7 @@
 # tests/data/nees-2012-1158. Outputs go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash toolchain/build.sh release
+bash toolchain/build.sh release --for demo
 mkdir -p out
 mrd=build/bin/mrd
 echo "== generate: reference data sets (Spencer damper, paper preset, seed 1)"

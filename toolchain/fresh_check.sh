@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
-# The fresh-machine check: the README's two commands on a minimal Debian 12, as a new user runs
+# The fresh-machine check: the README's commands on a minimal Debian 12, as a new user runs
 # them. Builds a minimal root with debootstrap (--variant=minbase bookworm, from the build
 # machine's Debian mirror; cached in ${MRD_CACHE_DIR:-$HOME/.cache/mrd}/fresh/<date>/, one per
 # day), copies it, clones this repository's HEAD into it, mounts /proc, /sys and /dev, and runs
-# `bash toolchain/demo.sh` then `bash toolchain/test.sh` inside with chroot. Prints each one's
-# exit status and wall time; the whole output goes to OUT_DIR/fresh_check.log.
-# Needs root (debootstrap, mount, chroot) and about 1 h on 2 cores (the test command builds the
-# virtual board's kernel once inside the fresh root). Run it before a release and after any
-# change to toolchain/setup.sh, toolchain/sysroot.sh or the package lists.
+# `bash toolchain/demo.sh`, then `bash toolchain/test.sh`, then `bash toolchain/test.sh --all`
+# inside with chroot, each installing what its tier needs (setup.sh --for demo|test|all).
+# Prints each one's exit status and wall time; the whole output goes to
+# OUT_DIR/fresh_check.log. Needs root (debootstrap, mount, chroot) and about 1 h on 2 cores
+# (--all builds the virtual board's kernel once inside the fresh root: its cache,
+# ~/.cache/mrd, is the fresh root's). Run it before a release and after any change to
+# toolchain/setup.sh, toolchain/sysroot.sh or the package lists.
 # Usage: toolchain/fresh_check.sh [OUT_DIR]   (default: ./fresh-check)
 set -euo pipefail
 src="$(cd "$(dirname "$0")/.." && pwd)"
@@ -72,7 +74,7 @@ mount --bind /dev "$root/dev"
 mount --bind /dev/pts "$root/dev/pts"
 
 status=0
-for cmd in "bash toolchain/demo.sh" "bash toolchain/test.sh"; do
+for cmd in "bash toolchain/demo.sh" "bash toolchain/test.sh" "bash toolchain/test.sh --all"; do
   echo
   echo "fresh_check: == $cmd"
   t=$(date +%s)
@@ -84,7 +86,7 @@ for cmd in "bash toolchain/demo.sh" "bash toolchain/test.sh"; do
   [ "$rc" -eq 0 ] || status=1
 done
 echo
-echo "fresh_check: in the fresh root after both commands:"
+echo "fresh_check: in the fresh root after the three commands:"
 chroot "$root" dpkg -l libmodbus5 libgpiod2 2>&1 | tail -n 2
 echo "fresh_check: $([ "$status" -eq 0 ] && echo passed || echo FAILED) (log: $out/fresh_check.log)"
 exit "$status"

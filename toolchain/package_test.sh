@@ -35,6 +35,28 @@ for key in Type=notify CPUSchedulingPolicy=fifo CPUSchedulingPriority= LimitMEML
            "--check-table /var/lib/mrd/table.bin --config /etc/mrd/firmware.toml --rollback"; do
   grep -q -- "$key" "$unit" || fail "unit lacks $key"
 done
+# Boot order: the unit waits for the config's CAN interface (bounded, before the firmware
+# opens it) and its retries never reach systemd's start limit (which would leave it failed on
+# a board whose CAN comes up late): no limit, and a retry delay that, with the wait, keeps the
+# attempts far apart.
+key() { sed -n "s/^$1=//p" "$unit"; }
+[ "$(key StartLimitIntervalSec)" = 0 ] || fail "unit has a start limit: StartLimitIntervalSec=$(key StartLimitIntervalSec)"
+pre="$(key ExecStartPre)"
+grep -q -- "--wait-for-bus /etc/mrd/firmware.toml --timeout [0-9]" <<<"$pre" ||
+  fail "unit does not wait for its CAN interface: $pre"
+wait_line="$(grep -n -- "^ExecStartPre=.*--wait-for-bus" "$unit" | cut -d: -f1)"
+start_line="$(grep -n "^ExecStart=" "$unit" | cut -d: -f1)"
+[ "$wait_line" -lt "$start_line" ] || fail "the bus wait does not come before ExecStart"
+rs="$(key RestartSec | tr -d s)"
+[ "${rs%%.*}" -ge 5 ] || fail "RestartSec=$rs s: restarts too fast"
+grep -q "^After=.*network.target" "$unit" || fail "unit not ordered after network.target"
+if command -v systemd-analyze >/dev/null; then
+  # systemd's own reading of the unit (unknown keys, bad values); the binary it names is
+  # the installed one, checked below.
+  sed "s|/usr/bin/mrd-firmware|$root/usr/bin/mrd-firmware|g" "$unit" >"$root/check.service"
+  verify="$(systemd-analyze verify "$root/check.service" 2>&1 | grep -v "Cannot add dependency\|command .* is not executable\|Failed to put bus name" || true)"
+  [ -z "$verify" ] || fail "systemd-analyze verify: $verify"
+fi
 
 # An Arm package runs under qemu-user with the build's target sysroot as the library prefix
 # (toolchain/sysroot.sh: the board's libc, libmodbus, libgpiod and toml++).
@@ -65,6 +87,18 @@ if [ "$rc" != 2 ] || ! grep -q "demo table" "$root/err"; then
   fail "demo table not refused on can0 (exit $rc): $(cat "$root/err")"
 fi
 echo "demo table on can0: refused"
+
+# The bus wait names the interface it waits for and fails (exit 1: the unit retries, exit 2
+# would stop it) when it does not come up; an interface that is up passes at once.
+printf '[can]\ninterface = "mrdnosuch0"\ninputs = ["velocity", "demand"]\noutputs = ["command"]\n' \
+  >"$root/missing.toml"
+rc=0; "${fw[@]}" --wait-for-bus "$root/missing.toml" --timeout 0.5 >/dev/null 2>"$root/err" || rc=$?
+[ "$rc" = 1 ] || fail "wait for a missing interface: exit $rc, want 1"
+grep -q "CAN interface mrdnosuch0 is not up after 0.5 s" "$root/err" ||
+  fail "wait does not name the interface: $(cat "$root/err")"
+sed 's/mrdnosuch0/lo/' "$root/missing.toml" >"$root/lo.toml"
+"${fw[@]}" --wait-for-bus "$root/lo.toml" --timeout 5 >/dev/null || fail "wait for an up interface failed"
+echo "bus wait: $(head -c 120 "$root/err")"
 
 # The user installs a table (here: the demo one, for the test) and it is checked.
 bash toolchain/deploy --root "$root" --table "$demo" >/dev/null

@@ -1,6 +1,14 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package the build machine needs; skips what is installed. Idempotent.
-# Needs root or sudo only when something is missing. Debian's archive only.
+# Installs the Debian 12 packages the build machine needs for a task; skips what is installed.
+# Idempotent. Needs root or sudo only when something is missing. Debian's archive only.
+#   --for demo   build the programs and run the demo (toolchain/demo.sh): compilers, the
+#                libraries the programs link, the test framework's headers (the build
+#                configures the tests), gnuplot for the report's plots
+#   --for test   + what the default test tier runs (toolchain/test.sh): shellcheck, ccache,
+#                the Modbus interop peers (pymodbus, mbpoll), libgpiod's tools
+#   --for all    + what only `toolchain/test.sh --all` and the maintainer tools need: the Arm
+#                cross compilers, qemu-user, the virtual board's kernel source, QEMU and
+#                initramfs tools, clang (fuzzing), clang-format (CI's style check). Default.
 #
 # Build-machine packages only: the Arm boards' libraries come from per-target sysroots
 # (toolchain/sysroot.sh), never from multiarch packages here, so nothing here is pinned or
@@ -8,30 +16,57 @@
 # libgpiod) are also brought up to the newest version the archive offers (security updates).
 # Every failure prints one line, "setup: error: what failed; what to do", and exits non-zero.
 set -euo pipefail
-case "${1:-}" in
-  -h | --help)
-    sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'
-    echo "Usage: toolchain/setup.sh   (no arguments; toolchain/build.sh and test.sh run it)"
-    exit 0
-    ;;
-  "") ;;
-  *) echo "setup: error: unknown argument '$1' (try --help)" >&2; exit 2 ;;
-esac
+usage="Usage: toolchain/setup.sh [--for demo|test|all]   (toolchain/build.sh, demo.sh and test.sh run it)"
+tier=all
+while [ $# -gt 0 ]; do
+  case "$1" in
+    -h | --help)
+      awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"
+      echo "$usage"
+      exit 0
+      ;;
+    --for)
+      [ $# -ge 2 ] || { echo "setup: error: --for needs demo, test or all ($usage)" >&2; exit 2; }
+      tier="$2"
+      shift 2
+      ;;
+    --for=*) tier="${1#*=}"; shift ;;
+    *) echo "setup: error: unknown argument '$1' (try --help)" >&2; exit 2 ;;
+  esac
+done
 
-packages=(
-  build-essential cmake ninja-build pkg-config clang
-  libeigen3-dev libceres-dev gpiod linux-libc-dev
+# Each tier's packages; a tier installs its own and every smaller tier's.
+demo_packages=(
+  build-essential cmake ninja-build pkg-config python3
+  libeigen3-dev libceres-dev linux-libc-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libtomlplusplus-dev libfmt-dev libspdlog-dev
   libmodbus5 libmodbus-dev libgpiod2 libgpiod-dev
-  gnuplot-nox shellcheck clang-format
-  # Arm cross builds and their tests under qemu-user (target libraries: toolchain/sysroot.sh).
-  g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
+  gnuplot-nox
+)
+test_packages=(
+  gpiod shellcheck ccache
   # Modbus interop tests: independent implementations (pymodbus, with its serial deps; mbpoll).
   python3-pymodbus python3-serial python3-serial-asyncio mbpoll
+)
+all_packages=(
+  clang clang-format
+  # Arm cross builds and their tests under qemu-user (target libraries: toolchain/sysroot.sh).
+  g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
   # The virtual board: an arm64 kernel from Debian's source, QEMU, the initramfs tools.
   linux-source qemu-system-arm flex bison bc cpio
+  # The Python module `import mrd` (python/, docs/python.md): its build (Python headers,
+  # pybind11, numpy), its tests (pytest; pandas for the DataFrame path), the example's plots
+  # (matplotlib), and `pip install` of the build into a virtual environment.
+  python3-dev pybind11-dev python3-numpy python3-pytest python3-pandas python3-matplotlib
+  python3-pip python3-venv python3-setuptools python3-wheel
 )
+case "$tier" in
+  demo) packages=("${demo_packages[@]}") ;;
+  test) packages=("${demo_packages[@]}" "${test_packages[@]}") ;;
+  all) packages=("${demo_packages[@]}" "${test_packages[@]}" "${all_packages[@]}") ;;
+  *) echo "setup: error: --for '$tier': demo, test or all ($usage)" >&2; exit 2 ;;
+esac
 # Runtime libraries the programs link: kept at the newest version the apt indexes offer.
 linked=(libmodbus5 libgpiod2)
 
@@ -60,7 +95,7 @@ for p in "${linked[@]}"; do
 done
 
 if [ ${#missing[@]} -eq 0 ] && [ ${#outdated[@]} -eq 0 ]; then
-  echo "setup: all ${#packages[@]} packages present (libmodbus5 $(installed_version libmodbus5)," \
+  echo "setup: all ${#packages[@]} packages for $tier present (libmodbus5 $(installed_version libmodbus5)," \
        "libgpiod2 $(installed_version libgpiod2))"
   exit 0
 fi
@@ -68,7 +103,7 @@ fi
 sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then
   command -v sudo >/dev/null 2>&1 ||
-    die "${#missing[@]} packages missing (${missing[*]:0:6}...) and this is not root and sudo is not installed; run 'su -c \"bash toolchain/setup.sh\"' once, or install sudo"
+    die "${#missing[@]} packages missing (${missing[*]:0:6}...) and this is not root and sudo is not installed; run 'su -c \"bash toolchain/setup.sh --for $tier\"' once, or install sudo"
   sudo_cmd=(sudo)
 fi
 export DEBIAN_FRONTEND=noninteractive
@@ -93,7 +128,7 @@ for p in "${missing[@]}"; do
 done
 
 if [ ${#missing[@]} -gt 0 ]; then
-  echo "setup: installing ${missing[*]}"
+  echo "setup: installing for $tier: ${missing[*]}"
   "${apt[@]}" install -y -qq --no-install-recommends "${missing[@]}" ||
     die "apt-get install failed for: ${missing[*]} (see the apt output above); fix what it names, then rerun"
 fi

@@ -7,7 +7,9 @@
 #include <string>
 
 #include "mrd/common/input_file.hpp"
+#include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/config.hpp"
+#include "mrd/firmware/safe_state.hpp"
 #include "mrd/firmware/table_update.hpp"
 
 namespace mrd::firmware {
@@ -70,6 +72,10 @@ int RunMaintenance(int argc, char** argv) {
                     std::string(kDevicesDoc));
     }
     std::printf("config %s: ok\n", file);
+    // What the wire carries in the safe state (proved by the load; E_max: the configuration's,
+    // else the compiled-in table's).
+    const SafeStateProof proof = ProveSafeState(config, config.e_max.value_or(kBuiltinTable.e_max));
+    for (const std::string& line : proof.lines) std::printf("  safe state: %s\n", line.c_str());
     return kOk;
   }
   if (command == "--install-table") {

@@ -36,11 +36,17 @@
 #include "mrd/firmware/params_server.hpp"
 #include "mrd/firmware/period_log.hpp"
 #include "mrd/firmware/runtime_params.hpp"
+#include "mrd/firmware/safe_state.hpp"
 #include "mrd/firmware/sd_notify.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
 #include "mrd/firmware/table_update.hpp"
+#include "mrd/params/spencer_params_file.hpp"
+#include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/modbus_profile.hpp"
+#include "mrd/profile/pwm_profile.hpp"
 #include "summary_json.hpp"
+#include "wait_bus.hpp"
 
 namespace {
 
@@ -64,9 +70,12 @@ void InstallStopHandlers() {
   sa.sa_handler = OnSignal;
   sigemptyset(&sa.sa_mask);
   for (const int sig : {SIGINT, SIGTERM, SIGQUIT, SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM,
-                        SIGPROF, SIGXCPU, SIGXFSZ, SIGPWR, SIGSTKFLT}) {
+                        SIGPROF, SIGXCPU, SIGPWR, SIGSTKFLT}) {
     sigaction(sig, &sa, nullptr);
   }
+  // A file grown past the file-size limit (RLIMIT_FSIZE, `ulimit -f`) is the log's write
+  // error (EFBIG: the log stops, the loop keeps running), not a reason to stop the loop.
+  signal(SIGXFSZ, SIG_IGN);
   struct sigaction hup {};
   hup.sa_handler = OnReload;
   sigemptyset(&hup.sa_mask);
@@ -109,11 +118,12 @@ constexpr const char* kHelp =
     "Usage:\n"
     "  mrd-firmware [--table FILE] --config FILE.toml [--duration SECONDS] [--log FILE] [--json]\n"
     "  mrd-firmware [--table FILE] [--config FILE.toml] --dry-run SECONDS [--lockstep]\n"
-    "               [--log FILE] [--json]\n"
+    "               [--plant FILE] [--ignore-buses] [--log FILE] [--json]\n"
     "  mrd-firmware [--table FILE] --write-table OUT.bin\n"
     "  mrd-firmware --print-config-reference\n"
     "  mrd-firmware --check-config FILE.toml | --check-table FILE [--config F] [--rollback]\n"
     "  mrd-firmware --install-table NEW --to DEST [--config FILE.toml]\n"
+    "  mrd-firmware --wait-for-bus FILE.toml [--timeout SECONDS]\n"
     "  mrd-firmware ctl [--socket PATH] list | get NAME | set NAME VALUE | save\n"
     "  mrd-firmware --help\n"
     "\n"
@@ -129,6 +139,11 @@ constexpr const char* kHelp =
     "  --dry-run SECONDS   run the control loop that long against the built-in simulated\n"
     "                      Spencer damper, then print the counters\n"
     "  --lockstep          dry run in simulated time (no sleeping; deterministic, fast)\n"
+    "  --plant FILE        dry run: the simulated damper's Spencer parameters from FILE (the\n"
+    "                      TOML of `mrd fit-spencer` and a HIL scenario's [plant] params;\n"
+    "                      docs/plants.md) instead of the reference damper's\n"
+    "  --ignore-buses      dry run with a config that has bus sections: leave them out and run\n"
+    "                      everything else as configured (law, limits, envelope, log)\n"
     "  --json              print the counters as JSON\n"
     "  --log FILE          write the per-period log to FILE (docs/logging.md; read it with\n"
     "                      `mrd log info FILE`); overrides [log] path; default: [log] path,\n"
@@ -141,13 +156,18 @@ constexpr const char* kHelp =
     "                      read and change runtime parameters while the loop runs with\n"
     "                      mrd-firmware ctl (docs/tuning.md); a path a live firmware serves\n"
     "                      is refused, a stale socket file replaced\n"
+    "  --wait-for-bus FILE wait until the SocketCAN interface of FILE's [can] section exists\n"
+    "                      and is up, at most --timeout SECONDS (default 30), then exit 0;\n"
+    "                      exit 1 naming the interface if it is not (the service's\n"
+    "                      ExecStartPre; nothing to wait for without a [can] interface)\n"
     "  --print-config-reference  every config key with default, unit, range (Markdown)\n"
     "  --help              this text\n"
     "\n"
     "Real time: SCHED_FIFO and mlockall are requested when the config allows; without the\n"
     "privilege a warning is printed and the loop runs at normal priority.\n"
     "SIGINT, SIGTERM, SIGQUIT, SIGPIPE and the other catchable terminating signals stop the\n"
-    "loop and leave the driver in the safe state.\n"
+    "loop and leave the driver in the safe state; SIGXFSZ (a file past `ulimit -f`) is\n"
+    "ignored: the log's write fails and stops the log, the loop keeps running.\n"
     "SIGHUP reloads the config and the table (the same paths): both are checked first (a bad\n"
     "one, or a changed key that needs a restart, is refused with the reason on stderr and the\n"
     "firmware keeps running on the old ones); otherwise a fresh controller takes over at a\n"
@@ -160,6 +180,7 @@ struct Options {
   const char* write_table = nullptr;
   const char* ctl_socket = nullptr;
   const char* log = nullptr;
+  const char* plant = nullptr;  // --plant FILE (dry run)
   double dry_run_s = -1.0;
   double duration_s = -1.0;
   bool lockstep = false;
@@ -167,6 +188,7 @@ struct Options {
   bool help = false;
   bool print_config_reference = false;
   bool allow_demo_table = false;
+  bool ignore_buses = false;
 };
 
 bool ParseArgs(int argc, char** argv, Options* o) {
@@ -196,6 +218,10 @@ bool ParseArgs(int argc, char** argv, Options* o) {
         std::fprintf(stderr, "error: --log needs a file name\n");
         return false;
       }
+    } else if (a == "--plant") {
+      if (!value(&o->plant)) return false;
+    } else if (a == "--ignore-buses") {
+      o->ignore_buses = true;
     } else if (a == "--write-table") {
       if (!value(&o->write_table)) return false;
     } else if (a == "--dry-run") {
@@ -289,11 +315,17 @@ struct RunSummary {
   double rms_tracking;  // [N]
 };
 
+// The dry run's damper as the summary names it.
+const char* DryRunPlantName(const Options& o) {
+  return o.plant != nullptr ? o.plant : "reference damper (paper preset)";
+}
+
 // --json: one JSON object (summary_json.hpp).
 void PrintSummaryJson(const TelemetrySnapshot& s, const RunSummary& r) {
   SummaryInfo info;
   info.mode = r.buses ? "bus" : (r.o.lockstep ? "lockstep" : "realtime");
   info.table = r.table_name;
+  info.plant = r.buses ? "" : DryRunPlantName(r.o);
   info.law = ControlModeName(r.cfg.controller.law.mode);
   info.seconds = r.seconds;
   info.period_us = static_cast<double>(r.cfg.period_ns) / 1e3;
@@ -328,10 +360,11 @@ void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
   const bool buses = r.buses;
   const double seconds = r.seconds, rms_model = r.rms_model, rms_tracking = r.rms_tracking;
   const auto cause = [&](FaultCause c) { return static_cast<std::size_t>(c); };
-  std::printf("mrd-firmware %s (%s, %.6g s, period %.6g us, law %s, table %s)\n",
+  std::printf("mrd-firmware %s (%s, %.6g s, period %.6g us, law %s, table %s%s%s)\n",
               buses ? "run" : "dry run", buses ? "buses" : (o.lockstep ? "lockstep" : "real time"),
               seconds, static_cast<double>(cfg.period_ns) / 1e3,
-              ControlModeName(cfg.controller.law.mode), table_name);
+              ControlModeName(cfg.controller.law.mode), table_name, buses ? "" : ", plant ",
+              buses ? "" : mrd::Printable(DryRunPlantName(o)).c_str());
   std::printf("  real time:        SCHED_FIFO %s, memory %s\n", rt.sched_fifo ? "yes" : "no",
               rt.memory_locked ? "locked" : "not locked");
   std::printf("  ticks:            %llu\n", static_cast<unsigned long long>(s.ticks));
@@ -353,6 +386,10 @@ void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
   }
   std::printf("\n  unreachable:      %llu force demands saturated\n",
               static_cast<unsigned long long>(s.unreachable));
+  std::printf("  passive demands:  %llu (0 N or against v: E_min)\n",
+              static_cast<unsigned long long>(s.passive_demands));
+  std::printf("  non-monotone:     %llu periods (model not monotone in E at the state)\n",
+              static_cast<unsigned long long>(s.non_monotone));
   std::printf("  model resets:     %llu\n", static_cast<unsigned long long>(s.model_resets));
   std::printf("  envelope:         %llu periods with v/x held, %llu with the force held\n",
               static_cast<unsigned long long>(s.envelope_excursions),
@@ -467,18 +504,58 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
   worker.join();
 }
 
+// The command line's settings over the config's, at start-up and on every reload alike (they
+// are not config changes): --ctl-socket, --log, --ignore-buses (a dry run without the buses).
+void ApplyCommandLine(const Options& o, FirmwareConfig* cfg) {
+  if (o.ctl_socket != nullptr) {
+    cfg->ctl_socket = o.ctl_socket;
+    cfg->ctl_enable = true;
+  }
+  if (o.log != nullptr) {
+    cfg->log.path = o.log;
+    cfg->log.enabled = true;
+  }
+  if (o.ignore_buses && o.dry_run_s > 0.0) cfg->io = IoConfig{};
+}
+
+// A device profile the reload would read differently from the one the devices run on (the
+// file, its DBC or calibration changed): "" or what changed. The devices were built at
+// start-up; a new map takes a restart.
+std::string ChangedProfile(const FirmwareConfig& now, const FirmwareConfig& next) {
+  const auto digest = [](const auto& p) { return p ? p->digest : std::uint64_t{0}; };
+  const auto say = [](const std::string& section, const std::string& path) {
+    return "the [" + section + "] device profile " + (path.empty() ? "(built-in)" : path) +
+           " changed (the file, its DBC or calibration): the devices still run on the one "
+           "they started with; restart the firmware to apply it";
+  };
+  if (now.io.can.enabled && digest(now.io.can.can_profile) != digest(next.io.can.can_profile)) {
+    return say("can", next.io.can.profile);
+  }
+  if (now.io.modbus.enabled &&
+      digest(now.io.modbus.modbus_profile) != digest(next.io.modbus.modbus_profile)) {
+    return say("modbus", next.io.modbus.profile);
+  }
+  if (now.io.pwm.enabled && digest(now.io.pwm.pwm_profile) != digest(next.io.pwm.pwm_profile)) {
+    return say("pwm", next.io.pwm.profile);
+  }
+  return "";
+}
+
 // The application's checks of a reload (as at start-up): "" or why it is refused.
 std::string ReloadCheck(const Options& o, std::uint32_t served, bool buses,
-                        const FirmwareConfig& /*next*/, const mrd::CoefficientTable& table,
+                        const FirmwareConfig& next, const mrd::CoefficientTable& table,
                         const Controller& controller) {
   if (buses && controller.runtime().reads_displacement() &&
       (served & Bit(Input::kDisplacement)) == 0) {
     return "the model of the new table reads the displacement, but no bus serves input "
            "'displacement'";
   }
-  if (buses && !o.allow_demo_table && IsDemoTable(table)) {
+  // As at start-up: only a real device (not a loopback or pty simulation) needs the flag.
+  if (const std::string device = buses ? RealDeviceOf(next.io) : std::string();
+      !device.empty() && !o.allow_demo_table && IsDemoTable(table)) {
     return "the new table is the demo table, a model of the reference damper, not of yours "
-           "(start with --allow-demo-table to drive a device with it)";
+           "(start with --allow-demo-table to drive " +
+           device + " with it)";
   }
   return "";
 }
@@ -494,9 +571,10 @@ void ReloadNow(const Options& o, RuntimeParams& params, const RuntimeParams::Rel
     std::fprintf(stderr, "%s %s\n", keep, error.c_str());
     return;
   }
-  if (o.ctl_socket != nullptr) {
-    next.ctl_socket = o.ctl_socket;
-    next.ctl_enable = true;
+  ApplyCommandLine(o, &next);
+  if (const std::string why = ChangedProfile(params.config(), next); !why.empty()) {
+    std::fprintf(stderr, "%s %s\n", keep, mrd::Printable(why).c_str());
+    return;
   }
   mrd::CoefficientTable table = kBuiltinTable;
   if (o.table != nullptr) {
@@ -511,6 +589,11 @@ void ReloadNow(const Options& o, RuntimeParams& params, const RuntimeParams::Rel
     table = loaded.value();
   }
   next.controller.e_max = next.e_max.value_or(table.e_max);
+  if (const SafeStateProof proof = ProveSafeState(next, next.controller.e_max);
+      !proof.error.empty()) {
+    std::fprintf(stderr, "%s %s\n", keep, mrd::Printable(proof.error).c_str());
+    return;
+  }
   const RuntimeParams::Result r = params.Reload(next, table, check);
   if (r.status != RuntimeParams::Status::kOk) {
     std::fprintf(stderr, "%s %s\n", keep, r.message.c_str());
@@ -573,10 +656,21 @@ int LoadRunConfig(const Options& o, const mrd::CoefficientTable& table, Firmware
     }
   }
   cfg->controller.e_max = cfg->e_max.value_or(table.e_max);
-  if (o.ctl_socket != nullptr) {
-    cfg->ctl_socket = o.ctl_socket;
-    cfg->ctl_enable = true;
+  if (o.ignore_buses && cfg->io.any()) {
+    std::fprintf(stderr,
+                 "mrd-firmware: --ignore-buses: dry run without the bus sections of %s "
+                 "([can], [modbus], [gpio], [pwm])\n",
+                 o.config != nullptr ? o.config : "the configuration");
   }
+  // The safe state on the wire again, with the E_max of the table the loop runs on.
+  if (const SafeStateProof proof = ProveSafeState(*cfg, cfg->controller.e_max);
+      !proof.error.empty()) {
+    std::fprintf(stderr, "error: %s: %s\n",
+                 o.config != nullptr ? mrd::Printable(o.config).c_str() : "(default configuration)",
+                 mrd::Printable(proof.error).c_str());
+    return kExitBadInput;
+  }
+  ApplyCommandLine(o, cfg);
   return kContinue;
 }
 
@@ -613,8 +707,13 @@ int CheckRunMode(const Options& o, const FirmwareConfig& cfg, const mrd::Coeffic
   if (buses && o.dry_run_s > 0.0) {
     std::fprintf(stderr,
                  "error: --dry-run runs the simulated damper; %s has bus sections "
-                 "([can], [modbus], [gpio], [pwm]): drop --dry-run, or use a config without them\n",
+                 "([can], [modbus], [gpio], [pwm]): drop --dry-run, use a config without them, "
+                 "or pass --ignore-buses to dry-run the rest of it\n",
                  o.config);
+    return kExitBadInput;
+  }
+  if (o.ignore_buses && o.dry_run_s <= 0.0) {
+    std::fprintf(stderr, "error: --ignore-buses is for --dry-run\n");
     return kExitBadInput;
   }
   if (!buses && o.dry_run_s <= 0.0) {
@@ -647,6 +746,25 @@ int CheckRunMode(const Options& o, const FirmwareConfig& cfg, const mrd::Coeffic
     return kExitBadInput;
   }
   if (!buses && !CheckDryRun(o.dry_run_s, cfg.period_ns)) return kExitBadInput;
+  return kContinue;
+}
+
+// The dry run's damper: --plant FILE, else the reference damper. kContinue or kExitBadInput
+// ("error: FILE:LINE: reason").
+int LoadDryRunPlant(const Options& o, mrd::SpencerParams* plant) {
+  *plant = mrd::SpencerParams::Paper();
+  if (o.plant == nullptr) return kContinue;
+  if (o.dry_run_s <= 0.0) {
+    std::fprintf(stderr, "error: --plant is for --dry-run (the simulated damper)\n");
+    return kExitBadInput;
+  }
+  mrd::params::ParamsError e;
+  if (!mrd::params::LoadSpencerParamsFile(o.plant, plant, &e)) {
+    std::fprintf(stderr, "error: %s%s: %s\n", mrd::Printable(o.plant).c_str(),
+                 e.line > 0 ? (":" + std::to_string(e.line)).c_str() : "",
+                 mrd::Printable(e.reason).c_str());
+    return kExitBadInput;
+  }
   return kContinue;
 }
 
@@ -739,12 +857,12 @@ int RunOnBuses(const Options& o, const FirmwareConfig& cfg, Controller& controll
 
 // The loop on the simulated damper for --dry-run seconds: lockstep (simulated time, as fast
 // as it goes) or in real time.
-void RunDry(const Options& o, const FirmwareConfig& cfg, Controller& controller,
-            RuntimeParams& params, RunLog& log, RunOutcome* out) {
+void RunDry(const Options& o, const FirmwareConfig& cfg, const mrd::SpencerParams& damper,
+            Controller& controller, RuntimeParams& params, RunLog& log, RunOutcome* out) {
   const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
   if (o.lockstep) {
     LockstepClock clock;
-    SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
+    SimulatedDamper plant(damper, cfg.simulation, clock, cfg.period_ns);
     Loop loop(clock, plant, plant, controller, out->telemetry, cfg.period_ns);
     loop.SetHook(&params);
     log.Start("dry run, lockstep");
@@ -752,7 +870,7 @@ void RunDry(const Options& o, const FirmwareConfig& cfg, Controller& controller,
     loop.Run(g_stop, duration_ns);
   } else {
     MonotonicClock clock;
-    SimulatedDamper plant(mrd::SpencerParams::Paper(), cfg.simulation, clock, cfg.period_ns);
+    SimulatedDamper plant(damper, cfg.simulation, clock, cfg.period_ns);
     log.Start("dry run, real time");
     RunRealTime(cfg, plant, plant, controller, out->telemetry, duration_ns, &out->rt, &params,
                 log.observer());
@@ -775,9 +893,11 @@ int Run(const Options& o) {
   if (const int rc = CheckRunMode(o, cfg, table, table_name, controller); rc != kContinue) {
     return rc;
   }
-  if (o.log != nullptr) {
-    cfg.log.path = o.log;
-    cfg.log.enabled = true;
+  mrd::SpencerParams plant;
+  if (const int rc = LoadDryRunPlant(o, &plant); rc != kContinue) return rc;
+  if (const std::string why = CheckLogPath(cfg.log); !why.empty()) {
+    std::fprintf(stderr, "error: %s\n", mrd::Printable(why).c_str());
+    return kExitBadInput;
   }
   RunLog log(cfg, table_name);
   // Runtime parameters, the control socket and the SIGHUP reload watch (a thread of their
@@ -808,7 +928,7 @@ int Run(const Options& o) {
       return rc;
     }
   } else {
-    RunDry(o, cfg, controller, params, log, &out);
+    RunDry(o, cfg, plant, controller, params, log, &out);
   }
   params.LoopEnded();
   server.Stop();
@@ -825,6 +945,9 @@ int Run(const Options& o) {
 int main(int argc, char** argv) {
   if (argc >= 2 && std::strcmp(argv[1], "ctl") == 0) {
     return FinishOutput(mrd::firmware::RunCtl(argc - 1, argv + 1));
+  }
+  if (argc >= 2 && std::strcmp(argv[1], "--wait-for-bus") == 0) {
+    return FinishOutput(mrd::firmware::RunWaitForBus(argc, argv));
   }
   if (const int status = RunMaintenance(argc, argv); status >= 0) return status;
   InstallStopHandlers();

@@ -30,6 +30,11 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
     Json j;
     j["mode"] = info.mode;
     j["table"] = info.table;
+    if (*info.plant != '\0') {
+      j["plant"] = info.plant;
+    } else {
+      j["plant"] = nullptr;
+    }
     j["law"] = info.law;
     j["seconds"] = info.seconds;
     j["period_us"] = info.period_us;
@@ -43,6 +48,8 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
     j["read_faults"] = s.read_faults;
     j["write_faults"] = s.write_faults;
     j["unreachable_demands"] = s.unreachable;
+    j["passive_demands"] = s.passive_demands;
+    j["non_monotone_periods"] = s.non_monotone;
     j["model_resets"] = s.model_resets;
     j["envelope_excursions"] = s.envelope_excursions;
     j["force_excursions"] = s.force_excursions;

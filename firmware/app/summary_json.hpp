@@ -16,6 +16,7 @@ namespace mrd::firmware {
 struct SummaryInfo {
   const char* mode = "";   // "lockstep" | "realtime" | "bus"
   const char* table = "";  // table file path or "compiled-in"
+  const char* plant = "";  // dry run: the simulated damper (--plant FILE); "": a bus run (null)
   const char* law = "";
   double seconds = 0.0;  // dry-run duration, or ticks x period on the buses [s]
   double period_us = 0.0;

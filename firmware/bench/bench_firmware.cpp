@@ -51,7 +51,7 @@ void StepAndInvert(benchmark::State& state, const mrd::CoefficientTable& table) 
   int k = 0;
   for (auto _ : state) {
     rt.Begin(ex.v[k], 0);
-    E = inv.Solve(rt.history(), ex.f[k], E).E;
+    E = inv.Solve(rt.history(), ex.f[k], ex.v[k]).E;
     benchmark::DoNotOptimize(rt.Finish(E));
     k = (k + 1) & (kSamples - 1);
   }

@@ -26,6 +26,13 @@ bool ClippedGainsOk(const ControllerConfig& c) {
          (c.clipped_gains_loaded && c.clipped_gains.IsValid(nullptr));
 }
 
+// The inversion's verdicts on the period's force demand.
+void SetInversion(const Inverter::Solution& s, ControllerOutput* out) {
+  out->reachable = s.reachable;
+  out->passive = s.passive;
+  out->monotone = s.monotone;
+}
+
 // True when a finite value exceeds a limit (limit 0: none).
 bool Implausible(Real value, Real limit) { return limit > Real(0) && std::fabs(value) > limit; }
 
@@ -112,7 +119,6 @@ void Controller::Reset() {
   watchdog_.Reset();
   v_ = Real(0);
   x_ = Real(0);
-  E_prev_ = safe_voltage_;
   model_resets_ = 0;
   model_diverged_ = false;
   runtime_.ClearExcursions();
@@ -227,11 +233,11 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
     if (config_.law.clipped_command == ClippedCommand::kInverse) {
       const Real limit = static_cast<Real>(config_.law.force_limit);
       const Inverter::Solution s =
-          inverter_.Solve(runtime_.history(), std::fmin(std::fmax(fc, -limit), limit), E_prev_);
+          inverter_.Solve(runtime_.history(), std::fmin(std::fmax(fc, -limit), limit), v_);
       volts = s.E;
       law_volts_ = static_cast<double>(s.E);
       out.force_law = true;
-      out.reachable = s.reachable;
+      SetInversion(s, &out);
     } else {
       law_volts_ = static_cast<double>(clipped_volts);
       volts = std::fmin(std::fmax(clipped_volts, e_min_), e_max_);
@@ -240,12 +246,12 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
     const ControlOutput law =
         law_.Update({v_, demand, body_velocity, wheel_velocity, body_acceleration});
     if (law.is_force) {
-      const Inverter::Solution s = inverter_.Solve(runtime_.history(), law.value, E_prev_);
+      const Inverter::Solution s = inverter_.Solve(runtime_.history(), law.value, v_);
       volts = s.E;
       law_volts_ = static_cast<double>(s.E);
       out.force_demand = static_cast<double>(law.value);
       out.force_law = true;
-      out.reachable = s.reachable;
+      SetInversion(s, &out);
     } else {
       law_volts_ = static_cast<double>(law.value);
       volts = std::fmin(std::fmax(law.value, e_min_), e_max_);
@@ -259,7 +265,6 @@ ControllerOutput Controller::Update(const SensorFrame& frame, IoStatus read_stat
     runtime_.Reset();
     ++model_resets_;
   }
-  E_prev_ = volts;
   return out;
 }
 

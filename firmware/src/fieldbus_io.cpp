@@ -27,6 +27,8 @@ bool FieldbusIo::Add(BusDevice* device) {
 
 IoStatus FieldbusIo::Read(const IoTime& t, SensorFrame* frame) {
   ++reads_;
+  frame->bus_faults |= write_bus_faults_;  // the buses whose write failed last period
+  write_bus_faults_ = 0;
   bool any_data = false;
   bool any_fault = false;
   for (std::size_t i = 0; i < count_; ++i) {
@@ -53,6 +55,9 @@ IoStatus FieldbusIo::Write(const IoTime& t, const DriverCommand& cmd) {
     IoError why = IoError::kNone;
     if (devices_[i]->Write(t, cmd, &why) != IoStatus::kFault) continue;
     fault = true;
+    if (devices_[i]->write_faults_are_bus_faults()) {
+      write_bus_faults_ |= Watchdog::Bit(devices_[i]->fault_cause());
+    }
     // Once per period (the first faulted write's reason); before any Read, every write.
     if (reads_ == 0 || write_fault_period_[i] != reads_) {
       ++faults_[i].write[Index(why)];

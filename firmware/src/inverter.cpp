@@ -50,6 +50,82 @@ T BracketedRoot(const Coeffs<T>& a, int n, T lo, T hi, T p_lo) {
   return x;
 }
 
+// v == 0 (no dissipative direction): among the roots of a = y - y_d, the bounds and y's
+// interior extrema, the least residual wins; among those within tol of it, the lowest e.
+// NaN when no residual is finite (a non-finite state).
+template <class T>
+T LowestNearest(const Coeffs<T>& a, int n, const BasicPolyRoots<T>& r, T lo, T hi, T tol,
+                bool* reachable) {
+  std::array<T, 2 * kMaxInputDegree + 1> cand{};
+  std::array<T, 2 * kMaxInputDegree + 1> res{};
+  std::size_t count = 0;
+  const auto add = [&](T e, bool is_root) {
+    cand[count] = e;
+    res[count] = is_root ? T(0) : std::fabs(Horner(a, n, e));
+    if (res[count] <= tol) res[count] = T(0);
+    ++count;
+  };
+  for (int i = 0; i < r.num_roots; ++i) add(r.roots[static_cast<std::size_t>(i)], true);
+  add(lo, false);
+  add(hi, false);
+  for (int i = 0; i < r.num_critical; ++i) add(r.critical[static_cast<std::size_t>(i)], false);
+  T least = std::numeric_limits<T>::infinity();
+  for (std::size_t i = 0; i < count; ++i) least = std::fmin(least, res[i]);  // NaN skipped
+  if (!std::isfinite(least)) return std::numeric_limits<T>::quiet_NaN();
+  T best = hi;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (res[i] <= least + tol && cand[i] < best) best = cand[i];
+  }
+  *reachable = least == T(0);
+  return best;
+}
+
+// v != 0, a dissipative demand u = s y_d > 0 (s = sign(v)): on g(e) = max over e' <= e of
+// z(e') = s y(e'), the force the damper can be relied on to give at e or below (raising E
+// never lowers a semi-active damper's force; a model's dip is not used), the lowest e whose
+// g is nearest u: lo when u <= z(lo); the first crossing of u (the least root of y - y_d,
+// roots ascending) when z(lo) < u < max z; else the first e where z reaches its maximum.
+// NaN for a non-finite state.
+template <class T>
+T LowestOnRisingEnvelope(const Coeffs<T>& y, int n, const BasicPolyRoots<T>& r, T lo, T hi, T s,
+                         T u, T tol, bool* reachable) {
+  const T z_lo = s * Horner(y, n, lo);
+  if (!std::isfinite(z_lo) || !std::isfinite(u)) return std::numeric_limits<T>::quiet_NaN();
+  if (u <= z_lo + tol) {
+    *reachable = u >= z_lo - tol;
+    return lo;
+  }
+  // The maximum of z over the bounds and the extrema (ascending), and where it is first hit.
+  T top = z_lo;
+  T top_e = lo;
+  std::array<T, kMaxInputDegree + 1> e_at{};
+  std::array<T, kMaxInputDegree + 1> z_at{};
+  std::size_t count = 0;
+  for (int i = 0; i < r.num_critical; ++i) {
+    e_at[count] = r.critical[static_cast<std::size_t>(i)];
+    z_at[count++] = s * Horner(y, n, r.critical[static_cast<std::size_t>(i)]);
+  }
+  e_at[count] = hi;
+  z_at[count++] = s * Horner(y, n, hi);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!std::isfinite(z_at[i])) return std::numeric_limits<T>::quiet_NaN();
+    top = std::fmax(top, z_at[i]);
+  }
+  if (u < top - tol && r.num_roots > 0) {  // the first crossing (z(lo) < u < top)
+    *reachable = true;
+    return r.roots[0];
+  }
+  *reachable = u <= top + tol;
+  if (z_lo >= top - tol) return lo;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (z_at[i] >= top - tol) {
+      top_e = e_at[i];
+      break;
+    }
+  }
+  return top_e;
+}
+
 }  // namespace
 
 template <class T>
@@ -182,15 +258,17 @@ std::array<T, kMaxInputDegree + 1> BasicInverter<T>::Polynomial(
 
 template <class T>
 typename BasicInverter<T>::Solution BasicInverter<T>::Solve(const BasicRegressorHistory<T>& h,
-                                                            T f_demand, T E_previous) const {
+                                                            T f_demand, T velocity) const {
   Coeffs<T> a = Polynomial(h);
   const T y_demand = Normalise(output_scale_, f_demand);
   const T lo = Normalise(input_scale_, e_min_);
   const T hi = Normalise(input_scale_, e_max_);
-  const T prev = Normalise(input_scale_, E_previous);
   const Coeffs<T> y = a;  // y(e) before shifting by the demand
   a[0] -= y_demand;
-  const BasicPolyRoots<T> r = RealRootsInInterval<T>(a, degree_, lo, hi);
+  // A zero demand, or one of the sign opposite to v (a semi-active damper cannot push): the
+  // softest setting whatever the model says; only the critical points are needed (monotony).
+  const bool passive = f_demand == T(0) || f_demand * velocity < T(0);
+  const BasicPolyRoots<T> r = RealRootsInInterval<T>(passive ? y : a, degree_, lo, hi);
 
   // Residual tolerance: a few ulps of the terms' magnitudes at the bounds.
   T magnitude = std::fabs(y_demand);
@@ -202,33 +280,39 @@ typename BasicInverter<T>::Solution BasicInverter<T>::Solve(const BasicRegressor
   }
   const T tol = T(64) * std::numeric_limits<T>::epsilon() * magnitude;
 
-  T best_e = std::fmin(std::fmax(prev, lo), hi);
-  T best_residual = std::numeric_limits<T>::infinity();
-  T best_distance = std::numeric_limits<T>::infinity();
-  bool reachable = false;
-  auto consider = [&](T e, bool is_root) {
-    const T residual = is_root ? T(0) : std::fabs(Horner(a, degree_, e));
-    const bool root = residual <= tol;
-    const T distance = std::fabs(e - prev);
-    const T score = root ? T(0) : residual;
-    if (score < best_residual || (score == best_residual && distance < best_distance)) {
-      best_e = e;
-      best_residual = score;
-      best_distance = distance;
-      reachable = root;
-    }
-  };
-  for (int i = 0; i < r.num_roots; ++i) consider(r.roots[static_cast<std::size_t>(i)], true);
-  consider(lo, false);
-  consider(hi, false);
-  consider(std::fmin(std::fmax(prev, lo), hi), false);  // wins only a tie (flat in E)
-  for (int i = 0; i < r.num_critical; ++i) consider(r.critical[static_cast<std::size_t>(i)], false);
-  if (!std::isfinite(best_residual)) best_e = lo;  // non-finite state: lowest command
+  // Monotony at this state: no interior extremum beyond the forces at the bounds (by more
+  // than kMonotoneSlack of the force span between them, or the residual tolerance).
+  const T y_lo = Horner(y, degree_, lo);
+  const T y_hi = Horner(y, degree_, hi);
+  const T span = std::fabs(y_hi - y_lo);
+  T y_top = std::fmax(y_lo, y_hi);
+  T y_bottom = std::fmin(y_lo, y_hi);
+  for (int i = 0; i < r.num_critical; ++i) {
+    const T yc = Horner(y, degree_, r.critical[static_cast<std::size_t>(i)]);
+    y_top = std::fmax(y_top, yc);
+    y_bottom = std::fmin(y_bottom, yc);
+  }
+  const T slack = std::fmax(T(kMonotoneSlack) * span, tol);
+  const bool monotone = !(y_top - y_bottom > span + slack);
 
   Solution s;
+  s.passive = passive;
+  s.monotone = monotone;
+  T best_e = lo;
+  if (!passive) {
+    bool reachable = false;
+    const T e = velocity == T(0) ? LowestNearest(a, degree_, r, lo, hi, tol, &reachable)
+                                 : LowestOnRisingEnvelope(
+                                       y, degree_, r, lo, hi, velocity > T(0) ? T(1) : T(-1),
+                                       velocity > T(0) ? y_demand : -y_demand, tol, &reachable);
+    if (std::isfinite(e)) {  // else a non-finite state: the lowest command
+      best_e = e;
+      s.reachable = reachable;
+    }
+  }
   s.E = std::fmin(std::fmax(Denormalise(input_scale_, best_e), e_min_), e_max_);
   s.force = Denormalise(output_scale_, Horner(y, degree_, best_e));
-  s.reachable = reachable;
+  if (passive) s.reachable = std::fabs(Horner(a, degree_, best_e)) <= tol;
   return s;
 }
 

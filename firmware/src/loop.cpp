@@ -66,7 +66,14 @@ void Loop::Tick(const IoTime& io) {
 
   // Count and publish.
   ++stats_.ticks;
-  if (out.force_law && !out.reachable) ++stats_.unreachable;
+  if (out.force_law) {
+    if (out.passive) {
+      ++stats_.passive_demands;
+    } else if (!out.reachable) {
+      ++stats_.unreachable;
+    }
+    if (!out.monotone) ++stats_.non_monotone;
+  }
   stats_.model_resets = base_model_resets_ + controller_->model_resets();
   stats_.envelope_excursions = base_input_excursions_ + controller_->input_excursions();
   stats_.force_excursions = base_force_excursions_ + controller_->force_excursions();
@@ -114,6 +121,8 @@ void Loop::Tick(const IoTime& io) {
       !out.safe && write == IoStatus::kFault ? controller_->config().safe_voltage : out.volts;
   record_.force_law = out.force_law;
   record_.reachable = out.reachable;
+  record_.passive = out.force_law && out.passive;
+  record_.non_monotone = out.force_law && !out.monotone;
   record_.safe = out.safe;
   record_.causes = out.causes;
   record_.param_version = hook_ != nullptr ? hook_->version() : 0;

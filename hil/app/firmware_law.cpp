@@ -5,6 +5,7 @@
 
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "mrd/firmware/runtime_params.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -20,8 +21,8 @@ std::string TomlValue(const std::string& v) {
 
 }  // namespace
 
-bool MakeFirmwareLaw(const std::string& spec, double skyhook_gain, double e_max, FirmwareLaw* out,
-                     std::string* error) {
+bool MakeFirmwareLaw(const std::string& spec, double skyhook_gain, double e_max,
+                     const std::string& sections, FirmwareLaw* out, std::string* error) {
   const std::string where = "--laws '" + spec + "': ";
   std::string rest = spec;
   const auto colon = rest.find(':');
@@ -54,7 +55,7 @@ bool MakeFirmwareLaw(const std::string& spec, double skyhook_gain, double e_max,
   }
   if (!gain_set) control += "skyhook_gain = " + std::to_string(skyhook_gain) + "\n";
   control += "e_max = " + std::to_string(e_max) + "\n";
-  const std::string text = "[control]\n" + control + other;
+  const std::string text = "[control]\n" + control + other + sections;
   std::string why;
   if (!firmware::ParseConfig(text, "", &out->config, &why)) {
     // "SOURCE:LINE: reason" of the generated text: the reason alone.
@@ -71,15 +72,20 @@ bool MakeFirmwareLaw(const std::string& spec, double skyhook_gain, double e_max,
   return true;
 }
 
-bool RunFirmwareLaw(const FirmwareLaw& law, QuarterCarPlant* plant, double duration_s,
-                    double settle_s, LawRun* out, std::string* error) {
+bool CheckFirmwareLaw(const FirmwareLaw& law, const CoefficientTable& table, std::string* error) {
   firmware::Controller controller;
-  const Error e = controller.Configure(firmware::kBuiltinTable, law.config.controller);
-  if (e != Error::kOk) {
-    *error = "--laws '" + law.spec + "': the firmware's controller refuses the configuration (" +
-             ErrorName(e) + ")";
-    return false;
-  }
+  const firmware::ConfigureStatus st = controller.Configure(table, law.config.controller);
+  if (st.ok()) return true;
+  *error = "--laws '" + law.spec + "': the firmware refuses it with this table: " +
+           firmware::DescribeConfigureRefusal(st, table, law.config.controller);
+  return false;
+}
+
+bool RunFirmwareLaw(const FirmwareLaw& law, const CoefficientTable& table, QuarterCarPlant* plant,
+                    double duration_s, double settle_s, LawRun* out, std::string* error) {
+  firmware::Controller controller;
+  if (!CheckFirmwareLaw(law, table, error)) return false;
+  (void)controller.Configure(table, law.config.controller);
   const double period = plant->period_s();
   const auto period_ns = static_cast<std::int64_t>(std::llround(period * 1e9));
   const double e_max = law.config.controller.e_max;

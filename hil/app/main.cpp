@@ -262,12 +262,15 @@ int AddPassiveBaseline(const mrd::hil::Scenario& s, mrd::hil::RunResult* r) {
 // run: the summary (JSON or text) on stdout, the files in --out (else the temporary
 // directory removed); the exit code.
 int ReportRun(const mrd::hil::Scenario& s, const mrd::hil::RunResult& r, const std::string& out,
-              const std::string& temp, bool json) {
+              const std::string& temp, bool json, const std::string& table,
+              const mrd::TimeWindow* window) {
   std::string error;
-  const nlohmann::json j = mrd::hil::SummaryJson(s, r);
+  nlohmann::json j = mrd::hil::SummaryJson(s, r);
+  j["table"] = table;
+  j["plant"] = mrd::hil::PlantLabel(s);
   if (!out.empty()) {
     std::string warning;
-    if (!mrd::hil::WriteOutputs(out, j, r, &error, &warning)) {
+    if (!mrd::hil::WriteOutputs(out, j, r, window, &error, &warning)) {
       std::fprintf(stderr, "error: %s\n", error.c_str());
       return kExitFailure;
     }
@@ -279,7 +282,8 @@ int ReportRun(const mrd::hil::Scenario& s, const mrd::hil::RunResult& r, const s
   if (json) {
     std::cout << j.dump(2) << std::endl;
   } else {
-    std::cout << mrd::hil::SummaryText(s, r);
+    std::cout << mrd::hil::SummaryText(s, r) << "  ran on: table " << table << ", plant "
+              << mrd::hil::PlantLabel(s) << "\n";
     if (!out.empty())
       std::cout
           << "  files: " << out
@@ -292,7 +296,14 @@ int ReportRun(const mrd::hil::Scenario& s, const mrd::hil::RunResult& r, const s
 }
 
 int RunCommand(const std::string& scenario_path, const std::vector<std::string>& sets,
-               mrd::hil::RunOptions o, const std::string& out, bool json, double passive_step) {
+               mrd::hil::RunOptions o, const std::string& out, bool json, double passive_step,
+               const std::string& window_text) {
+  mrd::TimeWindow window;
+  std::string why;
+  if (!window_text.empty() && !mrd::ParseTimeWindow(window_text, &window, &why)) {
+    std::fprintf(stderr, "error: --window %s\n", why.c_str());
+    return kExitBadInput;
+  }
   mrd::hil::Scenario s;
   std::string temp;
   if (const int rc = PrepareRun(scenario_path, sets, out, passive_step, &s, &o, &temp); rc != 0) {
@@ -319,7 +330,11 @@ int RunCommand(const std::string& scenario_path, const std::vector<std::string>&
       return code;
     }
   }
-  return ReportRun(s, r, out, temp, json);
+  const std::string table_path = o.table.empty() ? s.table_file : o.table;
+  mrd::CoefficientTable table;
+  if (!mrd::hil::LoadRunTable(table_path, &table)) return kExitBadInput;  // checked before
+  return ReportRun(s, r, out, temp, json, mrd::hil::TableLabel(table_path, table),
+                   window_text.empty() ? nullptr : &window);
 }
 
 // Lockstep speed over the local CAN bus and real-time wake-up jitter: the closed loop on the
@@ -544,6 +559,7 @@ struct RunArgs {
   std::vector<std::string> sets;
   CLI::Option* transport_opt = nullptr;
   double passive_step = -1.0;
+  std::string window;  // --window FROM:TO of the time plots
 };
 
 void AddRun(CLI::App& app, RunArgs* a) {
@@ -591,6 +607,10 @@ void AddRun(CLI::App& app, RunArgs* a) {
   run->add_option("--out", a->out_dir,
                   "write summary.json, trace.csv, firmware.toml, the firmware's per-period log "
                   "firmware.mrdlog (mrd log) and plots (gnuplot) here");
+  run->add_option("--window", a->window,
+                  "time plots in --out (tracking, command, ride): the window drawn sample by "
+                  "sample, FROM:TO [s] (default: the first 5 s); the whole run's envelope is "
+                  "drawn below it");
   ro.startup_timeout_s = 0.0;  // default: 10 s, 120 s with --attach
   run->add_option("--startup-timeout", ro.startup_timeout_s,
                   "seconds to wait for the firmware's first answer (default 10, 120 with "
@@ -748,7 +768,8 @@ int main(int argc, char** argv) {
   }
   if (run.cmd->parsed()) {
     DefaultTransport(run.transport_opt, &run.ro);
-    return RunCommand(run.scenario_path, run.sets, run.ro, run.out_dir, run.json, run.passive_step);
+    return RunCommand(run.scenario_path, run.sets, run.ro, run.out_dir, run.json, run.passive_step,
+                      run.window);
   }
   if (sweep.cmd->parsed()) return SweepMain(sweep);
   if (bench.cmd->parsed()) return BenchCommand(bench.seconds, bench.o, bench.json);

@@ -66,6 +66,7 @@ nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
   j["tracking"] = {
       {"steps", t.steps},
       {"reachable_steps", t.reachable_steps},
+      {"reachable_share", t.reachable_share},
       {"error_all", t.error_all},
       {"error_reachable", t.error_reachable},
       {"passive_off", {{"error_all", t.off_all}, {"error_reachable", t.off_reachable}}},
@@ -172,8 +173,8 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
     const auto all = [&](double v) { return t.all_scored ? Num(v) : std::string("n/a"); };
     const auto reach = [&](double v) { return t.reachable_scored ? Num(v) : std::string("n/a"); };
     o << "  tracking ||f-d||/||d|| over " << t.steps << " controlled steps (" << t.reachable_steps
-      << " reachable): all " << all(t.error_all) << ", reachable " << reach(t.error_reachable)
-      << "\n";
+      << " reachable, " << Num(100.0 * t.reachable_share) << " %): all " << all(t.error_all)
+      << ", reachable " << reach(t.error_reachable) << "\n";
     o << "    passive-off (0 V): all " << all(t.off_all) << ", reachable " << reach(t.off_reachable)
       << "; passive-on (E_max): all " << all(t.on_all) << ", reachable " << reach(t.on_reachable)
       << "\n";
@@ -248,8 +249,39 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
   return o.str();
 }
 
+namespace {
+
+// overview.dat: per signal (one gnuplot block each, in this order: demand, force, passive-off,
+// passive-on force, command, applied; body acceleration controlled, passive-off, passive-on for
+// a quarter car) the whole run's min/max envelope (Envelope, 1500 buckets).
+std::string OverviewData(const RunResult& r) {
+  std::vector<double> t;
+  for (const StepRecord& k : r.trace) t.push_back(k.t);
+  std::vector<double StepRecord::*> fields = {&StepRecord::demand,    &StepRecord::force,
+                                              &StepRecord::force_off, &StepRecord::force_on,
+                                              &StepRecord::command,   &StepRecord::applied};
+  if (r.ride) {
+    for (auto f :
+         {&StepRecord::body_accel, &StepRecord::body_accel_off, &StepRecord::body_accel_on}) {
+      fields.push_back(f);
+    }
+  }
+  std::ostringstream o;
+  o.precision(9);
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    std::vector<double> y, et, ey;
+    for (const StepRecord& k : r.trace) y.push_back(k.*fields[i]);
+    Envelope(t, y, 1500, &et, &ey);
+    if (i > 0) o << "\n\n";
+    for (std::size_t j = 0; j < et.size(); ++j) o << et[j] << ' ' << ey[j] << '\n';
+  }
+  return o.str();
+}
+
+}  // namespace
+
 bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const RunResult& r,
-                  std::string* error, std::string* warning) {
+                  const TimeWindow* window, std::string* error, std::string* warning) {
   {
     std::ofstream f(dir + "/summary.json");
     f << summary.dump(2) << "\n";
@@ -278,32 +310,69 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
     }
   }
   if (r.trace.empty()) return true;
+  // Time plots: the window sample by sample above, the whole run's envelope below.
+  std::vector<double> t;
+  for (const StepRecord& k : r.trace) t.push_back(k.t);
+  std::string note;
+  const TimeWindow w = PlotWindow(t, window, &note);
+  if (!note.empty()) *warning = note;
+  std::ofstream(dir + "/overview.dat") << OverviewData(r);
   const std::string script = dir + "/plots.gp";
   {
     std::ofstream g(script);
-    g << "set datafile separator ','\nset terminal pngcairo size 1200,600\nset grid\n"
-         "set key outside below\nset xlabel 't [s]'\n"
-      << "set output '" << dir << "/tracking.png'\nset ylabel 'force [N]'\n"
-      << "set title 'Force tracking: plant force vs demand, passive-off (0 V) and passive-on'\n"
-      << "plot '" << dir << "/trace.csv' every ::1 using 1:4 with lines lw 2 title 'demand', "
+    const std::string trace = "'" + dir + "/trace.csv'", ov = "'" + dir + "/overview.dat'";
+    char range[96];
+    std::snprintf(range, sizeof range, "%.9g:%.9g", w.from_s, w.to_s);
+    // Opens a figure of a windowed panel (title what) and its overview; the caller plots the
+    // window, then Overview() the envelope blocks.
+    const auto open = [&](const std::string& png, const std::string& what,
+                          const std::string& ylabel) {
+      g << "set datafile separator ','\nset terminal pngcairo noenhanced size 1200,900\n"
+        << "set output '" << dir << "/" << png << "'\nset multiplot layout 2,1\n"
+        << "set xrange [" << range << "]\nset ylabel '" << ylabel << "'\nset title '" << what
+        << ", " << w.from_s << " .. " << w.to_s << " s (--window FROM:TO)'\n";
+    };
+    const auto overview = [&](const std::string& what) {
+      g << "set datafile separator whitespace\nset autoscale x\nunset y2label\nunset y2tics\n"
+        << "set autoscale y2\nset arrow 1 from " << w.from_s << ", graph 0 to " << w.from_s
+        << ", graph 1 nohead dt 2\nset arrow 2 from " << w.to_s << ", graph 0 to " << w.to_s
+        << ", graph 1 nohead dt 2\nset title 'overview: " << what
+        << ", the whole run (min/max envelope; the window between the dashed lines)'\n";
+    };
+    const auto close = [&] { g << "unset arrow 1\nunset arrow 2\nunset multiplot\n"; };
+    g << "set grid\nset key outside below\nset xlabel 't [s]'\n";
+    open("tracking.png", "Force tracking: plant force vs demand, passive-off (0 V) and passive-on",
+         "force [N]");
+    g << "plot " << trace << " every ::1 using 1:4 with lines lw 2 title 'demand', "
       << "'' every ::1 using 1:5 with lines title 'force (controlled)', "
       << "'' every ::1 using 1:6 with lines dt 2 title 'passive-off', "
-      << "'' every ::1 using 1:7 with lines dt 3 title 'passive-on'\n"
-      << "set output '" << dir << "/command.png'\nset ylabel 'voltage [V]'\nset y2label 'safe'\n"
-      << "set y2range [-0.1:1.1]\nset y2tics 0,1,1\n"
-      << "set title 'Command received, voltage applied by the simulated driver, safe state'\n"
-      << "plot '" << dir << "/trace.csv' every ::1 using 1:8 with lines title 'command', "
+      << "'' every ::1 using 1:7 with lines dt 3 title 'passive-on'\n";
+    overview("demand and force");
+    g << "plot " << ov << " index 0 with lines lw 2 title 'demand', '' index 1 with lines title "
+      << "'force (controlled)'\n";
+    close();
+    open("command.png", "Command received, voltage applied by the simulated driver, safe state",
+         "voltage [V]");
+    g << "set y2label 'safe'\nset y2range [-0.1:1.1]\nset y2tics 0,1,1\n"
+      << "plot " << trace << " every ::1 using 1:8 with lines title 'command', "
       << "'' every ::1 using 1:9 with lines title 'applied', "
       << "'' every ::1 using 1:10 axes x1y2 with steps title 'safe'\n";
+    overview("command and applied voltage");
+    g << "plot " << ov << " index 4 with lines title 'command', '' index 5 with lines title "
+      << "'applied'\n";
+    close();
     if (r.ride) {
-      g << "unset y2label\nunset y2tics\nset autoscale y2\n"
-        << "set output '" << dir << "/ride.png'\nset ylabel 'body acceleration [m/s^2]'\n"
-        << "set title 'Quarter car: body acceleration, controlled vs passive-off and passive-on'\n"
-        << "plot '" << dir
-        << "/trace.csv' every ::1 using 1:17 with lines dt 3 title 'passive-on', "
+      open("ride.png", "Quarter car: body acceleration, controlled vs passive-off and passive-on",
+           "body acceleration [m/s^2]");
+      g << "plot " << trace << " every ::1 using 1:17 with lines dt 3 title 'passive-on', "
         << "'' every ::1 using 1:16 with lines dt 2 title 'passive-off', "
         << "'' every ::1 using 1:15 with lines lw 2 title 'controlled'\n";
+      overview("body acceleration");
+      g << "plot " << ov << " index 8 with lines dt 3 title 'passive-on', '' index 7 with lines "
+        << "dt 2 title 'passive-off', '' index 6 with lines lw 2 title 'controlled'\n";
+      close();
     }
+    g << "set autoscale x\nset autoscale y\nset terminal pngcairo size 1200,600\n";
     if (r.passive) {
       // The passive grid with the controlled run, and the body-acceleration PSDs.
       std::ofstream(dir + "/passive.dat") << GridData(r.passive->grid);

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "mrd/common/time_window.hpp"
 #include "mrd/hil/run.hpp"
 
 namespace mrd::hil {
@@ -19,7 +20,8 @@ int Gnuplot(const std::string& script, const std::string& log);
 // dir/gnuplot.log): "gnuplot not found ...: plots skipped" or "gnuplot failed ...".
 std::string GnuplotWarning(int rc, const std::string& dir);
 // Writes the files; false with *error. Plot failures are warnings (*warning).
+// Time plots: window (nullptr: the first 5 s) sample by sample, the whole run's envelope below.
 bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const RunResult& r,
-                  std::string* error, std::string* warning);
+                  const TimeWindow* window, std::string* error, std::string* warning);
 
 }  // namespace mrd::hil

@@ -21,6 +21,7 @@
 #include "mrd/hil/scenario.hpp"
 #include "passive_report.hpp"
 #include "report.hpp"
+#include "table_check.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -111,7 +112,23 @@ std::string Table(const std::vector<StudyCase>& cases, const std::vector<Firmwar
   return o.str();
 }
 
-std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareLaw>& laws) {
+// Text inside a gnuplot single-quoted string: a quote doubled.
+std::string GnuplotQuotable(const std::string& v) {
+  std::string out;
+  for (const char c : v) out += c == '\'' ? std::string("''") : std::string(1, c);
+  return out;
+}
+
+// CSV text of one cell: quoted when it holds a comma or a quote.
+std::string CsvCell(const std::string& v) {
+  if (v.find_first_of(",\"\n") == std::string::npos) return v;
+  std::string q = "\"";
+  for (const char c : v) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareLaw>& laws,
+                const std::string& table, const std::string& plant) {
   std::ostringstream o;
   o.precision(9);
   o << "class,speed_m_s,motion_ratio,law,passive_off_body_accel_rms,best_body_accel_rms,"
@@ -120,7 +137,7 @@ std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareL
        "law_body_accel_wk_rms,law_tyre_load_rms_n,law_travel_rms_cm,law_mean_v,"
        "law_violations,equal_holding_v,equal_holding_body_accel_rms,"
        "comfort_improvement_percent,equal_holding_wk_v,equal_holding_body_accel_wk_rms,"
-       "wk_comfort_improvement_percent\n";
+       "wk_comfort_improvement_percent,table,plant\n";
   for (const StudyCase& c : cases) {
     for (std::size_t i = 0; i < laws.size(); ++i) {
       const LawResult& l = c.laws[i];
@@ -133,20 +150,24 @@ std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareL
       if (l.cmp.comfort_at_holding) {
         o << ',' << l.cmp.comfort_at_holding->volts << ',' << l.cmp.comfort_at_holding->value << ','
           << *l.cmp.comfort_at_holding_improvement << ',' << l.cmp.wk_at_holding->volts << ','
-          << l.cmp.wk_at_holding->value << ',' << *l.cmp.wk_at_holding_improvement << '\n';
+          << l.cmp.wk_at_holding->value << ',' << *l.cmp.wk_at_holding_improvement;
       } else {
-        o << ",none,none,none,none,none,none\n";
+        o << ",none,none,none,none,none,none";
       }
+      o << ',' << CsvCell(table) << ',' << CsvCell(plant) << '\n';
     }
   }
   return o.str();
 }
 
 nlohmann::json Json(const Scenario& s, double step, const std::vector<StudyCase>& cases,
-                    const std::vector<FirmwareLaw>& laws) {
+                    const std::vector<FirmwareLaw>& laws, const std::string& table,
+                    const std::string& plant) {
   nlohmann::json j;
   j["scenario"] = s.name;
   j["file"] = s.path;
+  j["table"] = table;
+  j["plant"] = plant;
   j["duration_s"] = s.duration_s;
   j["settle_s"] = s.ride_settle_s;
   j["road_seed"] = s.road.seed;
@@ -198,7 +219,8 @@ nlohmann::json Json(const Scenario& s, double step, const std::vector<StudyCase>
 
 // Plots: comfort-CASE.png per case (CaseName), study.png (improvement against speed).
 bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
-                const std::vector<FirmwareLaw>& laws, std::string* error, std::string* warning) {
+                const std::vector<FirmwareLaw>& laws, const std::string& what, std::string* error,
+                std::string* warning) {
   std::ostringstream gp;
   gp << "set grid\nset key inside\n";
   const bool with_ratio = SeveralRatios(cases);
@@ -213,7 +235,7 @@ bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
        << name << ".png'\nset multiplot layout 1,2\n"
        << ComfortPanels(dat, points,
                         "class " + std::string(1, c.road_class) + ", " + Num(c.speed) +
-                            " m/s, motion ratio " + Num(c.motion_ratio))
+                            " m/s, motion ratio " + Num(c.motion_ratio) + "; " + what)
        << "unset multiplot\n";
   }
   // Improvement at equal road holding against speed: one block per (ratio x) class x law.
@@ -238,7 +260,8 @@ bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
   gp << "set terminal pngcairo noenhanced size 1000,600\nset output '" << dir << "/study.png'\n"
      << "set key outside below\nset xlabel 'speed [m/s]'\n"
      << "set ylabel 'body acc RMS improvement [%]'\n"
-     << "set title 'Comfort gain over the best passive setting with no worse tyre-load RMS'\n"
+     << "set title 'Comfort gain over the best passive setting with no worse tyre-load RMS; "
+     << what << "'\n"
      << "plot ";
   for (std::size_t b = 0; b < titles.size(); ++b) {
     gp << (b ? ", " : "") << "'" << dir << "/study.dat' index " << b
@@ -263,6 +286,9 @@ struct StudyInputs {
   std::vector<double> speeds;
   std::vector<double> ratios;  // motion ratios
   std::vector<FirmwareLaw> laws;
+  CoefficientTable table;   // the scenario's [firmware] table, or the compiled-in one
+  std::string table_label;  // its path and CRC (TableLabel)
+  std::string plant_label;  // PlantLabel
 };
 
 int Bad(const std::string& what) {
@@ -331,6 +357,20 @@ int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
     return Bad("--scenario: " + o.scenario +
                " is not a quarter car ([plant] model = \"quarter-car\")");
   }
+  // What a study cannot run: it feeds the law the plant's signals in process, without faults
+  // or the GPIO routing (mrd-hil run and sweep run those).
+  if (!base.faults.empty()) {
+    return Bad("--scenario: " + o.scenario +
+               " has [[fault]] entries: the study runs no faults (mrd-hil run or sweep do)");
+  }
+  if (base.gpio.any()) {
+    return Bad("--scenario: " + o.scenario +
+               " routes signals over [gpio]: the study feeds the law in process without it "
+               "(mrd-hil run or sweep do)");
+  }
+  if (!LoadRunTable(base.table_file, &in->table)) return kBadInput;
+  in->table_label = TableLabel(base.table_file, in->table);
+  in->plant_label = PlantLabel(base);
   if (o.duration_s >= 0.0) {
     if (!(o.duration_s > base.ride_settle_s) || o.duration_s > 1e5) {
       return Bad("--duration " + Num(o.duration_s) + ": must be longer than the settle time " +
@@ -346,9 +386,18 @@ int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
     return Bad("--passive-step " + Num(in->step) + ": more than 10000 points");
   if (const int rc = ParseClassesAndSpeeds(o, in); rc != 0) return rc;
   if (const int rc = ParseMotionRatios(o, in); rc != 0) return rc;
+  // The scenario's [firmware] safety keys, as mrd-hil run writes them into the config.
+  std::ostringstream safety;
+  safety << "\n[safety]\nmax_age_ms = " << base.max_age_ms
+         << "\nrecover_periods = " << base.recover_periods
+         << "\nvelocity_limit = " << base.velocity_limit << "\n";
   for (const std::string& spec : Split(o.laws)) {
     FirmwareLaw law;
-    if (!MakeFirmwareLaw(spec, base.skyhook_gain, base.e_max, &law, &error)) return Bad(error);
+    const std::string sections = spec.find("safety.") == std::string::npos ? safety.str() : "";
+    if (!MakeFirmwareLaw(spec, base.skyhook_gain, base.e_max, sections, &law, &error) ||
+        !CheckFirmwareLaw(law, in->table, &error)) {
+      return Bad(error);
+    }
     for (const FirmwareLaw& k : in->laws) {
       if (k.spec == spec) return Bad("--laws '" + o.laws + "': names " + spec + " twice");
     }
@@ -376,7 +425,7 @@ bool RunStudyCase(const StudyInputs& in, std::size_t index, std::size_t n_cases,
   QuarterCarPlant plant = MakeQuarterCar(s);
   for (const FirmwareLaw& law : in.laws) {
     LawResult lr;
-    if (!RunFirmwareLaw(law, &plant, s.duration_s, s.ride_settle_s, &lr.run, error)) {
+    if (!RunFirmwareLaw(law, in.table, &plant, s.duration_s, s.ride_settle_s, &lr.run, error)) {
       return false;
     }
     lr.cmp = Compare(c->grid, lr.run.ride);
@@ -427,13 +476,15 @@ int StudyCommand(const StudyOptions& o) {
       }
     }
   }
-  const std::string table = Table(cases, laws);
-  const nlohmann::json j = Json(base, in.step, cases, laws);
+  const std::string what = "table " + in.table_label + ", plant " + in.plant_label;
+  const std::string table = what + "\n\n" + Table(cases, laws);
+  const nlohmann::json j = Json(base, in.step, cases, laws, in.table_label, in.plant_label);
   std::string warning;
   if (!WriteAtomically(dir + "/study.txt", table, &error) ||
-      !WriteAtomically(dir + "/study.csv", Csv(cases, laws), &error) ||
+      !WriteAtomically(dir + "/study.csv", Csv(cases, laws, in.table_label, in.plant_label),
+                       &error) ||
       !WriteAtomically(dir + "/study.json", j.dump(2) + "\n", &error) ||
-      !WritePlots(dir, cases, laws, &error, &warning)) {
+      !WritePlots(dir, cases, laws, GnuplotQuotable(what), &error, &warning)) {
     std::fprintf(stderr, "error: %s\n", error.c_str());
     return 1;
   }

@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -41,18 +42,27 @@ std::string PlotData(const SweepGrid& g, const std::vector<SweepScores>& rows,
   return o.str();
 }
 
+// Text inside a gnuplot single-quoted string: a quote doubled.
+std::string Quotable(const std::string& v) {
+  std::string out;
+  for (const char c : v) out += c == '\'' ? std::string("''") : std::string(1, c);
+  return out;
+}
+
 std::string PlotScript(const std::string& dir, const SweepGrid& g, bool ride,
-                       const std::vector<std::string>& titles, const std::string& png) {
+                       const std::vector<std::string>& titles, const std::string& png,
+                       const std::string& what) {
   std::ostringstream o;
   const std::string data = "'" + dir + "/sweep.dat'";
   o << "set terminal pngcairo noenhanced size 1000,600\nset grid\nset key outside below\n"
     << "set output '" << png << "'\nset xlabel '" << g.axes[0].key << "'\n";
-  const auto name = [&](std::size_t b, const char* what) {
-    return std::string(what) + (titles[b].empty() ? "" : " (" + titles[b] + ")");
+  const auto name = [&](std::size_t b, const char* curve) {
+    return std::string(curve) + (titles[b].empty() ? "" : " (" + titles[b] + ")");
   };
   if (ride) {
     o << "set ylabel 'body acceleration RMS [m/s^2]'\n"
-      << "set title 'Sweep: ride (body acceleration RMS) against " << g.axes[0].key << "'\nplot ";
+      << "set title 'Sweep: ride (body acceleration RMS) against " << g.axes[0].key << "; " << what
+      << "'\nplot ";
     for (std::size_t b = 0; b < titles.size(); ++b) {
       o << (b ? ", " : "") << data << " index " << b << " using 1:4 with linespoints lw 2 title '"
         << name(b, "controlled") << "', " << data << " index " << b
@@ -61,7 +71,8 @@ std::string PlotScript(const std::string& dir, const SweepGrid& g, bool ride,
     }
   } else {
     o << "set ylabel '||f-d|| / ||d||'\n"
-      << "set title 'Sweep: force tracking error against " << g.axes[0].key << "'\nplot ";
+      << "set title 'Sweep: force tracking error against " << g.axes[0].key << "; " << what
+      << "'\nplot ";
     for (std::size_t b = 0; b < titles.size(); ++b) {
       o << (b ? ", " : "") << data << " index " << b << " using 1:3 with linespoints lw 2 title '"
         << name(b, "reachable") << "', " << data << " index " << b
@@ -98,9 +109,22 @@ int SweepCommand(const std::string& scenario_path, const std::vector<std::string
                  o.firmware.c_str());
     return 2;
   }
+  // What each point runs on: its table (path and CRC) and plant.
+  std::vector<std::string> tables, plants;
   for (const Scenario& sc : scenarios) {
-    if (!TableIsUsable(o.table.empty() ? sc.table_file : o.table)) return 2;
+    const std::string path = o.table.empty() ? sc.table_file : o.table;
+    CoefficientTable t;
+    if (!LoadRunTable(path, &t)) return 2;
+    tables.push_back(TableLabel(path, t));
+    plants.push_back(PlantLabel(sc));
   }
+  std::string what;  // the plots' and the table's line: one table and plant, or "per point"
+  const bool one_table = std::all_of(tables.begin(), tables.end(),
+                                     [&](const std::string& t) { return t == tables[0]; });
+  const bool one_plant = std::all_of(plants.begin(), plants.end(),
+                                     [&](const std::string& p) { return p == plants[0]; });
+  what = "table " + (one_table ? tables[0] : std::string("per point (sweep.csv)")) + ", plant " +
+         (one_plant ? plants[0] : std::string("per point (sweep.csv)"));
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
   if (ec || !std::filesystem::is_directory(out_dir)) {
@@ -133,6 +157,8 @@ int SweepCommand(const std::string& scenario_path, const std::vector<std::string
       return rc == 2 ? 2 : 1;
     }
     rows.push_back(ScoresOf(r));
+    rows.back().table = tables[i];
+    rows.back().plant = plants[i];
     const SweepScores& s = rows.back();
     std::fprintf(stderr, "[%zu/%zu] %s: %s, %s %.4g (%.1f s wall)\n", i + 1, points.size(),
                  label.c_str(), s.pass ? "PASS" : "FAIL",
@@ -141,7 +167,7 @@ int SweepCommand(const std::string& scenario_path, const std::vector<std::string
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::size_t best = BestPoint(rows);
-  std::cout << SweepTable(grid, rows);
+  std::cout << SweepTable(grid, rows) << "ran on: " << what << "\n";
   std::string best_label;
   for (const std::string& p : points[best]) best_label += (best_label.empty() ? "" : " ") + p;
   std::cout << "best: " << best_label << " ("
@@ -157,7 +183,8 @@ int SweepCommand(const std::string& scenario_path, const std::vector<std::string
                     png = out_dir + "/sweep.png", png_temp = out_dir + "/.sweep.png.tmp";
   const bool ride = rows[0].ride;
   if (!WriteAtomically(dat, PlotData(grid, rows, &titles), &error) ||
-      !WriteAtomically(gp, PlotScript(out_dir, grid, ride, titles, png_temp), &error)) {
+      !WriteAtomically(gp, PlotScript(out_dir, grid, ride, titles, png_temp, Quotable(what)),
+                       &error)) {
     std::fprintf(stderr, "error: %s\n", error.c_str());
     return 1;
   }

@@ -2,11 +2,12 @@
 // other side (mrd/profile/can_profile.hpp; default the built-in mrd-native: SensorMotion,
 // SensorForce, TimeGrant, DriverStatus out; DriverCommand, Heartbeat, FirmwareStatus in): the
 // plant's sensor messages every step; the simulated driver hears the command and heartbeat
-// messages and sends its status message every kStatusPeriodSteps steps and at once when its
-// fault bits change: the
+// messages and sends its status message at the message's period (the DBC's GenMsgCycleTime or
+// the profile's period_ms; 100 ms without either) and at once when its fault bits change: the
 // current of the latest command (its set-point over a kCoilOhms coil while it enables the
-// coil, else 0 A) and the driver's fault (the step's fault_line: the scenario's fault_line
-// fault, `mrd-hil serve --fault-line`) as the overcurrent bit (docs/mrd.dbc). Commands are
+// coil, else 0 A) and the driver's fault (the step's fault_line or driver_fault: the
+// scenario's faults of those kinds, `mrd-hil serve --fault-line`) as the overcurrent bit
+// (docs/mrd.dbc). Commands are
 // timed by their bus stamps (when the firmware sent them). Endpoint: a local frame bus socket
 // path (contains '/') or a SocketCAN interface. On a local bus path nobody serves yet (no socket,
 // or one left by a dead relay), the port runs the relay itself on a thread: the harness then owns
@@ -47,7 +48,9 @@ namespace pc = protocol::can;
 constexpr int kMaxFramesPerPoll = 64;
 constexpr std::int64_t kTxDeadlineNs = 1'000'000;  // one plant period
 constexpr std::int64_t kReconnectNs = 100'000'000;
-constexpr std::uint32_t kStatusPeriodSteps = 100;  // DriverStatus period: 100 ms (docs/mrd.dbc)
+// The driver status period when neither the DBC (GenMsgCycleTime) nor the profile (period_ms)
+// gives one: 100 ms, mrd-native's DriverStatus (docs/mrd.dbc).
+constexpr std::uint32_t kStatusPeriodSteps = 100;
 constexpr double kCoilOhms = 5.0;  // simulated coil (e.g. a Lord RD-1005-3: about 5 ohm)
 constexpr std::uint32_t kDriveHeartbeatSteps = 10;  // CANopen drive: default producer period
 
@@ -128,6 +131,16 @@ class CanPort final : public PlantPort {
   }
 
   void Publish(const SensorOutput& out) override {
+    // The step's frames go to the bus together (the relay's Hold): lockstep, with the grant
+    // (SendGrant releases them); else at the end of this call.
+    struct Batch {
+      canbus::LocalBusRelay* relay;
+      bool until_grant;
+      ~Batch() {
+        if (relay != nullptr && !until_grant) relay->Release();
+      }
+    } batch{relay_, lockstep_};
+    if (relay_ != nullptr) relay_->Hold();
     last_published_ = out.seq;
     const std::int64_t now = common::MonotonicNs();
     if (!IsOpen()) Reconnect(now);
@@ -201,6 +214,11 @@ class CanPort final : public PlantPort {
   }
 
   bool SendGrant(std::int64_t t_ns) override {
+    const bool sent = SendGrantFrame(t_ns);
+    if (relay_ != nullptr) relay_->Release();  // the step's sensor frames (Publish) and grant
+    return sent;
+  }
+  bool SendGrantFrame(std::int64_t t_ns) {
     const std::int64_t now = common::MonotonicNs();
     if (!IsOpen()) Reconnect(now);
     if (!IsOpen()) return false;
@@ -258,6 +276,11 @@ class CanPort final : public PlantPort {
 
   void SetLockstep(bool on) override { lockstep_ = on; }
   bool CarriesStatus() const override { return !status_msgs_.empty(); }
+  bool CarriesHeartbeat() const override { return !heartbeat_msgs_.empty() || canopen_ != nullptr; }
+  // On the harness's own relay: the socket nodes that joined (the firmware's among them).
+  std::int64_t Joined() const override {
+    return relay_ != nullptr ? static_cast<std::int64_t>(relay_->stats().nodes_joined) : -1;
+  }
   void PeerRestarted() override { codec_.ResetCounters(); }
   bool RefuseSdo(int index, int subindex, std::uint32_t abort_code) override {
     if (canopen_ == nullptr) return false;
@@ -290,11 +313,11 @@ class CanPort final : public PlantPort {
   // The simulated driver's DriverStatus: every kStatusPeriodSteps published steps, and at once
   // when the fault bits change (so a fault reaches the firmware in the step it appears).
   void PublishDriverStatus(const SensorOutput& out, std::int64_t now) {
-    const std::uint32_t faults = out.fault_line ? pc::kFaultOvercurrent : 0U;
+    const std::uint32_t faults = out.fault_line || out.driver_fault ? pc::kFaultOvercurrent : 0U;
     // A CANopen drive sends PDOs in operational state only.
     if (canopen_ != nullptr && drive_state_ != co::kStateOperational) return;
     if (driver_msgs_.empty() ||
-        (status_sent_ && faults == status_faults_ && ++steps_since_status_ < kStatusPeriodSteps)) {
+        (status_sent_ && faults == status_faults_ && ++steps_since_status_ < status_steps_)) {
       return;
     }
     const double volts = std::isfinite(command_volts_) ? command_volts_ : 0.0;
@@ -434,6 +457,16 @@ class CanPort final : public PlantPort {
         filters_.push_back({pf::WireId(msg), (msg.extended ? CAN_EFF_MASK : CAN_SFF_MASK) |
                                                  CAN_EFF_FLAG | CAN_RTR_FLAG});
       }
+    }
+    // The driver status goes out at its message's period (the DBC's GenMsgCycleTime or the
+    // profile's period_ms; the shortest of several), in published 1 ms steps.
+    std::int64_t status_ns = 0;
+    for (const int m : driver_msgs_) {
+      const std::int64_t t = p.specs[static_cast<std::size_t>(m)].period_ns;
+      if (t > 0 && (status_ns == 0 || t < status_ns)) status_ns = t;
+    }
+    if (status_ns > 0) {
+      status_steps_ = static_cast<std::uint32_t>(std::max<std::int64_t>(1, status_ns / 1'000'000));
     }
     const pf::SignalRef current = p.inputs[static_cast<std::size_t>(CanIn::kDriverCurrent)];
     current_in_ma_ = current.mapped() && p.dbc.messages[static_cast<std::size_t>(current.message)]
@@ -613,6 +646,7 @@ class CanPort final : public PlantPort {
   bool status_sent_ = false;
   std::uint32_t status_faults_ = 0;
   std::uint32_t steps_since_status_ = 0;
+  std::uint32_t status_steps_ = kStatusPeriodSteps;  // the driver status period [1 ms steps]
   bool current_in_ma_ = false;  // the driver_current signal's unit is mA (else A)
   // The CANopen drive ([canopen]; nullptr without): NMT state, heartbeat schedule [steps],
   // the SDO refusal test hook (index -1: none).

@@ -73,6 +73,9 @@ ModbusLists ModbusListsOf(const Scenario& s, const profile::ModbusProfile* modbu
   if (in(profile::CanIn::kDemand)) Add(&ins, "demand");
   if (in(profile::CanIn::kBodyVelocity)) Add(&ins, "body_velocity");
   if (in(profile::CanIn::kForce)) Add(&ins, "force");
+  // The fault input the profile maps (unless a GPIO line carries it); the driver's faults
+  // count without routing.
+  if (in(profile::CanIn::kFaultLine) && !s.gpio.fault_line) Add(&ins, "fault_line");
   if (IsChassisLaw(s.law) && in(profile::CanIn::kBodyAcceleration)) {
     Add(&ins, "body_acceleration");
   }
@@ -115,6 +118,7 @@ void WriteCan(std::ostringstream& c, const Scenario& s, const std::string& endpo
   if (in(profile::CanIn::kDemand)) Add(&can_inputs, "demand");
   if (in(profile::CanIn::kBodyVelocity)) Add(&can_inputs, "body_velocity");
   if (in(profile::CanIn::kForce)) Add(&can_inputs, "force");
+  if (!g.fault_line && in(profile::CanIn::kFaultLine)) Add(&can_inputs, "fault_line");
   // The chassis signals only for the laws that read them (other runs keep their frame set).
   if (IsChassisLaw(s.law) && in(profile::CanIn::kBodyAcceleration)) {
     Add(&can_inputs, "body_acceleration");

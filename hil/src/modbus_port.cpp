@@ -76,6 +76,7 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
     b.body_velocity = out.sample.body_velocity;
     b.force = out.sample.force;
     b.fault_line = out.fault_line;
+    b.driver_fault = out.driver_fault;
     std::uint16_t regs[map::kSensorCount] = {};
     if (map::EncodeSensors(b, regs) != map::MapError::kOk) return;             // not representable
     if (out.fault == SensorFault::kOutOfRange) regs[map::kFaults] |= 0x8000U;  // reserved bit

@@ -11,7 +11,13 @@
 // calibration inverted to volts, and Wait wakes.
 // Faults: drop and stall leave the values as they were; nan stores a float32 NaN in the
 // velocity register (an integer register cannot hold one: left as it was); out_of_range
-// stores 1e30 cm/s where the type can hold it.
+// stores 1e30 cm/s where the type can hold it. The driver's side: driver_fault (and
+// fault_line, as on CAN) sets its driver_faults register to 1; enable_refused answers every
+// write touching the enable's registers (coils) with exception 0x04, the others as usual.
+// Start-up and periodic writes land in the tables like any write. A periodic write with
+// watchdog_ms arms the driver's communication watchdog on its first arrival; in real time,
+// once it has not come for watchdog_ms the driver drops its coil (DriverInput::watchdog_ok)
+// until it comes again (lockstep: plant time is not wall time, not supervised).
 #include <unistd.h>
 
 #include <algorithm>
@@ -47,8 +53,18 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     };
     for (const auto& pt : profile_->inputs) add(pt);
     for (const auto& pt : profile_->outputs) add(pt);
+    const auto add_fixed = [&](const pf::ModbusFixedWrite& w) {
+      pf::ModbusPoint pt;
+      pt.mapped = true;
+      pt.unit = w.unit;
+      add(pt);
+    };
+    for (const auto& w : profile_->startup) add_fixed(w);
+    for (const auto& w : profile_->periodic) add_fixed(w);
+    keepalive_ns_.assign(profile_->periodic.size(), 0);
     // The cycle's end: the command's write (without one, the enable's).
     const pf::ModbusPoint& cmd = profile_->Out(pf::ModbusOut::kCommand);
+    enable_point_ = profile_->Out(pf::ModbusOut::kEnable);
     trigger_ = cmd.mapped ? &cmd : &profile_->Out(pf::ModbusOut::kEnable);
   }
   ~ModbusProfilePort() override { Close(); }
@@ -66,6 +82,14 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
   }
 
   void Publish(const SensorOutput& out) override {
+    {
+      // The driver's side holds whatever the sensor module does: its fault report (stored
+      // with the grant in lockstep, as the sensor values) and its refusal of enable writes.
+      std::lock_guard<std::mutex> lock(mu_);
+      enable_refused_ = out.enable_refused;
+      driver_fault_ = out.driver_fault || out.fault_line;
+      if (!lockstep_) StoreDriverFault();
+    }
     if (out.fault == SensorFault::kDrop || out.fault == SensorFault::kStall) return;
     Staged s;
     s.valid = true;
@@ -106,6 +130,7 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
       Store(staged_);
       staged_.valid = false;
     }
+    StoreDriverFault();
     (void)pf::StoreModbusPoint(*profile_, g, static_cast<double>(t_ns / 1000), Table(g));
     return true;
   }
@@ -114,6 +139,8 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     return profile_->Out(pf::ModbusOut::kStatusSafe).mapped ||
            profile_->Out(pf::ModbusOut::kStatusCauses).mapped;
   }
+
+  bool CarriesHeartbeat() const override { return profile_->Out(pf::ModbusOut::kHeartbeat).mapped; }
 
   void Wait(std::int64_t timeout_ns) override {
     std::unique_lock<std::mutex> lock(mu_);
@@ -125,6 +152,10 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     std::lock_guard<std::mutex> lock(mu_);
     if (heartbeat_ns_ != 0) in->heartbeat_ns = heartbeat_ns_;
     in->heartbeats = heartbeats_;
+    if (!lockstep_ && WatchdogArmedAny()) {
+      in->has_watchdog = true;
+      in->watchdog_ok = WatchdogOk(common::MonotonicNs());
+    }
     if (!pending_) return;
     pending_ = false;
     const auto mapped = [&](pf::ModbusOut r) { return profile_->Out(r).mapped; };
@@ -180,12 +211,38 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     return units_.at(pt.unit).tables[static_cast<std::size_t>(pt.table)].data();
   }
 
+  // The communication watchdog (mu_ held): some keep-alive with watchdog_ms has arrived.
+  bool WatchdogArmedAny() const {
+    for (std::size_t i = 0; i < keepalive_ns_.size(); ++i) {
+      if (profile_->periodic[i].watchdog_ms > 0 && keepalive_ns_[i] != 0) return true;
+    }
+    return false;
+  }
+  // Every armed keep-alive came within its watchdog_ms of now.
+  bool WatchdogOk(std::int64_t now) const {
+    for (std::size_t i = 0; i < keepalive_ns_.size(); ++i) {
+      const int ms = profile_->periodic[i].watchdog_ms;
+      if (ms > 0 && keepalive_ns_[i] != 0 &&
+          now - keepalive_ns_[i] > static_cast<std::int64_t>(ms) * 1'000'000) {
+        return false;
+      }
+    }
+    return true;
+  }
+
+  // The driver's fault report into its driver_faults register (mu_ held): 1 or 0.
+  void StoreDriverFault() {
+    const pf::ModbusPoint& pt = profile_->In(pf::CanIn::kDriverFaults);
+    if (pt.mapped) (void)pf::StoreModbusPoint(*profile_, pt, driver_fault_ ? 1.0 : 0.0, Table(pt));
+  }
+
   // The sensor roles into their registers (mu_ held). A value its register cannot hold
   // leaves the register as it was; a NaN velocity in a float32 register is stored as such.
   void Store(const Staged& s) {
     for (std::size_t i = 0; i < pf::kNumCanIn; ++i) {
       const pf::ModbusPoint& pt = profile_->inputs[i];
-      if (!pt.mapped || static_cast<pf::CanIn>(i) == pf::CanIn::kGrant) continue;
+      const auto role = static_cast<pf::CanIn>(i);
+      if (!pt.mapped || role == pf::CanIn::kGrant || role == pf::CanIn::kDriverFaults) continue;
       double v = s.v[i];
       if (static_cast<pf::CanIn>(i) == pf::CanIn::kSensorSeq) {
         const double span = pt.count() == 2 ? 4294967296.0 : 65536.0;  // the counter wraps
@@ -194,8 +251,8 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
       if (std::isnan(v) && pt.type == pf::ModbusType::kFloat32) {
         std::uint16_t* w = Table(pt) + pt.address;
         const std::uint16_t hi = 0x7FC0, lo = 0x0000;  // quiet NaN
-        w[0] = profile_->swapped ? lo : hi;
-        w[1] = profile_->swapped ? hi : lo;
+        w[0] = pt.swapped ? lo : hi;
+        w[1] = pt.swapped ? hi : lo;
         continue;
       }
       (void)pf::StoreModbusPoint(*profile_, pt, v, Table(pt));
@@ -203,6 +260,13 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
   }
 
   bool Serves(std::uint8_t unit) const override { return units_.count(unit) != 0; }
+
+  // A request of unit / table / address / count covers (part of) the point.
+  static bool Touches(const pf::ModbusPoint& pt, std::uint8_t unit, int table, int address,
+                      int count) {
+    return pt.mapped && pt.unit == unit && static_cast<int>(pt.table) == table &&
+           pt.address < address + count && pt.address + pt.count() > address;
+  }
 
   static int Exception(const std::uint8_t* pdu, std::uint8_t code, std::uint8_t* reply) {
     reply[0] = static_cast<std::uint8_t>(pdu[0] | mb::kExceptionFlag);
@@ -278,6 +342,18 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
       return fail(mb::kExIllegalValue);
     }
     if (address + count > static_cast<int>(kTableSize)) return fail(mb::kExIllegalAddress);
+    if (!read && Touches(enable_point_, unit, table, address, count)) {
+      bool refused = false;
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        refused = enable_refused_;
+      }
+      if (refused) {  // the scenario's enable_refused fault (not the firmware's error)
+        a.reply_len = Exception(pdu, mb::kExServerFailure, reply);
+        a.exception = true;
+        return a;
+      }
+    }
     std::unique_lock<std::mutex> lock(mu_);
     std::uint16_t* t = units_[unit].tables[table].data() + address;
     if (read) {
@@ -306,11 +382,17 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
                     : static_cast<std::uint16_t>(u16(6 + 2 * i));
       }
     }
+    for (std::size_t i = 0; i < keepalive_ns_.size(); ++i) {  // the watchdog's keep-alives
+      const pf::ModbusFixedWrite& w = profile_->periodic[i];
+      if (w.unit == unit && static_cast<int>(w.table) == table && w.address >= address &&
+          w.address < address + count) {
+        keepalive_ns_[i] = common::MonotonicNs();
+      }
+    }
     std::memcpy(reply, pdu, 5);  // the echo: address and count (0x0F 0x10) or value
     a.reply_len = 5;
     a.wrote = true;
-    if (trigger_->mapped && trigger_->unit == unit && static_cast<int>(trigger_->table) == table &&
-        trigger_->address < address + count && trigger_->address + trigger_->count() > address) {
+    if (Touches(*trigger_, unit, table, address, count)) {
       a.command = true;
       Decode();
     }
@@ -356,6 +438,7 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
   const std::string endpoint_;
   const std::shared_ptr<const pf::ModbusProfile> profile_;
   const pf::ModbusPoint* trigger_ = nullptr;
+  pf::ModbusPoint enable_point_;
   int master_fd_ = -1, slave_fd_ = -1;
   std::map<std::uint8_t, Unit> units_;  // fixed after construction (Serves reads it unlocked)
   ModbusServer server_;
@@ -368,11 +451,14 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
   double volts_ = 0.0;
   std::uint32_t echo_ = 0;
   bool enable_ = false, safe_ = false;
+  bool enable_refused_ = false;  // the step's enable_refused fault
+  bool driver_fault_ = false;    // the step's driver_fault (or fault_line) fault
   std::uint16_t causes_ = 0;
   double heartbeat_ = 0.0;
   bool have_heartbeat_ = false;
   std::int64_t command_ns_ = 0, heartbeat_ns_ = 0;
   std::uint64_t heartbeats_ = 0;
+  std::vector<std::int64_t> keepalive_ns_;  // per periodic write: its latest arrival (0: none)
   std::condition_variable written_;
   PortCounters counters_;
 };

@@ -31,6 +31,7 @@ bool ResolvePlantDamper(const std::string& scenario_path, const toml::table& roo
                 "unknown plant preset '" + s->preset + "' (paper, spencer1997)");
     return false;
   }
+  s->plant_overrides = overrides != nullptr && !overrides->empty();
   if (overrides != nullptr) {
     for (const auto& [key, node] : *overrides) {
       const std::size_t line = node.source().begin.line;

@@ -188,6 +188,7 @@ int ScenarioRun::StartFirmware() {
   if (!lockstep_) jitter_us_.reserve(static_cast<std::size_t>(steps_) + 16);
   if (o.keep_trace) r_->trace.reserve(static_cast<std::size_t>(steps_));
   hb_timeout_steps_ = static_cast<std::int64_t>(std::llround(s.heartbeat_timeout_s / 1e-3));
+  supervise_hb_ = s.gpio.heartbeat || port_->CarriesHeartbeat();
   // Quarter car: ride figures of the run and of its passive twins after the settle time.
   score_ride_ = o.keep_trace && plant_->Ride() != nullptr;
   // Structure: floor figures of the run and of its passive twins over every step.

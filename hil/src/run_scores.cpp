@@ -49,6 +49,7 @@ void ScoreRun(const Scenario& s, RunResult* r) {
   t.off_reachable = Ratio(offr2, dr2);
   t.on_reachable = Ratio(onr2, dr2);
   if (t.steps > 0) {
+    t.reachable_share = static_cast<double>(t.reachable_steps) / static_cast<double>(t.steps);
     t.rms_force_n = std::sqrt(f2 / static_cast<double>(t.steps));
     t.rms_demand_n = std::sqrt(d2 / static_cast<double>(t.steps));
   }
@@ -139,6 +140,14 @@ void EvaluatePass(const Scenario& s, RunResult* r) {
     if (s.max_error_reachable && !(t.error_reachable <= *s.max_error_reachable)) {
       f.push_back("tracking error on reachable demands " + Fmt(t.error_reachable) + " > " +
                   Fmt(*s.max_error_reachable));
+    }
+    if (s.max_error_reachable && t.steps > 0 && t.reachable_share < s.min_reachable_share) {
+      f.push_back("reachable demands on " + Fmt(100.0 * t.reachable_share) + " % of the " +
+                  std::to_string(t.steps) + " controlled steps < min_reachable_share " +
+                  Fmt(100.0 * s.min_reachable_share) +
+                  " %: the reachable error scores too little of the run (error over all "
+                  "steps " +
+                  Fmt(t.error_all) + ")");
     }
     if (s.max_error_all && !(t.error_all <= *s.max_error_all)) {
       f.push_back("tracking error " + Fmt(t.error_all) + " > " + Fmt(*s.max_error_all));

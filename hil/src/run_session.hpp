@@ -112,7 +112,7 @@ class ScenarioRun {
   struct StepFaults {
     SensorFault sensor = SensorFault::kNone;
     bool delay = false, implausible = false, plant_dead = false, fault_line = false;
-    bool drive_heartbeat_loss = false;
+    bool drive_heartbeat_loss = false, driver_fault = false, enable_refused = false;
     int delay_periods = 0;
   };
   int ApplyFaultSchedule(std::int64_t k, StepFaults* f);
@@ -177,13 +177,17 @@ class ScenarioRun {
   std::int64_t hb_step_ = 0;
   std::int64_t hb_ns_ = 0;
   bool hb_fresh_prev_ = false;
+  bool watchdog_ok_ = true;  // the driver's communication watchdog (DriverInput)
   bool awaiting_start_ = true;
+  std::int64_t offered_joined_ = -1;  // lockstep start-up: port_->Joined() at the last offer
+  std::uint64_t reoffers_ = 0;        // start-up offers repeated (not counted as published)
   std::deque<SensorOutput> delayed_;
   std::vector<double> latency_us_, jitter_us_;
   static constexpr std::size_t kRing = 4096;
   std::vector<std::int64_t> published_ns_;
   std::vector<std::uint32_t> published_seq_;
   std::int64_t hb_timeout_steps_ = 0;
+  bool supervise_hb_ = true;  // the driver watches a heartbeat (port or [gpio] line)
   RideMetrics ride_, ride_off_, ride_on_;
   bool score_ride_ = false;
   StructureMetrics floors_, floors_off_, floors_on_;

@@ -84,6 +84,8 @@ int ScenarioRun::ApplyFaultSchedule(std::int64_t k, StepFaults* sf) {
     if (f.kind == FaultKind::kKillPlant) sf->plant_dead = true;
     if (f.kind == FaultKind::kFaultLine) sf->fault_line = true;
     if (f.kind == FaultKind::kDriveHeartbeatLoss) sf->drive_heartbeat_loss = true;
+    if (f.kind == FaultKind::kDriverFault) sf->driver_fault = true;
+    if (f.kind == FaultKind::kEnableRefused) sf->enable_refused = true;
   }
   return 0;
 }
@@ -112,6 +114,8 @@ SensorOutput ScenarioRun::PublishSensors(std::int64_t k, const StepFaults& f) {
   out.fault = f.sensor;
   out.fault_line = f.fault_line;
   out.drive_heartbeat_loss = f.drive_heartbeat_loss;
+  out.driver_fault = f.driver_fault;
+  out.enable_refused = f.enable_refused;
   if (!lockstep_) {
     (void)common::SleepUntilNs(deadline_);
     const std::int64_t now = common::MonotonicNs();
@@ -119,6 +123,7 @@ SensorOutput ScenarioRun::PublishSensors(std::int64_t k, const StepFaults& f) {
     if (now - deadline_ > kPeriodNs) ++r_->late_steps;
   }
   gpio_.Publish(out, lockstep_);  // lockstep: settled before the grant below
+  if (lockstep_ && awaiting_start_) offered_joined_ = port_->Joined();  // who gets this offer
   if (port_open_) {
     if (f.plant_dead) {
       // lockstep: silent plant, granted time (above)
@@ -171,9 +176,17 @@ int ScenarioRun::HearLockstep(std::int64_t k, const SensorOutput& out, bool plan
               (o.attach ? "" : "; it was stopped"),
           0);
     }
-    if (awaiting_start_ && now >= resend) {
-      // The firmware may not be on the bus yet: offer the step again.
-      if (!plant_dead) Publish(out);
+    // The firmware may not have been on the bus for the offer: offer the step again. Where the
+    // port counts the peers that joined (the harness's own CAN relay), only when one joined
+    // since the last offer: the firmware then gets the step exactly once, however long its
+    // start-up takes (its frame and grant counters stay deterministic); else every 50 ms.
+    const std::int64_t joined = port_->Joined();
+    if (awaiting_start_ && (joined < 0 ? now >= resend : joined > offered_joined_)) {
+      offered_joined_ = joined;
+      if (!plant_dead) {
+        Publish(out);
+        ++reoffers_;
+      }
       port_->SendGrant((k + 1) * kPeriodNs);
       resend = now + 50'000'000;
     }
@@ -220,6 +233,7 @@ void ScenarioRun::TakeLines(std::int64_t k, const DriverInput& fresh) {
     enable_ = fresh.enable;
   }
   if (fresh.has_status) causes_ = fresh.status_causes;
+  if (fresh.has_watchdog) watchdog_ok_ = fresh.watchdog_ok;
   if (fresh.heartbeats > hb_count_) {
     hb_count_ = fresh.heartbeats;
     hb_step_ = k;
@@ -228,16 +242,19 @@ void ScenarioRun::TakeLines(std::int64_t k, const DriverInput& fresh) {
 }
 
 // The simulated current driver: the set-point while enabled and the heartbeat is fresh (in
-// plant time under lockstep, wall time in real time); else the coil's safe 0 V. [V]
+// plant time under lockstep, wall time in real time; only where the profile has a heartbeat)
+// and its communication watchdog (if any) has not tripped; else the coil's safe 0 V. [V]
 double ScenarioRun::DriverVolts(std::int64_t k) {
   const Scenario& s = s_;
+  // A driver without heartbeat supervision (its profile maps none) applies every command.
   const bool hb_fresh =
-      lockstep_ ? k - hb_step_ <= hb_timeout_steps_
-                : hb_ns_ != 0 && common::MonotonicNs() - hb_ns_ <=
-                                     static_cast<std::int64_t>(s.heartbeat_timeout_s * 1e9);
+      !supervise_hb_ ||
+      (lockstep_ ? k - hb_step_ <= hb_timeout_steps_
+                 : hb_ns_ != 0 && common::MonotonicNs() - hb_ns_ <=
+                                      static_cast<std::int64_t>(s.heartbeat_timeout_s * 1e9));
   if (hb_fresh_prev_ && !hb_fresh) ++r_->heartbeat_timeouts;
   hb_fresh_prev_ = hb_fresh;
-  driven_ = (!carries_enable_ || enable_) && hb_fresh;
+  driven_ = (!carries_enable_ || enable_) && hb_fresh && watchdog_ok_;
   const double applied =
       driven_ && std::isfinite(set_point_) ? std::clamp(set_point_, 0.0, s.e_max) : 0.0;
   if (driven_) ++r_->driven_steps;

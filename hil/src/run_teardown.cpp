@@ -1,5 +1,6 @@
 // The scenario run's last phase (run_session.hpp): the firmware stopped and its summary read,
 // the ports closed and counted, the run scored and judged.
+#include <algorithm>
 #include <cstdlib>
 
 #include "run_internal.hpp"
@@ -25,7 +26,11 @@ int ScenarioRun::Teardown() {
   r_->wake_jitter = Summarise(std::move(jitter_us_));
   if (!o.attach) StopFirmware();
   if (port_open_) port_->Close();
-  r_->ports.emplace_back(port_->name(), port_->counters());
+  PortCounters counters = port_->counters();
+  // Start-up offers repeated for a firmware not on the bus yet are no steps (their number
+  // depends on wall time: lockstep summaries must not).
+  counters.published -= std::min(counters.published, reoffers_);
+  r_->ports.emplace_back(port_->name(), counters);
   if (score_ride_) r_->ride = RideScores{Figures(ride_), Figures(ride_off_), Figures(ride_on_)};
   if (score_floors_) {
     r_->structure = StructureScores{floors_.Figures(), floors_off_.Figures(), floors_on_.Figures()};

@@ -158,6 +158,52 @@ int ScenarioRun::ValidateProfileNeeds() {
                 "CANopen device profile (--profile with a [canopen] section)";
       return 2;
     }
+    const std::string where = s.path + ":" + std::to_string(f.line) + ": ";
+    if (f.kind == FaultKind::kFaultLine && !s.gpio.fault_line) {
+      // The line on GPIO, or the fault_line input of the profile's sensor messages / registers.
+      const bool mapped =
+          transport_ == Transport::kCan
+              ? can_profile_ != nullptr &&
+                    can_profile_->inputs[static_cast<std::size_t>(profile::CanIn::kFaultLine)]
+                        .mapped()
+              : modbus_profile_ != nullptr &&
+                    modbus_profile_->In(profile::CanIn::kFaultLine).mapped;
+      if (!mapped) {
+        *error_ = where +
+                  "a fault_line fault needs [gpio] inputs = [..., \"fault_line\"] or a profile "
+                  "mapping the fault_line input";
+        return 2;
+      }
+    }
+    if (f.kind == FaultKind::kDriverFault) {
+      // CAN: the profile's (or mrd-native's) driver_faults; Modbus: the profile's, or the
+      // built-in map's driver-fault bit.
+      const bool can = transport_ == Transport::kCan;
+      const profile::CanProfile& cp =
+          can_profile_ != nullptr ? *can_profile_ : profile::NativeCanProfile();
+      const bool mapped =
+          can ? cp.inputs[static_cast<std::size_t>(profile::CanIn::kDriverFaults)].mapped()
+              : modbus_profile_ == nullptr ||
+                    modbus_profile_->In(profile::CanIn::kDriverFaults).mapped;
+      if (!mapped) {
+        *error_ = where +
+                  "fault 'driver_fault' needs a driver that reports faults: a profile "
+                  "mapping 'driver_faults' (the driver's status)";
+        return 2;
+      }
+    }
+    if (f.kind == FaultKind::kEnableRefused) {
+      const profile::ModbusProfile* p = modbus_profile_.get();
+      const bool apart = p != nullptr && p->Out(profile::ModbusOut::kEnable).mapped &&
+                         p->Out(profile::ModbusOut::kEnable).request !=
+                             p->Out(profile::ModbusOut::kCommand).request;
+      if (!apart) {
+        *error_ = where +
+                  "fault 'enable_refused' needs a Modbus device profile whose 'enable' "
+                  "is written apart from its 'command' (--profile with a [modbus] section)";
+        return 2;
+      }
+    }
   }
   if (!o.sdo_refuse.empty() && (!canopen || !ParseSdoRefusal(o.sdo_refuse, &refusal_))) {
     *error_ = "--sdo-refuse '" + o.sdo_refuse + "': " +

@@ -135,6 +135,7 @@ SweepScores ScoresOf(const RunResult& r) {
   s.invariant_violations = r.invariant_violations;
   s.error_all = r.tracking.error_all;
   s.error_reachable = r.tracking.error_reachable;
+  s.reachable_share = r.tracking.reachable_share;
   if (r.ride) {
     s.ride = true;
     s.body_accel_rms = r.ride->controlled.body_accel_rms;
@@ -162,14 +163,24 @@ std::size_t BestPoint(const std::vector<SweepScores>& rows) {
   return best;
 }
 
+namespace {
+// One CSV cell: quoted when it holds a comma, a quote or a line break.
+std::string CsvCell(const std::string& v) {
+  if (v.find_first_of(",\"\n\r") == std::string::npos) return v;
+  std::string q = "\"";
+  for (const char c : v) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+}  // namespace
+
 std::string SweepCsv(const SweepGrid& grid, const std::vector<SweepScores>& rows) {
   std::ostringstream o;
   const bool ride = !rows.empty() && rows[0].ride;
   for (const SweepAxis& a : grid.axes) o << a.key << ',';
-  o << "pass,invariant_violations,error_all,error_reachable";
+  o << "pass,invariant_violations,error_all,error_reachable,reachable_share";
   if (ride)
     o << ",body_accel_rms,travel_rms_cm,tyre_load_rms_n,body_accel_rms_off,body_accel_rms_on";
-  o << '\n';
+  o << ",table,plant\n";
   o.precision(9);
   const auto points = grid.Points();
   for (std::size_t i = 0; i < rows.size() && i < points.size(); ++i) {
@@ -177,15 +188,15 @@ std::string SweepCsv(const SweepGrid& grid, const std::vector<SweepScores>& rows
     const SweepScores& s = rows[i];
     o << (s.pass ? 1 : 0) << ',' << s.invariant_violations << ',';
     if (ride) {
-      o << ',';  // a quarter car has no tracking error: both cells empty
+      o << ",,";  // a quarter car has no tracking error: those cells empty
     } else {
-      o << s.error_all << ',' << s.error_reachable;
+      o << s.error_all << ',' << s.error_reachable << ',' << s.reachable_share;
     }
     if (ride) {
       o << ',' << s.body_accel_rms << ',' << s.travel_rms_cm << ',' << s.tyre_load_rms_n << ','
         << s.body_accel_off << ',' << s.body_accel_on;
     }
-    o << '\n';
+    o << ',' << CsvCell(s.table) << ',' << CsvCell(s.plant) << '\n';
   }
   return o.str();
 }
@@ -203,6 +214,7 @@ std::string SweepTable(const SweepGrid& grid, const std::vector<SweepScores>& ro
   } else {
     head.push_back("error_all");
     head.push_back("error_reachable");
+    head.push_back("reachable_share");
   }
   std::vector<std::vector<std::string>> cells;
   const auto points = grid.Points();
@@ -222,6 +234,7 @@ std::string SweepTable(const SweepGrid& grid, const std::vector<SweepScores>& ro
     } else {
       row.push_back(Fixed(s.error_all, 4));
       row.push_back(Fixed(s.error_reachable, 4));
+      row.push_back(Fixed(100.0 * s.reachable_share, 1) + "%");
     }
     if (i == best) row.back() += "  <- best";
     cells.push_back(std::move(row));

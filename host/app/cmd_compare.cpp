@@ -44,7 +44,8 @@ void RegisterCompare(CLI::App& app) {
       "file must hold the signals of every model. Warnings (inputs outside a model's "
       "identification envelope) and progress go to stderr. With --out DIR: DIR/compare.txt "
       "(the table), DIR/compare.json and DIR/<stem>_compare.png per data file (measured output "
-      "and every model's free run; needs gnuplot), built in a temporary directory and moved "
+      "and every model's free run over a window, and the whole record's envelopes below; "
+      "needs gnuplot), built in a temporary directory and moved "
       "into place. Bad or missing files: exit 2, nothing written.");
   cmd->add_option("--model", c->options.models, "Model file(s) (JSON), comma separated or repeated")
       ->required()
@@ -55,7 +56,13 @@ void RegisterCompare(CLI::App& app) {
   cmd->add_option("--out", c->options.out_dir,
                   "Output directory for the table and the overlay plots (its parent must exist)");
   cmd->add_flag("--json", c->json, "Print the table as one JSON object instead of text");
-  cmd->callback([c] { RunCompare(*c); });
+  auto window = std::make_shared<std::string>();
+  cmd->add_option("--window", *window, kWindowHelp);
+  cmd->callback([c, window] {
+    CompareCli run = *c;
+    run.options.window = WindowFlag(*window);
+    RunCompare(std::move(run));
+  });
 }
 
 }  // namespace mrd::host::cli

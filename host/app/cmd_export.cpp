@@ -34,23 +34,6 @@ struct ExportOptions {
   bool allow_non_monotone = false;
 };
 
-// The inverted input must be a signal of the model that iteration k's terms read.
-void CheckInputRead(const ModelFile& mf, int k, const mrd::Model& model, const std::string& input) {
-  const std::vector<std::string> signals = mf.spec.Signals();
-  if (input == mf.spec.output ||
-      std::find(signals.begin(), signals.end(), input) == signals.end()) {
-    throw InputError(mf.path, 0,
-                     fmt::format("--input '{}' is not an input signal of the model (it has: {})",
-                                 input, fmt::join(signals.begin() + 1, signals.end(), ",")));
-  }
-  if (model.ChannelIndex(input.c_str()) < 0) {
-    throw InputError(mf.path, 0,
-                     fmt::format("iteration {} ({} terms) does not read input '{}': nothing to "
-                                 "invert; export an iteration whose terms read it",
-                                 k, mf.Iteration(k).terms.size(), input));
-  }
-}
-
 void RunExport(const ExportOptions& o) {
   if (o.table.empty() && o.header.empty()) {
     throw InputError("", 0, "nothing to write: give --table and/or --header");
@@ -61,15 +44,12 @@ void RunExport(const ExportOptions& o) {
   const ModelFile mf = LoadModelFile(o.model);
   const int k = o.iteration.value_or(mf.selected);
   const SemIteration& it = mf.Iteration(k);  // InputError "no iteration K" when absent
-  const mrd::Model model = ToRuntimeModel(mf, k);
-  CheckInputRead(mf, k, model, o.input);
+  (void)CheckExportInput(mf, k, o.input);    // a bad --input is named before the range is chosen
   const CommandRange range = ChooseCommandRange(mf, o.input, o.e_min, o.e_max, o.profile);
   for (const std::string& w : range.warnings) fmt::print(stderr, "{}\n", w);
-  CoefficientTable table = MakeUncheckedTable(model, range.e_min, range.e_max, o.input, o.model);
-  // Operating envelope (table v2); model files from before it was recorded export without.
-  const bool envelope = SetTableEnvelope(mf, &table);
-  // Validated once, with its envelope, then encoded once for both forms.
-  if (std::string p = DescribeTableProblem(table); !p.empty()) throw InputError(o.model, 0, p);
+  // Validated once, with its envelope (table v2), then encoded once for both forms.
+  bool envelope = false;
+  CoefficientTable table = ExportTable(mf, k, o.input, range.e_min, range.e_max, &envelope);
   // Invertibility over the table's command range; a model that fails it is refused unless
   // --allow-non-monotone.
   const InvertibilityReport inv = ExportInvertibility(mf, o.input, table);

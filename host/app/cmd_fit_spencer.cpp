@@ -93,9 +93,9 @@ void RunFit(FitOptions o) {
       "fit-spencer: {} run(s), {} rows, {} RK4 sub-steps per sample, E clamped to "
       "[0, {:g}] V\n",
       runs.size(), rows, o.fit.substeps, o.fit.e_max);
-  o.fit.progress = [](const std::string& line) {
-    fmt::print("{}\n", line);
-    std::fflush(stdout);
+  o.fit.progress = [](const std::string& line) {  // progress on stderr, the result on stdout
+    fmt::print(stderr, "{}\n", line);
+    std::fflush(stderr);
   };
   const SpencerFitResult res = FitSpencer(runs, o.fit);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -46,7 +46,7 @@ std::vector<DataSet> ReadAll(const std::vector<std::string>& paths,
 // Spec monotone_in: the iteration's invertibility verdict and the candidates it refused.
 void PrintMonotone(const SemIteration& it) {
   if (!it.monotone.checked) return;
-  fmt::print(", monotone {} ({:.3g} % of {} states fail, {} candidates rejected)",
+  fmt::print(stderr, ", monotone {} ({:.3g} % of {} states fail, {} candidates rejected)",
              it.monotone.pass ? "pass" : "FAIL", it.monotone.share_percent, it.monotone.states,
              it.monotone_rejected);
 }
@@ -69,16 +69,17 @@ void RunIdentify(const IdentifyOptions& o) {
   if (!o.initial.empty()) so.initial = o.initial;
   so.threads = o.threads > 0 ? o.threads
                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  // Progress on stderr (one line per iteration); the result on stdout.
   so.progress = [](const SemIteration& it) {
-    fmt::print("iteration {:3d}: {:2d} terms, J {:.6g}, validation J [{:.6g}], {:.2f} s",
+    fmt::print(stderr, "iteration {:3d}: {:2d} terms, J {:.6g}, validation J [{:.6g}], {:.2f} s",
                it.iteration, it.terms.size(), it.j, fmt::join(it.validation_j, ", "), it.elapsed_s);
     if (it.stress.checked) {  // spec [stress]: verdict, peak |y| / data's, candidates refused
-      fmt::print(", stress {} (peak {:.3g}, {} candidates rejected)",
+      fmt::print(stderr, ", stress {} (peak {:.3g}, {} candidates rejected)",
                  it.stress.pass ? "pass" : "FAIL", it.stress.peak, it.stress_rejected);
     }
     PrintMonotone(it);
-    fmt::print("\n");
-    std::fflush(stdout);
+    fmt::print(stderr, "\n");
+    std::fflush(stderr);
   };
   // A spec with transform families runs once per combination (sem_family.hpp).
   auto member = [](std::size_t i, std::size_t n, const std::vector<std::string>& regs,

@@ -19,6 +19,7 @@ struct LogOptions {
   std::string csv;
   std::vector<std::string> fields;
   std::string out_dir;
+  std::string window;  // --window FROM:TO [s]; "": the first 5 s
 };
 
 // A note on a truncated tail (the log is still read) on stderr.
@@ -47,9 +48,15 @@ void Export(const LogOptions& o) {
 }
 
 void Plot(const LogOptions& o) {
+  TimeWindow window;
+  std::string why;
+  if (!o.window.empty() && !ParseTimeWindow(o.window, &window, &why)) {
+    throw InputError("", 0, "--window " + why);
+  }
   const runlog::Log log = LoadRunLog(o.file);
   Note(log, o.file);
-  const std::string png = PlotRunLog(log, o.file, o.out_dir, [](const std::string& line) {
+  const TimeWindow* asked = o.window.empty() ? nullptr : &window;
+  const std::string png = PlotRunLog(log, o.file, o.out_dir, asked, [](const std::string& line) {
     fmt::print(stderr, "{}\n", line);
     std::fflush(stderr);
   });
@@ -88,10 +95,14 @@ void RegisterLog(CLI::App& app) {
   CLI::App* plot = cmd->add_subcommand(
       "plot",
       "DIR/<stem>_time.png: force (model, demand, measured), command and the law's E, "
-      "safe state and watchdog causes over time, the safe state shaded (gnuplot).");
+      "safe state and watchdog causes over a window of a few seconds (sample by sample, the "
+      "safe state shaded), and an overview of the whole log (envelopes) below (gnuplot).");
   plot->add_option("FILE", o->file, "Log file")->required();
   plot->add_option("--out", o->out_dir, "Output directory (created; its parent must exist)")
       ->required();
+  plot->add_option("--window", o->window,
+                   "Time window drawn sample by sample, FROM:TO [s from the first record] "
+                   "(default: the first 5 s)");
   plot->callback([o] { Plot(*o); });
 }
 

@@ -33,9 +33,11 @@ void RegisterReport(CLI::App& app) {
       "per iteration; J (weighting named), MSE, RMSE [N], RRSE/NRMSE, fit %, residual lags "
       "outside the 99 % band, inputs outside the identification envelope (also on stderr).");
   cmd->footer(
-      "Writes DIR/<stem>_force_displacement.png (when the data has x), "
+      "Writes DIR/<stem>_force_displacement.png (when the data has x and it is periodic; "
+      "random motion would draw a cloud), "
       "DIR/<stem>_force_velocity.png (when it has v), DIR/<stem>_time.png (output, error, "
-      "inputs), DIR/<stem>_residuals.png (residual correlations, as mrd resid) per data file, "
+      "inputs over a window of a few seconds, and an overview of the whole record), "
+      "DIR/<stem>_residuals.png (residual correlations, as mrd resid) per data file, "
       "DIR/J_iterations.png and DIR/summary.txt; the summary is also printed on stdout, "
       "progress on stderr. The files are built in a temporary directory beside DIR (inside DIR "
       "when DIR's parent is not writable), then moved into place (the whole directory when DIR is "
@@ -50,7 +52,13 @@ void RegisterReport(CLI::App& app) {
   cmd->add_option("--max-lag", o->max_lag, "Largest lag of the residual correlations [samples]")
       ->check(mrd::cli::FiniteRange(1, 100000))
       ->capture_default_str();
-  cmd->callback([o] { RunReport(*o); });
+  auto window = std::make_shared<std::string>();
+  cmd->add_option("--window", *window, kWindowHelp);
+  cmd->callback([o, window] {
+    ReportOptions r = *o;
+    r.window = WindowFlag(*window);
+    RunReport(std::move(r));
+  });
 }
 
 }  // namespace mrd::host::cli

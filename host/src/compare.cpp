@@ -178,34 +178,48 @@ CompareResult CompareModels(const CompareOptions& o) {
   const std::vector<std::string> stems = Stems(o.data);
   const std::string& out = models[0].spec.output;
   for (std::size_t di = 0; di < data.size(); ++di) {
+    // The window sample by sample above, the whole record's envelopes below.
+    const auto& all_t = data[di].Column("t");
+    std::string note;
+    const TimeWindow w = PlotWindow(all_t, o.window ? &*o.window : nullptr, &note);
+    if (!note.empty()) r.warnings.push_back(o.data[di] + ": " + note);
+    const SampleRange in = SamplesIn(all_t, w);
     PlotSpec p;
-    p.title = fmt::format("{}: measured and free-run {} of {} model(s)",
-                          fs::path(o.data[di]).filename().string(), out, models.size());
+    p.title =
+        fmt::format("{}: measured and free-run {} of {} model(s), {:g} .. {:g} s",
+                    fs::path(o.data[di]).filename().string(), out, models.size(), w.from_s, w.to_s);
     p.xlabel = SignalLabel("t");
     p.ylabel = SignalLabel(out);
-    p.width = 1400;
-    p.height = 800;
-    PlotSeries meas;
-    meas.title = "measured";
-    meas.x = data[di].Column("t");
-    meas.y = data[di].Column(out);
-    meas.style = "lines linewidth 2.5 linecolor rgb '#1f77b4'";
-    p.series.push_back(std::move(meas));
+    PlotSpec ov;
+    ov.title = fmt::format("overview: the whole record ({:g} s), min/max envelope",
+                           all_t.empty() ? 0.0 : all_t.back() - all_t.front());
+    ov.xlabel = SignalLabel("t");
+    ov.ylabel = SignalLabel(out);
+    ov.x_markers = {{w.from_s, "window"}, {w.to_s, ""}};
+    const auto add = [&](std::string title, const std::vector<double>& y, std::string style) {
+      p.series.push_back({title, Slice(all_t, in), Slice(y, in), style});
+      PlotSeries e{std::move(title), {}, {}, std::move(style)};
+      Envelope(all_t, y, 1500, &e.x, &e.y);
+      ov.series.push_back(std::move(e));
+    };
+    add("measured", data[di].Column(out), "lines linewidth 2.5 linecolor rgb '#1f77b4'");
     for (std::size_t mi = 0; mi < models.size(); ++mi) {
       const CompareRow& row = r.rows[mi * data.size() + di];
-      PlotSeries s;
-      s.title = fmt::format("{} (fit {} %{})", fs::path(o.models[mi]).filename().string(),
-                            Cell(row.metrics.fit_percent, "{:.1f}"),
-                            row.metrics.diverged ? ", diverged" : "");
-      s.x = data[di].Column("t");
-      s.y = ysim[mi][di];
-      s.style = fmt::format("lines linewidth 1.2 linecolor rgb '{}'",
-                            kColours[mi % (sizeof kColours / sizeof kColours[0])]);
-      p.series.push_back(std::move(s));
+      add(fmt::format("{} (fit {} %{})", fs::path(o.models[mi]).filename().string(),
+                      Cell(row.metrics.fit_percent, "{:.1f}"),
+                      row.metrics.diverged ? ", diverged" : ""),
+          ysim[mi][di],
+          fmt::format("lines linewidth 1.2 linecolor rgb '{}'",
+                      kColours[mi % (sizeof kColours / sizeof kColours[0])]));
     }
+    PlotFigure fig;
+    fig.panels = {std::move(p), std::move(ov)};
+    fig.rows = 2;
+    fig.width = 1400;
+    fig.height = 1100;
     const std::string name = stems[di] + "_compare.png";
     progress(fmt::format("compare: plotting {}", name));
-    PlotPng(p, staging.File(name));
+    PlotPng(fig, staging.File(name));
     names.push_back(name);
   }
   WriteFileAtomic(staging.File("compare.txt"), r.table);

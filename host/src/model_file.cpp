@@ -1,6 +1,7 @@
 #include "mrd/host/model_file.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <array>
@@ -16,6 +17,7 @@
 #include "mrd/common/input_file.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
+#include "mrd/host/table_export.hpp"
 #include "sem/spec/spec_table.hpp"
 
 namespace mrd::host {
@@ -433,6 +435,36 @@ bool SetTableEnvelope(const ModelFile& m, CoefficientTable* table) {
   table->envelope = env;
   table->has_envelope = true;
   return true;
+}
+
+mrd::Model CheckExportInput(const ModelFile& m, int k, const std::string& input) {
+  mrd::Model model = ToRuntimeModel(m, k);
+  // The inverted input must be a signal of the model that iteration k's terms read.
+  const std::vector<std::string> signals = m.spec.Signals();
+  if (input == m.spec.output || std::find(signals.begin(), signals.end(), input) == signals.end()) {
+    throw InputError(m.path, 0,
+                     fmt::format("--input '{}' is not an input signal of the model (it has: {})",
+                                 input, fmt::join(signals.begin() + 1, signals.end(), ",")));
+  }
+  if (model.ChannelIndex(input.c_str()) < 0) {
+    throw InputError(m.path, 0,
+                     fmt::format("iteration {} ({} terms) does not read input '{}': nothing to "
+                                 "invert; export an iteration whose terms read it",
+                                 k, m.Iteration(k).terms.size(), input));
+  }
+  return model;
+}
+
+CoefficientTable ExportTable(const ModelFile& m, int k, const std::string& input, double e_min,
+                             double e_max, bool* envelope) {
+  const mrd::Model model = CheckExportInput(m, k, input);
+  CoefficientTable table = MakeUncheckedTable(model, e_min, e_max, input, m.path);
+  // Operating envelope (table v2); model files from before it was recorded export without.
+  const bool has_envelope = SetTableEnvelope(m, &table);
+  if (envelope != nullptr) *envelope = has_envelope;
+  // Validated once, with its envelope.
+  if (std::string p = DescribeTableProblem(table); !p.empty()) throw InputError(m.path, 0, p);
+  return table;
 }
 
 mrd::Model ToRuntimeModel(const ModelFile& m, int iteration) {

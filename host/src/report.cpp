@@ -99,13 +99,16 @@ PlotSpec LoopPlot(const ModelFile& mf, int k, const DataReport& r, const std::st
 }
 
 // Output against time (data, model) above the error against time, then each input of the
-// model (E, v, ...) present in the data.
-PlotFigure TimePlot(const ModelFile& mf, int k, const DataReport& r) {
+// model (E, v, ...) present in the data: all over the window w, sample by sample; last, an
+// overview of the whole record (envelopes of data and model) with the window marked.
+PlotFigure TimePlot(const ModelFile& mf, int k, const DataReport& r, const TimeWindow& w) {
   const std::string& out = mf.spec.output;
-  const auto& t = r.data.Column("t");
-  const auto& y = r.data.Column(out);
+  const auto& all_t = r.data.Column("t");
+  const SampleRange in = SamplesIn(all_t, w);
+  const std::vector<double> t = Slice(all_t, in), y = Slice(r.data.Column(out), in),
+                            ysim = Slice(r.ysim, in);
   std::vector<double> e(y.size());
-  for (std::size_t i = 0; i < y.size(); ++i) e[i] = y[i] - r.ysim[i];
+  for (std::size_t i = 0; i < y.size(); ++i) e[i] = y[i] - ysim[i];
   PlotFigure f;
   f.title = fmt::format("{}: model iteration {} ({} terms), fit {:.3f} %", r.name, k,
                         mf.Iteration(k).terms.size(), r.metrics.fit_percent);
@@ -113,18 +116,18 @@ PlotFigure TimePlot(const ModelFile& mf, int k, const DataReport& r) {
   for (std::size_t c = 1; c < mf.channels.size(); ++c) {
     if (r.data.Has(mf.channels[c].name)) inputs.push_back(mf.channels[c].name);
   }
-  f.rows = 2 + static_cast<int>(inputs.size());
+  f.rows = 3 + static_cast<int>(inputs.size());
   f.width = 1400;
-  f.height = 950 + 300 * static_cast<int>(inputs.size());
+  f.height = 1250 + 300 * static_cast<int>(inputs.size());
   PlotSpec a;
-  a.title = fmt::format("{} vs time", out);
+  a.title = fmt::format("{} vs time, {:g} .. {:g} s (--window FROM:TO)", out, w.from_s, w.to_s);
   a.xlabel = SignalLabel("t");
   a.ylabel = SignalLabel(out);
   a.series.push_back(Series("measured (data file)", t, y, kDataStyle));
-  a.series.push_back(Series("model (free run)", t, r.ysim, kModelStyle));
+  a.series.push_back(Series("model (free run)", t, ysim, kModelStyle));
   PlotSpec b;
-  b.title =
-      fmt::format("error: measured - model (RMSE {:.6g} {})", r.metrics.rmse_physical, Unit(out));
+  b.title = fmt::format("error: measured - model (RMSE over the record {:.6g} {})",
+                        r.metrics.rmse_physical, Unit(out));
   b.xlabel = SignalLabel("t");
   b.ylabel = "error " + SignalLabel(out);
   b.series.push_back(Series("measured - model", t, std::move(e), kErrorStyle));
@@ -134,9 +137,21 @@ PlotFigure TimePlot(const ModelFile& mf, int k, const DataReport& r) {
     p.title = fmt::format("input {} vs time", u);
     p.xlabel = SignalLabel("t");
     p.ylabel = SignalLabel(u);
-    p.series.push_back(Series(u + " (data file)", t, r.data.Column(u), kInputStyle));
+    p.series.push_back(Series(u + " (data file)", t, Slice(r.data.Column(u), in), kInputStyle));
     f.panels.push_back(std::move(p));
   }
+  PlotSpec o;
+  o.title = fmt::format("overview: {} over the whole record ({:g} s), min/max envelope", out,
+                        all_t.empty() ? 0.0 : all_t.back() - all_t.front());
+  o.xlabel = SignalLabel("t");
+  o.ylabel = SignalLabel(out);
+  PlotSeries data_env = Series("measured (envelope)", {}, {}, kDataStyle);
+  Envelope(all_t, r.data.Column(out), 1500, &data_env.x, &data_env.y);
+  PlotSeries model_env = Series("model (envelope)", {}, {}, kModelStyle);
+  Envelope(all_t, r.ysim, 1500, &model_env.x, &model_env.y);
+  o.series = {std::move(data_env), std::move(model_env)};
+  o.x_markers = {{w.from_s, "window"}, {w.to_s, ""}};
+  f.panels.push_back(std::move(o));
   return f;
 }
 
@@ -388,17 +403,27 @@ ReportResult WriteReport(const ReportOptions& o) {
     names.push_back(name);
   };
   for (const DataReport& r : reports) {
-    if (r.data.Has("x")) {
-      plot(LoopPlot(mf, k, r, "x", "displacement"), r.stem + "_force_displacement.png");
-    } else {
+    // A force-displacement loop reads only on periodic motion (random motion: a cloud).
+    if (!r.data.Has("x")) {
       notes.push_back(fmt::format("{}: no column 'x': force-displacement loop skipped", r.name));
+    } else if (!LooksPeriodic(r.data.Column("x"))) {
+      notes.push_back(fmt::format(
+          "{}: displacement not periodic: no force-displacement loop (it would be a cloud); "
+          "the force-velocity plot and the time plot show the force",
+          r.name));
+    } else {
+      plot(LoopPlot(mf, k, r, "x", "displacement"), r.stem + "_force_displacement.png");
     }
     if (r.data.Has("v")) {
       plot(LoopPlot(mf, k, r, "v", "velocity"), r.stem + "_force_velocity.png");
     } else {
       notes.push_back(fmt::format("{}: no column 'v': force-velocity loop skipped", r.name));
     }
-    plot(TimePlot(mf, k, r), r.stem + "_time.png");
+    std::string window_note;
+    const TimeWindow w =
+        PlotWindow(r.data.Column("t"), o.window ? &*o.window : nullptr, &window_note);
+    if (!window_note.empty()) notes.push_back(r.name + ": " + window_note);
+    plot(TimePlot(mf, k, r, w), r.stem + "_time.png");
     plot(ResidualPlot(r.residuals,
                       fmt::format("{}: residual correlations, model iteration {}", r.name, k)),
          r.stem + "_residuals.png");

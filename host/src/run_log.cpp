@@ -26,12 +26,7 @@ std::string FieldList(const runlog::Header& h) {
 
 std::uint64_t Raw(const runlog::Log& log, const std::vector<std::uint32_t>& off, std::uint64_t r,
                   std::size_t i) {
-  const std::uint8_t* p =
-      log.records.data() + static_cast<std::size_t>(r * log.header.record_bytes() + off[i]);
-  const std::size_t n = runlog::TypeSize(log.header.fields[i].type);
-  std::uint64_t v = 0;
-  for (std::size_t k = n; k-- > 0;) v = (v << 8) | p[k];
-  return v;
+  return runlog::Bits(log, off, r, i);
 }
 
 std::string Text(const runlog::Log& log, const std::vector<std::uint32_t>& off, std::uint64_t r,
@@ -124,17 +119,18 @@ std::string RunLogInfo(const runlog::Log& log, const std::string& path) {
   return s;
 }
 
-std::string RunLogCsv(const runlog::Log& log, const std::vector<std::string>& fields) {
+std::vector<std::size_t> RunLogColumns(const runlog::Header& header,
+                                       const std::vector<std::string>& fields) {
   std::vector<std::size_t> cols;
   if (fields.empty()) {
-    for (std::size_t i = 0; i < log.header.fields.size(); ++i) cols.push_back(i);
+    for (std::size_t i = 0; i < header.fields.size(); ++i) cols.push_back(i);
   }
   for (const std::string& name : fields) {
-    const int i = runlog::FieldIndex(log.header, name);
+    const int i = runlog::FieldIndex(header, name);
     if (i < 0) {
-      throw InputError("", 0,
-                       fmt::format("--fields: unknown field '{}'; the log has: {}", name,
-                                   FieldList(log.header)));
+      throw InputError(
+          "", 0,
+          fmt::format("--fields: unknown field '{}'; the log has: {}", name, FieldList(header)));
     }
     // A repeated column would make a CSV that ReadCsv refuses (duplicate column).
     if (std::find(cols.begin(), cols.end(), static_cast<std::size_t>(i)) != cols.end()) {
@@ -142,6 +138,11 @@ std::string RunLogCsv(const runlog::Log& log, const std::vector<std::string>& fi
     }
     cols.push_back(static_cast<std::size_t>(i));
   }
+  return cols;
+}
+
+std::string RunLogCsv(const runlog::Log& log, const std::vector<std::string>& fields) {
+  const std::vector<std::size_t> cols = RunLogColumns(log.header, fields);
   const auto off = log.header.Offsets();
   std::string out;
   out.reserve(static_cast<std::size_t>(log.num_records) * cols.size() * 12 + 256);
@@ -160,6 +161,7 @@ std::string RunLogCsv(const runlog::Log& log, const std::vector<std::string>& fi
 }
 
 std::string PlotRunLog(const runlog::Log& log, const std::string& path, const std::string& out_dir,
+                       const TimeWindow* window,
                        const std::function<void(const std::string&)>& progress) {
   namespace fs = std::filesystem;
   const runlog::Header& h = log.header;
@@ -183,32 +185,35 @@ std::string PlotRunLog(const runlog::Log& log, const std::string& path, const st
     }
     fs::create_directory(dir);
   }
-  // At most ~20000 points per series: every k-th record; the safe state and causes of a
-  // bucket are OR-ed so a short fault still shows.
+  // Every record (the window is drawn sample by sample, the overview as an envelope).
   const std::uint64_t n = log.num_records;
-  const std::uint64_t stride = n > 20000 ? (n + 19999) / 20000 : 1;
   const auto off = h.Offsets();
   const double t0 = n > 0 ? runlog::Value(log, off, 0, t_i) : 0.0;
-  std::vector<double> t, model, demand, force, command, e_law, safe;
-  std::vector<std::uint32_t> causes;
-  for (std::uint64_t r = 0; r < n; r += stride) {
-    bool any_safe = false;
-    std::uint32_t any_cause = 0;
-    for (std::uint64_t k = r; k < std::min(n, r + stride); ++k) {
-      any_safe = any_safe || runlog::Value(log, off, k, safe_i) != 0.0;
-      any_cause |= static_cast<std::uint32_t>(Raw(log, off, k, causes_i));
-    }
-    t.push_back((runlog::Value(log, off, r, t_i) - t0) * 1e-9);
-    model.push_back(runlog::Value(log, off, r, model_i));
-    demand.push_back(runlog::Value(log, off, r, demand_i));
-    force.push_back(runlog::Value(log, off, r, force_i));
-    command.push_back(runlog::Value(log, off, r, command_i));
-    e_law.push_back(runlog::Value(log, off, r, e_i));
-    safe.push_back(any_safe ? 1.0 : 0.0);
-    causes.push_back(any_cause);
+  std::vector<double> all_t, all_model, all_demand, all_force, all_command, all_e, all_safe;
+  std::vector<std::uint32_t> all_causes;
+  for (std::uint64_t r = 0; r < n; ++r) {
+    all_t.push_back((runlog::Value(log, off, r, t_i) - t0) * 1e-9);
+    all_model.push_back(runlog::Value(log, off, r, model_i));
+    all_demand.push_back(runlog::Value(log, off, r, demand_i));
+    all_force.push_back(runlog::Value(log, off, r, force_i));
+    all_command.push_back(runlog::Value(log, off, r, command_i));
+    all_e.push_back(runlog::Value(log, off, r, e_i));
+    all_safe.push_back(runlog::Value(log, off, r, safe_i) != 0.0 ? 1.0 : 0.0);
+    all_causes.push_back(static_cast<std::uint32_t>(Raw(log, off, r, causes_i)));
   }
+  std::string note;
+  const TimeWindow w = PlotWindow(all_t, window, &note);
+  if (!note.empty() && progress) progress("log: " + note);
+  const SampleRange in = SamplesIn(all_t, w);
+  const std::vector<double> t = Slice(all_t, in), model = Slice(all_model, in),
+                            demand = Slice(all_demand, in), force = Slice(all_force, in),
+                            command = Slice(all_command, in), e_law = Slice(all_e, in),
+                            safe = Slice(all_safe, in);
+  const std::vector<std::uint32_t> causes(
+      all_causes.begin() + static_cast<std::ptrdiff_t>(std::min<std::size_t>(in.first, n)),
+      all_causes.begin() + static_cast<std::ptrdiff_t>(std::min<std::size_t>(in.last, n)));
   // The safe state as a band over the panel's data range.
-  const auto shade = [&](const std::vector<std::vector<double>*>& data) {
+  const auto shade = [&](const std::vector<const std::vector<double>*>& data) {
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (const auto* d : data) {
       for (const double v : *d) {
@@ -247,13 +252,31 @@ std::string PlotRunLog(const runlog::Log& log, const std::string& path, const st
     }
     state.series.push_back(std::move(s));
   }
+  // The whole log: envelopes of the forces (2000 buckets), the window marked.
+  PlotSpec overview{
+      fmt::format("Overview: the whole log, envelope per {:.3g} s (window {:g} .. "
+                  "{:g} s above)",
+                  all_t.empty() ? 0.0 : (all_t.back() - all_t.front()) / 2000.0, w.from_s, w.to_s),
+      "t [s]",
+      "force [N]",
+      {}};
+  for (const auto& [title, y] :
+       {std::pair<const char*, const std::vector<double>*>{"measured force", &all_force},
+        {"demand", &all_demand},
+        {"model force", &all_model}}) {
+    PlotSeries s{title, {}, {}};
+    Envelope(all_t, *y, 2000, &s.x, &s.y);
+    overview.series.push_back(std::move(s));
+  }
+  overview.x_markers = {{w.from_s, "window"}, {w.to_s, ""}};
+  forces.title = fmt::format("Force, {:g} .. {:g} s (--window FROM:TO)", w.from_s, w.to_s);
   PlotFigure fig;
   fig.title = fmt::format("{} ({} records, period {:g} us)", fs::path(path).filename().string(), n,
                           static_cast<double>(h.period_ns) / 1e3);
-  fig.panels = {forces, volts, state};
-  fig.rows = 3;
+  fig.panels = {forces, volts, state, overview};
+  fig.rows = 4;
   fig.width = 1200;
-  fig.height = 1100;
+  fig.height = 1400;
   const std::string png = (dir / (fs::path(path).stem().string() + "_time.png")).string();
   if (progress) progress(fmt::format("log: plotting {} ({} points per series)", png, t.size()));
   PlotPng(fig, png);

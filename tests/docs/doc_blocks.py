@@ -1,16 +1,19 @@
 #!/usr/bin/env python3
 """Doc tests: the commands of the user docs run as written, and name only flags that exist.
 
-  doc_blocks.py run   --source DIR --bin DIR PAGE.md...   run every runnable block
+  doc_blocks.py run   --source DIR --bin DIR [--python EXE --pythonpath DIR] PAGE.md...
+                                                          run every runnable block
   doc_blocks.py flags --source DIR --bin DIR PAGE.md...   check every --flag against --help
 
-A runnable block is a fenced block whose info string is `sh run`:
+A runnable block is a fenced block whose info string is `sh run` or `python run`:
 
     ```sh run
     mrd generate --profile v1 --seed 1 --out v1.csv
     ```
 
-It is shown as a plain shell block and run by `run`. The blocks of one page run in order, each
+It is shown as a plain shell (Python) block and run by `run`: a `python run` block with
+--python (default: this interpreter), --pythonpath first on PYTHONPATH (the build's Python
+module, build/python). The blocks of one page run in order, each
 in its own `bash -euo pipefail`, in one scratch directory per page that holds a symlink to
 every top-level entry of the source tree but .git, out/ and build folders, and build/bin of the
 build under test (so `host/specs/paper.toml` and `build/bin/mrd` resolve as in a clone); files the blocks write stay in the scratch directory, which is
@@ -77,8 +80,9 @@ def prose(path):
     return "".join(out)
 
 
-def run_page(page, source, bindir, timeout, keep):
-    runnable = [(n, text) for n, info, text in blocks(page) if info.split() == ["sh", "run"]]
+def run_page(page, source, bindir, timeout, keep, python=sys.executable, pythonpath=None):
+    runnable = [(n, info.split()[0], text) for n, info, text in blocks(page)
+                if info.split() in (["sh", "run"], ["python", "run"])]
     if not runnable:
         return [f"{page}: no runnable block (```sh run)"]
     scratch = tempfile.mkdtemp(prefix="mrd-doc-")
@@ -88,12 +92,22 @@ def run_page(page, source, bindir, timeout, keep):
     os.makedirs(os.path.join(scratch, "build"))  # build/bin: the build under test
     os.symlink(bindir, os.path.join(scratch, "build", "bin"))
     env = dict(os.environ, PATH=bindir + os.pathsep + os.environ.get("PATH", ""))
+    if pythonpath:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (pythonpath, env.get("PYTHONPATH")) if p)
+    env["PYTHONDONTWRITEBYTECODE"] = "1"  # no __pycache__ in the source tree
     failures = []
     try:
-        for n, text in runnable:
+        for n, kind, text in runnable:
             print(f"{page}:{n}: running\n" + "".join("    " + l + "\n" for l in text.splitlines()),
                   flush=True)
-            p = subprocess.Popen(["bash", "-euo", "pipefail", "-c", text], cwd=scratch, env=env,
+            if kind == "python":  # from a file, so a traceback names the block's lines
+                script = os.path.join(scratch, f".doc-block-{n}.py")
+                with open(script, "w", encoding="utf-8") as f:
+                    f.write(text)
+                argv = [python, script]
+            else:
+                argv = ["bash", "-euo", "pipefail", "-c", text]
+            p = subprocess.Popen(argv, cwd=scratch, env=env,
                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                  start_new_session=True)
             try:
@@ -217,6 +231,8 @@ def main():
     ap.add_argument("--bin", required=True, help="the build's bin folder (mrd, mrd-hil, ...)")
     ap.add_argument("--timeout", type=float, default=120, help="seconds per block")
     ap.add_argument("--keep", action="store_true", help="keep the scratch directories")
+    ap.add_argument("--python", default=sys.executable, help="interpreter of `python run` blocks")
+    ap.add_argument("--pythonpath", help="put first on PYTHONPATH (the build's Python module)")
     ap.add_argument("pages", nargs="+")
     a = ap.parse_args()
     source, bindir = os.path.realpath(a.source), os.path.realpath(a.bin)
@@ -226,7 +242,8 @@ def main():
             print(f"error: {page}: no such page", file=sys.stderr)
             return 2
         if a.mode == "run":
-            failures += run_page(page, source, bindir, a.timeout, a.keep)
+            failures += run_page(page, source, bindir, a.timeout, a.keep, a.python,
+                                 a.pythonpath and os.path.realpath(a.pythonpath))
         else:
             failures += check_flags(page, bindir, source)
     for f in failures:

@@ -35,6 +35,14 @@ if [ $? -eq 1 ] && grep -q 'timeout after 2' <<<"$out"; then echo "ok: a block p
 if pgrep -f '^sleep 300$' >/dev/null; then
   echo "FAIL: a process the block left in the background still runs"; failures=$((failures + 1))
 else echo "ok: what a block leaves running is killed"; fi
+printf '%s\n' "${fence}python run" "import os, sys" "assert os.path.isfile('host/specs/paper.toml')" \
+  "print(sys.version)" "${fence}" >"$work/py.md"
+expect 0 "a python run block runs in the scratch directory" run "$work/py.md"
+printf '%s\n' "${fence}python run" "x = 1" "raise SystemExit('broken example')" "${fence}" >"$work/pybad.md"
+expect 1 "a failing python run block fails the page" run "$work/pybad.md"
+if grep -q 'pybad.md:1: block failed' <<<"$out" && grep -q 'broken example' <<<"$out"; then
+  echo "ok: the python failure names page, line and what it said"; else
+  echo "FAIL: no 'pybad.md:1: block failed ... broken example' in:"; indent; failures=$((failures + 1)); fi
 printf '%s\n' "${fence}sh" "echo not runnable" "${fence}" >"$work/none.md"
 expect 1 "a page without a runnable block fails" run "$work/none.md"
 expect 0 "flags of the good page exist" flags "$work/good.md"

@@ -64,14 +64,23 @@ std::vector<int> Bytes(const can_frame& f) { return std::vector<int>(f.data, f.d
 // aborts the one to refuse_index), records every frame.
 class ScriptedDrive {
  public:
-  ScriptedDrive(int fd, int refuse_index, std::uint32_t code, bool silent)
-      : fd_(fd), refuse_index_(refuse_index), code_(code), silent_(silent), thread_([this] {
-          Run();
-        }) {}
+  // wrong: every answer confirms the download of another object (index + 1).
+  ScriptedDrive(int fd, int refuse_index, std::uint32_t code, bool silent, bool wrong = false)
+      : fd_(fd),
+        refuse_index_(refuse_index),
+        code_(code),
+        silent_(silent),
+        wrong_(wrong),
+        thread_([this] { Run(); }) {}
   ~ScriptedDrive() { Stop(); }
+  // Stops and takes what the device sent last (the NMT start after the final answer).
   void Stop() {
     stop_ = true;
     if (thread_.joinable()) thread_.join();
+    can_frame f{};
+    while (recv(fd_, &f, sizeof f, MSG_DONTWAIT) == static_cast<ssize_t>(sizeof f)) {
+      heard_.push_back(f);
+    }
   }
   const std::vector<can_frame>& heard() const { return heard_; }
 
@@ -92,6 +101,8 @@ class ScriptedDrive {
       if (!co::DecodeSdoDownloadRequest(f.data, f.len, &index, &sub, &size, &raw)) continue;
       if (index == refuse_index_) {
         co::EncodeSdoAbort(index, sub, code_, r.data);
+      } else if (wrong_) {
+        co::EncodeSdoDownloadAck(static_cast<std::uint16_t>(index + 1), sub, r.data);
       } else {
         co::EncodeSdoDownloadAck(index, sub, r.data);
       }
@@ -102,6 +113,7 @@ class ScriptedDrive {
   int refuse_index_;
   std::uint32_t code_;
   bool silent_;
+  bool wrong_;
   std::atomic<bool> stop_{false};
   std::vector<can_frame> heard_;
   std::thread thread_;
@@ -115,7 +127,7 @@ class CanopenDeviceTest : public ::testing::Test {
   }
   // A device on a socketpair; Activate against the scripted drive. Returns Activate's result.
   bool Start(const CanConfig& config, std::string* error, int refuse_index = -1,
-             std::uint32_t code = 0, bool silent = false) {
+             std::uint32_t code = 0, bool silent = false, bool wrong = false) {
     int sv[2];
     EXPECT_EQ(socketpair(AF_UNIX, SOCK_SEQPACKET, 0, sv), 0);
     peer_ = sv[1];
@@ -123,7 +135,7 @@ class CanopenDeviceTest : public ::testing::Test {
     codec_ = std::make_unique<profile::FrameCodec>(*profile_);
     device_ = std::make_unique<CanDevice>(config, sv[0]);
     EXPECT_TRUE(device_->Configure(error)) << *error;
-    ScriptedDrive drive(peer_, refuse_index, code, silent);
+    ScriptedDrive drive(peer_, refuse_index, code, silent, wrong);
     const bool ok = device_->Activate(error);
     drive.Stop();
     startup_ = drive.heard();
@@ -196,16 +208,18 @@ class CanopenDeviceTest : public ::testing::Test {
   }
 };
 
-TEST_F(CanopenDeviceTest, StartsTheDriveWithNmtThenEachSdoInOrder) {
+// Each SDO in order, then NMT start (as after a re-boot: a drive whose configuration failed is
+// never started).
+TEST_F(CanopenDeviceTest, ConfiguresTheDriveWithEachSdoInOrderThenStartsIt) {
   std::string error;
   ASSERT_TRUE(Start(Routed(LoadProfile(), true), &error)) << error;
   ASSERT_EQ(startup_.size(), 4U);
-  EXPECT_EQ(startup_[0].can_id, 0x000U);  // NMT start remote node 5
-  EXPECT_EQ(Bytes(startup_[0]), (std::vector<int>{0x01, 5}));
-  EXPECT_EQ(startup_[1].can_id, 0x605U);  // 0x6060:00 = -3 (1 byte)
-  EXPECT_EQ(Bytes(startup_[1]), (std::vector<int>{0x2F, 0x60, 0x60, 0x00, 0xFD, 0, 0, 0}));
-  EXPECT_EQ(Bytes(startup_[2]), (std::vector<int>{0x23, 0x16, 0x10, 0x01, 0x32, 0, 0x01, 0}));
-  EXPECT_EQ(Bytes(startup_[3]), (std::vector<int>{0x2B, 0x17, 0x10, 0x00, 10, 0, 0, 0}));
+  EXPECT_EQ(startup_[0].can_id, 0x605U);  // 0x6060:00 = -3 (1 byte)
+  EXPECT_EQ(Bytes(startup_[0]), (std::vector<int>{0x2F, 0x60, 0x60, 0x00, 0xFD, 0, 0, 0}));
+  EXPECT_EQ(Bytes(startup_[1]), (std::vector<int>{0x23, 0x16, 0x10, 0x01, 0x32, 0, 0x01, 0}));
+  EXPECT_EQ(Bytes(startup_[2]), (std::vector<int>{0x2B, 0x17, 0x10, 0x00, 10, 0, 0, 0}));
+  EXPECT_EQ(startup_[3].can_id, 0x000U);  // NMT start remote node 5
+  EXPECT_EQ(Bytes(startup_[3]), (std::vector<int>{0x01, 5}));
   EXPECT_EQ(device_->sdo_downloads(), 3U);
 }
 
@@ -215,9 +229,22 @@ TEST_F(CanopenDeviceTest, ARefusedSdoFailsTheStartUpNamingEntryAndAbortCode) {
   EXPECT_EQ(error,
             "can: drive refused SDO 'modes of operation: current' 0x6060:00 = -3: abort "
             "0x06090030 value range of parameter exceeded");
-  // Nothing after the refused download: no further SDO.
-  ASSERT_EQ(startup_.size(), 2U);
-  EXPECT_EQ(startup_[1].can_id, 0x605U);
+  // Nothing after the refused download: no further SDO, no NMT start (the drive stays
+  // pre-operational, not operational and unconfigured).
+  ASSERT_EQ(startup_.size(), 1U);
+  EXPECT_EQ(startup_[0].can_id, 0x605U);
+}
+
+// An answer for another object is no confirmation, and the error says it came.
+TEST_F(CanopenDeviceTest, AnAnswerForAnotherObjectIsNamedNotTakenForSilence) {
+  std::string error;
+  EXPECT_FALSE(Start(Routed(LoadProfile(), false), &error, -1, 0, false, /*wrong=*/true));
+  EXPECT_EQ(error,
+            "can: drive (node 5) answered SDO 'modes of operation: current' 0x6060:00 = -3 with a "
+            "response (0x60) for 0x6061:00, not for the object downloaded (a wrong index or "
+            "subindex, or a reply that is no download confirmation), and no confirmation within "
+            "100 ms");
+  ASSERT_EQ(startup_.size(), 1U);  // no NMT start
 }
 
 TEST_F(CanopenDeviceTest, ASilentDriveFailsTheStartUp) {

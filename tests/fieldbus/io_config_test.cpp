@@ -1,8 +1,11 @@
 // The bus sections of the firmware configuration: routing of inputs and outputs, connection
 // settings, and every refusal with its line.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "mrd/firmware/config.hpp"
@@ -204,6 +207,56 @@ TEST(IoConfigTest, ShippedExamplesParse) {
     ++n;
   }
   EXPECT_GE(n, 4);
+}
+
+TEST(IoConfigTest, CanFaultResetIntervalAndItsCommandFrames) {
+  FirmwareConfig c;
+  std::string error;
+  ASSERT_TRUE(
+      Parse("[can]\nlocal_bus = \"/tmp/b\"\ninputs = [\"velocity\", \"demand\"]\noutputs = "
+            "[\"command\"]\n",
+            &c, &error))
+      << error;
+  EXPECT_EQ(c.io.can.fault_reset_ns, 1'000'000'000);  // default 1000 ms
+  ASSERT_TRUE(
+      Parse("[can]\nlocal_bus = \"/tmp/b\"\ninputs = [\"velocity\", \"demand\"]\noutputs = "
+            "[\"command\"]\nfault_reset_ms = 250\n",
+            &c, &error))
+      << error;
+  EXPECT_EQ(c.io.can.fault_reset_ns, 250'000'000);
+  const std::string low = ErrorOf(
+      "[can]\nlocal_bus = \"/tmp/b\"\ninputs = [\"velocity\", \"demand\"]\noutputs = "
+      "[\"command\"]\nfault_reset_ms = 50\n");
+  EXPECT_EQ(low.rfind("fw.toml:5: ", 0), 0U) << low;
+  // A profile mapping fault_reset (docs/mrd.dbc with a FaultReset bit in DriverCommand) needs
+  // the command frames: refused when [can] routes neither command nor enable.
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("mrd-fault-reset-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::ifstream in(std::string(MRD_SOURCE_DIR) + "/docs/mrd.dbc");
+  std::string dbc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string after = " SG_ SafeState : 18|1@1+ (1,0) [0|1] \"\" Driver\n";
+  ASSERT_NE(dbc.find(after), std::string::npos);
+  dbc.insert(dbc.find(after) + after.size(), " SG_ FaultReset : 19|1@1+ (1,0) [0|1] \"\" Driver\n");
+  std::ofstream(dir / "d.dbc") << dbc;
+  std::ofstream(dir / "p.toml") << "name = \"latching\"\ndbc = \"d.dbc\"\n[inputs]\n"
+                                   "velocity = \"SensorMotion.Velocity\"\n"
+                                   "demand = \"SensorForce.Demand\"\n"
+                                   "driver_faults = \"DriverStatus.DriverFaults\"\n[outputs]\n"
+                                   "safe = \"DriverCommand.SafeState\"\n"
+                                   "heartbeat_safe = \"Heartbeat.HeartbeatSafe\"\n"
+                                   "fault_reset = \"DriverCommand.FaultReset\"\n";
+  const std::string head =
+      "[can]\nlocal_bus = \"/tmp/b\"\nprofile = \"p.toml\"\n"
+      "inputs = [\"velocity\", \"demand\"]\n";
+  FirmwareConfig ok;
+  // The command on Modbus (its built-in map), the heartbeat on CAN.
+  EXPECT_FALSE(ParseConfig(head + "outputs = [\"heartbeat\"]\n[modbus]\nhost = \"127.0.0.1\"\n"
+                                  "outputs = [\"command\"]\n",
+                           (dir / "fw.toml").string(), &ok, &error));
+  EXPECT_EQ(error.rfind((dir / "fw.toml").string() + ":3: ", 0), 0U) << error;
+  EXPECT_NE(error.find("route 'command' or 'enable'"), std::string::npos) << error;
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

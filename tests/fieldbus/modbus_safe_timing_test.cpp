@@ -223,11 +223,29 @@ TEST_P(ModbusSafeTimingTest, FirstSafeBlockWithinTwoPeriodsOfTheLoopGoingSafe) {
   std::vector<double> sorted = delays;
   std::sort(sorted.begin(), sorted.end());
   const double median = sorted[sorted.size() / 2], max = sorted.back();
+  // The link's own delay in this run: every driven block's first arrival at the server after
+  // the tick that posted it [periods]. It is the machine's (the worker's and the server's
+  // wake-ups, the kernel's pty work, which runs in kworkers at normal priority even when the
+  // loop, the worker and the server are SCHED_FIFO), not the safe path's.
+  std::vector<double> driven;
+  std::vector<char> seen(driver.count(), 0);
+  for (const auto& blk : blocks) {
+    const std::size_t h = blk[4].get<std::size_t>();
+    if ((blk[5].get<int>() & 1) != 0 || h >= driver.count() || seen[h] != 0) continue;
+    seen[h] = 1;
+    driven.push_back((blk[0].get<double>() * 1e9 - static_cast<double>(driver.t(h))) /
+                     static_cast<double>(kPeriod));
+  }
+  ASSERT_GT(driven.size(), 1000U);
+  std::sort(driven.begin(), driven.end());
+  const double link_median = driven[driven.size() / 2], link_p90 = driven[driven.size() * 9 / 10],
+               link_max = driven.back();
   std::printf(
       "first safe block after the loop went safe, %zu entries%s: median %.2f, p90 %.2f, "
-      "max %.2f periods (1 ms)\n",
+      "max %.2f periods (1 ms); driven blocks on the same link: median %.2f, p90 %.2f, max "
+      "%.2f\n",
       sorted.size(), rt ? " (SCHED_FIFO)" : " (normal priority)", median,
-      sorted[sorted.size() * 9 / 10], max);
+      sorted[sorted.size() * 9 / 10], max, link_median, link_p90, link_max);
   RecordProperty("safe_entries", static_cast<int>(sorted.size()));
   RecordProperty("median_periods", std::to_string(median));
   RecordProperty("max_periods", std::to_string(max));
@@ -238,10 +256,21 @@ TEST_P(ModbusSafeTimingTest, FirstSafeBlockWithinTwoPeriodsOfTheLoopGoingSafe) {
   EXPECT_GE(delays.size(), expected) << "safe entries measured (one per fault that found the "
                                         "loop driving, at least)";
   EXPECT_TRUE(stale_driven.empty()) << ::testing::PrintToString(stale_driven);
-  EXPECT_LE(median, 1.0);
-  EXPECT_LE(sorted[sorted.size() * 9 / 10], bound);
-  EXPECT_LE(max, kEveryBound) << late.size() << " of " << delays.size() << " later than " << bound
-                              << " periods; " << ::testing::PrintToString(late);
+  // Each bound holds as stated above, or relative to the link: a busy machine (every core
+  // taken by other work) delays every block on the link, driven or safe, by its wake-ups
+  // (measured with two CPU hogs beside other builds, load 18-20, SCHED_FIFO: driven blocks
+  // reached the server later, and the safe blocks' median went to 1.1-1.6 periods, p90 to
+  // 3.1-5.2, max to 5.8-25). What the firmware owes there is that a safe block is not later
+  // than the link makes any block: at most one period more than the driven blocks' median
+  // and p90 and two more than their max (the safe block is posted for the worker's next
+  // exchange: one period at most; RTU: the reply in flight, one more). The defect (20-76
+  // periods late while driven blocks kept flowing) fails both forms.
+  EXPECT_LE(median, std::max(1.0, link_median + 1.0)) << "driven blocks' median " << link_median;
+  EXPECT_LE(sorted[sorted.size() * 9 / 10], std::max(bound, link_p90 + (rtu ? 2.0 : 1.0)))
+      << "driven blocks' p90 " << link_p90;
+  EXPECT_LE(max, std::max(kEveryBound, link_max + 2.0))
+      << late.size() << " of " << delays.size() << " later than " << bound
+      << " periods; driven blocks' max " << link_max << "; " << ::testing::PrintToString(late);
 }
 
 // RTU: the server relays through two ptys in Python and gets no dropped-reply fault (RTU is

@@ -1,6 +1,8 @@
 // mrd-firmware ctl and SIGHUP reloads end to end: a real-time dry-run firmware with a control
 // socket, driven by the ctl client (labels firmware, observe).
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -12,6 +14,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "host/test_util.hpp"
 #include "support/process.hpp"
@@ -201,6 +204,91 @@ TEST(CtlCliTest, StaleSocketIsReplacedBadPathsAreRefused) {
   EXPECT_NE(r.output.find("exists and is not a socket"), std::string::npos) << r.output;
 }
 
+// Silent clients hold only their own connection: with 40 connected and saying nothing, a
+// request is answered (the server serves every client side by side), and a silent one is
+// dropped after its deadline.
+TEST(CtlCliTest, SilentClientsDoNotHoldTheOthers) {
+  TempDir dir;
+  const std::string sock = dir.File("ctl.sock");
+  Running fw({}, sock);
+  ASSERT_TRUE(fw.ready) << fw.child.Stderr();
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, sock.c_str(), sizeof addr.sun_path - 1);
+  std::vector<int> idle;
+  for (int i = 0; i < 40; ++i) {
+    const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK, 0);
+    ASSERT_GE(fd, 0);
+    if (connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0) {
+      idle.push_back(fd);
+    } else {
+      close(fd);  // the backlog is full: the server is not accepting
+    }
+  }
+  EXPECT_EQ(idle.size(), 40U);
+  const CommandResult r = test::Run(Ctl(sock, "get control.skyhook_gain"));
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("control.skyhook_gain = "), 0U) << r.output;
+  // The first silent client is closed by the server (EOF) once its deadline passed.
+  bool dropped = false;
+  EXPECT_TRUE(Eventually([&] {
+    char c = 0;
+    dropped = !idle.empty() && recv(idle.front(), &c, 1, 0) == 0;
+    return dropped;
+  }));
+  for (const int fd : idle) close(fd);
+  fw.child.Signal(SIGTERM);
+  EXPECT_EQ(fw.child.Wait(20.0), 0) << fw.child.Stderr();
+}
+
+// A reload on a bus: the demo table, allowed at start on a loopback Modbus simulation, is
+// allowed on a reload too; a device profile that changed is refused (the devices run on the
+// map they started with), with the reason.
+TEST(CtlCliTest, ReloadTakesTheDemoTableOnALoopbackAndRefusesAChangedProfile) {
+  TempDir dir;
+  const std::string shipped =
+      Slurp(std::string(MRD_SOURCE_DIR) + "/firmware/profiles/modbus-float32.toml");
+  dir.Write("drv.toml", shipped);
+  const int probe = socket(AF_INET, SOCK_STREAM, 0);  // a port nobody serves
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof a;
+  ASSERT_EQ(bind(probe, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ASSERT_EQ(getsockname(probe, reinterpret_cast<sockaddr*>(&a), &len), 0);
+  const std::string cfg =
+      dir.Write("fw.toml",
+                "[loop]\npriority = 0\nlock_memory = false\n[modbus]\nmode = \"tcp\"\n"
+                "host = \"127.0.0.1\"\nport = " +
+                    std::to_string(ntohs(a.sin_port)) +
+                    "\nprofile = \"drv.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
+                    "outputs = [\"command\", \"enable\"]\n");
+  const std::string sock = dir.File("ctl.sock");
+  ChildProcess fw({Firmware(), "--config", cfg, "--duration", "60", "--ctl-socket", sock});
+  ASSERT_TRUE(WaitForPath(sock, 20.0)) << fw.Stderr();
+  fw.Signal(SIGHUP);
+  ASSERT_TRUE(Eventually([&] {
+    return fw.Stderr().find("reloaded config") != std::string::npos ||
+           fw.Stderr().find("reload refused") != std::string::npos;
+  })) << fw.Stderr();
+  EXPECT_EQ(fw.Stderr().find("reload refused"), std::string::npos) << fw.Stderr();
+  // The profile names another register for the set-point: not applied, refused with why.
+  std::string changed = shipped;
+  changed.replace(changed.find("address = 0, type = \"float32\" }       # V"), 11, "address = 20");
+  dir.Write("drv.toml", changed);
+  fw.Signal(SIGHUP);
+  ASSERT_TRUE(Eventually([&] { return fw.Stderr().find("reload refused") != std::string::npos; }))
+      << fw.Stderr();
+  EXPECT_NE(fw.Stderr().find("the [modbus] device profile drv.toml changed (the file, its DBC or "
+                             "calibration): the devices still run on the one they started with; "
+                             "restart the firmware to apply it"),
+            std::string::npos)
+      << fw.Stderr();
+  close(probe);
+  fw.Signal(SIGTERM);
+  EXPECT_EQ(fw.Wait(20.0), 0) << fw.Stderr();
+}
+
 TEST(CtlCliTest, SighupWithABadTableKeepsTheOldOneAGoodOneSwitches) {
   TempDir dir;
   const std::string table = dir.File("t.bin");
@@ -256,6 +344,36 @@ TEST(CtlCliTest, SighupWithABadTableKeepsTheOldOneAGoodOneSwitches) {
   const std::string out = fw.child.Stdout();
   EXPECT_NE(out.find("\"parameters\": {\"changes\": 0, \"reloads\": 1}"), std::string::npos) << out;
   EXPECT_NE(out.find("\"final_safe_state\": true"), std::string::npos) << out;
+}
+
+// Command-line settings are not config changes: a firmware started with --log (and
+// --ctl-socket) reloads on SIGHUP, and the log keeps being written to the same file.
+TEST(CtlCliTest, SighupWithLogOnTheCommandLineReloads) {
+  TempDir dir;
+  const std::string cfg =
+      dir.Write("fw.toml", "[control]\nlaw = \"skyhook\"\nskyhook_gain = 40.0\n");
+  const std::string sock = dir.File("ctl.sock");
+  const std::string log = dir.File("run.mrdlog");
+  Running fw({"--config", cfg, "--log", log}, sock);
+  ASSERT_TRUE(fw.ready) << fw.child.Stderr();
+  dir.Write("fw.toml", "[control]\nlaw = \"skyhook\"\nskyhook_gain = 70.0\n");
+  fw.child.Signal(SIGHUP);
+  ASSERT_TRUE(Eventually([&] {
+    const std::string e = fw.child.Stderr();
+    return e.find("reloaded config") != std::string::npos ||
+           e.find("reload refused") != std::string::npos;
+  })) << fw.child.Stderr();
+  EXPECT_EQ(fw.child.Stderr().find("reload refused"), std::string::npos) << fw.child.Stderr();
+  const CommandResult r = test::Run(Ctl(sock, "get control.skyhook_gain"));
+  EXPECT_NE(r.output.find("= 70.0 "), std::string::npos) << r.output;
+  fw.child.Signal(SIGTERM);
+  ASSERT_EQ(fw.child.Wait(20.0), 0) << fw.child.Stderr();
+  const std::string out = fw.child.Stdout();
+  EXPECT_NE(out.find("\"parameters\": {\"changes\": 0, \"reloads\": 1}"), std::string::npos) << out;
+  EXPECT_NE(out.find("\"path\": \"" + log + "\""), std::string::npos) << out;
+  struct stat st {};
+  ASSERT_EQ(stat(log.c_str(), &st), 0);
+  EXPECT_GT(st.st_size, 1000) << "the log was written";
 }
 
 }  // namespace

@@ -212,6 +212,57 @@ TEST(FirmwareCliTest, CheckConfigRefusesAConfigWithNothingToDrive) {
   EXPECT_EQ(test::Run(Firmware() + " --config " + cfg + " --dry-run 0.1 --lockstep").status, 0);
 }
 
+// A board config with CAN and Modbus sections dry-runs with --ignore-buses, against the plant
+// fitted to the NEES bench run (--plant, the harness's parameter file): the summary names the
+// plant, and the plant changes the figures (it is not the reference damper's run).
+TEST(FirmwareCliTest, BoardConfigDryRunsAgainstAFittedPlant) {
+  TempDir dir;
+  const std::string cfg = dir.Write(
+      "board.toml",
+      "[control]\nlaw = \"force\"\n[safety]\nvelocity_limit = 250\n"
+      "[can]\ninterface = \"can0\"\ninputs = [\"velocity\", \"displacement\", \"demand\"]\n"
+      "outputs = [\"heartbeat\", \"status\"]\n"
+      "[modbus]\nmode = \"tcp\"\nhost = \"127.0.0.1\"\nport = 1502\nslave = 1\n"
+      "inputs = [\"force\"]\noutputs = [\"command\"]\n");
+  const std::string plant = std::string(MRD_SOURCE_DIR) + "/hil/scenarios/nees-damper/plant.toml";
+  const std::string base = Firmware() + " --config " + cfg + " --dry-run 2 --lockstep --json";
+  // Without --ignore-buses: refused, and told how.
+  CommandResult r = test::Run(base);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("--ignore-buses"), std::string::npos) << r.output;
+  // With it, against the fitted plant.
+  r = test::Run(base + " --ignore-buses --plant " + plant);
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("--ignore-buses: dry run without the bus sections of " + cfg),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("\"plant\": \"" + plant + "\""), std::string::npos) << r.output;
+  EXPECT_EQ(JsonInt(r.output, "ticks"), 2000) << r.output;
+  EXPECT_GE(JsonInt(r.output, "unreachable_demands"), 0) << r.output;
+  EXPECT_GE(JsonInt(r.output, "non_monotone_periods"), 0) << r.output;
+  const auto rms = [](const std::string& out) {
+    const std::string tag = "\"rms_model_error_n\": ";
+    const auto at = out.find(tag);
+    return at == std::string::npos ? -1.0 : std::stod(out.substr(at + tag.size()));
+  };
+  const CommandResult reference = test::Run(base + " --ignore-buses");
+  ASSERT_EQ(reference.status, 0) << reference.output;
+  EXPECT_NE(reference.output.find("\"plant\": \"reference damper (paper preset)\""),
+            std::string::npos)
+      << reference.output;
+  EXPECT_GT(rms(r.output), 0.0);
+  EXPECT_NE(rms(r.output), rms(reference.output)) << "the plant file changes the run";
+  // A bad plant file: file, line, reason; exit 2.
+  const std::string bad = dir.Write("bad.toml", "c0a = 1\nc0b = -3\n");
+  r = test::Run(base + " --ignore-buses --plant " + bad);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("error: " + bad + ":2: "), std::string::npos) << r.output;
+  // Both flags are for a dry run.
+  r = test::Run(Firmware() + " --config " + cfg + " --duration 0.1 --ignore-buses");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("--ignore-buses is for --dry-run"), std::string::npos) << r.output;
+}
+
 TEST(FirmwareCliTest, SigtermStopsTheLoopInTheSafeState) {
   const CommandResult r = test::Run("timeout --preserve-status -s TERM 0.5 " + Firmware() +
                                     " --dry-run 30 --json; echo status=$?");

@@ -28,10 +28,12 @@ struct Fixture {
     std::uniform_real_distribution<double> vel(-15.0, 15.0), volt(0.0, 2.25);
     runtime.Reset();
     for (int k = 0; k < 20; ++k) runtime.Step(vel(rng), 0.0, volt(rng));
-    runtime.Begin(vel(rng), 0.0);
+    v = vel(rng);
+    runtime.Begin(v, 0.0);
   }
   ModelRuntime runtime;
   Inverter inverter;
+  double v = 0.0;  // the state's velocity [cm/s]
 };
 
 double RelErr(double a, double b) { return std::fabs(a - b) / std::max(1.0, std::fabs(b)); }
@@ -44,7 +46,8 @@ void RoundTrip(const CoefficientTable& table) {
   for (int trial = 0; trial < 2000; ++trial) {
     fx.RandomState(rng);
     const double f = fx.runtime.ForceAt(volt(rng));  // reachable by construction
-    const auto s = fx.inverter.Solve(fx.runtime.history(), f, volt(rng));
+    // Velocity 0: no dissipative direction, the demand is inverted as it is.
+    const auto s = fx.inverter.Solve(fx.runtime.history(), f, 0.0);
     EXPECT_TRUE(s.reachable) << "trial " << trial;
     EXPECT_GE(s.E, 0.0);
     EXPECT_LE(s.E, 2.25);
@@ -80,11 +83,13 @@ TEST(InverterTest, AgreesWithDenseSearch) {
        {test::DemoDamperTable(), test::QuarticTable(), test::LowPassTable()}) {
     Fixture fx(table);
     std::mt19937 rng(7);
-    std::uniform_real_distribution<double> demand(-2500.0, 2500.0), volt(0.0, 2.25);
+    std::uniform_real_distribution<double> demand(-2500.0, 2500.0);
     for (int trial = 0; trial < 200; ++trial) {
       fx.RandomState(rng);
       const double f = demand(rng);
-      const auto s = fx.inverter.Solve(fx.runtime.history(), f, volt(rng));
+      // Velocity 0: the nearest force as it is (the semi-active rules at v != 0:
+      // inversion_semantics_test.cpp).
+      const auto s = fx.inverter.Solve(fx.runtime.history(), f, 0.0);
       double best = std::numeric_limits<double>::infinity();
       constexpr int kGrid = 20000;
       for (int i = 0; i <= kGrid; ++i) {
@@ -103,8 +108,9 @@ TEST(InverterTest, UnreachableDemandsSaturateToTheRightBound) {
     fx.RandomState(rng);
     const double f_lo = fx.runtime.ForceAt(0.0), f_hi = fx.runtime.ForceAt(2.25);
     const double top = std::max(f_lo, f_hi), bottom = std::min(f_lo, f_hi);
-    const auto above = fx.inverter.Solve(fx.runtime.history(), top + 500.0, 1.0);
-    const auto below = fx.inverter.Solve(fx.runtime.history(), bottom - 500.0, 1.0);
+    // A demand against v is passive (E_min), which is where the saturation points too.
+    const auto above = fx.inverter.Solve(fx.runtime.history(), top + 500.0, fx.v);
+    const auto below = fx.inverter.Solve(fx.runtime.history(), bottom - 500.0, fx.v);
     EXPECT_FALSE(above.reachable);
     EXPECT_FALSE(below.reachable);
     EXPECT_EQ(above.E, f_hi > f_lo ? 2.25 : 0.0) << "trial " << trial;
@@ -117,7 +123,7 @@ TEST(InverterTest, NarrowedRangeIsRespected) {
   ASSERT_EQ(fx.inverter.SetRange(0.0, 1.5), Error::kOk);
   EXPECT_EQ(fx.inverter.SetRange(0.0, 3.0), Error::kOutOfRange);
   fx.runtime.Begin(10.0, 0.0);
-  const auto s = fx.inverter.Solve(fx.runtime.history(), 1e6, 0.0);
+  const auto s = fx.inverter.Solve(fx.runtime.history(), 1e6, 10.0);
   EXPECT_EQ(s.E, 1.5);
 }
 
@@ -148,69 +154,85 @@ TEST(InverterTest, RefusesModelWithoutTheInput) {
   EXPECT_EQ(inv.Configure(t), Error::kNotInvertible);
 }
 
-TEST(InverterTest, InputWithoutEffectInThisStateHoldsPreviousCommand) {
+TEST(InverterTest, InputWithoutEffectInThisStateGivesTheLowestCommand) {
   CoefficientTable t = test::EmptyTable();
   test::AddTerm(t, {{1, 0, 1}, {3, 0, 1}}, 0.5);  // E sign(v): no effect at v == 0
   Fixture fx(t);
   fx.runtime.Begin(0.0, 0.0);
-  const auto s = fx.inverter.Solve(fx.runtime.history(), 100.0, 1.3);
-  EXPECT_DOUBLE_EQ(s.E, 1.3);
+  const auto s = fx.inverter.Solve(fx.runtime.history(), 100.0, 0.0);
+  EXPECT_EQ(s.E, 0.0);
   EXPECT_FALSE(s.reachable);
+  EXPECT_FALSE(s.passive);
+  EXPECT_TRUE(s.monotone);
 }
 
 TEST(InverterTest, TinyLeadingCoefficientBehavesLikeLowerDegree) {
   CoefficientTable t = test::EmptyTable();
-  test::AddTerm(t, {}, -0.2);
+  test::AddTerm(t, {}, -0.3);
   test::AddTerm(t, {{1, 0, 1}}, 0.6);
   test::AddTerm(t, {{1, 0, 4}}, 1e-300);
   Fixture fx(t);
   fx.runtime.Begin(1.0, 0.0);
-  const auto s = fx.inverter.Solve(fx.runtime.history(), 0.0, 0.0);
+  // y(e) = -0.3 + 0.6 e: the demand y = -0.1 (-150 N) at e = 1/3.
+  const auto s = fx.inverter.Solve(fx.runtime.history(), -150.0, 0.0);
   EXPECT_TRUE(s.reachable);
   EXPECT_NEAR(s.E, 2.25 / 3.0, 1e-12);
 }
 
-// y(e) = (e - 0.5)^2: the demand 0 is a touching (double) root inside the range.
+// y(e) = (e - 0.5)^2 + 0.1: the demand y = 0.1 (150 N) is a touching (double) root inside the
+// range.
 TEST(InverterTest, FindsDoubleRoot) {
   CoefficientTable t = test::EmptyTable();
-  test::AddTerm(t, {}, 0.25);
+  test::AddTerm(t, {}, 0.35);
   test::AddTerm(t, {{1, 0, 1}}, -1.0);
   test::AddTerm(t, {{1, 0, 2}}, 1.0);
   Fixture fx(t);
   fx.runtime.Begin(1.0, 0.0);
-  const auto s = fx.inverter.Solve(fx.runtime.history(), 0.0, 0.0);
+  const auto s = fx.inverter.Solve(fx.runtime.history(), 150.0, 0.0);
   EXPECT_TRUE(s.reachable);
-  EXPECT_NEAR(s.E, 0.5 * 2.25, 1e-9);
+  // The rounded demand may split the double root into two a few 1e-9 apart (a double root is
+  // determined to ~sqrt(eps)); the lower one is taken.
+  EXPECT_NEAR(s.E, 0.5 * 2.25, 1e-7);
+  EXPECT_NEAR(fx.runtime.ForceAt(s.E), 150.0, 1e-9);
+  EXPECT_FALSE(s.monotone);
   // Slightly below the minimum: unreachable, the extremum is the closest force.
-  const auto u = fx.inverter.Solve(fx.runtime.history(), -1.0, 0.0);
+  const auto u = fx.inverter.Solve(fx.runtime.history(), 149.0, 0.0);
   EXPECT_FALSE(u.reachable);
   EXPECT_NEAR(u.E, 0.5 * 2.25, 1e-9);
 }
 
-// y(e) = (e - 0.5)^3: a triple root.
+// y(e) = (e - 0.5)^3 + 0.1: a triple root at the demand y = 0.1 (150 N); monotone.
 TEST(InverterTest, FindsTripleRoot) {
   CoefficientTable t = test::EmptyTable();
-  test::AddTerm(t, {}, -0.125);
+  test::AddTerm(t, {}, -0.025);
   test::AddTerm(t, {{1, 0, 1}}, 0.75);
   test::AddTerm(t, {{1, 0, 2}}, -1.5);
   test::AddTerm(t, {{1, 0, 3}}, 1.0);
   Fixture fx(t);
   fx.runtime.Begin(1.0, 0.0);
-  const auto s = fx.inverter.Solve(fx.runtime.history(), 0.0, 2.0);
-  EXPECT_NEAR(fx.runtime.ForceAt(s.E), 0.0, 1e-9);
+  const auto s = fx.inverter.Solve(fx.runtime.history(), 150.0, 1.0);
+  EXPECT_TRUE(s.monotone);
+  EXPECT_NEAR(fx.runtime.ForceAt(s.E), 150.0, 1e-6);
   EXPECT_NEAR(s.E, 0.5 * 2.25, 1e-4);  // a triple root is determined to ~cbrt(eps)
 }
 
-// y(e) = (e - 0.2)(e - 0.8): two admissible roots; the one nearest the previous command wins.
-TEST(InverterTest, PicksRootNearestPreviousCommand) {
+// y(e) = (e - 0.2)(e - 0.8) + 0.1: two admissible roots at y = 0.1 (150 N); the lowest wins.
+TEST(InverterTest, PicksTheLowestRoot) {
   CoefficientTable t = test::EmptyTable();
-  test::AddTerm(t, {}, 0.16);
+  test::AddTerm(t, {}, 0.26);
   test::AddTerm(t, {{1, 0, 1}}, -1.0);
   test::AddTerm(t, {{1, 0, 2}}, 1.0);
   Fixture fx(t);
   fx.runtime.Begin(1.0, 0.0);
-  EXPECT_NEAR(fx.inverter.Solve(fx.runtime.history(), 0.0, 0.1).E, 0.2 * 2.25, 1e-12);
-  EXPECT_NEAR(fx.inverter.Solve(fx.runtime.history(), 0.0, 2.2).E, 0.8 * 2.25, 1e-12);
+  const auto s = fx.inverter.Solve(fx.runtime.history(), 150.0, 0.0);
+  EXPECT_TRUE(s.reachable);
+  EXPECT_NEAR(s.E, 0.2 * 2.25, 1e-12);
+  // Above the force at both ends (390 N at 0 V and at 2.25 V): the tie goes to 0 V.
+  EXPECT_EQ(fx.inverter.Solve(fx.runtime.history(), 500.0, 0.0).E, 0.0);
+  // At v > 0 the dip is not used: 150 N is below the 390 N of 0 V, which is the command.
+  const auto d = fx.inverter.Solve(fx.runtime.history(), 150.0, 1.0);
+  EXPECT_EQ(d.E, 0.0);
+  EXPECT_FALSE(d.reachable);
 }
 
 TEST(RealRootsTest, FindsAllFourRootsOfAQuartic) {

@@ -1,8 +1,11 @@
 // The per-period log through the executables: mrd-firmware --log / [log] in every dry-run
 // mode, kill -9 while logging, write errors, and `mrd log info|export|plot` with each kind of
 // bad input (exit 2, clear message, nothing written).
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <filesystem>
@@ -81,6 +84,78 @@ TEST(LogCliTest, BadLogConfigIsRefusedWithFileAndLine) {
   EXPECT_TRUE(Has(r.output, files + ":2: 'files' must be in [1, 1000]")) << r.output;
   r = test::Run(Firmware() + " --dry-run 1 --lockstep --log");
   EXPECT_EQ(r.status, 2) << r.output;
+  // A file larger than what `mrd log` reads (4 GiB) is refused up front.
+  const std::string huge = dir.Write("huge.toml", "[log]\nmax_bytes = 1099511627776\n");
+  r = test::Run(Firmware() + " --config " + huge + " --dry-run 1 --lockstep");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_TRUE(Has(r.output, huge + ":2: 'max_bytes' must be in [65536, 4294967296]")) << r.output;
+}
+
+// A file-size limit (`ulimit -f`) is a write error of the log (EFBIG), not a signal that stops
+// the loop: the run completes, the log says it stopped.
+TEST(LogCliTest, AFileSizeLimitStopsTheLogNotTheLoop) {
+  TempDir dir;
+  const std::string log = dir.File("limited.mrdlog");
+  const CommandResult r = test::Run("bash -c 'ulimit -f 16; exec " + Firmware() +
+                                    " --dry-run 3 --lockstep --log " + log + "'");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(Has(r.output, "ticks:            3000")) << r.output;
+  EXPECT_TRUE(Has(r.output, "STOPPED: write failed (File too large)")) << r.output;
+  EXPECT_TRUE(Has(r.output, "final state:      safe")) << r.output;
+}
+
+// The log never truncates, moves or replaces a file that is not an mrd log: --log naming the
+// configuration (or a table) is refused before anything runs, the file unchanged; a PATH.1
+// that is another file is refused too. An mrd log at the path is still rotated to PATH.1.
+TEST(LogCliTest, ALogPathThatIsAnotherFileIsRefusedAndLeftAlone) {
+  TempDir dir;
+  const std::string text = "[log]\nfiles = 1\n";
+  const std::string cfg = dir.Write("fw.toml", text);
+  CommandResult r =
+      test::Run(Firmware() + " --config " + cfg + " --dry-run 1 --lockstep --log " + cfg);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_TRUE(Has(r.output, "error: log " + cfg + ": " + cfg + " exists and is not an mrd log"))
+      << r.output;
+  EXPECT_EQ(FileBytes(cfg), text);
+  const std::string table = dir.File("t.bin");
+  ASSERT_EQ(test::Run(Firmware() + " --write-table " + table).status, 0);
+  const std::string image = FileBytes(table);
+  r = test::Run(Firmware() + " --dry-run 1 --lockstep --log " + table);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_EQ(FileBytes(table), image);
+  EXPECT_FALSE(std::filesystem::exists(table + ".1"));
+  // PATH.1 is someone's file: rotating into it would replace it.
+  const std::string log = MakeLog(dir);
+  dir.Write("run.mrdlog.1", "notes\n");
+  const std::string two = dir.Write("two.toml", "[log]\nfiles = 2\n");
+  r = test::Run(Firmware() + " --config " + two + " --dry-run 1 --lockstep --log " + log);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_TRUE(Has(r.output, log + ".1 exists and is not an mrd log")) << r.output;
+  EXPECT_EQ(FileBytes(log + ".1"), "notes\n");
+  // An earlier log is an mrd log: rotated as before.
+  std::filesystem::remove(log + ".1");
+  r = test::Run(Firmware() + " --config " + two + " --dry-run 1 --lockstep --log " + log);
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(test::Run(Mrd() + " log info " + log + ".1").status, 0);
+}
+
+// A FIFO at the log path: without a reader the log fails at once (no blocked start-up); with a
+// reader that never reads, the log stops when the pipe is full and the run ends normally.
+TEST(LogCliTest, AFifoLogNeverBlocksTheStartOrTheExit) {
+  TempDir dir;
+  const std::string fifo = dir.File("log.fifo");
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  CommandResult r = test::Run("timeout 60 " + Firmware() + " --dry-run 1 --lockstep --log " + fifo);
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(Has(r.output, "ticks:            1000")) << r.output;
+  EXPECT_TRUE(Has(r.output, "a FIFO with no reader")) << r.output;
+  const int reader = open(fifo.c_str(), O_RDONLY | O_NONBLOCK);  // opened, never read
+  ASSERT_GE(reader, 0);
+  r = test::Run("timeout 60 " + Firmware() + " --dry-run 5 --lockstep --log " + fifo);
+  close(reader);
+  EXPECT_EQ(r.status, 0) << r.output;  // timeout's 124 when the exit blocks on the pipe
+  EXPECT_TRUE(Has(r.output, "ticks:            5000")) << r.output;
+  EXPECT_TRUE(Has(r.output, "the reader does not keep up")) << r.output;
 }
 
 TEST(LogCliTest, FullDeviceStopsTheLogOnceTheRunCompletes) {

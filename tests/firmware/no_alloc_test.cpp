@@ -95,6 +95,16 @@ TEST(NoAllocationTest, LowPassModelStepsAllocateNothing) {
   EXPECT_EQ(AllocationsInSteps({}, 5000, test::LowPassTable()), 0U);
 }
 
+// The inversion's semi-active choices (E_min for a zero or non-dissipative demand, the rising
+// envelope of a model non-monotone in E, its monotony verdict) on a model that is
+// non-monotone where |v| > 6 cm/s, under force tracking and skyhook.
+TEST(NoAllocationTest, NonMonotoneModelInversionAllocatesNothing) {
+  ControllerConfig config;
+  EXPECT_EQ(AllocationsInSteps(config, 5000, test::NonMonotoneTable()), 0U);
+  config.law.mode = ControlMode::kSkyhookContinuous;
+  EXPECT_EQ(AllocationsInSteps(config, 5000, test::NonMonotoneTable()), 0U);
+}
+
 TEST(NoAllocationTest, DisplacementVelocityAndSkyhookStepsAllocateNothing) {
   ControllerConfig config;
   config.velocity_source = VelocitySource::kDisplacement;

@@ -66,6 +66,20 @@ inline CoefficientTable MonotoneTable() {
   return t;
 }
 
+// Not monotone in E where |v| > 6 cm/s (0.4 of the 15 cm/s scale), with e = E / 2.25 V:
+// y(k) = 0.6 y(k-1) + sign(v) (0.05 + 0.4 e) - 0.5 (v / 15) e^2, so dy/de = sign(v)
+// (0.4 - |v / 15| e): the force peaks at e = 0.4 / |v / 15| and falls beyond it, and at
+// |v| = 15 cm/s the stiff end gives less force than the soft one (a fit's artefact a real damper
+// does not have).
+inline CoefficientTable NonMonotoneTable() {
+  CoefficientTable t = EmptyTable();
+  AddTerm(t, {{0, 1, 1}}, 0.6);
+  AddTerm(t, {{3, 0, 1}}, 0.05);
+  AddTerm(t, {{1, 0, 1}, {3, 0, 1}}, 0.4);
+  AddTerm(t, {{1, 0, 2}, {4, 0, 1}}, -0.5);
+  return t;
+}
+
 // Degree-4 model in which E(k) enters both directly and through a first-order low-pass
 // (regressor 5, tau 6 samples: affine in E(k) with a state-dependent offset), the form that
 // host/specs/nees.toml produces for measured dampers.

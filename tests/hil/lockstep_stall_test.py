@@ -7,9 +7,11 @@ The summary is compared without the figures that measure wall time by definition
 speed_x, the sensor->command latency, the wake-up jitter, the firmware's worst latency and
 execution time, the per-period log's path, block count and size); everything else, every trace column and every counter, must be identical.
 
-Usage: lockstep_stall_test.py BIN_DIR SOURCE_DIR PAPER_DIR WORK_DIR [SCENARIO[@TRANSPORT] ...]
+Usage: lockstep_stall_test.py BIN_DIR SOURCE_DIR PAPER_DIR WORK_DIR
+         [SCENARIO[@TRANSPORT][+PROFILE] ...]
   SCENARIO: force-v1 (with PAPER_DIR/v1.csv) or quarter-car-skyhook (default: both, on CAN);
-  TRANSPORT: can (default), modbus-tcp or modbus-rtu.
+  TRANSPORT: can (default), modbus-tcp or modbus-rtu; PROFILE: a shipped device profile
+  (firmware/profiles/PROFILE.toml, e.g. canopen-drive) the harness and the firmware run on.
 Prints one line per run with its hashes; exit 0 when every disturbed run matches, else 1.
 """
 import hashlib
@@ -87,7 +89,7 @@ def run(bin_dir, args, out_dir, stop_target=None, wall_s=None, scale=1.0):
             stops += 1
     out, err = p.communicate(timeout=600)
     wall = time.monotonic() - start
-    if p.returncode not in (0, 1):
+    if p.returncode not in (0, 1) or not os.path.exists(os.path.join(out_dir, "summary.json")):
         raise RuntimeError(f"{' '.join(cmd)}: exit {p.returncode}\n{err.decode()}")
     with open(os.path.join(out_dir, "summary.json")) as f:
         summary = json.load(f)
@@ -126,9 +128,12 @@ def main():
     }
     ok = True
     for spec in names:
-        name, _, transport = spec.partition("@")
+        spec_run, _, profile = spec.partition("+")
+        name, _, transport = spec_run.partition("@")
         args = scenarios[name] + ["--transport", transport or "can"]
-        name = spec.replace("@", "-")
+        if profile:
+            args += ["--profile", os.path.join(src, "firmware/profiles", profile + ".toml")]
+        name = spec.replace("@", "-").replace("+", "-")
         base = run(bin_dir, args, os.path.join(work, name, "undisturbed"))
         print(f"{name} undisturbed: summary {base['summary']} trace {base['trace']} "
               f"pass {base['pass']} wall {base['wall']:.2f} s", flush=True)

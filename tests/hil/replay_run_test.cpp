@@ -53,6 +53,34 @@ TEST(ReplayRunTest, NeesDamperScenarioPassesWithNoFlags) {
   EXPECT_TRUE(r.j["pass"].get<bool>()) << r.j.dump();
   EXPECT_LE(r.j["tracking"]["error_reachable"].get<double>(), 0.05);
   EXPECT_GT(r.j["tracking"]["reachable_steps"].get<int>(), 1000);
+  EXPECT_DOUBLE_EQ(
+      r.j["tracking"]["reachable_share"].get<double>(),
+      r.j["tracking"]["reachable_steps"].get<double>() / r.j["tracking"]["steps"].get<double>());
+  std::system(("rm -rf " + dir).c_str());
+}
+
+// The reachable error scores only the steps whose demand the damper can give: below the least
+// share (the default 0.25 here; the scenario states 0.15 with its all-steps score) the measured
+// run's ~20 % fails, saying so and giving the error over all steps, instead of passing on a
+// fifth of the run.
+TEST(ReplayRunTest, ReachableErrorOverTooFewStepsFailsWithTheReason) {
+  const std::string dir = TempDirPath();
+  const HilResult r = Hil({std::string(MRD_SOURCE_DIR) + "/hil/scenarios/nees-damper.toml", "--set",
+                           "pass.min_reachable_share=0.25", "--out", dir});
+  ASSERT_EQ(r.status, 1) << r.err;
+  EXPECT_FALSE(r.j["pass"].get<bool>());
+  const double share = r.j["tracking"]["reachable_share"].get<double>();
+  EXPECT_LT(share, 0.25);
+  EXPECT_GT(share, 0.05);
+  EXPECT_LE(r.j["tracking"]["error_reachable"].get<double>(), 0.05);  // the score alone passes
+  bool named = false;
+  for (const auto& f : r.j["failures"]) {
+    const std::string why = f.get<std::string>();
+    named = named || (why.find("reachable demands on ") != std::string::npos &&
+                      why.find("< min_reachable_share 25 %") != std::string::npos &&
+                      why.find("error over all steps") != std::string::npos);
+  }
+  EXPECT_TRUE(named) << r.j["failures"].dump();
   std::system(("rm -rf " + dir).c_str());
 }
 

@@ -147,7 +147,10 @@ for c in sj["cases"]:
                   f"CSV and JSON agree ({c['class']} {c['speed_m_s']} {l['law']})")
         check(l["violations"] == 0, "no command outside [0, E_max]")
 table = open(os.path.join(outs[0], "study.txt")).read()
-check(table.count("\n") == 2 + 4, "text table: header, rule and 4 rows")
+check(table.startswith("table compiled-in (CRC-32 0x") and ", plant quarter car" in table,
+      "study.txt names the table and the plant first")
+check(table.count("\n") == 2 + 2 + 4, "text table: what it ran on, a blank line, header, rule and "
+      "4 rows")
 for name in ("study.png", "comfort-B-10.png", "comfort-C-20.png"):
     check(os.path.exists(os.path.join(outs[0], name)), f"study wrote {name}")
 for name in ("study.csv", "study.json", "study.txt"):

@@ -160,9 +160,11 @@ TEST(SweepGrid, BestPointPrefersPassingThenLowestScore) {
   const std::string csv = mrd::hil::SweepCsv(g, rows);
   EXPECT_EQ(csv.substr(0, csv.find('\n')),
             "control.skyhook_gain,pass,invariant_violations,error_all,error_reachable,"
-            "body_accel_rms,travel_rms_cm,tyre_load_rms_n,body_accel_rms_off,body_accel_rms_on");
+            "reachable_share,body_accel_rms,travel_rms_cm,tyre_load_rms_n,body_accel_rms_off,body_"
+            "accel_rms_on,"
+            "table,plant");
   // A quarter car has no tracking error: those cells stay empty.
-  EXPECT_NE(csv.find("\n30,1,0,,,1.2,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("\n30,1,0,,,,1.2,"), std::string::npos) << csv;
   rows[2].body_accel_off = 1.5;  // 20 % better than passive-off
   rows[2].body_accel_on = 1.0;   // 20 % worse than passive-on
   const std::string table = mrd::hil::SweepTable(g, rows);

@@ -125,6 +125,18 @@ class ReportCliTest : public ::testing::Test {
     WriteDataSet(v1, dir_->File("v1.csv"));
     WriteDataSet(v1, dir_->File("nox.csv"), {"x"});
     WriteDataSet(v1, dir_->File("noe.csv"), {"E"});
+    // A periodic run (2 Hz sine, 1.5 cm, at 1 V): its force-displacement loop reads.
+    host::Excitation sine;
+    for (int k = 0; k < 3000; ++k) {
+      const double t = 1e-3 * k, w = 2.0 * 3.14159265358979 * 2.0;
+      sine.t.push_back(t);
+      sine.x.push_back(1.5 * std::sin(w * t));
+      sine.v.push_back(1.5 * w * std::cos(w * t));
+      sine.E.push_back(1.0);
+    }
+    const std::vector<double> f = SimulateReferenceDamper(host::SpencerPreset("paper"), sine, 100);
+    WriteDataSet(test::MakeDataSet("sine", {"x", "v", "E", "f"}, {sine.x, sine.v, sine.E, f}),
+                 dir_->File("sine.csv"));
     const auto spec = dir_->Write("small.toml", kSmallSpec);
     const auto r = test::Run(test::Bin("mrd") + " identify --data " + dir_->File("id.csv") +
                              " --validate " + dir_->File("v1.csv") + " --spec " + spec +
@@ -147,16 +159,26 @@ TEST_F(ReportCliTest, WritesEveryPlotAsPng) {
   if (!GnuplotAvailable()) GTEST_SKIP() << "gnuplot not installed";
   const test::TempDir out;
   const auto dir = out.File("report");
-  const auto r = Report("--model " + File("model.json") + " --data " + File("v1.csv") + "," +
-                        File("nox.csv") + " --data " + File("id.csv") + " --out " + dir);
+  const auto r =
+      Report("--model " + File("model.json") + " --data " + File("v1.csv") + "," + File("nox.csv") +
+             " --data " + File("id.csv") + "," + File("sine.csv") + " --out " + dir);
   ASSERT_EQ(r.status, 0) << r.output;
-  for (const char* name : {"v1_force_displacement.png", "v1_force_velocity.png", "v1_time.png",
-                           "nox_force_velocity.png", "nox_time.png", "id_force_displacement.png",
-                           "id_force_velocity.png", "id_time.png", "J_iterations.png"}) {
+  for (const char* name :
+       {"v1_force_velocity.png", "v1_time.png", "nox_force_velocity.png", "nox_time.png",
+        "id_force_velocity.png", "id_time.png", "sine_force_displacement.png",
+        "sine_force_velocity.png", "sine_time.png", "J_iterations.png"}) {
     EXPECT_TRUE(IsPng(dir + "/" + name)) << name;
     EXPECT_NE(r.output.find(dir + "/" + name), std::string::npos) << name;  // listed
   }
   EXPECT_FALSE(fs::exists(dir + "/nox_force_displacement.png"));
+  // Random motion: no force-displacement cloud, and the summary says why.
+  for (const char* name : {"v1", "id"}) {
+    EXPECT_FALSE(fs::exists(dir + "/" + name + "_force_displacement.png")) << name;
+    EXPECT_NE(r.output.find(std::string(name) + ".csv: displacement not periodic: no "
+                                                "force-displacement loop"),
+              std::string::npos)
+        << r.output;
+  }
   EXPECT_NE(r.output.find("nox.csv: no column 'x': force-displacement loop skipped"),
             std::string::npos)
       << r.output;
@@ -166,6 +188,28 @@ TEST_F(ReportCliTest, WritesEveryPlotAsPng) {
   EXPECT_NE(r.output.find("validated on: " + File("v1.csv")), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("validation v1.csv"), std::string::npos) << r.output;
   EXPECT_EQ(StagingLeftovers(out.File("")), 0);
+}
+
+// --window FROM:TO picks the time plot's window; a malformed one is bad input (exit 2, nothing
+// written), one outside the record a note (the first 5 s drawn).
+TEST_F(ReportCliTest, WindowFlagPicksTheTimePlotsWindow) {
+  if (!GnuplotAvailable()) GTEST_SKIP() << "gnuplot not installed";
+  const test::TempDir out;
+  auto r = Report("--model " + File("model.json") + " --data " + File("v1.csv") + " --out " +
+                  out.File("w") + " --window 1:2.5");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(IsPng(out.File("w") + "/v1_time.png"));
+  r = Report("--model " + File("model.json") + " --data " + File("v1.csv") + " --out " +
+             out.File("late") + " --window 100:200");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("window 100:200 s is outside the record"), std::string::npos) << r.output;
+  for (const char* bad : {"2:1", "x:3", "5"}) {
+    r = Report("--model " + File("model.json") + " --data " + File("v1.csv") + " --out " +
+               out.File("bad") + " --window " + bad);
+    EXPECT_EQ(r.status, 2) << bad << ": " << r.output;
+    EXPECT_NE(r.output.find("--window '"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(out.File("bad"))) << bad;
+  }
 }
 
 TEST_F(ReportCliTest, SummaryFiguresAgreeWithSimulate) {

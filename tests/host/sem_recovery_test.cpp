@@ -2,52 +2,14 @@
 // 20 noise seeds per system, noise type and record length. Target: exact recovery of the
 // selected model in >= 19/20 seeds at N = 1000 and >= 17/20 at N = 500. Cases that do not reach
 // it on these seeds are registered DISABLED_ (run them with --gtest_also_run_disabled_tests;
-// counts table: build/tests/sem_recovery); SemRecoveryRateTest checks them over 200 seeds.
-#include "sem_recovery.hpp"
-
+// counts table: build/tests/sem_recovery); SemRecoveryRateTest (sem_recovery_rate_test.cpp, a
+// statistical campaign: `toolchain/test.sh --all`) checks them over 200 seeds.
 #include <gtest/gtest.h>
 
-#include <ostream>
-#include <stdexcept>
-#include <string>
+#include "sem_recovery_cases.hpp"
 
 namespace mrd::test {
 namespace {
-
-struct Case {
-  std::size_t system;  // index into RecoverySystems()
-  Noise noise;
-  std::size_t n;
-};
-
-void PrintTo(const Case& c, std::ostream* os) {
-  *os << RecoverySystems()[c.system].name << " " << NoiseName(c.noise) << " " << c.n;
-}
-
-std::string CaseName(const testing::TestParamInfo<Case>& info) {
-  const auto& c = info.param;
-  return RecoverySystems()[c.system].name + "_" + NoiseName(c.noise) + "_" + std::to_string(c.n);
-}
-
-// Seeds 1 ... seeds of the case, default settings; the target as a rate: 19 in 20 at
-// N = 1000, 17 in 20 at N = 500 (seeds a multiple of 20).
-void ExpectTargetRate(const Case& c, int seeds) {
-  host::SemOptions o;
-  o.threads = 1;  // CTest runs the cases in parallel
-  const RecoveryCount r = CountRecovered(RecoverySystems()[c.system], c.noise, c.n, seeds, o);
-  testing::Test::RecordProperty("hits", r.hits);
-  EXPECT_GE(r.hits, seeds / 20 * (c.n >= 1000 ? 19 : 17)) << r.hits << "/" << seeds << "; misses:\n"
-                                                          << r.misses;
-}
-
-// Index of a system of RecoverySystems() by name (throws for an unknown one).
-std::size_t SystemIndex(const std::string& name) {
-  const auto all = RecoverySystems();
-  for (std::size_t i = 0; i < all.size(); ++i) {
-    if (all[i].name == name) return i;
-  }
-  throw std::runtime_error("no recovery system '" + name + "'");
-}
 
 class SemRecoveryTest : public testing::TestWithParam<Case> {};
 
@@ -97,25 +59,6 @@ INSTANTIATE_TEST_SUITE_P(Published, SemRecoveryTest,
                                          Case{SystemIndex("sysidentpy_ma"), Noise::kColoured,
                                               1000}),
                          CaseName);
-
-// The same targets as rates over 200 seeds (1 ... 200, the suite's 20 among them): 190/200 at
-// N = 1000, 170/200 at N = 500. Run here for the case below target on seeds 1-20 (billings EE
-// 500, 183/200 measured), the cases closest to their rate (billings OE 1000, 193/200;
-// sysidentpy_ma, 194/200) and metamss_s3 (195/200; 106/200 when scored by the free run). Every
-// case: build/tests/sem_recovery --seeds 200 --case SYSTEM EE|OE|MA N (docs/results.md,
-// "Structure recovery").
-class SemRecoveryRateTest : public testing::TestWithParam<Case> {};
-
-TEST_P(SemRecoveryRateTest, DefaultSettingsRecoverAtTheTargetRateOver200Seeds) {
-  ExpectTargetRate(GetParam(), 200);
-}
-
-INSTANTIATE_TEST_SUITE_P(
-    Seeds200, SemRecoveryRateTest,
-    testing::Values(Case{0, Noise::kEquation, 500}, Case{0, Noise::kOutput, 1000},
-                    Case{SystemIndex("metamss_s3"), Noise::kEquation, 1000},
-                    Case{SystemIndex("sysidentpy_ma"), Noise::kColoured, 1000}),
-    CaseName);
 
 }  // namespace
 }  // namespace mrd::test

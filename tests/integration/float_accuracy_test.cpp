@@ -131,7 +131,6 @@ Figures Compare(const CoefficientTable& table, const host::DataSet& data) {
   const auto& f = data.Column("f");
   Figures fig;
   double bound = 0.0;  // B(k-1)
-  double E_prev = 0.0;
   double E64 = 0.0;
   float E32 = 0.0f;
   std::array<float, kMaxChannels> raw{};
@@ -159,11 +158,10 @@ Figures Compare(const CoefficientTable& table, const host::DataSet& data) {
     const double local_error = std::fabs(static_cast<double>(seeded.Evaluate()) - fd);
     fig.max_local_error = std::max(fig.max_local_error, local_error);
     EXPECT_LE(local_error, local) << data.path << " k=" << k;
-    // Demand: the double model's force at the profile's command (reachable); previous command
-    // the profile's.
-    const auto s64 = inv64.Solve(ref.history(), fd, E_prev);
-    const auto s32 =
-        inv32.Solve(seeded.history(), static_cast<float>(fd), static_cast<float>(E_prev));
+    // Demand: the double model's force at the profile's command (reachable), inverted as it is
+    // (velocity 0: no dissipative direction, so a demand against v is not sent to E_min).
+    const auto s64 = inv64.Solve(ref.history(), fd, 0.0);
+    const auto s32 = inv32.Solve(seeded.history(), static_cast<float>(fd), 0.0f);
     const auto a = inv64.Polynomial(ref.history());
     const double emax = std::fmax(std::fabs(inv64.e_min()), std::fabs(inv64.e_max())) / scale_e;
     double magnitude = std::fabs(fd - m.scales[out].offset) / scale_f, power = 1.0;
@@ -197,14 +195,13 @@ Figures Compare(const CoefficientTable& table, const host::DataSet& data) {
     }
     // Complete the rounded sample with the double force.
     seeded.Finish(static_cast<float>(fd));
-    E_prev = E[k];
 
     // Closed loop: each precision tracks the damper's force on its own state.
     loop64.Begin(v[k], x[k]);
-    E64 = inv64.Solve(loop64.history(), f[k], E64).E;
+    E64 = inv64.Solve(loop64.history(), f[k], v[k]).E;
     const double f64 = loop64.Finish(E64);
     loop32.Begin(v32, x32);
-    E32 = inv32.Solve(loop32.history(), static_cast<float>(f[k]), E32).E;
+    E32 = inv32.Solve(loop32.history(), static_cast<float>(f[k]), v32).E;
     const float f32 = loop32.Finish(E32);
     fig.loop_e_errors.push_back(std::fabs(static_cast<double>(E32) - E64));
     fig.loop_max_e_error = std::max(fig.loop_max_e_error, fig.loop_e_errors.back());

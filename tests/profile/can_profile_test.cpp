@@ -6,9 +6,12 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <fstream>
+#include <iterator>
 #include <string>
 
+#include "mrd/profile/frame_codec.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
 namespace mrd::profile {
@@ -152,6 +155,39 @@ TEST(CanProfileTest, RefusesBadProfilesWithFileLineAndReason) {
   ExpectRefused(head + "colour = 1\n", 3, "unknown key");
   ExpectRefused("dbc = \"mrd.dbc\"\n", 1, "name: missing");
   ExpectRefused(head + "[inputs\n", 3, "");  // TOML syntax: the parser's own words
+  // [command] beyond what the set-point signal carries (VoltageSetpoint: 0..24 V in the DBC):
+  // the safe state would stand in for every command above it.
+  const std::string command = head + "[outputs]\ncommand = \"DriverCommand.VoltageSetpoint\"\n";
+  ExpectRefused(command + "[command]\nmin = 0.0\nmax = 30.0\n", 7,
+                "command.max 30 V is beyond what DriverCommand.VoltageSetpoint");
+  ExpectRefused(command + "[command]\nmin = -1.0\nmax = 20.0\n", 6, "command.min -1 V");
+}
+
+// A sensor frame whose only sample number is its rolling counter: the counter is sensor_seq.
+TEST(CanProfileTest, ARollingCounterMayAlsoBeTheSensorSeq) {
+  ProfileFile f(
+      "name = \"x\"\ndbc = \"mrd.dbc\"\n[inputs]\nvelocity = \"SensorMotion.Velocity\"\n"
+      "sensor_seq = \"SensorMotion.MotionCounter\"\n[messages.SensorMotion]\n"
+      "counter = \"MotionCounter\"\nchecksum = \"MotionChecksum\"\nchecksum_kind = \"crc8\"\n");
+  CanProfile p;
+  std::string error;
+  ASSERT_TRUE(LoadCanProfile(f.path(), &p, &error)) << error;
+  const SignalRef seq = p.inputs[static_cast<std::size_t>(CanIn::kSensorSeq)];
+  ASSERT_TRUE(seq.mapped());
+  // Three frames: each accepted, its sensor_seq the counter (+1 mod 16 per frame).
+  FrameCodec tx(p), rx(p);
+  double first = -1;
+  for (int k = 0; k < 3; ++k) {
+    can_frame fr{};
+    tx.Begin(seq.message, &fr);
+    tx.Seal(seq.message, &fr);
+    ASSERT_EQ(rx.Check(seq.message, fr), protocol::can::Reject::kNone) << k;
+    double v = -1;
+    ASSERT_EQ(rx.Get(fr, seq, &v), protocol::SignalError::kNone);
+    if (k == 0) first = v;
+    EXPECT_EQ(v, std::fmod(first + k, 16.0)) << k;
+  }
+  // Any other role on a counter is still refused (above).
 }
 
 TEST(CanProfileTest, AMissingOrBrokenDbcIsNamed) {
@@ -162,6 +198,64 @@ TEST(CanProfileTest, AMissingOrBrokenDbcIsNamed) {
   EXPECT_NE(error.find("nothere.dbc: cannot open"), std::string::npos) << error;
   EXPECT_FALSE(LoadCanProfile("/tmp", &p, &error));
   EXPECT_NE(error.find("not a regular file"), std::string::npos) << error;
+}
+
+// docs/mrd.dbc with a FaultReset bit in DriverCommand (bit 19, free in the native layout) and
+// one in the heartbeat message (bit 5).
+std::string DbcWithResetBits() {
+  std::ifstream in(kSource + "/docs/mrd.dbc");
+  std::string dbc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto insert = [&](const std::string& after, const std::string& line) {
+    const std::size_t at = dbc.find(after);
+    EXPECT_NE(at, std::string::npos) << after;
+    if (at != std::string::npos) dbc.insert(at + after.size(), line);
+  };
+  insert(" SG_ SafeState : 18|1@1+ (1,0) [0|1] \"\" Driver\n",
+         " SG_ FaultReset : 19|1@1+ (1,0) [0|1] \"\" Driver\n");
+  insert(" SG_ HeartbeatSafe : 4|1@1+ (1,0) [0|1] \"\" Driver\n",
+         " SG_ HeartbeatReset : 5|1@1+ (1,0) [0|1] \"\" Driver\n");
+  return dbc;
+}
+
+TEST(CanProfileTest, FaultResetIsABitOfACommandFrame) {
+  const std::string dbc = DbcWithResetBits();
+  const std::string head =
+      "name = \"x\"\ndbc = \"mrd.dbc\"\n[inputs]\ndriver_faults = \"DriverStatus.DriverFaults\"\n"
+      "[outputs]\ncommand = \"DriverCommand.VoltageSetpoint\"\n"
+      "heartbeat_safe = \"Heartbeat.HeartbeatSafe\"\n";
+  CanProfile p;
+  std::string error;
+  ASSERT_TRUE(ParseCanProfile(head + "fault_reset = \"DriverCommand.FaultReset\"\n", "p.toml", &dbc,
+                              &p, &error))
+      << error;
+  const SignalRef r = p.outputs[static_cast<std::size_t>(CanOut::kFaultReset)];
+  ASSERT_TRUE(r.mapped());
+  EXPECT_EQ(r.message, p.outputs[static_cast<std::size_t>(CanOut::kCommand)].message);
+  EXPECT_EQ(p.Layout(r).length, 1);
+  EXPECT_STREQ(CanOutName(CanOut::kFaultReset), "fault_reset");
+  // Refused at its line: not a bit, or a bit of a frame not sent every period.
+  const auto refused = [&](const std::string& signal, const std::string& reason) {
+    CanProfile q;
+    std::string why;
+    EXPECT_FALSE(
+        ParseCanProfile(head + "fault_reset = \"" + signal + "\"\n", "p.toml", &dbc, &q, &why))
+        << signal;
+    EXPECT_EQ(why.rfind("p.toml:8: outputs.fault_reset: ", 0), 0U) << why;
+    EXPECT_NE(why.find(reason), std::string::npos) << why;
+  };
+  refused("DriverCommand.EchoSeq", "expected a bit");
+  refused("Heartbeat.HeartbeatReset", "is not a command frame");
+  refused("FirmwareStatus.FirmwareSafe", "is not a command frame");
+  // Without driver_faults the firmware never sees a fault to reset: refused at the role's line.
+  std::string no_faults = head;
+  no_faults.erase(no_faults.find("[inputs]"),
+                  no_faults.find("[outputs]") - no_faults.find("[inputs]"));
+  CanProfile q;
+  std::string why;
+  EXPECT_FALSE(ParseCanProfile(no_faults + "fault_reset = \"DriverCommand.FaultReset\"\n", "p.toml",
+                               &dbc, &q, &why));
+  EXPECT_EQ(why.rfind("p.toml:6: outputs.fault_reset: the profile maps no driver_faults", 0), 0U)
+      << why;
 }
 
 }  // namespace

@@ -58,6 +58,42 @@ TEST(CommandMapTest, RangeClampAndSlewLimit) {
   EXPECT_FALSE(m.SetRange(0.0, 1.0, -1.0, &error));
 }
 
+// The driver's off (what the safe state must send) and the set-point the safe state sends.
+TEST(CommandMapTest, OffIsTheSetpointNearestZeroThatCommandsReach) {
+  std::string error;
+  CommandMap identity;
+  EXPECT_EQ(identity.Off(), 0.0);
+  EXPECT_EQ(identity.SafeSetpoint(0.0), 0.0);
+  CommandMap unipolar;
+  ASSERT_TRUE(unipolar.SetRange(0.0, 2000.0, 0.0, &error));
+  EXPECT_EQ(unipolar.Off(), 0.0);
+  CommandMap loop;  // a 4..20 mA input: 4 mA is its off
+  ASSERT_TRUE(loop.SetRange(4.0, 20.0, 0.0, &error));
+  EXPECT_EQ(loop.Off(), 4.0);
+  EXPECT_EQ(loop.SafeSetpoint(0.0), 4.0);
+  CommandMap bipolar;
+  ASSERT_TRUE(bipolar.SetRange(-2.0, 2.0, 0.0, &error));
+  EXPECT_EQ(bipolar.Off(), 0.0);
+  CommandMap offset;  // no range: the curve's lowest value from 0 V on
+  const std::string rising = Csv("E,mA\n0,100\n10,2000\n");
+  ASSERT_TRUE(offset.LoadCalibration(rising, &error)) << error;
+  unlink(rising.c_str());
+  EXPECT_EQ(offset.Off(), 100.0);
+  EXPECT_EQ(offset.SafeSetpoint(0.0), 100.0);
+  CommandMap falling;  // the safe state's 0 V would be the most current
+  const std::string dec = Csv("E,mA\n0,2000\n10,0\n");
+  ASSERT_TRUE(falling.LoadCalibration(dec, &error)) << error;
+  unlink(dec.c_str());
+  ASSERT_TRUE(falling.SetRange(0.0, 2000.0, 0.0, &error));
+  EXPECT_TRUE(falling.decreasing());
+  EXPECT_EQ(falling.Off(), 0.0);
+  EXPECT_EQ(falling.SafeSetpoint(0.0), 2000.0);
+  double lo = 0, hi = 0;
+  falling.Reach(2.25, &lo, &hi);
+  EXPECT_EQ(lo, 0.0);
+  EXPECT_EQ(hi, 2000.0);
+}
+
 void ExpectRefused(const std::string& text, const std::string& where, const std::string& why) {
   CommandMap m;
   std::string error;

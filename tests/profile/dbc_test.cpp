@@ -158,6 +158,28 @@ TEST(DbcTest, RefusesWhatItCannotUseWithFileLineAndReason) {
   ExpectRefused(bo + "CM_ BO_ 256 \"never closed\n", 2, "without its closing ';'");
   ExpectRefused(bo + "SIG_VALTYPE_ 256 A : 1;\n", 2, "float signals");
   ExpectRefused(bo + "what is this\n", 2, "unexpected text");
+  // A statement that lacks its ';' is refused at its own line, not read on into the statements
+  // after it (which it would swallow: a signal, a cycle time).
+  ExpectRefused(bo + "BA_ \"GenMsgCycleTime\" BO_ 256 10\nBO_ 257 K: 8 N\n", 2,
+                "BA_ statement without its closing ';' (line 3 begins the next statement)");
+  ExpectRefused(bo + "VAL_ 256 A 0 \"off\" 1 \"on\"\n SG_ B : 0|8@1+ (1,0) [0|0] \"\" X\n", 2,
+                "VAL_ statement without its closing ';'");
+  ExpectRefused(bo + "BA_ \"GenMsgCycleTime\" BO_ 256 10\nCM_ \"x\";\n", 2,
+                "without its closing ';' (line 3");
+}
+
+TEST(DbcTest, StatementsThatSpanLinesAndAByteOrderMarkAreRead) {
+  Dbc dbc;
+  std::string error;
+  // A comment's text may span lines; a value table may continue on the next line.
+  const std::string text =
+      "\xEF\xBB\xBFVERSION \"\"\nBO_ 256 M: 8 N\n SG_ A : 0|8@1+ (1,0) [0|0] \"\" X\n"
+      "CM_ SG_ 256 A \"two\nlines\";\nVAL_ 256 A 0 \"off\"\n  1 \"on\" ;\n"
+      "BA_ \"GenMsgCycleTime\" BO_ 256 10;\n";
+  ASSERT_TRUE(ParseDbc(text, "bom.dbc", &dbc, &error)) << error;
+  ASSERT_EQ(dbc.messages.size(), 1U);
+  EXPECT_EQ(dbc.messages[0].cycle_time_ms, 10);
+  EXPECT_EQ(dbc.messages[0].signals.size(), 1U);
 }
 
 TEST(DbcTest, LoadRefusesWhatIsNotARegularFile) {

@@ -4,9 +4,11 @@
 #include "mrd/profile/modbus_profile.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <string>
 
 namespace mrd::profile {
@@ -162,6 +164,30 @@ TEST(ModbusProfile, WritesSingleRegisterWithFunction6) {
   EXPECT_EQ(ex, 0x02);
 }
 
+// A driver whose manual orders its points differently: an int32 set-point low word first, a
+// float32 current high word first, in one profile (the point's word_order over the profile's).
+TEST(ModbusProfile, WordOrderPerPoint) {
+  const std::string text = kHead +
+                           "word_order = \"swapped\"\n[modbus.inputs]\n"
+                           "driver_current = { unit = 2, table = \"input\", address = 0, type = "
+                           "\"float32\", word_order = \"big\" }\n"
+                           "[modbus.outputs]\ncommand = { unit = 2, table = \"holding\", "
+                           "address = 0, type = \"int32\", scale = 0.001 }\n";
+  ModbusProfile p;
+  std::string error;
+  ASSERT_TRUE(Parse(text, &p, &error)) << error;
+  EXPECT_FALSE(p.In(CanIn::kDriverCurrent).swapped);
+  EXPECT_TRUE(p.Out(ModbusOut::kCommand).swapped);
+  // 1.0078f = 0x3F80FF97 high word first: read as such (swapped it would be a NaN's words).
+  std::uint8_t reply[6] = {0x04, 4, 0x3F, 0x80, 0xFF, 0x97};
+  EXPECT_NEAR(ModbusPointValue(p, p.In(CanIn::kDriverCurrent), reply), 1.0078, 1e-6);
+  // 1.5 A as 1500 mA-steps: low word first.
+  std::uint16_t words[2] = {};
+  ASSERT_TRUE(PutModbusPoint(p, p.Out(ModbusOut::kCommand), 1.5, words));
+  EXPECT_EQ(words[0], 1500);
+  EXPECT_EQ(words[1], 0);
+}
+
 TEST(ModbusProfile, Float32BothWordOrders) {
   for (const bool swapped : {false, true}) {
     const std::string text = kHead + (swapped ? "word_order = \"swapped\"\n" : "") +
@@ -264,6 +290,12 @@ TEST(ModbusProfile, Refusals) {
   ExpectRefused(kHead + "max_read = 126\n", 3, "outside 1..125");
   ExpectRefused(kHead + "max_read = 0\n", 3, "outside 1..125");
   ExpectRefused(kHead + "word_order = \"little\"\n", 3, "swapped");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0, word_order = "
+                     "\"swapped\" }\n",
+                4, "word_order is for 32-bit values");
+  ExpectRefused(in + "velocity = { unit = 1, table = \"input\", address = 0, type = \"float32\", "
+                     "word_order = \"cdab\" }\n",
+                4, "expected \"big\"");
   ExpectRefused(out + "command = { unit = 1, table = \"input\", address = 0 }\n", 4,
                 "writable table");
   ExpectRefused(
@@ -275,6 +307,30 @@ TEST(ModbusProfile, Refusals) {
                 "needs unit, table and address");
   ExpectRefused(in + "velocity = 3\n", 4, "expected {");
   ExpectRefused(kHead + "[command]\nmin = 2\nmax = 1\n", 3, "");
+  // A [command] range the command register cannot hold (an int16 of mV: +-32.767 V) is
+  // refused; a 4..20 range is fine (0 V clamps to 4, its off); a curve giving 24 V at 0 V is
+  // refused (the safe state would drive the coil).
+  const std::string cmd =
+      kHead +
+      "[modbus.outputs]\ncommand = { unit = 2, table = \"holding\", address = 0, "
+      "type = \"int16\", scale = 0.001 }\n";  // command at line 4
+  ExpectRefused(cmd + "[command]\nmin = 0.0\nmax = 40.0\n", 7,
+                "command.max 40 V is beyond what the command register (/tmp/t.toml:4) can carry "
+                "([-32.768, 32.767] V)");
+  ExpectRefused(cmd + "[command]\nmin = -40.0\nmax = 20.0\n", 6, "command.min -40 V");
+  {
+    ModbusProfile p;
+    std::string error;
+    EXPECT_TRUE(Parse(cmd + "[command]\nmin = 4.0\nmax = 20.0\n", &p, &error)) << error;
+  }
+  const std::string falling = "/tmp/mrd-falling-" + std::to_string(getpid()) + ".csv";
+  std::ofstream(falling) << "E,V\n0,24\n2.25,0\n";
+  ExpectRefused(kHead +
+                    "[modbus.outputs]\ncommand = { unit = 2, table = \"holding\", address = "
+                    "0, type = \"float32\" }\n[command]\ncalibration = \"" +
+                    falling + "\"\nmin = 0.0\nmax = 24.0\n",
+                5, "the safe state (E = 0 V; also the shutdown's last command) gives 24 V");
+  unlink(falling.c_str());
   ExpectRefused(kHead + "[command]\ncalibration = \"/nonexistent.csv\"\n", 4, "calibration");
   ExpectRefused(kHead + "x = [\n", 3, "");  // TOML syntax: toml++'s own reason and line
 }
@@ -293,6 +349,78 @@ TEST(ModbusProfile, IsModbusProfileFileTellsTheKinds) {
   EXPECT_TRUE(IsModbusProfileFile(kSource + "/firmware/profiles/modbus-float32.toml"));
   EXPECT_FALSE(IsModbusProfileFile(kSource + "/firmware/profiles/mrd-native.toml"));
   EXPECT_FALSE(IsModbusProfileFile("/nonexistent.toml"));
+}
+
+// Start-up and periodic writes: read in file order with their values and periods; a bad
+// entry is refused at its line with the reason.
+TEST(ModbusProfile, StartUpAndPeriodicWrites) {
+  const std::string out = kHead +
+                          "[modbus.outputs]\n"  // line 3
+                          "command = { unit = 2, table = \"holding\", address = 0 }\n";
+  const std::string text = out +
+                           "[[modbus.startup]]\nunit = 2\ntable = \"holding\"\naddress = 100\n"
+                           "value = 500\n"
+                           "[[modbus.startup]]\nunit = 2\ntable = \"coil\"\naddress = 7\n"
+                           "value = 1\n"
+                           "[[modbus.periodic]]\nunit = 2\ntable = \"holding\"\naddress = 101\n"
+                           "value = 1\nperiod_ms = 100\nwatchdog_ms = 500\n";
+  ModbusProfile p;
+  std::string error;
+  ASSERT_TRUE(Parse(text, &p, &error)) << error;
+  ASSERT_EQ(p.startup.size(), 2U);
+  EXPECT_EQ(p.startup[0].address, 100);
+  EXPECT_EQ(p.startup[0].value, 500);
+  EXPECT_EQ(p.startup[0].request().function, 0x06);
+  EXPECT_EQ(p.startup[0].line, 5);
+  EXPECT_EQ(p.startup[1].table, ModbusTable::kCoil);
+  EXPECT_EQ(p.startup[1].request().function, 0x05);
+  ASSERT_EQ(p.periodic.size(), 1U);
+  EXPECT_EQ(p.periodic[0].period_ms, 100);
+  EXPECT_EQ(p.periodic[0].watchdog_ms, 500);
+  EXPECT_EQ(p.writes.size(), 1U) << "fixed writes are not part of the cycle's requests";
+
+  const std::string s = out + "[[modbus.startup]]\n";  // the entry from line 5
+  const std::string q = out + "[[modbus.periodic]]\nunit = 2\ntable = \"holding\"\n";  // 5-7
+  ExpectRefused(s + "unit = 2\ntable = \"input\"\naddress = 1\nvalue = 1\n", 7,
+                "writable table (holding, coil)");
+  ExpectRefused(s + "unit = 2\ntable = \"holding\"\naddress = 1\nvalue = 70000\n", 9,
+                "integer in 0..65535");
+  ExpectRefused(s + "unit = 2\ntable = \"coil\"\naddress = 1\nvalue = 2\n", 9, "a coil is 0 or 1");
+  ExpectRefused(s + "unit = 2\ntable = \"holding\"\naddress = 1\n", 5,
+                "needs unit, table, address and value");
+  ExpectRefused(s + "unit = 2\ntable = \"holding\"\naddress = 1\nvalue = 1\nperiod_ms = 5\n", 10,
+                "unknown key (unit, table, address, value)");
+  ExpectRefused(s + "unit = 2\ntable = \"holding\"\naddress = 0\nvalue = 1\n", 5,
+                "register 0 of unit 2 already carries modbus.outputs.command");
+  ExpectRefused(kHead + "startup = 3\n", 3, "expected [[modbus.startup]] entries");
+  ExpectRefused(q + "address = 9\nvalue = 1\n", 5, "needs period_ms");
+  ExpectRefused(q + "address = 9\nvalue = 1\nperiod_ms = 0\n", 10, "integer in 1..60000");
+  ExpectRefused(q + "address = 9\nvalue = 1\nperiod_ms = 100\nwatchdog_ms = 100\n", 11,
+                "not above period_ms");
+}
+
+// The fault reset: an output role (a coil or register bit) and its rate limit.
+TEST(ModbusProfile, FaultResetRoleAndRateLimit) {
+  ModbusProfile p;
+  std::string error;
+  const std::string faults =
+      "[modbus.inputs]\ndriver_faults = { unit = 2, table = \"input\", address = 4 }\n";
+  ASSERT_TRUE(
+      Parse(kHead + "fault_reset_ms = 2500\n" + faults +
+                "[modbus.outputs]\nfault_reset = { unit = 2, table = \"coil\", address = 1 }\n",
+            &p, &error))
+      << error;
+  // Without driver_faults the firmware never sees a fault to reset: refused at the role's line.
+  ExpectRefused(
+      kHead + "[modbus.outputs]\nfault_reset = { unit = 2, table = \"coil\", address = 1 }\n", 4,
+      "the profile maps no driver_faults input");
+  EXPECT_EQ(p.fault_reset_ms, 2500);
+  EXPECT_TRUE(p.Out(ModbusOut::kFaultReset).mapped);
+  EXPECT_STREQ(ModbusOutName(ModbusOut::kFaultReset), "fault_reset");
+  ASSERT_TRUE(Parse(kHead, &p, &error)) << error;
+  EXPECT_EQ(p.fault_reset_ms, 1000);  // the default: at most one reset a second
+  ExpectRefused(kHead + "fault_reset_ms = 50\n", 3, "100..600000");
+  ExpectRefused(kHead + "fault_reset_ms = \"1s\"\n", 3, "100..600000");
 }
 
 }  // namespace

@@ -11,10 +11,19 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 real_dpkg="$(command -v dpkg)"
 
-# The package list, read from the script (one word per package, comments dropped).
-mapfile -t all < <(sed -n '/^packages=(/,/^)/p' "$script" | sed '1d;$d;s/#.*//' | tr ' ' '\n' |
-                   sed 's/:.*//' | grep -v '^$' | sort -u)
-[ ${#all[@]} -gt 10 ] || { echo "FAIL: could not read the package list of $script"; exit 1; }
+# The package lists of the tiers, read from the script (one word per package, comments
+# dropped): demo_packages, then what test adds, then what all adds; `all` is the union.
+list() {
+  sed -n "/^$1=(/,/^)/p" "$script" | sed '1d;$d;s/#.*//' | tr ' ' '\n' | sed 's/:.*//' |
+    grep -v '^$' | sort -u
+}
+mapfile -t demo < <(list demo_packages)
+mapfile -t test_only < <(list test_packages)
+mapfile -t all_only < <(list all_packages)
+all=("${demo[@]}" "${test_only[@]}" "${all_only[@]}")
+if [ ${#demo[@]} -le 10 ] || [ ${#test_only[@]} -eq 0 ] || [ ${#all_only[@]} -eq 0 ]; then
+  echo "FAIL: could not read the package lists of $script"; exit 1
+fi
 
 fakes="$work/bin"
 mkdir -p "$fakes"
@@ -88,6 +97,7 @@ done
 
 failures=0
 state=""
+args=()  # the script's arguments in the next run
 indent() { sed 's/^/    /' "$@"; }
 new_case() {  # new_case NAME: an empty state, running as root with sudo absent
   state="$work/case-$1"; mkdir -p "$state"
@@ -104,7 +114,7 @@ run() {  # run [with-sudo]: runs the script; sets status, out
     mkdir -p "$state/nosudo"; for f in "$fakes"/*; do [ "${f##*/}" = sudo ] || ln -sf "$f" "$state/nosudo/"; done
     path="$state/nosudo:$tools"
   fi
-  out="$(cd "$work" && FAKE="$state" PATH="$path" bash "$script" 2>&1)"
+  out="$(cd "$work" && FAKE="$state" PATH="$path" bash "$script" "${args[@]}" 2>&1)"
   status=$?
   # Never a silent failure: a non-zero exit always says what failed.
   if [ "$status" -ne 0 ] && ! grep -q '^setup: error: ' <<<"$out"; then
@@ -119,6 +129,14 @@ check() {  # check DESCRIPTION CONDITION...
 }
 calls() { cat "$state/calls"; }
 installed_all() { for p in "${all[@]}"; do grep -q "^$p " "$state/installed" || return 1; done; }
+installed_each() { for p in "$@"; do grep -q "^$p " "$state/installed" || return 1; done; }
+installed_none() { for p in "$@"; do grep -q "^$p " "$state/installed" && return 1; done; return 0; }
+# The packages named by the install calls (options and the apt-get words dropped).
+install_named() {
+  grep 'apt-get .*install' "$state/calls" | tr ' ' '\n' | grep -v '^-' |
+    grep -vxE 'sudo|apt-get|install|DPkg::Lock::Timeout=[0-9]+' | sort -u
+}
+same_set() { [ "$(printf '%s\n' "${@:2}" | sort -u)" = "$(install_named)" ] || { echo "  install calls named: $(install_named | tr '\n' ' ')"; echo "  expected ($1): $(printf '%s ' "${@:2}")"; return 1; }; }
 no_downgrade() { ! grep -qE -- '--allow-downgrades|--add-architecture|dpkg --add' "$state/calls"; }
 readable_error() { [ "$status" -ne 0 ] && grep -q '^setup: error: .*[a-z]' <<<"$out"; }
 
@@ -137,9 +155,10 @@ for p in "${all[@]}"; do install "$p" 1.0-1; done
 run
 check "everything installed: exit 0" test "$status" -eq 0
 check "everything installed: no apt-get call" test ! -s "$state/calls"
-check "everything installed: says so" grep -q 'all .* packages present' <<<"$out"
+check "everything installed (no --for: all): says so" grep -q 'all [0-9]* packages for all present' <<<"$out"
 
-# 3. Half installed: only the missing ones are installed.
+# 3. Half installed: only the missing ones are installed (whole names: python3-serial is not
+# python3-serial-asyncio).
 new_case half
 half=("${all[@]:0:$(( ${#all[@]} / 2 ))}")
 for p in "${half[@]}"; do install "$p" 1.0-1; done
@@ -147,7 +166,7 @@ run
 check "half installed: exit 0" test "$status" -eq 0
 check "half installed: every package installed" installed_all
 check "half installed: installs none of the installed ones" \
-  bash -c 'line="$(grep "apt-get .*install" "$0")"; for p in "${@:1}"; do grep -qw -- "$p" <<<"${line#*--no-install-recommends}" && exit 1; done; exit 0' "$state/calls" "${half[@]}"
+  bash -c 'line="$(grep "apt-get .*install" "$0")"; for p in "${@:1}"; do tr " " "\n" <<<"${line#*--no-install-recommends}" | grep -qxF -- "$p" && exit 1; done; exit 0' "$state/calls" "${half[@]}"
 
 # 4. apt-get update fails for one architecture's index; every package still offered.
 new_case update-fails
@@ -211,6 +230,54 @@ new_case install-fails
 touch "$state/install_fail"
 run
 check "install fails: non-zero exit, one readable line" readable_error
+
+# 9. Set-up by need. The demo's tier on a fresh machine: its packages and nothing else; none
+#    of them a cross compiler, qemu, the kernel source or clang.
+check "the demo's list names no cross compiler, qemu, kernel source or clang" \
+  bash -c '! printf "%s\n" "$@" | grep -E "^(g\+\+-.*-linux-gnu|gcc-.*-linux-gnu|qemu|linux-source|clang)"' _ "${demo[@]}"
+new_case demo
+args=(--for demo)
+run
+check "--for demo, nothing installed: exit 0" test "$status" -eq 0
+check "--for demo: installs exactly the demo's packages" same_set demo "${demo[@]}"
+check "--for demo: none of the test or --all packages" installed_none "${test_only[@]}" "${all_only[@]}"
+
+# 9b. The test tier after the demo's: only what the test tier adds.
+new_case test-after-demo
+for p in "${demo[@]}"; do install "$p" 1.0-1; done
+args=(--for test)
+run
+check "--for test after the demo: exit 0" test "$status" -eq 0
+check "--for test after the demo: installs exactly what the test tier adds" same_set test "${test_only[@]}"
+check "--for test: none of the --all packages" installed_none "${all_only[@]}"
+
+# 9c. --all after the test tier: only what --all adds; --for=all is the same option.
+new_case all-after-test
+for p in "${demo[@]}" "${test_only[@]}"; do install "$p" 1.0-1; done
+args=(--for=all)
+run
+check "--for=all after the test tier: exit 0" test "$status" -eq 0
+check "--for=all after the test tier: installs exactly what --all adds" same_set all "${all_only[@]}"
+check "--for=all: every package installed" installed_all
+
+# 9d. The demo's tier on a machine that has it: no apt call, whatever else is missing.
+new_case demo-present
+for p in "${demo[@]}"; do install "$p" 1.0-1; done
+args=(--for demo)
+run
+check "--for demo, demo packages present: exit 0, no apt-get call" \
+  bash -c '[ "$1" -eq 0 ] && [ ! -s "$0" ]' "$state/calls" "$status"
+check "--for demo, demo packages present: says so" grep -q "all ${#demo[@]} packages for demo present" <<<"$out"
+
+# 9e. An unknown tier, and --for without one: exit 2, one readable line, no apt call.
+for bad in "--for nightly" "--for" "--all"; do
+  new_case "bad-tier-${bad// /-}"
+  read -ra args <<<"$bad"
+  run
+  check "'$bad': exit 2 with an error line and no apt-get call" \
+    bash -c '[ "$1" -eq 2 ] && grep -q "^setup: error: " <<<"$2" && [ ! -s "$0" ]' "$state/calls" "$status" "$out"
+done
+args=()
 
 echo
 if [ "$failures" -ne 0 ]; then echo "setup_test: $failures check(s) failed for $script"; exit 1; fi

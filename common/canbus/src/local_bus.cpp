@@ -122,7 +122,42 @@ void LocalBusRelay::Drop(std::size_t i) {
 
 void LocalBusRelay::Broadcast(const void* frame) {
   in_.fetch_add(1, std::memory_order_relaxed);
-  Forward(nodes_.size(), frame, common::MonotonicNs());
+  if (!held_) {
+    Forward(nodes_.size(), frame, common::MonotonicNs());
+    return;
+  }
+  if (log_ != nullptr) log_(log_context_, frame, true);
+  if (held_count_ == kHeldFrames) Flush();
+  LocalBusPacket& packet = held_packets_[held_count_++];
+  std::memcpy(&packet.frame, frame, sizeof(can_frame));
+  packet.stamp_ns = common::MonotonicNs();
+}
+
+void LocalBusRelay::Flush() {
+  const std::size_t count = held_count_;
+  if (count == 0) return;
+  held_count_ = 0;
+  iovec iov[kHeldFrames];
+  mmsghdr msgs[kHeldFrames];
+  for (std::size_t k = 0; k < count; ++k) {
+    iov[k] = {&held_packets_[k], sizeof(LocalBusPacket)};
+    msgs[k] = {};
+    msgs[k].msg_hdr.msg_iov = &iov[k];
+    msgs[k].msg_hdr.msg_iovlen = 1;
+  }
+  for (const int fd : nodes_) {
+    // Each packet once: a full node loses the rest (as a full FIFO), a partial send goes on
+    // with the packets after the ones it took.
+    std::size_t sent = 0;
+    while (sent < count) {
+      const int n = sendmmsg(fd, msgs + sent, static_cast<unsigned>(count - sent),
+                             MSG_DONTWAIT | MSG_NOSIGNAL);
+      if (n <= 0) break;
+      sent += static_cast<std::size_t>(n);
+    }
+    out_.fetch_add(sent, std::memory_order_relaxed);
+    dropped_.fetch_add(count - sent, std::memory_order_relaxed);
+  }
 }
 
 void LocalBusRelay::Forward(std::size_t from, const void* frame, std::int64_t stamp_ns) {
@@ -175,6 +210,7 @@ void LocalBusRelay::Accept() {
 
 void LocalBusRelay::Step(int timeout_ms) {
   if (listen_fd_ < 0) return;
+  Flush();
   std::vector<pollfd>& fds = fds_;
   fds.clear();
   const bool listening = common::MonotonicNs() >= listen_paused_until_ns_;

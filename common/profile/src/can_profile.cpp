@@ -4,6 +4,7 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>
@@ -44,7 +45,8 @@ constexpr const char* kCanOutNames[kNumCanOut] = {"command",
                                                   "status_safe_entries",
                                                   "status_model_force",
                                                   "status_demand",
-                                                  "status_command"};
+                                                  "status_command",
+                                                  "fault_reset"};
 
 // "Message.Signal" -> indices in the DBC.
 bool Resolve(const ProfileContext& c, const toml::node& n, const std::string& key, const Dbc& dbc,
@@ -113,6 +115,9 @@ bool Message(const ProfileContext& c, const toml::table& t, const std::string& n
       if (si < 0) return c.Fail(&v, full + ": expected the name of a signal of " + name);
       for (std::size_t r = 0; r < kNumCanIn + kNumCanOut; ++r) {
         const SignalRef ref = r < kNumCanIn ? p->inputs[r] : p->outputs[r - kNumCanIn];
+        // A sensor frame's rolling counter may be its sample number too (sensor_seq): it
+        // counts the frames the sensor sends.
+        if (key == "counter" && r == static_cast<std::size_t>(CanIn::kSensorSeq)) continue;
         if (ref.message == index && ref.signal == si) {
           return c.Fail(&v, full + ": the signal carries the role " +
                                 (r < kNumCanIn ? CanInName(static_cast<CanIn>(r))
@@ -184,6 +189,68 @@ bool Command(const ProfileContext& c, const toml::table& t, const std::string& d
   std::string why;
   if (!p->command.SetRange(min, max, slew, &why)) return c.Fail(&t, why);
   return true;
+}
+
+// What the command signal can carry (its field through factor and offset, within the DBC's
+// [min|max] when it gives one) against [command], and the safe state proved (command_section).
+bool CheckSetpointSignal(const ProfileContext& c, const toml::table& root, const CanProfile& p) {
+  const SignalRef ref = p.outputs[static_cast<std::size_t>(CanOut::kCommand)];
+  if (!ref.mapped()) return true;  // the set-point goes elsewhere (a [pwm] output)
+  const DbcMessage& msg = p.dbc.messages[static_cast<std::size_t>(ref.message)];
+  const DbcSignal& sig = msg.signals[static_cast<std::size_t>(ref.signal)];
+  const protocol::SignalLayout& l = sig.layout;
+  const double raw_lo = l.is_signed ? -std::ldexp(1.0, l.length - 1) : 0.0;
+  const double raw_hi =
+      l.is_signed ? std::ldexp(1.0, l.length - 1) - 1 : std::ldexp(1.0, l.length) - 1;
+  const double a = raw_lo * l.factor + l.offset, b = raw_hi * l.factor + l.offset;
+  SetpointCarrier carrier;
+  carrier.name =
+      msg.name + "." + sig.name + " (" + p.dbc.path + ":" + std::to_string(sig.line) + ")";
+  carrier.lo = std::min(a, b);
+  carrier.hi = std::max(a, b);
+  if (l.min != 0.0 || l.max != 0.0) {  // the DBC's range: a receiver refuses beyond it
+    carrier.lo = std::max(carrier.lo, l.min);
+    carrier.hi = std::min(carrier.hi, l.max);
+  }
+  carrier.step = std::fabs(l.factor);
+  const char* key = nullptr;
+  const std::string why = CheckCommandCarrier(p.command, p.command_unit, carrier, &key);
+  if (why.empty()) return true;
+  const toml::node* at = root.get("command");
+  if (at != nullptr && key != nullptr && at->is_table() && at->as_table()->get(key) != nullptr) {
+    at = at->as_table()->get(key);
+  }
+  const toml::node* role = root.at_path("outputs.command").node();
+  return c.Fail(at != nullptr ? at : role, why);
+}
+
+// fault_reset: a bit (unsigned, 1 bit, factor 1, offset 0) of a message the firmware sends
+// every control period, i.e. one carrying a command role.
+bool CheckFaultResetSignal(const ProfileContext& c, const toml::table& root, const CanProfile& p) {
+  const SignalRef ref = p.outputs[static_cast<std::size_t>(CanOut::kFaultReset)];
+  if (!ref.mapped()) return true;
+  const toml::node* at = root.at_path("outputs.fault_reset").node();
+  // The firmware resets only a fault the driver reports: without driver_faults it never edges.
+  if (!p.inputs[static_cast<std::size_t>(CanIn::kDriverFaults)].mapped()) {
+    return c.Fail(at,
+                  "outputs.fault_reset: the profile maps no driver_faults input (the reset "
+                  "edges only while the driver reports a fault)");
+  }
+  const protocol::SignalLayout& l = p.Layout(ref);
+  if (l.length != 1 || l.is_signed || l.factor != 1.0 || l.offset != 0.0) {
+    return c.Fail(at,
+                  "outputs.fault_reset: expected a bit (an unsigned 1-bit signal with factor "
+                  "1, offset 0); " +
+                      std::to_string(l.length) + " bits");
+  }
+  for (const CanOut r :
+       {CanOut::kCommand, CanOut::kEnable, CanOut::kEnableValid, CanOut::kSafe, CanOut::kEcho}) {
+    if (p.outputs[static_cast<std::size_t>(r)].message == ref.message) return true;
+  }
+  return c.Fail(at, "outputs.fault_reset: message " +
+                        p.dbc.messages[static_cast<std::size_t>(ref.message)].name +
+                        " is not a command frame the firmware sends every period (map "
+                        "command, enable, enable_valid, safe or echo to it)");
 }
 
 }  // namespace
@@ -331,6 +398,9 @@ bool ParseCanProfile(const std::string& text, const std::string& path, const std
       *error = path + ":1: name: missing (the profile's name, shown in logs and summaries)";
       return false;
     }
+    if (!CheckSetpointSignal(c, root, *out)) return false;
+    if (!CheckFaultResetSignal(c, root, *out)) return false;
+    out->digest = TextDigest(text, out->dbc.digest ^ out->command.digest());
   } catch (const std::exception& e) {
     *error = path + ": " + e.what();
     return false;

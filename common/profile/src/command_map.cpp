@@ -64,6 +64,7 @@ bool CommandMap::LoadCalibration(const std::string& path, std::string* error) {
     return false;
   }
   n_ = n;
+  digest_ = TextDigest(text);
   return true;
 }
 
@@ -102,6 +103,31 @@ double CommandMap::Invert(double u) const {
   while (!before(u, u_[i])) ++i;  // u between u_[i-1] and u_[i]
   const double t = (u - u_[i - 1]) / (u_[i] - u_[i - 1]);
   return e_[i - 1] + t * (e_[i] - e_[i - 1]);
+}
+
+double CommandMap::SafeSetpoint(double e) const {
+  double u = std::isfinite(e) ? Calibrate(e) : 0.0;
+  if (u < min_) u = min_;
+  if (u > max_) u = max_;
+  return u;
+}
+
+void CommandMap::Reach(double e_max, double* lo, double* hi) const {
+  if (has_range()) {
+    *lo = min_;
+    *hi = max_;
+    return;
+  }
+  const double a = SafeSetpoint(0.0), b = SafeSetpoint(e_max);
+  *lo = a < b ? a : b;
+  *hi = a < b ? b : a;
+}
+
+double CommandMap::Off() const {
+  double lo = 0.0, hi = 0.0;
+  // Without a range, the calibration's values for E >= 0 (held beyond its last point).
+  Reach(n_ >= 2 ? e_[n_ - 1] + 1.0 : 0.0, &lo, &hi);
+  return lo > 0.0 ? lo : hi < 0.0 ? hi : 0.0;
 }
 
 double CommandMap::Apply(double e, double dt_s) {

@@ -1,6 +1,7 @@
 #include "command_section.hpp"
 
 #include <cmath>
+#include <sstream>
 
 namespace mrd::profile {
 
@@ -42,6 +43,67 @@ bool ReadCommandSection(const toml::table& t, const std::string& dir, CommandSec
     }
   }
   return true;
+}
+
+std::string ShowNumber(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
+}
+
+std::string CheckCommandCarrier(const CommandMap& map, const std::string& unit,
+                                const SetpointCarrier& carrier, const char** key) {
+  // Half a raw step (rounding to the wire) and a relative margin for floats.
+  const auto tol = [&](double v) { return carrier.step / 2 + 1e-9 * (1.0 + std::fabs(v)); };
+  const auto inside = [&](double v) {
+    return v >= carrier.lo - tol(carrier.lo) && v <= carrier.hi + tol(carrier.hi);
+  };
+  // Built with a stream: GCC 12 sees a false -Wrestrict in long string concatenations.
+  std::ostringstream why;
+  why.precision(6);
+  const auto range = [&]() -> std::ostream& {
+    return why << "[" << carrier.lo << ", " << carrier.hi << "] " << unit;
+  };
+  *key = nullptr;
+  if (map.has_range()) {
+    for (const bool is_max : {true, false}) {
+      const double v = is_max ? map.max() : map.min();
+      if (inside(v)) continue;
+      *key = is_max ? "max" : "min";
+      why << "command." << *key << " " << v << " " << unit << " is beyond what " << carrier.name
+          << " can carry (";
+      range() << "): set-points there would be refused on the wire and replaced by the safe "
+                 "state (no current when the most is asked); give the driver's range within it";
+      return why.str();
+    }
+  } else if (map.points() >= 2) {
+    double lo = 0.0, hi = 0.0;
+    map.Reach(1e300, &lo, &hi);
+    if (!inside(lo) || !inside(hi)) {
+      why << "command.calibration reaches " << (inside(lo) ? hi : lo) << " " << unit
+          << ", beyond what " << carrier.name << " can carry (";
+      range() << "); give [command] min and max within it";
+      return why.str();
+    }
+  }
+  const double safe = map.SafeSetpoint(0.0), off = map.Off();
+  if (!inside(safe)) {
+    why << "the safe state (E = 0 V) gives " << safe << " " << unit << ", beyond what "
+        << carrier.name << " can carry (";
+    range() << ")";
+    return why.str();
+  }
+  if (std::fabs(safe - off) > tol(off)) {
+    why << "the safe state (E = 0 V; also the shutdown's last command) gives " << safe << " "
+        << unit << " on " << carrier.name << ", not the driver's off (" << off << " " << unit
+        << "): "
+        << (map.decreasing() ? "the calibration falls as E rises, so 0 V is its most current"
+                             : "the calibration does not give the off value at 0 V")
+        << "; a driver without an enable would be driven in every safe period";
+    return why.str();
+  }
+  return "";
 }
 
 }  // namespace mrd::profile

@@ -20,4 +20,22 @@ struct CommandSection {
 bool ReadCommandSection(const toml::table& t, const std::string& dir, CommandSection* out,
                         CommandMap* map, const toml::node** bad, std::string* why);
 
+// What the set-point's signal or register can carry, in the driver's unit: [lo, hi] and the
+// smallest step (0: a float); `name` says which ("DriveRpdo1.TargetCurrent (drive.dbc:12)").
+struct SetpointCarrier {
+  std::string name;
+  double lo = 0.0, hi = 0.0, step = 0.0;
+};
+
+// The command against its carrier, and the safe state proved from the profile alone: "" or
+// the reason (the caller names the [command] line). Refused: a [command] min or max beyond
+// what the carrier holds (the safe state would replace the very set-points beyond it); a
+// calibration (without a range) reaching beyond it; and a safe state (E = 0 V: the firmware's
+// shutdown, and its safe state at the default safe_voltage) that is not the driver's off
+// (CommandMap::Off: a decreasing calibration, or one that does not start at the off value).
+std::string CheckCommandCarrier(const CommandMap& map, const std::string& unit,
+                                const SetpointCarrier& carrier, const char** key);
+// A number as the errors show it (up to 6 significant digits).
+std::string ShowNumber(double v);
+
 }  // namespace mrd::profile

@@ -128,6 +128,12 @@ bool SemicolonStatement(std::string_view kw) {
   return false;
 }
 
+// Every statement keyword the parser knows (the start of a statement).
+bool IsKeyword(std::string_view kw) {
+  return kw == "VERSION" || kw == "NS_" || kw == "BS_" || kw == "BU_" || kw == "BO_" ||
+         kw == "SG_" || SemicolonStatement(kw);
+}
+
 class Parser {
  public:
   Parser(const std::string& path, Dbc* out, std::string* error)
@@ -297,7 +303,10 @@ const DbcMessage* Dbc::Find(std::string_view message) const {
 bool ParseDbc(std::string_view text, const std::string& path, Dbc* out, std::string* error) {
   *out = Dbc{};
   out->path = path;
+  out->digest = TextDigest(text);
   Parser p(path, out, error);
+  // A UTF-8 byte-order mark (editors on Windows write one) is no text of the file.
+  if (text.size() >= 3 && text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
   std::size_t pos = 0;
   int line = 1;
   while (pos < text.size()) {
@@ -317,8 +326,7 @@ bool ParseDbc(std::string_view text, const std::string& path, Dbc* out, std::str
       continue;
     }
     std::size_t end = eol;
-    if (kw != "VERSION" && kw != "NS_" && kw != "BS_" && kw != "BU_" && kw != "BO_" &&
-        kw != "SG_" && !SemicolonStatement(kw)) {
+    if (!IsKeyword(kw)) {
       return p.Fail(line, "unexpected text '" + std::string(first.substr(0, 40)) +
                               "' (not a DBC keyword this parser knows)");
     }
@@ -334,11 +342,23 @@ bool ParseDbc(std::string_view text, const std::string& path, Dbc* out, std::str
         end = next_eol;
       }
     } else if (SemicolonStatement(kw)) {
+      // Up to its ';' outside quotes. It may span lines (a comment's text does), but a line
+      // that begins with a keyword is the next statement: this one lacks its ';' (else it
+      // would swallow the statements that follow).
       bool quoted = false;
       std::size_t i = pos;
+      int at = line;
       for (; i < text.size(); ++i) {
         if (text[i] == '"') quoted = !quoted;
         if (text[i] == ';' && !quoted) break;
+        if (text[i] != '\n' || quoted) continue;
+        ++at;
+        std::string next_kw;
+        Scanner next(text.substr(i + 1, text.find('\n', i + 1) - (i + 1)), at);
+        if (next.Ident(&next_kw) && IsKeyword(next_kw)) {
+          return p.Fail(line, kw + " statement without its closing ';' (line " +
+                                  std::to_string(at) + " begins the next statement)");
+        }
       }
       if (i >= text.size()) return p.Fail(line, kw + " statement without its closing ';'");
       end = i;

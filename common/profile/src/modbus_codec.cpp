@@ -21,8 +21,8 @@ void Put16(std::uint8_t* p, int v) {
 int Get16(const std::uint8_t* p) { return (p[0] << 8) | p[1]; }
 
 // Raw words (w[0] at the lower address) -> physical value.
-double Decode(const ModbusProfile& p, const ModbusPoint& pt, std::uint16_t w0, std::uint16_t w1) {
-  const std::uint32_t hi = p.swapped ? w1 : w0, lo = p.swapped ? w0 : w1;
+double Decode(const ModbusPoint& pt, std::uint16_t w0, std::uint16_t w1) {
+  const std::uint32_t hi = pt.swapped ? w1 : w0, lo = pt.swapped ? w0 : w1;
   const std::uint32_t u32 = (hi << 16) | lo;
   double raw = 0.0;
   switch (pt.type) {
@@ -52,8 +52,7 @@ double Decode(const ModbusProfile& p, const ModbusPoint& pt, std::uint16_t w0, s
 }
 
 // Physical value -> raw words; false when the type cannot hold it.
-bool Encode(const ModbusProfile& p, const ModbusPoint& pt, double value, std::uint16_t* w0,
-            std::uint16_t* w1) {
+bool Encode(const ModbusPoint& pt, double value, std::uint16_t* w0, std::uint16_t* w1) {
   if (!std::isfinite(value)) return false;
   const double raw = (value - pt.offset) / pt.scale;
   if (!std::isfinite(raw)) return false;
@@ -89,8 +88,8 @@ bool Encode(const ModbusProfile& p, const ModbusPoint& pt, double value, std::ui
     }
   }
   const auto hi = static_cast<std::uint16_t>(u32 >> 16), lo = static_cast<std::uint16_t>(u32);
-  *w0 = p.swapped ? lo : hi;
-  *w1 = p.swapped ? hi : lo;
+  *w0 = pt.swapped ? lo : hi;
+  *w1 = pt.swapped ? hi : lo;
   return true;
 }
 
@@ -123,39 +122,40 @@ ModbusReply CheckModbusRead(const ModbusRequest& r, const std::uint8_t* pdu, int
   return ModbusReply::kOk;
 }
 
-double ModbusPointValue(const ModbusProfile& p, const ModbusPoint& pt, const std::uint8_t* pdu) {
+double ModbusPointValue(const ModbusProfile& /*p: the point carries its word order*/,
+                        const ModbusPoint& pt, const std::uint8_t* pdu) {
   const std::uint8_t* data = pdu + 2;
   if (IsBit(pt.table)) {
     const int i = pt.index;
-    return Decode(p, pt, static_cast<std::uint16_t>((data[i / 8] >> (i % 8)) & 1U), 0);
+    return Decode(pt, static_cast<std::uint16_t>((data[i / 8] >> (i % 8)) & 1U), 0);
   }
   const auto w0 = static_cast<std::uint16_t>(Get16(data + 2 * pt.index));
   const auto w1 = pt.count() == 2 ? static_cast<std::uint16_t>(Get16(data + 2 * pt.index + 2))
                                   : std::uint16_t{0};
-  return Decode(p, pt, w0, w1);
+  return Decode(pt, w0, w1);
 }
 
-bool PutModbusPoint(const ModbusProfile& p, const ModbusPoint& pt, double value,
-                    std::uint16_t* words) {
+bool PutModbusPoint(const ModbusProfile& /*p: the point carries its word order*/,
+                    const ModbusPoint& pt, double value, std::uint16_t* words) {
   std::uint16_t w0 = 0, w1 = 0;
-  if (!Encode(p, pt, value, &w0, &w1)) return false;
+  if (!Encode(pt, value, &w0, &w1)) return false;
   words[pt.index] = w0;
   if (pt.count() == 2) words[pt.index + 1] = w1;
   return true;
 }
 
-bool StoreModbusPoint(const ModbusProfile& p, const ModbusPoint& pt, double value,
-                      std::uint16_t* table_words) {
+bool StoreModbusPoint(const ModbusProfile& /*p: the point carries its word order*/,
+                      const ModbusPoint& pt, double value, std::uint16_t* table_words) {
   std::uint16_t w0 = 0, w1 = 0;
-  if (!Encode(p, pt, value, &w0, &w1)) return false;
+  if (!Encode(pt, value, &w0, &w1)) return false;
   table_words[pt.address] = w0;
   if (pt.count() == 2) table_words[pt.address + 1] = w1;
   return true;
 }
 
-double LoadModbusPoint(const ModbusProfile& p, const ModbusPoint& pt,
-                       const std::uint16_t* table_words) {
-  return Decode(p, pt, table_words[pt.address],
+double LoadModbusPoint(const ModbusProfile& /*p: the point carries its word order*/,
+                       const ModbusPoint& pt, const std::uint16_t* table_words) {
+  return Decode(pt, table_words[pt.address],
                 pt.count() == 2 ? table_words[pt.address + 1] : std::uint16_t{0});
 }
 

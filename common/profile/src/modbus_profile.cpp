@@ -5,6 +5,7 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <map>
 #include <tuple>
@@ -27,7 +28,8 @@ constexpr const char* kOutNames[kNumModbusOut] = {"command",
                                                   "status_safe_entries",
                                                   "status_model_force",
                                                   "status_demand",
-                                                  "status_command"};
+                                                  "status_command",
+                                                  "fault_reset"};
 
 constexpr int kMaxReadRegisters = 125;   // 0x03 / 0x04
 constexpr int kMaxReadBits = 2000;       // 0x01 / 0x02
@@ -50,15 +52,17 @@ std::uint8_t ReadFunction(ModbusTable t) {
   return 0x03;
 }
 
-// One role's inline table: { unit, table, address, type, scale, offset }.
+// One role's inline table: { unit, table, address, type, scale, offset, word_order }.
 bool Point(const ProfileContext& c, const toml::node& n, const std::string& full, bool output,
-           ModbusPoint* pt) {
+           bool swapped, ModbusPoint* pt) {
   const toml::table* t = n.as_table();
   if (t == nullptr) {
     return c.Fail(&n, full + ": expected { unit = ..., table = ..., address = ..., type = ... }");
   }
   *pt = ModbusPoint{};
   pt->mapped = true;
+  pt->swapped = swapped;  // the profile's word order unless the point gives its own
+  const toml::node* order_node = nullptr;
   pt->line = static_cast<int>(n.source().begin.line);
   bool have_unit = false, have_table = false, have_address = false;
   const toml::node* type_node = nullptr;
@@ -113,8 +117,16 @@ bool Point(const ProfileContext& c, const toml::node& n, const std::string& full
                                                : ": expected a finite number"));
       }
       (key == "scale" ? pt->scale : pt->offset) = *d;
+    } else if (key == "word_order") {
+      const auto s = v.value<std::string>();
+      if (!s || (*s != "big" && *s != "swapped")) {
+        return c.Fail(&v, at + ": expected \"big\" (high word first) or \"swapped\"");
+      }
+      pt->swapped = *s == "swapped";
+      order_node = &v;
     } else {
-      return c.Fail(&v, at + ": unknown key (unit, table, address, type, scale, offset)");
+      return c.Fail(&v, at + ": unknown key (unit, table, address, type, scale, offset, "
+                             "word_order)");
     }
   }
   if (!have_unit || !have_table || !have_address) {
@@ -125,6 +137,9 @@ bool Point(const ProfileContext& c, const toml::node& n, const std::string& full
       return c.Fail(type_node, full + ": a coil or discrete input is one bit: no type");
     }
     pt->type = ModbusType::kBit;
+  }
+  if (order_node != nullptr && pt->count() != 2) {
+    return c.Fail(order_node, full + ": word_order is for 32-bit values (int32, uint32, float32)");
   }
   if (output && (pt->table == ModbusTable::kInput || pt->table == ModbusTable::kDiscrete)) {
     return c.Fail(&n, full + ": an output goes to a writable table (holding, coil)");
@@ -271,10 +286,16 @@ bool ReadModbusKeys(const ProfileContext& c, const toml::table& modbus, ModbusPr
         return c.Fail(&v, full + ": registers per read outside 1..125 (the Modbus limit)");
       }
       out->max_read = static_cast<int>(*n);
-    } else if (key != "inputs" && key != "outputs") {
+    } else if (key == "fault_reset_ms") {
+      const auto n = v.value<std::int64_t>();
+      if (!n || *n < 100 || *n > 600000) {
+        return c.Fail(&v, full + ": expected an integer in 100..600000 [ms]");
+      }
+      out->fault_reset_ms = static_cast<int>(*n);
+    } else if (key != "inputs" && key != "outputs" && key != "startup" && key != "periodic") {
       return c.Fail(&v, full +
                             ": unknown key (word_order, write_function, align32, max_read, "
-                            "inputs, outputs)");
+                            "fault_reset_ms, inputs, outputs, startup, periodic)");
     }
   }
   return true;
@@ -310,7 +331,7 @@ bool ReadRoles(const ProfileContext& c, const toml::table& modbus, const char* s
     }
     // toml++ refuses a key twice in one table; a role is mapped once by construction.
     ModbusPoint& pt = points[r];
-    if (!Point(c, v, full, output, &pt)) return false;
+    if (!Point(c, v, full, output, profile.swapped, &pt)) return false;
     if (profile.align32 && pt.count() == 2 && pt.address % 2 != 0) {
       return c.Fail(&v, full + ": 32-bit value at odd address " + std::to_string(pt.address) +
                             " (align32: the device needs even addresses)");
@@ -332,6 +353,93 @@ bool ReadRoles(const ProfileContext& c, const toml::table& modbus, const char* s
   return true;
 }
 
+// [[modbus.startup]] or [[modbus.periodic]]: fixed writes, each { unit, table, address,
+// value } (periodic: period_ms, watchdog_ms), never on a register a role carries.
+bool ReadFixedWrites(const ProfileContext& c, const toml::table& modbus, const char* section,
+                     const RegisterOwners& owner, std::vector<ModbusFixedWrite>* out) {
+  const toml::node* node = modbus.get(section);
+  if (node == nullptr) return true;
+  const bool periodic = std::string(section) == "periodic";
+  const std::string sec = std::string("modbus.") + section;
+  const toml::array* arr = node->as_array();
+  if (arr == nullptr) return c.Fail(node, sec + ": expected [[" + sec + "]] entries");
+  for (const toml::node& n : *arr) {
+    const toml::table* t = n.as_table();
+    if (t == nullptr) return c.Fail(&n, sec + ": expected { unit, table, address, value }");
+    ModbusFixedWrite w;
+    w.line = static_cast<int>(n.source().begin.line);
+    bool have[4] = {false, false, false, false};  // unit, table, address, value
+    const auto integer = [&](const toml::node& v, const std::string& at, std::int64_t lo,
+                             std::int64_t hi, std::int64_t* x) {
+      const auto i = v.value<std::int64_t>();
+      if (!i || *i < lo || *i > hi) {
+        return c.Fail(
+            &v, at + ": expected an integer in " + std::to_string(lo) + ".." + std::to_string(hi));
+      }
+      *x = *i;
+      return true;
+    };
+    for (const auto& [k, v] : *t) {
+      const std::string key(k.str());
+      const std::string at = sec + "." + key;
+      std::int64_t x = 0;
+      if (key == "unit") {
+        if (!integer(v, at, 1, 247, &x)) return false;
+        w.unit = static_cast<std::uint8_t>(x);
+        have[0] = true;
+      } else if (key == "table") {
+        const auto s = v.value<std::string>();
+        if (s && *s == "holding") {
+          w.table = ModbusTable::kHolding;
+        } else if (s && *s == "coil") {
+          w.table = ModbusTable::kCoil;
+        } else {
+          return c.Fail(&v, at + ": a fixed write goes to a writable table (holding, coil)");
+        }
+        have[1] = true;
+      } else if (key == "address") {
+        if (!integer(v, at, 0, 65535, &x)) return false;
+        w.address = static_cast<int>(x);
+        have[2] = true;
+      } else if (key == "value") {
+        if (!integer(v, at, 0, 65535, &x)) return false;
+        w.value = static_cast<std::uint16_t>(x);
+        have[3] = true;
+      } else if (periodic && key == "period_ms") {
+        if (!integer(v, at, 1, 60000, &x)) return false;
+        w.period_ms = static_cast<int>(x);
+      } else if (periodic && key == "watchdog_ms") {
+        if (!integer(v, at, 1, 60000, &x)) return false;
+        w.watchdog_ms = static_cast<int>(x);
+      } else {
+        return c.Fail(&v, at + (periodic ? ": unknown key (unit, table, address, value, "
+                                           "period_ms, watchdog_ms)"
+                                         : ": unknown key (unit, table, address, value)"));
+      }
+    }
+    if (!have[0] || !have[1] || !have[2] || !have[3]) {
+      return c.Fail(&n, sec + ": needs unit, table, address and value");
+    }
+    if (periodic && w.period_ms == 0) return c.Fail(&n, sec + ": needs period_ms");
+    if (w.watchdog_ms != 0 && w.watchdog_ms <= w.period_ms) {
+      return c.Fail(t->get("watchdog_ms"),
+                    sec + ".watchdog_ms: " + std::to_string(w.watchdog_ms) +
+                        " ms is not above period_ms (" + std::to_string(w.period_ms) +
+                        " ms): the driver would drop its coil between two writes");
+    }
+    if (w.table == ModbusTable::kCoil && w.value > 1) {
+      return c.Fail(t->get("value"), sec + ".value: a coil is 0 or 1");
+    }
+    const auto at = std::make_tuple(int{w.unit}, static_cast<int>(w.table), w.address);
+    if (const auto it = owner.find(at); it != owner.end()) {
+      return c.Fail(&n, sec + ": register " + std::to_string(w.address) + " of unit " +
+                            std::to_string(w.unit) + " already carries " + it->second);
+    }
+    out->push_back(w);
+  }
+  return true;
+}
+
 // The request carrying the command goes last (the harness takes it as the cycle's end).
 void PutCommandLast(ModbusProfile* out) {
   ModbusPoint& cmd = out->outputs[static_cast<std::size_t>(ModbusOut::kCommand)];
@@ -348,6 +456,53 @@ void PutCommandLast(ModbusProfile* out) {
       --pt.request;
     }
   }
+}
+
+// What the command register can carry (its type through scale and offset) against
+// [command], and the safe state proved (command_section).
+bool CheckSetpointRegister(const ProfileContext& c, const toml::table& root,
+                           const ModbusProfile& p) {
+  const ModbusPoint& pt = p.Out(ModbusOut::kCommand);
+  if (!pt.mapped) return true;
+  double raw_lo = 0.0, raw_hi = 1.0, step = std::fabs(pt.scale);
+  switch (pt.type) {
+    case ModbusType::kInt16:
+      raw_lo = -32768.0;
+      raw_hi = 32767.0;
+      break;
+    case ModbusType::kUint16:
+      raw_hi = 65535.0;
+      break;
+    case ModbusType::kInt32:
+      raw_lo = -2147483648.0;
+      raw_hi = 2147483647.0;
+      break;
+    case ModbusType::kUint32:
+      raw_hi = 4294967295.0;
+      break;
+    case ModbusType::kFloat32:
+      raw_lo = -static_cast<double>(FLT_MAX);
+      raw_hi = static_cast<double>(FLT_MAX);
+      step = 0.0;
+      break;
+    case ModbusType::kBit:
+      break;
+  }
+  const double a = raw_lo * pt.scale + pt.offset, b = raw_hi * pt.scale + pt.offset;
+  SetpointCarrier carrier;
+  carrier.name =
+      std::string("the command register (") + p.path + ":" + std::to_string(pt.line) + ")";
+  carrier.lo = std::min(a, b);
+  carrier.hi = std::max(a, b);
+  carrier.step = step;
+  const char* key = nullptr;
+  const std::string why = CheckCommandCarrier(p.command, p.command_unit, carrier, &key);
+  if (why.empty()) return true;
+  const toml::node* at = root.get("command");
+  if (at != nullptr && key != nullptr && at->is_table() && at->as_table()->get(key) != nullptr) {
+    at = at->as_table()->get(key);
+  }
+  return c.Fail(at != nullptr ? at : root.at_path("modbus.outputs.command").node(), why);
 }
 
 }  // namespace
@@ -374,11 +529,23 @@ bool ParseModbusProfile(const std::string& text, const std::string& path, Modbus
                    &owner)) {
       return false;
     }
+    // The firmware resets only a fault the driver reports: without driver_faults it never edges.
+    if (out->Out(ModbusOut::kFaultReset).mapped && !out->In(CanIn::kDriverFaults).mapped) {
+      return c.Fail(modbus->at_path("outputs.fault_reset").node(),
+                    "modbus.outputs.fault_reset: the profile maps no driver_faults input (the "
+                    "reset edges only while the driver reports a fault)");
+    }
+    if (!ReadFixedWrites(c, *modbus, "startup", owner, &out->startup) ||
+        !ReadFixedWrites(c, *modbus, "periodic", owner, &out->periodic)) {
+      return false;
+    }
     const bool single = out->write_function == 6;
     Group(out->inputs, ModbusProfile::kMaxGap, out->max_read, kMaxReadBits, false, false,
           &out->reads);
     Group(out->outputs, 0, kMaxWriteRegisters, kMaxWriteBits, single, true, &out->writes);
     PutCommandLast(out);
+    if (!CheckSetpointRegister(c, root, *out)) return false;
+    out->digest = TextDigest(text, out->command.digest());
   } catch (const std::exception& e) {
     *error = path + ": " + e.what();
     return false;

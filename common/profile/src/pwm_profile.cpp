@@ -79,6 +79,11 @@ bool Command(const ProfileContext& c, const toml::node* node, const std::string&
   }
   std::string why;
   if (!p->command.SetRange(min, max, slew, &why)) return c.Fail(t, why);
+  // The duty carries [min, max] (min_duty..max_duty); the safe state must be its off.
+  SetpointCarrier carrier{"the PWM duty (min_duty..max_duty)", min, max, 0.0};
+  const char* key = nullptr;
+  why = CheckCommandCarrier(p->command, p->command_unit, carrier, &key);
+  if (!why.empty()) return c.Fail(t, why);
   return true;
 }
 
@@ -127,7 +132,9 @@ bool ParsePwmProfile(const std::string& text, const std::string& path, PwmProfil
                     "min_duty, max_duty)");
     if (!pwm->is_table()) return c.Fail(pwm, "pwm: expected a table");
     if (!Pwm(c, *pwm->as_table(), out)) return false;
-    return Command(c, root.get("command"), ProfileDirectory(path), out);
+    if (!Command(c, root.get("command"), ProfileDirectory(path), out)) return false;
+    out->digest = TextDigest(text, out->command.digest());
+    return true;
   } catch (const std::exception& e) {
     *error = path + ": " + e.what();
     return false;

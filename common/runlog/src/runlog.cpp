@@ -357,6 +357,13 @@ double Value(const Log& log, const std::vector<std::uint32_t>& offsets, std::uin
   return 0.0;
 }
 
+std::uint64_t Bits(const Log& log, const std::vector<std::uint32_t>& offsets, std::uint64_t r,
+                   std::size_t i) {
+  const std::uint8_t* p =
+      log.records.data() + static_cast<std::size_t>(r * log.header.record_bytes() + offsets[i]);
+  return Get(p, static_cast<int>(TypeSize(log.header.fields[i].type)));
+}
+
 int FieldIndex(const Header& header, std::string_view name) {
   for (std::size_t i = 0; i < header.fields.size(); ++i) {
     if (header.fields[i].name == name) return static_cast<int>(i);

@@ -160,7 +160,7 @@ void CanDevice::Deactivate() {
     // (a refused CANopen start-up): it never drove, and a command would read as a sign of life.
     if (active_ && (config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
       const std::int64_t now = common::MonotonicNs();
-      (void)SendCommand(DriverCommand{0.0, false, true, 0}, now);
+      (void)SendCommand(DriverCommand{0.0, false, true, 0}, now, false);
       iface_.Flush(now);
     }
     iface_.Close();
@@ -390,7 +390,12 @@ IoStatus CanDevice::Write(const IoTime& io, const DriverCommand& cmd, IoError* w
       *why = IoError::kTimeout;
       return IoStatus::kFault;
     }
-    ok = SendCommand(cmd, now);
+    // fault_reset: an edge while the driver reports a (latched) fault and the firmware has no
+    // other cause, at most once per fault_reset_ms of device time (granted time in lockstep).
+    const bool reset =
+        Out(*profile_, pf::CanOut::kFaultReset).mapped() &&
+        reset_rule_.Edge(driver_faults_ != 0, active_causes_, Now(now), config_.fault_reset_ns);
+    ok = SendCommand(cmd, now, reset);
   }
   const std::int64_t t = Now(now);  // schedules run in granted time in lockstep
   if ((out & Bit(Output::kHeartbeat)) != 0 && t >= next_heartbeat_ns_) {
@@ -414,6 +419,7 @@ IoStatus CanDevice::Write(const IoTime& io, const DriverCommand& cmd, IoError* w
 }
 
 void CanDevice::PublishStatus(const IoTime& io, const TelemetrySnapshot& stats) {
+  active_causes_ = stats.active_causes;  // the next Write's fault_reset rule
   if ((config_.outputs & Bit(Output::kStatus)) == 0 || !iface_.is_open()) return;
   const std::int64_t now = io.wall_ns;
   const std::int64_t t = Now(now);
@@ -441,7 +447,7 @@ void CanDevice::PublishStatus(const IoTime& io, const TelemetrySnapshot& stats) 
   Publish();
 }
 
-bool CanDevice::SendCommand(const DriverCommand& cmd, std::int64_t now) {
+bool CanDevice::SendCommand(const DriverCommand& cmd, std::int64_t now, bool reset) {
   const pf::CanProfile& p = *profile_;
   const bool enable_routed = (config_.outputs & Bit(Output::kEnable)) != 0;
   // The profile's way from E to the driver's set-point; the safe state is not slew-limited.
@@ -450,7 +456,7 @@ bool CanDevice::SendCommand(const DriverCommand& cmd, std::int64_t now) {
   bool ok = true;
   for (const int m : command_msgs_) {
     can_frame f{};
-    const auto fill = [&](double sp, bool enable, bool safe) {
+    const auto fill = [&](double sp, bool enable, bool safe, bool pulse) {
       codec_.Begin(m, &f);
       bool fits = true;
       const auto set = [&](pf::CanOut role, double v) {
@@ -462,14 +468,16 @@ bool CanDevice::SendCommand(const DriverCommand& cmd, std::int64_t now) {
       set(pf::CanOut::kEnableValid, enable_routed ? 1.0 : 0.0);
       set(pf::CanOut::kSafe, safe ? 1.0 : 0.0);
       set(pf::CanOut::kEcho, static_cast<double>(last_seq_ & EchoMask(p)));
+      set(pf::CanOut::kFaultReset, pulse ? 1.0 : 0.0);
       return fits;
     };
-    if (!std::isfinite(cmd.volts) || !fill(setpoint, cmd.enable, cmd.safe)) {
-      // Not representable (never from the loop within the profile's range): the safe state
-      // instead, and the write reported as failed.
+    if (!std::isfinite(cmd.volts) || !fill(setpoint, cmd.enable, cmd.safe, reset)) {
+      // Not representable (never from the loop: the configuration proves its range): the
+      // safe state instead (the set-point of 0 V, which the configuration proves is the
+      // driver's off), and the write reported as failed.
       Count(IoError::kBadValue);
       ok = false;
-      (void)fill(0.0, false, true);
+      (void)fill(p.command.SafeSetpoint(0.0), false, true, false);
     }
     codec_.Seal(m, &f);
     ok = Send(f, now) && ok;

@@ -58,11 +58,8 @@ bool CanDevice::StartCanopen(std::string* error) {
   const std::int64_t timeout = config_.lockstep && canopen_->sdo_timeout_ns < kLockstepSdoTimeoutNs
                                    ? kLockstepSdoTimeoutNs
                                    : canopen_->sdo_timeout_ns;
-  if (canopen_->nmt_start) {
-    const std::int64_t now = common::MonotonicNs();
-    SendNmtStart(now);
-    iface_.Flush(now);
-  }
+  // The SDO list first, then NMT start (as after a re-boot): a refused or unanswered download
+  // leaves the drive pre-operational, never operational and unconfigured.
   for (std::size_t i = 0; i < sdo_frames_.size(); ++i) {
     const profile::SdoDownload& s = canopen_->sdo[i];
     std::int64_t now = common::MonotonicNs();
@@ -73,6 +70,7 @@ bool CanDevice::StartCanopen(std::string* error) {
       return false;
     }
     bool answered = false;
+    char other[64] = "";  // the last SDO response that answered something else
     while (!answered) {
       now = common::MonotonicNs();
       iface_.Flush(now);
@@ -88,6 +86,10 @@ bool CanDevice::StartCanopen(std::string* error) {
             return false;
           }
           answered = reply == co::SdoReply::kAck;
+          if (!answered) {
+            std::snprintf(other, sizeof other, "a response (0x%02X) for 0x%04X:%02X", f.data[0],
+                          static_cast<unsigned>(f.data[1] | f.data[2] << 8), f.data[3]);
+          }
         } else {
           // Sensors, grants, the drive's heartbeat: taken as in the loop.
           (void)Handle(f, stamp, now);
@@ -102,6 +104,14 @@ bool CanDevice::StartCanopen(std::string* error) {
       if (now >= until) {
         char id[8];
         std::snprintf(id, sizeof id, "%03X", co::SdoResponseId(canopen_->node_id));
+        if (other[0] != '\0') {  // it answered, but not this download
+          *error = "can: drive (node " + std::to_string(canopen_->node_id) + ") answered SDO " +
+                   profile::DescribeSdo(s) + " with " + other +
+                   ", not for the object downloaded (a wrong index or subindex, or a reply "
+                   "that is no download confirmation), and no confirmation within " +
+                   std::to_string(timeout / 1'000'000) + " ms";
+          return false;
+        }
         *error = "can: drive (node " + std::to_string(canopen_->node_id) + ") did not answer SDO " +
                  profile::DescribeSdo(s) + " within " + std::to_string(timeout / 1'000'000) +
                  " ms (no SDO response on 0x" + id + ")";
@@ -113,6 +123,11 @@ bool CanDevice::StartCanopen(std::string* error) {
       (void)ppoll(&p, 1, &ts, nullptr);
     }
     ++sdo_downloads_;
+  }
+  if (canopen_->nmt_start) {
+    const std::int64_t now = common::MonotonicNs();
+    SendNmtStart(now);
+    iface_.Flush(now);
   }
   return true;
 }

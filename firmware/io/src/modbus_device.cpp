@@ -77,11 +77,9 @@ ModbusDevice::ModbusDevice(const ModbusConfig& config)
       waker_(std::make_unique<Waker>(*this)) {
   if (profile_ != nullptr) {
     command_map_ = profile_->command;
-    const double sp = command_map_.Calibrate(0.0);
-    safe_setpoint_ = sp < command_map_.min()   ? command_map_.min()
-                     : sp > command_map_.max() ? command_map_.max()
-                                               : sp;
+    safe_setpoint_ = command_map_.SafeSetpoint(0.0);   // the driver's off (proved at load)
     words_ = std::make_unique<std::uint16_t[]>(2000);  // the largest request (bits)
+    periodic_due_ = std::make_unique<std::int64_t[]>(profile_->periodic.size() + 1);
   }
 }
 
@@ -139,6 +137,17 @@ bool ModbusDevice::Activate(std::string* error) {
     while (common::MonotonicNs() < until &&
            !(sample_.TryRead(&s) && (s.accepted > 0 || s.read_failed || s.write_failed))) {
       SleepUntil(common::MonotonicNs() + 100'000);
+    }
+    if (const int refused = startup_refused_.load(); refused > 0) {
+      const profile::ModbusFixedWrite& w = profile_->startup[static_cast<std::size_t>(refused - 1)];
+      char code[8];
+      std::snprintf(code, sizeof code, "0x%02X", startup_exception_.load());
+      *error = "modbus: " + profile_->path + ":" + std::to_string(w.line) +
+               ": the start-up write of unit " + std::to_string(w.unit) +
+               (w.table == profile::ModbusTable::kCoil ? " coil " : " holding register ") +
+               std::to_string(w.address) + " = " + std::to_string(w.value) +
+               " was refused (exception " + code + ")";
+      return false;
     }
   }
   if (config_.priority > 0) {
@@ -231,6 +240,10 @@ bool ModbusDevice::Connect(Sample* s) {
   resync_ = false;
   unanswered_since_ns_ = 0;
   have_seq_ = false;  // a new peer may restart its sequence
+  started_ = false;   // the profile's start-up writes go out again, periodic ones at once
+  if (periodic_due_ != nullptr) {
+    for (std::size_t i = 0; i < profile_->periodic.size(); ++i) periodic_due_[i] = 0;
+  }
   return true;
 }
 
@@ -399,6 +412,8 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
           break;
         }
         s.read_failed = false;
+        s.fault_line = b.fault_line;         // on every good read, as the profile's
+        s.driver_fault = b.driver_fault;     // honoured whether or not fault_line is routed
         if (!have_seq_ || b.seq != s.seq) {  // a repeated seq is not new data
           have_seq_ = true;
           s.seq = b.seq;
@@ -408,7 +423,6 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
           s.value(Input::kDemand) = b.demand;
           s.value(Input::kBodyVelocity) = b.body_velocity;
           s.value(Input::kForce) = b.force;
-          s.fault_line = b.fault_line || b.driver_fault;
           ++s.accepted;
           rx_ok_.fetch_add(1, std::memory_order_relaxed);
         }
@@ -444,9 +458,22 @@ ModbusDevice::CycleEnd ModbusDevice::Cycle(Sample* s, int* timed_out_cycles, boo
   const bool reads = config_.inputs != 0 || config_.lockstep;
   const bool writes = config_.outputs != 0;
   timed_out_ = false;
+  if (profile_ != nullptr && !started_) {
+    if (!StartUpWrites(s)) {
+      sample_.Write(*s);
+      EndSession();
+      *timed_out_cycles = 0;
+      return CycleEnd::kSessionEnded;
+    }
+    started_ = true;
+  }
   Outcome w = Outcome::kNothing, r = Outcome::kNothing;
   if (writes) w = WriteLatest(s);
   if (reads && w != Outcome::kAbandoned && !link_->broken()) r = ReadSensors(s, new_grant);
+  if (profile_ != nullptr && w != Outcome::kAbandoned && r != Outcome::kAbandoned &&
+      !link_->broken()) {
+    PeriodicWrites(s);
+  }
   if (!s->read_failed && !s->write_failed) s->why = IoError::kNone;
   sample_.Write(*s);
 
@@ -514,10 +541,12 @@ IoStatus ModbusDevice::Read(const IoTime& t, SensorFrame* frame, IoError* why) {
     MergeRouted(config_.inputs, frame, [&s](Input i) {
       return Stamped{s.values[static_cast<std::size_t>(i)], s.stamp_ns};
     });
-    // OR, not overwrite: a CAN driver's fault bits may have set it already this period.
+    // OR, not overwrite: a CAN driver's fault bits may have set it already this period. A
+    // fault the current driver reports is the fault line whatever the routing (as on CAN).
     if ((config_.inputs & Bit(Input::kFaultLine)) != 0) {
       frame->fault_line = frame->fault_line || s.fault_line;
     }
+    frame->fault_line = frame->fault_line || s.driver_fault;
   }
   if (s.read_failed) {
     *why = s.why;
@@ -573,6 +602,7 @@ void ModbusDevice::PublishStatus(const IoTime& t, const TelemetrySnapshot& stats
   (void)t;
   status_causes_.store(static_cast<std::uint16_t>(stats.active_causes & 0xFFFFU),
                        std::memory_order_relaxed);
+  causes_known_.store(true, std::memory_order_relaxed);
   status_ticks_.store(static_cast<std::uint32_t>(stats.ticks & 0xFFFFFFFFU),
                       std::memory_order_relaxed);
   status_model_force_.store(stats.model_force_n, std::memory_order_relaxed);

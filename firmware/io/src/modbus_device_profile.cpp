@@ -128,6 +128,11 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
   const std::uint32_t seq = !has_seq                         ? s.seq + 1
                             : sv >= 0.0 && sv < 4294967296.0 ? static_cast<std::uint32_t>(sv)
                                                              : 0U;
+  // The fault inputs count on every good read (a frozen sensor seq must not hide them); the
+  // driver's faults whether or not [modbus] inputs routes fault_line (as on CAN).
+  s.fault_line = value(pf::CanIn::kFaultLine) != 0.0;
+  s.driver_fault = value(pf::CanIn::kDriverFaults) != 0.0;
+  driver_fault_seen_ = s.driver_fault;
   if (!have_seq_ || seq != s.seq) {  // a repeated seq is not new data
     have_seq_ = true;
     s.seq = seq;
@@ -142,7 +147,6 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
     s.value(Input::kFloorAcceleration1) = value(pf::CanIn::kFloorAcceleration1);
     s.value(Input::kFloorAcceleration2) = value(pf::CanIn::kFloorAcceleration2);
     s.value(Input::kFloorAcceleration3) = value(pf::CanIn::kFloorAcceleration3);
-    s.fault_line = value(pf::CanIn::kFaultLine) != 0.0 || value(pf::CanIn::kDriverFaults) != 0.0;
     ++s.accepted;
     rx_ok_.fetch_add(1, std::memory_order_relaxed);
   }
@@ -155,6 +159,15 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
   written_tick_ = c.tick;  // sent or failed, a command is not sent again
   any_written_ = true;
   const auto routed = [&](Output o) { return (config_.outputs & Bit(o)) != 0; };
+  // The fault reset (worker only, never at shutdown): an edge when the driver still reports a
+  // (latched) fault and the firmware has no other cause, at most once per fault_reset_ms.
+  const bool reset = interruptible && p.Out(pf::ModbusOut::kFaultReset).mapped &&
+                     reset_rule_.Edge(driver_fault_seen_,
+                                      causes_known_.load(std::memory_order_relaxed)
+                                          ? status_causes_.load(std::memory_order_relaxed)
+                                          : ~0U,
+                                      common::MonotonicNs(),
+                                      static_cast<std::int64_t>(p.fault_reset_ms) * 1'000'000);
   // Each role's value; roles the [modbus] routing does not drive carry their safe value.
   double v[pf::kNumModbusOut] = {};
   const auto fill = [&](double setpoint, bool enable, bool safe) {
@@ -185,6 +198,7 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
     live(pf::ModbusOut::kStatusModelForce, status_model_force_);
     live(pf::ModbusOut::kStatusDemand, status_demand_);
     live(pf::ModbusOut::kStatusCommand, status_command_);
+    v[static_cast<std::size_t>(pf::ModbusOut::kFaultReset)] = reset ? 1.0 : 0.0;
   };
   // Every point must fit before anything is sent; one that does not (a non-finite set-point,
   // a value beyond its type) makes the whole cycle's write the safe one, counted bad_value.
@@ -209,7 +223,12 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
       return Outcome::kFailed;
     }
   }
-  const bool safe = c.safe || bad;
+  bool safe = c.safe || bad;
+  // A request the device refuses (an exception, a malformed or timed-out reply) does not end
+  // the cycle: the requests after it still go out, with the safe values (set-point of the safe
+  // state, enable 0, safe 1), so a driver that refuses one write (e.g. its enable coil) still
+  // hears the safe set-point and the heartbeat. Only a broken link ends the cycle at once.
+  IoError failed = IoError::kNone;
   for (std::size_t q = 0; q < p.writes.size(); ++q) {
     const pf::ModbusRequest& req = p.writes[q];
     for (int i = 0; i < req.count; ++i) words_[static_cast<std::size_t>(i)] = 0;
@@ -224,8 +243,9 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
     link_->set_unit(req.unit);
     int reply_len = 0;
     writing_safe_ = safe;
+    IoError e = IoError::kNone;
     const ModbusLink::Result r =
-        link_->Transact(pdu, len, reply, &reply_len, why, interruptible ? wake_ : -1, waker_.get());
+        link_->Transact(pdu, len, reply, &reply_len, &e, interruptible ? wake_ : -1, waker_.get());
     writing_safe_ = false;
     if (r == ModbusLink::Result::kAbandoned) {
       if (!link_->broken()) written_safe_ = safe;  // it went out; its reply will be dropped
@@ -238,13 +258,29 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
         GoodExchange();
         continue;
       }
-      *why = check == pf::ModbusReply::kException ? IoError::kException : IoError::kRejectedFrame;
+      e = check == pf::ModbusReply::kException ? IoError::kException : IoError::kRejectedFrame;
     }
-    if (*why != IoError::kDisconnected) written_safe_ = safe;  // the request went out
-    Failed(*why, false);
-    return Outcome::kFailed;
+    Failed(e, false);
+    if (failed == IoError::kNone) failed = e;
+    if (e == IoError::kDisconnected || link_->broken()) {
+      *why = failed;
+      return Outcome::kFailed;
+    }
+    written_safe_ = safe;  // the request went out
+    if (!safe) {
+      fill(safe_setpoint_, false, true);  // fits (the configuration proves it, safe_state.hpp)
+      safe = true;
+    }
+    if (resync_) {  // RTU: a late or torn reply must not meet the next request
+      resync_ = false;
+      if (!link_->Quiet(interruptible ? wake_ : -1, waker_.get())) return Outcome::kAbandoned;
+    }
   }
   written_safe_ = safe;
+  if (failed != IoError::kNone) {
+    *why = failed;
+    return Outcome::kFailed;
+  }
   if (bad) {
     *why = IoError::kBadValue;
     Failed(*why, false);
@@ -252,6 +288,77 @@ ModbusDevice::Outcome ModbusDevice::WriteProfileOnce(const Command& c, IoError* 
   }
   tx_ok_.fetch_add(1, std::memory_order_relaxed);
   return Outcome::kOk;
+}
+
+bool ModbusDevice::WriteFixed(const pf::ModbusFixedWrite& w, IoError* why,
+                              std::uint8_t* exception) {
+  if (resync_) {
+    resync_ = false;
+    if (!link_->Quiet(-1, waker_.get())) {
+      *why = IoError::kDisconnected;
+      return false;
+    }
+  }
+  const pf::ModbusRequest req = w.request();
+  const std::uint16_t word = w.value;
+  std::uint8_t pdu[mb::kMaxPdu], reply[mb::kMaxPdu];
+  const int len = pf::PutModbusWrite(req, &word, pdu);
+  link_->set_unit(req.unit);
+  int reply_len = 0;
+  IoError e = IoError::kNone;
+  const ModbusLink::Result r = link_->Transact(pdu, len, reply, &reply_len, &e, -1, waker_.get());
+  if (r == ModbusLink::Result::kOk) {
+    const pf::ModbusReply check = pf::CheckModbusWrite(req, pdu, reply, reply_len, exception);
+    if (check == pf::ModbusReply::kOk) {
+      GoodExchange();
+      return true;
+    }
+    e = check == pf::ModbusReply::kException ? IoError::kException : IoError::kRejectedFrame;
+  } else if (e == IoError::kNone) {
+    e = IoError::kDisconnected;
+  }
+  Failed(e, e == IoError::kException || e == IoError::kRejectedFrame);
+  *why = e;
+  return false;
+}
+
+bool ModbusDevice::StartUpWrites(Sample* s) {
+  for (std::size_t i = 0; i < profile_->startup.size(); ++i) {
+    IoError why = IoError::kNone;
+    std::uint8_t exception = 0;
+    bool ok = false;
+    for (int attempt = 0; attempt <= config_.retries && !ok; ++attempt) {  // as other requests
+      ok = WriteFixed(profile_->startup[i], &why, &exception);
+      if (!ok && (!Retriable(why) || link_->broken())) break;
+    }
+    if (ok) continue;
+    if (why == IoError::kException || why == IoError::kRejectedFrame) {
+      startup_exception_.store(exception);
+      startup_refused_.store(static_cast<int>(i) + 1);
+    }
+    tx_failed_.fetch_add(1, std::memory_order_relaxed);
+    s->write_failed = config_.outputs != 0 || !profile_->startup.empty();
+    s->read_failed = config_.inputs != 0 || config_.lockstep;
+    s->why = why;
+    return false;
+  }
+  return true;
+}
+
+void ModbusDevice::PeriodicWrites(Sample* s) {
+  for (std::size_t i = 0; i < profile_->periodic.size(); ++i) {
+    const pf::ModbusFixedWrite& w = profile_->periodic[i];
+    const std::int64_t now = common::MonotonicNs();
+    if (now < periodic_due_[i]) continue;
+    periodic_due_[i] = now + static_cast<std::int64_t>(w.period_ms) * 1'000'000;
+    IoError why = IoError::kNone;
+    std::uint8_t exception = 0;
+    if (WriteFixed(w, &why, &exception)) continue;
+    tx_failed_.fetch_add(1, std::memory_order_relaxed);
+    s->write_failed = true;
+    s->why = why;
+    if (link_->broken()) return;
+  }
 }
 
 }  // namespace mrd::firmware

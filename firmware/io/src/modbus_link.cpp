@@ -2,12 +2,16 @@
 
 #include <fcntl.h>
 #include <modbus/modbus.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <termios.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 
@@ -71,9 +75,86 @@ bool ModbusLink::Create(std::string* error) {
   return true;
 }
 
+bool ModbusLink::Resolve() {
+  if (addr_count_ > 0) return true;
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_protocol = IPPROTO_TCP;
+  hints.ai_flags = AI_ADDRCONFIG;
+  char service[8];
+  std::snprintf(service, sizeof service, "%d", config_.port);
+  addrinfo* found = nullptr;
+  if (getaddrinfo(config_.host.c_str(), service, &hints, &found) != 0 || found == nullptr) {
+    errno = EHOSTUNREACH;
+    return false;
+  }
+  for (const addrinfo* a = found; a != nullptr && addr_count_ < kMaxAddrs; a = a->ai_next) {
+    if (a->ai_addrlen > sizeof(sockaddr_storage)) continue;
+    Addr& slot = addrs_[addr_count_++];
+    std::memcpy(&slot.addr, a->ai_addr, a->ai_addrlen);
+    slot.len = a->ai_addrlen;
+  }
+  freeaddrinfo(found);
+  if (addr_count_ == 0) errno = EAFNOSUPPORT;
+  return addr_count_ > 0;
+}
+
+int ModbusLink::ConnectTo(int i) const {
+  const Addr& a = addrs_[i];
+  const int fd = socket(a.addr.ss_family, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+  if (fd < 0) return -1;
+  const int on = 1;
+  (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);  // as libmodbus
+  int err = 0;
+  if (connect(fd, reinterpret_cast<const sockaddr*>(&a.addr), a.len) != 0) {
+    err = errno;
+    if (err == EINPROGRESS) {
+      // Bounded by the response timeout (libmodbus's connect timeout).
+      const std::int64_t until = common::MonotonicNs() + config_.response_timeout_ns;
+      pollfd p{fd, POLLOUT, 0};
+      int rc = 0;
+      do {
+        const std::int64_t left = until - common::MonotonicNs();
+        if (left <= 0) {
+          rc = 0;
+          break;
+        }
+        const timespec ts{static_cast<time_t>(left / 1'000'000'000),
+                          static_cast<long>(left % 1'000'000'000)};
+        rc = ppoll(&p, 1, &ts, nullptr);
+      } while (rc < 0 && errno == EINTR);
+      socklen_t len = sizeof err;
+      if (rc <= 0) {
+        err = rc == 0 ? ETIMEDOUT : errno;
+      } else if (getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &len) != 0) {
+        err = errno;
+      }
+    }
+  }
+  if (err != 0) {
+    close(fd);
+    errno = err;
+    return -1;
+  }
+  return fd;
+}
+
 bool ModbusLink::Open() {
   if (fd_ >= 0) return true;
   broken_ = false;
+  if (config_.mode == ModbusMode::kTcp) {
+    // Connected here, to the addresses resolved once: libmodbus's modbus_connect resolves the
+    // host on every call (getaddrinfo allocates), and a reconnect runs on the worker beside
+    // the loop. libmodbus owns the descriptor from here (modbus_close closes it).
+    if (!Resolve()) return false;
+    int fd = -1;
+    for (int i = 0; i < addr_count_ && fd < 0; ++i) fd = ConnectTo(i);
+    if (fd < 0) return false;
+    modbus_set_socket(ctx_, fd);
+    fd_ = fd;
+    return true;
+  }
   if (modbus_connect(ctx_) != 0) return false;
   fd_ = modbus_get_socket(ctx_);
   const int flags = fcntl(fd_, F_GETFL);

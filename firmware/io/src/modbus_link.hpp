@@ -17,6 +17,8 @@
 // Every wait also watches a wake-up descriptor (eventfd): when it fires, the caller's
 // Interrupt decides whether the wait is abandoned.
 
+#include <sys/socket.h>
+
 #include <cstdint>
 #include <string>
 
@@ -61,6 +63,9 @@ class ModbusLink {
   // Creates the libmodbus context (no connection yet). false: *error.
   bool Create(std::string* error);
   // Connects (TCP, bounded by the response timeout) or opens the serial line. false: errno.
+  // TCP: the host is resolved once, the first time it resolves (getaddrinfo allocates); every
+  // later connect, the worker's reconnects included, reuses those addresses and allocates
+  // nothing.
   bool Open();
   void Close();
   bool open() const { return fd_ >= 0; }
@@ -103,8 +108,20 @@ class ModbusLink {
   // (*why) or an abandoned wait breaks it too when mid_frame (part of a frame is on the stream).
   Result Unfinished(Wait w, bool mid_frame, IoError* why);
   std::int64_t WireNs(int bytes) const;
+  // TCP: resolves the host into addrs_ (once; false and errno when it does not resolve).
+  bool Resolve();
+  // TCP: a connection to addrs_[i] within the response timeout; the descriptor or -1 (errno).
+  int ConnectTo(int i) const;
+
+  static constexpr int kMaxAddrs = 4;
+  struct Addr {
+    sockaddr_storage addr;
+    socklen_t len;
+  };
 
   ModbusConfig config_;
+  Addr addrs_[kMaxAddrs] = {};
+  int addr_count_ = 0;
   modbus_t* ctx_ = nullptr;
   int fd_ = -1;
   bool broken_ = false;

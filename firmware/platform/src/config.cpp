@@ -13,8 +13,10 @@
 #include <vector>
 
 #include "mrd/common/input_file.hpp"
+#include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/clipped_optimal_file.hpp"
 #include "mrd/firmware/period_log.hpp"
+#include "mrd/firmware/safe_state.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "mrd/profile/pwm_profile.hpp"
@@ -423,7 +425,10 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                  "Period of the status messages: FirmwareStatus and the live telemetry "
                  "FirmwareTelemetry (model force, demand, command; docs/telemetry.md)."),
         Duration("heartbeat_period_ms", &io.can.heartbeat_period_ns, 1e6, 1.0, 1e4, "ms",
-                 "Period of the heartbeat frame.")}},
+                 "Period of the heartbeat frame."),
+        Duration("fault_reset_ms", &io.can.fault_reset_ns, 1e6, 100.0, 600000.0, "ms",
+                 "The profile's fault_reset bit: at most one reset edge per this time "
+                 "(docs/devices.md).")}},
       {"modbus",
        {Names(
             "inputs", &io.modbus.inputs,
@@ -496,8 +501,9 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
         Text("path", &lg.path, kMaxPath, "PATH_MAX", "",
              "The log file, relative to this file; rotated files are PATH.1, PATH.2, ... "
              "(newest first). Default: none, no log (mrd-firmware --log FILE sets it)."),
-        Integer("max_bytes", &lg.max_bytes, 65536, std::int64_t{1} << 40, "bytes",
-                "Size limit of one file; the next block goes to a new file (rotation)."),
+        Integer("max_bytes", &lg.max_bytes, 65536, std::int64_t{1} << 32, "bytes",
+                "Size limit of one file; the next block goes to a new file (rotation). At "
+                "most 4 GiB: what `mrd log` reads."),
         Integer("files", &lg.files, 1, 1000, "",
                 "Files kept, the current one included (1: the file restarts when full). A "
                 "non-empty log from an earlier start becomes PATH.1 (files > 1)."),
@@ -770,6 +776,14 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
       return false;
     }
   }
+  // The fault_reset bit travels in the command frames: they go out only with command or enable.
+  if (mapped_out(profile::CanOut::kFaultReset) &&
+      (can.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) == 0) {
+    *error = where + "profile " + p->name +
+             " maps fault_reset, which goes out in the command frames: route 'command' or "
+             "'enable' to [can] outputs";
+    return false;
+  }
   if (c->clock == LoopClock::kGrant && !mapped_in(profile::CanIn::kGrant)) {
     *error = where + "clock = \"grant\" needs the profile's 'grant' input (profile " + p->name +
              " has none)";
@@ -958,6 +972,13 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   c->io.modbus.period_ns = c->period_ns;
   c->io.pwm.period_ns = c->period_ns;
   c->io.pwm.safe_volts = k.safe_voltage;
+  // The safe state on the wire (E_max: the configuration's, else the compiled-in table's; the
+  // start proves it again with the table it runs on).
+  const SafeStateProof proof = ProveSafeState(*c, c->e_max.value_or(kBuiltinTable.e_max));
+  if (!proof.error.empty()) {
+    *error = Where(root, source, proof.section, proof.key) + Printable(proof.error);
+    return false;
+  }
   return true;
 }
 

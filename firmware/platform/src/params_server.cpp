@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <vector>
 
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/config_save.hpp"
@@ -17,7 +18,9 @@
 namespace mrd::firmware {
 namespace {
 
-constexpr std::size_t kMaxRequest = 4096;  // [bytes]
+constexpr std::size_t kMaxRequest = 4096;           // [bytes]
+constexpr std::size_t kMaxClients = 64;             // connections served at once
+constexpr std::chrono::seconds kClientDeadline{2};  // to send a request line
 
 std::string Errno(const std::string& what) { return what + ": " + std::strerror(errno); }
 
@@ -63,25 +66,6 @@ bool SendAll(int fd, const std::string& text) {
     done += static_cast<std::size_t>(n);
   }
   return true;
-}
-
-// Reads up to the first newline (kMaxRequest at most) or EOF; false on a timeout or error.
-bool ReadLine(int fd, std::string* line) {
-  line->clear();
-  char buf[512];
-  while (line->size() <= kMaxRequest) {
-    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) return false;
-    if (n == 0) return true;
-    line->append(buf, static_cast<std::size_t>(n));
-    const auto nl = line->find('\n');
-    if (nl != std::string::npos) {
-      line->resize(nl);
-      return true;
-    }
-  }
-  return true;  // too long: Handle refuses it
 }
 
 std::string Row(const ParamInfo& p) {
@@ -139,7 +123,7 @@ std::string ParamsServer::Open(const std::string& path) {
     errno = bind_errno;
     return Errno("control socket " + shown + ": cannot create it");
   }
-  if (::chmod(path.c_str(), 0600) != 0 || ::listen(fd, 8) != 0) {
+  if (::chmod(path.c_str(), 0600) != 0 || ::listen(fd, 64) != 0) {
     const std::string why = Errno("control socket " + shown);
     ::close(fd);
     ::unlink(path.c_str());
@@ -167,25 +151,67 @@ void ParamsServer::Stop() {
 }
 
 void ParamsServer::Serve() {
+  // Every client at once (non-blocking, one poll over all): a silent one holds only its own
+  // slot until its deadline, never the others. Full: the oldest connection is dropped.
+  struct Client {
+    int fd = -1;
+    std::string line;
+    std::chrono::steady_clock::time_point deadline;
+  };
+  std::vector<Client> clients;
+  const auto finish = [&](std::size_t i, bool answer) {
+    Client& c = clients[i];
+    if (answer) {
+      const auto nl = c.line.find('\n');
+      if (nl != std::string::npos) c.line.resize(nl);
+      const int flags = ::fcntl(c.fd, F_GETFL);
+      ::fcntl(c.fd, F_SETFL, flags & ~O_NONBLOCK);  // the reply: bounded by SO_SNDTIMEO
+      (void)SendAll(c.fd, Handle(c.line));
+    }
+    ::close(c.fd);
+    clients.erase(clients.begin() + static_cast<std::ptrdiff_t>(i));
+  };
   while (!stop_.load()) {
     if (fd_ < 0) {
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    } else {
-      pollfd p{fd_, POLLIN, 0};
-      if (::poll(&p, 1, 50) > 0 && (p.revents & POLLIN) != 0) {
-        const int c = ::accept4(fd_, nullptr, nullptr, SOCK_CLOEXEC);
-        if (c >= 0) {
-          const timeval tv{2, 0};  // a silent client does not hold the server
-          ::setsockopt(c, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-          ::setsockopt(c, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
-          std::string line;
-          if (ReadLine(c, &line)) (void)SendAll(c, Handle(line));
-          ::close(c);
-        }
+      if (idle_) idle_();
+      continue;
+    }
+    std::vector<pollfd> fds;
+    fds.push_back({fd_, POLLIN, 0});
+    for (const Client& c : clients) fds.push_back({c.fd, POLLIN, 0});
+    const int ready = ::poll(fds.data(), fds.size(), 50);
+    const auto now = std::chrono::steady_clock::now();
+    // Clients first (their indices match fds[1..]), from the back so erasing keeps them valid.
+    for (std::size_t i = clients.size(); ready > 0 && i-- > 0;) {
+      if ((fds[i + 1].revents & (POLLIN | POLLHUP | POLLERR)) == 0) continue;
+      char buf[512];
+      const ssize_t n = ::recv(clients[i].fd, buf, sizeof buf, 0);
+      if (n < 0 && (errno == EINTR || errno == EAGAIN)) continue;
+      if (n <= 0) {
+        finish(i, n == 0 && !clients[i].line.empty());  // EOF: answer what came
+        continue;
+      }
+      clients[i].line.append(buf, static_cast<std::size_t>(n));
+      if (clients[i].line.find('\n') != std::string::npos || clients[i].line.size() > kMaxRequest) {
+        finish(i, true);  // too long: Handle refuses it
+      }
+    }
+    for (std::size_t i = clients.size(); i-- > 0;) {
+      if (now > clients[i].deadline) finish(i, false);  // silent: dropped
+    }
+    if (ready > 0 && (fds[0].revents & POLLIN) != 0) {
+      const int c = ::accept4(fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
+      if (c >= 0) {
+        if (clients.size() >= kMaxClients) finish(0, false);  // the oldest makes room
+        const timeval tv{2, 0};
+        ::setsockopt(c, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+        clients.push_back({c, std::string(), now + kClientDeadline});
       }
     }
     if (idle_) idle_();
   }
+  for (std::size_t i = clients.size(); i-- > 0;) finish(i, false);
 }
 
 std::string ParamsServer::Handle(const std::string& request) {

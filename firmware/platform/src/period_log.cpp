@@ -1,6 +1,7 @@
 #include "mrd/firmware/period_log.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -79,6 +80,10 @@ constexpr FieldDef kFields[] = {
     {"causes", Type::kU32, "", [](const PeriodRecord& r) { return std::uint64_t{r.causes}; }},
     {"param_version", Type::kU32, "",
      [](const PeriodRecord& r) { return std::uint64_t{r.param_version}; }},
+    {"passive", Type::kU8, "",
+     [](const PeriodRecord& r) { return std::uint64_t{r.passive ? 1U : 0U}; }},
+    {"non_monotone", Type::kU8, "",
+     [](const PeriodRecord& r) { return std::uint64_t{r.non_monotone ? 1U : 0U}; }},
 };
 
 std::uint64_t RoundUpPow2(std::uint64_t n) {
@@ -87,7 +92,44 @@ std::uint64_t RoundUpPow2(std::uint64_t n) {
   return p;
 }
 
+// A regular file at path that holds something other than an mrd log (its first bytes are not
+// the runlog magic): a config, a table, anyone's data. Empty files and logs are fair game.
+bool ForeignFile(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode) || st.st_size == 0) return false;
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) return true;  // unreadable: not known to be a log
+  char head[sizeof runlog::kMagic] = {};
+  const ssize_t n = ::read(fd, head, sizeof head);
+  ::close(fd);
+  return n != static_cast<ssize_t>(sizeof head) ||
+         std::memcmp(head, runlog::kMagic, sizeof head) != 0;
+}
+
+// Longest wait for a FIFO's reader to take a block [ms] (a reader that does not read must
+// neither block the writer nor the firmware's exit).
+constexpr int kFifoWaitMs = 200;
+
 }  // namespace
+
+std::string CheckLogPath(const LogConfig& config) {
+  if (!config.enabled || config.path.empty()) return "";
+  struct stat st {};
+  if (::stat(config.path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
+    return "log " + config.path + ": is a directory (give a file name)";
+  }
+  // The log truncates PATH and rotates PATH.1 .. PATH.<files-1>: none may be another file.
+  const std::uint32_t files = config.files == 0 ? 1 : config.files;
+  for (std::uint32_t k = 0; k < files; ++k) {
+    const std::string p = k == 0 ? config.path : config.path + "." + std::to_string(k);
+    if (ForeignFile(p)) {
+      return "log " + config.path + ": " + p +
+             " exists and is not an mrd log (a configuration? a table?): the log would " +
+             (k == 0 ? "overwrite or move" : "replace") + " it; give another path";
+    }
+  }
+  return "";
+}
 
 std::vector<runlog::Field> PeriodLogFields() {
   std::vector<runlog::Field> f;
@@ -137,6 +179,10 @@ void PeriodLog::Start(const LogConfig& config, std::int64_t period_ns, const std
   block_.reserve(runlog::kBlockHeaderBytes + pending_.size());
   // A log from an earlier start (a restart after a crash) is kept as PATH.1 (a regular file
   // only: /dev/null or a FIFO stays where it is).
+  if (const std::string why = CheckLogPath(config_); !why.empty()) {  // main refuses it first
+    Fail(why.substr(why.find(": ") + 2));
+    return;
+  }
   struct stat st {};
   if (config_.files > 1 && ::stat(config_.path.c_str(), &st) == 0 && S_ISREG(st.st_mode) &&
       st.st_size > 0 && !ShiftFiles()) {
@@ -176,9 +222,12 @@ void PeriodLog::Fail(const std::string& why) {
 }
 
 bool PeriodLog::OpenFile() {
-  fd_ = ::open(config_.path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  // Non-blocking: a FIFO without a reader fails at once (ENXIO) instead of blocking the
+  // start-up, and one whose reader stops reading cannot block the writer (WriteAll).
+  fd_ = ::open(config_.path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NONBLOCK, 0644);
   if (fd_ < 0) {
-    Fail(std::string("cannot create the file (") + std::strerror(errno) + ")");
+    Fail(errno == ENXIO ? std::string("a FIFO with no reader")
+                        : std::string("cannot create the file (") + std::strerror(errno) + ")");
     return false;
   }
   files_.fetch_add(1, std::memory_order_relaxed);
@@ -202,6 +251,13 @@ bool PeriodLog::WriteAll(const std::string& bytes) {
   while (done < bytes.size()) {
     const ssize_t n = ::write(fd_, bytes.data() + done, bytes.size() - done);
     if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && errno == EAGAIN) {  // a FIFO (or device) that is full: wait a little
+      pollfd p{fd_, POLLOUT, 0};
+      if (::poll(&p, 1, kFifoWaitMs) > 0 && (p.revents & POLLOUT) != 0) continue;
+      Fail("the reader does not keep up (nothing taken for " + std::to_string(kFifoWaitMs) +
+           " ms)");
+      return false;
+    }
     if (n <= 0) {
       Fail(std::string("write failed (") + (n < 0 ? std::strerror(errno) : "nothing written") +
            ")");

@@ -70,6 +70,10 @@ class BusDevice {
 
   virtual const char* name() const = 0;        // "can", "modbus", "gpio"
   virtual FaultCause fault_cause() const = 0;  // the watchdog cause of this bus
+  // A failed write is this bus's fault too (fault_cause() at the next Read, besides the
+  // loop's driver_fault): a Modbus transaction refused or lost, a PWM sysfs write that failed.
+  // Not CAN's: its write also fails when the tick came too late to act on its sample.
+  virtual bool write_faults_are_bus_faults() const { return false; }
 
   // Start-up. false with *error = reason (e.g. "can: cannot open can0: No such device").
   virtual bool Configure(std::string* error) = 0;

@@ -9,7 +9,9 @@
 //   safe    = watchdog(causes)
 //   E(k)    = safe ? E_safe
 //                  : law gives a voltage ? clamp(voltage, E_min, E_max)
-//                  : inverse of the model at the force demand (inverter.hpp)
+//                  : inverse of the model at the force demand (inverter.hpp): E_min for a
+//                    demand of 0 or of the sign opposite to v, else the lowest command
+//                    whose force is nearest the demand
 //   clipped-optimal: its observer updates every period its inputs (three floor accelerations,
 //             the measured force) are fresh and finite, safe or not; a period where one is not
 //             restarts the estimate from rest (and raises the watchdog cause)
@@ -72,7 +74,11 @@ struct ControllerOutput {
   double force_demand = 0.0;  // force the law asked for [N] (0 for a voltage law)
   bool force_law = false;     // the law produced a force demand this period
   bool reachable = true;      // the force demand was reachable (false: saturated)
-  std::uint32_t causes = 0;   // active watchdog causes (Watchdog::Bit)
+  // Force laws: the demand was 0 or of the sign opposite to v (E_min commanded by rule); the
+  // model was monotone in E over [E_min, E_max] at the period's state (inverter.hpp).
+  bool passive = false;
+  bool monotone = true;
+  std::uint32_t causes = 0;  // active watchdog causes (Watchdog::Bit)
 };
 
 class Controller {
@@ -134,7 +140,6 @@ class Controller {
   Real displacement_limit_ = Real(0);
   Real v_ = Real(0);  // last valid velocity [cm/s]
   Real x_ = Real(0);  // last valid displacement [cm]
-  Real E_prev_ = Real(0);
   std::uint64_t model_resets_ = 0;
   bool model_diverged_ = false;  // the model force was non-finite last period
   double law_volts_ = 0.0;       // law_volts()

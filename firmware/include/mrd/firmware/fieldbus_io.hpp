@@ -5,7 +5,10 @@
 //          bus's watchdog bit in frame.bus_faults (the other devices' samples still count).
 //   Write: Command(V) sends {V, enable on} to every device; EnterSafeState(V) sends {V, enable
 //          off}: 0 V on the bus and the enable line low. A device that fails a write makes the
-//          whole write a fault (the loop then commands the safe state on all of them).
+//          whole write a fault (the loop then commands the safe state on all of them: the
+//          watchdog's driver_fault); on Modbus and PWM it sets the bus's bit in the next Read's
+//          frame.bus_faults too (a Modbus write answered with an exception is modbus_bus, as a
+//          failed read is; BusDevice::write_faults_are_bus_faults).
 //   Faults: per device, the periods whose read faulted and those with a faulted write, counted
 //          per reason (IoError), and the reason of the last one of each (DeviceFaults),
 //          published each period for other threads (faults(i)).
@@ -58,6 +61,7 @@ class FieldbusIo final : public SensorSource, public CurrentDriver {
   // Per device (tick thread): the counts, the period (reads_) of the last counted write fault.
   std::array<DeviceFaults, kMaxDevices> faults_{};
   std::array<std::uint64_t, kMaxDevices> write_fault_period_{};
+  std::uint32_t write_bus_faults_ = 0;  // bus bits of failed writes, for the next Read
   std::array<Seqlock<DeviceFaults>, kMaxDevices> published_{};
 };
 

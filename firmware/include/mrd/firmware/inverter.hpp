@@ -14,11 +14,22 @@
 // y (found recursively from the derivative, degree n-1 ... 1, closed form at degree 1) and
 // polished by a bracketed Newton/bisection iteration of at most kMaxIterations steps, so
 // the work per call is bounded. Repeated (touching) roots appear as critical points with a
-// zero residual. Choice: among the admissible roots, the one nearest the previous command;
-// when none is admissible, the candidate (a bound or an interior extremum) whose force is
-// closest to the demand — with a monotone model that is the bound on the demand's side.
-// Ties (e.g. E has no effect in this state) go to the candidate nearest the previous command,
-// which is itself a candidate: a flat polynomial holds the previous command.
+// zero residual.
+//
+// Choice (a semi-active damper: it can only dissipate, with a force of the sign of v):
+// - a demand of 0 N, or of the sign opposite to v, gives E_min (passive), whatever the model
+//   says (a model non-monotone in E may give less force at a stiffer setting);
+// - any other demand: on the dissipative force the damper can be relied on to give at E or
+//   below, g(E) = max over E' <= E of s f(E'), s = sign(v) (raising E never lowers a damper's
+//   force, so a dip in the model is not used), the LOWEST E whose g is nearest the demand:
+//   E_min for a demand at or below the force at E_min; the first E reaching the demand; for a
+//   demand beyond every force, the first E of the largest. Never a higher E for a smaller
+//   dissipative demand; with a model whose force grows with E, simply the E whose force is
+//   the demand (or the bound nearest it). A state where E has no effect gives E_min.
+// - v == 0 (no dissipative direction): the lowest E whose model force is nearest the demand.
+// The solution says whether the model was monotone in E on [E_min, E_max] at the state (no
+// interior extremum beyond the forces at the bounds by more than kMonotoneSlack of their
+// difference): with a monotone model the command grows with the dissipative demand.
 //
 // Scalar type T (real.hpp): the model is rounded to T at Configure, the polynomial, its roots
 // and the tolerances (from T's epsilon) are in T. Inverter is the firmware's (T = Real).
@@ -54,11 +65,16 @@ template <class T>
 class BasicInverter {
  public:
   static constexpr int kMaxIterations = 60;  // per root: Newton with bisection safeguard
+  // An interior extremum within this fraction of |f(E_max) - f(E_min)| beyond the bounds'
+  // forces still counts as monotone (rounding, a flat top).
+  static constexpr double kMonotoneSlack = 1e-3;
 
   struct Solution {
     T E = T(0);              // command [V], in [e_min, e_max]
     T force = T(0);          // model force at E [N]
     bool reachable = false;  // true when force equals the demand (a root was found)
+    bool passive = false;    // demand 0 or of the sign opposite to v: E_min by rule
+    bool monotone = true;    // the model is monotone in E on [E_min, E_max] at this state
   };
 
   // Binds the model of a validated table and the range [e_min, e_max] of the table.
@@ -74,9 +90,9 @@ class BasicInverter {
   // for a history prepared by ModelRuntime::Begin on the same table (the command slot is not
   // read; low-pass poles come from the history). Real-time safe.
   std::array<T, kMaxInputDegree + 1> Polynomial(const BasicRegressorHistory<T>& h) const;
-  // Command whose model force is the demand f_demand [N], given the previous command
-  // E_previous [V]. Real-time safe, bounded work.
-  Solution Solve(const BasicRegressorHistory<T>& h, T f_demand, T E_previous) const;
+  // Command for the force demand f_demand [N] at the damper velocity `velocity` [cm/s] (its
+  // sign is the dissipative direction), by the choice above. Real-time safe, bounded work.
+  Solution Solve(const BasicRegressorHistory<T>& h, T f_demand, T velocity) const;
 
   T e_min() const { return e_min_; }
   T e_max() const { return e_max_; }

@@ -78,6 +78,7 @@ struct CanConfig {
   std::int64_t period_ns = 1'000'000;           // the control period (the command's slew step) [ns]
   std::int64_t status_period_ns = 100'000'000;  // status frame period [ns]
   std::int64_t heartbeat_period_ns = 10'000'000;  // heartbeat frame period [ns]
+  std::int64_t fault_reset_ns = 1'000'000'000;    // fault_reset: at most one edge per this [ns]
   // Lockstep ([loop] clock = "grant"): the device is the loop's TimeGrantSource, stamps and
   // schedules in granted time instead of CLOCK_MONOTONIC. Not a [can] key: set from [loop].
   bool lockstep = false;

@@ -35,6 +35,8 @@ struct PeriodRecord {
   double command_v = 0.0;     // command written [V] (safe voltage when safe)
   bool force_law = false;
   bool reachable = true;
+  bool passive = false;       // force law: demand 0 or of the sign opposite to v (E_min)
+  bool non_monotone = false;  // force law: the model not monotone in E at the state
   bool safe = true;
   std::uint32_t causes = 0;         // watchdog causes (Watchdog::Bit)
   std::uint32_t param_version = 0;  // bumped by every applied parameter change or reload

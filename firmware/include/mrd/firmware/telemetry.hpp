@@ -18,7 +18,12 @@ struct TelemetrySnapshot {
   std::int64_t last_exec_ns = 0;
   std::uint64_t read_faults = 0;
   std::uint64_t write_faults = 0;
-  std::uint64_t unreachable = 0;  // force demands saturated by the inverter
+  // Force laws (inverter.hpp): periods whose demand was 0 or of the sign opposite to v (E_min
+  // by rule); whose other demand was out of the model's reach (the nearest force commanded);
+  // whose model was not monotone in E over [E_min, E_max] at the period's state.
+  std::uint64_t passive_demands = 0;
+  std::uint64_t unreachable = 0;
+  std::uint64_t non_monotone = 0;
   std::uint64_t model_resets = 0;
   std::uint64_t envelope_excursions = 0;  // periods with v or x held to the envelope
   std::uint64_t force_excursions = 0;     // periods with the model force held to its envelope

@@ -38,6 +38,8 @@ struct SensorOutput {
   std::int64_t t_ns = 0;    // CLOCK_MONOTONIC when published
   bool fault_line = false;  // fault input asserted (GPIO / status register)
   bool drive_heartbeat_loss = false;  // CANopen: the drive's heartbeat not sent this step
+  bool driver_fault = false;          // the driver reports a fault (its driver_faults role)
+  bool enable_refused = false;        // Modbus profile: writes of the enable get exception 0x04
 };
 
 // What arrived from the firmware since the last Poll; each port sets only what it carries.
@@ -57,6 +59,11 @@ struct DriverInput {
   bool has_status = false;          // a firmware status arrived since the last Poll
   std::uint16_t status_causes = 0;  // its active watchdog causes (bit i = cause i)
   bool status_safe = false;
+  // Modbus profile with a periodic write under watchdog_ms: the driver's communication
+  // watchdog (real time only): false once an armed keep-alive write stopped for watchdog_ms
+  // (the driver drops its coil until the writes come again).
+  bool has_watchdog = false;
+  bool watchdog_ok = true;
 };
 
 struct PortCounters {
@@ -90,6 +97,14 @@ class PlantPort {
   // Lockstep: the firmware's status travels on this port with every tick's command (the
   // harness then waits for both).
   virtual bool CarriesStatus() const { return true; }
+  // The firmware's heartbeat travels on this port (the simulated driver then supervises it:
+  // no fresh heartbeat, no current). A driver whose profile maps no heartbeat is not
+  // supervised (it applies every command it hears).
+  virtual bool CarriesHeartbeat() const { return true; }
+  // Peers that have joined the transport so far (a count that only grows), or -1 when the
+  // port cannot tell. Lockstep start-up: the harness offers its first step again only when a
+  // peer joined since the last offer (else an offer reaches nobody, or the firmware twice).
+  virtual std::int64_t Joined() const { return -1; }
   // A new firmware instance is starting (the harness restarted it): forget the previous
   // sender's rolling counters, so its first frames are not taken for repeated or stale ones.
   virtual void PeerRestarted() {}

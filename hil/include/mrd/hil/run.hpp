@@ -79,6 +79,7 @@ struct RunOptions {
 struct TrackingScores {
   std::uint64_t steps = 0;  // controlled steps scored
   std::uint64_t reachable_steps = 0;
+  double reachable_share = 0.0;                   // reachable_steps / steps (0 without a step)
   double error_all = 0.0, error_reachable = 0.0;  // controlled run
   double off_all = 0.0, off_reachable = 0.0;      // passive-off (0 V)
   double on_all = 0.0, on_reachable = 0.0;        // passive-on (E_max)

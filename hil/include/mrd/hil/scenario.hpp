@@ -28,6 +28,9 @@ enum class FaultKind : std::uint8_t {
   kCorruptTable,  // the firmware is offered a table with a flipped byte: it must refuse (exit 2)
   kFaultLine,     // the driver's fault line asserted (GPIO; needs [gpio] inputs fault_line)
   kDriveHeartbeatLoss,  // a CANopen drive stops its heartbeat (needs a [canopen] profile)
+  kDriverFault,         // the simulated driver reports a fault on its status (driver_faults)
+  kEnableRefused,       // Modbus profile: the driver answers writes of its enable with an
+                        // exception (0x04), the other writes as usual
 };
 const char* FaultKindName(FaultKind kind);
 
@@ -66,9 +69,10 @@ struct Scenario {
   double heartbeat_timeout_s = 0.05;  // simulated driver: coil to 0 V without a heartbeat
   // [plant]
   std::string preset = "paper";
-  std::string params_file;  // [plant] params (resolved against the scenario's folder)
-  SpencerParams damper;     // the plant's damper: preset or params file, then the
-                            // [plant.spencer] overrides (plant_params.cpp)
+  std::string params_file;       // [plant] params (resolved against the scenario's folder)
+  SpencerParams damper;          // the plant's damper: preset or params file, then the
+                                 // [plant.spencer] overrides (plant_params.cpp)
+  bool plant_overrides = false;  // [plant.spencer] has keys
   int substeps = 20;
   bool quarter_car = false;  // model = "quarter-car": the damper in a quarter car on
                              // an ISO 8608 road ([quarter_car], [road]); else the
@@ -113,6 +117,9 @@ struct Scenario {
   // [pass]
   std::uint64_t max_invariant_violations = 0;
   std::optional<double> max_error_reachable;  // ||f - d|| / ||d|| over reachable demands
+  // With max_error_reachable: the least share of the controlled steps that must be reachable
+  // for that error to score the run (below it the run fails, saying so).
+  double min_reachable_share = 0.25;
   std::optional<double> max_error_all;
   std::optional<double> min_replay_fit;  // replay: plant force vs measured f [%]
   std::optional<std::uint64_t> max_missed_grants;

@@ -37,13 +37,16 @@ struct SweepScores {
   bool pass = false;
   std::uint64_t invariant_violations = 0;
   double error_all = 0.0, error_reachable = 0.0;  // force tracking
+  double reachable_share = 0.0;                   // of the controlled steps
   bool ride = false;                              // quarter car: the figures below
   double body_accel_rms = 0.0, travel_rms_cm = 0.0, tyre_load_rms_n = 0.0;
   double body_accel_off = 0.0, body_accel_on = 0.0;  // passive twins [m/s^2]
+  std::string table, plant;  // what the point ran on (TableLabel, PlantLabel): set by the caller
 };
 SweepScores ScoresOf(const RunResult& r);
 
-// The CSV (header: the swept keys, then the score columns; one row per point).
+// The CSV (header: the swept keys, then the score columns, then table and plant; one row per
+// point).
 std::string SweepCsv(const SweepGrid& grid, const std::vector<SweepScores>& rows);
 // The table printed on stdout (aligned columns; best point marked).
 std::string SweepTable(const SweepGrid& grid, const std::vector<SweepScores>& rows);

@@ -11,9 +11,11 @@
 
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "mrd/common/time_window.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/model_judge.hpp"
 
@@ -23,6 +25,7 @@ struct CompareOptions {
   std::vector<std::string> models;                   // model files (JSON), at least one
   std::vector<std::string> data;                     // data files (CSV), at least one
   std::string out_dir;                               // "" : no files, table on stdout only
+  std::optional<TimeWindow> window;                  // plots: the window (default: first 5 s)
   std::function<void(const std::string&)> progress;  // one line per step
 };
 

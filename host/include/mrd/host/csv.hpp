@@ -28,6 +28,15 @@ struct DataSet {
 // required: column names that must be present (besides `t`, always required).
 DataSet ReadCsv(const std::string& path, std::span<const std::string> required = {});
 
+// A data set from columns held in memory (e.g. the Python module's arrays), checked by
+// ReadCsv's rules: unique non-empty names, `t` and the required columns present, columns of
+// equal length, at least 2 rows, every value finite and within +-kMaxDataMagnitude, `t`
+// increasing and uniform. Throws InputError(source, 0, reason) with ReadCsv's reasons, a row's
+// prefixed "row R: " (R from 0).
+DataSet MakeDataSet(const std::string& source, std::vector<std::string> names,
+                    std::vector<std::vector<double>> columns,
+                    std::span<const std::string> required = {});
+
 // Writes columns as CSV with a header through WriteFileAtomic (atomic_write.hpp), so a
 // failure leaves nothing behind. Throws InputError (output path, data line) on a non-finite
 // value, std::runtime_error on I/O failure.

@@ -24,14 +24,17 @@
 #include <string>
 #include <vector>
 
+#include "mrd/common/time_window.hpp"
+
 namespace mrd::host {
 
 struct ReportOptions {
-  std::string model;              // model file (JSON) from `mrd identify`
-  std::vector<std::string> data;  // data files (CSV), at least one
-  std::string out_dir;            // output directory; its parent must exist
-  std::optional<int> iteration;   // iteration to report (unset: the model's selected one)
-  int max_lag = 50;               // residual correlations up to this lag [samples]
+  std::string model;                 // model file (JSON) from `mrd identify`
+  std::vector<std::string> data;     // data files (CSV), at least one
+  std::string out_dir;               // output directory; its parent must exist
+  std::optional<int> iteration;      // iteration to report (unset: the model's selected one)
+  int max_lag = 50;                  // residual correlations up to this lag [samples]
+  std::optional<TimeWindow> window;  // time plots: drawn sample by sample (default: first 5 s)
   std::function<void(const std::string&)> progress;  // one line per step, no newline
 };
 

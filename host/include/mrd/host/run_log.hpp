@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "mrd/common/time_window.hpp"
 #include "mrd/runlog/runlog.hpp"
 
 namespace mrd::host {
@@ -22,15 +23,23 @@ std::string RunLogInfo(const runlog::Log& log, const std::string& path);
 // A note on the damage ("" when none), e.g. "FILE: truncated: ...".
 std::string RunLogDamageNote(const runlog::Log& log, const std::string& path);
 
+// Indices of the named fields in the header, in the order given (every field when fields is
+// empty). Throws InputError for an unknown name (listing the fields) or a name given twice.
+std::vector<std::size_t> RunLogColumns(const runlog::Header& header,
+                                       const std::vector<std::string>& fields);
+
 // CSV text: header row of the field names, one row per record (integers exact, floats
 // shortest round-trip, non-finite as nan/inf). fields empty: every field; an unknown name
 // throws InputError listing the fields.
 std::string RunLogCsv(const runlog::Log& log, const std::vector<std::string>& fields);
 
 // DIR/<stem>_time.png: force (model, demand, measured), voltage (command, law's E) and state
-// (safe, each watchdog cause) over time from the first record [s], the safe state shaded.
-// Returns the file written. Needs gnuplot. progress: one line per step (may be empty).
+// (safe, each watchdog cause) over a window of the log (window, or the first 5 s; time from
+// the first record [s]), sample by sample, the safe state shaded; below, an overview of the
+// whole log (the forces' envelopes) with the window marked. Returns the file written. Needs
+// gnuplot. progress: one line per step (may be empty).
 std::string PlotRunLog(const runlog::Log& log, const std::string& path, const std::string& out_dir,
+                       const TimeWindow* window,
                        const std::function<void(const std::string&)>& progress);
 
 }  // namespace mrd::host

@@ -26,6 +26,8 @@
 #include <string>
 #include <vector>
 
+#include "mrd/canbus/can_iface.hpp"
+
 namespace mrd::canbus {
 
 struct RelayStats {
@@ -62,6 +64,17 @@ class LocalBusRelay {
   // stamp (from Step, on the calling thread). Saves the harness's own socket round trip per
   // frame.
   void Broadcast(const void* frame);
+  // Batching of the in-process node's frames: between Hold() and Release() Broadcast queues
+  // its frames (logged at once, stamped when queued) and Release hands them to each socket node
+  // in one sendmmsg, so a node asleep on its socket wakes once for a step's frames instead of
+  // once per frame. A full queue (kHeldFrames) and Step hand the queue on at once. What each
+  // node receives, in what order and with what stamps, is the same as without batching.
+  static constexpr std::size_t kHeldFrames = 16;
+  void Hold() { held_ = true; }
+  void Release() {
+    Flush();
+    held_ = false;
+  }
   using Tap = void (*)(void* context, const void* frame, std::int64_t stamp_ns);
   void SetTap(Tap tap, void* context) {
     tap_ = tap;
@@ -79,6 +92,7 @@ class LocalBusRelay {
 
  private:
   void Forward(std::size_t from, const void* frame, std::int64_t stamp_ns);
+  void Flush();  // the held frames to every socket node
   void Drop(std::size_t i);
   void Accept();
 
@@ -91,6 +105,9 @@ class LocalBusRelay {
   int spare_fd_ = -1;  // given up to take a connection when out of descriptors
   std::int64_t listen_paused_until_ns_ = 0;  // accept() failing otherwise: listener not polled
   std::vector<int> nodes_;
+  bool held_ = false;
+  std::size_t held_count_ = 0;
+  LocalBusPacket held_packets_[kHeldFrames] = {};
   // Step's scratch (kept: no allocation per round once the node count is steady).
   std::vector<pollfd> fds_;
   std::vector<char> gone_;

@@ -63,8 +63,9 @@ enum class CanOut : std::uint8_t {
   kStatusModelForce,   // live telemetry: the model's force of the period [N]
   kStatusDemand,       // live telemetry: the force demand of the period [N]
   kStatusCommand,      // live telemetry: the command voltage E of the period [V]
+  kFaultReset,         // 1 in one command frame: a latched driver fault's reset (an edge)
 };
-inline constexpr std::size_t kNumCanOut = 13;
+inline constexpr std::size_t kNumCanOut = 14;
 
 const char* CanInName(CanIn role);
 // The kNumCanIn input role names in CanIn order (the keys of a profile's [inputs] table,
@@ -95,7 +96,8 @@ struct SignalRef {
 };
 
 struct CanProfile {
-  std::string path;  // the profile file
+  std::string path;          // the profile file
+  std::uint64_t digest = 0;  // of the profile, its DBC and calibration (a reload compares)
   std::string name;
   Dbc dbc;
   std::vector<MessageSpec> specs;  // one per DBC message, same index
@@ -117,7 +119,8 @@ struct CanProfile {
 // Reads a profile file and its DBC. On failure *error is "FILE:LINE: reason" (the profile's
 // or the DBC's line). Checks: every role names an existing Message.Signal, no role twice, no
 // signal carrying two roles, a message never both sent and received, counter and checksum
-// signals of the right size and not carrying a role, every key known.
+// signals of the right size and not carrying a role, fault_reset an unsigned 1-bit signal of
+// a command message (one carrying command, enable, enable_valid, safe or echo), every key known.
 bool LoadCanProfile(const std::string& path, CanProfile* out, std::string* error);
 // The same from text: `path` names it in errors; with dbc_text the DBC is that text (named by
 // the profile's `dbc` value) instead of the file the profile names.

@@ -42,8 +42,23 @@ class CommandMap {
   double Invert(double u) const;
   // Forget the previous set-point (the next Apply is not slew-limited).
   void Reset() { have_last_ = false; }
+  // The set-point of the safe state for command e [V]: the calibration clamped to the range,
+  // never rate-limited (what Apply gives after Reset; a non-finite e as Apply).
+  double SafeSetpoint(double e) const;
+  // The driver's off: of the set-points the map gives for commands E >= 0 V (the range when
+  // [command] gives one, else the calibration's values from E = 0 on, or E itself), the one
+  // nearest 0 (0 for a range across 0; the range's min for one above 0, e.g. 4..20 mA).
+  double Off() const;
+  // The set-points commands E in [0, e_max] [V] reach: *lo and *hi (the range when given).
+  void Reach(double e_max, double* lo, double* hi) const;
+  // [command] gave min and max.
+  bool has_range() const { return min_ > -1e300 || max_ < 1e300; }
+  // The calibration's values fall as E rises.
+  bool decreasing() const { return n_ >= 2 && u_[n_ - 1] < u_[0]; }
 
   std::size_t points() const { return n_; }
+  // Of the calibration file's text (0: none).
+  std::uint64_t digest() const { return digest_; }
   double min() const { return min_; }
   double max() const { return max_; }
 
@@ -54,6 +69,7 @@ class CommandMap {
   double slew_ = 0.0;
   double last_ = 0.0;
   bool have_last_ = false;
+  std::uint64_t digest_ = 0;
 };
 
 }  // namespace mrd::profile

@@ -36,6 +36,7 @@ struct DbcMessage {
 
 struct Dbc {
   std::string path;
+  std::uint64_t digest = 0;  // of the text parsed (a reload notices a changed file)
   std::vector<DbcMessage> messages;
   const DbcMessage* Find(std::string_view message) const;
 };

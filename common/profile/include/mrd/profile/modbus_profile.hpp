@@ -7,8 +7,11 @@
 //
 //   name = "..."  description = "..."
 //   [modbus]  word_order = "big"|"swapped"  write_function = 16|6  align32 = bool  max_read
-//   [modbus.inputs]   role = { unit, table, address, type, scale, offset }
+//             fault_reset_ms
+//   [modbus.inputs]   role = { unit, table, address, type, scale, offset, word_order }
 //   [modbus.outputs]  role = { ... }
+//   [[modbus.startup]]  { unit, table, address, value }           written once per connection
+//   [[modbus.periodic]] { unit, table, address, value, period_ms, watchdog_ms }  kept alive
 //   [command]         unit calibration min max slew_per_s (command_map.hpp)
 //
 // Physical value = raw * scale + offset. Reads are grouped: the points of one unit and table
@@ -44,8 +47,11 @@ enum class ModbusOut : std::uint8_t {
   kStatusModelForce,   // live telemetry: the model's force of the period [N]
   kStatusDemand,       // live telemetry: the force demand of the period [N]
   kStatusCommand,      // live telemetry: the command voltage E of the period [V]
+  kFaultReset,         // the driver's fault reset: 1 for one write (an edge) when the firmware
+                       // is clean but for a latched driver fault, at most once per
+                       // fault_reset_ms; else 0
 };
-inline constexpr std::size_t kNumModbusOut = 12;
+inline constexpr std::size_t kNumModbusOut = 13;
 const char* ModbusOutName(ModbusOut role);
 
 struct ModbusPoint {
@@ -55,10 +61,12 @@ struct ModbusPoint {
   int address = 0;  // 0-based protocol address
   ModbusType type = ModbusType::kUint16;
   double scale = 1.0, offset = 0.0;
-  int line = 0;        // where it was defined
-  int request = -1;    // index into reads (inputs) or writes (outputs)
-  int index = 0;       // offset in that request: registers, or bits for coils
-  int count() const {  // registers (or bits) it takes
+  bool swapped = false;  // 32-bit: low word at the lower address (the profile's word_order,
+                         // or the point's own)
+  int line = 0;          // where it was defined
+  int request = -1;      // index into reads (inputs) or writes (outputs)
+  int index = 0;         // offset in that request: registers, or bits for coils
+  int count() const {    // registers (or bits) it takes
     return type == ModbusType::kInt32 || type == ModbusType::kUint32 || type == ModbusType::kFloat32
                ? 2
                : 1;
@@ -74,18 +82,40 @@ struct ModbusRequest {
   int count = 0;  // registers or bits
 };
 
+// A fixed register (or coil) write the driver's manual asks for: at start-up (each new
+// connection, before the first cycle; e.g. arming its communication watchdog) or periodically
+// (e.g. the watchdog's keep-alive). Written with 0x06 (holding) or 0x05 (coil).
+struct ModbusFixedWrite {
+  std::uint8_t unit = 0;
+  ModbusTable table = ModbusTable::kHolding;  // holding or coil
+  int address = 0;
+  std::uint16_t value = 0;  // raw register value (coil: 0 or 1)
+  int period_ms = 0;        // periodic: 1..60000; start-up: 0
+  int watchdog_ms = 0;      // periodic: the driver drops its coil when this write stops for
+                            // watchdog_ms (> period_ms; 0: no watchdog on it)
+  int line = 0;
+  ModbusRequest request() const {
+    return {unit, table, static_cast<std::uint8_t>(table == ModbusTable::kCoil ? 0x05 : 0x06),
+            address, 1};
+  }
+};
+
 struct ModbusProfile {
   static constexpr int kMaxGap = 8;  // registers (bits) a read bridges between points
   std::string path;
+  std::uint64_t digest = 0;  // of the profile and its calibration (a reload compares)
   std::string name;
-  bool swapped = false;     // 32-bit values: low word at the lower address
-  int write_function = 16;  // 16 or 6
-  bool align32 = false;     // 32-bit values at even addresses only
-  int max_read = 125;       // registers per read (coils and discrete inputs: 2000)
+  bool swapped = false;       // 32-bit values: low word at the lower address
+  int write_function = 16;    // 16 or 6
+  bool align32 = false;       // 32-bit values at even addresses only
+  int max_read = 125;         // registers per read (coils and discrete inputs: 2000)
+  int fault_reset_ms = 1000;  // fault_reset: at most one edge per this time [ms]
   std::array<ModbusPoint, kNumCanIn> inputs{};
   std::array<ModbusPoint, kNumModbusOut> outputs{};
-  std::vector<ModbusRequest> reads;   // grouped, in (unit, table, address) order
-  std::vector<ModbusRequest> writes;  // the one carrying `command` last
+  std::vector<ModbusRequest> reads;        // grouped, in (unit, table, address) order
+  std::vector<ModbusRequest> writes;       // the one carrying `command` last
+  std::vector<ModbusFixedWrite> startup;   // in file order
+  std::vector<ModbusFixedWrite> periodic;  // in file order
   std::string command_unit = "V";
   CommandMap command;
   const ModbusPoint& In(CanIn r) const { return inputs[static_cast<std::size_t>(r)]; }
@@ -100,7 +130,9 @@ struct ModbusProfile {
 // unit's table, 32-bit values at even addresses when align32, no 32-bit output with
 // write_function 6, outputs only in writable tables (holding, coil), max_read within the
 // function's limit (125 registers; 2000 bits for coils and discrete inputs), the [command]
-// section (monotonic calibration, range).
+// section (monotonic calibration, range); start-up and periodic writes in a writable table,
+// not on a mapped role's register, a coil value 0 or 1, a register value 0..65535, period_ms
+// 1..60000, watchdog_ms above period_ms and at most 60000.
 bool LoadModbusProfile(const std::string& path, ModbusProfile* out, std::string* error);
 // The same from text; `path` names it in errors and is the base of [command] calibration.
 bool ParseModbusProfile(const std::string& text, const std::string& path, ModbusProfile* out,

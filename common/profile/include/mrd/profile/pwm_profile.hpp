@@ -24,7 +24,8 @@
 namespace mrd::profile {
 
 struct PwmProfile {
-  std::string path;  // the profile file
+  std::string path;          // the profile file
+  std::uint64_t digest = 0;  // of the profile and its calibration (a reload compares)
   std::string name;
   std::int64_t period_ns = 50'000;
   bool inversed = false;

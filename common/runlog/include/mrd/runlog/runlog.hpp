@@ -103,6 +103,10 @@ bool ReadLog(const std::string& path, Log* log, std::string* error,
 // Field i of record r as a double (u64 beyond 2^53 rounds). Index of a field by name, -1.
 double Value(const Log& log, const std::vector<std::uint32_t>& offsets, std::uint64_t r,
              std::size_t i);
+// Field i of record r as stored: the integer zero-extended to 64 bits (an i64 as its two's
+// complement), the IEEE 754 bits of an f64.
+std::uint64_t Bits(const Log& log, const std::vector<std::uint32_t>& offsets, std::uint64_t r,
+                   std::size_t i);
 int FieldIndex(const Header& header, std::string_view name);
 
 }  // namespace mrd::runlog

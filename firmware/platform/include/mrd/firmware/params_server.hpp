@@ -1,7 +1,9 @@
 #pragma once
 // The control socket of a running mrd-firmware: a non-real-time thread serving a local UNIX
 // stream socket (mode 0600) with a line protocol, one request per connection, and calling an
-// idle function about every 50 ms (the SIGHUP reload watch). docs/tuning.md.
+// idle function about every 50 ms (the SIGHUP reload watch). docs/tuning.md. Clients are
+// served side by side (up to 64 connections; each has 2 s to send its line, a silent one holds
+// only its own slot; when all are taken the oldest is dropped).
 //
 //   request (one line, at most 4 KiB):  list | get NAME | set NAME VALUE | save
 //   reply:  list, get: a line per parameter  NAME \t VALUE \t TYPE \t UNIT \t ACCEPTS \t SET

@@ -4,8 +4,10 @@
 // ring drops the record and counts it); a non-real-time writer thread drains the ring into
 // blocks of the runlog format (common/runlog) and appends them to the file, rotating at
 // max_bytes and keeping `files` files (a regular file only: a device such as /dev/null, a FIFO
-// or a socket is written on without rotation). A write error (ENOSPC, EFBIG, EROFS, EIO, ...) stops
-// the log: one line on stderr, the loop keeps running, later records are counted as lost.
+// or a socket is written on without rotation; a FIFO without a reader, or whose reader stops
+// reading for 200 ms, fails the log instead of blocking). A write error (ENOSPC, EFBIG, EROFS,
+// EIO, ...) stops the log: one line on stderr, the loop keeps running, later records are
+// counted as lost. A file at the path that is not an mrd log is never truncated or moved.
 
 #include <atomic>
 #include <cstdint>
@@ -19,6 +21,11 @@
 #include "mrd/runlog/runlog.hpp"
 
 namespace mrd::firmware {
+
+// "" when the log may write at config.path; else why not (exit 2 at start-up): a directory,
+// or a file at PATH or a rotation name PATH.1 .. that exists and is not an mrd log (the log
+// would truncate or move it: a configuration, a table).
+std::string CheckLogPath(const LogConfig& config);
 
 // The record's fields (name, type, unit) in file order, and their encoding.
 std::vector<runlog::Field> PeriodLogFields();

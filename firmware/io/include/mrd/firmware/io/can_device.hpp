@@ -52,6 +52,7 @@
 #include "mrd/canbus/can_iface.hpp"
 #include "mrd/firmware/bus_device.hpp"
 #include "mrd/firmware/grant_clock.hpp"
+#include "mrd/firmware/io/fault_reset.hpp"
 #include "mrd/firmware/seqlock.hpp"
 #include "mrd/profile/frame_codec.hpp"
 #include "mrd/protocol/can_codec.hpp"
@@ -121,7 +122,8 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   // Real time: the latest motion sample (routed here) is older than max_age at now.
   bool MotionTooOld(std::int64_t now) const;
   // Encodes and queues the command messages; false when a send failed or a value was refused.
-  bool SendCommand(const DriverCommand& cmd, std::int64_t now);
+  // reset: the fault_reset bit is 1 in them (never in the shutdown command).
+  bool SendCommand(const DriverCommand& cmd, std::int64_t now, bool reset);
   void Publish() { published_.Write(counters_); }
   // CANopen (can_device_canopen.cpp). The SDO frames and filters (construction).
   void IndexCanopen();
@@ -167,6 +169,10 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   std::uint16_t unstamped_ = 0;
   bool fresh_in_wait_ = false;
   std::int64_t next_heartbeat_ns_ = 0, next_status_ns_ = 0, next_reconnect_ns_ = 0;
+  // fault_reset: the firmware's active causes (the latest PublishStatus; all until the first:
+  // no reset before the firmware says it is clean), the edges' rule.
+  unsigned active_causes_ = ~0U;
+  FaultResetRule reset_rule_;
   DeviceCounters counters_;
   Seqlock<DeviceCounters> published_;
   // CANopen ([canopen] of the profile; nullptr without).

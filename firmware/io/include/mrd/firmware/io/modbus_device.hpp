@@ -17,9 +17,14 @@
 // bad_value (the read fails: safe state); a set-point or value the register cannot hold makes
 // that write a safe one (set-point 0, enable 0, safe 1) and counts bad_value. With sensor_seq
 // mapped, a repeated seq is not new data; without it every good read is. driver_faults
-// non-zero sets the fault line, as fault_line does. Activate waits (bounded) for the first
-// cycle's sample or failure, so the loop does not start on a never-sampled frame (whose
-// values are NaN: a non_finite trip at start-up).
+// non-zero sets the fault line whether [modbus] inputs routes fault_line or not (as on CAN);
+// a refused write does not end the cycle (the rest goes out with the safe values). Activate waits
+// (bounded) for the first cycle's sample or failure, so the loop does not start on a never-sampled
+// frame (whose values are NaN: a non_finite trip at start-up). On every new connection the
+// profile's start-up writes go out first (one refused at start-up is a start-up error naming
+// its register); its periodic writes go out in the worker's cycle when due. fault_reset: 1 in
+// one write while the driver reports a fault and the firmware has no other cause, at most once
+// per fault_reset_ms (a latched driver fault is reset without a power cycle).
 
 #include <pthread.h>
 
@@ -31,11 +36,13 @@
 
 #include "mrd/firmware/bus_device.hpp"
 #include "mrd/firmware/grant_clock.hpp"
+#include "mrd/firmware/io/fault_reset.hpp"
 #include "mrd/firmware/seqlock.hpp"
 #include "mrd/profile/command_map.hpp"
 
 namespace mrd::profile {
 struct ModbusProfile;
+struct ModbusFixedWrite;
 }  // namespace mrd::profile
 
 namespace mrd::firmware {
@@ -49,6 +56,7 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
 
   const char* name() const override { return "modbus"; }
   FaultCause fault_cause() const override { return FaultCause::kModbusBus; }
+  bool write_faults_are_bus_faults() const override { return true; }
   // Creates the link and tries a first connection (a peer not up yet is not an error: the
   // worker keeps trying and the loop stays safe meanwhile).
   bool Configure(std::string* error) override;
@@ -74,7 +82,8 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
     std::int64_t grant_ns = 0;  // lockstep: the latest granted time (0: none yet)
     // Per Input (SensorFrame's units); body and wheel, floor accelerations: profile only.
     std::array<double, kNumInputs> values{};
-    bool fault_line = false;
+    bool fault_line = false;    // the fault_line input (counts when routed)
+    bool driver_fault = false;  // the driver reports a fault (driver_faults; always counts)
     double& value(Input i) { return values[static_cast<std::size_t>(i)]; }
     bool read_failed = false;   // the latest sensor read (after retries) failed
     bool write_failed = false;  // the latest command write (after retries) failed
@@ -117,6 +126,14 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   // The profile's transactions (modbus_device_profile.cpp).
   Outcome ReadProfile(Sample* s, bool* new_grant);
   Outcome WriteProfileOnce(const Command& c, IoError* why, bool interruptible);
+  // The profile's start-up writes on a new connection (retried as any request); false when one
+  // failed (refused: startup_refused_ names it for Activate).
+  bool StartUpWrites(Sample* s);
+  // The profile's periodic writes that are due (one attempt each; a failure fails the cycle's
+  // write, the loop goes safe).
+  void PeriodicWrites(Sample* s);
+  // One fixed write (0x05 / 0x06), one attempt. *exception: the device's code when refused.
+  bool WriteFixed(const profile::ModbusFixedWrite& w, IoError* why, std::uint8_t* exception);
   bool LatestCommand(Command* c) const;
   // The loop posted a safe block since the latest block written was a driven one.
   bool SafePending() const;
@@ -132,6 +149,13 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   profile::CommandMap command_map_;                  // loop side: E -> set-point
   double safe_setpoint_ = 0.0;                       // set-point of the safe state
   std::unique_ptr<std::uint16_t[]> words_;           // worker: one write request's words
+  std::unique_ptr<std::int64_t[]> periodic_due_;     // worker: next time of each periodic write
+  bool started_ = false;                             // worker: start-up writes done this session
+  bool driver_fault_seen_ = false;                   // worker: the latest good read's driver_faults
+  FaultResetRule reset_rule_;                        // worker: the fault_reset edges
+  // A start-up write the device refused: its index + 1 (0: none) and exception code.
+  std::atomic<int> startup_refused_{0};
+  std::atomic<std::uint8_t> startup_exception_{0};
   std::unique_ptr<ModbusLink> link_;
   std::unique_ptr<Waker> waker_;
   bool configured_ = false;
@@ -147,6 +171,8 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   Seqlock<Sample> sample_;
   Seqlock<Command> command_;
   std::atomic<std::uint16_t> status_causes_{0};
+  // False until the firmware's first PublishStatus: no fault reset before its causes are known.
+  std::atomic<bool> causes_known_{false};
   // Live telemetry of the last published period (profile roles status_model_force, _demand,
   // _command) [N], [N], [V].
   std::atomic<double> status_model_force_{0.0}, status_demand_{0.0}, status_command_{0.0};

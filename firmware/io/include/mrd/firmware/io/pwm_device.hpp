@@ -49,6 +49,7 @@ class PwmDevice final : public BusDevice {
 
   const char* name() const override { return "pwm"; }
   FaultCause fault_cause() const override { return FaultCause::kGpioBus; }
+  bool write_faults_are_bus_faults() const override { return true; }
   bool Configure(std::string* error) override;
   bool Activate(std::string* error) override;
   void Deactivate() override;
