@@ -159,13 +159,16 @@ ResidualAnalysis AnalyseResiduals(const ModelFile& m, int k, const DataSet& data
 
 std::vector<std::string> ResidualAdvice(const ResidualAnalysis& a) {
   std::vector<std::string> advice;
-  // Lags outside the band within 1..kShortLag (positive: the input leads the residual).
-  const auto short_lags = [](const Correlation& c, bool positive) {
+  // Lags within 1..kShortLag (positive: the input leads the residual) whose |r| exceeds
+  // kAdviceBand times the band: a white residual leaves the 99 % band at one of five lags now
+  // and then by chance, but not that far.
+  const auto short_lags = [&a](const Correlation& c, bool positive) {
     std::vector<int> out;
-    for (const int lag : c.outside) {
-      if (positive ? (lag >= 1 && lag <= kShortLag) : (lag <= -1 && lag >= -kShortLag)) {
-        out.push_back(lag);
-      }
+    for (std::size_t i = 0; i < c.lags.size(); ++i) {
+      const int lag = c.lags[i];
+      const bool near =
+          positive ? (lag >= 1 && lag <= kShortLag) : (lag <= -1 && lag >= -kShortLag);
+      if (near && std::fabs(c.r[i]) > kAdviceBand * a.band) out.push_back(lag);
     }
     return out;
   };
@@ -205,9 +208,9 @@ std::vector<std::string> ResidualAdvice(const ResidualAnalysis& a) {
   }
   if (advice.empty()) {
     advice.push_back(fmt::format(
-        "no one-step correlation outside the band at lags 1...{}: nothing suggests missing "
-        "dynamics",
-        kShortLag));
+        "no one-step correlation beyond {:g} times the band at lags 1...{}: nothing suggests "
+        "missing dynamics",
+        kAdviceBand, kShortLag));
   }
   return advice;
 }
@@ -248,15 +251,10 @@ nlohmann::json ResidualJson(const ResidualAnalysis& a) {
     for (const double v : c.r) r.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json());
     corr.push_back({{"name", c.name}, {"lags", c.lags}, {"r", r}, {"outside", c.outside}});
   }
-  return {{"samples", a.samples},
-          {"max_lag", a.max_lag},
-          {"band", a.band},
-          {"inputs", a.inputs},
-          {"rms_free_run", a.rms_free_run},
-          {"rms_one_step", a.rms_one_step},
-          {"diverged", a.diverged},
-          {"correlations", corr},
-          {"advice", ResidualAdvice(a)}};
+  return {
+      {"samples", a.samples},   {"max_lag", a.max_lag},           {"band", a.band},
+      {"inputs", a.inputs},     {"rms_free_run", a.rms_free_run}, {"rms_one_step", a.rms_one_step},
+      {"diverged", a.diverged}, {"correlations", corr},           {"advice", ResidualAdvice(a)}};
 }
 
 PlotFigure ResidualPlot(const ResidualAnalysis& a, const std::string& title) {

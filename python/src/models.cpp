@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -21,7 +22,8 @@ namespace {
 
 using host::ModelFile;
 
-PyObject* g_envelope_warning = nullptr;  // mrd.EnvelopeWarning (a new reference, kept)
+PyObject* g_envelope_warning = nullptr;       // mrd.EnvelopeWarning (a new reference, kept)
+PyObject* g_invertibility_warning = nullptr;  // mrd.InvertibilityWarning (kept)
 
 bool IsMapping(const py::handle& obj) {
   return py::isinstance<py::dict>(obj) ||
@@ -64,6 +66,7 @@ py::dict Simulate(const ModelFile& m, const py::handle& data, const std::optiona
   std::vector<double> ysim;
   nlohmann::json j;
   std::vector<std::string> warnings;
+  std::string not_invertible;  // the CLI's invertibility warning, when it fails
   Checked(paths, [&] {
     const py::gil_scoped_release release;
     const host::SimMetrics metrics = host::SimulateModel(m, k, ds, &ysim);
@@ -74,11 +77,22 @@ py::dict Simulate(const ModelFile& m, const py::handle& data, const std::optiona
     j["terms"] = m.Iteration(k).terms.size();
     j["envelope"] = host::EnvelopeJson(env);
     j["outside_envelope"] = host::AnyOutside(env);
+    // As mrd simulate: invertibility in the command on this data's states and the grid.
+    if (!host::ModelCommand(m).empty()) {
+      const host::InvertibilityReport inv =
+          host::CheckModelInvertibility(m, k, std::span<const host::DataSet>(&ds, 1));
+      j["invertibility"] = host::InvertibilityJson(inv);
+      if (!inv.pass()) {
+        not_invertible =
+            fmt::format("{} on {}: {}", m.path, ds.path, host::InvertibilitySummary(inv));
+      }
+    }
   });
   for (std::string w : warnings) {
     if (w.rfind("warning: ", 0) == 0) w.erase(0, 9);
     Warn(g_envelope_warning, w);
   }
+  if (!not_invertible.empty()) Warn(g_invertibility_warning, not_invertible);
   py::dict out = FromJson(j).cast<py::dict>();
   const std::string& y = m.spec.output;
   out["t"] = ToArray(std::vector<double>(ds.Column("t")));
@@ -92,12 +106,6 @@ py::object CheckEnvelopeOf(const ModelFile& m, const py::handle& data) {
   const host::DataSet ds = DataOf(data, {}, "data", &paths);
   return FromJson(Checked(paths, [&] { return host::EnvelopeJson(host::CheckEnvelope(m, ds)); }));
 }
-
-// Invertibility of a model (can the firmware invert an iteration for its command, and is it
-// monotone in it over the envelope): the model-level check belongs in common/ and is being added
-// there; bind it HERE, beside check_envelope, as Model.check_invertibility(iteration=None) once
-// it lands. Until then Table.inversion() reports the table-level check (mrd::CheckInversion) on
-// an exported iteration.
 
 }  // namespace
 
@@ -144,6 +152,13 @@ void RegisterModels(py::module_& m) {
       "simulate` warns on stderr).",
       PyExc_UserWarning, nullptr);
   m.attr("EnvelopeWarning") = py::handle(g_envelope_warning);
+  g_invertibility_warning = PyErr_NewExceptionWithDoc(
+      "mrd.InvertibilityWarning",
+      "A model whose force falls with its command somewhere on the data or its envelope (as "
+      "`mrd simulate` warns on stderr): a controller inverting it may ask for the wrong "
+      "command.",
+      PyExc_UserWarning, nullptr);
+  m.attr("InvertibilityWarning") = py::handle(g_invertibility_warning);
 
   py::class_<ModelFile>(m, "Model",
                         "An identified model file (mrd identify, mrd.identify): the spec, every "

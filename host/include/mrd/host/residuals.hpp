@@ -60,8 +60,10 @@ struct ResidualAnalysis {
 // lacks a column; std::invalid_argument for max_lag < 1.
 ResidualAnalysis AnalyseResiduals(const ModelFile& m, int k, const DataSet& data, int max_lag);
 
-// Lags that count as short for the advice (missing dynamics show there first) [samples].
+// Lags that count as short for the advice (missing dynamics show there first) [samples], and
+// how far beyond the 99 % band a correlation there must be to count (chance stays inside).
 inline constexpr int kShortLag = 5;
+inline constexpr double kAdviceBand = 2.0;
 
 // What the one-step correlations suggest, in words, one line each: autocorrelation at short
 // lags (missing autoregressive terms), an input leading the residual at short lags (missing

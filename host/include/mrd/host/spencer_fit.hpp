@@ -65,8 +65,9 @@ struct SpencerFitResult {
 // Lower and upper bounds of the fit (same order as params::SpencerFields).
 void SpencerFitBounds(SpencerParams* lower, SpencerParams* upper);
 
-// A fitted value within this share of its box's width from a bound counts as at the bound.
-inline constexpr double kAtBoundShare = 1e-3;
+// A fitted value within this share of its box's width from a bound counts as at the bound (the
+// bounded solver ends on the bound itself; the boxes span decades, so the share is small).
+inline constexpr double kAtBoundShare = 1e-6;
 
 // Warnings about a fit ("warning: ..." lines, none when it looks sound): each parameter at a
 // bound of SpencerFitBounds (the runs do not pin it), and x0 beyond the stroke the runs
