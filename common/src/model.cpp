@@ -106,6 +106,17 @@ void BasicRegressorHistory<T>::PushInputs(const BasicModel<T>& model,
 }
 
 template <class T>
+void BasicRegressorHistory<T>::Hold(const BasicModel<T>& model, std::span<const T> normalised) {
+  for (std::size_t r = 0; r < model.num_regressors; ++r) {
+    const BasicRegressor<T>& reg = model.regressors[r];
+    const T s = normalised[reg.channel];
+    values_[r].fill(reg.transform == Transform::kLowPass
+                        ? s
+                        : ApplyTransform<T>(reg.transform, reg.exponent, s));
+  }
+}
+
+template <class T>
 void BasicRegressorHistory<T>::SetOutput(const BasicModel<T>& model, T y_normalised) {
   for (std::size_t r = 0; r < model.num_regressors; ++r) {
     const BasicRegressor<T>& reg = model.regressors[r];

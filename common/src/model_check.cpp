@@ -23,6 +23,7 @@ Error ModelCheck::error() const {
     case ModelProblem::kCoefficient:
     case ModelProblem::kVoltageNonFinite:
     case ModelProblem::kEnvelopeNonFinite:
+    case ModelProblem::kInvertibilityNonFinite:
       return Error::kNonFinite;
     case ModelProblem::kOutputChannel:
     case ModelProblem::kChannelScale:
@@ -38,6 +39,7 @@ Error ModelCheck::error() const {
     case ModelProblem::kInputChannel:
     case ModelProblem::kVoltageRange:
     case ModelProblem::kEnvelopeRange:
+    case ModelProblem::kInvertibilityCount:
       return Error::kOutOfRange;
   }
   return Error::kInvalidArgument;
@@ -136,6 +138,14 @@ ModelCheck CheckTable(const CoefficientTable& t) {
         return {ModelProblem::kEnvelopeNonFinite, at, 0};
       }
       if (!(r.min <= r.max)) return {ModelProblem::kEnvelopeRange, at, 0};
+    }
+  }
+  if (t.has_invertibility) {
+    if (!std::isfinite(t.invertibility.worst_slope)) {
+      return {ModelProblem::kInvertibilityNonFinite, 0, 0};
+    }
+    if (t.invertibility.failing > t.invertibility.states) {
+      return {ModelProblem::kInvertibilityCount, 0, static_cast<int>(t.invertibility.failing)};
     }
   }
   return {};

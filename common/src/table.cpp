@@ -9,7 +9,8 @@
 namespace mrd {
 namespace {
 
-static_assert(kTableSize == 2216, "format version 2 layout changed: bump kTableVersion");
+static_assert(kTableSize == 2232, "format version 3 layout changed: bump kTableVersion");
+static_assert(kTableSizeV2 == 2216, "format version 2 layout is fixed");
 static_assert(kTableSizeV1 == 2088, "format version 1 layout is fixed");
 
 // Little-endian byte writer over a fixed image.
@@ -88,7 +89,8 @@ Result<TableBytes> EncodeTable(const CoefficientTable& table) {
   Writer w(bytes);
   for (std::size_t i = 0; i < kTableMagic.size(); ++i) w.U8(i, kTableMagic[i]);
   w.U16(4, kTableVersion);
-  w.U16(6, table.has_envelope ? kTableFlagEnvelope : 0);
+  w.U16(6, static_cast<std::uint16_t>((table.has_envelope ? kTableFlagEnvelope : 0) |
+                                      (table.has_invertibility ? kTableFlagInvertibility : 0)));
   w.U32(8, static_cast<std::uint32_t>(kTableSize));
   w.U8(kTableCountsOffset + 0, m.num_channels);
   w.U8(kTableCountsOffset + 1, m.output_channel);
@@ -131,6 +133,11 @@ Result<TableBytes> EncodeTable(const CoefficientTable& table) {
       w.F64(kTableEnvelopeOffset + c * kTableEnvelopeRecord + 8, table.envelope[c].max);
     }
   }
+  if (table.has_invertibility) {
+    w.U32(kTableInvertibilityOffset, table.invertibility.states);
+    w.U32(kTableInvertibilityOffset + 4, table.invertibility.failing);
+    w.F64(kTableInvertibilityOffset + 8, table.invertibility.worst_slope);
+  }
   w.U32(kTableCrcOffset, Crc32(std::span<const std::uint8_t>(bytes.data(), kTableCrcOffset)));
   return bytes;
 }
@@ -154,15 +161,22 @@ Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes, TableD
     if (r.U8(i) != kTableMagic[i]) return refuse(Error::kBadMagic);
   }
   const std::uint16_t version = r.U16(4);
-  if (version != kTableVersion && version != kTableVersionV1) return refuse(Error::kBadVersion);
+  if (version != kTableVersion && version != kTableVersionV2 && version != kTableVersionV1) {
+    return refuse(Error::kBadVersion);
+  }
   const bool v1 = version == kTableVersionV1;
-  const std::size_t size = v1 ? kTableSizeV1 : kTableSize;
-  const std::size_t crc_at = v1 ? kTableCrcOffsetV1 : kTableCrcOffset;
+  const bool v2 = version == kTableVersionV2;
+  const std::size_t size = v1 ? kTableSizeV1 : (v2 ? kTableSizeV2 : kTableSize);
+  const std::size_t crc_at = v1 ? kTableCrcOffsetV1 : (v2 ? kTableCrcOffsetV2 : kTableCrcOffset);
   if (r.U32(8) != size || bytes.size() != size) return refuse(Error::kBadSize);
   if (r.U32(crc_at) != Crc32(bytes.first(crc_at))) return refuse(Error::kBadCrc);
   const std::uint16_t flags = r.U16(6);
-  // Version 1 defines no flag; version 2 only the envelope bit.
-  if ((flags & ~(v1 ? 0u : unsigned{kTableFlagEnvelope})) != 0) return refuse(Error::kOutOfRange);
+  // Version 1 defines no flag; version 2 the envelope bit; version 3 also the invertibility bit.
+  const unsigned defined =
+      v1 ? 0u
+         : (v2 ? unsigned{kTableFlagEnvelope}
+               : unsigned{kTableFlagEnvelope} | unsigned{kTableFlagInvertibility});
+  if ((flags & ~defined) != 0) return refuse(Error::kOutOfRange);
 
   CoefficientTable table;
   Model& m = table.model;
@@ -210,11 +224,17 @@ Result<CoefficientTable> DecodeTable(std::span<const std::uint8_t> bytes, TableD
       table.envelope[c].max = r.F64(kTableEnvelopeOffset + c * kTableEnvelopeRecord + 8);
     }
   }
+  table.has_invertibility = (flags & kTableFlagInvertibility) != 0;
+  if (table.has_invertibility) {
+    table.invertibility.states = r.U32(kTableInvertibilityOffset);
+    table.invertibility.failing = r.U32(kTableInvertibilityOffset + 4);
+    table.invertibility.worst_slope = r.F64(kTableInvertibilityOffset + 8);
+  }
   d.table = table;
   d.check = CheckTable(table);
   if (!d.check.ok()) return refuse(d.check.error());
   // Canonical: every byte the encoder writes as zero is zero (all but the version and size
-  // fields, which differ in a version 1 image, and the CRC, which is checked above).
+  // fields, which differ in a version 1 or 2 image, and the CRC, which is checked above).
   const Result<TableBytes> canonical = EncodeTable(table);
   if (!canonical.ok()) return refuse(canonical.error());
   for (std::size_t i = 0; i < crc_at; ++i) {

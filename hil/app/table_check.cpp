@@ -1,6 +1,10 @@
 #include "table_check.hpp"
 
+#include <cstdint>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <vector>
 
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/builtin_table.hpp"
@@ -30,14 +34,23 @@ bool LoadRunTable(const std::string& path, CoefficientTable* table) {
 }
 
 std::string TableLabel(const std::string& path, const CoefficientTable& table) {
-  const auto image = EncodeTable(table);
+  // A file's own CRC (its last 4 bytes in every version: an older-version file is named as
+  // `crc32` names it, not as re-encoded); the compiled-in table's image.
+  std::vector<std::uint8_t> b;
+  std::size_t at = 0;
+  if (!path.empty()) {
+    std::ifstream in(path, std::ios::binary);
+    b.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    at = b.size() >= 4 ? b.size() - 4 : b.size();
+  } else if (const auto image = EncodeTable(table); image.ok()) {
+    b.assign(image.value().begin(), image.value().end());
+    at = kTableCrcOffset;
+  }
   char crc[32] = "CRC-32 n/a";
-  if (image.ok()) {
-    const auto& b = image.value();
-    const std::uint32_t v = static_cast<std::uint32_t>(b[kTableCrcOffset]) |
-                            static_cast<std::uint32_t>(b[kTableCrcOffset + 1]) << 8 |
-                            static_cast<std::uint32_t>(b[kTableCrcOffset + 2]) << 16 |
-                            static_cast<std::uint32_t>(b[kTableCrcOffset + 3]) << 24;
+  if (at + 4 <= b.size()) {
+    const std::uint32_t v =
+        static_cast<std::uint32_t>(b[at]) | static_cast<std::uint32_t>(b[at + 1]) << 8 |
+        static_cast<std::uint32_t>(b[at + 2]) << 16 | static_cast<std::uint32_t>(b[at + 3]) << 24;
     std::snprintf(crc, sizeof crc, "CRC-32 0x%08X", static_cast<unsigned>(v));
   }
   return (path.empty() ? std::string("compiled-in") : Printable(path)) + " (" + crc + ")";

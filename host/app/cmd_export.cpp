@@ -14,7 +14,9 @@
 #include "commands.hpp"
 #include "mrd/common/cli_checks.hpp"
 #include "mrd/host/atomic_write.hpp"
+#include "mrd/host/command_range.hpp"
 #include "mrd/host/input_error.hpp"
+#include "mrd/host/invertibility.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/table_export.hpp"
 
@@ -27,7 +29,9 @@ struct ExportOptions {
   std::string table, header;
   std::string symbol = "mrd::firmware::kExportedTable";
   std::string input = "E";
-  double e_min = 0.0, e_max = 2.25;  // [V]
+  std::optional<double> e_min, e_max;  // [V]; none: command_range.hpp
+  std::string profile;                 // device profile: its command range
+  bool allow_non_monotone = false;
 };
 
 void RunExport(const ExportOptions& o) {
@@ -40,8 +44,34 @@ void RunExport(const ExportOptions& o) {
   const ModelFile mf = LoadModelFile(o.model);
   const int k = o.iteration.value_or(mf.selected);
   const SemIteration& it = mf.Iteration(k);  // InputError "no iteration K" when absent
+  (void)CheckExportInput(mf, k, o.input);    // a bad --input is named before the range is chosen
+  const CommandRange range = ChooseCommandRange(mf, o.input, o.e_min, o.e_max, o.profile);
+  for (const std::string& w : range.warnings) fmt::print(stderr, "{}\n", w);
+  // Validated once, with its envelope (table v2), then encoded once for both forms.
   bool envelope = false;
-  const CoefficientTable table = ExportTable(mf, k, o.input, o.e_min, o.e_max, &envelope);
+  CoefficientTable table = ExportTable(mf, k, o.input, range.e_min, range.e_max, &envelope);
+  // Invertibility over the table's command range; a model that fails it is refused unless
+  // --allow-non-monotone.
+  const InvertibilityReport inv = ExportInvertibility(mf, o.input, table);
+  if (!inv.pass() && !o.allow_non_monotone) {
+    // Short enough for the reason's cut (input_error.cpp): the share and the worst state.
+    throw InputError(
+        o.model, 0,
+        fmt::format("not invertible (--allow-non-monotone exports it anyway): {}; a controller "
+                    "inverting it may ask for the wrong command",
+                    !inv.structure_problem.empty()
+                        ? InvertibilitySummary(inv)
+                        : fmt::format("{} of {} states fail ({:.3g} %) in {} on [{:g}, {:g}]{}",
+                                      inv.failing(), inv.states(), inv.share_percent(), inv.input,
+                                      inv.e_min, inv.e_max,
+                                      inv.has_worst ? "; worst: " + DescribeState(inv, inv.worst)
+                                                    : std::string())));
+  }
+  if (!inv.pass()) {
+    fmt::print(stderr, "warning: {}: exported although not invertible (--allow-non-monotone): {}\n",
+               o.model, InvertibilitySummary(inv));
+  }
+  RecordTableInvertibility(inv, &table);
   const TableBytes bytes = TableImage(table);
   // Encode both forms first, then write both or neither (WriteFilesAtomic).
   std::vector<std::pair<std::string, std::string>> files;
@@ -57,10 +87,12 @@ void RunExport(const ExportOptions& o) {
     }
   }
   WriteFilesAtomic(files);
-  fmt::print("iteration {} ({} terms, J {:.6g}), input '{}' in [{}, {}] V, {} ->{}{}\n", k,
-             it.terms.size(), it.j, o.input, o.e_min, o.e_max,
-             envelope ? "operating envelope" : "no envelope (model file predates it)",
-             o.table.empty() ? "" : " " + o.table, o.header.empty() ? "" : " " + o.header);
+  fmt::print(
+      "iteration {} ({} terms, J {:.6g}), input '{}' in [{:.4g}, {:.4g}] V ({}), {} ->{}{}\n", k,
+      it.terms.size(), it.j, o.input, range.e_min, range.e_max, range.source,
+      envelope ? "operating envelope" : "no envelope (model file predates it)",
+      o.table.empty() ? "" : " " + o.table, o.header.empty() ? "" : " " + o.header);
+  fmt::print("{}\n", InvertibilitySummary(inv));
 }
 
 }  // namespace
@@ -79,12 +111,20 @@ void RegisterExport(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--input", o->input, "Inverted input channel (the command voltage)")
       ->capture_default_str();
-  cmd->add_option("--e-min", o->e_min, "Lowest admissible command [V]")
-      ->check(mrd::cli::Finite)
-      ->capture_default_str();
-  cmd->add_option("--e-max", o->e_max, "Highest admissible command [V]")
-      ->check(mrd::cli::Finite)
-      ->capture_default_str();
+  cmd->add_option("--e-min", o->e_min,
+                  "Lowest admissible command [V] (default: --profile's, else the lowest the "
+                  "identification data reached, at least 0)")
+      ->check(mrd::cli::Finite);
+  cmd->add_option("--e-max", o->e_max,
+                  "Highest admissible command [V] (default: --profile's, else the highest the "
+                  "identification data reached)")
+      ->check(mrd::cli::Finite);
+  cmd->add_option("--profile", o->profile,
+                  "Device profile (firmware/profiles/): the table's command range is its "
+                  "[command] range, mapped back to E through its calibration");
+  cmd->add_flag("--allow-non-monotone", o->allow_non_monotone,
+                "Export a model whose force falls as the command rises (dissipative direction) "
+                "or turns back somewhere in its envelope (refused otherwise), with a warning");
   cmd->callback([o] { RunExport(*o); });
 }
 

@@ -112,6 +112,11 @@ void RunFit(FitOptions o) {
   };
   for (const FitRun& r : runs) report("fit on", r);
   for (const FitRun& r : held) report("held out", r);
+  // What the fit leaves undetermined: on stderr and in the file's header.
+  for (const std::string& w : SpencerFitWarnings(res.params, runs)) {
+    fmt::print(stderr, "{}\n", w);
+    header << w << "\n";
+  }
   std::string why;
   if (!params::CheckPhysical(res.params, &why)) throw std::runtime_error("fit result: " + why);
   WriteFileAtomic(o.out, params::SpencerParamsText(res.params, header.str()));

@@ -14,6 +14,7 @@
 #include "mrd/host/csv.hpp"
 #include "mrd/host/default_spec.hpp"
 #include "mrd/host/input_error.hpp"
+#include "mrd/host/invertibility.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
 #include "mrd/host/sem_family.hpp"
@@ -42,6 +43,14 @@ std::vector<DataSet> ReadAll(const std::vector<std::string>& paths,
   return out;
 }
 
+// Spec monotone_in: the iteration's invertibility verdict and the candidates it refused.
+void PrintMonotone(const SemIteration& it) {
+  if (!it.monotone.checked) return;
+  fmt::print(stderr, ", monotone {} ({:.3g} % of {} states fail, {} candidates rejected)",
+             it.monotone.pass ? "pass" : "FAIL", it.monotone.share_percent, it.monotone.states,
+             it.monotone_rejected);
+}
+
 void RunIdentify(const IdentifyOptions& o) {
   CheckOutputPath(o.out);  // before the identification, which may take minutes
   // No --spec: the built-in saturating damper spec (default_spec.hpp).
@@ -68,6 +77,7 @@ void RunIdentify(const IdentifyOptions& o) {
       fmt::print(stderr, ", stress {} (peak {:.3g}, {} candidates rejected)",
                  it.stress.pass ? "pass" : "FAIL", it.stress.peak, it.stress_rejected);
     }
+    PrintMonotone(it);
     fmt::print(stderr, "\n");
     std::fflush(stderr);
   };
@@ -84,6 +94,7 @@ void RunIdentify(const IdentifyOptions& o) {
   mf.family = fi.family;
   mf.identification_data = o.data;
   mf.validation_data = o.validate;
+  const InvertibilityReport inv = RecordInvertibility(&mf, data);
   SaveModelFile(mf, o.out);
   const SemIteration& sel = mf.Iteration(mf.selected);
   fmt::print("{}: {} candidates, {} iterations, selected iteration {} ({} terms, J {:.6g}; {})\n",
@@ -96,6 +107,7 @@ void RunIdentify(const IdentifyOptions& o) {
              r.second_start_s < 0.0 ? std::string("off")
                                     : fmt::format("{:.2f} s (a {}-term one-step start)",
                                                   r.second_start_s, r.second_start_terms));
+  fmt::print("selected iteration {}: {}\n", mf.selected, InvertibilitySummary(inv));
   const FamilyResult& f = mf.family;
   if (!f.empty()) {
     fmt::print("transform family ({}):\n", f.rule);

@@ -9,6 +9,7 @@
 #include "mrd/host/atomic_write.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
+#include "mrd/host/invertibility.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/model_judge.hpp"
 
@@ -36,12 +37,21 @@ void RunSimulate(const SimulateOptions& o) {
   }
   const std::vector<EnvelopeCheck> env = CheckEnvelope(mf, data);
   for (const auto& w : EnvelopeWarnings(o.model, o.data, env)) fmt::print(stderr, "{}\n", w);
+  // Invertibility in the command on this data's states and the envelope grid.
+  const bool has_command = !ModelCommand(mf).empty();
+  const InvertibilityReport inv =
+      has_command ? CheckModelInvertibility(mf, k, std::span<const DataSet>(&data, 1))
+                  : InvertibilityReport{};
+  if (has_command && !inv.pass()) {
+    fmt::print(stderr, "warning: {} on {}: {}\n", o.model, o.data, InvertibilitySummary(inv));
+  }
   if (o.json) {
     nlohmann::json j = MetricsJson(mf, m);
     j["iteration"] = k;
     j["terms"] = mf.Iteration(k).terms.size();
     j["envelope"] = EnvelopeJson(env);
     j["outside_envelope"] = AnyOutside(env);
+    if (has_command) j["invertibility"] = InvertibilityJson(inv);
     fmt::print("{}\n", j.dump());
     return;
   }
@@ -55,6 +65,7 @@ void RunSimulate(const SimulateOptions& o) {
       "  unweighted: RRSE {:.6g}  fit {:.3f} %  (NRMSE = RRSE = ||{} - sim|| / ||{} - mean||)\n",
       m.rrse, m.fit_percent, y, y);
   fmt::print("  normalised: J {:.6g} ({})  MSE {:.6g}\n", m.j, CostWeightingName(mf), m.mse);
+  if (has_command) fmt::print("  {}\n", InvertibilitySummary(inv));
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include "mrd/host/csv.hpp"
 #include "mrd/host/input_error.hpp"
+#include "mrd/host/invertibility.hpp"
 #include "mrd/host/plot.hpp"
 #include "mrd/host/report.hpp"
 #include "mrd/host/staging_dir.hpp"
@@ -27,7 +28,7 @@ std::string Cell(double v, const char* fmt_spec) {
 std::string Table(const CompareResult& r) {
   std::vector<std::vector<std::string>> cells = {{"model", "data", "fit %", "RMSE", "NRMSE", "J",
                                                   "J weighting", "terms", "diverged",
-                                                  "outside envelope"}};
+                                                  "not invertible", "outside envelope"}};
   for (const CompareRow& row : r.rows) {
     std::string env;
     for (const EnvelopeCheck& e : row.envelope) {
@@ -43,7 +44,11 @@ std::string Table(const CompareResult& r) {
              ? fmt::format("{:.4g}{}", m.rmse_physical, row.unit.empty() ? "" : " " + row.unit)
              : "-",
          Cell(m.rrse, "{:.4f}"), Cell(m.j, "{:.4g}"), row.weighting, fmt::format("{}", row.terms),
-         m.diverged ? "yes" : "no", env.empty() ? "-" : env});
+         m.diverged ? "yes" : "no",
+         row.invertibility_fail_percent < 0.0
+             ? std::string("-")
+             : fmt::format("{:.3g} %", row.invertibility_fail_percent),
+         env.empty() ? "-" : env});
   }
   std::vector<std::size_t> w(cells.front().size(), 0);
   for (const auto& line : cells)
@@ -66,7 +71,9 @@ std::string Table(const CompareResult& r) {
                  "free run of each model's selected iteration; NRMSE = ||y - ysim|| / "
                  "||y - mean(y)|| (unweighted), fit % = 100 (1 - NRMSE); RMSE in the output's "
                  "unit; J in normalised units with the model's weighting (rel: 1/max(|y_n|, "
-                 "floor); mse: none)\n");
+                 "floor); mse: none); not invertible: share of states (this data and the "
+                 "model's envelope grid) where the force falls as the command rises in the "
+                 "dissipative direction or turns back\n");
   return fmt::to_string(b);
 }
 
@@ -135,6 +142,16 @@ CompareResult CompareModels(const CompareOptions& o) {
       row.metrics = SimulateModel(mf, mf.selected, data[di], &y);
       ysim[mi].push_back(std::move(y));
       row.envelope = CheckEnvelope(mf, data[di]);
+      if (!ModelCommand(mf).empty()) {
+        const InvertibilityReport inv =
+            CheckModelInvertibility(mf, mf.selected, std::span<const DataSet>(&data[di], 1));
+        row.invertibility_fail_percent = inv.share_percent();
+        row.invertibility = InvertibilityJson(inv);
+        if (!inv.pass()) {
+          r.warnings.push_back(
+              fmt::format("warning: {} on {}: {}", row.model, row.data, InvertibilitySummary(inv)));
+        }
+      }
       for (auto& w : EnvelopeWarnings(row.model, row.data, row.envelope)) r.warnings.push_back(w);
       r.rows.push_back(std::move(row));
     }
@@ -150,6 +167,7 @@ CompareResult CompareModels(const CompareOptions& o) {
     j["terms"] = row.terms;
     j["envelope"] = EnvelopeJson(row.envelope);
     j["outside_envelope"] = AnyOutside(row.envelope);
+    if (!row.invertibility.is_null()) j["invertibility"] = row.invertibility;
     rows.push_back(std::move(j));
   }
   r.json = {{"rows", rows}, {"warnings", r.warnings}};

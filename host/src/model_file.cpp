@@ -77,6 +77,7 @@ json SpecToJson(const SemSpec& s) {
                  s.selection == Selection::kCrossValidation ? "cross_validation" : "tolerance"},
                 {"selection_tolerance_percent", s.selection_tolerance_percent},
                 {"initial", s.initial}}}};
+  if (!s.monotone_in.empty()) out["algorithm"]["monotone_in"] = s.monotone_in;
   if (s.stress.enabled) {
     out["stress"] = {{"stretch", s.stress.stretch},
                      {"stretch_signals", s.stress.stretch_signals},
@@ -213,6 +214,12 @@ std::string ModelFileToJson(const ModelFile& m) {
                       {"reason", it.stress.reason},
                       {"rejected_candidates", it.stress_rejected}};
     }
+    if (it.monotone.checked) {  // spec monotone_in: the search's invertibility verdict
+      ji["monotone"] = {
+          {"pass", it.monotone.pass},       {"states", it.monotone.states},
+          {"failing", it.monotone.failing}, {"share_percent", it.monotone.share_percent},
+          {"worst", it.monotone.worst},     {"rejected_candidates", it.monotone_rejected}};
+    }
     its.push_back(ji);
   }
   json ch = json::array();
@@ -236,6 +243,18 @@ std::string ModelFileToJson(const ModelFile& m) {
             {"identification_data", m.identification_data},
             {"validation_data", m.validation_data}};
   if (!m.family.empty()) j["family"] = FamilyToJson(m.family);
+  if (m.invertibility.recorded) {
+    const InvertibilityRecord& r = m.invertibility;
+    j["invertibility"] = {{"iteration", r.iteration},
+                          {"input", r.input},
+                          {"e_min", r.e_min},
+                          {"e_max", r.e_max},
+                          {"states", r.states},
+                          {"failing", r.failing},
+                          {"share_percent", r.share_percent},
+                          {"summary", r.summary}};
+  }
+  if (!m.default_choice.empty()) j["default_choice"] = m.default_choice;
   return j.dump(1) + "\n";
 }
 
@@ -342,6 +361,17 @@ ModelFile LoadModelFile(const std::string& path) {
         it.stress.reason = js.value("reason", std::string());
         it.stress_rejected = js.value("rejected_candidates", 0);
       }
+      if (ji.contains("monotone")) {
+        const json& jm = ji.at("monotone");
+        it.monotone.checked = true;
+        it.monotone.pass = jm.at("pass").get<bool>();
+        it.monotone.states = jm.at("states").get<std::size_t>();
+        it.monotone.failing = jm.at("failing").get<std::size_t>();
+        it.monotone.share_percent =
+            FiniteField(jm.at("share_percent"), "monotone: share_percent", path);
+        it.monotone.worst = jm.value("worst", std::string());
+        it.monotone_rejected = jm.value("rejected_candidates", 0);
+      }
       for (const auto& jt : ji.at("terms")) {
         SemTerm term;
         for (const auto& jf : jt.at("factors")) {
@@ -371,6 +401,20 @@ ModelFile LoadModelFile(const std::string& path) {
     m.selected = IntField(j, "selected", 0, 1000000, path, "");
     m.selection_rule = j.value("selection_rule", std::string());
     if (j.contains("family")) m.family = FamilyFromJson(j.at("family"), m.spec, path);
+    if (j.contains("invertibility")) {
+      const json& ji = j.at("invertibility");
+      InvertibilityRecord& r = m.invertibility;
+      r.recorded = true;
+      r.iteration = IntField(ji, "iteration", 0, 1000000, path, "invertibility");
+      r.input = ji.at("input").get<std::string>();
+      r.e_min = FiniteField(ji.at("e_min"), "invertibility: e_min", path);
+      r.e_max = FiniteField(ji.at("e_max"), "invertibility: e_max", path);
+      r.states = ji.at("states").get<std::size_t>();
+      r.failing = ji.at("failing").get<std::size_t>();
+      r.share_percent = FiniteField(ji.at("share_percent"), "invertibility: share_percent", path);
+      r.summary = ji.value("summary", std::string());
+    }
+    m.default_choice = j.value("default_choice", std::string());
   } catch (const json::exception& e) {
     throw InputError(path, 0, fmt::format("bad model file: {}", e.what()));
   }
@@ -393,9 +437,8 @@ bool SetTableEnvelope(const ModelFile& m, CoefficientTable* table) {
   return true;
 }
 
-CoefficientTable ExportTable(const ModelFile& m, int k, const std::string& input, double e_min,
-                             double e_max, bool* envelope) {
-  const mrd::Model model = ToRuntimeModel(m, k);
+mrd::Model CheckExportInput(const ModelFile& m, int k, const std::string& input) {
+  mrd::Model model = ToRuntimeModel(m, k);
   // The inverted input must be a signal of the model that iteration k's terms read.
   const std::vector<std::string> signals = m.spec.Signals();
   if (input == m.spec.output || std::find(signals.begin(), signals.end(), input) == signals.end()) {
@@ -409,6 +452,12 @@ CoefficientTable ExportTable(const ModelFile& m, int k, const std::string& input
                                  "invert; export an iteration whose terms read it",
                                  k, m.Iteration(k).terms.size(), input));
   }
+  return model;
+}
+
+CoefficientTable ExportTable(const ModelFile& m, int k, const std::string& input, double e_min,
+                             double e_max, bool* envelope) {
+  const mrd::Model model = CheckExportInput(m, k, input);
   CoefficientTable table = MakeUncheckedTable(model, e_min, e_max, input, m.path);
   // Operating envelope (table v2); model files from before it was recorded export without.
   const bool has_envelope = SetTableEnvelope(m, &table);

@@ -157,6 +157,64 @@ ResidualAnalysis AnalyseResiduals(const ModelFile& m, int k, const DataSet& data
   return a;
 }
 
+std::vector<std::string> ResidualAdvice(const ResidualAnalysis& a) {
+  std::vector<std::string> advice;
+  // Lags within 1..kShortLag (positive: the input leads the residual) whose |r| exceeds
+  // kAdviceBand times the band: a white residual leaves the 99 % band at one of five lags now
+  // and then by chance, but not that far.
+  const auto short_lags = [&a](const Correlation& c, bool positive) {
+    std::vector<int> out;
+    for (std::size_t i = 0; i < c.lags.size(); ++i) {
+      const int lag = c.lags[i];
+      const bool near =
+          positive ? (lag >= 1 && lag <= kShortLag) : (lag <= -1 && lag >= -kShortLag);
+      if (near && std::fabs(c.r[i]) > kAdviceBand * a.band) out.push_back(lag);
+    }
+    return out;
+  };
+  if (a.diverged) {
+    advice.push_back(
+        "the free run diverged: its correlations say little; require a stable pick ([stress] "
+        "in the spec) or simulate a shorter run");
+  }
+  if (a.correlations.size() >= 2) {
+    const std::vector<int> ar = short_lags(a.correlations[1], true);
+    if (!ar.empty()) {
+      advice.push_back(fmt::format(
+          "the one-step residual is correlated with itself at lags {}: autoregressive "
+          "dynamics are missing; offer more delays (delays = [1, 2, ...]) or powers on the "
+          "[[regressor]] of the output signal",
+          FormatLags(ar)));
+    }
+  }
+  for (std::size_t i = 0; i < a.inputs.size(); ++i) {
+    const std::size_t one_step = 2 + 2 * i + 1;
+    if (one_step >= a.correlations.size()) break;
+    const std::vector<int> lead = short_lags(a.correlations[one_step], true);
+    if (!lead.empty()) {
+      advice.push_back(fmt::format(
+          "the one-step residual still follows {} at lags {}: input dynamics or delays are "
+          "missing; offer more delays of {} (delays = [0, 1, 2, ...]) or a filtered regressor "
+          "of it (transform = \"low_pass\", tau in samples)",
+          a.inputs[i], FormatLags(lead), a.inputs[i]));
+    }
+    const std::vector<int> lag = short_lags(a.correlations[one_step], false);
+    if (!lag.empty()) {
+      advice.push_back(fmt::format(
+          "{} follows the residual at lags {}: the data look closed-loop (a controller fed "
+          "back the force); identify on an open-loop run where you can",
+          a.inputs[i], FormatLags(lag)));
+    }
+  }
+  if (advice.empty()) {
+    advice.push_back(fmt::format(
+        "no one-step correlation beyond {:g} times the band at lags 1...{}: nothing suggests "
+        "missing dynamics",
+        kAdviceBand, kShortLag));
+  }
+  return advice;
+}
+
 std::string ResidualSummary(const ResidualAnalysis& a, const std::string& output_unit) {
   fmt::memory_buffer b;
   auto out = std::back_inserter(b);
@@ -182,6 +240,7 @@ std::string ResidualSummary(const ResidualAnalysis& a, const std::string& output
                    std::fabs(peak), peak_lag, c.outside.size(),
                    autocorr ? c.lags.size() - 1 : c.lags.size(), FormatLags(c.outside));
   }
+  for (const std::string& line : ResidualAdvice(a)) fmt::format_to(out, "  suggests: {}\n", line);
   return fmt::to_string(b);
 }
 
@@ -192,14 +251,10 @@ nlohmann::json ResidualJson(const ResidualAnalysis& a) {
     for (const double v : c.r) r.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json());
     corr.push_back({{"name", c.name}, {"lags", c.lags}, {"r", r}, {"outside", c.outside}});
   }
-  return {{"samples", a.samples},
-          {"max_lag", a.max_lag},
-          {"band", a.band},
-          {"inputs", a.inputs},
-          {"rms_free_run", a.rms_free_run},
-          {"rms_one_step", a.rms_one_step},
-          {"diverged", a.diverged},
-          {"correlations", corr}};
+  return {
+      {"samples", a.samples},   {"max_lag", a.max_lag},           {"band", a.band},
+      {"inputs", a.inputs},     {"rms_free_run", a.rms_free_run}, {"rms_one_step", a.rms_one_step},
+      {"diverged", a.diverged}, {"correlations", corr},           {"advice", ResidualAdvice(a)}};
 }
 
 PlotFigure ResidualPlot(const ResidualAnalysis& a, const std::string& title) {

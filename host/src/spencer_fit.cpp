@@ -306,4 +306,45 @@ SpencerFitResult FitSpencer(const std::vector<FitRun>& runs, const SpencerFitOpt
   return result;
 }
 
+std::vector<std::string> SpencerFitWarnings(const SpencerParams& fitted,
+                                            const std::vector<FitRun>& runs) {
+  std::vector<std::string> out;
+  SpencerParams p = fitted, lo, hi;
+  SpencerFitBounds(&lo, &hi);
+  params::SpencerField fp[params::kSpencerFieldCount], fl[params::kSpencerFieldCount],
+      fh[params::kSpencerFieldCount];
+  params::SpencerFields(&p, fp);
+  params::SpencerFields(&lo, fl);
+  params::SpencerFields(&hi, fh);
+  for (std::size_t i = 0; i < params::kSpencerFieldCount; ++i) {
+    const double v = *fp[i].value, l = *fl[i].value, h = *fh[i].value;
+    const double tol = kAtBoundShare * (h - l);
+    if (v > l + tol && v < h - tol) continue;
+    const bool lower = v <= l + tol;
+    out.push_back(fmt::format(
+        "warning: {} = {:g} is at its {} bound {:g}: the runs do not pin it inside the physical "
+        "box (the best fit lies beyond it); fix it from a datasheet or an earlier fit, or fit "
+        "on runs that excite it (a wider stroke, velocity or E range)",
+        fp[i].key, v, lower ? "lower" : "upper", lower ? l : h));
+  }
+  // x0 (the accumulator's rest position) beyond the stroke the runs reached: there
+  // k1 (x - x0) is a near-constant force, and k1 and x0 trade off against each other.
+  double x_lo = HUGE_VAL, x_hi = -HUGE_VAL;
+  for (const FitRun& r : runs) {
+    for (const double x : r.x) {
+      x_lo = std::min(x_lo, x);
+      x_hi = std::max(x_hi, x);
+    }
+  }
+  if (x_lo <= x_hi && (fitted.x0 < x_lo || fitted.x0 > x_hi)) {
+    out.push_back(fmt::format(
+        "warning: x0 = {:.3g} cm lies beyond the runs' stroke [{:.3g}, {:.3g}] cm: k1 (x - x0) "
+        "is then a force offset of about {:.3g} N and k1 = {:.3g} N/cm is not determined by "
+        "the runs; read k1 x0 as the accumulator's preload, or fit runs that use the whole "
+        "stroke",
+        fitted.x0, x_lo, x_hi, -fitted.k1 * fitted.x0, fitted.k1));
+  }
+  return out;
+}
+
 }  // namespace mrd::host

@@ -150,6 +150,12 @@ std::string FormatModelCheck(const CoefficientTable& table, const ModelCheck& c)
     case ModelProblem::kEnvelopeRange:
       return fmt::format("envelope of channel '{}' [{}, {}] is empty or not finite",
                          m.channel_names[i].data(), table.envelope[i].min, table.envelope[i].max);
+    case ModelProblem::kInvertibilityNonFinite:
+    case ModelProblem::kInvertibilityCount:
+      return fmt::format(
+          "invertibility record: {} failing of {} states, worst slope {} (failing <= states, "
+          "finite slope)",
+          table.invertibility.failing, table.invertibility.states, table.invertibility.worst_slope);
   }
   return ErrorName(c.error());
 }
@@ -294,6 +300,11 @@ std::string TableHeader(const CoefficientTable& table, std::string_view symbol,
       line(fmt::format("  t.envelope[{}] = {{{}, {}}};", c, Num(table.envelope[c].min),
                        Num(table.envelope[c].max)));
     }
+  }
+  if (table.has_invertibility) {
+    line("  t.has_invertibility = true;");
+    line(fmt::format("  t.invertibility = {{{}, {}, {}}};", table.invertibility.states,
+                     table.invertibility.failing, Num(table.invertibility.worst_slope)));
   }
   line("  mrd::Model& m = t.model;");
   line(fmt::format("  m.num_channels = {};", m.num_channels));

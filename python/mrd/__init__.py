@@ -12,6 +12,7 @@ import shutil
 
 from ._mrd import (  # noqa: F401  (the module's interface)
     EnvelopeWarning,
+    InvertibilityWarning,
     LogWarning,
     Model,
     Table,
@@ -27,7 +28,7 @@ from ._mrd import (  # noqa: F401  (the module's interface)
 from . import _mrd
 
 __all__ = [
-    "EnvelopeWarning", "LogWarning", "Model", "Table", "check_table", "identify",
+    "EnvelopeWarning", "InvertibilityWarning", "LogWarning", "Model", "Table", "check_table", "identify",
     "load_model", "log_info", "read_data", "read_log", "read_table", "run_scenario",
     "simulate", "spec_toml", "table_from_bytes",
 ]

@@ -18,6 +18,7 @@
 #include "bindings.hpp"
 #include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/default_spec.hpp"
+#include "mrd/host/invertibility.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
 #include "mrd/host/sem_family.hpp"
@@ -217,6 +218,8 @@ host::ModelFile Identify(const py::object& data, const py::object& spec, const p
   mf.family = fi.family;
   mf.identification_data = id_names;
   mf.validation_data = val_names;
+  // As mrd identify: the selected iteration's invertibility on the identification data.
+  (void)host::RecordInvertibility(&mf, id);
   if (!progress.is_none()) {
     const host::SemIteration& sel = mf.Iteration(mf.selected);
     progress(

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -11,6 +12,8 @@
 #include "bindings.hpp"
 #include "mrd/host/atomic_write.hpp"
 #include "mrd/host/candidate_spec.hpp"
+#include "mrd/host/command_range.hpp"
+#include "mrd/host/invertibility.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/model_judge.hpp"
 
@@ -19,7 +22,8 @@ namespace {
 
 using host::ModelFile;
 
-PyObject* g_envelope_warning = nullptr;  // mrd.EnvelopeWarning (a new reference, kept)
+PyObject* g_envelope_warning = nullptr;       // mrd.EnvelopeWarning (a new reference, kept)
+PyObject* g_invertibility_warning = nullptr;  // mrd.InvertibilityWarning (kept)
 
 bool IsMapping(const py::handle& obj) {
   return py::isinstance<py::dict>(obj) ||
@@ -62,6 +66,7 @@ py::dict Simulate(const ModelFile& m, const py::handle& data, const std::optiona
   std::vector<double> ysim;
   nlohmann::json j;
   std::vector<std::string> warnings;
+  std::string not_invertible;  // the CLI's invertibility warning, when it fails
   Checked(paths, [&] {
     const py::gil_scoped_release release;
     const host::SimMetrics metrics = host::SimulateModel(m, k, ds, &ysim);
@@ -72,11 +77,22 @@ py::dict Simulate(const ModelFile& m, const py::handle& data, const std::optiona
     j["terms"] = m.Iteration(k).terms.size();
     j["envelope"] = host::EnvelopeJson(env);
     j["outside_envelope"] = host::AnyOutside(env);
+    // As mrd simulate: invertibility in the command on this data's states and the grid.
+    if (!host::ModelCommand(m).empty()) {
+      const host::InvertibilityReport inv =
+          host::CheckModelInvertibility(m, k, std::span<const host::DataSet>(&ds, 1));
+      j["invertibility"] = host::InvertibilityJson(inv);
+      if (!inv.pass()) {
+        not_invertible =
+            fmt::format("{} on {}: {}", m.path, ds.path, host::InvertibilitySummary(inv));
+      }
+    }
   });
   for (std::string w : warnings) {
     if (w.rfind("warning: ", 0) == 0) w.erase(0, 9);
     Warn(g_envelope_warning, w);
   }
+  if (!not_invertible.empty()) Warn(g_invertibility_warning, not_invertible);
   py::dict out = FromJson(j).cast<py::dict>();
   const std::string& y = m.spec.output;
   out["t"] = ToArray(std::vector<double>(ds.Column("t")));
@@ -90,12 +106,6 @@ py::object CheckEnvelopeOf(const ModelFile& m, const py::handle& data) {
   const host::DataSet ds = DataOf(data, {}, "data", &paths);
   return FromJson(Checked(paths, [&] { return host::EnvelopeJson(host::CheckEnvelope(m, ds)); }));
 }
-
-// Invertibility of a model (can the firmware invert an iteration for its command, and is it
-// monotone in it over the envelope): the model-level check belongs in common/ and is being added
-// there; bind it HERE, beside check_envelope, as Model.check_invertibility(iteration=None) once
-// it lands. Until then Table.inversion() reports the table-level check (mrd::CheckInversion) on
-// an exported iteration.
 
 }  // namespace
 
@@ -142,6 +152,13 @@ void RegisterModels(py::module_& m) {
       "simulate` warns on stderr).",
       PyExc_UserWarning, nullptr);
   m.attr("EnvelopeWarning") = py::handle(g_envelope_warning);
+  g_invertibility_warning = PyErr_NewExceptionWithDoc(
+      "mrd.InvertibilityWarning",
+      "A model whose force falls with its command somewhere on the data or its envelope (as "
+      "`mrd simulate` warns on stderr): a controller inverting it may ask for the wrong "
+      "command.",
+      PyExc_UserWarning, nullptr);
+  m.attr("InvertibilityWarning") = py::handle(g_invertibility_warning);
 
   py::class_<ModelFile>(m, "Model",
                         "An identified model file (mrd identify, mrd.identify): the spec, every "
@@ -201,16 +218,24 @@ void RegisterModels(py::module_& m) {
       .def(
           "table",
           [](const ModelFile& mf, const std::optional<int>& iteration, const std::string& input,
-             double e_min, double e_max) {
+             const std::optional<double>& e_min, const std::optional<double>& e_max) {
             const int k = IterationOf(mf, iteration);
-            CoefficientTable t =
-                Checked({mf.path}, [&] { return host::ExportTable(mf, k, input, e_min, e_max); });
+            // As mrd export: the command range the data reached (or the one given), the
+            // invertibility verdict recorded in the table (not refused: Table.invertibility).
+            CoefficientTable t = Checked({mf.path}, [&] {
+              (void)host::CheckExportInput(mf, k, input);
+              const host::CommandRange r = host::ChooseCommandRange(mf, input, e_min, e_max, "");
+              CoefficientTable table = host::ExportTable(mf, k, input, r.e_min, r.e_max);
+              host::RecordTableInvertibility(host::ExportInvertibility(mf, input, table), &table);
+              return table;
+            });
             return TableObject(t, mf.path.empty() ? std::string("model") : mf.path);
           },
-          py::arg("iteration") = py::none(), py::arg("input") = "E", py::arg("e_min") = 0.0,
-          py::arg("e_max") = 2.25,
-          "The coefficient table of an iteration, as `mrd export` makes it (with the operating "
-          "envelope when the model has one)")
+          py::arg("iteration") = py::none(), py::arg("input") = "E", py::arg("e_min") = py::none(),
+          py::arg("e_max") = py::none(),
+          "The coefficient table of an iteration, as `mrd export` makes it (the command range "
+          "the data reached unless given, the operating envelope when the model has one, the "
+          "invertibility verdict)")
       .def("__repr__", [](const ModelFile& mf) {
         return fmt::format("<mrd.Model {} selected iteration {} ({} terms) of {}>",
                            mf.path.empty() ? std::string("(identified)") : mf.path, mf.selected,

@@ -103,8 +103,8 @@ TEST(TableV2Test, EnvelopeRoundTrips) {
   const auto bytes = EncodeTable(EnvelopeTable());
   ASSERT_TRUE(bytes.ok());
   const auto& b = bytes.value();
-  EXPECT_EQ(b.size(), 2216u);
-  EXPECT_EQ(b[4] | (b[5] << 8), 2);  // version
+  EXPECT_EQ(b.size(), 2232u);
+  EXPECT_EQ(b[4] | (b[5] << 8), 3);  // version
   EXPECT_EQ(b[6] | (b[7] << 8), 1);  // flags: envelope
   const auto d = DecodeTable(b);
   ASSERT_TRUE(d.ok()) << ErrorName(d.error());
@@ -158,7 +158,7 @@ TEST(TableV2Test, VersionOneImageStillDecodes) {
   auto v2 = EncodeTable(SaturatingTable()).value();
   v2[4] = 1;
   EXPECT_EQ(DecodeTable(v2).error(), Error::kBadSize);
-  v2[4] = 3;
+  v2[4] = 4;
   EXPECT_EQ(DecodeTable(v2).error(), Error::kBadVersion);
 }
 
@@ -170,7 +170,7 @@ void Resign(TableBytes& b) {
 
 TEST(TableV2Test, DecoderRefusesBadEnvelopeAndUnknownFlags) {
   auto b = EncodeTable(EnvelopeTable()).value();
-  b[6] = 3;  // bit 1 undefined
+  b[6] = 5;  // bit 2 undefined (bit 1: the invertibility record, version 3)
   Resign(b);
   EXPECT_EQ(DecodeTable(b).error(), Error::kOutOfRange);
 

@@ -150,7 +150,7 @@ TEST(TableLayoutTest, EncodesNonZeroFieldsLittleEndianAtDocumentedOffsets) {
   for (std::size_t i = 0; i < t.model.num_terms; ++i) {
     EXPECT_EQ(F64At(b, kTableCoefficientsOffset + 8 * i), t.model.coefficients[i]) << i;
   }
-  // CRC-32 of everything before it, little-endian at 2212 (version 2).
+  // CRC-32 of everything before it, little-endian at 2228 (version 3).
   const std::uint32_t crc = Crc32(std::span<const std::uint8_t>(b.data(), kTableCrcOffset));
   EXPECT_EQ(b[kTableCrcOffset], crc & 0xFFU);
   EXPECT_EQ(b[kTableCrcOffset + 3], crc >> 24);
@@ -168,11 +168,11 @@ TEST(TableLayoutTest, DecodesNonZeroRangeAndOffsetsFromTheirBytes) {
   EXPECT_EQ(d.value().model.scales[2].offset, -12.5);
 }
 
-// Version 2 defines flag bit 0 (envelope present; tests/common/robust_test.cpp); every other
-// bit is refused.
+// Version 3 defines flag bits 0 (envelope present; tests/common/robust_test.cpp) and 1
+// (invertibility record); every other bit is refused.
 TEST(TableLayoutTest, DecoderRejectsAnyUndefinedFlagWithValidCrc) {
   for (const auto& [at, value] :
-       {std::pair<std::size_t, std::uint8_t>{6, 0x02}, {6, 0x80}, {6, 0x03}, {7, 0x01}}) {
+       {std::pair<std::size_t, std::uint8_t>{6, 0x04}, {6, 0x80}, {6, 0x07}, {7, 0x01}}) {
     TableBytes b = Encoded(test::DemoDamperTable());
     b[at] = value;
     FixCrc(b);
@@ -185,10 +185,10 @@ TEST(TableLayoutTest, DecoderRejectsAnyUndefinedFlagWithValidCrc) {
 }
 
 // The diagnosis of an undefined flag says flags, not a stray byte: the firmware's refusal
-// ("a flag other than bit 0 is set") is built from it.
+// is built from it.
 TEST(TableLayoutTest, AnUndefinedFlagIsDiagnosedAsAFlagNotAStrayByte) {
   TableBytes b = Encoded(test::DemoDamperTable());
-  b[6] = 0x02;
+  b[6] = 0x04;
   FixCrc(b);
   TableDiagnosis d;
   EXPECT_EQ(DecodeTable(b, &d).error(), Error::kOutOfRange);

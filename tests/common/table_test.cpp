@@ -91,7 +91,7 @@ TEST(TableTest, LowPassRegressorRoundTripsAndBadTauIsRejected) {
 TEST(TableTest, ImageIsLittleEndianWithMagicVersionAndSize) {
   const TableBytes b = Encoded(test::DemoDamperTable());
   EXPECT_EQ(std::memcmp(b.data(), "MRDT", 4), 0);
-  EXPECT_EQ(b[4], 2);  // version 2, low byte first
+  EXPECT_EQ(b[4], 3);  // version 3, low byte first
   EXPECT_EQ(b[5], 0);
   EXPECT_EQ(b[8] | (b[9] << 8) | (b[10] << 16) | (b[11] << 24), static_cast<int>(kTableSize));
   // e_max = 2.25 = 0x4002000000000000 little-endian at offset 28.
@@ -107,7 +107,7 @@ TEST(TableTest, DecoderRejectsWrongMagic) {
 
 TEST(TableTest, DecoderRejectsWrongVersion) {
   TableBytes b = Encoded(test::DemoDamperTable());
-  b[4] = 3;  // versions 1 and 2 are known (tests/common/robust_test.cpp)
+  b[4] = 4;  // versions 1, 2 and 3 are known (tests/common/robust_test.cpp)
   FixCrc(b);
   EXPECT_EQ(DecodeError(b), Error::kBadVersion);
   b[4] = 0;

@@ -1,6 +1,7 @@
 // Numbers the host CLI prints and writes, checked against values recomputed from its own
 // outputs: `mrd simulate` metrics against the simulation CSV, `mrd export` ranges and
 // coefficients against the decoded table; the CSV reader's sampling check on a shrinking step.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -149,19 +150,28 @@ std::vector<std::uint8_t> ReadBytes(const std::string& path) {
   return {std::istreambuf_iterator<char>(in), {}};
 }
 
-TEST(CliValuesTest, ExportDefaultsToZeroTo2Point25VoltsAndRoundTripsCoefficients) {
+// Without --e-min/--e-max the command range is the one the identification data reached,
+// clamped to [0, ...] V (the toy's u spans about +-1 V: a warning names both ranges).
+TEST(CliValuesTest, ExportDefaultsToTheDataRangeAndRoundTripsCoefficients) {
   test::TempDir dir;
   const auto model = IdentifyToy(dir, WriteToyData(dir));
   const auto bin = dir.File("t.bin");
   const auto r =
       test::Run(test::Bin("mrd") + " export --model " + model + " --input u --table " + bin);
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("in [0, 2.25] V"), std::string::npos) << r.output;
+  const ModelFile mf = LoadModelFile(model);
+  double u_max = 0.0;
+  for (const auto& c : mf.channels) {
+    if (c.name == "u") u_max = c.max;
+  }
+  ASSERT_GT(u_max, 0.9);
+  EXPECT_NE(r.output.find(fmt::format("in [0, {:.4g}] V", u_max)), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("warning: "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("beyond the table's range"), std::string::npos) << r.output;
   const auto t = DecodeTable(ReadBytes(bin));
   ASSERT_TRUE(t.ok()) << ErrorName(t.error());
   EXPECT_EQ(t.value().e_min, 0.0);
-  EXPECT_EQ(t.value().e_max, 2.25);
-  const ModelFile mf = LoadModelFile(model);
+  EXPECT_EQ(t.value().e_max, u_max);
   const Model expected = ToRuntimeModel(mf, mf.selected);
   const Model& got = t.value().model;
   ASSERT_EQ(got.num_terms, expected.num_terms);

@@ -21,6 +21,56 @@ std::vector<double> WhiteNoise(std::size_t n, std::uint64_t seed) {
   return e;
 }
 
+// A ResidualAnalysis of one-step residual e and one input u, as AnalyseResiduals builds it.
+ResidualAnalysis AnalysisOf(const std::vector<double>& u, const std::vector<double>& e) {
+  ResidualAnalysis a;
+  a.samples = e.size();
+  a.max_lag = 20;
+  a.band = kBand99 / std::sqrt(static_cast<double>(e.size()));
+  a.inputs = {"v"};
+  a.correlations = {AutoCorrelation(e, a.max_lag, a.band), AutoCorrelation(e, a.max_lag, a.band),
+                    CrossCorrelation(u, e, a.max_lag, a.band),
+                    CrossCorrelation(u, e, a.max_lag, a.band)};
+  return a;
+}
+
+std::string Joined(const std::vector<std::string>& lines) {
+  std::string s;
+  for (const std::string& l : lines) s += l + "\n";
+  return s;
+}
+
+// What the residuals suggest, in words: missing autoregressive terms, missing input dynamics,
+// closed-loop data, or nothing.
+TEST(ResidualAdviceTest, NamesWhatAFailedTestSuggests) {
+  const std::size_t n = 20000;
+  const std::vector<double> u = WhiteNoise(n, 3), w = WhiteNoise(n, 4);
+  // White and independent of u: nothing suggested.
+  const std::string white = Joined(ResidualAdvice(AnalysisOf(u, w)));
+  EXPECT_NE(white.find("nothing suggests missing dynamics"), std::string::npos) << white;
+  // e(k) = 0.6 e(k-1) + w(k): autoregressive terms missing.
+  std::vector<double> ar(n);
+  for (std::size_t k = 0; k < n; ++k) ar[k] = (k > 0 ? 0.6 * ar[k - 1] : 0.0) + w[k];
+  const std::string a1 = Joined(ResidualAdvice(AnalysisOf(u, ar)));
+  EXPECT_NE(a1.find("correlated with itself at lags 1"), std::string::npos) << a1;
+  EXPECT_NE(a1.find("[[regressor]] of the output signal"), std::string::npos) << a1;
+  // e(k) = 0.5 u(k-2) + w(k): the input leads by 2 samples, delays of v missing.
+  std::vector<double> lead(n);
+  for (std::size_t k = 0; k < n; ++k) lead[k] = (k >= 2 ? 0.5 * u[k - 2] : 0.0) + w[k];
+  const std::string a2 = Joined(ResidualAdvice(AnalysisOf(u, lead)));
+  EXPECT_NE(a2.find("still follows v at lags 2:"), std::string::npos) << a2;
+  EXPECT_NE(a2.find("low_pass"), std::string::npos) << a2;
+  EXPECT_EQ(a2.find("closed-loop"), std::string::npos) << a2;
+  // u(k) = 0.5 e(k-3) + ...: the input follows the residual, closed-loop data.
+  std::vector<double> fb(n);
+  for (std::size_t k = 0; k < n; ++k) fb[k] = (k >= 3 ? 0.5 * w[k - 3] : 0.0) + u[k];
+  const std::string a3 = Joined(ResidualAdvice(AnalysisOf(fb, w)));
+  EXPECT_NE(a3.find("v follows the residual at lags -3"), std::string::npos) << a3;
+  // The summary carries the advice.
+  EXPECT_NE(ResidualSummary(AnalysisOf(u, ar), "N").find("  suggests: the one-step residual"),
+            std::string::npos);
+}
+
 TEST(ResidualCorrelationTest, WhiteNoiseStaysInsideTheBand) {
   const std::size_t n = 20000;
   const double band = kBand99 / std::sqrt(static_cast<double>(n));

@@ -43,6 +43,10 @@ TEST(RealDataFamilyTest, NeesFamilyChoosesByCrossValidationAndFitsHeldOutSegment
   // The model file's spec holds the chosen member.
   const auto& u2 = mf.spec.regressors[static_cast<std::size_t>(mf.spec.RegressorIndex("u2"))];
   EXPECT_EQ(u2.transform, f.combinations[static_cast<std::size_t>(f.chosen)].members[0].transform);
+  // The pick is invertible in E over its identification envelope (spec monotone_in).
+  ASSERT_TRUE(mf.invertibility.recorded);
+  EXPECT_EQ(mf.invertibility.failing, 0u) << mf.invertibility.summary;
+  EXPECT_GT(mf.invertibility.states, 10000u);
   // Held-out fit: the bar of realdata_sem_test (measured 90.9 %, docs/results.md).
   const auto h = SimulateJson(model, held);
   ASSERT_FALSE(h["diverged"].get<bool>());

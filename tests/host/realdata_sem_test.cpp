@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "mrd/host/model_file.hpp"
 #include "simulate_json.hpp"
 #include "test_util.hpp"
 
@@ -29,8 +30,15 @@ TEST(RealDataSemTest, NeesSpecFitsHeldOutSegment) {
   ok(test::Run(Bin("mrd") + " identify --data " + id + " --spec " + MRD_SOURCE_DIR +
                "/host/specs/nees.toml --threads 2 --out " + model));
 
+  // The pick is invertible in E over its identification envelope (spec monotone_in), and on
+  // the held-out data's states too.
+  const host::ModelFile mf = host::LoadModelFile(model);
+  ASSERT_TRUE(mf.invertibility.recorded);
+  EXPECT_EQ(mf.invertibility.failing, 0u) << mf.invertibility.summary;
+  EXPECT_GT(mf.invertibility.states, 10000u);
   const auto h = SimulateJson(model, held);
   ASSERT_FALSE(h["diverged"].get<bool>());
+  EXPECT_TRUE(h["invertibility"]["pass"].get<bool>()) << h["invertibility"].dump();
   // Measured 91.0 % (docs/results.md); the Spencer 1997 model reaches about 51 % on this run.
   EXPECT_GE(h["fit_percent"].get<double>(), 90.0);
   EXPECT_LE(h["rrse"].get<double>(), 0.10);

@@ -15,6 +15,13 @@ namespace mrd::host {
 namespace {
 
 SemSpec PaperSpec() { return LoadSemSpec(std::string(MRD_SOURCE_DIR) + "/host/specs/paper.toml"); }
+// The paper's search as published: without the invertibility gate the shipped spec sets
+// (monotone_in rejects candidates the paper's search accepts, so its J targets do not apply).
+SemSpec PaperSearchSpec() {
+  SemSpec s = PaperSpec();
+  s.monotone_in.clear();
+  return s;
+}
 
 // Shortened identification set (first 10 s) shared by several tests.
 const DataSet& ShortDamperData() {
@@ -274,7 +281,7 @@ const DataSet& FullDamperData() {
 // Paper target with first improvement (one-step ranked candidates, 2 % threshold): a model
 // of at most 13 terms with J <= 0.0016 (paper: 0.001596) within 28 iterations.
 TEST(SemEngineTest, PaperThirteenTermTargetFirstImprovement) {
-  const SemSpec spec = PaperSpec();
+  const SemSpec spec = PaperSearchSpec();
   const std::vector<DataSet> id{FullDamperData()};
   SemOptions o;
   o.max_iterations = 28;
@@ -292,7 +299,7 @@ TEST(SemEngineTest, PaperThirteenTermTargetFirstImprovement) {
 // Paper target with the default best improvement: <= 13 terms and J <= 0.0016 within the
 // paper spec's 20 iterations.
 TEST(SemEngineTest, PaperThirteenTermTargetBestImprovement) {
-  const SemSpec spec = PaperSpec();
+  const SemSpec spec = PaperSearchSpec();
   const std::vector<DataSet> id{FullDamperData()};
   SemOptions o;
   o.threads = 2;

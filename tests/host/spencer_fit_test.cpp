@@ -72,6 +72,30 @@ TEST(SpencerFitTest, RecoversAKnownParameterSet) {
   EXPECT_EQ(again.params.n, res.params.n);
 }
 
+// The fit's warnings: a parameter at a bound of the box, x0 beyond the runs' stroke.
+TEST(SpencerFitTest, WarnsForParametersAtABoundAndAnX0BeyondTheStroke) {
+  FitRun run;
+  run.name = "bench";
+  for (int k = 0; k <= 100; ++k) run.x.push_back(0.6 * std::sin(0.1 * k));  // +-0.6 cm
+  SpencerParams p = SpencerParams::Spencer1997();
+  p.x0 = 0.2;  // inside the stroke
+  EXPECT_TRUE(SpencerFitWarnings(p, {run}).empty());
+  SpencerParams lo, hi;
+  SpencerFitBounds(&lo, &hi);
+  p.k0 = lo.k0;  // on its lower bound
+  p.n = hi.n;    // on its upper bound
+  p.x0 = 27.7;   // far beyond the stroke
+  const std::vector<std::string> w = SpencerFitWarnings(p, {run});
+  ASSERT_EQ(w.size(), 3U);
+  EXPECT_EQ(w[0].rfind("warning: k0 = 0.01 is at its lower bound 0.01: the runs do not pin it", 0),
+            0U)
+      << w[0];
+  EXPECT_EQ(w[1].rfind("warning: n = 4 is at its upper bound 4:", 0), 0U) << w[1];
+  EXPECT_NE(w[1].find("fix it from a datasheet or an earlier fit"), std::string::npos) << w[1];
+  EXPECT_EQ(w[2].rfind("warning: x0 = 27.7 cm lies beyond the runs' stroke [-0.6, 0.6] cm", 0), 0U)
+      << w[2];
+}
+
 TEST(SpencerFitCliTest, DataWithoutTheForceColumnIsRefused) {
   const std::string path = "/tmp/mrd_fit_spencer_nof.csv";
   std::ofstream(path) << "t,x,v,E\n0,0,0,0\n0.001,0,0,0\n0.002,0,0,0\n";

@@ -10,6 +10,7 @@
 
 #include "mrd/host/atomic_write.hpp"
 #include "mrd/host/input_error.hpp"
+#include "mrd/host/invertibility.hpp"
 #include "mrd/host/model_file.hpp"
 #include "support/demo_model.hpp"
 #include "test_util.hpp"
@@ -28,13 +29,18 @@ std::string ReadText(const std::string& path) {
 
 // The firmware's compiled-in header is the generator's output for the paper run's selected
 // model (firmware/tables/paper_model.json, as `mrd export` builds it: selected iteration,
-// input E in [0, 2.25] V, operating envelope); regenerate and compare. To regenerate both:
+// input E in [0, 2.25] V, operating envelope, the invertibility check over the envelope grid:
+// the data named in the model file are not in the repository); regenerate and compare. To
+// regenerate both:
 // bash toolchain/gen_builtin_table.sh (docs/plants.md).
 constexpr const char* kPaperModel = MRD_SOURCE_DIR "/firmware/tables/paper_model.json";
 TEST(TableExportTest, CheckedInHeaderMatchesGenerator) {
   const ModelFile mf = LoadModelFile(kPaperModel);
   CoefficientTable table = MakeTable(ToRuntimeModel(mf, mf.selected), 0.0, 2.25, "E", kPaperModel);
   ASSERT_TRUE(SetTableEnvelope(mf, &table));
+  const InvertibilityReport inv = ExportInvertibility(mf, "E", table);
+  EXPECT_TRUE(inv.pass()) << InvertibilitySummary(inv);
+  RecordTableInvertibility(inv, &table);
   EXPECT_EQ(ReadText(kBuiltinHeader), TableHeader(table, kBuiltinSymbol));
 }
 

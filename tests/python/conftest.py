@@ -6,6 +6,7 @@ PYTHONPATH with build/python.
 """
 import json
 import os
+import re
 import subprocess
 
 import pytest
@@ -59,3 +60,15 @@ def nees_held(tmp_path_factory):
     run(["mrd", "slice", "--in", d / "nees.csv", "--from", "14", "--to", "19.5",
          "--out", d / "held.csv"])
     return d / "held.csv"
+
+
+def without_source(x):
+    """x (JSON-like) with the data source of "(<source> row N)" state names dropped: a file's
+    name and "data" (arrays) then compare equal."""
+    if isinstance(x, dict):
+        return {k: without_source(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [without_source(v) for v in x]
+    if isinstance(x, str):
+        return re.sub(r"\([^()]* row (\d+)\)", r"(row \1)", x)
+    return x

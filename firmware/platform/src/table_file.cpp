@@ -46,8 +46,9 @@ std::string Num(double v) {
 }
 
 std::string Sizes() {
-  return "a table image is " + std::to_string(kTableSize) + " bytes (version 2) or " +
-         std::to_string(kTableSizeV1) + " (version 1)";
+  return "a table image is " + std::to_string(kTableSize) + " bytes (version 3), " +
+         std::to_string(kTableSizeV2) + " (version 2) or " + std::to_string(kTableSizeV1) +
+         " (version 1)";
 }
 
 // The field a byte offset falls in (canonical zero bytes: reserved fields and unused slots).
@@ -78,6 +79,9 @@ std::string Field(std::size_t at, const CoefficientTable& t) {
   }
   if (at < kTableEnvelopeOffset) {
     return slot("coefficient", (at - kTableCoefficientsOffset) / 8, m.num_terms, "terms");
+  }
+  if (at >= kTableInvertibilityOffset) {
+    return "invertibility record (flag bit 1 clear: no record)";
   }
   const std::size_t c = (at - kTableEnvelopeOffset) / kTableEnvelopeRecord;
   return t.has_envelope ? slot("envelope of channel", c, m.num_channels, "channels")
@@ -150,6 +154,11 @@ std::string Content(const TableDiagnosis& d) {
     case ModelProblem::kEnvelopeRange:
       return "envelope of channel " + Name(t, i) + " [" + Num(t.envelope[i].min) + ", " +
              Num(t.envelope[i].max) + "] is empty or not finite";
+    case ModelProblem::kInvertibilityNonFinite:
+    case ModelProblem::kInvertibilityCount:
+      return "invertibility record: " + std::to_string(t.invertibility.failing) + " failing of " +
+             std::to_string(t.invertibility.states) + " states, worst slope " +
+             Num(t.invertibility.worst_slope) + " (needs failing <= states, a finite slope)";
   }
   return "";
 }
@@ -191,7 +200,10 @@ std::string DescribeTableRefusal(const TableDiagnosis& d) {
            value + ", must be 0";
   }
   if (!d.check.ok()) return what + ": " + Content(d);
-  if (d.error == Error::kOutOfRange) return what + ": a flag other than bit 0 is set";
+  if (d.error == Error::kOutOfRange) {
+    return what + ": a flag the version does not define is set (version 3: bits 0 and 1; " +
+           "version 2: bit 0; version 1: none)";
+  }
   return what;
 }
 

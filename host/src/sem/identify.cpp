@@ -88,7 +88,7 @@ int SelectIteration(const std::vector<SemIteration>& its, double tolerance_perce
     for (double v : it.validation_j) s += v;
     return s;
   };
-  auto failed = [](const SemIteration& it) { return it.stress.checked && !it.stress.pass; };
+  auto failed = [](const SemIteration& it) { return FailsChecks(it); };
   double best = kInf;
   for (const auto& it : its) {
     if (!failed(it)) best = std::min(best, score(it));

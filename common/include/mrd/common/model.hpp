@@ -131,6 +131,11 @@ class BasicRegressorHistory {
   // channel except the output, from normalised channel values s[c] (size >= num_channels;
   // s[output_channel] is ignored). Low-pass regressors advance their filter by one sample.
   void PushInputs(const BasicModel<T>& model, std::span<const T> normalised);
+  // Every delay of every regressor at its steady state for constant normalised channel values
+  // s[c] (size >= num_channels, the output's included; low-pass regressors at s itself), as if
+  // the channels had held them forever. A state to evaluate the model in (host checks over a
+  // grid); PushInputs then starts the next sample. Real-time safe.
+  void Hold(const BasicModel<T>& model, std::span<const T> normalised);
   // Completes sample k with the output's normalised value (after evaluation).
   void SetOutput(const BasicModel<T>& model, T y_normalised);
   // Replaces the delay-0 values of the regressors of one input channel (not the output) of

@@ -49,6 +49,8 @@ enum class ModelProblem : std::uint8_t {
   kVoltageRange,       // table e_min >= e_max, or outside [0, kMaxCommandVoltage]
   kEnvelopeNonFinite,  // table envelope of channel (index) not finite
   kEnvelopeRange,      // table envelope of channel (index) has min > max
+  kInvertibilityNonFinite,  // table invertibility record: worst slope not finite
+  kInvertibilityCount,      // table invertibility record: failing (count) > states
 };
 
 struct ModelCheck {
@@ -64,7 +66,8 @@ struct ModelCheck {
 // terms). T: double or float (instantiated for both).
 template <class T>
 ModelCheck CheckModel(const BasicModel<T>& model);
-// CheckModel, then the input channel, the voltage range and the envelope (when present).
+// CheckModel, then the input channel, the voltage range, the envelope and the invertibility
+// record (when present).
 ModelCheck CheckTable(const CoefficientTable& table);
 
 // Why DecodeTable refused an image, for messages. No allocation.

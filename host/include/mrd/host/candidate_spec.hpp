@@ -110,6 +110,12 @@ struct SemSpec {
   bool one_step_start = true;  // second search path from the one-step forward regression
   bool refine = true;          // output-error refinement of every iteration's coefficients
   std::vector<std::string> initial;  // initial structure, term strings
+  // Invertibility required of every model the search accepts ([algorithm] monotone_in, ""
+  // off): the force rises with this input signal (the command) in the dissipative direction
+  // (sign of signal "v", when the spec has it) and is one-to-one in it, over the
+  // identification envelope (host/include/mrd/host/invertibility.hpp).
+  std::string monotone_in;
+  std::size_t monotone_line = 0;  // line of the key, for messages
   StressSpec stress;
 
   // Index of a regressor by name, or -1.

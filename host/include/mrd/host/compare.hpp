@@ -2,9 +2,11 @@
 // `mrd compare`: several models on several data files, one table. Per model x data file the
 // free-run simulation (SimulateModel, the code path of `mrd simulate`) of the model's selected
 // iteration: fit %, RMSE in the output's unit, NRMSE (= ||y - ysim|| / ||y - mean y||, no
-// weighting), J with its weighting, terms, diverged; and the envelope check of the inputs
-// (model_judge.hpp). With an output directory: the table (compare.txt, compare.json) and per
-// data file an overlay plot of the measured output and every model's free run
+// weighting), J with its weighting, terms, diverged; the envelope check of the inputs
+// (model_judge.hpp) and the invertibility in the command (invertibility.hpp: the share of
+// states where the force falls as E rises or turns back, on the data and the envelope grid). With
+// an output directory: the table (compare.txt, compare.json) and per data file an overlay plot of
+// the measured output and every model's free run
 // (<stem>_compare.png), written through a staging directory (staging_dir.hpp).
 
 #include <functional>
@@ -35,13 +37,17 @@ struct CompareRow {
   std::string weighting;  // CostWeightingShort of the model
   std::string unit;       // output unit ("N"), may be ""
   std::vector<EnvelopeCheck> envelope;
+  // Invertibility in the model's command on the states of this data file and the model's
+  // envelope grid (invertibility.hpp); failing share [%], -1 when the model has no command.
+  double invertibility_fail_percent = -1.0;
+  nlohmann::json invertibility;
 };
 
 struct CompareResult {
   std::vector<CompareRow> rows;       // model-major: every file of model 1, then model 2 ...
   std::string table;                  // text of compare.txt
   nlohmann::json json;                // compare.json
-  std::vector<std::string> warnings;  // envelope warnings, one line each
+  std::vector<std::string> warnings;  // envelope and invertibility warnings, one line each
   std::vector<std::string> files;     // written (under out_dir)
 };
 

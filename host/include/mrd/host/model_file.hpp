@@ -10,12 +10,17 @@
 //     "iterations": [{"iteration": k, "J": ..., "validation_J": [...], "elapsed_s": ...,
 //                     "stress": {"pass": true, "peak": 1.2, "reason": "",   // spec [stress] only
 //                                "rejected_candidates": 3},
+//                     "monotone": {"pass": true, "states": n, "failing": 0,  // monotone_in only
+//                                  "share_percent": 0, "worst": "...", "rejected_candidates": 2},
 //                     "terms": [{"coefficient": c,
 //                                "factors": [{"regressor": "u2", "delay": 1, "power": 3}]}]}],
 //     "selected": k, "selection_rule": "...",
 //     "identification_data": ["id.csv"], "validation_data": ["v1.csv", ...],  // optional
-//     "family": {...} }   // spec with a transform family only: every member's score and the
+//     "family": {...},    // spec with a transform family only: every member's score and the
 //                         // choice (sem_family.hpp); "spec" then holds the chosen transform
+//     "invertibility": {"iteration": k, "input": "E", "e_min": 0, "e_max": 2.25,
+//                       "states": n, "failing": 0, "share_percent": 0, "summary": "..."},
+//     "default_choice": "..." }  // no --spec: the shipped spec chosen and why
 //
 // Coefficients are in normalised units (signals divided by their channel scale).
 
@@ -30,6 +35,18 @@
 
 namespace mrd::host {
 
+// Invertibility of the selected iteration as `mrd identify` checked it (invertibility.hpp):
+// over the identification data and the envelope grid, the command over its envelope.
+struct InvertibilityRecord {
+  bool recorded = false;  // false: a model file written before it was recorded
+  int iteration = 0;
+  std::string input;                // the command, e.g. "E"
+  double e_min = 0.0, e_max = 0.0;  // range checked [V]
+  std::size_t states = 0, failing = 0;
+  double share_percent = 0.0;  // failing / states [%]
+  std::string summary;         // InvertibilitySummary, in words
+};
+
 struct ModelFile {
   std::string path;  // source file, for messages ("" when built in memory)
   SemSpec spec;
@@ -42,6 +59,8 @@ struct ModelFile {
   std::vector<std::string> identification_data;
   std::vector<std::string> validation_data;  // in the order of validation_J
   FamilyResult family;  // transform family search (empty: the spec had no family)
+  InvertibilityRecord invertibility;
+  std::string default_choice;  // mrd identify without --spec: which shipped spec and why
 
   int warmup_samples() const { return spec.MaxDelay(); }
   // Iteration by its number; throws InputError naming the file when absent.
@@ -68,6 +87,10 @@ mrd::Model ToRuntimeModel(const ModelFile& m, int iteration);
 // data) into the table, per table channel by name. False (table unchanged) when a channel has
 // no recorded range (model files written before the envelope existed).
 bool SetTableEnvelope(const ModelFile& m, CoefficientTable* table);
+
+// The runtime model of iteration k when `input` (normally "E") is an input signal its terms
+// read; throws InputError(m.path, 0, reason) otherwise (the check ExportTable makes first).
+mrd::Model CheckExportInput(const ModelFile& m, int k, const std::string& input);
 
 // The coefficient table of iteration k as `mrd export` writes it: the inverted input `input`
 // (normally "E") in [e_min, e_max] [V], with the operating envelope when the model file has

@@ -60,7 +60,19 @@ struct ResidualAnalysis {
 // lacks a column; std::invalid_argument for max_lag < 1.
 ResidualAnalysis AnalyseResiduals(const ModelFile& m, int k, const DataSet& data, int max_lag);
 
-// Text block: N, band, per correlation the largest |r| off lag 0 and the lags outside.
+// Lags that count as short for the advice (missing dynamics show there first) [samples], and
+// how far beyond the 99 % band a correlation there must be to count (chance stays inside).
+inline constexpr int kShortLag = 5;
+inline constexpr double kAdviceBand = 2.0;
+
+// What the one-step correlations suggest, in words, one line each: autocorrelation at short
+// lags (missing autoregressive terms), an input leading the residual at short lags (missing
+// input dynamics or delays: more delays, a low_pass regressor), an input following it (the
+// data are closed-loop), a diverged free run; else that nothing suggests missing dynamics.
+std::vector<std::string> ResidualAdvice(const ResidualAnalysis& a);
+
+// Text block: N, band, per correlation the largest |r| off lag 0 and the lags outside, then
+// ResidualAdvice's lines ("suggests: ...").
 std::string ResidualSummary(const ResidualAnalysis& a, const std::string& output_unit);
 nlohmann::json ResidualJson(const ResidualAnalysis& a);
 // Figure: one column per residual (free run, one step), rows: autocorrelation, then one

@@ -47,6 +47,19 @@ struct StressVerdict {
   std::string reason;  // why it failed ("" when it passed)
 };
 
+// Invertibility verdict of one model in the spec's monotone_in command (spec [algorithm]
+// monotone_in; host/include/mrd/host/invertibility.hpp): the search's states (every s-th sample
+// the identification data visited, s = ceil(rows / kGateVisitedStates), and the envelope grid).
+inline constexpr std::size_t kGateVisitedStates = 50000;
+struct MonotoneVerdict {
+  bool checked = false;  // the spec sets monotone_in
+  bool pass = true;
+  std::size_t states = 0;
+  std::size_t failing = 0;
+  double share_percent = 0.0;  // failing / states [%]
+  std::string worst;           // the state of the lowest df/dE * sign(v), in words
+};
+
 struct SemIteration {
   int iteration = 0;  // 0: initial structure (possibly empty)
   std::vector<SemTerm> terms;
@@ -61,7 +74,14 @@ struct SemIteration {
                             // (non-finite or beyond divergence_limit) or linearly dependent column
   int stress_rejected = 0;  // of them, candidates that failed the stress check
   StressVerdict stress;     // of this iteration's model
+  int monotone_rejected = 0;  // candidates whose model broke monotone_in (spec)
+  MonotoneVerdict monotone;   // of this iteration's model
 };
+
+// An iteration the selection never picks: it failed the stress check or monotone_in.
+inline bool FailsChecks(const SemIteration& it) {
+  return (it.stress.checked && !it.stress.pass) || (it.monotone.checked && !it.monotone.pass);
+}
 
 // Fewest scored samples (rows after the largest delay, over all identification files) per
 // model parameter: a term is only added while the model keeps at least this many.
@@ -113,8 +133,8 @@ SemResult Identify(const SemSpec& spec, std::span<const DataSet> identification,
 // there is no validation data); among iterations whose score is within tolerance_percent of
 // the lowest score, the one with fewest terms (then lowest score, then lowest iteration).
 // Used with validation data, and without it when the spec's selection is "tolerance".
-// Iterations that failed the stress check are never picked (nor set the lowest score); -1
-// when every iteration failed it.
+// Iterations that fail a check (FailsChecks: stress, monotone_in) are never picked (nor set the
+// lowest score); -1 when every iteration failed one.
 int SelectIteration(const std::vector<SemIteration>& iterations, double tolerance_percent);
 
 // Contiguous time folds of every identification record used by the cross-validation.
@@ -161,7 +181,7 @@ inline constexpr int kMaxPrefilterOrder = 4;
 // an extended BIC (Chen & Chen 2008) on the cross-validated simulation error: the last part
 // pays for having picked the m terms among C, which a greedy search over many candidates
 // otherwise over-fits. Ties to the lower iteration. An iteration whose cross-validation
-// diverges, or that failed the stress check, is never picked (all diverging: the last that
+// diverges, or that fails a check (FailsChecks), is never picked (all diverging: the last that
 // passed the stress check; -1 when none did). Identify then moves from the pick while the same
 // score falls: it drops a term (drop_terms), or exchanges one for a candidate of the 8 best by
 // one-step rank (score_exchange); each structure is scored on the same folds and prefilter,

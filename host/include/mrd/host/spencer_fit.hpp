@@ -65,6 +65,16 @@ struct SpencerFitResult {
 // Lower and upper bounds of the fit (same order as params::SpencerFields).
 void SpencerFitBounds(SpencerParams* lower, SpencerParams* upper);
 
+// A fitted value within this share of its box's width from a bound counts as at the bound (the
+// bounded solver ends on the bound itself; the boxes span decades, so the share is small).
+inline constexpr double kAtBoundShare = 1e-6;
+
+// Warnings about a fit ("warning: ..." lines, none when it looks sound): each parameter at a
+// bound of SpencerFitBounds (the runs do not pin it), and x0 beyond the stroke the runs
+// reached (k1 and x0 then trade off), each saying what to do.
+std::vector<std::string> SpencerFitWarnings(const SpencerParams& fitted,
+                                            const std::vector<FitRun>& runs);
+
 // Simulated force at every row of run (the harness's replay of it, open loop). false when the
 // simulation turned non-finite (f_hat then holds what was computed).
 bool SimulateRunForce(const SpencerParams& p, const FitRun& run, int substeps, double e_max,

@@ -46,11 +46,12 @@ void SearchPath::LocalSearch(const SelectionCriterion& criterion) {
     cur.j = best->j;
     cur.cv_j = best->cv;
     cur.stress = best_stress;
+    cur.monotone = MonotoneOf(cur_model, cur.coefficients);
     cur_score = best->score;
   }
   if (moves.empty()) return;
   cur.iteration = res_.iterations.back().iteration + 1;
-  cur.rejected = cur.stress_rejected = 0;
+  cur.rejected = cur.stress_rejected = cur.monotone_rejected = 0;
   cur.elapsed_s = Elapsed();
   if (o_.progress) o_.progress(cur);
   res_.selected = cur.iteration;
@@ -94,8 +95,9 @@ std::vector<SearchPath::Move> SearchPath::ScoreMoves(const std::vector<int>& pic
   return mv;
 }
 
-// The move of the lowest score below `score` with a finite J that passes [stress] (first of
-// equals); nullptr: none. *stress: its stress verdict (unchecked without [stress]).
+// The move of the lowest score below `score` with a finite J that passes monotone_in and
+// [stress] (first of equals); nullptr: none. *stress: its stress verdict (unchecked without
+// [stress]).
 const SearchPath::Move* SearchPath::BestMove(const std::vector<Move>& mv, double score,
                                              StressVerdict* stress) const {
   const Move* best = nullptr;
@@ -103,6 +105,7 @@ const SearchPath::Move* SearchPath::BestMove(const std::vector<Move>& mv, double
     if (!(d.score < (best != nullptr ? best->score : score)) || !std::isfinite(d.j)) {
       continue;
     }
+    if (!MonotonePasses(d.model, d.theta)) continue;     // passes without monotone_in
     const StressVerdict v = StressOf(d.model, d.theta);  // unchecked without [stress]
     if (!stress_.empty() && !v.pass) continue;
     best = &d;

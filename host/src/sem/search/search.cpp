@@ -116,7 +116,7 @@ std::vector<Trial> Search::Ranked(const std::vector<int>& model, const std::vect
 
 Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
                      double j_threshold, int* rejected, const Accept& accept, int* stress_rejected,
-                     std::size_t limit, double bound0) {
+                     std::size_t limit, double bound0, const Accept& screen, int* screened) {
   std::atomic<int> n_rejected{0};
   struct Report {
     std::atomic<int>& n;
@@ -124,13 +124,33 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
     ~Report() { *out = n.load(); }
   } report{n_rejected, rejected};
   std::vector<Trial> trials = Bordered(model, w, n_rejected);
+  if (screen) {
+    std::atomic<int> n_screened{0};
+    ParallelFor((trials.size() + kChunk - 1) / kChunk, threads_, [&](std::size_t item, int) {
+      for (std::size_t c = item * kChunk; c < std::min(trials.size(), (item + 1) * kChunk); ++c) {
+        if (trials[c].cand >= 0 && !screen(trials[c].cand, trials[c].theta)) {
+          trials[c].cand = -1;
+          ++n_screened;
+        }
+      }
+    });
+    if (screened != nullptr) *screened += n_screened.load();
+  }
   const std::vector<int> order = RankOrder(trials, limit);
   Trial none;
   if (order.empty()) return none;
+  // The check's verdict per candidate, asked once (-1: not asked).
+  std::vector<signed char> verdict(trials.size(), -1);
+  bool refusals = false;
   auto accepted = [&](int c) {
-    if (!accept || accept(c, trials[c].theta)) return true;
-    if (stress_rejected != nullptr) ++*stress_rejected;
-    return false;
+    if (verdict[c] < 0) {
+      verdict[c] = !accept || accept(c, trials[c].theta) ? 1 : 0;
+      if (verdict[c] == 0) {
+        refusals = true;
+        if (stress_rejected != nullptr) ++*stress_rejected;
+      }
+    }
+    return verdict[c] == 1;
   };
   // Admissible (finite J) candidates by J, ties by index, the first the check accepts.
   auto best_accepted = [&](std::vector<int> ok) {
@@ -156,20 +176,21 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
       if (tr.j < kInf) AtomicMin(best, std::max(tr.j, floor));
     }
   };
-  auto run_chunk = [&](std::size_t begin, std::size_t end, std::vector<double>& scratch) {
+  auto run_chunk = [&](const std::vector<int>& ord, std::size_t begin, std::size_t end,
+                       std::vector<double>& scratch) {
     // Jobs by the candidate's y power and input factor columns: lanes side by side then read
     // the same columns (cache lines shared). Each job's arithmetic is its own, so the order
     // changes no result.
     std::vector<std::size_t> idx(end - begin);
     for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = begin + i;
     std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) {
-      const Cand& ca = e_.cand(trials[order[a]].cand);
-      const Cand& cb = e_.cand(trials[order[b]].cand);
+      const Cand& ca = e_.cand(trials[ord[a]].cand);
+      const Cand& cb = e_.cand(trials[ord[b]].cand);
       return ca.ypow != cb.ypow ? ca.ypow < cb.ypow : ca.in_cols < cb.in_cols;
     });
     std::vector<Engine::Job> jobs(end - begin);
     for (std::size_t k = 0; k < idx.size(); ++k) {
-      Trial& tr = trials[order[idx[k]]];
+      Trial& tr = trials[ord[idx[k]]];
       jobs[k].theta.assign(tr.theta.begin(), tr.theta.end() - 1);
       jobs[k].extra = tr.cand;
       jobs[k].theta_extra = tr.theta.back();
@@ -178,27 +199,46 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
     for (std::size_t k = 0; k < idx.size(); ++k) {
       const std::size_t i = idx[k];
       const Engine::Job& job = jobs[k];
-      Trial& tr = trials[order[i]];
+      Trial& tr = trials[ord[i]];
       tr.j = job.dead ? kInf : job.cost;
+      tr.cut = job.dead && !job.diverged;
       if (job.diverged) ++n_rejected;
     }
   };
   if (!first) {
     std::vector<std::vector<double>> scratch(static_cast<std::size_t>(threads_));
     const std::size_t pilot = std::min(order.size(), kPilot);
-    run_chunk(0, pilot, scratch[0]);
+    run_chunk(order, 0, pilot, scratch[0]);
     lower_bound_to(0, pilot);
-    const std::size_t rest = order.size() - pilot;
-    const std::size_t per =
-        std::max<std::size_t>(1, std::min(kSweep, (rest + static_cast<std::size_t>(threads_) - 1) /
-                                                      static_cast<std::size_t>(threads_)));
-    const std::size_t chunks = (rest + per - 1) / per;
-    ParallelFor(chunks, threads_, [&](std::size_t item, int worker) {
-      run_chunk(pilot + item * per, std::min(order.size(), pilot + (item + 1) * per),
-                scratch[worker]);
-    });
+    // The rest in sweeps of at most kSweep, split over the threads.
+    auto sweep = [&](const std::vector<int>& ord, std::size_t from) {
+      const std::size_t rest = ord.size() - from;
+      const std::size_t per = std::max<std::size_t>(
+          1, std::min(kSweep, (rest + static_cast<std::size_t>(threads_) - 1) /
+                                  static_cast<std::size_t>(threads_)));
+      const std::size_t chunks = (rest + per - 1) / per;
+      ParallelFor(chunks, threads_, [&](std::size_t item, int worker) {
+        run_chunk(ord, from + item * per, std::min(ord.size(), from + (item + 1) * per),
+                  scratch[worker]);
+      });
+    };
+    sweep(order, pilot);
     std::vector<int> ok;
     for (int c : order) {
+      if (trials[c].j < kInf) ok.push_back(c);
+    }
+    const Trial pick = best_accepted(ok);
+    if (!refusals) return pick;
+    // The runs cut short again, under the pick's J (none: bound0), fixed: not lowered by a J the
+    // check may refuse; the pick is then the accepted one of lowest J among all that completed.
+    std::vector<int> again;
+    for (int c : order) {
+      if (trials[c].cut) again.push_back(c);
+    }
+    if (again.empty()) return pick;
+    best.store(pick.cand >= 0 ? pick.j : bound0);
+    sweep(again, 0);
+    for (int c : again) {
       if (trials[c].j < kInf) ok.push_back(c);
     }
     return best_accepted(std::move(ok));
@@ -212,7 +252,7 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
     const std::size_t per = (r1 - r0 + workers - 1) / workers;
     const std::size_t chunks = (r1 - r0 + per - 1) / per;
     ParallelFor(chunks, threads_, [&](std::size_t item, int worker) {
-      run_chunk(r0 + item * per, std::min(r1, r0 + (item + 1) * per), scratch[worker]);
+      run_chunk(order, r0 + item * per, std::min(r1, r0 + (item + 1) * per), scratch[worker]);
     });
     lower_bound_to(r0, r1);
     for (std::size_t i = r0; i < r1; ++i) {

@@ -17,6 +17,7 @@ struct Trial {
   int cand = -1;
   double j = kInf;
   double rank = 0.0;          // one-step SSE reduction
+  bool cut = false;           // its free run stopped at the early-stop bound (j = kInf)
   std::vector<double> theta;  // model terms then the candidate
 };
 
@@ -33,8 +34,11 @@ class Search {
 
   // Tries adding every eligible candidate. Returns the chosen trial (cand < 0: none
   // admissible). first: first-improvement with target j_threshold.
-  // accept (optional): stress check of model + candidate with the trial's coefficients; a
-  // candidate it refuses is skipped (counted in stress_rejected) for the next best.
+  // accept (optional): the checks of model + candidate with the trial's coefficients (stress,
+  // monotone_in); a candidate it refuses is skipped (counted in stress_rejected) for the next
+  // best. Best improvement then returns the admissible candidate of lowest J that the check
+  // accepts: a refused candidate's J may have cut other runs short, so after a refusal the
+  // runs cut short run again, bounded by the J of the accepted pick (none: unbounded).
   // limit > 0: simulate only the `limit` candidates of best one-step rank. bound0: only
   // candidates whose J is below it are admissible (early stop from the start).
   // Best single-term drop (host/src/sem/identify.cpp's pruning, host/src/sem/search/prune.cpp): the
@@ -48,9 +52,13 @@ class Search {
                   std::vector<double>* theta);
 
   using Accept = std::function<bool(int cand, const std::vector<double>& theta)>;
+  // screen (optional): a check of model + candidate that needs no free run (the monotone_in
+  // grid); a candidate it refuses never runs and counts in *screened (when not null). Every
+  // candidate it refuses is one accept would refuse too, so it changes no pick, only the time.
   Trial TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
                double j_threshold, int* rejected, const Accept& accept = {},
-               int* stress_rejected = nullptr, std::size_t limit = 0, double bound0 = kInf);
+               int* stress_rejected = nullptr, std::size_t limit = 0, double bound0 = kInf,
+               const Accept& screen = {}, int* screened = nullptr);
 
   // The candidates (not in model) by one-step rank given the model's least squares w, best
   // first, at most limit (0: all), with the least squares of model + candidate; no free run

@@ -33,6 +33,7 @@ SearchPath::SearchPath(const SemSpec& spec, std::span<const DataSet> identificat
   BuildCandidates();
   search_.emplace(*eng_, o.threads);
   PrepareRuns();
+  if (!spec.monotone_in.empty()) gate_.emplace(spec, res_.channels, identification);
   j_ = search_->Cost(model_, &theta_);
 }
 
@@ -147,12 +148,41 @@ StressVerdict SearchPath::StressOf(const std::vector<int>& terms,
   return r;
 }
 
-Search::Accept SearchPath::AcceptFor(const std::vector<int>& base) const {
-  if (stress_.empty()) return {};
-  return [this, base](int cand, const std::vector<double>& th) {
+MonotoneVerdict SearchPath::MonotoneOf(const std::vector<int>& terms,
+                                       const std::vector<double>& th) const {
+  return gate_ ? gate_->Check(Terms(terms), th) : MonotoneVerdict{};
+}
+
+bool SearchPath::MonotonePasses(const std::vector<int>& terms,
+                                const std::vector<double>& th) const {
+  return !gate_ || gate_->Passes(Terms(terms), th);
+}
+
+Search::Accept SearchPath::AcceptFor(const std::vector<int>& base, int* stress_rejected,
+                                     int* monotone_rejected) const {
+  if (stress_.empty() && !gate_) return {};
+  // TryAdd calls it from one thread at a time.
+  return [this, base, stress_rejected, monotone_rejected](int cand, const std::vector<double>& th) {
     std::vector<int> terms = base;
     terms.push_back(cand);
-    return SearchStressOf(terms, th).pass;
+    if (!MonotonePasses(terms, th)) {
+      if (monotone_rejected != nullptr) ++*monotone_rejected;
+      return false;
+    }
+    if (!stress_.empty() && !SearchStressOf(terms, th).pass) {
+      if (stress_rejected != nullptr) ++*stress_rejected;
+      return false;
+    }
+    return true;
+  };
+}
+
+Search::Accept SearchPath::ScreenFor(const std::vector<int>& base) const {
+  if (!gate_) return {};
+  return [this, base_terms = Terms(base)](int cand, const std::vector<double>& th) {
+    std::vector<SemTerm> terms = base_terms;
+    terms.push_back(eng_->cand(cand).term);
+    return gate_->PassesScreen(terms, th);
   };
 }
 
@@ -174,8 +204,12 @@ SemResult SearchPath::Run() {
   }
   LocalSearch(criterion);
   if (res_.selected < 0) {
-    throw InputError(spec_.path, spec_.stress.line,
-                     "no iteration passes the stress check ([stress]): nothing to select");
+    const bool stress = !stress_.empty();
+    throw InputError(spec_.path, stress ? spec_.stress.line : spec_.monotone_line,
+                     fmt::format("no iteration passes {}: nothing to select",
+                                 stress && gate_ ? "the stress check ([stress]) and monotone_in"
+                                 : stress        ? "the stress check ([stress])"
+                                                 : "monotone_in"));
   }
   return std::move(res_);
 }
@@ -200,8 +234,8 @@ std::size_t SearchPath::OneStepStart() {
   double sse = yty, bic = n * std::log(std::max(yty, 1e-300) / n);
   while (model_.size() + 1 <= max_params_ && model_.size() < cap) {
     int rej = 0;
-    const Trial tr =
-        search_->TryAdd(model_, theta_, false, -kInf, &rej, AcceptFor(model_), nullptr, 1);
+    const Trial tr = search_->TryAdd(model_, theta_, false, -kInf, &rej, AcceptFor(model_), nullptr,
+                                     1, kInf, ScreenFor(model_));
     if (tr.cand < 0) break;
     const double sse_new = sse - tr.rank;
     const double bic_new = n * std::log(std::max(sse_new, 1e-300) / n) +

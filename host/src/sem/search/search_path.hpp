@@ -27,6 +27,7 @@
 #include "sem/estimate/evaluator.hpp"
 #include "sem/estimate/replay.hpp"
 #include "sem/internal.hpp"
+#include "sem/search/monotone_gate.hpp"
 #include "sem/search/search.hpp"
 
 namespace mrd::host::internal {
@@ -75,14 +76,22 @@ class SearchPath {
   // records; SearchStressOf: the search's, without the rest records (sem_stress.hpp).
   StressVerdict StressOf(const std::vector<int>& terms, const std::vector<double>& th) const;
   StressVerdict SearchStressOf(const std::vector<int>& terms, const std::vector<double>& th) const;
-  // The stress check of base + candidate (SearchStressOf; none without [stress]).
-  Search::Accept AcceptFor(const std::vector<int>& base) const;
+  // The invertibility check (spec monotone_in) of a model; unchecked without it.
+  MonotoneVerdict MonotoneOf(const std::vector<int>& terms, const std::vector<double>& th) const;
+  bool MonotonePasses(const std::vector<int>& terms, const std::vector<double>& th) const;
+  // The checks of base + candidate: monotone_in, then the stress check (SearchStressOf); none
+  // without either. Each refusal counts in its counter (when not null).
+  Search::Accept AcceptFor(const std::vector<int>& base, int* stress_rejected = nullptr,
+                           int* monotone_rejected = nullptr) const;
+  // The monotone_in check of base + candidate on the grid's corners alone (none without
+  // monotone_in): TryAdd's screen. Thread-safe.
+  Search::Accept ScreenFor(const std::vector<int>& base) const;
   std::vector<double> Validate(const std::vector<SemTerm>& terms,
                                const std::vector<double>& coefficients) const;
 
   // Recording (path_moves.cpp): stress check, validation and refinement of an iteration,
   // beside the next search step with two or more threads.
-  void Record(int iteration, int rejected, int stress_rejected);
+  void Record(int iteration, int rejected, int stress_rejected, int monotone_rejected);
   void Complete(SemIteration it, const std::vector<int>& terms);
   void Refine(SemIteration& it, const std::vector<int>& terms) const;
   void FinishRecorded();
@@ -90,7 +99,7 @@ class SearchPath {
   // Path moves (path_moves.cpp).
   bool Add(int iteration);  // false: no admissible term
   void Prune(double j_prev);
-  bool Exchange(int* rejected, int* stress_rejected);
+  bool Exchange(int* rejected, int* stress_rejected, int* monotone_rejected);
   void RunPath();
 
   // Second start and selection (search_path.cpp).
@@ -115,8 +124,9 @@ class SearchPath {
 
   SemResult res_;
   std::vector<DataSet> stress_, rest_;
-  std::size_t samples_ = 0;     // scored samples of the identification data
-  std::size_t max_params_ = 0;  // samples_ / kMinSamplesPerParameter
+  std::optional<MonotoneGate> gate_;  // spec monotone_in
+  std::size_t samples_ = 0;           // scored samples of the identification data
+  std::size_t max_params_ = 0;        // samples_ / kMinSamplesPerParameter
   std::optional<Engine> eng_;
   std::map<std::string, int> by_key_;  // TermKey -> candidate
   std::optional<Search> search_;

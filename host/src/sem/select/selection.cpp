@@ -263,7 +263,7 @@ int SelectByCrossValidation(const std::vector<SemIteration>& its,
                             const std::vector<std::vector<double>>& cv, double samples,
                             double candidates) {
   if (its.empty()) return 0;
-  const auto failed = [](const SemIteration& it) { return it.stress.checked && !it.stress.pass; };
+  const auto failed = [](const SemIteration& it) { return FailsChecks(it); };
   int pick = -1;
   double best = kInf;
   for (std::size_t i = 0; i < its.size(); ++i) {

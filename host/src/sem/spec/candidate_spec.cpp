@@ -427,6 +427,10 @@ bool ParseSearchKey(const std::string& path, const std::string& sk, const toml::
     s.one_step_start = GetBool(path, sn, sk);
   } else if (sk == "refine") {
     s.refine = GetBool(path, sn, sk);
+  } else if (sk == "monotone_in") {
+    s.monotone_in = GetString(path, sn, sk);
+    s.monotone_line = LineOf(sn);
+    if (s.monotone_in.empty()) Fail(path, sn, "'monotone_in' must name an input signal");
   } else if (sk == "initial") {
     const auto* arr = sn.as_array();
     if (arr == nullptr) Fail(path, sn, "'initial' must be an array of term strings");
@@ -545,6 +549,15 @@ SemSpec SemSpecFromTable(const toml::table& tbl, const std::string& path) {
   if (s.regressors.empty()) throw InputError(path, 0, "no [[regressor]] given");
   CheckRegressors(path, s);
   CheckFamiliesAndStress(path, s);
+  if (!s.monotone_in.empty()) {
+    const auto sig = s.Signals();
+    if (s.monotone_in == s.output ||
+        std::find(sig.begin(), sig.end(), s.monotone_in) == sig.end()) {
+      throw InputError(
+          path, s.monotone_line,
+          fmt::format("'monotone_in' = '{}' is not an input signal of the spec", s.monotone_in));
+    }
+  }
   // Initial terms are checked here so that errors name the spec.
   for (const auto& t : s.initial) ParseTerm(s, t, path, 0);
   return s;
