@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <random>
 #include <string>
 
 #include "commands.hpp"
@@ -25,7 +26,22 @@ struct GenerateOptions {
   std::string params_file;
   std::string out;
   int substeps = 100;
+  double noise = 0.0;  // [N] standard deviation of the measurement noise added to f
 };
+
+// White Gaussian noise of standard deviation sigma [N] added to f: a force transducer's. Seeded
+// by seed alone (mt19937_64 and Box-Muller, written out so that every standard library gives the
+// same file), apart from the profile's own random parts.
+void AddForceNoise(double sigma, std::uint64_t seed, std::vector<double>* f) {
+  if (sigma == 0.0) return;
+  std::mt19937_64 rng(seed ^ 0x6e6f697365ULL);  // "noise"
+  auto uniform = [&] {                          // (0, 1]
+    return (static_cast<double>(rng() >> 11) + 1.0) * 0x1.0p-53;
+  };
+  constexpr double kTwoPi = 6.283185307179586;
+  for (double& v : *f)
+    v += sigma * std::sqrt(-2.0 * std::log(uniform())) * std::cos(kTwoPi * uniform());
+}
 
 // A non-finite force: the parameters made the simulation diverge (named, with the time [s]).
 void CheckForceFinite(const GenerateOptions& o, const Excitation& ex,
@@ -46,8 +62,9 @@ void RunGenerate(const GenerateOptions& o) {
   const SpencerParams params =
       o.params_file.empty() ? SpencerPreset(o.preset) : LoadSpencerParams(o.params_file);
   const Excitation ex = MakeExcitation(o.profile, o.seed);
-  const std::vector<double> f = SimulateReferenceDamper(params, ex, o.substeps);
+  std::vector<double> f = SimulateReferenceDamper(params, ex, o.substeps);
   CheckForceFinite(o, ex, f);
+  AddForceNoise(o.noise, o.seed, &f);
   const auto [fmin, fmax] = std::minmax_element(f.begin(), f.end());
   const auto [emin, emax] = std::minmax_element(ex.E.begin(), ex.E.end());
   const auto [vmin, vmax] = std::minmax_element(ex.v.begin(), ex.v.end());
@@ -80,6 +97,11 @@ void RegisterGenerate(CLI::App& app) {
       ->excludes(preset);
   cmd->add_option("--substeps", o->substeps, "RK4 sub-steps per 1 ms sample")
       ->check(mrd::cli::FiniteRange(1, 10000))
+      ->capture_default_str();
+  cmd->add_option("--noise", o->noise,
+                  "Standard deviation of white Gaussian noise added to f [N] (a force "
+                  "transducer's; seeded by --seed)")
+      ->check(mrd::cli::FiniteRange(0.0, 1e6))
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Output CSV file")->required();
   cmd->callback([o] { RunGenerate(*o); });

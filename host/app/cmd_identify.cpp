@@ -3,6 +3,7 @@
 #include <fmt/ranges.h>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -12,11 +13,11 @@
 #include "mrd/host/atomic_write.hpp"
 #include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/csv.hpp"
-#include "mrd/host/default_spec.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/invertibility.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
+#include "mrd/host/sem_default.hpp"
 #include "mrd/host/sem_family.hpp"
 
 namespace mrd::host::cli {
@@ -53,10 +54,9 @@ void PrintMonotone(const SemIteration& it) {
 
 void RunIdentify(const IdentifyOptions& o) {
   CheckOutputPath(o.out);  // before the identification, which may take minutes
-  // No --spec: the built-in saturating damper spec (default_spec.hpp).
-  const SemSpec spec = o.spec.empty() ? ParseSemSpec(DefaultSemSpecText(), kDefaultSemSpecName)
-                                      : LoadSemSpec(o.spec);
-  const auto signals = spec.Signals();
+  // No --spec: each built-in spec, the best on unseen data kept (sem_default.hpp).
+  const std::optional<SemSpec> given =
+      o.spec.empty() ? std::nullopt : std::optional<SemSpec>(LoadSemSpec(o.spec));
   // Unknown columns are reported against the spec (Identify), so read without requirements.
   const std::vector<DataSet> data = ReadAll(o.data, {});
   const std::vector<DataSet> val = ReadAll(o.validate, {});
@@ -88,10 +88,28 @@ void RunIdentify(const IdentifyOptions& o) {
                "family {}/{}: {}: selected iteration {} ({} terms, J {:.6g}), score {:.6g}\n",
                i + 1, n, FamilyMembers(regs, c), c.selected, c.terms, c.j, c.score);
   };
-  const FamilyIdentification fi = IdentifyFamilies(spec, data, val, so, member);
+  // Without --spec: a line as each built-in spec starts and ends.
+  auto spec_line = [](std::size_t i, std::size_t n, const SpecCandidate& c, bool done) {
+    if (!done) {
+      fmt::print(stderr, "built-in spec {}/{}: {}\n", i + 1, n, c.name);
+    } else {
+      fmt::print(stderr, "built-in spec {}/{}: {}: selected iteration {} ({} terms), RMSE {:.6g}\n",
+                 i + 1, n, c.name, c.selected, c.terms, c.rmse);
+    }
+    std::fflush(stderr);
+  };
+  DefaultIdentification di;
+  if (given) {
+    di.identification = IdentifyFamilies(*given, data, val, so, member);
+  } else {
+    di = IdentifyDefault(data, val, so, member, spec_line);
+  }
+  const FamilyIdentification& fi = di.identification;
+  const SemSpec& spec = fi.spec;
   const SemResult& r = fi.result;
   ModelFile mf = MakeModelFile(fi.spec, r);
   mf.family = fi.family;
+  mf.spec_choice = di.choice;
   mf.identification_data = o.data;
   mf.validation_data = o.validate;
   const InvertibilityReport inv = RecordInvertibility(&mf, data);
@@ -108,6 +126,15 @@ void RunIdentify(const IdentifyOptions& o) {
                                     : fmt::format("{:.2f} s (a {}-term one-step start)",
                                                   r.second_start_s, r.second_start_terms));
   fmt::print("selected iteration {}: {}\n", mf.selected, InvertibilitySummary(inv));
+  const SpecChoice& sc = mf.spec_choice;
+  if (!sc.empty()) {
+    fmt::print("no --spec: built-in specs by {}:\n", sc.rule);
+    for (std::size_t i = 0; i < sc.specs.size(); ++i) {
+      const SpecCandidate& c = sc.specs[i];
+      fmt::print("  {}: RMSE {:.6g} {}, {} terms{}\n", c.name, c.rmse, r.channels[0].name, c.terms,
+                 static_cast<int>(i) == sc.chosen ? "  <- chosen" : "");
+    }
+  }
   const FamilyResult& f = mf.family;
   if (!f.empty()) {
     fmt::print("transform family ({}):\n", f.rule);
@@ -130,7 +157,8 @@ void RegisterIdentify(CLI::App& app) {
       ->delimiter(',');
   cmd->add_option("--spec", o->spec,
                   "Candidate spec (TOML), e.g. host/specs/paper.toml; default: the built-in "
-                  "copy of host/specs/paper-saturating.toml (robust saturating damper spec)");
+                  "copies of host/specs/paper-saturating.toml and host/specs/nees.toml, each "
+                  "identified, the one with the lowest cross-validated (or validation) RMSE kept");
   cmd->add_option("--validate", o->validate, "Validation data file(s), comma separated")
       ->delimiter(',');
   cmd->add_option("--out", o->out, "Model file to write (JSON)")->required();

@@ -254,7 +254,7 @@ std::string ModelFileToJson(const ModelFile& m) {
                           {"share_percent", r.share_percent},
                           {"summary", r.summary}};
   }
-  if (!m.default_choice.empty()) j["default_choice"] = m.default_choice;
+  if (!m.spec_choice.empty()) j["spec_choice"] = SpecChoiceToJson(m.spec_choice);
   return j.dump(1) + "\n";
 }
 
@@ -414,7 +414,7 @@ ModelFile LoadModelFile(const std::string& path) {
       r.share_percent = FiniteField(ji.at("share_percent"), "invertibility: share_percent", path);
       r.summary = ji.value("summary", std::string());
     }
-    m.default_choice = j.value("default_choice", std::string());
+    if (j.contains("spec_choice")) m.spec_choice = SpecChoiceFromJson(j.at("spec_choice"), path);
   } catch (const json::exception& e) {
     throw InputError(path, 0, fmt::format("bad model file: {}", e.what()));
   }

@@ -17,10 +17,10 @@
 
 #include "bindings.hpp"
 #include "mrd/host/candidate_spec.hpp"
-#include "mrd/host/default_spec.hpp"
 #include "mrd/host/invertibility.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
+#include "mrd/host/sem_default.hpp"
 #include "mrd/host/sem_family.hpp"
 
 namespace mrd::python {
@@ -91,11 +91,10 @@ toml::table TomlTable(const py::handle& dict, const std::string& where) {
   return t;
 }
 
-// The spec: None (the built-in default, as `mrd identify` without --spec), a path, or a dict.
-host::SemSpec SpecOf(const py::handle& spec, std::vector<std::string>* paths) {
-  if (spec.is_none()) {
-    return host::ParseSemSpec(host::DefaultSemSpecText(), host::kDefaultSemSpecName);
-  }
+// The spec: None (the built-in specs, as `mrd identify` without --spec: nullopt), a path, or a
+// dict.
+std::optional<host::SemSpec> SpecOf(const py::handle& spec, std::vector<std::string>* paths) {
+  if (spec.is_none()) return std::nullopt;
   if (IsPath(spec)) {
     const std::string path = PathOf(spec);
     paths->push_back(path);
@@ -178,7 +177,7 @@ host::ModelFile Identify(const py::object& data, const py::object& spec, const p
     throw BadInput("strategy: '" + *strategy + "' is not best or first");
   }
   std::vector<std::string> paths, id_names, val_names;
-  const host::SemSpec sem_spec = SpecOf(spec, &paths);
+  const std::optional<host::SemSpec> sem_spec = SpecOf(spec, &paths);
   const std::vector<host::DataSet> id = DataSetsOf(data, "data", &paths, &id_names);
   if (id.empty()) throw BadInput("data: no identification data");
   const std::vector<host::DataSet> val = DataSetsOf(validate, "validate", &paths, &val_names);
@@ -210,12 +209,31 @@ host::ModelFile Identify(const py::object& data, const py::object& spec, const p
   const auto on_line = [&](const std::string& line) {
     if (!progress.is_none()) progress(line);
   };
-  host::FamilyIdentification fi;
+  // Without a spec, as mrd identify: a line as each built-in spec starts and ends.
+  const auto spec_line = [&](std::size_t i, std::size_t n, const host::SpecCandidate& c,
+                             bool done) {
+    const std::string line =
+        done ? fmt::format("built-in spec {}/{}: {}: selected iteration {} ({} terms), RMSE {:.6g}",
+                           i + 1, n, c.name, c.selected, c.terms, c.rmse)
+             : fmt::format("built-in spec {}/{}: {}", i + 1, n, c.name);
+    if (!beside.Say(line)) throw Cancelled();
+  };
+  host::DefaultIdentification di;
   Checked(paths, [&] {
-    beside.Run([&] { fi = host::IdentifyFamilies(sem_spec, id, val, so, member); }, on_line);
+    beside.Run(
+        [&] {
+          if (sem_spec) {
+            di.identification = host::IdentifyFamilies(*sem_spec, id, val, so, member);
+          } else {
+            di = host::IdentifyDefault(id, val, so, member, spec_line);
+          }
+        },
+        on_line);
   });
+  const host::FamilyIdentification& fi = di.identification;
   host::ModelFile mf = host::MakeModelFile(fi.spec, fi.result);
   mf.family = fi.family;
+  mf.spec_choice = di.choice;
   mf.identification_data = id_names;
   mf.validation_data = val_names;
   // As mrd identify: the selected iteration's invertibility on the identification data.

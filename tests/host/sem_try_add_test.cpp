@@ -21,7 +21,7 @@ using Fixture = PaperEngineFixture;
 struct Outcome {
   Trial trial;
   int rejected = 0;
-  int stress_rejected = 0;
+  Search::Refusals refused;
 };
 
 void ExpectSame(const Outcome& a, const Outcome& b, int threads, int repeat) {
@@ -30,7 +30,8 @@ void ExpectSame(const Outcome& a, const Outcome& b, int threads, int repeat) {
   EXPECT_EQ(a.trial.j, b.trial.j);
   EXPECT_EQ(a.trial.theta, b.trial.theta);
   EXPECT_EQ(a.rejected, b.rejected);
-  EXPECT_EQ(a.stress_rejected, b.stress_rejected);
+  EXPECT_EQ(a.refused.stress, b.refused.stress);
+  EXPECT_EQ(a.refused.monotone, b.refused.monotone);
 }
 
 TEST(SemTryAddTest, TheChoiceAndItsCountsDoNotDependOnTheThreadCount) {
@@ -59,8 +60,10 @@ TEST(SemTryAddTest, TheChoiceAndItsCountsDoNotDependOnTheThreadCount) {
   ASSERT_GT(by_j.size(), 600u);  // more than the pilot and two sweep items of 256
   std::set<int> refused;
   for (std::size_t k = 0; k < 40; ++k) refused.insert(by_j[k].second);
+  // Refused by stress, or by monotone_in for odd candidates (counted apart).
   const Search::Accept accept = [&](int c, const std::vector<double>&) {
-    return refused.count(c) == 0;
+    if (refused.count(c) == 0) return Search::Verdict::kAccept;
+    return c % 2 == 1 ? Search::Verdict::kMonotone : Search::Verdict::kStress;
   };
   // Best improvement, and first improvement with a target no candidate meets (its fallback).
   for (const bool first : {false, true}) {
@@ -69,13 +72,13 @@ TEST(SemTryAddTest, TheChoiceAndItsCountsDoNotDependOnTheThreadCount) {
       Search s(f.eng, threads);
       Outcome o;
       o.trial = s.TryAdd(model, theta, first, first ? 1e-6 * j_model : -kInf, &o.rejected, accept,
-                         &o.stress_rejected);
+                         &o.refused);
       return o;
     };
     const Outcome ref = run(1);
     ASSERT_GE(ref.trial.cand, 0);
     EXPECT_EQ(refused.count(ref.trial.cand), 0u);
-    EXPECT_GE(ref.stress_rejected, 1);  // the refusals were met
+    EXPECT_GE(ref.refused.stress + ref.refused.monotone, 1);  // the refusals were met
     for (int repeat = 0; repeat < 3; ++repeat) {
       for (const int threads : {2, 3, 8}) ExpectSame(ref, run(threads), threads, repeat);
     }

@@ -42,6 +42,20 @@ def test_identify_is_the_cli(cli_model, data_dir, caplog):
     assert "selected iteration" in lines[-1]
 
 
+def test_identify_without_a_spec_chooses_as_the_cli(data_dir, tmp_path, caplog):
+    """spec=None: both built-in specs run and the same one is kept as by mrd identify."""
+    out = tmp_path / "cli.json"
+    run(["mrd", "identify", "--data", data_dir / "v1.csv", "--max-iterations", "2",
+         "--threads", "2", "--out", out])
+    with caplog.at_level(logging.INFO, logger="mrd"):
+        model = mrd.identify(str(data_dir / "v1.csv"), max_iterations=2, threads=1)
+    got, want = comparable(model.to_json()), comparable(out.read_text())
+    assert got["spec_choice"] == want["spec_choice"]
+    assert got["iterations"] == want["iterations"]
+    lines = [r.getMessage() for r in caplog.records if r.name == "mrd"]
+    assert any(l.startswith("built-in spec 2/2: nees.toml (built in)") for l in lines)
+
+
 def test_identify_from_arrays_and_a_spec_dict(cli_model, data_dir):
     names = open(data_dir / "v1.csv").readline().strip().split(",")
     table = np.loadtxt(data_dir / "v1.csv", delimiter=",", skiprows=1)

@@ -1,13 +1,20 @@
 #pragma once
-// The identification spec `mrd identify` uses when no --spec is given: the text of
-// host/specs/paper-saturating.toml, compiled in at build time (host/src/default_spec.cpp.in).
+// The identification specs `mrd identify` chooses from when no --spec is given, compiled in at
+// build time (host/src/default_spec.cpp.in): host/specs/paper-saturating.toml (the reference
+// damper's saturating spec) and host/specs/nees.toml (the measured-damper spec). Each is
+// identified on the data and the one whose selected model predicts data it was not fitted on
+// best is kept (sem_default.hpp).
+
+#include <span>
 
 namespace mrd::host {
 
-// Name the built-in spec carries in messages and in model files.
-inline constexpr const char* kDefaultSemSpecName = "paper-saturating.toml (built in)";
+struct BuiltInSpec {
+  const char* name;  // as messages and model files name it, e.g. "nees.toml (built in)"
+  const char* text;  // the TOML text of the shipped file as it was when the tool was built
+};
 
-// The TOML text of host/specs/paper-saturating.toml as it was when the tool was built.
-const char* DefaultSemSpecText();
+// In the order they are tried (a tie keeps the earlier).
+std::span<const BuiltInSpec> BuiltInSemSpecs();
 
 }  // namespace mrd::host

@@ -20,7 +20,8 @@
 //                         // choice (sem_family.hpp); "spec" then holds the chosen transform
 //     "invertibility": {"iteration": k, "input": "E", "e_min": 0, "e_max": 2.25,
 //                       "states": n, "failing": 0, "share_percent": 0, "summary": "..."},
-//     "default_choice": "..." }  // no --spec: the shipped spec chosen and why
+//     "spec_choice": {...} }  // no --spec: every built-in spec's score and the choice
+//                             // (sem_default.hpp); "spec" then holds the chosen spec
 //
 // Coefficients are in normalised units (signals divided by their channel scale).
 
@@ -31,6 +32,7 @@
 #include "mrd/common/table.hpp"
 #include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/sem.hpp"
+#include "mrd/host/sem_default.hpp"
 #include "mrd/host/sem_family.hpp"
 
 namespace mrd::host {
@@ -60,7 +62,7 @@ struct ModelFile {
   std::vector<std::string> validation_data;  // in the order of validation_J
   FamilyResult family;  // transform family search (empty: the spec had no family)
   InvertibilityRecord invertibility;
-  std::string default_choice;  // mrd identify without --spec: which shipped spec and why
+  SpecChoice spec_choice;  // mrd identify without --spec: the built-in specs (empty: --spec)
 
   int warmup_samples() const { return spec.MaxDelay(); }
   // Iteration by its number; throws InputError naming the file when absent.

@@ -44,7 +44,7 @@ Replay::Replay(const SemSpec& spec, const std::vector<ChannelInfo>& channels, co
 }
 
 double Replay::Run(const std::vector<SemTerm>& terms, const std::vector<double>& coefficients,
-                   std::vector<double>* ysim) const {
+                   std::vector<double>* ysim, double stop_above) const {
   // Per factor of every term, in order: a row-aligned column of its value to its power (an
   // input offered at that power), or the regressor to evaluate per row.
   struct F {
@@ -79,6 +79,7 @@ double Replay::Run(const std::vector<SemTerm>& terms, const std::vector<double>&
   yh.resize(n_, 0.0);
   double cost = 0.0;
   bool bad = false;
+  const bool stop = std::isfinite(stop_above);
   for (std::size_t k = d0_; k < n_; ++k) {
     double v = 0.0;
     for (std::size_t t = 0; t < terms.size(); ++t) {
@@ -97,6 +98,7 @@ double Replay::Run(const std::vector<SemTerm>& terms, const std::vector<double>&
       v += coefficients[t] * tv;
     }
     yh[k] = v;
+    if (stop && !(std::fabs(v) <= stop_above)) return kInf;
     bad |= !(std::fabs(v) <= spec_.divergence_limit);
     const double e = y_[k] - v;
     cost += w_[k] * e * e;

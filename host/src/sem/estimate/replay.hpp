@@ -6,6 +6,7 @@
 // once instead of per run. Run gives SimulateCost's result bit for bit (same operations in the same
 // order). Not public.
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -20,9 +21,12 @@ class Replay {
   Replay(const SemSpec& spec, const std::vector<ChannelInfo>& channels, const DataSet& data);
 
   // SimulateCost(spec, channels, terms, coefficients, data, ysim) of the data set given at
-  // construction. Thread-safe (reads only).
+  // construction. Thread-safe (reads only). stop_above (finite): the run stops at the first
+  // sample whose |output| exceeds it or is not finite and returns +inf (ysim then ends there,
+  // zeros after); +inf: never stops early.
   double Run(const std::vector<SemTerm>& terms, const std::vector<double>& coefficients,
-             std::vector<double>* ysim = nullptr) const;
+             std::vector<double>* ysim = nullptr,
+             double stop_above = std::numeric_limits<double>::infinity()) const;
 
   const std::string& path() const { return path_; }
 
@@ -40,5 +44,9 @@ class Replay {
 StressVerdict CheckStressPrepared(const SemSpec& spec, const std::vector<SemTerm>& terms,
                                   const std::vector<double>& coefficients,
                                   const std::vector<Replay>& stress);
+// CheckStressPrepared(...).pass, each run stopped at its first sample out of the bound.
+bool StressPassesPrepared(const SemSpec& spec, const std::vector<SemTerm>& terms,
+                          const std::vector<double>& coefficients,
+                          const std::vector<Replay>& stress);
 
 }  // namespace mrd::host::internal

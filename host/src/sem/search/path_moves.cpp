@@ -69,12 +69,10 @@ void SearchPath::FinishRecorded() {
 bool SearchPath::Add(int iteration) {
   const double j_prev = j_;
   int rejected = 0;
-  int stress_rejected = 0;
-  int monotone_rejected = 0;
+  Search::Refusals refused;
   const Trial tr = search_->TryAdd(model_, theta_, strategy_ == Strategy::kFirst,
                                    j_prev * (1.0 - threshold_ / 100.0), &rejected,
-                                   AcceptFor(model_, &stress_rejected, &monotone_rejected), nullptr,
-                                   0, kInf, ScreenFor(model_), &monotone_rejected);
+                                   AcceptFor(model_), &refused, 0, kInf, ScreenFor(model_));
   if (tr.cand < 0) {  // nothing admissible
     res_.exhausted_rejected = rejected;
     return false;
@@ -84,14 +82,13 @@ bool SearchPath::Add(int iteration) {
   Prune(j_prev);
   const int exchanges = spec_.exchange ? kMaxExchanges : 0;
   const auto tx = std::chrono::steady_clock::now();
-  for (int pass = 0; pass < exchanges && Exchange(&rejected, &stress_rejected, &monotone_rejected);
-       ++pass) {
+  for (int pass = 0; pass < exchanges && Exchange(&rejected, &refused); ++pass) {
     Prune(j_prev);
   }
   if (exchanges > 0) {
     res_.exchange_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - tx).count();
   }
-  Record(iteration, rejected, stress_rejected, monotone_rejected);
+  Record(iteration, rejected, refused.stress, refused.monotone);
   return true;
 }
 
@@ -107,7 +104,7 @@ void SearchPath::Prune(double j_prev) {
       std::vector<int> reduced = model_;
       reduced.erase(reduced.begin() + static_cast<std::ptrdiff_t>(drop));
       if (!MonotonePasses(reduced, best_theta)) break;
-      if (!stress_.empty() && !SearchStressOf(reduced, best_theta).pass) break;
+      if (!stress_.empty() && !SearchStressPasses(reduced, best_theta)) break;
     }
     model_.erase(model_.begin() + static_cast<std::ptrdiff_t>(drop));
     theta_ = best_theta;
@@ -117,7 +114,7 @@ void SearchPath::Prune(double j_prev) {
 
 // Best single exchange: for every term, the candidate that best replaces it (among the
 // kExchangePool best by one-step rank); applied when it lowers J. False when none does.
-bool SearchPath::Exchange(int* rejected, int* stress_rejected, int* monotone_rejected) {
+bool SearchPath::Exchange(int* rejected, Search::Refusals* refused) {
   double best_j = j_ * (1.0 - kExchangeGain);
   Trial best;
   std::vector<int> best_model;
@@ -127,9 +124,8 @@ bool SearchPath::Exchange(int* rejected, int* stress_rejected, int* monotone_rej
     std::vector<double> th;
     if (!eng_->Solve(reduced, &th)) continue;
     int rej = 0;
-    const Trial tr = search_->TryAdd(
-        reduced, th, false, -kInf, &rej, AcceptFor(reduced, stress_rejected, monotone_rejected),
-        nullptr, kExchangePool, best_j, ScreenFor(reduced), monotone_rejected);
+    const Trial tr = search_->TryAdd(reduced, th, false, -kInf, &rej, AcceptFor(reduced), refused,
+                                     kExchangePool, best_j, ScreenFor(reduced));
     *rejected += rej;
     if (tr.cand >= 0 && tr.cand != model_[i] && tr.j < best_j) {
       best_j = tr.j;

@@ -115,8 +115,8 @@ std::vector<Trial> Search::Ranked(const std::vector<int>& model, const std::vect
 }
 
 Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
-                     double j_threshold, int* rejected, const Accept& accept, int* stress_rejected,
-                     std::size_t limit, double bound0, const Accept& screen, int* screened) {
+                     double j_threshold, int* rejected, const Accept& accept, Refusals* refusals,
+                     std::size_t limit, double bound0, const Screen& screen) {
   std::atomic<int> n_rejected{0};
   struct Report {
     std::atomic<int>& n;
@@ -134,31 +134,45 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
         }
       }
     });
-    if (screened != nullptr) *screened += n_screened.load();
+    if (refusals != nullptr) refusals->monotone += n_screened.load();
   }
   const std::vector<int> order = RankOrder(trials, limit);
   Trial none;
   if (order.empty()) return none;
-  // The check's verdict per candidate, asked once (-1: not asked).
+  // The check's verdict per candidate, asked once (-1: not asked), counted when the choice
+  // meets it.
   std::vector<signed char> verdict(trials.size(), -1);
-  bool refusals = false;
-  auto accepted = [&](int c) {
-    if (verdict[c] < 0) {
-      verdict[c] = !accept || accept(c, trials[c].theta) ? 1 : 0;
-      if (verdict[c] == 0) {
-        refusals = true;
-        if (stress_rejected != nullptr) ++*stress_rejected;
-      }
-    }
-    return verdict[c] == 1;
+  std::vector<char> counted(trials.size(), 0);
+  auto ask = [&](int c) {
+    verdict[c] = static_cast<signed char>(accept ? accept(c, trials[c].theta) : Verdict::kAccept);
   };
-  // Admissible (finite J) candidates by J, ties by index, the first the check accepts.
+  bool refusals_met = false;
+  auto accepted = [&](int c) {
+    if (verdict[c] < 0) ask(c);
+    const auto v = static_cast<Verdict>(verdict[c]);
+    if (v != Verdict::kAccept && !counted[c]) {
+      counted[c] = 1;
+      refusals_met = true;
+      if (refusals != nullptr) ++(v == Verdict::kMonotone ? refusals->monotone : refusals->stress);
+    }
+    return v == Verdict::kAccept;
+  };
+  // Admissible (finite J) candidates by J, ties by index, the first the check accepts. The
+  // verdicts are asked one per thread ahead of the scan; the scan alone counts and chooses.
   auto best_accepted = [&](std::vector<int> ok) {
     std::sort(ok.begin(), ok.end(), [&](int a, int b) {
       return trials[a].j != trials[b].j ? trials[a].j < trials[b].j : a < b;
     });
-    for (int c : ok) {
-      if (accepted(c)) return trials[c];
+    const auto batch = static_cast<std::size_t>(accept ? threads_ : 1);
+    for (std::size_t i = 0; i < ok.size(); ++i) {
+      if (verdict[ok[i]] < 0 && batch > 1) {
+        std::vector<int> ahead;
+        for (std::size_t k = i; k < ok.size() && ahead.size() < batch; ++k) {
+          if (verdict[ok[k]] < 0) ahead.push_back(ok[k]);
+        }
+        ParallelFor(ahead.size(), threads_, [&](std::size_t item, int) { ask(ahead[item]); });
+      }
+      if (accepted(ok[i])) return trials[ok[i]];
     }
     return none;
   };
@@ -228,7 +242,7 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
       if (trials[c].j < kInf) ok.push_back(c);
     }
     const Trial pick = best_accepted(ok);
-    if (!refusals) return pick;
+    if (!refusals_met) return pick;
     // The runs cut short again, under the pick's J (none: bound0), fixed: not lowered by a J the
     // check may refuse; the pick is then the accepted one of lowest J among all that completed.
     std::vector<int> again;

@@ -35,10 +35,13 @@ class Search {
   // Tries adding every eligible candidate. Returns the chosen trial (cand < 0: none
   // admissible). first: first-improvement with target j_threshold.
   // accept (optional): the checks of model + candidate with the trial's coefficients (stress,
-  // monotone_in); a candidate it refuses is skipped (counted in stress_rejected) for the next
-  // best. Best improvement then returns the admissible candidate of lowest J that the check
-  // accepts: a refused candidate's J may have cut other runs short, so after a refusal the
-  // runs cut short run again, bounded by the J of the accepted pick (none: unbounded).
+  // monotone_in); a candidate it refuses is skipped (counted in *refusals by its verdict) for
+  // the next best. accept must only read: TryAdd asks it for several candidates at once, one
+  // per thread, but counts and chooses in J order, so the result and the counts are those of
+  // asking one candidate at a time. Best improvement then returns the admissible candidate of
+  // lowest J that the check accepts: a refused candidate's J may have cut other runs short, so
+  // after a refusal the runs cut short run again, bounded by the J of the accepted pick (none:
+  // unbounded).
   // limit > 0: simulate only the `limit` candidates of best one-step rank. bound0: only
   // candidates whose J is below it are admissible (early stop from the start).
   // Best single-term drop (host/src/sem/identify.cpp's pruning, host/src/sem/search/prune.cpp): the
@@ -51,14 +54,21 @@ class Search {
   double BestDrop(const std::vector<int>& model, double bound, std::size_t* drop,
                   std::vector<double>* theta);
 
-  using Accept = std::function<bool(int cand, const std::vector<double>& theta)>;
+  enum class Verdict { kAccept, kMonotone, kStress };
+  // Candidates refused, by the check that refused them.
+  struct Refusals {
+    int monotone = 0;  // by monotone_in (accept's kMonotone, or the screen)
+    int stress = 0;    // by the stress check (accept's kStress)
+  };
+  using Accept = std::function<Verdict(int cand, const std::vector<double>& theta)>;
+  using Screen = std::function<bool(int cand, const std::vector<double>& theta)>;
   // screen (optional): a check of model + candidate that needs no free run (the monotone_in
-  // grid); a candidate it refuses never runs and counts in *screened (when not null). Every
-  // candidate it refuses is one accept would refuse too, so it changes no pick, only the time.
+  // grid); a candidate it refuses never runs and counts in refusals->monotone. Every candidate
+  // it refuses is one accept would refuse too, so it changes no pick, only the time.
   Trial TryAdd(const std::vector<int>& model, const std::vector<double>& w, bool first,
                double j_threshold, int* rejected, const Accept& accept = {},
-               int* stress_rejected = nullptr, std::size_t limit = 0, double bound0 = kInf,
-               const Accept& screen = {}, int* screened = nullptr);
+               Refusals* refusals = nullptr, std::size_t limit = 0, double bound0 = kInf,
+               const Screen& screen = {});
 
   // The candidates (not in model) by one-step rank given the model's least squares w, best
   // first, at most limit (0: all), with the least squares of model + candidate; no free run

@@ -139,6 +139,11 @@ StressVerdict SearchPath::SearchStressOf(const std::vector<int>& terms,
   return CheckStressPrepared(spec_, Terms(terms), th, stress_runs_);
 }
 
+bool SearchPath::SearchStressPasses(const std::vector<int>& terms,
+                                    const std::vector<double>& th) const {
+  return StressPassesPrepared(spec_, Terms(terms), th, stress_runs_);
+}
+
 StressVerdict SearchPath::StressOf(const std::vector<int>& terms,
                                    const std::vector<double>& th) const {
   const StressVerdict a = SearchStressOf(terms, th);
@@ -158,26 +163,19 @@ bool SearchPath::MonotonePasses(const std::vector<int>& terms,
   return !gate_ || gate_->Passes(Terms(terms), th);
 }
 
-Search::Accept SearchPath::AcceptFor(const std::vector<int>& base, int* stress_rejected,
-                                     int* monotone_rejected) const {
+Search::Accept SearchPath::AcceptFor(const std::vector<int>& base) const {
   if (stress_.empty() && !gate_) return {};
-  // TryAdd calls it from one thread at a time.
-  return [this, base, stress_rejected, monotone_rejected](int cand, const std::vector<double>& th) {
+  // Only reads: TryAdd asks it on several threads at once.
+  return [this, base](int cand, const std::vector<double>& th) {
     std::vector<int> terms = base;
     terms.push_back(cand);
-    if (!MonotonePasses(terms, th)) {
-      if (monotone_rejected != nullptr) ++*monotone_rejected;
-      return false;
-    }
-    if (!stress_.empty() && !SearchStressOf(terms, th).pass) {
-      if (stress_rejected != nullptr) ++*stress_rejected;
-      return false;
-    }
-    return true;
+    if (!MonotonePasses(terms, th)) return Search::Verdict::kMonotone;
+    if (!stress_.empty() && !SearchStressPasses(terms, th)) return Search::Verdict::kStress;
+    return Search::Verdict::kAccept;
   };
 }
 
-Search::Accept SearchPath::ScreenFor(const std::vector<int>& base) const {
+Search::Screen SearchPath::ScreenFor(const std::vector<int>& base) const {
   if (!gate_) return {};
   return [this, base_terms = Terms(base)](int cand, const std::vector<double>& th) {
     std::vector<SemTerm> terms = base_terms;

@@ -73,19 +73,20 @@ class SearchPath {
   double Elapsed() const;  // [s] since the start
   std::vector<SemTerm> Terms(const std::vector<int>& model) const;
   // The stress check of a recorded iteration or a move of the pick: stretched, swept and rest
-  // records; SearchStressOf: the search's, without the rest records (sem_stress.hpp).
+  // records; SearchStressOf: the search's, without the rest records (sem_stress.hpp);
+  // SearchStressPasses: its verdict alone, each run stopped at its first sample out of bound.
   StressVerdict StressOf(const std::vector<int>& terms, const std::vector<double>& th) const;
   StressVerdict SearchStressOf(const std::vector<int>& terms, const std::vector<double>& th) const;
+  bool SearchStressPasses(const std::vector<int>& terms, const std::vector<double>& th) const;
   // The invertibility check (spec monotone_in) of a model; unchecked without it.
   MonotoneVerdict MonotoneOf(const std::vector<int>& terms, const std::vector<double>& th) const;
   bool MonotonePasses(const std::vector<int>& terms, const std::vector<double>& th) const;
-  // The checks of base + candidate: monotone_in, then the stress check (SearchStressOf); none
-  // without either. Each refusal counts in its counter (when not null).
-  Search::Accept AcceptFor(const std::vector<int>& base, int* stress_rejected = nullptr,
-                           int* monotone_rejected = nullptr) const;
+  // The checks of base + candidate: monotone_in, then the stress check (SearchStressPasses);
+  // none without either. Thread-safe (reads only).
+  Search::Accept AcceptFor(const std::vector<int>& base) const;
   // The monotone_in check of base + candidate on the grid's corners alone (none without
   // monotone_in): TryAdd's screen. Thread-safe.
-  Search::Accept ScreenFor(const std::vector<int>& base) const;
+  Search::Screen ScreenFor(const std::vector<int>& base) const;
   std::vector<double> Validate(const std::vector<SemTerm>& terms,
                                const std::vector<double>& coefficients) const;
 
@@ -99,7 +100,7 @@ class SearchPath {
   // Path moves (path_moves.cpp).
   bool Add(int iteration);  // false: no admissible term
   void Prune(double j_prev);
-  bool Exchange(int* rejected, int* stress_rejected, int* monotone_rejected);
+  bool Exchange(int* rejected, Search::Refusals* refused);
   void RunPath();
 
   // Second start and selection (search_path.cpp).

@@ -167,6 +167,23 @@ StressVerdict internal::CheckStressPrepared(const SemSpec& spec, const std::vect
   return v;
 }
 
+bool internal::StressPassesPrepared(const SemSpec& spec, const std::vector<SemTerm>& terms,
+                                    const std::vector<double>& coefficients,
+                                    const std::vector<Replay>& stress) {
+  const double bound = spec.stress.force_bound;
+  // A run that ends past divergence_limit returns +inf though within a larger bound.
+  if (!(spec.divergence_limit >= bound)) {
+    return CheckStressPrepared(spec, terms, coefficients, stress).pass;
+  }
+  for (const Replay& d : stress) {
+    // +inf: stopped at a sample beyond the bound or not finite, where CheckStressPrepared fails.
+    if (!(d.Run(terms, coefficients, nullptr, bound) < std::numeric_limits<double>::infinity())) {
+      return false;
+    }
+  }
+  return true;
+}
+
 void RecordEnvelope(std::span<const DataSet> identification, std::vector<ChannelInfo>* channels) {
   for (auto& c : *channels) {
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
