@@ -25,8 +25,8 @@ const char* const kShipped[] = {"paper", "paper-saturating", "nees", "nees-famil
 void ExpectDefaultNearTheBest(const TempDir& dir, const std::string& id, const std::string& held) {
   auto fit_of = [&](const std::string& name, const std::string& spec_arg) {
     const std::string model = dir.File(name + ".json");
-    const auto r = test::Run(Bin("mrd") + " identify --data " + id + spec_arg +
-                       " --threads 2 --out " + model);
+    const auto r =
+        test::Run(Bin("mrd") + " identify --data " + id + spec_arg + " --threads 2 --out " + model);
     EXPECT_EQ(r.status, 0) << r.output;
     const auto j = SimulateJson(model, held);
     EXPECT_FALSE(j["diverged"].get<bool>()) << name;
@@ -56,8 +56,8 @@ TEST(DefaultPickTest, NeesRunWithinTwoPointsOfTheBestShippedSpec) {
   const std::string all = dir.File("nees.csv"), id = dir.File("id.csv"),
                     held = dir.File("held.csv");
   auto ok = [](const CommandResult& r) { ASSERT_EQ(r.status, 0) << r.output; };
-  ok(test::Run(Bin("mrd") + " import --in " + kNeesFile + " --map t=t,x=D,v=V,E=Y,f=F --rate 1000 --out " +
-         all));
+  ok(test::Run(Bin("mrd") + " import --in " + kNeesFile +
+               " --map t=t,x=D,v=V,E=Y,f=F --rate 1000 --out " + all));
   ok(test::Run(Bin("mrd") + " slice --in " + all + " --from 0 --to 14 --out " + id));
   ok(test::Run(Bin("mrd") + " slice --in " + all + " --from 14 --to 19.5 --out " + held));
   ExpectDefaultNearTheBest(dir, id, held);
@@ -75,8 +75,7 @@ class DefaultPickGeneratedTest : public testing::TestWithParam<Damper> {};
 TEST_P(DefaultPickGeneratedTest, WithinTwoPointsOfTheBestShippedSpec) {
   const Damper& d = GetParam();
   TempDir dir;
-  const std::string all = dir.File("all.csv"), id = dir.File("id.csv"),
-                    held = dir.File("held.csv");
+  const std::string all = dir.File("all.csv"), id = dir.File("id.csv"), held = dir.File("held.csv");
   auto ok = [](const CommandResult& r) { ASSERT_EQ(r.status, 0) << r.output; };
   const std::string gen = Bin("mrd") + " generate --profile identification " + d.params +
                           " --noise " + std::to_string(d.noise);

@@ -28,7 +28,8 @@ using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::Ro
 // jacobian / residual (optional): d residual / d coefficient and the weighted residual
 // sqrt(w) (y - ysim) at the refined coefficients, rows = scored rows of every record in order.
 // ws (optional): buffers kept across calls (one call at a time), so repeated refinements
-// allocate and touch no fresh memory; the result does not depend on it.
+// allocate and touch no fresh memory; without it the calling thread's own; the result does not
+// depend on it.
 double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm>& terms,
                      std::vector<double>* coefficients, Jacobian* jacobian = nullptr,
                      Eigen::VectorXd* residual = nullptr, RefineWorkspace* ws = nullptr);

@@ -24,10 +24,10 @@
 namespace mrd::host {
 
 struct SpecCandidate {
-  std::string name;         // BuiltInSpec::name
-  double rmse = 0.0;        // by SpecChoice::rule [output unit]; +inf when not finite
-  int selected = 0;         // the iteration its own selection picked
-  std::size_t terms = 0;    // of that iteration
+  std::string name;       // BuiltInSpec::name
+  double rmse = 0.0;      // by SpecChoice::rule [output unit]; +inf when not finite
+  int selected = 0;       // the iteration its own selection picked
+  std::size_t terms = 0;  // of that iteration
 };
 
 struct SpecChoice {
@@ -49,8 +49,7 @@ using SpecProgress = std::function<void(std::size_t, std::size_t, const SpecCand
 // columns: InputError naming the first spec).
 DefaultIdentification IdentifyDefault(std::span<const DataSet> identification,
                                       std::span<const DataSet> validation,
-                                      const SemOptions& options,
-                                      const FamilyProgress& member = {},
+                                      const SemOptions& options, const FamilyProgress& member = {},
                                       const SpecProgress& progress = {});
 
 // Model file section "spec_choice" (model_file.hpp):

@@ -55,7 +55,9 @@ bool Residual(const std::vector<Evaluator>& ev, const Eigen::VectorXd& theta, Re
 double RefineFreeRun(const std::vector<Evaluator>& ev, const std::vector<SemTerm>& terms,
                      std::vector<double>* coefficients, Jacobian* jacobian,
                      Eigen::VectorXd* residual, RefineWorkspace* ws) {
-  RefineWorkspace local;
+  // Without a workspace: this thread's, kept between calls (a fresh one zero-fills and faults in
+  // rows x m doubles twice per call, which cost more than the refinement on the selection's moves).
+  thread_local RefineWorkspace local;
   RefineWorkspace& w = ws != nullptr ? *ws : local;
   const auto m = static_cast<Eigen::Index>(terms.size());
   Eigen::VectorXd theta(m);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <mutex>
 
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/invertibility.hpp"
@@ -217,15 +218,24 @@ MonotoneGate::TermPart MonotoneGate::ComputePart(const SemTerm& term, Segment se
 
 std::shared_ptr<const MonotoneGate::TermPart> MonotoneGate::Part(const SemTerm& term,
                                                                  Segment seg) const {
-  const std::string key = TermName(spec_, term);
+  // The term's factors as they are (regressor, delay, power; 16 bits each): asked for every
+  // term of every candidate the search screens, so no formatting and a shared lock.
+  std::string key;
+  key.reserve(6 * term.factors.size());
+  for (const SemFactor& f : term.factors) {
+    for (const int v : {f.regressor, f.delay, f.power}) {
+      key.push_back(static_cast<char>(v & 0xff));
+      key.push_back(static_cast<char>((v >> 8) & 0xff));
+    }
+  }
   {
-    const std::lock_guard<std::mutex> lock(mu_);
+    const std::shared_lock<std::shared_mutex> lock(mu_);
     const auto it = parts_[seg].find(key);
     if (it != parts_[seg].end()) return it->second;
   }
   auto part = std::make_shared<const TermPart>(ComputePart(term, seg));
-  const std::lock_guard<std::mutex> lock(mu_);
-  return parts_[seg].emplace(key, std::move(part)).first->second;  // first writer wins (equal)
+  const std::unique_lock<std::shared_mutex> lock(mu_);
+  return parts_[seg].emplace(std::move(key), std::move(part)).first->second;  // first writer wins
 }
 
 long MonotoneGate::Run(const std::vector<SemTerm>& terms, const std::vector<double>& theta,

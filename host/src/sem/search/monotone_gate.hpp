@@ -13,11 +13,11 @@
 // velocity also at its two values nearest 0). Not public.
 
 #include <array>
-#include <map>
 #include <memory>
-#include <mutex>
+#include <shared_mutex>
 #include <span>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "mrd/common/invertibility.hpp"
@@ -90,8 +90,9 @@ class MonotoneGate {
   std::span<const DataSet> data_;
   std::size_t stride_ = 1;
 
-  mutable std::mutex mu_;
-  mutable std::map<std::string, std::shared_ptr<const TermPart>> parts_[3];
+  mutable std::shared_mutex mu_;
+  // By the term's factors (Part): regressor, delay and power, 16 bits each.
+  mutable std::unordered_map<std::string, std::shared_ptr<const TermPart>> parts_[3];
 };
 
 }  // namespace mrd::host::internal

@@ -57,9 +57,9 @@ double Score(Rule rule, const FamilyIdentification& fi, std::span<const DataSet>
   SemSpec mse = fi.spec;
   mse.weighting = CostWeighting::kMse;
   const SemResult& r = fi.result;
-  const SemIteration& sel = *std::find_if(
-      r.iterations.begin(), r.iterations.end(),
-      [&](const SemIteration& it) { return it.iteration == r.selected; });
+  const SemIteration& sel =
+      *std::find_if(r.iterations.begin(), r.iterations.end(),
+                    [&](const SemIteration& it) { return it.iteration == r.selected; });
   // Costs are per-record means of the normalised squared error: averaged over records (and
   // folds), then back to the output's unit.
   double sum = 0.0;
@@ -80,8 +80,8 @@ double Score(Rule rule, const FamilyIdentification& fi, std::span<const DataSet>
       parts = identification.size() * static_cast<std::size_t>(kSelectionFolds);
       break;
   }
-  const double rmse = std::sqrt(sum / static_cast<double>(std::max<std::size_t>(parts, 1))) *
-                      r.channels[0].scale;
+  const double rmse =
+      std::sqrt(sum / static_cast<double>(std::max<std::size_t>(parts, 1))) * r.channels[0].scale;
   return std::isfinite(rmse) ? rmse : kInf;
 }
 
