@@ -17,6 +17,7 @@
 #include "mrd/host/command_range.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/invertibility.hpp"
+#include "mrd/host/model_export.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/table_export.hpp"
 
@@ -44,15 +45,12 @@ void RunExport(const ExportOptions& o) {
   const ModelFile mf = LoadModelFile(o.model);
   const int k = o.iteration.value_or(mf.selected);
   const SemIteration& it = mf.Iteration(k);  // InputError "no iteration K" when absent
-  (void)CheckExportInput(mf, k, o.input);    // a bad --input is named before the range is chosen
-  const CommandRange range = ChooseCommandRange(mf, o.input, o.e_min, o.e_max, o.profile);
+  ExportedTable ex = ExportCheckedTable(mf, {k, o.input, o.e_min, o.e_max, o.profile});
+  const CommandRange& range = ex.range;
   for (const std::string& w : range.warnings) fmt::print(stderr, "{}\n", w);
-  // Validated once, with its envelope (table v2), then encoded once for both forms.
-  bool envelope = false;
-  CoefficientTable table = ExportTable(mf, k, o.input, range.e_min, range.e_max, &envelope);
-  // Invertibility over the table's command range; a model that fails it is refused unless
+  // A model that fails the invertibility check over the table's command range is refused unless
   // --allow-non-monotone.
-  const InvertibilityReport inv = ExportInvertibility(mf, o.input, table);
+  const InvertibilityReport& inv = ex.invertibility;
   if (!inv.pass() && !o.allow_non_monotone) {
     // Short enough for the reason's cut (input_error.cpp): the share and the worst state.
     throw InputError(
@@ -71,7 +69,7 @@ void RunExport(const ExportOptions& o) {
     fmt::print(stderr, "warning: {}: exported although not invertible (--allow-non-monotone): {}\n",
                o.model, InvertibilitySummary(inv));
   }
-  RecordTableInvertibility(inv, &table);
+  const CoefficientTable& table = ex.table;
   const TableBytes bytes = TableImage(table);
   // Encode both forms first, then write both or neither (WriteFilesAtomic).
   std::vector<std::pair<std::string, std::string>> files;
@@ -90,7 +88,7 @@ void RunExport(const ExportOptions& o) {
   fmt::print(
       "iteration {} ({} terms, J {:.6g}), input '{}' in [{:.4g}, {:.4g}] V ({}), {} ->{}{}\n", k,
       it.terms.size(), it.j, o.input, range.e_min, range.e_max, range.source,
-      envelope ? "operating envelope" : "no envelope (model file predates it)",
+      ex.envelope ? "operating envelope" : "no envelope (model file predates it)",
       o.table.empty() ? "" : " " + o.table, o.header.empty() ? "" : " " + o.header);
   fmt::print("{}\n", InvertibilitySummary(inv));
 }

@@ -422,51 +422,6 @@ ModelFile LoadModelFile(const std::string& path) {
   return m;
 }
 
-bool SetTableEnvelope(const ModelFile& m, CoefficientTable* table) {
-  const Model& model = table->model;
-  std::array<ChannelRange, kMaxChannels> env{};
-  for (std::size_t c = 0; c < model.num_channels; ++c) {
-    const auto ch = std::find_if(m.channels.begin(), m.channels.end(), [&](const ChannelInfo& ci) {
-      return ci.name == model.channel_names[c].data();
-    });
-    if (ch == m.channels.end() || !ch->has_range) return false;
-    env[c] = {ch->min, ch->max};
-  }
-  table->envelope = env;
-  table->has_envelope = true;
-  return true;
-}
-
-mrd::Model CheckExportInput(const ModelFile& m, int k, const std::string& input) {
-  mrd::Model model = ToRuntimeModel(m, k);
-  // The inverted input must be a signal of the model that iteration k's terms read.
-  const std::vector<std::string> signals = m.spec.Signals();
-  if (input == m.spec.output || std::find(signals.begin(), signals.end(), input) == signals.end()) {
-    throw InputError(m.path, 0,
-                     fmt::format("--input '{}' is not an input signal of the model (it has: {})",
-                                 input, fmt::join(signals.begin() + 1, signals.end(), ",")));
-  }
-  if (model.ChannelIndex(input.c_str()) < 0) {
-    throw InputError(m.path, 0,
-                     fmt::format("iteration {} ({} terms) does not read input '{}': nothing to "
-                                 "invert; export an iteration whose terms read it",
-                                 k, m.Iteration(k).terms.size(), input));
-  }
-  return model;
-}
-
-CoefficientTable ExportTable(const ModelFile& m, int k, const std::string& input, double e_min,
-                             double e_max, bool* envelope) {
-  const mrd::Model model = CheckExportInput(m, k, input);
-  CoefficientTable table = MakeUncheckedTable(model, e_min, e_max, input, m.path);
-  // Operating envelope (table v2); model files from before it was recorded export without.
-  const bool has_envelope = SetTableEnvelope(m, &table);
-  if (envelope != nullptr) *envelope = has_envelope;
-  // Validated once, with its envelope.
-  if (std::string p = DescribeTableProblem(table); !p.empty()) throw InputError(m.path, 0, p);
-  return table;
-}
-
 mrd::Model ToRuntimeModel(const ModelFile& m, int iteration) {
   const SemIteration& it = m.Iteration(iteration);
   auto fail = [&](const std::string& why) {

@@ -14,6 +14,7 @@
 #include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/command_range.hpp"
 #include "mrd/host/invertibility.hpp"
+#include "mrd/host/model_export.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/model_judge.hpp"
 
@@ -223,11 +224,7 @@ void RegisterModels(py::module_& m) {
             // As mrd export: the command range the data reached (or the one given), the
             // invertibility verdict recorded in the table (not refused: Table.invertibility).
             CoefficientTable t = Checked({mf.path}, [&] {
-              (void)host::CheckExportInput(mf, k, input);
-              const host::CommandRange r = host::ChooseCommandRange(mf, input, e_min, e_max, "");
-              CoefficientTable table = host::ExportTable(mf, k, input, r.e_min, r.e_max);
-              host::RecordTableInvertibility(host::ExportInvertibility(mf, input, table), &table);
-              return table;
+              return host::ExportCheckedTable(mf, {k, input, e_min, e_max, ""}).table;
             });
             return TableObject(t, mf.path.empty() ? std::string("model") : mf.path);
           },

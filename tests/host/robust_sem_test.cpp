@@ -10,6 +10,7 @@
 
 #include "mrd/host/candidate_spec.hpp"
 #include "mrd/host/input_error.hpp"
+#include "mrd/host/model_export.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/profiles.hpp"
 #include "mrd/host/sem.hpp"

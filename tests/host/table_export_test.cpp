@@ -11,6 +11,7 @@
 #include "mrd/host/atomic_write.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/invertibility.hpp"
+#include "mrd/host/model_export.hpp"
 #include "mrd/host/model_file.hpp"
 #include "support/demo_model.hpp"
 #include "test_util.hpp"

@@ -8,6 +8,7 @@
 
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/model_runtime.hpp"
+#include "mrd/host/model_export.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/sem.hpp"
 #include "mrd/host/table_export.hpp"

@@ -85,22 +85,6 @@ ModelFile LoadModelFile(const std::string& path);
 // channel-name length) or does not validate; never truncates.
 mrd::Model ToRuntimeModel(const ModelFile& m, int iteration);
 
-// Copies the operating envelope of the model file's channels (min, max of the identification
-// data) into the table, per table channel by name. False (table unchanged) when a channel has
-// no recorded range (model files written before the envelope existed).
-bool SetTableEnvelope(const ModelFile& m, CoefficientTable* table);
-
-// The runtime model of iteration k when `input` (normally "E") is an input signal its terms
-// read; throws InputError(m.path, 0, reason) otherwise (the check ExportTable makes first).
-mrd::Model CheckExportInput(const ModelFile& m, int k, const std::string& input);
-
-// The coefficient table of iteration k as `mrd export` writes it: the inverted input `input`
-// (normally "E") in [e_min, e_max] [V], with the operating envelope when the model file has
-// one (*envelope says whether it had). Throws InputError(m.path, 0, reason) when input is not an
-// input signal that iteration's terms read, or the table does not validate (range, capacity).
-CoefficientTable ExportTable(const ModelFile& m, int k, const std::string& input, double e_min,
-                             double e_max, bool* envelope = nullptr);
-
 // Free-run simulation of one iteration on a data set through mrd::ModelRunner (the same
 // evaluator as the firmware): the first warmup_samples() rows seed the history with measured
 // values; the rest are simulated and scored. Throws InputError for a missing column.
