@@ -178,17 +178,7 @@ bool Message(const ProfileContext& c, const toml::table& t, const std::string& n
 
 // [command]: unit, calibration (a CSV relative to the profile), min, max, slew_per_s.
 bool Command(const ProfileContext& c, const toml::table& t, const std::string& dir, CanProfile* p) {
-  CommandSection cmd{p->command_unit, -1e300, 1e300, 0.0};
-  const toml::node* bad = nullptr;
-  std::string reason;
-  if (!ReadCommandSection(t, dir, &cmd, &p->command, &bad, &reason)) {
-    return c.Fail(bad, reason);
-  }
-  p->command_unit = cmd.unit;
-  const double min = cmd.min, max = cmd.max, slew = cmd.slew_per_s;
-  std::string why;
-  if (!p->command.SetRange(min, max, slew, &why)) return c.Fail(&t, why);
-  return true;
+  return ReadCommand(c, t, dir, &p->command_unit, &p->command);
 }
 
 // What the command signal can carry (its field through factor and offset, within the DBC's

@@ -106,4 +106,16 @@ std::string CheckCommandCarrier(const CommandMap& map, const std::string& unit,
   return "";
 }
 
+bool ReadCommand(const ProfileContext& c, const toml::table& t, const std::string& dir,
+                 std::string* unit, CommandMap* map) {
+  CommandSection cmd{*unit, -1e300, 1e300, 0.0};
+  const toml::node* bad = nullptr;
+  std::string reason;
+  if (!ReadCommandSection(t, dir, &cmd, map, &bad, &reason)) return c.Fail(bad, reason);
+  *unit = cmd.unit;
+  std::string why;
+  if (!map->SetRange(cmd.min, cmd.max, cmd.slew_per_s, &why)) return c.Fail(&t, why);
+  return true;
+}
+
 }  // namespace mrd::profile

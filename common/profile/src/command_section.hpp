@@ -7,6 +7,7 @@
 #include <string>
 
 #include "mrd/profile/command_map.hpp"
+#include "profile_context.hpp"
 
 namespace mrd::profile {
 
@@ -19,6 +20,12 @@ struct CommandSection {
 // name in the error, by its line) and *why ("command.KEY: reason") on a bad or unknown key.
 bool ReadCommandSection(const toml::table& t, const std::string& dir, CommandSection* out,
                         CommandMap* map, const toml::node** bad, std::string* why);
+
+// [command] of a CAN or Modbus profile: ReadCommandSection into *unit and *map, then the range
+// (min, max unbounded when absent) set on *map. false with c's error naming the bad key's line,
+// or the section's for a range SetRange refuses.
+bool ReadCommand(const ProfileContext& c, const toml::table& t, const std::string& dir,
+                 std::string* unit, CommandMap* map);
 
 // What the set-point's signal or register can carry, in the driver's unit: [lo, hi] and the
 // smallest step (0: a float); `name` says which ("DriveRpdo1.TargetCurrent (drive.dbc:12)").
