@@ -3,6 +3,7 @@
 #include <cmath>
 #include <fstream>
 
+#include "mrd/common/file_path.hpp"
 #include "mrd/common/input_file.hpp"
 #include "mrd/hil/run.hpp"
 #include "replay_scenario.hpp"
@@ -87,11 +88,7 @@ bool CheckReplay(const std::string& path, const toml::table& root, Scenario* s,
              ": kind = \"replay\" needs 'file' (a measured run with columns x, v, E, f)";
     return false;
   }
-  if (s->csv_file[0] != '/') {
-    const auto slash = path.find_last_of('/');
-    s->csv_file =
-        (slash == std::string::npos ? std::string(".") : path.substr(0, slash)) + "/" + s->csv_file;
-  }
+  s->csv_file = ResolveBeside(path, s->csv_file);
   return true;
 }
 

@@ -10,6 +10,7 @@
 #include <limits>
 #include <map>
 
+#include "mrd/common/file_path.hpp"
 #include "mrd/common/input_file.hpp"
 #include "mrd/hil/model_plant.hpp"
 #include "mrd/hil/structure_plant.hpp"
@@ -215,11 +216,6 @@ bool ParseFaultKind(const std::string& s, FaultKind* k) {
   if (it == kinds.end()) return false;
   *k = it->second;
   return true;
-}
-
-std::string Folder(const std::string& path) {
-  const auto slash = path.find_last_of('/');
-  return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
 }
 
 // LoadScenario's state while it reads one file: the scenario, the keys that are not fields of
@@ -444,12 +440,10 @@ class ScenarioReader {
       return c_.Fail(*root_.at_path("plant.params").node(),
                      "[plant] params and preset exclude each other (the file may name a preset)");
     }
-    if (!s.params_file.empty() && s.params_file[0] != '/') {
-      s.params_file = Folder(path) + "/" + s.params_file;
-    }
+    if (!s.params_file.empty()) s.params_file = ResolveBeside(path, s.params_file);
     if (!ResolvePlantDamper(path, root_, spencer_, &s, error_)) return false;
     if (!s.table_file.empty()) {
-      if (s.table_file[0] != '/') s.table_file = Folder(path) + "/" + s.table_file;
+      s.table_file = ResolveBeside(path, s.table_file);
       struct stat st {};
       if (stat(s.table_file.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
         return c_.Fail(at("firmware.table"),
@@ -478,7 +472,7 @@ class ScenarioReader {
                       "model = \"structure\" needs [structure] record (a t_s,ag_g CSV, e.g. "
                       "../data/el_centro_1940_ns.csv)");
       }
-      if (record_file_[0] != '/') record_file_ = Folder(path_) + "/" + record_file_;
+      record_file_ = ResolveBeside(path_, record_file_);
       std::string why;
       if (!LoadGroundRecord(record_file_, &structure_->record, &why)) {
         return c.Fail(at("structure.record"), "[structure] record: " + why);
@@ -514,7 +508,7 @@ class ScenarioReader {
     if (model_file_.empty()) {
       return c.Fail(at("plant.model"), "model = \"narx\" needs 'file' (an mrd identify model)");
     }
-    if (model_file_[0] != '/') model_file_ = Folder(path_) + "/" + model_file_;
+    model_file_ = ResolveBeside(path_, model_file_);
     auto pm = std::make_shared<PlantModel>();
     std::string why;
     if (!LoadPlantModel(model_file_, model_iteration_, envelope_margin_, pm.get(), &why)) {
@@ -588,7 +582,7 @@ class ScenarioReader {
       if (s.csv_file.empty()) {
         return c.Fail(*root_.at_path("excitation.kind").node(), "kind = \"csv\" needs 'file'");
       }
-      if (s.csv_file[0] != '/') s.csv_file = Folder(path) + "/" + s.csv_file;
+      s.csv_file = ResolveBeside(path, s.csv_file);
     } else if (excitation_ == "replay") {
       if (!CheckReplay(path, root_, &s, error_)) return false;  // replay.cpp
     } else {
@@ -656,7 +650,7 @@ class ScenarioReader {
                     "law \"clipped-optimal\" needs [control] gains (the file mrd-structure "
                     "design --out writes)");
     }
-    if (s.clipped_gains[0] != '/') s.clipped_gains = Folder(path_) + "/" + s.clipped_gains;
+    s.clipped_gains = ResolveBeside(path_, s.clipped_gains);
     struct stat st {};
     if (stat(s.clipped_gains.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
       return c.Fail(at("control.gains"),

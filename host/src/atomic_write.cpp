@@ -16,6 +16,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "mrd/common/file_path.hpp"
 #include "mrd/host/input_error.hpp"
 
 namespace mrd::host {
@@ -84,16 +85,10 @@ std::string SysError(const std::string& what, const std::string& path) {
   return fmt::format("{}: {}: {}", path, what, std::strerror(errno));
 }
 
-std::string DirOf(const std::string& path) {
-  const std::size_t slash = path.rfind('/');
-  if (slash == std::string::npos) return ".";
-  if (slash == 0) return "/";
-  return path.substr(0, slash);
-}
-
-std::string BaseOf(const std::string& path) {
-  const std::size_t slash = path.rfind('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
+// Throws std::runtime_error "PATH: WHAT: REASON" with the failed step's errno text.
+[[noreturn]] void ThrowSysError(const mrd::AtomicWriter& file, const char* what) {
+  errno = file.error_number();
+  throw std::runtime_error(SysError(what, file.path()));
 }
 
 }  // namespace
@@ -109,7 +104,7 @@ void CheckOutputPath(const std::string& path) {
                          : "output exists and is not a regular file; refusing to replace it");
   }
   // The temporary is created beside the output: its directory must exist and be writable.
-  const std::string dir = DirOf(path);
+  const std::string dir = FolderOf(path);
   if (access(dir.c_str(), W_OK | X_OK) != 0) {
     throw InputError(path, 0,
                      fmt::format("cannot write into directory {}: {}", dir, std::strerror(errno)));
@@ -118,61 +113,41 @@ void CheckOutputPath(const std::string& path) {
 
 AtomicFile::AtomicFile(const std::string& path) : path_(path) {
   CheckOutputPath(path);
-  std::string tmpl = DirOf(path) + "/." + BaseOf(path) + ".tmp-XXXXXX";
-  fd_ = mkstemp(tmpl.data());
-  if (fd_ < 0) throw std::runtime_error(SysError("cannot create a temporary file", path));
-  temp_ = tmpl;
-  slot_ = Register(temp_, kFile);
+  if (!file_.Open(path, {.hidden_temp = true})) {
+    ThrowSysError(file_, "cannot create a temporary file");
+  }
+  slot_ = Register(file_.temp(), kFile);
 }
 
 AtomicFile::~AtomicFile() { Discard(); }
 
 void AtomicFile::Discard() {
-  if (fd_ >= 0) close(fd_);
-  fd_ = -1;
-  if (!committed_ && !temp_.empty()) unlink(temp_.c_str());
+  file_.Discard();
   Unregister(slot_);
   slot_ = -1;
 }
 
 void AtomicFile::Write(std::string_view bytes) {
-  while (!bytes.empty()) {
-    const ssize_t n = write(fd_, bytes.data(), bytes.size());
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const std::string msg = SysError("write failed", path_);
-      Discard();
-      throw std::runtime_error(msg);
-    }
-    bytes.remove_prefix(static_cast<std::size_t>(n));
-  }
+  if (file_.Write(bytes)) return;
+  Discard();
+  ThrowSysError(file_, "write failed");
 }
 
 void AtomicFile::Finish() {
-  if (fd_ < 0) return;
-  // Permissions as an ordinary created file would get (mkstemp creates 0600).
-  const mode_t mask = umask(0);
-  umask(mask);
-  if (fchmod(fd_, 0666 & ~mask) != 0 || fsync(fd_) != 0 || close(fd_) != 0) {
-    fd_ = -1;
-    const std::string msg = SysError("cannot write", path_);
-    Discard();
-    throw std::runtime_error(msg);
-  }
-  fd_ = -1;
+  if (file_.Finish()) return;
+  Discard();
+  ThrowSysError(file_, "cannot write");
 }
 
 void AtomicFile::Commit() {
   Finish();
   CheckOutputPath(path_);  // may have changed while we wrote
-  if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
-    const std::string msg = SysError("cannot rename the temporary file into place", path_);
-    Discard();
-    throw std::runtime_error(msg);
+  const bool ok = file_.Commit();
+  Discard();  // the temporary is gone either way (renamed or removed)
+  if (!ok) {
+    ThrowSysError(file_, file_.committed() ? "written but cannot fsync its folder"
+                                           : "cannot rename the temporary file into place");
   }
-  committed_ = true;
-  Unregister(slot_);
-  slot_ = -1;
 }
 
 void WriteFileAtomic(const std::string& path, std::string_view text) {

@@ -26,6 +26,14 @@
 #include "support/demo_model.hpp"
 
 namespace mrd::firmware {
+
+// The writer's test seam (a friend of PeriodLog): a paused writer drains nothing.
+struct PeriodLogTestAccess {
+  static void PauseWriter(PeriodLog& log, bool paused) {
+    log.paused_.store(paused, std::memory_order_release);
+  }
+};
+
 namespace {
 
 constexpr std::int64_t kPeriod = 1'000'000;
@@ -280,7 +288,7 @@ TEST(PeriodLogTest, StalledWriterDropsAndCountsWithoutBlockingTheLoop) {
   config.ring_records = 16;
   config.block_records = 8;
   LoggedLoop l(config);
-  l.log.PauseWriter(true);
+  PeriodLogTestAccess::PauseWriter(l.log, true);
   for (int k = 1; k <= 100; ++k) {
     l.clock.Advance(kPeriod);
     l.loop.Tick(l.clock.Now());

@@ -416,7 +416,6 @@ TEST(ModbusProfile, FaultResetRoleAndRateLimit) {
       "the profile maps no driver_faults input");
   EXPECT_EQ(p.fault_reset_ms, 2500);
   EXPECT_TRUE(p.Out(ModbusOut::kFaultReset).mapped);
-  EXPECT_STREQ(ModbusOutName(ModbusOut::kFaultReset), "fault_reset");
   ASSERT_TRUE(Parse(kHead, &p, &error)) << error;
   EXPECT_EQ(p.fault_reset_ms, 1000);  // the default: at most one reset a second
   ExpectRefused(kHead + "fault_reset_ms = 50\n", 3, "100..600000");

@@ -199,8 +199,6 @@ void Group(std::array<ModbusPoint, N>& points, int max_gap, int cap_registers, i
 
 }  // namespace
 
-const char* ModbusOutName(ModbusOut role) { return kOutNames[static_cast<std::size_t>(role)]; }
-
 bool LoadModbusProfile(const std::string& path, ModbusProfile* out, std::string* error) {
   std::string text;
   if (!ReadTextFile(path, 1u << 20, &text, error)) return false;

@@ -157,7 +157,6 @@ void PutU32(std::uint8_t* p, std::uint32_t v) {
 void PutU64(std::uint8_t* p, std::uint64_t v) {
   for (int i = 0; i < 8; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
 }
-void PutI64(std::uint8_t* p, std::int64_t v) { PutU64(p, static_cast<std::uint64_t>(v)); }
 void PutF64(std::uint8_t* p, double v) {
   std::uint64_t u = 0;
   std::memcpy(&u, &v, sizeof u);

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <vector>
 
+#include "mrd/common/file_path.hpp"
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/clipped_optimal_file.hpp"
@@ -725,11 +726,7 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
   const profile::CanProfile* p = &profile::NativeCanProfile();
   std::string where = Where(root, source, "can", "profile");
   if (!can.profile.empty()) {
-    std::string path = can.profile;
-    if (path[0] != '/') {
-      const auto slash = source.rfind('/');
-      path = (slash == std::string::npos ? std::string(".") : source.substr(0, slash)) + "/" + path;
-    }
+    const std::string path = ResolveBeside(source, can.profile);
     auto loaded = std::make_shared<profile::CanProfile>();
     std::string why;
     if (!profile::LoadCanProfile(path, loaded.get(), &why)) {
@@ -814,11 +811,7 @@ bool LoadModbusProfileOf(const toml::table& root, const std::string& source, Fir
     return true;
   }
   const std::string where = Where(root, source, "modbus", "profile");
-  std::string path = mb.profile;
-  if (path[0] != '/') {
-    const auto slash = source.rfind('/');
-    path = (slash == std::string::npos ? std::string(".") : source.substr(0, slash)) + "/" + path;
-  }
+  const std::string path = ResolveBeside(source, mb.profile);
   auto p = std::make_shared<profile::ModbusProfile>();
   std::string why;
   if (!profile::LoadModbusProfile(path, p.get(), &why)) {
@@ -878,10 +871,7 @@ bool LoadPwmProfileOf(const toml::table& root, const std::string& source, Firmwa
       return false;
     }
   }
-  if (file[0] != '/') {
-    const auto slash = source.rfind('/');
-    file = (slash == std::string::npos ? std::string(".") : source.substr(0, slash)) + "/" + file;
-  }
+  file = ResolveBeside(source, file);
   auto loaded = std::make_shared<profile::PwmProfile>();
   std::string why;
   if (!profile::LoadPwmProfile(file, loaded.get(), &why)) {
@@ -928,11 +918,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   }
   if (!CheckIo(root, source, *c, error)) return false;
   if (!c->clipped_gains_path.empty()) {  // relative to the config file
-    std::string path = c->clipped_gains_path;
-    if (path[0] != '/') {
-      const auto slash = source.rfind('/');
-      path = (slash == std::string::npos ? std::string(".") : source.substr(0, slash)) + "/" + path;
-    }
+    const std::string path = ResolveBeside(source, c->clipped_gains_path);
     std::string why;
     if (!LoadClippedOptimalGains(path, &k.clipped_gains, &why)) {
       *error = Where(root, source, "clipped_optimal", "gains") +
@@ -944,9 +930,9 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   if (c->io.can.enabled && !LoadCanProfileOf(root, source, c, error)) return false;
   if (c->io.modbus.enabled && !LoadModbusProfileOf(root, source, c, error)) return false;
   if (c->io.pwm.enabled && !LoadPwmProfileOf(root, source, c, error)) return false;
-  if (!c->log.path.empty() && c->log.path[0] != '/') {  // relative to the config file
-    const auto slash = source.rfind('/');
-    if (slash != std::string::npos) c->log.path = source.substr(0, slash) + "/" + c->log.path;
+  // Relative to the config file; beside a bare config name it already is (kept as given).
+  if (!c->log.path.empty() && source.find('/') != std::string::npos) {
+    c->log.path = ResolveBeside(source, c->log.path);
   }
   runlog::Header log_header;
   log_header.fields = PeriodLogFields();

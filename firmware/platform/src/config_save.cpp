@@ -1,10 +1,8 @@
 // Compiled with exceptions (toml++ for the source positions); every exception is caught here.
 #include "mrd/firmware/config_save.hpp"
 
-#include <fcntl.h>
 #include <sys/stat.h>
 #include <toml++/toml.h>
-#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
@@ -13,6 +11,7 @@
 #include <vector>
 
 #include "mrd/common/input_file.hpp"
+#include "mrd/common/write_atomically.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -26,47 +25,13 @@ std::vector<std::string> Lines(const std::string& text) {
   return lines;
 }
 
-// Writes text to a temporary beside path (same mode as path), fsyncs it, renames it onto
-// path and fsyncs the folder. "" or the reason (the temporary removed, path unchanged).
-std::string WriteAtomically(const std::string& path, const std::string& text) {
+// Writes text over path (which must exist) keeping its permission bits. "" or the reason.
+std::string Save(const std::string& path, const std::string& text) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) return Errno("cannot stat " + path);
-  std::string tmp = path + ".tmp-XXXXXX";
-  const int fd = ::mkostemp(tmp.data(), O_CLOEXEC);
-  if (fd < 0) return Errno("cannot create a temporary file beside " + path);
-  ::fchmod(fd, st.st_mode & 07777);
-  bool ok = true;
-  for (std::size_t done = 0; ok && done < text.size();) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    ok = n > 0;
-    if (ok) done += static_cast<std::size_t>(n);
-  }
-  ok = ok && ::fsync(fd) == 0;
-  int saved = errno;
-  if (::close(fd) != 0 && ok) {
-    ok = false;
-    saved = errno;
-  }
-  if (!ok) {
-    ::unlink(tmp.c_str());
-    errno = saved;
-    return Errno("cannot write " + tmp);
-  }
-  if (::rename(tmp.c_str(), path.c_str()) != 0) {
-    const std::string why = Errno("cannot rename " + tmp + " onto " + path);
-    ::unlink(tmp.c_str());
-    return why;
-  }
-  const auto slash = path.rfind('/');
-  const std::string folder = slash == std::string::npos ? "." : path.substr(0, slash + 1);
-  const int dir = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dir < 0 || ::fsync(dir) != 0) {
-    if (dir >= 0) ::close(dir);
-    return Errno("saved " + path + " but cannot fsync its folder");
-  }
-  ::close(dir);
-  return "";
+  AtomicWriter file;
+  if (file.Open(path, {.keep_mode = true}) && file.Write(text) && file.Commit()) return "";
+  return file.Error("saved");
 }
 
 }  // namespace
@@ -150,7 +115,7 @@ std::string SaveConfigFile(const std::string& path, const FirmwareConfig& runnin
     if (running.e_max.has_value() && check.e_max != running.e_max) {
       return "internal error: the saved file would not keep control.e_max; nothing saved";
     }
-    return WriteAtomically(path, out);
+    return Save(path, out);
   } catch (const toml::parse_error& e) {
     return path + ": " + std::string(e.description());
   } catch (const std::exception& e) {

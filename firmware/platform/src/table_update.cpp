@@ -12,7 +12,9 @@
 #include <cstring>
 #include <thread>
 
+#include "mrd/common/file_path.hpp"
 #include "mrd/common/table.hpp"
+#include "mrd/common/write_atomically.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/table_file.hpp"
 
@@ -20,40 +22,6 @@ namespace mrd::firmware {
 namespace {
 
 std::string Errno(const std::string& what) { return what + ": " + std::strerror(errno); }
-
-// Folder of path with its trailing slash ("./" for a bare name), and the name in it.
-std::string Folder(const std::string& path) {
-  const std::size_t slash = path.rfind('/');
-  return slash == std::string::npos ? "./" : path.substr(0, slash + 1);
-}
-std::string BaseName(const std::string& path) {
-  const std::size_t slash = path.rfind('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
-}
-
-bool WriteAll(int fd, const std::uint8_t* data, std::size_t size) {
-  std::size_t n = 0;
-  while (n < size) {
-    const ssize_t w = ::write(fd, data + n, size - n);
-    if (w < 0 && errno == EINTR) continue;
-    if (w < 0) return false;
-    if (w == 0) {
-      errno = EIO;
-      return false;
-    }
-    n += static_cast<std::size_t>(w);
-  }
-  return true;
-}
-
-// fsync of the folder holding path, so renames in it are durable.
-bool SyncFolder(const std::string& path) {
-  const int fd = ::open(Folder(path).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return false;
-  const bool ok = ::fsync(fd) == 0;
-  ::close(fd);
-  return ok;
-}
 
 // "" when path is missing or a regular file; else why it must not be replaced (a symlink,
 // device, FIFO or folder at the destination is refused, never written through).
@@ -70,52 +38,40 @@ std::string NotRegular(const std::string& path) {
   return path + " is " + kind + ", not a regular file: refused";
 }
 
-constexpr const char* kTempInfix = ".tmp-";  // temporaries: PATH.tmp-XXXXXX
-
-// A new, empty file PATH.tmp-XXXXXX beside path (mkostemp: O_CREAT | O_EXCL, so a symlink or
-// any file at that name is never opened), with the mode a plain create would give. -1 on
-// failure (errno).
-int CreateTemp(const std::string& path, std::string* name) {
-  std::string tmpl = path + kTempInfix + "XXXXXX";
+// A new, empty file PATH.tmp-XXXXXX beside path that reserves a unique name (mkostemp:
+// O_CREAT | O_EXCL, so a symlink or any file at that name is never opened). -1 on failure
+// (errno).
+int ReserveTemp(const std::string& path, std::string* name) {
+  std::string tmpl = path + kAtomicTempInfix + "XXXXXX";
   const int fd = ::mkostemp(tmpl.data(), O_CLOEXEC);
-  if (fd < 0) return -1;
-  const mode_t mask = ::umask(0);
-  ::umask(mask);
-  ::fchmod(fd, 0666 & ~mask);
-  *name = tmpl;
+  if (fd >= 0) *name = tmpl;
   return fd;
 }
 
-// Writes image to a new temporary beside path, fsyncs and closes it (every step checked).
-// "" with its name in *tmp, else the reason (the temporary removed).
-std::string WriteTemp(const std::string& path, const TableBytes& image, std::string* tmp) {
-  const int fd = CreateTemp(path, tmp);
-  if (fd < 0) return Errno("cannot create a temporary file beside " + path);
-  const bool written = WriteAll(fd, image.data(), image.size()) && ::fsync(fd) == 0;
-  int saved_errno = errno;
-  const bool closed = ::close(fd) == 0;
-  if (written && !closed) saved_errno = errno;
-  if (!written || !closed) {
-    ::unlink(tmp->c_str());
-    errno = saved_errno;
-    return Errno("cannot write " + *tmp);
+// Writes image to a new temporary beside path, fsynced and closed (every step checked), in
+// *file. "" or the reason (the temporary removed).
+std::string WriteTemp(const std::string& path, const TableBytes& image, AtomicWriter* file) {
+  if (file->Open(path) &&
+      file->Write({reinterpret_cast<const char*>(image.data()), image.size()}) && file->Finish()) {
+    return "";
   }
-  return "";
+  return file->Error();
 }
 
 // Removes temporaries a killed install left beside path (PATH.tmp-XXXXXX and
 // PATH.prev.tmp-XXXXXX regular files). Only under the install lock.
 void RemoveStaleTemps(const std::string& path) {
-  DIR* dir = ::opendir(Folder(path).c_str());
+  const std::string folder = FolderOf(path);
+  DIR* dir = ::opendir(folder.c_str());
   if (dir == nullptr) return;
-  const std::string base = BaseName(path);
-  const std::string prefixes[] = {base + kTempInfix, base + ".prev" + kTempInfix};
+  const std::string base = BaseNameOf(path);
+  const std::string prefixes[] = {base + kAtomicTempInfix, base + ".prev" + kAtomicTempInfix};
   while (const dirent* e = ::readdir(dir)) {
     const std::string name = e->d_name;
     for (const std::string& p : prefixes) {
       if (name.size() != p.size() + 6 || name.compare(0, p.size(), p) != 0) continue;
       struct stat st {};
-      const std::string full = Folder(path) + name;
+      const std::string full = folder + "/" + name;
       if (::lstat(full.c_str(), &st) == 0 && S_ISREG(st.st_mode)) ::unlink(full.c_str());
     }
   }
@@ -162,7 +118,7 @@ std::string KeepPrevious(const std::string& dest) {
   const std::string prev = dest + ".prev";
   for (int attempt = 0; attempt < 10; ++attempt) {
     std::string name;
-    const int fd = CreateTemp(prev, &name);  // reserves a unique name
+    const int fd = ReserveTemp(prev, &name);
     if (fd < 0) return Errno("cannot create a temporary file beside " + prev);
     ::close(fd);
     ::unlink(name.c_str());
@@ -180,18 +136,10 @@ std::string KeepPrevious(const std::string& dest) {
   return "cannot keep the previous table as " + prev + ": no free temporary name";
 }
 
-// Renames the staged temporary onto dest (removing it when that fails), then fsyncs dest's
-// folder. "" or the reason; `done` says what was done when only the fsync failed.
-std::string Commit(const std::string& staged, const std::string& dest, const char* done) {
-  if (::rename(staged.c_str(), dest.c_str()) != 0) {
-    const std::string why = Errno("cannot rename " + staged + " onto " + dest);
-    ::unlink(staged.c_str());
-    return why;
-  }
-  if (!SyncFolder(dest)) {
-    return Errno(std::string(done) + " " + dest + " but cannot fsync its folder");
-  }
-  return "";
+// Renames the finished temporary onto its target, then fsyncs the target's folder. "" or the
+// reason; `done` says what was done when only the fsync failed.
+std::string Commit(AtomicWriter* file, const char* done) {
+  return file->Commit() ? "" : file->Error(done);
 }
 
 }  // namespace
@@ -220,10 +168,10 @@ std::string WriteTableFile(const char* path, const CoefficientTable& table) {
   const std::string p = path;
   std::string why = NotRegular(p);
   if (!why.empty()) return why;
-  std::string tmp;
-  why = WriteTemp(p, image.value(), &tmp);
+  AtomicWriter file;
+  why = WriteTemp(p, image.value(), &file);
   if (!why.empty()) return why;
-  return Commit(tmp, p, "wrote");
+  return Commit(&file, "wrote");
 }
 
 std::string InstallTable(const char* source, const char* dest, const FirmwareConfig& config) {
@@ -240,23 +188,17 @@ std::string InstallTable(const char* source, const char* dest, const FirmwareCon
   why = NotRegular(d);
   if (!why.empty()) return why;
   RemoveStaleTemps(d);
-  std::string staged;
+  AtomicWriter staged;  // removed on every early return
   why = WriteTemp(d, image.value(), &staged);
   if (!why.empty()) return why;
-  why = CheckTable(staged.c_str(), config);  // what is on disk, CRC included
-  if (!why.empty()) {
-    ::unlink(staged.c_str());
-    return why;
-  }
+  why = CheckTable(staged.temp().c_str(), config);  // what is on disk, CRC included
+  if (!why.empty()) return why;
   struct stat st {};
   if (::lstat(dest, &st) == 0) {
     why = KeepPrevious(d);
-    if (!why.empty()) {
-      ::unlink(staged.c_str());
-      return why;
-    }
+    if (!why.empty()) return why;
   }
-  return Commit(staged, d, "installed");
+  return Commit(&staged, "installed");
 }
 
 std::string CheckTableOrRollBack(const char* dest, const FirmwareConfig& config,
@@ -281,7 +223,7 @@ std::string CheckTableOrRollBack(const char* dest, const FirmwareConfig& config,
   }
   if (::rename(prev.c_str(), dest) != 0)
     return refused + "; " + Errno("cannot roll back to " + prev);
-  if (!SyncFolder(d)) return Errno("rolled back " + d + " but cannot fsync its folder");
+  if (!SyncFolderOf(d)) return Errno("rolled back " + d + " but cannot fsync its folder");
   *rolled_back = true;
   return "";
 }

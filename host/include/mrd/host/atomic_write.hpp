@@ -1,15 +1,18 @@
 #pragma once
-// Every file the CLI writes goes through here: a unique temporary in the destination's
-// directory (mkstemp: O_CREAT|O_EXCL, never follows a symlink), written, fsync'ed, then renamed
-// over the destination. A destination that exists and is not a regular file (symlink, device,
-// FIFO, directory) is refused. Temporaries and staging directories are registered so that a
-// terminating signal (SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE) removes them
-// (InstallCleanupHandlers).
+// Every file the CLI writes goes through here: the common atomic writer
+// (mrd/common/write_atomically.hpp: a unique temporary .NAME.tmp-XXXXXX in the destination's
+// directory, never following a symlink, written, fsync'ed, renamed over the destination, the
+// directory fsync'ed) with the host's checks, exceptions and signal cleanup on top. A destination
+// that exists and is not a regular file (symlink, device, FIFO, directory) is refused. Temporaries
+// and staging directories are registered so that a terminating signal (SIGINT, SIGTERM, SIGHUP,
+// SIGQUIT, SIGPIPE) removes them (InstallCleanupHandlers).
 
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
+
+#include "mrd/common/write_atomically.hpp"
 
 namespace mrd::host {
 
@@ -36,10 +39,8 @@ class AtomicFile {
  private:
   void Discard();
   std::string path_;
-  std::string temp_;
-  int fd_ = -1;
+  mrd::AtomicWriter file_;
   int slot_ = -1;
-  bool committed_ = false;
 };
 
 // Writes text to path through an AtomicFile. Throws InputError / std::runtime_error.

@@ -52,7 +52,6 @@ enum class ModbusOut : std::uint8_t {
                        // fault_reset_ms; else 0
 };
 inline constexpr std::size_t kNumModbusOut = 13;
-const char* ModbusOutName(ModbusOut role);
 
 struct ModbusPoint {
   bool mapped = false;

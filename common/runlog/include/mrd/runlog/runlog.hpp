@@ -66,7 +66,6 @@ void EncodeBlock(std::uint32_t sequence, std::uint64_t dropped, const std::uint8
 void PutU8(std::uint8_t* p, std::uint8_t v);
 void PutU32(std::uint8_t* p, std::uint32_t v);
 void PutU64(std::uint8_t* p, std::uint64_t v);
-void PutI64(std::uint8_t* p, std::int64_t v);
 void PutF64(std::uint8_t* p, double v);
 
 enum class Damage : std::uint8_t {

@@ -73,10 +73,11 @@ class PeriodLog final : public PeriodObserver {
   }
   std::uint32_t capacity() const { return static_cast<std::uint32_t>(mask_ + 1); }
 
-  // Tests and benchmarks: a paused writer drains nothing (the ring fills up, then drops).
-  void PauseWriter(bool paused) { paused_.store(paused, std::memory_order_release); }
-
  private:
+  // The tests' seam (defined in the tests only): pauses the writer, which then drains nothing
+  // (the ring fills up, then drops) until Stop.
+  friend struct PeriodLogTestAccess;
+
   void WriterMain();
   void Fail(const std::string& why);  // writer thread: stop logging, say so once
   bool OpenFile();                    // writer thread (and Start): PATH + header

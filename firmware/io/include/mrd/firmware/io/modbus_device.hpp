@@ -137,8 +137,6 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   bool LatestCommand(Command* c) const;
   // The loop posted a safe block since the latest block written was a driven one.
   bool SafePending() const;
-  // Sleeps until t_ns, or until a wake-up (safe block posted, lockstep status, stop).
-  void SleepOrWake(std::int64_t t_ns);
   // Counts a failed attempt (reply_refused: a reply came and was refused, rx_rejected).
   void Failed(IoError e, bool reply_refused);
   void Count(IoError e);
