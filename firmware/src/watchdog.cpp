@@ -3,27 +3,8 @@
 namespace mrd::firmware {
 
 const char* FaultCauseName(FaultCause cause) {
-  switch (cause) {
-    case FaultCause::kStaleSensor:
-      return "stale_sensor";
-    case FaultCause::kNonFinite:
-      return "non_finite";
-    case FaultCause::kBusFault:
-      return "bus_fault";
-    case FaultCause::kDriverFault:
-      return "driver_fault";
-    case FaultCause::kFaultLine:
-      return "fault_line";
-    case FaultCause::kImplausible:
-      return "implausible";
-    case FaultCause::kCanBus:
-      return "can_bus";
-    case FaultCause::kModbusBus:
-      return "modbus_bus";
-    case FaultCause::kGpioBus:
-      return "gpio_bus";
-  }
-  return "unknown";
+  const auto i = static_cast<std::size_t>(cause);
+  return i < kNumFaultCauses ? kFaultCauseNames[i] : "unknown";
 }
 
 void Watchdog::Reset() {

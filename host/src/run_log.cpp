@@ -7,16 +7,12 @@
 #include <filesystem>
 #include <limits>
 
+#include "mrd/common/fault_causes.hpp"
 #include "mrd/host/input_error.hpp"
 #include "mrd/host/plot.hpp"
 
 namespace mrd::host {
 namespace {
-
-// Watchdog cause bits (bit i = firmware FaultCause i, firmware/include/mrd/firmware/watchdog.hpp).
-constexpr const char* kCauseNames[] = {"stale_sensor", "non_finite", "bus_fault",
-                                       "driver_fault", "fault_line", "implausible",
-                                       "can_bus",      "modbus_bus", "gpio_bus"};
 
 std::string FieldList(const runlog::Header& h) {
   std::string s;
@@ -245,8 +241,9 @@ std::string PlotRunLog(const runlog::Log& log, const std::string& path, const st
   for (const std::uint32_t c : causes) seen |= c;
   for (std::size_t b = 0; b < 32; ++b) {
     if ((seen & (1U << b)) == 0) continue;
-    PlotSeries s{b < std::size(kCauseNames) ? kCauseNames[b] : fmt::format("cause bit {}", b), t,
-                 std::vector<double>(t.size()), "steps"};
+    PlotSeries s{
+        b < std::size(kFaultCauseNames) ? kFaultCauseNames[b] : fmt::format("cause bit {}", b), t,
+        std::vector<double>(t.size()), "steps"};
     for (std::size_t k = 0; k < t.size(); ++k) {
       s.y[k] = (causes[k] & (1U << b)) != 0 ? 1.0 : std::numeric_limits<double>::quiet_NaN();
     }

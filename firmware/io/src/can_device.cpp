@@ -12,6 +12,7 @@
 
 #include "mrd/canbus/socket.hpp"
 #include "mrd/common/clock.hpp"
+#include "mrd/firmware/input_roles.hpp"
 #include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/telemetry.hpp"
 
@@ -232,12 +233,13 @@ bool CanDevice::Handle(const can_frame& f, std::int64_t stamp, std::int64_t wall
   };
   if (config_.lockstep) stamp = granted_ns_;
   bool fresh = false;
-  for (std::size_t i = 0; i <= static_cast<std::size_t>(pf::CanIn::kFloorAcceleration3); ++i) {
-    // The sampled signals (velocity .. force, body_acceleration .. floor_acceleration_3).
-    if (((roles >> i) & 1U) == 0 || i == static_cast<std::size_t>(pf::CanIn::kFaultLine)) continue;
+  for (const InputRole& ir : kInputRoles) {
+    // The sampled signals (every input but the fault line).
+    const auto i = static_cast<std::size_t>(ir.role);
+    if (((roles >> i) & 1U) == 0 || ir.input == Input::kFaultLine) continue;
     values_[i] = {v[i], stamp};
     if (config_.lockstep) unstamped_ = static_cast<std::uint16_t>(unstamped_ | (1U << i));
-    fresh = fresh || (config_.inputs & (1U << i)) != 0;
+    fresh = fresh || (config_.inputs & Bit(ir.input)) != 0;
   }
   if (has(pf::CanIn::kFaultLine)) {
     fault_input_ = v[static_cast<std::size_t>(pf::CanIn::kFaultLine)] != 0.0;
@@ -314,8 +316,7 @@ IoStatus CanDevice::Read(const IoTime& t, SensorFrame* frame, IoError* why) {
   if (flooded) Count(IoError::kOverflow);
   if ((flooded || Now(now) < flood_until_ns_) && fault == IoError::kNone)
     fault = IoError::kOverflow;
-  MergeRouted(config_.inputs, frame,
-              [this](Input i) { return values_[static_cast<std::size_t>(i)]; });
+  MergeRouted(config_.inputs, frame, [this](Input i) { return values_[RoleIndex(i)]; });
   if ((config_.inputs & Bit(Input::kFaultLine)) != 0 && fault_input_) frame->fault_line = true;
   // A fault the current driver reports (any fault bit), or a driver status that stopped coming
   // (its message's timeout), is the driver's fault line, as the Modbus sensor block's
@@ -340,7 +341,7 @@ bool CanDevice::MotionTooOld(std::int64_t now) const {
   constexpr std::uint32_t kMotion = Bit(Input::kVelocity) | Bit(Input::kDisplacement);
   if (config_.lockstep || (config_.inputs & kMotion) == 0) return false;
   // Never sampled: the watchdog already holds the safe state (stale), no driving command.
-  const std::int64_t stamp = values_[static_cast<std::size_t>(Input::kVelocity)].stamp_ns;
+  const std::int64_t stamp = values_[RoleIndex(Input::kVelocity)].stamp_ns;
   return stamp != std::numeric_limits<std::int64_t>::min() && stamp < now - config_.max_age_ns;
 }
 

@@ -8,6 +8,7 @@
 #include "modbus_link.hpp"
 #include "modbus_waker.hpp"
 #include "mrd/common/clock.hpp"
+#include "mrd/firmware/input_roles.hpp"
 #include "mrd/firmware/io/modbus_device.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "mrd/protocol/modbus_frame.hpp"
@@ -137,16 +138,9 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
     have_seq_ = true;
     s.seq = seq;
     s.stamp_ns = stamp;
-    s.value(Input::kVelocity) = value(pf::CanIn::kVelocity);
-    s.value(Input::kDisplacement) = value(pf::CanIn::kDisplacement);
-    s.value(Input::kDemand) = value(pf::CanIn::kDemand);
-    s.value(Input::kBodyVelocity) = value(pf::CanIn::kBodyVelocity);
-    s.value(Input::kForce) = value(pf::CanIn::kForce);
-    s.value(Input::kBodyAcceleration) = value(pf::CanIn::kBodyAcceleration);
-    s.value(Input::kWheelVelocity) = value(pf::CanIn::kWheelVelocity);
-    s.value(Input::kFloorAcceleration1) = value(pf::CanIn::kFloorAcceleration1);
-    s.value(Input::kFloorAcceleration2) = value(pf::CanIn::kFloorAcceleration2);
-    s.value(Input::kFloorAcceleration3) = value(pf::CanIn::kFloorAcceleration3);
+    for (const InputRole& m : kInputRoles) {  // the sampled signals (the fault line above)
+      if (m.input != Input::kFaultLine) s.value(m.input) = value(m.role);
+    }
     ++s.accepted;
     rx_ok_.fetch_add(1, std::memory_order_relaxed);
   }

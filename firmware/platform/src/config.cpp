@@ -16,6 +16,7 @@
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/clipped_optimal_file.hpp"
+#include "mrd/firmware/input_roles.hpp"
 #include "mrd/firmware/period_log.hpp"
 #include "mrd/firmware/safe_state.hpp"
 #include "mrd/profile/can_profile.hpp"
@@ -744,10 +745,10 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
   const auto mapped_out = [&](profile::CanOut r) {
     return p->outputs[static_cast<std::size_t>(r)].mapped();
   };
-  for (std::size_t i = 0; i < kNumInputs; ++i) {
-    if ((can.inputs & (1U << i)) != 0 && !mapped_in(static_cast<profile::CanIn>(i))) {
-      *error = where + "profile " + p->name + " maps no signal to input '" +
-               InputName(static_cast<Input>(i)) + "' ([inputs] of the profile)";
+  for (const InputRole& m : kInputRoles) {
+    if ((can.inputs & Bit(m.input)) != 0 && !mapped_in(m.role)) {
+      *error = where + "profile " + p->name + " maps no signal to input '" + InputName(m.input) +
+               "' ([inputs] of the profile)";
       return false;
     }
   }
@@ -820,13 +821,12 @@ bool LoadModbusProfileOf(const toml::table& root, const std::string& source, Fir
   }
   const auto in = [&](profile::CanIn r) { return p->In(r).mapped; };
   const auto out = [&](profile::ModbusOut r) { return p->Out(r).mapped; };
-  for (std::size_t i = 0; i < kNumInputs; ++i) {
-    const auto role = static_cast<profile::CanIn>(i);  // the same order as Input
+  for (const InputRole& m : kInputRoles) {
     const bool mapped =
-        in(role) || (role == profile::CanIn::kFaultLine && in(profile::CanIn::kDriverFaults));
-    if ((mb.inputs & (1U << i)) != 0 && !mapped) {
-      *error = where + "profile " + p->name + " maps no register to input '" +
-               InputName(static_cast<Input>(i)) + "' ([modbus.inputs] of the profile)";
+        in(m.role) || (m.role == profile::CanIn::kFaultLine && in(profile::CanIn::kDriverFaults));
+    if ((mb.inputs & Bit(m.input)) != 0 && !mapped) {
+      *error = where + "profile " + p->name + " maps no register to input '" + InputName(m.input) +
+               "' ([modbus.inputs] of the profile)";
       return false;
     }
   }

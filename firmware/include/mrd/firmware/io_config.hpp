@@ -45,7 +45,7 @@ enum class Input : std::uint8_t {
   kFloorAcceleration2,
   kFloorAcceleration3,
 };
-inline constexpr std::size_t kNumInputs = 11;  // the order of profile::CanIn's first roles
+inline constexpr std::size_t kNumInputs = 11;  // each with its profile role: input_roles.hpp
 // Outputs a device can drive.
 enum class Output : std::uint8_t {
   kCommand = 0,  // voltage set-point to the current driver

@@ -13,24 +13,26 @@
 
 #include <array>
 #include <cstdint>
+#include <iterator>
+
+#include "mrd/common/fault_causes.hpp"
 
 namespace mrd::firmware {
 
+// The causes and their names from one list (mrd/common/fault_causes.hpp), in bit order:
+// kStaleSensor = 0, kNonFinite, kBusFault, kDriverFault, kFaultLine, kImplausible, kCanBus,
+// kModbusBus, kGpioBus.
 enum class FaultCause : std::uint8_t {
-  kStaleSensor = 0,
-  kNonFinite,
-  kBusFault,
-  kDriverFault,
-  kFaultLine,
-  kImplausible,
-  kCanBus,
-  kModbusBus,
-  kGpioBus,
+#define MRD_FAULT_CAUSE_ENUMERATOR(enumerator, name) enumerator,
+  MRD_FAULT_CAUSES(MRD_FAULT_CAUSE_ENUMERATOR)
+#undef MRD_FAULT_CAUSE_ENUMERATOR
 };
-inline constexpr std::size_t kNumFaultCauses = 9;
+inline constexpr std::size_t kNumFaultCauses = std::size(kFaultCauseNames);
+static_assert(static_cast<std::size_t>(FaultCause::kGpioBus) + 1 == kNumFaultCauses,
+              "one name per cause");
 
 // Static name ("stale_sensor", "non_finite", "bus_fault", "driver_fault", "fault_line",
-// "implausible", "can_bus", "modbus_bus", "gpio_bus").
+// "implausible", "can_bus", "modbus_bus", "gpio_bus"; "unknown" for a value past the list).
 const char* FaultCauseName(FaultCause cause);
 
 struct WatchdogConfig {

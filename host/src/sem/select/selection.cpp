@@ -282,6 +282,190 @@ int SelectByCrossValidation(const std::vector<SemIteration>& its,
   return -1;
 }
 
+namespace {
+
+// The rule for records with validation data, a tolerance spec or records too short to fold:
+// the fewest terms within the tolerance of the lowest J.
+void SelectByTolerance(const SemSpec& spec, bool validation, SemResult* res) {
+  res->selected = SelectIteration(res->iterations, spec.selection_tolerance_percent);
+  res->selection_rule = fmt::format(
+      "fewest terms among the iterations whose {} is within {}% of the lowest{}",
+      validation ? "summed validation J" : "identification J", spec.selection_tolerance_percent,
+      !validation && spec.selection == Selection::kCrossValidation
+          ? fmt::format(" (records too short for {}-fold cross-validation)", kSelectionFolds)
+          : "");
+}
+
+// An iteration's free-run residual per record: *e the residual (empty where the run diverged),
+// *z the weighted one.
+void FreeRunResiduals(const std::vector<Evaluator>& ev, const SemIteration& it,
+                      std::vector<std::vector<double>>* e, std::vector<std::vector<double>>* z) {
+  e->assign(ev.size(), {});
+  z->assign(ev.size(), {});
+  Eigen::VectorXd theta(static_cast<Eigen::Index>(it.coefficients.size()));
+  for (std::size_t i = 0; i < it.coefficients.size(); ++i) {
+    theta(static_cast<Eigen::Index>(i)) = it.coefficients[i];
+  }
+  Evaluator::Scratch scratch;
+  for (std::size_t d = 0; d < ev.size(); ++d) {
+    const Record& rec = ev[d].record();
+    if (!std::isfinite(ev[d].FreeRun(ev[d].Prepare(it.terms), theta, rec.first, rec.y.size(),
+                                     scratch, &(*e)[d]))) {
+      (*e)[d].clear();
+      continue;
+    }
+    (*z)[d] = Weighted(rec, rec.first, (*e)[d]);
+  }
+}
+
+// Where the noise enters, and what decided it.
+struct NoiseChoice {
+  bool one_step = false;                // score the one-step prediction error (else the free run)
+  double share_free = 1.0;              // unpredictable share of the free-run residual (auto)
+  double share_one_step = 0.0;          // of the one-step residual (auto)
+  std::vector<std::vector<double>> r1;  // the lowest-J iteration's one-step residual per record
+};
+
+// Where the noise enters (auto): at the output, the free-run residual of a right structure is
+// white; in the equation, the one-step residual is, and the noise reaches the free run
+// through the model's dynamics, coloured. There the one-step error is the likelihood and the
+// free-run error is not (with a nonlinear feedback term the truth's free run is not the best
+// free run). A one-step residual mostly predictable from its own past is model mismatch (as
+// on noise-free damper data), not noise: the free run, the control-oriented score, is kept.
+// z: the lowest-J iteration's weighted free-run residual, l its whitening prefilter.
+NoiseChoice ChooseNoise(const SemSpec& spec, const std::vector<Evaluator>& ev,
+                        const std::vector<SemTerm>& lowest_terms,
+                        const std::vector<std::vector<double>>& z, const Prefilter& l) {
+  NoiseChoice n;
+  n.one_step = spec.selection_noise == SelectionNoise::kEquation;
+  const bool weigh = spec.selection_noise == SelectionNoise::kAuto && !l.empty();
+  if (n.one_step || weigh) {
+    for (const Evaluator& d : ev) n.r1.push_back(OneStepResidual(d, lowest_terms));
+  }
+  if (weigh) {
+    n.share_free = Unpredictable(z, l);
+    n.share_one_step = Unpredictable(n.r1, FitPrefilter(n.r1));
+    n.one_step = n.share_one_step >= kEquationNoiseShare && n.share_one_step > n.share_free;
+  }
+  return n;
+}
+
+// Every iteration's per-fold costs, on `threads` workers; with spec.refine, an iteration whose
+// refit lowered its J takes the refit's coefficients.
+std::vector<std::vector<double>> IterationFoldCosts(const SemSpec& spec,
+                                                    const std::vector<Evaluator>& ev,
+                                                    const Prefilter& l, bool one_step, int threads,
+                                                    std::vector<SemIteration>* its) {
+  std::vector<std::vector<double>> cv(its->size());
+  const int w = std::max(1, std::min<int>(threads, static_cast<int>(its->size())));
+  auto run = [&](int worker) {
+    for (std::size_t i = static_cast<std::size_t>(worker); i < its->size();
+         i += static_cast<std::size_t>(w)) {
+      SemIteration& it = (*its)[i];
+      if (one_step) {
+        cv[i] = OneStepFoldCosts(ev, it.terms, kSelectionFolds);
+      } else if (spec.refine) {  // coefficients already refined: converges at once, gives the
+                                 // Jacobian
+        double jr = kInf;
+        std::vector<double> th = it.coefficients;
+        cv[i] = RefinedFoldCosts(ev, it.terms, kSelectionFolds, l, &th, &jr);
+        if (jr < it.j) {
+          it.j = jr;
+          it.coefficients = th;
+        }
+      } else {
+        cv[i] = FoldCosts(ev, it.terms, kSelectionFolds, l);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < w; ++t) pool.emplace_back(run, t);
+  run(0);
+  for (auto& t : pool) t.join();
+  return cv;
+}
+
+// Effective sample size of the scored residual: the one-step residual of the lowest-J
+// structure, or the (unfiltered) free-run residual e: the prefiltered one would count coloured
+// equation-error noise as independent samples and let spurious terms in.
+double ScoredSamples(const std::vector<Evaluator>& ev, const std::vector<std::vector<double>>& e,
+                     const NoiseChoice& noise) {
+  double n_eff = 0.0;
+  for (std::size_t d = 0; d < ev.size(); ++d) {
+    const Record& rec = ev[d].record();
+    n_eff += noise.one_step ? EffectiveSamples(noise.r1[d])
+             : e[d].empty() ? static_cast<double>(rec.y.size() - rec.first)
+                            : EffectiveSamples(e[d]);
+  }
+  return n_eff;
+}
+
+// The search's fold costs of a candidate structure, scored as the selection scores.
+decltype(internal::SelectionCriterion::fold_costs) SelectionFoldCosts(
+    std::shared_ptr<std::vector<Evaluator>> shared_ev, const Prefilter& l, bool refine,
+    bool one_step) {
+  return [shared_ev, l, refine, one_step](const std::vector<SemTerm>& terms,
+                                          std::vector<double>* coefficients, double* j) {
+    if (refine && !one_step) {
+      return RefinedFoldCosts(*shared_ev, terms, kSelectionFolds, l, coefficients, j);
+    }
+    if (refine) {
+      *j = internal::RefineFreeRun(*shared_ev, terms, coefficients);
+    } else {
+      Eigen::VectorXd theta(static_cast<Eigen::Index>(coefficients->size()));
+      for (std::size_t i = 0; i < coefficients->size(); ++i) {
+        theta(static_cast<Eigen::Index>(i)) = (*coefficients)[i];
+      }
+      *j = FoldRun(*shared_ev, PrepareAll(*shared_ev, terms), theta, 0, 1, {});
+    }
+    return one_step ? OneStepFoldCosts(*shared_ev, terms, kSelectionFolds)
+                    : FoldCosts(*shared_ev, terms, kSelectionFolds, l);
+  };
+}
+
+// The cross-validation rule in words (res->selection_rule).
+std::string CrossValidationRule(const SemSpec& spec, const NoiseChoice& noise, const Prefilter& l,
+                                std::size_t num_candidates, double n_eff) {
+  std::string filter = "1";
+  for (std::size_t i = 0; i < l.size(); ++i) {
+    filter += fmt::format(" {} {:.3g} q^-{}", l[i] < 0.0 ? "+" : "-", std::fabs(l[i]), i + 1);
+  }
+  if (noise.one_step) {
+    return fmt::format(
+        "{}-fold cross-validation of the one-step prediction error inside the identification "
+        "data (noise in the equation: {}): the iteration of lowest N ln(CV J) + m ln(N) + 2 ln(C "
+        "choose m) (extended BIC, m terms of C = {} candidates), N = {:.0f} effective samples of "
+        "the lowest-J iteration's one-step residual; each fold's coefficients are the least "
+        "squares on the other folds",
+        kSelectionFolds,
+        spec.selection_noise == SelectionNoise::kEquation
+            ? "selection_noise = \"equation\""
+            : fmt::format("of the lowest-J iteration's residuals, {:.0f} % of the one-step one "
+                          "is unpredictable from its own past, {:.0f} % of the free-run one, "
+                          "L(q) = {}",
+                          100.0 * noise.share_one_step, 100.0 * noise.share_free, filter),
+        num_candidates, n_eff);
+  }
+  std::string rule = fmt::format(
+      "{}-fold cross-validation of the {} free-run J inside the identification data: the "
+      "iteration of lowest N ln(CV J) + m ln(N) + 2 ln(C choose m) (extended BIC, m terms of C = "
+      "{} candidates), N = {:.0f} effective samples of the lowest-J iteration's free-run residual; "
+      "residuals prefiltered by L(q) = {}, the AR({}) whitening filter of that residual (order by "
+      "BIC, at most {})",
+      kSelectionFolds, spec.refine ? "output-error refined" : "least-squares", num_candidates,
+      n_eff, filter, l.size(), kMaxPrefilterOrder);
+  if (spec.selection_noise == SelectionNoise::kAuto && !l.empty()) {
+    rule += fmt::format(
+        " (free run scored: {:.0f} % of the one-step residual's power is unpredictable from its "
+        "own past, {:.0f} % of the free-run residual's; the one-step score needs at least {:.0f} "
+        "% and more than the free run's: model mismatch, not noise in the equation)",
+        100.0 * noise.share_one_step, 100.0 * noise.share_free, 100.0 * kEquationNoiseShare);
+  }
+  return rule;
+}
+
+}  // namespace
+
 void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identification,
                            int threads, SemResult* res, SelectionCriterion* criterion) {
   if (criterion != nullptr) *criterion = {};
@@ -294,13 +478,7 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   const bool cv_possible = !identification.empty() &&
                            shortest >= kMinFoldSamples * static_cast<std::size_t>(kSelectionFolds);
   if (validation || spec.selection == Selection::kTolerance || !cv_possible) {
-    res->selected = SelectIteration(its, spec.selection_tolerance_percent);
-    res->selection_rule = fmt::format(
-        "fewest terms among the iterations whose {} is within {}% of the lowest{}",
-        validation ? "summed validation J" : "identification J", spec.selection_tolerance_percent,
-        !validation && spec.selection == Selection::kCrossValidation
-            ? fmt::format(" (records too short for {}-fold cross-validation)", kSelectionFolds)
-            : "");
+    SelectByTolerance(spec, validation, res);
     return;
   }
   auto shared_ev = std::make_shared<std::vector<Evaluator>>();  // outlives the call (criterion)
@@ -312,137 +490,22 @@ void internal::SelectModel(const SemSpec& spec, std::span<const DataSet> identif
   for (std::size_t i = 1; i < its.size(); ++i) {
     if (its[i].j < its[low].j) low = i;
   }
-  std::vector<std::vector<double>> e(ev.size()), z(ev.size());
-  {
-    Eigen::VectorXd theta(static_cast<Eigen::Index>(its[low].coefficients.size()));
-    for (std::size_t i = 0; i < its[low].coefficients.size(); ++i) {
-      theta(static_cast<Eigen::Index>(i)) = its[low].coefficients[i];
-    }
-    Evaluator::Scratch scratch;
-    for (std::size_t d = 0; d < ev.size(); ++d) {
-      const Record& rec = ev[d].record();
-      if (!std::isfinite(ev[d].FreeRun(ev[d].Prepare(its[low].terms), theta, rec.first,
-                                       rec.y.size(), scratch, &e[d]))) {
-        e[d].clear();
-        continue;
-      }
-      z[d] = Weighted(rec, rec.first, e[d]);
-    }
-  }
+  std::vector<std::vector<double>> e, z;
+  FreeRunResiduals(ev, its[low], &e, &z);
   const Prefilter l = FitPrefilter(z);
-  // Where the noise enters (auto): at the output, the free-run residual of a right structure is
-  // white; in the equation, the one-step residual is, and the noise reaches the free run
-  // through the model's dynamics, coloured. There the one-step error is the likelihood and the
-  // free-run error is not (with a nonlinear feedback term the truth's free run is not the best
-  // free run). A one-step residual mostly predictable from its own past is model mismatch (as
-  // on noise-free damper data), not noise: the free run, the control-oriented score, is kept.
-  bool one_step = spec.selection_noise == SelectionNoise::kEquation;
-  double share_free = 1.0, share_one_step = 0.0;
-  std::vector<std::vector<double>> r1;  // the lowest-J iteration's one-step residual per record
-  if (one_step || (spec.selection_noise == SelectionNoise::kAuto && !l.empty())) {
-    for (const Evaluator& d : ev) r1.push_back(OneStepResidual(d, its[low].terms));
-  }
-  if (spec.selection_noise == SelectionNoise::kAuto && !l.empty()) {
-    share_free = Unpredictable(z, l);
-    share_one_step = Unpredictable(r1, FitPrefilter(r1));
-    one_step = share_one_step >= kEquationNoiseShare && share_one_step > share_free;
-  }
-  std::vector<std::vector<double>> cv(its.size());
-  const int w = std::max(1, std::min<int>(threads, static_cast<int>(its.size())));
-  auto run = [&](int worker) {
-    for (std::size_t i = static_cast<std::size_t>(worker); i < its.size();
-         i += static_cast<std::size_t>(w)) {
-      if (one_step) {
-        cv[i] = OneStepFoldCosts(ev, its[i].terms, kSelectionFolds);
-      } else if (spec.refine) {  // coefficients already refined: converges at once, gives the
-                                 // Jacobian
-        double jr = kInf;
-        std::vector<double> th = its[i].coefficients;
-        cv[i] = RefinedFoldCosts(ev, its[i].terms, kSelectionFolds, l, &th, &jr);
-        if (jr < its[i].j) {
-          its[i].j = jr;
-          its[i].coefficients = th;
-        }
-      } else {
-        cv[i] = FoldCosts(ev, its[i].terms, kSelectionFolds, l);
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < w; ++t) pool.emplace_back(run, t);
-  run(0);
-  for (auto& t : pool) t.join();
+  const NoiseChoice noise = ChooseNoise(spec, ev, its[low].terms, z, l);
+  const std::vector<std::vector<double>> cv =
+      IterationFoldCosts(spec, ev, l, noise.one_step, threads, &its);
   for (std::size_t i = 0; i < its.size(); ++i) its[i].cv_j = cv[i];
-  // Effective sample size of the scored residual: the one-step residual of the lowest-J
-  // structure, or the (unfiltered) free-run residual: the prefiltered one would count coloured
-  // equation-error noise as independent samples and let spurious terms in.
-  double n_eff = 0.0;
-  for (std::size_t d = 0; d < ev.size(); ++d) {
-    const Record& rec = ev[d].record();
-    n_eff += one_step       ? EffectiveSamples(r1[d])
-             : e[d].empty() ? static_cast<double>(rec.y.size() - rec.first)
-                            : EffectiveSamples(e[d]);
-  }
-  res->cv_one_step = one_step;
-  std::string filter = "1";
-  for (std::size_t i = 0; i < l.size(); ++i) {
-    filter += fmt::format(" {} {:.3g} q^-{}", l[i] < 0.0 ? "+" : "-", std::fabs(l[i]), i + 1);
-  }
+  const double n_eff = ScoredSamples(ev, e, noise);
+  res->cv_one_step = noise.one_step;
   res->selected = SelectByCrossValidation(its, cv, n_eff, static_cast<double>(res->num_candidates));
   if (criterion != nullptr) {
     criterion->samples = n_eff;
     criterion->candidates = static_cast<double>(res->num_candidates);
-    criterion->fold_costs = [shared_ev, l, refine = spec.refine, one_step](
-                                const std::vector<SemTerm>& terms,
-                                std::vector<double>* coefficients, double* j) {
-      if (refine && !one_step) {
-        return RefinedFoldCosts(*shared_ev, terms, kSelectionFolds, l, coefficients, j);
-      }
-      if (refine) {
-        *j = internal::RefineFreeRun(*shared_ev, terms, coefficients);
-      } else {
-        Eigen::VectorXd theta(static_cast<Eigen::Index>(coefficients->size()));
-        for (std::size_t i = 0; i < coefficients->size(); ++i) {
-          theta(static_cast<Eigen::Index>(i)) = (*coefficients)[i];
-        }
-        *j = FoldRun(*shared_ev, PrepareAll(*shared_ev, terms), theta, 0, 1, {});
-      }
-      return one_step ? OneStepFoldCosts(*shared_ev, terms, kSelectionFolds)
-                      : FoldCosts(*shared_ev, terms, kSelectionFolds, l);
-    };
+    criterion->fold_costs = SelectionFoldCosts(shared_ev, l, spec.refine, noise.one_step);
   }
-  if (one_step) {
-    res->selection_rule = fmt::format(
-        "{}-fold cross-validation of the one-step prediction error inside the identification "
-        "data (noise in the equation: {}): the iteration of lowest N ln(CV J) + m ln(N) + 2 ln(C "
-        "choose m) (extended BIC, m terms of C = {} candidates), N = {:.0f} effective samples of "
-        "the lowest-J iteration's one-step residual; each fold's coefficients are the least "
-        "squares on the other folds",
-        kSelectionFolds,
-        spec.selection_noise == SelectionNoise::kEquation
-            ? "selection_noise = \"equation\""
-            : fmt::format("of the lowest-J iteration's residuals, {:.0f} % of the one-step one "
-                          "is unpredictable from its own past, {:.0f} % of the free-run one, "
-                          "L(q) = {}",
-                          100.0 * share_one_step, 100.0 * share_free, filter),
-        res->num_candidates, n_eff);
-    return;
-  }
-  res->selection_rule = fmt::format(
-      "{}-fold cross-validation of the {} free-run J inside the identification data: the "
-      "iteration of lowest N ln(CV J) + m ln(N) + 2 ln(C choose m) (extended BIC, m terms of C = "
-      "{} candidates), N = {:.0f} effective samples of the lowest-J iteration's free-run residual; "
-      "residuals prefiltered by L(q) = {}, the AR({}) whitening filter of that residual (order by "
-      "BIC, at most {})",
-      kSelectionFolds, spec.refine ? "output-error refined" : "least-squares", res->num_candidates,
-      n_eff, filter, l.size(), kMaxPrefilterOrder);
-  if (spec.selection_noise == SelectionNoise::kAuto && !l.empty()) {
-    res->selection_rule += fmt::format(
-        " (free run scored: {:.0f} % of the one-step residual's power is unpredictable from its "
-        "own past, {:.0f} % of the free-run residual's; the one-step score needs at least {:.0f} "
-        "% and more than the free run's: model mismatch, not noise in the equation)",
-        100.0 * share_one_step, 100.0 * share_free, 100.0 * kEquationNoiseShare);
-  }
+  res->selection_rule = CrossValidationRule(spec, noise, l, res->num_candidates, n_eff);
 }
 
 }  // namespace mrd::host

@@ -45,8 +45,8 @@ enum class CanIn : std::uint8_t {
   kGrant,          // lockstep time grant [us] (simulation only: mrd-hil)
 };
 inline constexpr std::size_t kNumCanIn = 15;  // <= 16: role masks are 16-bit
-// The first roles are the firmware's inputs, in firmware::Input's order (velocity ..
-// floor_acceleration_3): a cast between the two is the routing's lookup.
+// The first roles carry the firmware's inputs (velocity .. floor_acceleration_3): the firmware
+// pairs them by name in one table (kInputRoles, mrd/firmware/input_roles.hpp).
 
 // Signals the firmware sends.
 enum class CanOut : std::uint8_t {
