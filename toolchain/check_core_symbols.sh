@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The firmware core's boundary, checked on the built archive: every symbol the core
 # (libmrd_firmware.a) leaves undefined must be defined by the core's own libraries (given after it:
-# the core itself, mrd::common, mrd::sim) or be on the allow-list below (libm, the compiler's
+# the core itself and mrd::common) or be on the allow-list below (libm, the compiler's
 # runtime helpers, memory copies, operator new/delete for start-up allocation). A call to open(),
 # read(), socket() or any other I/O from a core file shows up here as an undefined symbol and
 # fails the check, naming the symbol and the object that needs it.

@@ -38,7 +38,7 @@
 #include "mrd/firmware/runtime_params.hpp"
 #include "mrd/firmware/safe_state.hpp"
 #include "mrd/firmware/sd_notify.hpp"
-#include "mrd/firmware/simulated_damper.hpp"
+#include "mrd/firmware/sim/simulated_damper.hpp"
 #include "mrd/firmware/table_file.hpp"
 #include "mrd/firmware/table_update.hpp"
 #include "mrd/params/spencer_params_file.hpp"

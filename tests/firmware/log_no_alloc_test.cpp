@@ -11,7 +11,7 @@
 #include "host/test_util.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/period_log.hpp"
-#include "mrd/firmware/simulated_damper.hpp"
+#include "mrd/firmware/sim/simulated_damper.hpp"
 #include "support/alloc_counter.hpp"  // replaces the allocator of this executable
 #include "support/demo_model.hpp"
 

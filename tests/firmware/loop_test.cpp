@@ -8,7 +8,7 @@
 #include <thread>
 
 #include "fakes.hpp"
-#include "mrd/firmware/simulated_damper.hpp"
+#include "mrd/firmware/sim/simulated_damper.hpp"
 #include "support/demo_model.hpp"
 
 namespace mrd::firmware {

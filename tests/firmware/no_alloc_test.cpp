@@ -14,7 +14,7 @@
 #include "mrd/firmware/clipped_optimal_file.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/runtime_params.hpp"
-#include "mrd/firmware/simulated_damper.hpp"
+#include "mrd/firmware/sim/simulated_damper.hpp"
 #include "reference_models.hpp"
 // GCC 12 takes the counting operator delete's free() for a mismatch with the counting new
 // once a std::string or unique_ptr release (RuntimeParams) is inlined here: a false positive.

@@ -12,7 +12,7 @@
 #include "mrd/firmware/config.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/runtime_params.hpp"
-#include "mrd/firmware/simulated_damper.hpp"
+#include "mrd/firmware/sim/simulated_damper.hpp"
 #include "support/demo_model.hpp"
 
 namespace mrd::firmware {

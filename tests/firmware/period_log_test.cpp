@@ -21,7 +21,7 @@
 #include "fakes.hpp"
 #include "host/test_util.hpp"
 #include "mrd/firmware/loop.hpp"
-#include "mrd/firmware/simulated_damper.hpp"
+#include "mrd/firmware/sim/simulated_damper.hpp"
 #include "mrd/runlog/runlog.hpp"
 #include "support/demo_model.hpp"
 

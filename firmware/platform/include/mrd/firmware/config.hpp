@@ -19,7 +19,7 @@
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/io_config.hpp"
 #include "mrd/firmware/log_config.hpp"
-#include "mrd/firmware/simulated_damper.hpp"
+#include "mrd/firmware/sim/simulated_damper.hpp"
 
 namespace mrd::firmware {
 

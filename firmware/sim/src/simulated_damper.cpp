@@ -1,4 +1,4 @@
-#include "mrd/firmware/simulated_damper.hpp"
+#include "mrd/firmware/sim/simulated_damper.hpp"
 
 namespace mrd::firmware {
 namespace {
