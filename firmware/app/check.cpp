@@ -8,12 +8,19 @@
 
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/builtin_table.hpp"
-#include "mrd/firmware/config.hpp"
-#include "mrd/firmware/safe_state.hpp"
-#include "mrd/firmware/table_update.hpp"
+#include "mrd/firmware/platform/config.hpp"
+#include "mrd/firmware/platform/safe_state.hpp"
+#include "mrd/firmware/platform/table_update.hpp"
 
 namespace mrd::firmware {
 namespace {
+
+using platform::CheckTable;
+using platform::CheckTableOrRollBack;
+using platform::FirmwareConfig;
+using platform::InstallTable;
+using platform::LoadConfigFile;
+using platform::SafeStateProof;
 
 constexpr int kOk = 0;
 constexpr int kBadInput = 2;

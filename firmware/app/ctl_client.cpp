@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/firmware/config.hpp"
-#include "mrd/firmware/params_server.hpp"
+#include "mrd/firmware/platform/config.hpp"
+#include "mrd/firmware/platform/params_server.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -98,7 +98,7 @@ void PrintSetReply(const std::string& name, const std::string& last) {
 }  // namespace
 
 int RunCtl(int argc, char** argv) {
-  std::string socket = DefaultCtlSocket();
+  std::string socket = platform::DefaultCtlSocket();
   std::vector<std::string> words;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -135,7 +135,7 @@ int RunCtl(int argc, char** argv) {
   std::string request = cmd;
   for (std::size_t i = 1; i < words.size(); ++i) request += " " + words[i];
   std::string reply, error;
-  if (!CtlRequest(socket, request, &reply, &error)) {
+  if (!platform::CtlRequest(socket, request, &reply, &error)) {
     std::fprintf(stderr,
                  "error: %s (is mrd-firmware running with [ctl] socket or "
                  "--ctl-socket there?)\n",

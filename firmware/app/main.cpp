@@ -27,20 +27,20 @@
 #include "mrd/common/input_file.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/builtin_table.hpp"
-#include "mrd/firmware/config.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/grant_clock.hpp"
 #include "mrd/firmware/io/devices.hpp"
 #include "mrd/firmware/loop.hpp"
-#include "mrd/firmware/params_server.hpp"
-#include "mrd/firmware/period_log.hpp"
-#include "mrd/firmware/runtime_params.hpp"
-#include "mrd/firmware/safe_state.hpp"
-#include "mrd/firmware/sd_notify.hpp"
+#include "mrd/firmware/platform/config.hpp"
+#include "mrd/firmware/platform/params_server.hpp"
+#include "mrd/firmware/platform/period_log.hpp"
+#include "mrd/firmware/platform/runtime_params.hpp"
+#include "mrd/firmware/platform/safe_state.hpp"
+#include "mrd/firmware/platform/sd_notify.hpp"
+#include "mrd/firmware/platform/table_file.hpp"
+#include "mrd/firmware/platform/table_update.hpp"
 #include "mrd/firmware/sim/simulated_damper.hpp"
-#include "mrd/firmware/table_file.hpp"
-#include "mrd/firmware/table_update.hpp"
 #include "mrd/params/spencer_params_file.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
@@ -50,7 +50,8 @@
 
 namespace {
 
-using namespace mrd::firmware;  // NOLINT: application file
+using namespace mrd::firmware;            // NOLINT: application file
+using namespace mrd::firmware::platform;  // NOLINT: application file
 
 constexpr int kExitOk = 0;
 constexpr int kExitFailure = 1;
@@ -688,7 +689,8 @@ int ConfigureController(const mrd::CoefficientTable& table, const char* table_na
     std::fprintf(
         stderr, "error: %s: refused with table %s: %s\n",
         config_path != nullptr ? config_path : "(default configuration)", table_name,
-        mrd::firmware::DescribeConfigureRefusal(configured, table, cfg.controller).c_str());
+        mrd::firmware::platform::DescribeConfigureRefusal(configured, table, cfg.controller)
+            .c_str());
   }
   return kExitBadInput;
 }

@@ -97,7 +97,7 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
     j["clock"] = {
         {"mode", info.clock}, {"grants", info.grants}, {"missed_grants", info.missed_grants}};
     if (info.log != nullptr) {
-      const PeriodLogStats& l = *info.log;
+      const platform::PeriodLogStats& l = *info.log;
       j["log"] = {{"path", info.log_path}, {"records_written", l.written}, {"dropped", l.dropped},
                   {"lost", l.lost},        {"blocks", l.blocks},           {"bytes", l.bytes},
                   {"files", l.files},      {"stopped", l.failed},          {"error", l.error}};

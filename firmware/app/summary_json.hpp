@@ -8,7 +8,7 @@
 
 #include "mrd/firmware/bus_device.hpp"
 #include "mrd/firmware/fieldbus_io.hpp"
-#include "mrd/firmware/period_log.hpp"
+#include "mrd/firmware/platform/period_log.hpp"
 #include "mrd/firmware/telemetry.hpp"
 
 namespace mrd::firmware {
@@ -30,11 +30,11 @@ struct SummaryInfo {
     DeviceFaults faults;  // the loop's faulted periods of this device, per reason
   };
   std::vector<Device> devices;
-  const char* clock = "monotonic";      // bus mode: "monotonic" | "grant" (lockstep)
-  std::uint64_t grants = 0;             // lockstep: time grants received
-  std::uint64_t param_changes = 0;      // runtime parameter changes applied (mrd-firmware ctl set)
-  std::uint64_t reloads = 0;            // reloads applied (SIGHUP)
-  const PeriodLogStats* log = nullptr;  // the per-period log; nullptr: none ("log": null)
+  const char* clock = "monotonic";  // bus mode: "monotonic" | "grant" (lockstep)
+  std::uint64_t grants = 0;         // lockstep: time grants received
+  std::uint64_t param_changes = 0;  // runtime parameter changes applied (mrd-firmware ctl set)
+  std::uint64_t reloads = 0;        // reloads applied (SIGHUP)
+  const platform::PeriodLogStats* log = nullptr;  // the per-period log; nullptr: none ("log": null)
   const char* log_path = "";
   std::uint64_t missed_grants = 0;  // lockstep: 1 when no grant came within grant_timeout_ms
                                     // (stopped)  // bus mode: per field device (empty in a dry run)

@@ -14,7 +14,7 @@
 #include <thread>
 
 #include "mrd/common/input_file.hpp"
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -61,9 +61,9 @@ int RunWaitForBus(int argc, char** argv) {
       return kBadInput;
     }
   }
-  FirmwareConfig config;
+  platform::FirmwareConfig config;
   std::string error;
-  if (!LoadConfigFile(argv[2], &config, &error)) {
+  if (!platform::LoadConfigFile(argv[2], &config, &error)) {
     std::fprintf(stderr, "error: %s\n", Printable(error, 4 * kMaxEchoChars).c_str());
     return kBadInput;
   }

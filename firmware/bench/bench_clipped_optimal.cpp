@@ -10,12 +10,13 @@
 
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/clipped_optimal.hpp"
-#include "mrd/firmware/clipped_optimal_file.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "mrd/firmware/platform/clipped_optimal_file.hpp"
 
 namespace {
 
-using namespace mrd::firmware;  // NOLINT: benchmark file
+using namespace mrd::firmware;            // NOLINT: benchmark file
+using namespace mrd::firmware::platform;  // NOLINT
 
 void BM_ClippedOptimalUpdate(benchmark::State& state) {
   ClippedOptimalGains g;

@@ -18,7 +18,7 @@
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/inverter.hpp"
 #include "mrd/firmware/model_runtime.hpp"
-#include "mrd/firmware/table_file.hpp"
+#include "mrd/firmware/platform/table_file.hpp"
 #include "mrd/sim/quarter_car.hpp"
 
 namespace {
@@ -113,7 +113,7 @@ BENCHMARK(BM_QuarterCarStep);
 int main(int argc, char** argv) {
   static mrd::CoefficientTable file_table;
   if (const char* path = std::getenv("MRD_BENCH_TABLE")) {
-    const auto t = LoadTableFile(path);
+    const auto t = platform::LoadTableFile(path);
     if (!t.ok()) {
       std::fprintf(stderr, "error: %s: %s\n", path, mrd::ErrorName(t.error()));
       return 2;

@@ -4,11 +4,12 @@
 #include <benchmark/benchmark.h>
 
 #include "mrd/firmware/builtin_table.hpp"
-#include "mrd/firmware/runtime_params.hpp"
+#include "mrd/firmware/platform/runtime_params.hpp"
 
 namespace {
 
-using namespace mrd::firmware;  // NOLINT: benchmark file
+using namespace mrd::firmware;            // NOLINT: benchmark file
+using namespace mrd::firmware::platform;  // NOLINT
 
 void BM_ParamsHookIdle(benchmark::State& state) {
   FirmwareConfig config;

@@ -8,11 +8,12 @@
 #include <chrono>
 #include <thread>
 
-#include "mrd/firmware/period_log.hpp"
+#include "mrd/firmware/platform/period_log.hpp"
 
 namespace {
 
-using namespace mrd::firmware;  // NOLINT: benchmark file
+using namespace mrd::firmware;            // NOLINT: benchmark file
+using namespace mrd::firmware::platform;  // NOLINT
 
 void BM_PeriodLogPush(benchmark::State& state) {
   LogConfig config;

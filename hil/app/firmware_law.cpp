@@ -5,7 +5,7 @@
 
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/controller.hpp"
-#include "mrd/firmware/runtime_params.hpp"
+#include "mrd/firmware/platform/runtime_params.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -57,7 +57,7 @@ bool MakeFirmwareLaw(const std::string& spec, double skyhook_gain, double e_max,
   control += "e_max = " + std::to_string(e_max) + "\n";
   const std::string text = "[control]\n" + control + other + sections;
   std::string why;
-  if (!firmware::ParseConfig(text, "", &out->config, &why)) {
+  if (!firmware::platform::ParseConfig(text, "", &out->config, &why)) {
     // "SOURCE:LINE: reason" of the generated text: the reason alone.
     const auto at = why.find(": ");
     return *error = where + (at == std::string::npos ? why : why.substr(at + 2)), false;
@@ -77,7 +77,7 @@ bool CheckFirmwareLaw(const FirmwareLaw& law, const CoefficientTable& table, std
   const firmware::ConfigureStatus st = controller.Configure(table, law.config.controller);
   if (st.ok()) return true;
   *error = "--laws '" + law.spec + "': the firmware refuses it with this table: " +
-           firmware::DescribeConfigureRefusal(st, table, law.config.controller);
+           firmware::platform::DescribeConfigureRefusal(st, table, law.config.controller);
   return false;
 }
 

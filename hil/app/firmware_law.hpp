@@ -10,15 +10,15 @@
 #include <cstdint>
 #include <string>
 
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "mrd/hil/passive_baseline.hpp"
 
 namespace mrd::hil {
 
 struct FirmwareLaw {
-  std::string spec;                 // as given: NAME[:KEY=VALUE...]
-  std::string name;                 // NAME
-  firmware::FirmwareConfig config;  // as the firmware parsed it
+  std::string spec;                           // as given: NAME[:KEY=VALUE...]
+  std::string name;                           // NAME
+  firmware::platform::FirmwareConfig config;  // as the firmware parsed it
 };
 
 // spec: NAME or NAME:KEY=VALUE[:KEY=VALUE...] (keys of the firmware's [control] section, e.g.

@@ -8,7 +8,7 @@
 
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/builtin_table.hpp"
-#include "mrd/firmware/table_file.hpp"
+#include "mrd/firmware/platform/table_file.hpp"
 #include "mrd/hil/model_plant.hpp"
 
 namespace mrd::hil {
@@ -24,7 +24,7 @@ bool LoadRunTable(const std::string& path, CoefficientTable* table) {
     return true;
   }
   std::string reason;
-  const auto loaded = firmware::LoadTableFile(path.c_str(), &reason);
+  const auto loaded = firmware::platform::LoadTableFile(path.c_str(), &reason);
   if (loaded.ok()) {
     *table = loaded.value();
     return true;

@@ -11,7 +11,7 @@
 namespace mrd::hil {
 
 // true for an empty path (the firmware's built-in table) or a table the firmware accepts;
-// false after printing "error: FILE: reason" (firmware::LoadTableFile's words) to stderr.
+// false after printing "error: FILE: reason" (firmware::platform::LoadTableFile's words) to stderr.
 bool TableIsUsable(const std::string& path);
 
 // The table a run uses: the file at `path`, or the firmware's compiled-in table for "". false

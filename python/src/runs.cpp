@@ -16,7 +16,7 @@
 
 #include "bindings.hpp"
 #include "mrd/common/input_file.hpp"
-#include "mrd/firmware/table_file.hpp"
+#include "mrd/firmware/platform/table_file.hpp"
 #include "mrd/hil/passive_baseline.hpp"
 #include "mrd/hil/run.hpp"
 #include "mrd/hil/scenario.hpp"
@@ -85,7 +85,7 @@ py::object RunScenario(const py::object& scenario, const std::vector<std::string
   const std::string table_path = o.table.empty() ? s.table_file : o.table;
   if (!table_path.empty()) {
     std::string reason;
-    if (!firmware::LoadTableFile(table_path.c_str(), &reason).ok()) {
+    if (!firmware::platform::LoadTableFile(table_path.c_str(), &reason).ok()) {
       Rethrow(host::InputError("", 0, Printable(table_path) + ": " + reason), {table_path});
     }
   }

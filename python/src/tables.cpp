@@ -14,11 +14,11 @@
 #include "bindings.hpp"
 #include "mrd/common/input_file.hpp"
 #include "mrd/common/model_check.hpp"
-#include "mrd/firmware/config.hpp"
 #include "mrd/firmware/inverter.hpp"
 #include "mrd/firmware/model_runtime.hpp"
-#include "mrd/firmware/table_file.hpp"
-#include "mrd/firmware/table_update.hpp"
+#include "mrd/firmware/platform/config.hpp"
+#include "mrd/firmware/platform/table_file.hpp"
+#include "mrd/firmware/platform/table_update.hpp"
 #include "mrd/host/table_export.hpp"
 
 namespace mrd::python {
@@ -42,10 +42,10 @@ struct RunSettings {
   Rethrow(host::InputError("", 0, text), {path});
 }
 
-firmware::FirmwareConfig LoadConfig(const std::string& path) {
-  firmware::FirmwareConfig config;
+firmware::platform::FirmwareConfig LoadConfig(const std::string& path) {
+  firmware::platform::FirmwareConfig config;
   std::string error;
-  if (!firmware::LoadConfigFile(path, &config, &error)) Refuse(error, path);
+  if (!firmware::platform::LoadConfigFile(path, &config, &error)) Refuse(error, path);
   return config;
 }
 
@@ -56,7 +56,7 @@ RunSettings SettingsOf(const Table& t, const std::optional<std::string>& config,
   firmware::ControllerConfig c;
   std::optional<double> config_e_max;
   if (config) {
-    const firmware::FirmwareConfig fc = LoadConfig(*config);
+    const firmware::platform::FirmwareConfig fc = LoadConfig(*config);
     c = fc.controller;
     config_e_max = fc.e_max;
   }
@@ -321,7 +321,7 @@ void RegisterTables(py::module_& m) {
       [](const py::object& path) {
         const std::string p = PathOf(path);
         std::string reason;
-        auto loaded = firmware::LoadTableFile(p.c_str(), &reason);
+        auto loaded = firmware::platform::LoadTableFile(p.c_str(), &reason);
         if (!loaded.ok()) Refuse(Printable(p) + ": " + reason, p);  // as mrd-hil words it
         return Table{loaded.value(), p};
       },
@@ -335,7 +335,8 @@ void RegisterTables(py::module_& m) {
             DecodeTable(std::span<const std::uint8_t>(
                             reinterpret_cast<const std::uint8_t*>(b.data()), b.size()),
                         &why);
-        if (!decoded.ok()) throw BadInput("table image: " + firmware::DescribeTableRefusal(why));
+        if (!decoded.ok())
+          throw BadInput("table image: " + firmware::platform::DescribeTableRefusal(why));
         return Table{decoded.value(), "bytes"};
       },
       py::arg("image"), "Decodes a table image (bytes)");
@@ -343,9 +344,9 @@ void RegisterTables(py::module_& m) {
       "check_table",
       [](const py::object& path, const py::object& config) {
         const std::string p = PathOf(path);
-        firmware::FirmwareConfig fc;
+        firmware::platform::FirmwareConfig fc;
         if (!config.is_none()) fc = LoadConfig(PathOf(config));
-        const std::string why = firmware::CheckTable(p.c_str(), fc);
+        const std::string why = firmware::platform::CheckTable(p.c_str(), fc);
         if (!why.empty()) Refuse(Printable(why, 4 * kMaxEchoChars), p);
       },
       py::arg("path"), py::arg("config") = py::none(),

@@ -8,31 +8,31 @@
 #include <iterator>
 #include <string>
 
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 
 namespace mrd::firmware {
 namespace {
 
-bool Parse(const std::string& text, FirmwareConfig* c, std::string* error) {
-  return ParseConfig(text, "fw.toml", c, error);
+bool Parse(const std::string& text, platform::FirmwareConfig* c, std::string* error) {
+  return platform::ParseConfig(text, "fw.toml", c, error);
 }
 
 // The error for text, or "" when it parses.
 std::string ErrorOf(const std::string& text) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   return Parse(text, &c, &error) ? "" : error;
 }
 
 TEST(IoConfigTest, NoBusSectionMeansDryRun) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   ASSERT_TRUE(Parse("[control]\nlaw = \"force\"\n", &c, &error)) << error;
   EXPECT_FALSE(c.io.any());
 }
 
 TEST(IoConfigTest, ReadsCanRouting) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   ASSERT_TRUE(Parse(R"([can]
 local_bus = "/tmp/bus.sock"
@@ -52,7 +52,7 @@ status_period_ms = 50
 }
 
 TEST(IoConfigTest, ReadsModbusRtuSettings) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   ASSERT_TRUE(Parse(R"([modbus]
 mode = "rtu"
@@ -79,7 +79,7 @@ outputs = ["command"]
 }
 
 TEST(IoConfigTest, MixedBusesServeDifferentSignals) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   ASSERT_TRUE(Parse(R"([velocity]
 source = "displacement"
@@ -200,9 +200,9 @@ TEST(IoConfigTest, ShippedExamplesParse) {
   const std::filesystem::path dir = std::filesystem::path(MRD_SOURCE_DIR) / "firmware/examples";
   int n = 0;
   for (const auto& entry : std::filesystem::directory_iterator(dir)) {
-    FirmwareConfig c;
+    platform::FirmwareConfig c;
     std::string error;
-    EXPECT_TRUE(LoadConfigFile(entry.path().string(), &c, &error)) << error;
+    EXPECT_TRUE(platform::LoadConfigFile(entry.path().string(), &c, &error)) << error;
     EXPECT_TRUE(c.io.any()) << entry.path();
     ++n;
   }
@@ -210,7 +210,7 @@ TEST(IoConfigTest, ShippedExamplesParse) {
 }
 
 TEST(IoConfigTest, CanFaultResetIntervalAndItsCommandFrames) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   ASSERT_TRUE(
       Parse("[can]\nlocal_bus = \"/tmp/b\"\ninputs = [\"velocity\", \"demand\"]\noutputs = "
@@ -249,11 +249,12 @@ TEST(IoConfigTest, CanFaultResetIntervalAndItsCommandFrames) {
   const std::string head =
       "[can]\nlocal_bus = \"/tmp/b\"\nprofile = \"p.toml\"\n"
       "inputs = [\"velocity\", \"demand\"]\n";
-  FirmwareConfig ok;
+  platform::FirmwareConfig ok;
   // The command on Modbus (its built-in map), the heartbeat on CAN.
-  EXPECT_FALSE(ParseConfig(head + "outputs = [\"heartbeat\"]\n[modbus]\nhost = \"127.0.0.1\"\n"
-                                  "outputs = [\"command\"]\n",
-                           (dir / "fw.toml").string(), &ok, &error));
+  EXPECT_FALSE(
+      platform::ParseConfig(head + "outputs = [\"heartbeat\"]\n[modbus]\nhost = \"127.0.0.1\"\n"
+                                   "outputs = [\"command\"]\n",
+                            (dir / "fw.toml").string(), &ok, &error));
   EXPECT_EQ(error.rfind((dir / "fw.toml").string() + ":3: ", 0), 0U) << error;
   EXPECT_NE(error.find("route 'command' or 'enable'"), std::string::npos) << error;
   std::filesystem::remove_all(dir);

@@ -9,9 +9,9 @@
 #include <limits>
 #include <string>
 
-#include "mrd/firmware/config.hpp"
 #include "mrd/firmware/control_law.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "support/demo_model.hpp"
 
 namespace mrd::firmware {
@@ -187,12 +187,12 @@ TEST(ChassisLawTest, InvalidParametersAreRefused) {
 
 // [control] in a configuration file: the keys, their ranges, and the routing refusals.
 TEST(ChassisLawConfigTest, KeysParseAndOutOfRangeValuesAreRefused) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   ASSERT_TRUE(
-      ParseConfig("[control]\nlaw = \"hybrid\"\nhybrid_gain = 35\nhybrid_alpha = 0.3\n"
-                  "groundhook_gain = 12\nsh_add_alpha = 6.5\n",
-                  "fw.toml", &c, &error))
+      platform::ParseConfig("[control]\nlaw = \"hybrid\"\nhybrid_gain = 35\nhybrid_alpha = 0.3\n"
+                            "groundhook_gain = 12\nsh_add_alpha = 6.5\n",
+                            "fw.toml", &c, &error))
       << error;
   EXPECT_EQ(c.controller.law.mode, ControlMode::kHybrid);
   EXPECT_EQ(c.controller.law.hybrid_gain, 35.0);
@@ -201,8 +201,9 @@ TEST(ChassisLawConfigTest, KeysParseAndOutOfRangeValuesAreRefused) {
   EXPECT_EQ(c.controller.law.sh_add_alpha, 6.5);
   for (const char* bad : {"hybrid_alpha = 1.2", "hybrid_alpha = -0.5", "groundhook_gain = -3",
                           "sh_add_alpha = 0", "hybrid_gain = nan"}) {
-    FirmwareConfig d;
-    EXPECT_FALSE(ParseConfig(std::string("[control]\n") + bad + "\n", "fw.toml", &d, &error))
+    platform::FirmwareConfig d;
+    EXPECT_FALSE(
+        platform::ParseConfig(std::string("[control]\n") + bad + "\n", "fw.toml", &d, &error))
         << bad;
     EXPECT_EQ(error.rfind("fw.toml:2:", 0), 0U) << bad << ": " << error;
   }
@@ -229,51 +230,52 @@ TEST(ChassisLawConfigTest, LawsWhoseInputsNoBusServesAreRefused) {
       {"sh-add", "\"velocity\", \"body_velocity\"",
        "no bus serves input 'body_acceleration' (law \"sh-add\")"}};
   for (const Case& k : cases) {
-    FirmwareConfig c;
+    platform::FirmwareConfig c;
     std::string error;
-    EXPECT_FALSE(ParseConfig(std::string("[control]\nlaw = \"") + k.law + "\"\n[can]\ninputs = [" +
-                                 k.inputs + "]\noutputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
-                             "fw.toml", &c, &error))
+    EXPECT_FALSE(platform::ParseConfig(std::string("[control]\nlaw = \"") + k.law +
+                                           "\"\n[can]\ninputs = [" + k.inputs +
+                                           "]\noutputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
+                                       "fw.toml", &c, &error))
         << k.law;
     EXPECT_NE(error.find(k.message), std::string::npos) << k.law << ": " << error;
   }
   // All routed: accepted (the built-in mrd-native profile maps both chassis signals).
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   EXPECT_TRUE(
-      ParseConfig("[control]\nlaw = \"hybrid\"\n[can]\ninputs = [\"velocity\", "
-                  "\"body_velocity\", \"wheel_velocity\", \"body_acceleration\"]\n"
-                  "outputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
-                  "fw.toml", &c, &error))
+      platform::ParseConfig("[control]\nlaw = \"hybrid\"\n[can]\ninputs = [\"velocity\", "
+                            "\"body_velocity\", \"wheel_velocity\", \"body_acceleration\"]\n"
+                            "outputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
+                            "fw.toml", &c, &error))
       << error;
 }
 
 TEST(ChassisLawConfigTest, TheBuiltInModbusMapServesNoChassisSignal) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   EXPECT_FALSE(
-      ParseConfig("[control]\nlaw = \"add\"\n[modbus]\nmode = \"tcp\"\nhost = \"h\"\n"
-                  "inputs = [\"velocity\", \"body_acceleration\"]\n"
-                  "outputs = [\"command\"]\n",
-                  "fw.toml", &c, &error));
+      platform::ParseConfig("[control]\nlaw = \"add\"\n[modbus]\nmode = \"tcp\"\nhost = \"h\"\n"
+                            "inputs = [\"velocity\", \"body_acceleration\"]\n"
+                            "outputs = [\"command\"]\n",
+                            "fw.toml", &c, &error));
   EXPECT_NE(error.find("input 'body_acceleration' needs a Modbus device profile"),
             std::string::npos)
       << error;
 }
 
 TEST(ChassisLawConfigTest, CtlSetSwitchesLawsAndTunesTheirParameters) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error, why;
   ASSERT_TRUE(
-      ParseConfig("[can]\ninputs = [\"velocity\", \"demand\", \"wheel_velocity\"]\n"
-                  "outputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
-                  "fw.toml", &c, &error))
+      platform::ParseConfig("[can]\ninputs = [\"velocity\", \"demand\", \"wheel_velocity\"]\n"
+                            "outputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
+                            "fw.toml", &c, &error))
       << error;
-  EXPECT_TRUE(SetParam(&c, "control.law", "groundhook", &why)) << why;
-  EXPECT_TRUE(SetParam(&c, "control.groundhook_gain", "25", &why)) << why;
+  EXPECT_TRUE(platform::SetParam(&c, "control.law", "groundhook", &why)) << why;
+  EXPECT_TRUE(platform::SetParam(&c, "control.groundhook_gain", "25", &why)) << why;
   EXPECT_EQ(c.controller.law.groundhook_gain, 25.0);
-  EXPECT_FALSE(SetParam(&c, "control.hybrid_alpha", "2", &why));
-  EXPECT_FALSE(SetParam(&c, "control.law", "add", &why));
+  EXPECT_FALSE(platform::SetParam(&c, "control.hybrid_alpha", "2", &why));
+  EXPECT_FALSE(platform::SetParam(&c, "control.law", "add", &why));
   EXPECT_NE(why.find("no bus serves input 'body_acceleration'"), std::string::npos) << why;
   EXPECT_EQ(c.controller.law.mode, ControlMode::kGroundhook);
 }

@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "mrd/firmware/clipped_optimal_file.hpp"
-#include "mrd/firmware/config.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "mrd/firmware/platform/clipped_optimal_file.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "support/demo_model.hpp"
 #include "support/process.hpp"
 
@@ -60,22 +60,22 @@ std::string WithLine(const std::string& key, const std::string& line) {
 TEST(ClippedGainsFileTest, TheDesignsFileLoadsAndItsObserverIsStable) {
   ClippedOptimalGains g;
   std::string error;
-  ASSERT_TRUE(LoadClippedOptimalGains(kGainsFile, &g, &error)) << error;
+  ASSERT_TRUE(platform::LoadClippedOptimalGains(kGainsFile, &g, &error)) << error;
   EXPECT_TRUE(g.IsValid(nullptr));
   EXPECT_EQ(g.v_max, 2.25);
   EXPECT_EQ(g.v_min, 0.0);
   EXPECT_NE(g.k[0], 0.0);
   EXPECT_NE(g.l[0], 0.0);
-  EXPECT_TRUE(ClippedObserverStable(g));
+  EXPECT_TRUE(platform::ClippedObserverStable(g));
   // Without the observer gain the error dynamics are the frame's own (lightly damped: stable
   // too); a growing ad is not.
   ClippedOptimalGains grow = g;
   for (double& l : grow.l) l = 0.0;
   for (int i = 0; i < 6; ++i) grow.ad[i * 6 + i] *= 1.001;
-  EXPECT_FALSE(ClippedObserverStable(grow));
+  EXPECT_FALSE(platform::ClippedObserverStable(grow));
   ClippedOptimalGains identity;
   for (int i = 0; i < 6; ++i) identity.ad[i * 6 + i] = 1.0;  // rho = 1: not asymptotically
-  EXPECT_FALSE(ClippedObserverStable(identity));
+  EXPECT_FALSE(platform::ClippedObserverStable(identity));
 }
 
 TEST(ClippedGainsFileTest, EveryBadFieldIsRefusedWithItsLine) {
@@ -118,16 +118,16 @@ TEST(ClippedGainsFileTest, EveryBadFieldIsRefusedWithItsLine) {
     SCOPED_TRACE(k.text.substr(0, 200));
     ClippedOptimalGains g;
     std::string error;
-    EXPECT_FALSE(ParseClippedOptimalGains(k.text, "g.toml", &g, &error));
+    EXPECT_FALSE(platform::ParseClippedOptimalGains(k.text, "g.toml", &g, &error));
     EXPECT_EQ(error.rfind(k.where, 0), 0U) << error;
     EXPECT_NE(error.find(k.reason), std::string::npos) << error;
   }
   // A missing file and a directory: refused with the path.
   ClippedOptimalGains g;
   std::string error;
-  EXPECT_FALSE(LoadClippedOptimalGains(dir.path + "/none.toml", &g, &error));
+  EXPECT_FALSE(platform::LoadClippedOptimalGains(dir.path + "/none.toml", &g, &error));
   EXPECT_NE(error.find("none.toml"), std::string::npos) << error;
-  EXPECT_FALSE(LoadClippedOptimalGains(dir.path, &g, &error));
+  EXPECT_FALSE(platform::LoadClippedOptimalGains(dir.path, &g, &error));
   EXPECT_NE(error.find("directory"), std::string::npos) << error;
 }
 
@@ -143,30 +143,32 @@ std::string CanConfig(const std::string& inputs, const std::string& gains = kGai
 }
 
 TEST(ClippedConfigTest, TheLawWithItsGainsAndInputsIsAccepted) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
-  ASSERT_TRUE(ParseConfig(CanConfig(kCanInputs), "fw.toml", &c, &error)) << error;
+  ASSERT_TRUE(platform::ParseConfig(CanConfig(kCanInputs), "fw.toml", &c, &error)) << error;
   EXPECT_EQ(c.controller.law.mode, ControlMode::kClippedOptimal);
   EXPECT_EQ(c.controller.law.clipped_command, ClippedCommand::kClipped);
   ASSERT_TRUE(c.controller.clipped_gains_loaded);
   ClippedOptimalGains g;
-  ASSERT_TRUE(LoadClippedOptimalGains(kGainsFile, &g, &error));
+  ASSERT_TRUE(platform::LoadClippedOptimalGains(kGainsFile, &g, &error));
   for (int i = 0; i < 36; ++i) EXPECT_EQ(c.controller.clipped_gains.ad[i], g.ad[i]);
   for (int i = 0; i < 6; ++i) EXPECT_EQ(c.controller.clipped_gains.k[i], g.k[i]);
   Controller controller;
   EXPECT_EQ(controller.Configure(test::DemoDamperTable(), c.controller), Error::kOk);
   // The inverse command; the dry run (no bus) needs only the gains.
-  FirmwareConfig d;
-  ASSERT_TRUE(ParseConfig("[control]\nlaw = \"clipped-optimal\"\n[clipped_optimal]\ngains = \"" +
-                              kGainsFile + "\"\ncommand = \"inverse\"\n",
-                          "fw.toml", &d, &error))
+  platform::FirmwareConfig d;
+  ASSERT_TRUE(
+      platform::ParseConfig("[control]\nlaw = \"clipped-optimal\"\n[clipped_optimal]\ngains = \"" +
+                                kGainsFile + "\"\ncommand = \"inverse\"\n",
+                            "fw.toml", &d, &error))
       << error;
   EXPECT_EQ(d.controller.law.clipped_command, ClippedCommand::kInverse);
   // A relative path is relative to the config file.
   TempDir dir;
   dir.Write("g.toml", Read(kGainsFile));
-  FirmwareConfig e;
-  ASSERT_TRUE(ParseConfig(CanConfig(kCanInputs, "g.toml"), dir.path + "/fw.toml", &e, &error))
+  platform::FirmwareConfig e;
+  ASSERT_TRUE(
+      platform::ParseConfig(CanConfig(kCanInputs, "g.toml"), dir.path + "/fw.toml", &e, &error))
       << error;
   EXPECT_EQ(e.controller.clipped_gains.l[3], g.l[3]);
 }
@@ -197,35 +199,36 @@ TEST(ClippedConfigTest, RefusalsNameTheFileLineAndReason) {
        "[\"velocity\", \"demand\", \"floor_acceleration_1\"]\noutputs = [\"command\"]\n",
        "input 'floor_acceleration_1' needs a Modbus device profile"}};
   for (const Case& k : cases) {
-    FirmwareConfig c;
+    platform::FirmwareConfig c;
     std::string error;
-    EXPECT_FALSE(ParseConfig(k.text, "fw.toml", &c, &error)) << k.text;
+    EXPECT_FALSE(platform::ParseConfig(k.text, "fw.toml", &c, &error)) << k.text;
     EXPECT_NE(error.find(k.message), std::string::npos) << k.text << "\n" << error;
   }
   // The gains file's own line follows.
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
-  EXPECT_FALSE(ParseConfig(CanConfig(kCanInputs, bad), "fw.toml", &c, &error));
+  EXPECT_FALSE(platform::ParseConfig(CanConfig(kCanInputs, bad), "fw.toml", &c, &error));
   EXPECT_NE(error.find("bad.toml:8: 'k' must be a list of 6 numbers (has 2)"), std::string::npos)
       << error;
 }
 
 TEST(ClippedConfigTest, CtlSetSwitchesToTheLawOnlyWithGainsAndRoutedInputs) {
   std::string error, why;
-  FirmwareConfig none;
-  ASSERT_TRUE(ParseConfig("[control]\nlaw = \"constant\"\n", "fw.toml", &none, &error)) << error;
-  EXPECT_FALSE(SetParam(&none, "control.law", "clipped-optimal", &why));
-  EXPECT_NE(why.find("needs [clipped_optimal] gains"), std::string::npos) << why;
-  FirmwareConfig c;
-  ASSERT_TRUE(ParseConfig("[control]\nlaw = \"constant\"\n[clipped_optimal]\ngains = \"" +
-                              kGainsFile + "\"\n[can]\n" + kCanInputs +
-                              "outputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
-                          "fw.toml", &c, &error))
+  platform::FirmwareConfig none;
+  ASSERT_TRUE(platform::ParseConfig("[control]\nlaw = \"constant\"\n", "fw.toml", &none, &error))
       << error;
-  EXPECT_TRUE(SetParam(&c, "control.law", "clipped-optimal", &why)) << why;
-  EXPECT_TRUE(SetParam(&c, "clipped_optimal.command", "inverse", &why)) << why;
+  EXPECT_FALSE(platform::SetParam(&none, "control.law", "clipped-optimal", &why));
+  EXPECT_NE(why.find("needs [clipped_optimal] gains"), std::string::npos) << why;
+  platform::FirmwareConfig c;
+  ASSERT_TRUE(platform::ParseConfig("[control]\nlaw = \"constant\"\n[clipped_optimal]\ngains = \"" +
+                                        kGainsFile + "\"\n[can]\n" + kCanInputs +
+                                        "outputs = [\"command\"]\nlocal_bus = \"/tmp/x\"\n",
+                                    "fw.toml", &c, &error))
+      << error;
+  EXPECT_TRUE(platform::SetParam(&c, "control.law", "clipped-optimal", &why)) << why;
+  EXPECT_TRUE(platform::SetParam(&c, "clipped_optimal.command", "inverse", &why)) << why;
   EXPECT_EQ(c.controller.law.clipped_command, ClippedCommand::kInverse);
-  EXPECT_FALSE(SetParam(&c, "clipped_optimal.gains", "other.toml", &why));
+  EXPECT_FALSE(platform::SetParam(&c, "clipped_optimal.gains", "other.toml", &why));
   EXPECT_NE(why.find("reload"), std::string::npos) << why;
 }
 

@@ -1,4 +1,4 @@
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 
 #include <gtest/gtest.h>
 
@@ -6,18 +6,18 @@ namespace mrd::firmware {
 namespace {
 
 TEST(ConfigTest, DefaultsWhenEmpty) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
-  ASSERT_TRUE(ParseConfig("", "fw.toml", &c, &error)) << error;
+  ASSERT_TRUE(platform::ParseConfig("", "fw.toml", &c, &error)) << error;
   EXPECT_EQ(c.period_ns, 1'000'000);
   EXPECT_FALSE(c.e_max.has_value());
   EXPECT_EQ(c.controller.law.mode, ControlMode::kForceTracking);
 }
 
 TEST(ConfigTest, ReadsEverySection) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
-  ASSERT_TRUE(ParseConfig(R"(
+  ASSERT_TRUE(platform::ParseConfig(R"(
 [loop]
 period_us = 2000
 priority = 0
@@ -40,7 +40,7 @@ displacement_limit = 4.5
 amplitude_cm = 0.5
 substeps = 50
 )",
-                          "fw.toml", &c, &error))
+                                    "fw.toml", &c, &error))
       << error;
   EXPECT_EQ(c.period_ns, 2'000'000);
   EXPECT_EQ(c.priority, 0);
@@ -61,19 +61,19 @@ substeps = 50
 }
 
 TEST(ConfigTest, ErrorsNameSourceLineAndReason) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
-  EXPECT_FALSE(ParseConfig("[control]\nlaw = \"pid\"\n", "fw.toml", &c, &error));
+  EXPECT_FALSE(platform::ParseConfig("[control]\nlaw = \"pid\"\n", "fw.toml", &c, &error));
   EXPECT_EQ(error,
             "fw.toml:2: 'law' must be one of force | constant | skyhook-on-off | skyhook | "
             "open-loop | groundhook | groundhook-on-off | hybrid | add | sh-add | clipped-optimal");
-  EXPECT_FALSE(ParseConfig("[loop]\nperiod_us = \"fast\"\n", "fw.toml", &c, &error));
+  EXPECT_FALSE(platform::ParseConfig("[loop]\nperiod_us = \"fast\"\n", "fw.toml", &c, &error));
   EXPECT_EQ(error, "fw.toml:2: 'period_us' must be a number");
-  EXPECT_FALSE(ParseConfig("[nope]\n", "fw.toml", &c, &error));
+  EXPECT_FALSE(platform::ParseConfig("[nope]\n", "fw.toml", &c, &error));
   EXPECT_EQ(error, "fw.toml:1: unknown section 'nope'");
-  EXPECT_FALSE(ParseConfig("[loop\n", "fw.toml", &c, &error));
+  EXPECT_FALSE(platform::ParseConfig("[loop\n", "fw.toml", &c, &error));
   EXPECT_EQ(error.rfind("fw.toml:1: ", 0), 0U) << error;
-  EXPECT_FALSE(ParseConfig("[safety]\nrecover_periods = 0\n", "fw.toml", &c, &error));
+  EXPECT_FALSE(platform::ParseConfig("[safety]\nrecover_periods = 0\n", "fw.toml", &c, &error));
   EXPECT_NE(error.find("must be in [1,"), std::string::npos) << error;
 }
 

@@ -10,7 +10,7 @@
 
 #include "host/test_util.hpp"
 #include "mrd/firmware/loop.hpp"
-#include "mrd/firmware/period_log.hpp"
+#include "mrd/firmware/platform/period_log.hpp"
 #include "mrd/firmware/sim/simulated_damper.hpp"
 #include "support/alloc_counter.hpp"  // replaces the allocator of this executable
 #include "support/demo_model.hpp"
@@ -22,7 +22,7 @@ constexpr std::int64_t kPeriod = 1'000'000;
 
 TEST(LogNoAllocationTest, LockstepRunWithTheLogOnAllocatesNothing) {
   test::TempDir dir;
-  LogConfig config;
+  platform::LogConfig config;
   config.path = dir.File("noalloc.mrdlog");
   config.block_records = 64;
   LockstepClock clock;
@@ -31,7 +31,7 @@ TEST(LogNoAllocationTest, LockstepRunWithTheLogOnAllocatesNothing) {
   ASSERT_EQ(controller.Configure(test::DemoDamperTable(), {}), Error::kOk);
   Telemetry telemetry;
   Loop loop(clock, plant, plant, controller, telemetry, kPeriod);
-  PeriodLog log;
+  platform::PeriodLog log;
   log.Start(config, kPeriod, "no-alloc test");
   loop.SetObserver(&log);
   std::atomic<bool> stop{false};

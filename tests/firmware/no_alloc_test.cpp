@@ -11,13 +11,14 @@
 
 #include "fakes.hpp"
 #include "mrd/firmware/clipped_optimal.hpp"
-#include "mrd/firmware/clipped_optimal_file.hpp"
 #include "mrd/firmware/loop.hpp"
-#include "mrd/firmware/runtime_params.hpp"
+#include "mrd/firmware/platform/clipped_optimal_file.hpp"
+#include "mrd/firmware/platform/runtime_params.hpp"
 #include "mrd/firmware/sim/simulated_damper.hpp"
 #include "reference_models.hpp"
 // GCC 12 takes the counting operator delete's free() for a mismatch with the counting new
-// once a std::string or unique_ptr release (RuntimeParams) is inlined here: a false positive.
+// once a std::string or unique_ptr release (platform::RuntimeParams) is inlined here: a false
+// positive.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
 #include "support/alloc_counter.hpp"  // replaces the allocator of this executable
@@ -144,19 +145,19 @@ TEST(NoAllocationTest, LockstepRunAllocatesNothing) {
   EXPECT_EQ(loop.stats().ticks, 3000U);
 }
 
-// A parameter change and a reload applied through the period hook (RuntimeParams): checked
-// and prepared before the guard, applied by the loop inside it.
+// A parameter change and a reload applied through the period hook (platform::RuntimeParams):
+// checked and prepared before the guard, applied by the loop inside it.
 TEST(NoAllocationTest, ParameterChangeAndReloadAtAPeriodBoundaryAllocateNothing) {
   LockstepClock clock;
   SimulatedDamper plant(SpencerParams::Paper(), SimulationConfig{}, clock, kPeriod);
-  FirmwareConfig config;
+  platform::FirmwareConfig config;
   config.controller.law.mode = ControlMode::kSkyhookContinuous;
   config.controller.e_max = test::DemoDamperTable().e_max;
   Controller controller;
   ASSERT_EQ(controller.Configure(test::DemoDamperTable(), config.controller), Error::kOk);
   Telemetry telemetry;
   Loop loop(clock, plant, plant, controller, telemetry, kPeriod);
-  RuntimeParams params(test::DemoDamperTable(), config);
+  platform::RuntimeParams params(test::DemoDamperTable(), config);
   loop.SetHook(&params);
   const auto ticks = [&](int n) {
     for (int k = 0; k < n; ++k) {
@@ -165,27 +166,28 @@ TEST(NoAllocationTest, ParameterChangeAndReloadAtAPeriodBoundaryAllocateNothing)
     }
   };
   ticks(100);
-  ASSERT_EQ(params.PostSet("control.skyhook_gain", "40").status, RuntimeParams::Status::kOk);
+  ASSERT_EQ(params.PostSet("control.skyhook_gain", "40").status,
+            platform::RuntimeParams::Status::kOk);
   {
     AllocationGuard guard;
     ticks(100);
     EXPECT_EQ(guard.count(), 0U);
   }
-  RuntimeParams::Result r = params.Finish(1000);
-  ASSERT_EQ(r.status, RuntimeParams::Status::kOk) << r.message;
+  platform::RuntimeParams::Result r = params.Finish(1000);
+  ASSERT_EQ(r.status, platform::RuntimeParams::Status::kOk) << r.message;
   EXPECT_EQ(r.period, 100U);
   EXPECT_EQ(loop.controller().config().law.skyhook_gain, 40.0);
-  FirmwareConfig next = params.config();
+  platform::FirmwareConfig next = params.config();
   next.controller.law.mode = ControlMode::kForceTracking;
   ASSERT_EQ(params.PostReload(next, test::DemoDamperTable(), nullptr).status,
-            RuntimeParams::Status::kOk);
+            platform::RuntimeParams::Status::kOk);
   {
     AllocationGuard guard;
     ticks(100);
     EXPECT_EQ(guard.count(), 0U);
   }
   r = params.Finish(1000);
-  ASSERT_EQ(r.status, RuntimeParams::Status::kOk) << r.message;
+  ASSERT_EQ(r.status, platform::RuntimeParams::Status::kOk) << r.message;
   EXPECT_EQ(r.period, 200U);
   EXPECT_NE(&loop.controller(), &controller);
   EXPECT_EQ(loop.controller().config().law.mode, ControlMode::kForceTracking);
@@ -199,9 +201,9 @@ TEST(NoAllocationTest, ClippedOptimalLoopStepsAllocateNothing) {
   ControllerConfig config;
   config.law.mode = ControlMode::kClippedOptimal;
   std::string error;
-  ASSERT_TRUE(
-      LoadClippedOptimalGains(std::string(MRD_SOURCE_DIR) + "/hil/data/clipped_optimal_gains.toml",
-                              &config.clipped_gains, &error))
+  ASSERT_TRUE(platform::LoadClippedOptimalGains(
+      std::string(MRD_SOURCE_DIR) + "/hil/data/clipped_optimal_gains.toml", &config.clipped_gains,
+      &error))
       << error;
   config.clipped_gains_loaded = true;
   for (const ClippedCommand command : {ClippedCommand::kClipped, ClippedCommand::kInverse}) {

@@ -9,9 +9,9 @@
 #include <thread>
 #include <vector>
 
-#include "mrd/firmware/config.hpp"
 #include "mrd/firmware/loop.hpp"
-#include "mrd/firmware/runtime_params.hpp"
+#include "mrd/firmware/platform/config.hpp"
+#include "mrd/firmware/platform/runtime_params.hpp"
 #include "mrd/firmware/sim/simulated_damper.hpp"
 #include "support/demo_model.hpp"
 
@@ -20,48 +20,49 @@ namespace {
 
 constexpr std::int64_t kPeriod = 1'000'000;
 
-const ParamInfo* Find(const std::vector<ParamInfo>& list, const std::string& name) {
-  for (const ParamInfo& p : list) {
+const platform::ParamInfo* Find(const std::vector<platform::ParamInfo>& list,
+                                const std::string& name) {
+  for (const platform::ParamInfo& p : list) {
     if (p.name == name) return &p;
   }
   return nullptr;
 }
 
-std::string ValueOf(const FirmwareConfig& c, const std::string& name) {
-  const std::vector<ParamInfo> list = ListParams(c);
-  const ParamInfo* p = Find(list, name);
+std::string ValueOf(const platform::FirmwareConfig& c, const std::string& name) {
+  const std::vector<platform::ParamInfo> list = platform::ListParams(c);
+  const platform::ParamInfo* p = Find(list, name);
   return p != nullptr ? p->value : "(missing)";
 }
 
 TEST(ParamTableTest, EveryKeyIsAParameterWithTypeUnitRangeAndWhenItApplies) {
-  FirmwareConfig c;
-  const std::vector<ParamInfo> list = ListParams(c);
+  platform::FirmwareConfig c;
+  const std::vector<platform::ParamInfo> list = platform::ListParams(c);
   ASSERT_GT(list.size(), 40U);
-  const ParamInfo* gain = Find(list, "control.skyhook_gain");
+  const platform::ParamInfo* gain = Find(list, "control.skyhook_gain");
   ASSERT_NE(gain, nullptr);
   EXPECT_EQ(gain->value, "100.0");
   EXPECT_EQ(gain->type, "float");
   EXPECT_EQ(gain->unit, "N s/cm");
   EXPECT_EQ(gain->accepts, "[0.0, 1e+06]");
-  EXPECT_EQ(gain->tunable, Tunable::kRuntime);
+  EXPECT_EQ(gain->tunable, platform::Tunable::kRuntime);
   for (const char* name :
        {"control.law", "control.e_max", "control.constant_voltage", "control.force_limit",
         "velocity.cutoff_hz", "safety.recover_periods", "safety.velocity_limit",
         "safety.displacement_limit", "envelope.hold", "envelope.margin"}) {
-    const ParamInfo* p = Find(list, name);
+    const platform::ParamInfo* p = Find(list, name);
     ASSERT_NE(p, nullptr) << name;
-    EXPECT_EQ(p->tunable, Tunable::kRuntime) << name;
+    EXPECT_EQ(p->tunable, platform::Tunable::kRuntime) << name;
   }
-  EXPECT_EQ(Find(list, "velocity.source")->tunable, Tunable::kReload);
+  EXPECT_EQ(Find(list, "velocity.source")->tunable, platform::Tunable::kReload);
   for (const char* name :
        {"loop.period_us", "loop.clock", "safety.safe_voltage", "safety.max_age_ms",
         "simulation.substeps", "can.inputs", "modbus.port", "ctl.socket"}) {
-    const ParamInfo* p = Find(list, name);
+    const platform::ParamInfo* p = Find(list, name);
     ASSERT_NE(p, nullptr) << name;
-    EXPECT_EQ(p->tunable, Tunable::kRestart) << name;
+    EXPECT_EQ(p->tunable, platform::Tunable::kRestart) << name;
   }
   // The reference marks them the same way.
-  const std::string ref = ConfigReference();
+  const std::string ref = platform::ConfigReference();
   EXPECT_NE(ref.find("| `skyhook_gain` | `100.0` | N s/cm | [0.0, 1e+06] | runtime |"),
             std::string::npos);
   EXPECT_NE(ref.find("| `period_us` | `1000.0` | us | [100.0, 1e+06] | restart |"),
@@ -71,24 +72,24 @@ TEST(ParamTableTest, EveryKeyIsAParameterWithTypeUnitRangeAndWhenItApplies) {
 }
 
 TEST(ParamTableTest, SetAcceptsValidValuesAndRefusesTheRestUnchanged) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string why;
-  ASSERT_TRUE(SetParam(&c, "control.skyhook_gain", "40", &why)) << why;
+  ASSERT_TRUE(platform::SetParam(&c, "control.skyhook_gain", "40", &why)) << why;
   EXPECT_DOUBLE_EQ(c.controller.law.skyhook_gain, 40.0);
-  ASSERT_TRUE(SetParam(&c, "control.law", "skyhook", &why)) << why;  // a bare word
+  ASSERT_TRUE(platform::SetParam(&c, "control.law", "skyhook", &why)) << why;  // a bare word
   EXPECT_EQ(c.controller.law.mode, ControlMode::kSkyhookContinuous);
-  ASSERT_TRUE(SetParam(&c, "control.law", "\"constant\"", &why)) << why;  // TOML string
+  ASSERT_TRUE(platform::SetParam(&c, "control.law", "\"constant\"", &why)) << why;  // TOML string
   EXPECT_EQ(c.controller.law.mode, ControlMode::kConstantVoltage);
-  ASSERT_TRUE(SetParam(&c, "envelope.hold", "false", &why)) << why;
+  ASSERT_TRUE(platform::SetParam(&c, "envelope.hold", "false", &why)) << why;
   EXPECT_FALSE(c.controller.envelope);
-  ASSERT_TRUE(SetParam(&c, "safety.recover_periods", "20", &why)) << why;
+  ASSERT_TRUE(platform::SetParam(&c, "safety.recover_periods", "20", &why)) << why;
   EXPECT_EQ(c.controller.watchdog.recover_periods, 20U);
-  ASSERT_TRUE(SetParam(&c, "control.e_max", "1.5", &why)) << why;
+  ASSERT_TRUE(platform::SetParam(&c, "control.e_max", "1.5", &why)) << why;
   EXPECT_DOUBLE_EQ(c.controller.e_max, 1.5);
   ASSERT_TRUE(c.e_max.has_value());
   EXPECT_DOUBLE_EQ(*c.e_max, 1.5);
 
-  const FirmwareConfig before = c;
+  const platform::FirmwareConfig before = c;
   struct Bad {
     const char* name;
     const char* value;
@@ -114,34 +115,34 @@ TEST(ParamTableTest, SetAcceptsValidValuesAndRefusesTheRestUnchanged) {
       {"control.skyhook_gain", "1\nx = 2", "must be a number"},
   };
   for (const Bad& b : bad) {
-    FirmwareConfig d = c;
-    EXPECT_FALSE(SetParam(&d, b.name, b.value, &why)) << b.name << " " << b.value;
+    platform::FirmwareConfig d = c;
+    EXPECT_FALSE(platform::SetParam(&d, b.name, b.value, &why)) << b.name << " " << b.value;
     EXPECT_NE(why.find(b.says), std::string::npos) << why;
-    EXPECT_EQ(ListParams(d).size(), ListParams(before).size());
-    for (std::size_t i = 0; i < ListParams(d).size(); ++i) {
-      EXPECT_EQ(ListParams(d)[i].value, ListParams(before)[i].value) << b.name;
+    EXPECT_EQ(platform::ListParams(d).size(), platform::ListParams(before).size());
+    for (std::size_t i = 0; i < platform::ListParams(d).size(); ++i) {
+      EXPECT_EQ(platform::ListParams(d)[i].value, platform::ListParams(before)[i].value) << b.name;
     }
   }
 }
 
 // One code path: a runtime key accepts exactly what the config file accepts for it.
 TEST(ParamTableTest, RuntimeRangesAreTheConfigRanges) {
-  const FirmwareConfig base;
+  const platform::FirmwareConfig base;
   const char* values[] = {"-1e12",     "-1",          "-0.5",    "0",    "1e-10", "0.5",
                           "1",         "2",           "3",       "99.5", "100",   "100.5",
                           "1e5",       "1e6",         "1000001", "1e9",  "1e10",  "true",
                           "\"force\"", "\"skyhook\"", "\"x\"",   "inf",  "nan"};
   int compared = 0;
-  for (const ParamInfo& p : ListParams(base)) {
-    if (p.tunable != Tunable::kRuntime) continue;
+  for (const platform::ParamInfo& p : platform::ListParams(base)) {
+    if (p.tunable != platform::Tunable::kRuntime) continue;
     const auto dot = p.name.find('.');
     const std::string section = p.name.substr(0, dot), key = p.name.substr(dot + 1);
     for (const char* v : values) {
-      FirmwareConfig by_file = base, by_set = base;
+      platform::FirmwareConfig by_file = base, by_set = base;
       std::string error, why;
-      const bool file_ok =
-          ParseConfig("[" + section + "]\n" + key + " = " + v + "\n", "t.toml", &by_file, &error);
-      const bool set_ok = SetParam(&by_set, p.name, v, &why);
+      const bool file_ok = platform::ParseConfig("[" + section + "]\n" + key + " = " + v + "\n",
+                                                 "t.toml", &by_file, &error);
+      const bool set_ok = platform::SetParam(&by_set, p.name, v, &why);
       EXPECT_EQ(file_ok, set_ok) << p.name << " = " << v << ": " << error << " / " << why;
       if (file_ok && set_ok && p.name != "control.e_max") {
         EXPECT_EQ(ValueOf(by_file, p.name), ValueOf(by_set, p.name)) << p.name << " = " << v;
@@ -153,38 +154,39 @@ TEST(ParamTableTest, RuntimeRangesAreTheConfigRanges) {
 }
 
 TEST(ParamTableTest, SetRefusesWhatTheBusesCannotServe) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   ASSERT_TRUE(
-      ParseConfig("[can]\ninputs = [\"velocity\", \"demand\"]\noutputs = [\"command\"]\n"
-                  "local_bus = \"/tmp/x.sock\"\n",
-                  "bus.toml", &c, &error))
+      platform::ParseConfig("[can]\ninputs = [\"velocity\", \"demand\"]\noutputs = [\"command\"]\n"
+                            "local_bus = \"/tmp/x.sock\"\n",
+                            "bus.toml", &c, &error))
       << error;
   std::string why;
-  EXPECT_FALSE(SetParam(&c, "control.law", "skyhook", &why));
+  EXPECT_FALSE(platform::SetParam(&c, "control.law", "skyhook", &why));
   EXPECT_NE(why.find("no bus serves input 'body_velocity' (skyhook laws)"), std::string::npos)
       << why;
   EXPECT_EQ(c.controller.law.mode, ControlMode::kForceTracking);
-  EXPECT_FALSE(SetParam(&c, "safety.displacement_limit", "5", &why));
+  EXPECT_FALSE(platform::SetParam(&c, "safety.displacement_limit", "5", &why));
   EXPECT_NE(why.find("displacement_limit needs a measured displacement"), std::string::npos) << why;
-  EXPECT_TRUE(SetParam(&c, "control.law", "constant", &why)) << why;
+  EXPECT_TRUE(platform::SetParam(&c, "control.law", "constant", &why)) << why;
 }
 
 TEST(ParamTableTest, RestartKeysChangedNamesThem) {
-  FirmwareConfig a, b;
+  platform::FirmwareConfig a, b;
   std::string error;
-  ASSERT_TRUE(ParseConfig("[control]\nlaw = \"skyhook\"\n[velocity]\nsource = \"displacement\"\n",
-                          "b.toml", &b, &error));
-  EXPECT_TRUE(RestartKeysChanged(a, b).empty());  // runtime and reload keys only
   ASSERT_TRUE(
-      ParseConfig("[loop]\nperiod_us = 500\n[safety]\nsafe_voltage = 0.1\n", "b.toml", &b, &error));
+      platform::ParseConfig("[control]\nlaw = \"skyhook\"\n[velocity]\nsource = \"displacement\"\n",
+                            "b.toml", &b, &error));
+  EXPECT_TRUE(RestartKeysChanged(a, b).empty());  // runtime and reload keys only
+  ASSERT_TRUE(platform::ParseConfig("[loop]\nperiod_us = 500\n[safety]\nsafe_voltage = 0.1\n",
+                                    "b.toml", &b, &error));
   EXPECT_EQ(RestartKeysChanged(a, b),
             (std::vector<std::string>{"loop.period_us", "safety.safe_voltage"}));
-  FirmwareConfig c;
-  ASSERT_TRUE(
-      ParseConfig("[modbus]\ninputs = [\"velocity\", \"demand\"]\noutputs = [\"command\"]\n"
-                  "host = \"localhost\"\nport = 1502\n",
-                  "c.toml", &c, &error))
+  platform::FirmwareConfig c;
+  ASSERT_TRUE(platform::ParseConfig(
+      "[modbus]\ninputs = [\"velocity\", \"demand\"]\noutputs = [\"command\"]\n"
+      "host = \"localhost\"\nport = 1502\n",
+      "c.toml", &c, &error))
       << error;
   const std::vector<std::string> changed = RestartKeysChanged(a, c);
   EXPECT_NE(std::find(changed.begin(), changed.end(), "[modbus]"), changed.end());
@@ -271,8 +273,8 @@ struct Recorder final : PeriodObserver {
   void OnPeriod(const PeriodRecord& r) override { records.push_back(r); }
 };
 
-FirmwareConfig ConstantHalfVolt() {
-  FirmwareConfig config;
+platform::FirmwareConfig ConstantHalfVolt() {
+  platform::FirmwareConfig config;
   config.controller.law.mode = ControlMode::kConstantVoltage;
   config.controller.law.constant_voltage = 0.5;
   config.controller.e_max = test::DemoDamperTable().e_max;
@@ -293,13 +295,13 @@ struct Rig {
       loop.Tick(clock.Now());
     }
   }
-  FirmwareConfig config = ConstantHalfVolt();
+  platform::FirmwareConfig config = ConstantHalfVolt();
   LockstepClock clock;
   SimulatedDamper plant{SpencerParams::Paper(), SimulationConfig{}, clock, kPeriod};
   Controller controller;
   Telemetry telemetry;
   Loop loop{clock, plant, plant, controller, telemetry, kPeriod};
-  RuntimeParams params{test::DemoDamperTable(), config};
+  platform::RuntimeParams params{test::DemoDamperTable(), config};
   Recorder recorder;
 };
 
@@ -307,11 +309,11 @@ TEST(ParamMailboxTest, AChangeAppliesAtTheNextPeriodAndTheRecordShowsIt) {
   Rig rig;
   rig.Ticks(100);
   ASSERT_EQ(rig.params.PostSet("control.constant_voltage", "1.5").status,
-            RuntimeParams::Status::kOk);
+            platform::RuntimeParams::Status::kOk);
   EXPECT_EQ(rig.params.config().controller.law.constant_voltage, 0.5);  // not yet applied
   rig.Ticks(50);
-  const RuntimeParams::Result r = rig.params.Finish(1000);
-  ASSERT_EQ(r.status, RuntimeParams::Status::kOk) << r.message;
+  const platform::RuntimeParams::Result r = rig.params.Finish(1000);
+  ASSERT_EQ(r.status, platform::RuntimeParams::Status::kOk) << r.message;
   EXPECT_EQ(r.period, 100U);  // the first period after the post
   EXPECT_EQ(r.version, 1U);
   EXPECT_EQ(rig.params.config().controller.law.constant_voltage, 1.5);
@@ -333,7 +335,7 @@ TEST(ParamMailboxTest, SetFromAnotherThreadWaitsForTheLoop) {
   Rig rig;
   rig.Ticks(10);
   std::atomic<bool> done{false};
-  RuntimeParams::Result r;
+  platform::RuntimeParams::Result r;
   std::thread setter([&] {
     r = rig.params.Set("control.constant_voltage", "2.0", 60'000);
     done = true;
@@ -345,7 +347,7 @@ TEST(ParamMailboxTest, SetFromAnotherThreadWaitsForTheLoop) {
     std::this_thread::yield();
   }
   setter.join();
-  ASSERT_EQ(r.status, RuntimeParams::Status::kOk) << r.message;
+  ASSERT_EQ(r.status, platform::RuntimeParams::Status::kOk) << r.message;
   ASSERT_GT(rig.records().size(), r.period);
   EXPECT_EQ(rig.records()[static_cast<std::size_t>(r.period)].param_version, 1U);
   EXPECT_EQ(rig.records()[static_cast<std::size_t>(r.period - 1)].param_version, 0U);
@@ -357,14 +359,14 @@ TEST(ParamMailboxTest, SetFromAnotherThreadWaitsForTheLoop) {
 TEST(ParamMailboxTest, RefusedValuesAndTimeoutsChangeNothing) {
   Rig rig;
   rig.Ticks(10);
-  RuntimeParams::Result r = rig.params.Set("control.constant_voltage", "9", 1000);
-  EXPECT_EQ(r.status, RuntimeParams::Status::kRefused);
+  platform::RuntimeParams::Result r = rig.params.Set("control.constant_voltage", "9", 1000);
+  EXPECT_EQ(r.status, platform::RuntimeParams::Status::kRefused);
   EXPECT_NE(r.message.find("out of range for the table"), std::string::npos) << r.message;
   r = rig.params.Set("control.skyhook_gain", "x", 1000);
-  EXPECT_EQ(r.status, RuntimeParams::Status::kRefused);
+  EXPECT_EQ(r.status, platform::RuntimeParams::Status::kRefused);
   // Nobody ticks: the request is withdrawn after the timeout and never applied later.
   r = rig.params.Set("control.constant_voltage", "1.0", 20);
-  EXPECT_EQ(r.status, RuntimeParams::Status::kFailed);
+  EXPECT_EQ(r.status, platform::RuntimeParams::Status::kFailed);
   EXPECT_NE(r.message.find("no period ran within 20 ms"), std::string::npos) << r.message;
   rig.Ticks(20);
   EXPECT_EQ(rig.params.version(), 0U);
@@ -373,18 +375,18 @@ TEST(ParamMailboxTest, RefusedValuesAndTimeoutsChangeNothing) {
   // After the loop ended nothing is posted.
   rig.params.LoopEnded();
   r = rig.params.Set("control.constant_voltage", "1.0", 1000);
-  EXPECT_EQ(r.status, RuntimeParams::Status::kFailed);
+  EXPECT_EQ(r.status, platform::RuntimeParams::Status::kFailed);
 }
 
 TEST(ParamMailboxTest, AReloadSwapsAFreshControllerAtABoundaryAndCountsOn) {
   Rig rig;
   rig.Ticks(300);
   const std::uint64_t safe_periods = rig.loop.stats().watchdog.safe_periods;
-  FirmwareConfig next = rig.config;
+  platform::FirmwareConfig next = rig.config;
   next.controller.law.constant_voltage = 1.0;
   next.controller.velocity_source = VelocitySource::kDisplacement;  // a reload key
   std::atomic<bool> done{false};
-  RuntimeParams::Result r;
+  platform::RuntimeParams::Result r;
   std::thread reloader([&] {
     r = rig.params.Reload(next, test::DemoDamperTable(), nullptr, 60'000);
     done = true;
@@ -394,7 +396,7 @@ TEST(ParamMailboxTest, AReloadSwapsAFreshControllerAtABoundaryAndCountsOn) {
     std::this_thread::yield();
   }
   reloader.join();
-  ASSERT_EQ(r.status, RuntimeParams::Status::kOk) << r.message;
+  ASSERT_EQ(r.status, platform::RuntimeParams::Status::kOk) << r.message;
   EXPECT_EQ(rig.params.reloads(), 1U);
   EXPECT_NE(&rig.loop.controller(), &rig.controller);  // a fresh one runs
   EXPECT_EQ(rig.loop.controller().config().velocity_source, VelocitySource::kDisplacement);
@@ -405,23 +407,23 @@ TEST(ParamMailboxTest, AReloadSwapsAFreshControllerAtABoundaryAndCountsOn) {
   EXPECT_DOUBLE_EQ(rig.records().back().command_v, 1.0);
 
   // Refused: a restart key, a config the table refuses, an application check.
-  FirmwareConfig restart = next;
+  platform::FirmwareConfig restart = next;
   restart.period_ns = 500'000;
   r = rig.params.Reload(restart, test::DemoDamperTable(), nullptr, 1000);
-  EXPECT_EQ(r.status, RuntimeParams::Status::kRefused);
+  EXPECT_EQ(r.status, platform::RuntimeParams::Status::kRefused);
   EXPECT_NE(r.message.find("loop.period_us"), std::string::npos) << r.message;
-  FirmwareConfig too_high = next;
+  platform::FirmwareConfig too_high = next;
   too_high.controller.e_max = 99.0;
   r = rig.params.Reload(too_high, test::DemoDamperTable(), nullptr, 1000);
-  EXPECT_EQ(r.status, RuntimeParams::Status::kRefused);
+  EXPECT_EQ(r.status, platform::RuntimeParams::Status::kRefused);
   EXPECT_NE(r.message.find("out of range for the table"), std::string::npos) << r.message;
   r = rig.params.Reload(
       next, test::DemoDamperTable(),
-      [](const FirmwareConfig&, const CoefficientTable&, const Controller&) {
+      [](const platform::FirmwareConfig&, const CoefficientTable&, const Controller&) {
         return std::string("no");
       },
       1000);
-  EXPECT_EQ(r.status, RuntimeParams::Status::kRefused);
+  EXPECT_EQ(r.status, platform::RuntimeParams::Status::kRefused);
   EXPECT_EQ(r.message, "no");
   EXPECT_EQ(rig.params.reloads(), 1U);
 }

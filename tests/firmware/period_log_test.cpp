@@ -1,7 +1,7 @@
 // The per-period log: the runlog codec (round trip, truncation at every byte of the last
-// block, CRC corruption, refusals) and the firmware's PeriodLog (records = periods in a
+// block, CRC corruption, refusals) and the firmware's platform::PeriodLog (records = periods in a
 // lockstep run, drops counted with a stalled writer, write errors, rotation).
-#include "mrd/firmware/period_log.hpp"
+#include "mrd/firmware/platform/period_log.hpp"
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -26,6 +26,7 @@
 #include "support/demo_model.hpp"
 
 namespace mrd::firmware {
+namespace platform {
 
 // The writer's test seam (a friend of PeriodLog): a paused writer drains nothing.
 struct PeriodLogTestAccess {
@@ -33,6 +34,8 @@ struct PeriodLogTestAccess {
     log.paused_.store(paused, std::memory_order_release);
   }
 };
+
+}  // namespace platform
 
 namespace {
 
@@ -70,14 +73,15 @@ std::string Image(std::uint64_t records, std::uint32_t per_block, std::uint64_t 
   runlog::Header h;
   h.period_ns = kPeriod;
   h.source = "test";
-  h.fields = PeriodLogFields();
+  h.fields = platform::PeriodLogFields();
   std::string out = runlog::EncodeHeader(h);
   std::vector<std::uint8_t> buf(static_cast<std::size_t>(per_block) * h.record_bytes());
   std::uint32_t seq = 0;
   for (std::uint64_t k = 0; k < records;) {
     std::uint32_t n = 0;
     for (; n < per_block && k < records; ++n, ++k) {
-      EncodePeriodRecord(Sample(k), buf.data() + static_cast<std::size_t>(n) * h.record_bytes());
+      platform::EncodePeriodRecord(Sample(k),
+                                   buf.data() + static_cast<std::size_t>(n) * h.record_bytes());
     }
     runlog::EncodeBlock(seq++, dropped, buf.data(), n, h.record_bytes(), &out);
   }
@@ -98,7 +102,7 @@ TEST(RunlogCodecTest, RoundTripKeepsHeaderFieldsAndEveryValue) {
   EXPECT_EQ(log.header.version, runlog::kVersion);
   EXPECT_EQ(log.header.period_ns, kPeriod);
   EXPECT_EQ(log.header.source, "test");
-  const auto fields = PeriodLogFields();
+  const auto fields = platform::PeriodLogFields();
   ASSERT_EQ(log.header.fields.size(), fields.size());
   for (std::size_t i = 0; i < fields.size(); ++i) {
     EXPECT_EQ(log.header.fields[i].name, fields[i].name);
@@ -239,8 +243,8 @@ struct LoggedLoop {
   Controller controller;
   Telemetry telemetry;
   Loop loop{clock, plant, plant, controller, telemetry, kPeriod};
-  PeriodLog log;
-  LoggedLoop(const LogConfig& config) {
+  platform::PeriodLog log;
+  LoggedLoop(const platform::LogConfig& config) {
     EXPECT_EQ(controller.Configure(test::DemoDamperTable(), {}), Error::kOk);
     log.Start(config, kPeriod, "test");
     loop.SetObserver(&log);
@@ -249,13 +253,13 @@ struct LoggedLoop {
 
 TEST(PeriodLogTest, LockstepRunLogsEveryPeriodAndDropsNone) {
   test::TempDir dir;
-  LogConfig config;
+  platform::LogConfig config;
   config.path = dir.File("run.mrdlog");
   LoggedLoop l(config);
   std::atomic<bool> stop{false};
   l.loop.Run(stop, 3'000'000'000);
   l.log.Stop();
-  const PeriodLogStats s = l.log.stats();
+  const platform::PeriodLogStats s = l.log.stats();
   EXPECT_EQ(l.loop.stats().ticks, 3000U);
   EXPECT_EQ(s.pushed, 3000U);
   EXPECT_EQ(s.written, 3000U);
@@ -283,12 +287,12 @@ TEST(PeriodLogTest, LockstepRunLogsEveryPeriodAndDropsNone) {
 
 TEST(PeriodLogTest, StalledWriterDropsAndCountsWithoutBlockingTheLoop) {
   test::TempDir dir;
-  LogConfig config;
+  platform::LogConfig config;
   config.path = dir.File("stall.mrdlog");
   config.ring_records = 16;
   config.block_records = 8;
   LoggedLoop l(config);
-  PeriodLogTestAccess::PauseWriter(l.log, true);
+  platform::PeriodLogTestAccess::PauseWriter(l.log, true);
   for (int k = 1; k <= 100; ++k) {
     l.clock.Advance(kPeriod);
     l.loop.Tick(l.clock.Now());
@@ -296,7 +300,7 @@ TEST(PeriodLogTest, StalledWriterDropsAndCountsWithoutBlockingTheLoop) {
   EXPECT_EQ(l.loop.stats().ticks, 100U);
   EXPECT_EQ(l.log.stats().dropped, 84U);  // 16 fit the ring
   l.log.Stop();                           // drains the 16 even though paused
-  const PeriodLogStats s = l.log.stats();
+  const platform::PeriodLogStats s = l.log.stats();
   EXPECT_EQ(s.written, 16U);
   EXPECT_EQ(s.pushed, 100U);
   runlog::Log log;
@@ -308,7 +312,7 @@ TEST(PeriodLogTest, StalledWriterDropsAndCountsWithoutBlockingTheLoop) {
 }
 
 TEST(PeriodLogTest, WriteErrorStopsTheLogOnceAndTheLoopRunsOn) {
-  LogConfig config;
+  platform::LogConfig config;
   config.path = "/dev/full";  // every write: ENOSPC (the header's already)
   testing::internal::CaptureStderr();
   LoggedLoop l(config);
@@ -318,7 +322,7 @@ TEST(PeriodLogTest, WriteErrorStopsTheLogOnceAndTheLoopRunsOn) {
   const std::string err = testing::internal::GetCapturedStderr();
   EXPECT_EQ(l.loop.stats().ticks, 500U);
   EXPECT_TRUE(l.loop.stats().safe);
-  const PeriodLogStats s = l.log.stats();
+  const platform::PeriodLogStats s = l.log.stats();
   EXPECT_TRUE(s.failed);
   EXPECT_NE(s.error.find("No space left"), std::string::npos) << s.error;
   EXPECT_EQ(s.written, 0U);
@@ -330,7 +334,7 @@ TEST(PeriodLogTest, WriteErrorStopsTheLogOnceAndTheLoopRunsOn) {
 // The file size limit (RLIMIT_FSIZE: EFBIG, SIGXFSZ ignored) reached in the middle of the run.
 TEST(PeriodLogTest, FileTooLargeMidRunStopsTheLogAndKeepsTheBlocksWritten) {
   test::TempDir dir;
-  LogConfig config;
+  platform::LogConfig config;
   config.path = dir.File("efbig.mrdlog");
   config.block_records = 32;
   rlimit old{};
@@ -351,7 +355,7 @@ TEST(PeriodLogTest, FileTooLargeMidRunStopsTheLogAndKeepsTheBlocksWritten) {
   setrlimit(RLIMIT_FSIZE, &old);
   sigaction(SIGXFSZ, &previous, nullptr);
   EXPECT_EQ(l.loop.stats().ticks, 1000U);
-  const PeriodLogStats s = l.log.stats();
+  const platform::PeriodLogStats s = l.log.stats();
   EXPECT_TRUE(s.failed);
   EXPECT_NE(s.error.find("File too large"), std::string::npos) << s.error;
   EXPECT_GT(s.written, 0U);
@@ -368,7 +372,7 @@ TEST(PeriodLogTest, FileTooLargeMidRunStopsTheLogAndKeepsTheBlocksWritten) {
 TEST(PeriodLogTest, UnwritableDirectoryStopsTheLogAtStart) {
   test::TempDir dir;
   const std::string file = dir.Write("plain", "x");
-  LogConfig config;
+  platform::LogConfig config;
   config.path = file + "/log.mrdlog";  // a path under a regular file: ENOTDIR
   testing::internal::CaptureStderr();
   LoggedLoop l(config);
@@ -384,7 +388,7 @@ TEST(PeriodLogTest, UnwritableDirectoryStopsTheLogAtStart) {
 
 TEST(PeriodLogTest, ARestartKeepsTheEarlierLogAsPathDotOne) {
   test::TempDir dir;
-  LogConfig config;
+  platform::LogConfig config;
   config.path = dir.File("restart.mrdlog");
   std::atomic<bool> stop{false};
   {
@@ -418,7 +422,7 @@ TEST(PeriodLogTest, ARestartKeepsTheEarlierLogAsPathDotOne) {
 
 TEST(PeriodLogTest, RotationKeepsFilesWithContinuedSequences) {
   test::TempDir dir;
-  LogConfig config;
+  platform::LogConfig config;
   config.path = dir.File("rot.mrdlog");
   config.max_bytes = 65536;  // ~2 blocks of 128 records
   config.block_records = 128;
@@ -427,7 +431,7 @@ TEST(PeriodLogTest, RotationKeepsFilesWithContinuedSequences) {
   std::atomic<bool> stop{false};
   l.loop.Run(stop, 2'000'000'000);
   l.log.Stop();
-  const PeriodLogStats s = l.log.stats();
+  const platform::PeriodLogStats s = l.log.stats();
   EXPECT_EQ(s.written, 2000U);
   EXPECT_GT(s.files, 3U);
   EXPECT_FALSE(std::filesystem::exists(config.path + ".3"));
@@ -453,7 +457,7 @@ TEST(PeriodLogTest, RotationKeepsFilesWithContinuedSequences) {
 // link and never the device) is written on without rotation: no PATH.1, the node stays.
 TEST(PeriodLogTest, ANonRegularFileIsNeverRotated) {
   test::TempDir dir;
-  LogConfig config;
+  platform::LogConfig config;
   config.path = dir.File("null.mrdlog");
   ASSERT_EQ(::symlink("/dev/null", config.path.c_str()), 0);
   config.max_bytes = 65536;  // would rotate a regular file several times
@@ -463,7 +467,7 @@ TEST(PeriodLogTest, ANonRegularFileIsNeverRotated) {
   std::atomic<bool> stop{false};
   l.loop.Run(stop, 2'000'000'000);
   l.log.Stop();
-  const PeriodLogStats s = l.log.stats();
+  const platform::PeriodLogStats s = l.log.stats();
   EXPECT_EQ(s.written, 2000U);
   EXPECT_FALSE(s.failed) << s.error;
   EXPECT_EQ(s.files, 1U);

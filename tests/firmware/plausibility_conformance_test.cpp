@@ -9,8 +9,8 @@
 #include <string>
 
 #include "mrd/firmware/builtin_table.hpp"
-#include "mrd/firmware/config.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "support/demo_model.hpp"
 
 namespace mrd::firmware {
@@ -65,8 +65,8 @@ TEST(DisplacementLimitConformance, UnmeasuredDisplacementIsNoCause) {
 
 TEST(DisplacementLimitConformance, ConfigRefusesALimitNoBusCanMeasure) {
   const auto parse = [](const std::string& text, std::string* error) {
-    FirmwareConfig c;
-    return ParseConfig(text, "fw.toml", &c, error);
+    platform::FirmwareConfig c;
+    return platform::ParseConfig(text, "fw.toml", &c, error);
   };
   const std::string buses =
       "[can]\nlocal_bus = \"/tmp/bus\"\ninputs = [\"velocity\", \"demand\"]\n"

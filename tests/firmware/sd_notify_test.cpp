@@ -1,5 +1,5 @@
 // Issue 11 (label cross): systemd notifications over a plain AF_UNIX datagram socket.
-#include "mrd/firmware/sd_notify.hpp"
+#include "mrd/firmware/platform/sd_notify.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/socket.h>
@@ -34,7 +34,7 @@ TEST(SystemdNotifierTest, SendsReadyAndPingsOnlyWhileTicksAdvance) {
   ASSERT_EQ(::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0);
   ::setenv("NOTIFY_SOCKET", path.c_str(), 1);
   ::setenv("WATCHDOG_USEC", "200000", 1);  // 200 ms: ping every 100 ms
-  SystemdNotifier n;
+  platform::SystemdNotifier n;
   ::unsetenv("NOTIFY_SOCKET");
   ::unsetenv("WATCHDOG_USEC");
   ASSERT_TRUE(n.enabled());
@@ -54,7 +54,7 @@ TEST(SystemdNotifierTest, SendsReadyAndPingsOnlyWhileTicksAdvance) {
 
 TEST(SystemdNotifierTest, WithoutNotifySocketNothingIsSent) {
   ::unsetenv("NOTIFY_SOCKET");
-  SystemdNotifier n;
+  platform::SystemdNotifier n;
   EXPECT_FALSE(n.enabled());
   EXPECT_FALSE(n.Send("READY=1"));
   n.Ping(1'000'000'000, 1);

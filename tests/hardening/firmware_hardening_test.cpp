@@ -18,7 +18,7 @@
 
 #include "firmware/app/summary_json.hpp"
 #include "host/test_util.hpp"
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "support/process.hpp"
 
 extern char** environ;
@@ -172,7 +172,7 @@ TEST(FirmwareHardeningTest, JsonToAFullDeviceFails) {
 
 // Consistency: the committed reference is the generated one, so the two cannot drift.
 TEST(FirmwareHardeningTest, CommittedConfigReferenceEqualsTheGeneratedOne) {
-  const std::string generated = firmware::ConfigReference();
+  const std::string generated = firmware::platform::ConfigReference();
   ASSERT_FALSE(generated.empty());
   EXPECT_EQ(Slurp(std::string(MRD_SOURCE_DIR) + "/docs/firmware_config.md"), generated)
       << "regenerate: build/bin/mrd-firmware --print-config-reference > docs/firmware_config.md";
@@ -183,7 +183,7 @@ TEST(FirmwareHardeningTest, CommittedConfigReferenceEqualsTheGeneratedOne) {
 
 // Consistency: every default the reference states parses back to the built-in default.
 TEST(FirmwareHardeningTest, ConfigReferenceDefaultsAreTheBuiltInDefaults) {
-  const std::string ref = firmware::ConfigReference();
+  const std::string ref = firmware::platform::ConfigReference();
   std::string toml, line;
   std::istringstream in(ref);
   int keys = 0;
@@ -201,9 +201,10 @@ TEST(FirmwareHardeningTest, ConfigReferenceDefaultsAreTheBuiltInDefaults) {
     ++keys;
   }
   EXPECT_GE(keys, 20) << ref;
-  firmware::FirmwareConfig parsed, defaults;
+  firmware::platform::FirmwareConfig parsed, defaults;
   std::string error;
-  ASSERT_TRUE(firmware::ParseConfig(toml, "reference", &parsed, &error)) << error << "\n" << toml;
+  ASSERT_TRUE(firmware::platform::ParseConfig(toml, "reference", &parsed, &error)) << error << "\n"
+                                                                                   << toml;
   EXPECT_EQ(parsed.period_ns, defaults.period_ns);
   EXPECT_EQ(parsed.priority, defaults.priority);
   EXPECT_EQ(parsed.controller.law.force_limit, defaults.controller.law.force_limit);

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/firmware/config.hpp"
 #include "mrd/firmware/io/gpio_device.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "mrd/hil/run.hpp"
 #include "mrd/hil/scenario.hpp"
 #include "run_gpio.hpp"
@@ -141,8 +141,8 @@ TEST(HilGpioRunTest, GeneratedConfigForSocketCanAndLibgpiodParses) {
   EXPECT_EQ(text.find("local_bus"), std::string::npos) << text;
   const std::string dir = TempDir("cfg");
   const std::string path = Write(dir, "fw.toml", text);
-  mrd::firmware::FirmwareConfig cfg;
-  ASSERT_TRUE(mrd::firmware::LoadConfigFile(path, &cfg, &error)) << error << "\n" << text;
+  mrd::firmware::platform::FirmwareConfig cfg;
+  ASSERT_TRUE(mrd::firmware::platform::LoadConfigFile(path, &cfg, &error)) << error << "\n" << text;
 }
 
 // Bad input: a fault_line fault without the line routed, --gpio-sim without [gpio],

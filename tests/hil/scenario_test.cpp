@@ -10,7 +10,7 @@
 #include <fstream>
 #include <string>
 
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "mrd/hil/plant.hpp"
 #include "mrd/hil/run.hpp"
 
@@ -192,10 +192,11 @@ TEST(FirmwareConfigTest, GeneratedConfigsParse) {
     s.law = law;
     for (const Case& c : cases) {
       const std::string text = FirmwareConfigText(s, c.transport, c.lockstep, c.endpoint);
-      firmware::FirmwareConfig cfg;
+      firmware::platform::FirmwareConfig cfg;
       std::string error;
-      ASSERT_TRUE(firmware::ParseConfig(text, "gen.toml", &cfg, &error)) << error << "\n" << text;
-      EXPECT_EQ(cfg.clock == firmware::LoopClock::kGrant, c.lockstep);
+      ASSERT_TRUE(firmware::platform::ParseConfig(text, "gen.toml", &cfg, &error)) << error << "\n"
+                                                                                   << text;
+      EXPECT_EQ(cfg.clock == firmware::platform::LoopClock::kGrant, c.lockstep);
       EXPECT_EQ(cfg.io.can.lockstep, c.lockstep);
       EXPECT_EQ(cfg.io.can.enabled, std::string(c.transport) == "can");
       EXPECT_EQ(cfg.io.modbus.enabled, std::string(c.transport) != "can");
@@ -204,9 +205,10 @@ TEST(FirmwareConfigTest, GeneratedConfigsParse) {
 }
 
 TEST(FirmwareConfigTest, GrantClockNeedsABusThatCarriesGrants) {
-  firmware::FirmwareConfig cfg;
+  firmware::platform::FirmwareConfig cfg;
   std::string error;
-  EXPECT_FALSE(firmware::ParseConfig("[loop]\nclock = \"grant\"\n", "g.toml", &cfg, &error));
+  EXPECT_FALSE(
+      firmware::platform::ParseConfig("[loop]\nclock = \"grant\"\n", "g.toml", &cfg, &error));
   EXPECT_NE(error.find("g.toml:2: clock = \"grant\" needs a [can] or [modbus] section"),
             std::string::npos)
       << error;

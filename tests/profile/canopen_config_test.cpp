@@ -9,7 +9,7 @@
 #include <iterator>
 #include <string>
 
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "mrd/profile/can_profile.hpp"
 
 namespace mrd::firmware {
@@ -17,18 +17,18 @@ namespace {
 
 const std::string kShipped = std::string(MRD_SOURCE_DIR) + "/firmware/profiles";
 
-bool Parse(const std::string& profile, FirmwareConfig* c, std::string* error) {
+bool Parse(const std::string& profile, platform::FirmwareConfig* c, std::string* error) {
   const std::string text =
       "[loop]\nclock = \"grant\"\n[control]\nlaw = \"force\"\n[can]\nlocal_bus = \"/tmp/x.sock\"\n"
       "profile = \"" +
       profile +
       "\"\ninputs = [\"velocity\", \"displacement\", \"demand\"]\n"
       "outputs = [\"command\", \"enable\", \"heartbeat\", \"status\"]\n";
-  return ParseConfig(text, kShipped + "/fw.toml", c, error);
+  return platform::ParseConfig(text, kShipped + "/fw.toml", c, error);
 }
 
 TEST(CanopenConfigTest, TheShippedProfileSatisfiesTheRouting) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   ASSERT_TRUE(Parse("canopen-drive.toml", &c, &error)) << error;
   ASSERT_NE(c.io.can.can_profile, nullptr);
@@ -51,7 +51,7 @@ TEST(CanopenConfigTest, ABadCanopenSectionIsNamedWithTheProfilesLine) {
   text.replace(csv, 32, "calibration = \"" + kShipped + "/canopen-coil.csv\"");
   const std::string path = ::testing::TempDir() + "/bad-canopen.toml";
   std::ofstream(path) << text;
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   EXPECT_FALSE(Parse(path, &c, &error));
   EXPECT_NE(error.find(path + ":" + std::to_string(line) +

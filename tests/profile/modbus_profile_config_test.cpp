@@ -9,7 +9,7 @@
 #include <fstream>
 #include <string>
 
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 
 namespace mrd::firmware {
@@ -17,14 +17,14 @@ namespace {
 
 const std::string kProfiles = std::string(MRD_SOURCE_DIR) + "/firmware/profiles";
 
-bool Parse(const std::string& modbus, FirmwareConfig* c, std::string* error,
+bool Parse(const std::string& modbus, platform::FirmwareConfig* c, std::string* error,
            const std::string& loop = "", const std::string& dir = kProfiles) {
   const std::string text =
       "[loop]\n" + loop +
       "[control]\nlaw = \"constant\"\nconstant_voltage = 1.0\n[modbus]\nmode = "
       "\"tcp\"\nport = 1502\n" +
       modbus;
-  return ParseConfig(text, dir + "/fw.toml", c, error);
+  return platform::ParseConfig(text, dir + "/fw.toml", c, error);
 }
 
 const std::string kRouting =
@@ -32,7 +32,7 @@ const std::string kRouting =
     "outputs = [\"command\", \"enable\", \"heartbeat\", \"status\"]\n";
 
 TEST(ModbusProfileConfigTest, AProfileRelativeToTheConfigurationIsLoaded) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   ASSERT_TRUE(
       Parse("profile = \"modbus-float32.toml\"\n" + kRouting, &c, &error, "clock = \"grant\"\n"))
@@ -41,7 +41,7 @@ TEST(ModbusProfileConfigTest, AProfileRelativeToTheConfigurationIsLoaded) {
   EXPECT_EQ(c.io.modbus.modbus_profile->name, "modbus-float32");
   EXPECT_TRUE(c.io.modbus.lockstep);
   // Without the key: the built-in map, no profile.
-  FirmwareConfig plain;
+  platform::FirmwareConfig plain;
   ASSERT_TRUE(Parse(kRouting, &plain, &error)) << error;
   EXPECT_EQ(plain.io.modbus.modbus_profile, nullptr);
 }
@@ -71,7 +71,7 @@ TEST(ModbusProfileConfigTest, RoutingMustMatchTheProfile) {
       "driver_faults = { unit = 2, table = \"input\", address = 0 }\n"
       "[modbus.outputs]\ncommand = { unit = 2, table = \"holding\", address = 0, type = "
       "\"float32\" }\n");
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   // fault_line is served by driver_faults.
   EXPECT_TRUE(
@@ -105,7 +105,7 @@ TEST(ModbusProfileConfigTest, ABrokenProfileIsNamedWithItsLine) {
   const TempProfile p(
       "name = \"bad\"\n[modbus]\nalign32 = true\n[modbus.inputs]\n"
       "velocity = { unit = 1, table = \"input\", address = 1, type = \"float32\" }\n");
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   EXPECT_FALSE(Parse("profile = \"p.toml\"\ninputs = [\"velocity\"]\noutputs = [\"command\"]\n", &c,
                      &error, "", p.dir()));

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <string>
 
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "mrd/profile/can_profile.hpp"
 
 namespace mrd::firmware {
@@ -16,17 +16,17 @@ namespace {
 
 const std::string kProfiles = std::string(MRD_SOURCE_DIR) + "/tests/data/profiles";
 
-bool Parse(const std::string& can, FirmwareConfig* c, std::string* error,
+bool Parse(const std::string& can, platform::FirmwareConfig* c, std::string* error,
            const std::string& loop = "") {
   const std::string text = "[loop]\n" + loop +
                            "[control]\nlaw = \"force\"\n[can]\nlocal_bus = "
                            "\"/tmp/x.sock\"\n" +
                            can;
-  return ParseConfig(text, kProfiles + "/fw.toml", c, error);
+  return platform::ParseConfig(text, kProfiles + "/fw.toml", c, error);
 }
 
 TEST(ProfileConfigTest, AProfileRelativeToTheConfigurationIsLoaded) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   ASSERT_TRUE(
       Parse("profile = \"test-driver.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
@@ -38,7 +38,7 @@ TEST(ProfileConfigTest, AProfileRelativeToTheConfigurationIsLoaded) {
 }
 
 TEST(ProfileConfigTest, RoutingMustMatchTheProfile) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   // test-driver has no body velocity and no firmware status message.
   EXPECT_FALSE(
@@ -62,7 +62,7 @@ TEST(ProfileConfigTest, RoutingMustMatchTheProfile) {
 }
 
 TEST(ProfileConfigTest, AMissingOrBrokenProfileIsNamedWithItsLine) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   EXPECT_FALSE(
       Parse("profile = \"nothere.toml\"\ninputs = [\"velocity\", \"demand\"]\n"
@@ -93,7 +93,7 @@ TEST(ProfileConfigTest, LockstepNeedsTheProfilesGrant) {
   const std::string cal = "calibration = \"test-coil.csv\"";
   text.replace(text.find(cal), cal.size(), "calibration = \"" + kProfiles + "/test-coil.csv\"");
   std::ofstream(dir + "/nogrant.toml") << text;
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   EXPECT_FALSE(Parse("profile = \"" + dir +
                          "/nogrant.toml\"\ninputs = [\"velocity\", \"demand\"]\n"

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <string>
 
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "mrd/profile/pwm_profile.hpp"
 
 namespace mrd::firmware {
@@ -23,12 +23,12 @@ constexpr const char* kGpio =
     "[gpio]\nsim_chip = \"/tmp/x.chip\"\noutputs = [\"enable\", \"heartbeat\"]\n"
     "enable_line = 17\nheartbeat_line = 18\n";
 
-bool Parse(const std::string& body, FirmwareConfig* c, std::string* error) {
-  return ParseConfig(std::string(kHead) + body, "/tmp/fw.toml", c, error);
+bool Parse(const std::string& body, platform::FirmwareConfig* c, std::string* error) {
+  return platform::ParseConfig(std::string(kHead) + body, "/tmp/fw.toml", c, error);
 }
 
 TEST(PwmConfigTest, TheCanProfileServesThePwmOutputByDefault) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   ASSERT_TRUE(Parse(kCan + kGpio +
                         "[pwm]\nsysfs = \"/tmp/pwm-tree\"\nchip = 2\nchannel = 1\n"
@@ -45,14 +45,14 @@ TEST(PwmConfigTest, TheCanProfileServesThePwmOutputByDefault) {
   EXPECT_EQ(c.io.pwm.pwm_profile->period_ns, 50000);
   EXPECT_EQ(c.io.pwm.period_ns, c.period_ns);
   // The default class directory.
-  FirmwareConfig d;
+  platform::FirmwareConfig d;
   ASSERT_TRUE(Parse(kCan + "[pwm]\noutputs = [\"command\"]\n", &d, &error)) << error;
   EXPECT_EQ(d.io.pwm.sysfs, "/sys/class/pwm");
   EXPECT_EQ(d.io.pwm.chip, 0);
 }
 
 TEST(PwmConfigTest, ItsOwnProfileKeyWinsAndWorksWithoutACanProfile) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   // Sensors in the built-in mrd-native frames, the command as a PWM duty.
   ASSERT_TRUE(
@@ -66,7 +66,7 @@ TEST(PwmConfigTest, ItsOwnProfileKeyWinsAndWorksWithoutACanProfile) {
 }
 
 TEST(PwmConfigTest, RoutingRefusals) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   // The command on CAN and on PWM.
   EXPECT_FALSE(
@@ -98,7 +98,7 @@ TEST(PwmConfigTest, RoutingRefusals) {
 }
 
 TEST(PwmConfigTest, AProfileWithoutAPwmSectionOrNoneAtAllIsRefused) {
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   const std::string can_native =
       "[can]\nlocal_bus = \"/tmp/x.sock\"\ninputs = [\"velocity\", \"demand\"]\n"
@@ -130,7 +130,7 @@ TEST(PwmConfigTest, ABrokenPwmSectionIsNamedByTheProfilesLine) {
                "calibration = \"" + kProfiles + "/pwm-enable-coil.csv\"");
   const std::string path = dir + "/broken-pwm.toml";
   std::ofstream(path) << text;
-  FirmwareConfig c;
+  platform::FirmwareConfig c;
   std::string error;
   EXPECT_FALSE(
       Parse("[can]\nlocal_bus = \"/tmp/x.sock\"\ninputs = [\"velocity\", \"demand\"]\n"

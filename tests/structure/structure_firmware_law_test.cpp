@@ -9,8 +9,8 @@
 #include <string>
 
 #include "mrd/firmware/builtin_table.hpp"
-#include "mrd/firmware/clipped_optimal_file.hpp"
 #include "mrd/firmware/controller.hpp"
+#include "mrd/firmware/platform/clipped_optimal_file.hpp"
 #include "mrd/hil/scenario.hpp"
 #include "mrd/hil/structure_plant.hpp"
 #include "mrd/hil/structure_scores.hpp"
@@ -37,7 +37,8 @@ LoopResult RunLoop(firmware::ClippedCommand command) {
   firmware::ControllerConfig config;
   config.law.mode = firmware::ControlMode::kClippedOptimal;
   config.law.clipped_command = command;
-  EXPECT_TRUE(firmware::LoadClippedOptimalGains(kGains, &config.clipped_gains, &error)) << error;
+  EXPECT_TRUE(firmware::platform::LoadClippedOptimalGains(kGains, &config.clipped_gains, &error))
+      << error;
   config.clipped_gains_loaded = true;
   firmware::Controller controller;
   EXPECT_EQ(controller.Configure(firmware::kBuiltinTable, config), Error::kOk);
@@ -75,7 +76,7 @@ TEST(StructureFirmwareLawTest, TheControllerInClosedLoopIsTheStudysClippedOptima
   std::string error;
   ASSERT_TRUE(LoadGroundRecord(kRecord, &record, &error)) << error;
   firmware::ClippedOptimalGains gains;
-  ASSERT_TRUE(firmware::LoadClippedOptimalGains(kGains, &gains, &error)) << error;
+  ASSERT_TRUE(firmware::platform::LoadClippedOptimalGains(kGains, &gains, &error)) << error;
   structure::Response study;
   ASSERT_TRUE(structure::RunCase(structure::Case::kClippedOptimal, record, ShearFrameParams{},
                                  SpencerParams::Spencer1997(), gains, structure::StudyOptions{},

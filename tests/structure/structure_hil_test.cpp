@@ -11,8 +11,8 @@
 #include <string>
 
 #include "hil/hil_run.hpp"
-#include "mrd/firmware/clipped_optimal_file.hpp"
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/clipped_optimal_file.hpp"
+#include "mrd/firmware/platform/config.hpp"
 #include "mrd/hil/run.hpp"
 #include "mrd/hil/scenario.hpp"
 #include "mrd/hil/structure_plant.hpp"
@@ -145,8 +145,9 @@ TEST(StructureScenarioTest, TheGeneratedFirmwareConfigRoutesTheFloorAcceleration
   for (const char* command : {"clipped", "inverse"}) {
     s.clipped_command = command;
     const std::string text = FirmwareConfigText(s, "can", true, "/tmp/bus.sock");
-    firmware::FirmwareConfig cfg;
-    ASSERT_TRUE(firmware::ParseConfig(text, "gen.toml", &cfg, &error)) << error << "\n" << text;
+    firmware::platform::FirmwareConfig cfg;
+    ASSERT_TRUE(firmware::platform::ParseConfig(text, "gen.toml", &cfg, &error)) << error << "\n"
+                                                                                 << text;
     EXPECT_EQ(cfg.controller.law.mode, firmware::ControlMode::kClippedOptimal);
     EXPECT_EQ(cfg.controller.law.clipped_command, std::string(command) == "inverse"
                                                       ? firmware::ClippedCommand::kInverse
@@ -174,7 +175,7 @@ TEST(StructureRunTest, TheShippedScenarioPassesCloseToTheStudy) {
   std::string error;
   ASSERT_TRUE(LoadGroundRecord(kRecord, &record, &error)) << error;
   firmware::ClippedOptimalGains gains;
-  ASSERT_TRUE(firmware::LoadClippedOptimalGains(kGains, &gains, &error)) << error;
+  ASSERT_TRUE(firmware::platform::LoadClippedOptimalGains(kGains, &gains, &error)) << error;
   structure::StudyOptions o;
   structure::Response clipped, off;
   ASSERT_TRUE(structure::RunCase(structure::Case::kClippedOptimal, record, ShearFrameParams{},

@@ -1,5 +1,5 @@
 // Compiled with exceptions (toml++); every exception is caught here.
-#include "mrd/firmware/clipped_optimal_file.hpp"
+#include "mrd/firmware/platform/clipped_optimal_file.hpp"
 
 #include <toml++/toml.h>
 
@@ -8,7 +8,7 @@
 
 #include "mrd/common/input_file.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 namespace {
 
 constexpr int kN = ClippedOptimalGains::kStates;
@@ -178,4 +178,4 @@ bool LoadClippedOptimalGains(const std::string& path, ClippedOptimalGains* gains
   }
 }
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

@@ -1,5 +1,5 @@
 // Compiled with exceptions and RTTI (toml++ needs them); every exception is caught here.
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 
 #include <toml++/toml.h>
 
@@ -15,15 +15,15 @@
 #include "mrd/common/file_path.hpp"
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/builtin_table.hpp"
-#include "mrd/firmware/clipped_optimal_file.hpp"
 #include "mrd/firmware/input_roles.hpp"
-#include "mrd/firmware/period_log.hpp"
-#include "mrd/firmware/safe_state.hpp"
+#include "mrd/firmware/platform/clipped_optimal_file.hpp"
+#include "mrd/firmware/platform/period_log.hpp"
+#include "mrd/firmware/platform/safe_state.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "mrd/profile/pwm_profile.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 namespace {
 
 using Setter = std::function<bool(const toml::node&, std::string*)>;  // false: *why
@@ -1185,4 +1185,4 @@ bool LoadConfigFile(const std::string& path, FirmwareConfig* config, std::string
   }
 }
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

@@ -1,5 +1,5 @@
 // Compiled with exceptions (toml++ for the source positions); every exception is caught here.
-#include "mrd/firmware/config_save.hpp"
+#include "mrd/firmware/platform/config_save.hpp"
 
 #include <sys/stat.h>
 #include <toml++/toml.h>
@@ -13,7 +13,7 @@
 #include "mrd/common/input_file.hpp"
 #include "mrd/common/write_atomically.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 namespace {
 
 std::string Errno(const std::string& what) { return what + ": " + std::strerror(errno); }
@@ -123,4 +123,4 @@ std::string SaveConfigFile(const std::string& path, const FirmwareConfig& runnin
   }
 }
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

@@ -1,4 +1,4 @@
-#include "mrd/firmware/params_server.hpp"
+#include "mrd/firmware/platform/params_server.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "mrd/common/input_file.hpp"
-#include "mrd/firmware/config_save.hpp"
+#include "mrd/firmware/platform/config_save.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 namespace {
 
 constexpr std::size_t kMaxRequest = 4096;           // [bytes]
@@ -297,4 +297,4 @@ bool CtlRequest(const std::string& path, const std::string& request, std::string
   return true;
 }
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

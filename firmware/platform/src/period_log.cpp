@@ -1,4 +1,4 @@
-#include "mrd/firmware/period_log.hpp"
+#include "mrd/firmware/platform/period_log.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -12,7 +12,7 @@
 #include <cstring>
 #include <limits>
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 namespace {
 
 using runlog::Type;
@@ -386,4 +386,4 @@ PeriodLogStats PeriodLog::stats() const {
   return s;
 }
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

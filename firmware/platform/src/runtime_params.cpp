@@ -1,10 +1,10 @@
-#include "mrd/firmware/runtime_params.hpp"
+#include "mrd/firmware/platform/runtime_params.hpp"
 
 #include <chrono>
 #include <cstdio>
 #include <thread>
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 namespace {
 
 std::string Num(double v) {
@@ -225,4 +225,4 @@ Controller* RuntimeParams::BeforePeriod(Controller& controller, std::uint64_t pe
   return next;
 }
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

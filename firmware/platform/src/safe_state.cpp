@@ -1,7 +1,7 @@
 // The safe state proved from the configuration (safe_state.hpp): each bus's safe command
 // encoded with the device's own codec (CAN: the profile's FrameCodec; Modbus: the profile's
 // register codec or the built-in map; PWM: the profile's duty mapping) and decoded back.
-#include "mrd/firmware/safe_state.hpp"
+#include "mrd/firmware/platform/safe_state.hpp"
 
 #include <linux/can.h>
 
@@ -16,7 +16,7 @@
 #include "mrd/protocol/can_signal.hpp"
 #include "mrd/protocol/modbus_map.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 namespace {
 
 namespace pf = profile;
@@ -227,4 +227,4 @@ SafeStateProof ProveSafeState(const FirmwareConfig& c, double e_max) {
   return proof;
 }
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

@@ -1,4 +1,4 @@
-#include "mrd/firmware/sd_notify.hpp"
+#include "mrd/firmware/platform/sd_notify.hpp"
 
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 SystemdNotifier::SystemdNotifier() {
   const char* socket_path = std::getenv("NOTIFY_SOCKET");
@@ -50,4 +50,4 @@ void SystemdNotifier::Ping(std::int64_t now_ns, std::uint64_t ticks) {
   }
 }
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

@@ -1,4 +1,4 @@
-#include "mrd/firmware/table_file.hpp"
+#include "mrd/firmware/platform/table_file.hpp"
 
 #include <unistd.h>
 
@@ -9,7 +9,7 @@
 
 #include "mrd/common/input_file.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 namespace {
 
 // Reads and decodes; *why (when given) gets the decoder's diagnosis, *file the open's.
@@ -207,4 +207,4 @@ std::string DescribeTableRefusal(const TableDiagnosis& d) {
   return what;
 }
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

@@ -1,4 +1,4 @@
-#include "mrd/firmware/table_update.hpp"
+#include "mrd/firmware/platform/table_update.hpp"
 
 #include <dirent.h>
 #include <fcntl.h>
@@ -16,9 +16,9 @@
 #include "mrd/common/table.hpp"
 #include "mrd/common/write_atomically.hpp"
 #include "mrd/firmware/controller.hpp"
-#include "mrd/firmware/table_file.hpp"
+#include "mrd/firmware/platform/table_file.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 namespace {
 
 std::string Errno(const std::string& what) { return what + ": " + std::strerror(errno); }
@@ -228,4 +228,4 @@ std::string CheckTableOrRollBack(const char* dest, const FirmwareConfig& config,
   return "";
 }
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

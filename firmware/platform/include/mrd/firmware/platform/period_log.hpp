@@ -16,11 +16,11 @@
 #include <thread>
 #include <vector>
 
-#include "mrd/firmware/log_config.hpp"
 #include "mrd/firmware/period_hooks.hpp"
+#include "mrd/firmware/platform/log_config.hpp"
 #include "mrd/runlog/runlog.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 // "" when the log may write at config.path; else why not (exit 2 at start-up): a directory,
 // or a file at PATH or a rotation name PATH.1 .. that exists and is not an mrd log (the log
@@ -124,4 +124,4 @@ class PeriodLog final : public PeriodObserver {
   std::string error_;  // set before failed_ (release)
 };
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 struct SafeStateProof {
   std::vector<std::string> lines;  // per bus: what goes on the wire ("can: ...")
@@ -27,4 +27,4 @@ struct SafeStateProof {
 // e_max: the highest command [V] (the configuration's e_max, or the table's).
 SafeStateProof ProveSafeState(const FirmwareConfig& c, double e_max);
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

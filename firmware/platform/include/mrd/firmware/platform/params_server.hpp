@@ -16,9 +16,9 @@
 #include <string>
 #include <thread>
 
-#include "mrd/firmware/runtime_params.hpp"
+#include "mrd/firmware/platform/runtime_params.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 class ParamsServer {
  public:
@@ -56,4 +56,4 @@ class ParamsServer {
 bool CtlRequest(const std::string& path, const std::string& request, std::string* reply,
                 std::string* error);
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

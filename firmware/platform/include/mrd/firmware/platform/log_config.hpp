@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <string>
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 struct LogConfig {
   bool enabled = true;                    // with a path: log; false: no log even with one
@@ -17,4 +17,4 @@ struct LogConfig {
   bool sync = false;                      // fdatasync after each block (power-cut safety, SD wear)
 };
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

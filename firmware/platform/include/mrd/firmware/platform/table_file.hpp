@@ -7,7 +7,7 @@
 #include "mrd/common/result.hpp"
 #include "mrd/common/table.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 // Reads and decodes the table at path. kIo when the path cannot be opened or read or is not a
 // regular file (a directory, FIFO or device is refused without blocking), kBadSize for a file
@@ -21,4 +21,4 @@ Result<CoefficientTable> LoadTableFile(const char* path, std::string* reason);
 // is wrong where, with the offending values.
 std::string DescribeTableRefusal(const TableDiagnosis& why);
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

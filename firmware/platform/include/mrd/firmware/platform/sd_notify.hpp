@@ -6,7 +6,7 @@
 
 #include <cstdint>
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 class SystemdNotifier {
  public:
@@ -34,4 +34,4 @@ class SystemdNotifier {
   std::uint64_t last_ticks_ = 0;
 };
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

@@ -18,10 +18,10 @@
 
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/io_config.hpp"
-#include "mrd/firmware/log_config.hpp"
+#include "mrd/firmware/platform/log_config.hpp"
 #include "mrd/firmware/sim/simulated_damper.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 // Where the loop's time comes from (bus mode): CLOCK_MONOTONIC, or the HIL harness's time
 // grants on the CAN bus (lockstep, grant_clock.hpp).
@@ -97,4 +97,4 @@ inline constexpr std::uint64_t kMaxConfigBytes = 1 << 20;
 // characters).
 bool LoadConfigFile(const std::string& path, FirmwareConfig* config, std::string* error);
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

@@ -3,9 +3,9 @@
 
 #include <string>
 
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 // Writes the running values of the runtime-tunable keys (config.hpp, Tunable::kRuntime) into
 // the config file at path. Everything else in the file (the other keys, comments, layout)
@@ -16,4 +16,4 @@ namespace mrd::firmware {
 // "" on success, else the reason (the file unchanged). Not real-time.
 std::string SaveConfigFile(const std::string& path, const FirmwareConfig& running);
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

@@ -22,11 +22,11 @@
 #include <vector>
 
 #include "mrd/common/table.hpp"
-#include "mrd/firmware/config.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/period_hooks.hpp"
+#include "mrd/firmware/platform/config.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 // Why Controller::Configure refused a configuration with this table, in words: the values it
 // checks and what they must be, then the fault's name in brackets.
@@ -108,4 +108,4 @@ class RuntimeParams : public PeriodHook {
   std::atomic<bool> loop_ended_{false};
 };
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

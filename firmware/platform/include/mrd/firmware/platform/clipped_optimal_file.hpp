@@ -16,7 +16,7 @@
 
 #include "mrd/firmware/clipped_optimal.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 // Longest gains file [bytes].
 inline constexpr std::uint64_t kMaxGainsBytes = 1 << 20;
@@ -31,4 +31,4 @@ bool LoadClippedOptimalGains(const std::string& path, ClippedOptimalGains* gains
 // of its 2^20-th power: stable observers of a 1 ms design decay there by far).
 bool ClippedObserverStable(const ClippedOptimalGains& gains);
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform

@@ -12,9 +12,9 @@
 #include <string>
 
 #include "mrd/common/table.hpp"
-#include "mrd/firmware/config.hpp"
+#include "mrd/firmware/platform/config.hpp"
 
-namespace mrd::firmware {
+namespace mrd::firmware::platform {
 
 // Decodes the table at path (regular file, size, CRC, format and content rules) and
 // configures a controller with it and config (compatibility with this firmware: channels,
@@ -40,4 +40,4 @@ std::string InstallTable(const char* source, const char* dest, const FirmwareCon
 // neither table can be used.
 std::string CheckTableOrRollBack(const char* dest, const FirmwareConfig& config, bool* rolled_back);
 
-}  // namespace mrd::firmware
+}  // namespace mrd::firmware::platform
