@@ -1,0 +1,180 @@
+// The device profiles the bus sections name, loaded relative to the configuration file and
+// checked against the routing (config_parts.hpp).
+#include "config_parts.hpp"
+
+#include <memory>
+
+#include "mrd/common/file_path.hpp"
+#include "mrd/common/input_file.hpp"
+#include "mrd/firmware/input_roles.hpp"
+#include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/modbus_profile.hpp"
+#include "mrd/profile/pwm_profile.hpp"
+
+namespace mrd::firmware::platform::config_detail {
+
+// [can] profile: loaded (relative to the configuration file) and checked against the routing:
+// every input and output the [can] section names, and the grant in lockstep, must be a role
+// the profile maps. Without the key: the built-in mrd-native profile (checked the same way).
+bool LoadCanProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,
+                      std::string* error) {
+  CanConfig& can = c->io.can;
+  const profile::CanProfile* p = &profile::NativeCanProfile();
+  std::string where = Where(root, source, "can", "profile");
+  if (!can.profile.empty()) {
+    const std::string path = ResolveBeside(source, can.profile);
+    auto loaded = std::make_shared<profile::CanProfile>();
+    std::string why;
+    if (!profile::LoadCanProfile(path, loaded.get(), &why)) {
+      *error = where + "device profile: " + Printable(why);
+      return false;
+    }
+    can.can_profile = loaded;
+    p = loaded.get();
+  } else {
+    where = Where(root, source, "can", "inputs");
+  }
+  const auto mapped_in = [&](profile::CanIn r) {
+    return p->inputs[static_cast<std::size_t>(r)].mapped();
+  };
+  const auto mapped_out = [&](profile::CanOut r) {
+    return p->outputs[static_cast<std::size_t>(r)].mapped();
+  };
+  for (const InputRole& m : kInputRoles) {
+    if ((can.inputs & Bit(m.input)) != 0 && !mapped_in(m.role)) {
+      *error = where + "profile " + p->name + " maps no signal to input '" + InputName(m.input) +
+               "' ([inputs] of the profile)";
+      return false;
+    }
+  }
+  struct Need {
+    Output output;
+    std::initializer_list<profile::CanOut> any;
+  };
+  const Need needs[] = {{Output::kCommand, {profile::CanOut::kCommand}},
+                        {Output::kEnable, {profile::CanOut::kEnable}},
+                        {Output::kHeartbeat, {profile::CanOut::kHeartbeatSafe}},
+                        {Output::kStatus,
+                         {profile::CanOut::kStatusSafe, profile::CanOut::kStatusCauses,
+                          profile::CanOut::kStatusOverruns, profile::CanOut::kStatusSafeEntries}}};
+  for (const Need& n : needs) {
+    if ((can.outputs & Bit(n.output)) == 0) continue;
+    bool any = false;
+    for (const profile::CanOut r : n.any) any = any || mapped_out(r);
+    // A CANopen drive watches the firmware's CANopen heartbeat (0x700 + own node).
+    if (n.output == Output::kHeartbeat && p->canopen && p->canopen->heartbeat_ns > 0) any = true;
+    if (!any) {
+      *error = where + "profile " + p->name + " maps no signal to output '" + OutputName(n.output) +
+               "' ([outputs] of the profile)";
+      return false;
+    }
+  }
+  // The fault_reset bit travels in the command frames: they go out only with command or enable.
+  if (mapped_out(profile::CanOut::kFaultReset) &&
+      (can.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) == 0) {
+    *error = where + "profile " + p->name +
+             " maps fault_reset, which goes out in the command frames: route 'command' or "
+             "'enable' to [can] outputs";
+    return false;
+  }
+  if (c->clock == LoopClock::kGrant && !mapped_in(profile::CanIn::kGrant)) {
+    *error = where + "clock = \"grant\" needs the profile's 'grant' input (profile " + p->name +
+             " has none)";
+    return false;
+  }
+  return true;
+}
+
+// [modbus] profile: loaded (relative to the configuration file) and checked against the
+// routing: every input and output the [modbus] section names, and the grant in lockstep
+// (grants on Modbus: no [can] bus), must be a role the profile maps. fault_line is served by
+// the profile's fault_line or driver_faults role.
+bool LoadModbusProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,
+                         std::string* error) {
+  ModbusConfig& mb = c->io.modbus;
+  if (mb.profile.empty()) {
+    // The built-in register map (docs/modbus_registers.md) has no chassis or structure
+    // registers.
+    for (const Input i :
+         {Input::kBodyAcceleration, Input::kWheelVelocity, Input::kFloorAcceleration1,
+          Input::kFloorAcceleration2, Input::kFloorAcceleration3}) {
+      if ((mb.inputs & Bit(i)) != 0) {
+        *error = Where(root, source, "modbus", "inputs") + "input '" + InputName(i) +
+                 "' needs a Modbus device profile (the built-in register map has none)";
+        return false;
+      }
+    }
+    return true;
+  }
+  const std::string where = Where(root, source, "modbus", "profile");
+  const std::string path = ResolveBeside(source, mb.profile);
+  auto p = std::make_shared<profile::ModbusProfile>();
+  std::string why;
+  if (!profile::LoadModbusProfile(path, p.get(), &why)) {
+    *error = where + "device profile: " + Printable(why);
+    return false;
+  }
+  const auto in = [&](profile::CanIn r) { return p->In(r).mapped; };
+  const auto out = [&](profile::ModbusOut r) { return p->Out(r).mapped; };
+  for (const InputRole& m : kInputRoles) {
+    const bool mapped =
+        in(m.role) || (m.role == profile::CanIn::kFaultLine && in(profile::CanIn::kDriverFaults));
+    if ((mb.inputs & Bit(m.input)) != 0 && !mapped) {
+      *error = where + "profile " + p->name + " maps no register to input '" + InputName(m.input) +
+               "' ([modbus.inputs] of the profile)";
+      return false;
+    }
+  }
+  const std::pair<Output, bool> needs[] = {
+      {Output::kCommand, out(profile::ModbusOut::kCommand)},
+      {Output::kEnable, out(profile::ModbusOut::kEnable)},
+      {Output::kHeartbeat, out(profile::ModbusOut::kHeartbeat)},
+      {Output::kStatus, out(profile::ModbusOut::kStatusSafe) ||
+                            out(profile::ModbusOut::kStatusCauses) ||
+                            out(profile::ModbusOut::kStatusOverruns) ||
+                            out(profile::ModbusOut::kStatusSafeEntries)}};
+  for (const auto& [output, mapped] : needs) {
+    if ((mb.outputs & Bit(output)) != 0 && !mapped) {
+      *error = where + "profile " + p->name + " maps no register to output '" + OutputName(output) +
+               "' ([modbus.outputs] of the profile)";
+      return false;
+    }
+  }
+  if (c->clock == LoopClock::kGrant && !c->io.can.enabled && !in(profile::CanIn::kGrant)) {
+    *error = where + "clock = \"grant\" needs the profile's 'grant' input (profile " + p->name +
+             " has none)";
+    return false;
+  }
+  mb.modbus_profile = p;
+  return true;
+}
+
+// [pwm] profile: the file the key names (relative to the configuration file), else the [can]
+// section's profile file; it must have a [pwm] section (pwm_profile.hpp).
+bool LoadPwmProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,
+                      std::string* error) {
+  PwmOutputConfig& pwm = c->io.pwm;
+  std::string where = Where(root, source, "pwm", "profile");
+  std::string file = pwm.profile;
+  if (file.empty()) {
+    file = c->io.can.profile;
+    where = Where(root, source, "pwm", "outputs");
+    if (file.empty()) {
+      *error = where +
+               "[pwm] needs a device profile with a [pwm] section: give 'profile' (or a "
+               "[can] profile that has one)";
+      return false;
+    }
+  }
+  file = ResolveBeside(source, file);
+  auto loaded = std::make_shared<profile::PwmProfile>();
+  std::string why;
+  if (!profile::LoadPwmProfile(file, loaded.get(), &why)) {
+    *error = where + "device profile: " + Printable(why);
+    return false;
+  }
+  pwm.pwm_profile = loaded;
+  return true;
+}
+
+}  // namespace mrd::firmware::platform::config_detail
