@@ -14,6 +14,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <functional>
 #include <mutex>
@@ -44,8 +45,32 @@ inline sockaddr_in Loopback(int port) {
   return a;
 }
 
-// A TCP port on 127.0.0.1 that was free a moment ago.
+// A TCP port on 127.0.0.1 that is free now and that the kernel never hands out as a source
+// port: below the ephemeral range (/proc/sys/net/ipv4/ip_local_port_range), so a connection
+// another test opens before the caller's server binds cannot take it. Candidates start at a
+// place set by the process id and a per-process count, so tests that ctest runs side by side
+// (each its own process) probe far apart; a port still in use or in TIME_WAIT is skipped.
 inline int FreeTcpPort() {
+  int ephemeral_lo = 32768;
+  if (FILE* f = std::fopen("/proc/sys/net/ipv4/ip_local_port_range", "r")) {
+    if (std::fscanf(f, "%d", &ephemeral_lo) != 1) ephemeral_lo = 32768;
+    std::fclose(f);
+  }
+  constexpr unsigned kFirst = 10000;
+  const unsigned span = ephemeral_lo > static_cast<int>(kFirst) + 100
+                            ? static_cast<unsigned>(ephemeral_lo) - kFirst
+                            : 0U;
+  static std::atomic<unsigned> calls{0};
+  const unsigned start = static_cast<unsigned>(getpid()) * 7919U + calls.fetch_add(1) * 104729U;
+  for (unsigned i = 0; i < span; ++i) {
+    const int port = static_cast<int>(kFirst + (start + i) % span);
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    const sockaddr_in a = Loopback(port);
+    const bool free = bind(fd, reinterpret_cast<const sockaddr*>(&a), sizeof a) == 0;
+    close(fd);
+    if (free) return port;
+  }
+  // No range below the ephemeral one: a port the kernel picks (free a moment ago).
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in a = Loopback(0);
   bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);

@@ -2,7 +2,6 @@
 // (config_parts.hpp).
 #include "config_parts.hpp"
 
-
 namespace mrd::firmware::platform::config_detail {
 
 // Line of [section] key (or of the section when the key is absent).

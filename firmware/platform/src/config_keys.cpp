@@ -1,10 +1,9 @@
 // Every configuration key (config_parts.hpp): how it parses, its default and its line in the
 // reference (docs/firmware_config.md). The key table is the single source of all three.
-#include "config_parts.hpp"
-
 #include <cmath>
 #include <sstream>
 
+#include "config_parts.hpp"
 #include "mrd/firmware/input_roles.hpp"
 
 namespace mrd::firmware::platform::config_detail {
@@ -30,7 +29,6 @@ Key Reload(Key key) {
   key.tunable = Tunable::kReload;
   return key;
 }
-
 
 std::string Range(double lo, double hi) { return "[" + Show(lo) + ", " + Show(hi) + "]"; }
 

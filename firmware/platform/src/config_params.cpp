@@ -7,12 +7,12 @@
 
 namespace mrd::firmware::platform {
 
+using config_detail::CheckIo;
 using config_detail::Key;
 using config_detail::KeyTable;
 using config_detail::Scratch;
 using config_detail::Sections;
 using config_detail::Show;
-using config_detail::CheckIo;
 
 namespace {
 

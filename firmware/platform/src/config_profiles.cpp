@@ -1,9 +1,8 @@
 // The device profiles the bus sections name, loaded relative to the configuration file and
 // checked against the routing (config_parts.hpp).
-#include "config_parts.hpp"
-
 #include <memory>
 
+#include "config_parts.hpp"
 #include "mrd/common/file_path.hpp"
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/input_roles.hpp"
