@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "mrd/firmware/config.hpp"
-#include "mrd/firmware/io/gpio_device.hpp"
+#include "mrd/firmware/io/gpio/gpio_device.hpp"
 #include "mrd/hil/run.hpp"
 #include "mrd/hil/scenario.hpp"
 #include "run_gpio.hpp"

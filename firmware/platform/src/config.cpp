@@ -16,7 +16,7 @@
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/clipped_optimal_file.hpp"
-#include "mrd/firmware/input_roles.hpp"
+#include "mrd/firmware/io/input_roles.hpp"
 #include "mrd/firmware/period_log.hpp"
 #include "mrd/firmware/safe_state.hpp"
 #include "mrd/profile/can_profile.hpp"

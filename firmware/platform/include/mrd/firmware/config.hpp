@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "mrd/firmware/controller.hpp"
-#include "mrd/firmware/io_config.hpp"
+#include "mrd/firmware/io/io_config.hpp"
 #include "mrd/firmware/log_config.hpp"
 #include "mrd/firmware/simulated_damper.hpp"
 
