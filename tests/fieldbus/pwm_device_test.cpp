@@ -19,8 +19,8 @@
 #include <thread>
 #include <vector>
 
-#include "mrd/firmware/io/fieldbus_io.hpp"
 #include "mrd/firmware/io/devices.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
 #include "mrd/profile/pwm_profile.hpp"
 
 // GCC 12 takes the counting operator delete's free() for a mismatch with the counting new

@@ -12,8 +12,8 @@
 
 #include "mrd/canbus/socket.hpp"
 #include "mrd/common/clock.hpp"
-#include "mrd/firmware/io/input_roles.hpp"
 #include "mrd/firmware/io/devices.hpp"
+#include "mrd/firmware/io/input_roles.hpp"
 #include "mrd/firmware/telemetry.hpp"
 
 namespace mrd::firmware {
