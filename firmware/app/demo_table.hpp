@@ -8,7 +8,7 @@
 #include <string>
 
 #include "mrd/common/table.hpp"
-#include "mrd/firmware/io_config.hpp"
+#include "mrd/firmware/io/io_config.hpp"
 
 namespace mrd::firmware {
 

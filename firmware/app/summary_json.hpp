@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/firmware/bus_device.hpp"
-#include "mrd/firmware/fieldbus_io.hpp"
+#include "mrd/firmware/io/bus_device.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
 #include "mrd/firmware/platform/period_log.hpp"
 #include "mrd/firmware/telemetry.hpp"
 

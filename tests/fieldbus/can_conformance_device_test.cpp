@@ -11,8 +11,8 @@
 
 #include "can_device_peer.hpp"
 #include "mrd/common/clock.hpp"
-#include "mrd/firmware/fieldbus_io.hpp"
-#include "mrd/firmware/io/can_device.hpp"
+#include "mrd/firmware/io/can/can_device.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
 #include "mrd/protocol/can_codec.hpp"
 #include "support/io_time.hpp"
 

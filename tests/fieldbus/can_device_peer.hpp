@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "mrd/firmware/io/can_device.hpp"
+#include "mrd/firmware/io/can/can_device.hpp"
 #include "mrd/protocol/can_codec.hpp"
 #include "support/io_time.hpp"
 

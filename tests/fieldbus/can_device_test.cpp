@@ -2,7 +2,7 @@
 // (the same fd code as the local frame bus and SocketCAN): accepted samples, every kind of
 // bad input rejected and counted, commands within range with the sensor echo, heartbeat and
 // status rates, a peer that disappears, and reconnection through a relay.
-#include "mrd/firmware/io/can_device.hpp"
+#include "mrd/firmware/io/can/can_device.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/socket.h>
@@ -20,7 +20,7 @@
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/canbus/socket.hpp"
 #include "mrd/common/clock.hpp"
-#include "mrd/firmware/fieldbus_io.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
 #include "mrd/firmware/telemetry.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/frame_codec.hpp"

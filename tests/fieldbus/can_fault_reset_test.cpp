@@ -15,7 +15,7 @@
 #include <string>
 
 #include "mrd/common/clock.hpp"
-#include "mrd/firmware/io/can_device.hpp"
+#include "mrd/firmware/io/can/can_device.hpp"
 #include "mrd/firmware/telemetry.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/frame_codec.hpp"

@@ -18,9 +18,9 @@
 #include <thread>
 
 #include "mrd/firmware/controller.hpp"
-#include "mrd/firmware/fieldbus_io.hpp"
-#include "mrd/firmware/grant_clock.hpp"
-#include "mrd/firmware/io/can_device.hpp"
+#include "mrd/firmware/io/can/can_device.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
+#include "mrd/firmware/io/grant_clock.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/protocol/can_codec.hpp"
 #include "support/alloc_counter.hpp"

@@ -19,7 +19,7 @@
 #include <thread>
 #include <vector>
 
-#include "mrd/firmware/io/can_device.hpp"
+#include "mrd/firmware/io/can/can_device.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/canopen_codec.hpp"
 #include "mrd/profile/frame_codec.hpp"

@@ -6,7 +6,7 @@
 #include <cstddef>
 
 #include "mrd/firmware/controller.hpp"
-#include "mrd/firmware/fieldbus_io.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "support/alloc_counter.hpp"
 #include "support/demo_model.hpp"

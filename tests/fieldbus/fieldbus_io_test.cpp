@@ -1,5 +1,5 @@
 // FieldbusIo: the loop's source and driver over several bus devices.
-#include "mrd/firmware/fieldbus_io.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
 
 #include <gtest/gtest.h>
 

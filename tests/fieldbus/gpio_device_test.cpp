@@ -2,7 +2,7 @@
 // after Deactivate), the heartbeat toggles per write, the fault line with both polarities, the
 // quadrature encoder in both directions with illegal transitions rejected, displacement
 // scaling and stamps, lost edges, start-up errors.
-#include "mrd/firmware/io/gpio_device.hpp"
+#include "mrd/firmware/io/gpio/gpio_device.hpp"
 
 #include <gtest/gtest.h>
 

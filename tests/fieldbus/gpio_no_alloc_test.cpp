@@ -10,8 +10,8 @@
 
 #include "gpio_test_peer.hpp"
 #include "mrd/firmware/controller.hpp"
-#include "mrd/firmware/fieldbus_io.hpp"
-#include "mrd/firmware/io/gpio_device.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
+#include "mrd/firmware/io/gpio/gpio_device.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "support/alloc_counter.hpp"
 #include "support/demo_model.hpp"

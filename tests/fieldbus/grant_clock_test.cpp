@@ -1,7 +1,7 @@
 // GrantClock: the loop's time follows the harness's grants and never wall time: a late grant
 // is waited for (no missed period), and only a harness gone for the whole give-up time (or a
 // stop request) halts the clock, which ends the loop.
-#include "mrd/firmware/grant_clock.hpp"
+#include "mrd/firmware/io/grant_clock.hpp"
 
 #include <gtest/gtest.h>
 

@@ -15,7 +15,7 @@
 
 #include "modbus_raw_peer.hpp"
 #include "modbus_test_peers.hpp"
-#include "mrd/firmware/io/modbus_device.hpp"
+#include "mrd/firmware/io/modbus/modbus_device.hpp"
 #include "support/io_time.hpp"
 
 namespace mrd::firmware {

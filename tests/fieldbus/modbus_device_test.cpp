@@ -2,7 +2,7 @@
 // 127.0.0.1 and on a pty pair, and scripted peers for the faults (exception response,
 // timeout, CRC error, late RTU reply, reserved bits, frozen sensors, peer gone and back, bad
 // set-point).
-#include "mrd/firmware/io/modbus_device.hpp"
+#include "mrd/firmware/io/modbus/modbus_device.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

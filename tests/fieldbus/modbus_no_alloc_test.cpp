@@ -19,8 +19,8 @@
 
 #include "modbus_test_peers.hpp"
 #include "mrd/firmware/controller.hpp"
-#include "mrd/firmware/fieldbus_io.hpp"
-#include "mrd/firmware/io/modbus_device.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
+#include "mrd/firmware/io/modbus/modbus_device.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/hil/plant_port.hpp"
 #include "mrd/profile/modbus_profile.hpp"

@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "modbus_test_peers.hpp"
-#include "mrd/firmware/io/modbus_device.hpp"
+#include "mrd/firmware/io/modbus/modbus_device.hpp"
 #include "support/io_time.hpp"
 #include "support/process.hpp"
 

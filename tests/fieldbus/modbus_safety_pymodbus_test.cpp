@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "modbus_test_peers.hpp"
-#include "mrd/firmware/io/modbus_device.hpp"
+#include "mrd/firmware/io/modbus/modbus_device.hpp"
 #include "mrd/firmware/telemetry.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "support/io_time.hpp"

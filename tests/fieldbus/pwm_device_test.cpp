@@ -3,7 +3,7 @@
 // period, polarity while disabled, then duty and enable), duty <= period, the command through
 // the profile's map and duty range with its slew limit, the safe duty, failures, and no
 // allocation per period through FieldbusIo with the device built from a configuration.
-#include "mrd/firmware/io/pwm_device.hpp"
+#include "mrd/firmware/io/pwm/pwm_device.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/inotify.h>
@@ -19,8 +19,8 @@
 #include <thread>
 #include <vector>
 
-#include "mrd/firmware/fieldbus_io.hpp"
 #include "mrd/firmware/io/devices.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
 #include "mrd/profile/pwm_profile.hpp"
 
 // GCC 12 takes the counting operator delete's free() for a mismatch with the counting new

@@ -12,7 +12,7 @@
 #include <memory>
 #include <string>
 
-#include "mrd/firmware/io/gpio_device.hpp"
+#include "mrd/firmware/io/gpio/gpio_device.hpp"
 #include "mrd/sim_gpio/sim_chip.hpp"
 #include "support/io_time.hpp"
 

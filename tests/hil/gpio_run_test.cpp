@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "mrd/firmware/io/gpio_device.hpp"
+#include "mrd/firmware/io/gpio/gpio_device.hpp"
 #include "mrd/firmware/platform/config.hpp"
 #include "mrd/hil/run.hpp"
 #include "mrd/hil/scenario.hpp"

@@ -25,8 +25,8 @@
 
 #include "mrd/canbus/can_iface.hpp"
 #include "mrd/firmware/controller.hpp"
-#include "mrd/firmware/fieldbus_io.hpp"
-#include "mrd/firmware/io/can_device.hpp"
+#include "mrd/firmware/io/can/can_device.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/frame_codec.hpp"

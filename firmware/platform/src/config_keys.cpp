@@ -4,7 +4,7 @@
 #include <sstream>
 
 #include "config_parts.hpp"
-#include "mrd/firmware/input_roles.hpp"
+#include "mrd/firmware/io/input_roles.hpp"
 
 namespace mrd::firmware::platform::config_detail {
 

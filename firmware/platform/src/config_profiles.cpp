@@ -5,7 +5,7 @@
 #include "config_parts.hpp"
 #include "mrd/common/file_path.hpp"
 #include "mrd/common/input_file.hpp"
-#include "mrd/firmware/input_roles.hpp"
+#include "mrd/firmware/io/input_roles.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "mrd/profile/pwm_profile.hpp"

@@ -1,7 +1,7 @@
 #pragma once
-// Narrow I/O interfaces between the control loop and the buses (FieldbusIo implements them over
-// the SocketCAN, Modbus and GPIO devices of bus_device.hpp; SimulatedDamper for dry runs and
-// tests). Every call is real-time safe in every implementation: no allocation, no
+// Narrow I/O interfaces between the control loop and the buses (FieldbusIo, in mrd::firmware_io,
+// implements them over the devices of mrd/firmware/io/bus_device.hpp; SimulatedDamper for dry
+// runs and tests). Every call is real-time safe in every implementation: no allocation, no
 // exceptions, no blocking beyond a bounded bus transaction; failures come back as IoStatus.
 
 #include <array>
@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <limits>
 
-#include "mrd/firmware/io_config.hpp"  // Input, kNumInputs, Bit(Input)
+#include "mrd/firmware/signals.hpp"  // Input, kNumInputs, Bit(Input)
 
 namespace mrd::firmware {
 

@@ -46,7 +46,7 @@ enum class CanIn : std::uint8_t {
 };
 inline constexpr std::size_t kNumCanIn = 15;  // <= 16: role masks are 16-bit
 // The first roles carry the firmware's inputs (velocity .. floor_acceleration_3): the firmware
-// pairs them by name in one table (kInputRoles, mrd/firmware/input_roles.hpp).
+// pairs them by name in one table (kInputRoles, mrd/firmware/io/input_roles.hpp).
 
 // Signals the firmware sends.
 enum class CanOut : std::uint8_t {

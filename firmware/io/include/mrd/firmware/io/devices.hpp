@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/firmware/bus_device.hpp"
-#include "mrd/firmware/io_config.hpp"
+#include "mrd/firmware/io/bus_device.hpp"
+#include "mrd/firmware/io/io_config.hpp"
 
 namespace mrd::firmware {
 

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "mrd/firmware/controller.hpp"
-#include "mrd/firmware/io_config.hpp"
+#include "mrd/firmware/io/io_config.hpp"
 #include "mrd/firmware/platform/log_config.hpp"
 #include "mrd/firmware/sim/simulated_damper.hpp"
 

@@ -6,7 +6,7 @@
 #include <array>
 
 #include "mrd/common/clock.hpp"
-#include "mrd/firmware/io/gpio_chip.hpp"
+#include "mrd/firmware/io/gpio/gpio_chip.hpp"
 #include "mrd/sim_gpio/sim_chip.hpp"
 
 namespace mrd::firmware {

@@ -23,6 +23,8 @@
 #include <memory>
 #include <string>
 
+#include "mrd/firmware/signals.hpp"  // Input, Output, Bit
+
 namespace mrd::profile {
 struct CanProfile;
 struct ModbusProfile;
@@ -30,37 +32,6 @@ struct PwmProfile;
 }  // namespace mrd::profile
 
 namespace mrd::firmware {
-
-// Inputs a device can serve (bit i = 1 << Input i).
-enum class Input : std::uint8_t {
-  kVelocity = 0,
-  kDisplacement,
-  kDemand,
-  kBodyVelocity,
-  kForce,
-  kFaultLine,
-  kBodyAcceleration,    // [cm/s^2] (ADD, SH-ADD)
-  kWheelVelocity,       // [cm/s] (groundhook, hybrid)
-  kFloorAcceleration1,  // absolute floor accelerations [m/s^2] (clipped-optimal)
-  kFloorAcceleration2,
-  kFloorAcceleration3,
-};
-inline constexpr std::size_t kNumInputs = 11;  // each with its profile role: input_roles.hpp
-// Outputs a device can drive.
-enum class Output : std::uint8_t {
-  kCommand = 0,  // voltage set-point to the current driver
-  kEnable,       // driver enable (low in the safe state)
-  kHeartbeat,    // liveness signal the driver watches (stops when the firmware dies)
-  kStatus,       // firmware status / telemetry
-};
-inline constexpr std::size_t kNumOutputs = 4;
-constexpr std::uint32_t Bit(Input i) { return 1U << static_cast<unsigned>(i); }
-constexpr std::uint32_t Bit(Output o) { return 1U << static_cast<unsigned>(o); }
-// Config names ("velocity", "displacement", "demand", "body_velocity", "force", "fault_line",
-// "body_acceleration", "wheel_velocity", "floor_acceleration_1", "floor_acceleration_2",
-// "floor_acceleration_3"; "command", "enable", "heartbeat", "status").
-const char* InputName(Input input);
-const char* OutputName(Output output);
 
 struct CanConfig {
   bool enabled = false;

@@ -2,7 +2,7 @@
 // ModbusDevice's wake-up policy for its link's waits (shared by modbus_device.cpp and
 // modbus_device_profile.cpp).
 #include "modbus_link.hpp"
-#include "mrd/firmware/io/modbus_device.hpp"
+#include "mrd/firmware/io/modbus/modbus_device.hpp"
 
 namespace mrd::firmware {
 

@@ -26,7 +26,7 @@
 #include <cstdint>
 #include <string>
 
-#include "mrd/firmware/bus_device.hpp"
+#include "mrd/firmware/io/bus_device.hpp"
 #include "mrd/profile/pwm_profile.hpp"
 
 namespace mrd::firmware {

@@ -1,4 +1,4 @@
-#include "mrd/firmware/io/can_device.hpp"
+#include "mrd/firmware/io/can/can_device.hpp"
 
 #include <linux/can.h>
 #include <poll.h>
@@ -12,8 +12,8 @@
 
 #include "mrd/canbus/socket.hpp"
 #include "mrd/common/clock.hpp"
-#include "mrd/firmware/input_roles.hpp"
 #include "mrd/firmware/io/devices.hpp"
+#include "mrd/firmware/io/input_roles.hpp"
 #include "mrd/firmware/telemetry.hpp"
 
 namespace mrd::firmware {

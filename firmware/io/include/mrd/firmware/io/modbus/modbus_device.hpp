@@ -34,9 +34,9 @@
 #include <memory>
 #include <string>
 
-#include "mrd/firmware/bus_device.hpp"
-#include "mrd/firmware/grant_clock.hpp"
+#include "mrd/firmware/io/bus_device.hpp"
 #include "mrd/firmware/io/fault_reset.hpp"
+#include "mrd/firmware/io/grant_clock.hpp"
 #include "mrd/firmware/seqlock.hpp"
 #include "mrd/profile/command_map.hpp"
 

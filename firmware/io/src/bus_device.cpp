@@ -1,4 +1,4 @@
-#include "mrd/firmware/bus_device.hpp"
+#include "mrd/firmware/io/bus_device.hpp"
 
 namespace mrd::firmware {
 

@@ -10,7 +10,7 @@
 #include <cerrno>
 #include <cstring>
 
-#include "mrd/firmware/io/gpio_chip.hpp"
+#include "mrd/firmware/io/gpio/gpio_chip.hpp"
 
 namespace mrd::firmware {
 namespace {

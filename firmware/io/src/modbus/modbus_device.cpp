@@ -1,4 +1,4 @@
-#include "mrd/firmware/io/modbus_device.hpp"
+#include "mrd/firmware/io/modbus/modbus_device.hpp"
 
 #include <poll.h>
 #include <pthread.h>

@@ -9,7 +9,7 @@
 
 #include "mrd/canbus/socket.hpp"
 #include "mrd/common/clock.hpp"
-#include "mrd/firmware/io/can_device.hpp"
+#include "mrd/firmware/io/can/can_device.hpp"
 #include "mrd/profile/canopen_codec.hpp"
 
 namespace mrd::firmware {

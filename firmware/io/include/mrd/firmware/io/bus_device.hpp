@@ -16,7 +16,7 @@
 #include <string>
 
 #include "mrd/firmware/io.hpp"
-#include "mrd/firmware/io_config.hpp"
+#include "mrd/firmware/io/io_config.hpp"
 #include "mrd/firmware/watchdog.hpp"
 
 namespace mrd::firmware {

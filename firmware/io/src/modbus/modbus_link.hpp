@@ -22,8 +22,8 @@
 #include <cstdint>
 #include <string>
 
-#include "mrd/firmware/bus_device.hpp"
-#include "mrd/firmware/io_config.hpp"
+#include "mrd/firmware/io/bus_device.hpp"
+#include "mrd/firmware/io/io_config.hpp"
 #include "mrd/protocol/modbus_frame.hpp"
 
 typedef struct _modbus modbus_t;  // NOLINT: libmodbus's own name

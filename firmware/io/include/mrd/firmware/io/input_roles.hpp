@@ -10,7 +10,7 @@
 #include <cstddef>
 #include <iterator>
 
-#include "mrd/firmware/io_config.hpp"
+#include "mrd/firmware/io/io_config.hpp"
 #include "mrd/profile/can_profile.hpp"
 
 namespace mrd::firmware {

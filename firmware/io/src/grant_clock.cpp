@@ -1,4 +1,4 @@
-#include "mrd/firmware/grant_clock.hpp"
+#include "mrd/firmware/io/grant_clock.hpp"
 
 #include "mrd/common/clock.hpp"
 

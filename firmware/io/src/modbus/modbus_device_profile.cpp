@@ -8,8 +8,8 @@
 #include "modbus_link.hpp"
 #include "modbus_waker.hpp"
 #include "mrd/common/clock.hpp"
-#include "mrd/firmware/input_roles.hpp"
-#include "mrd/firmware/io/modbus_device.hpp"
+#include "mrd/firmware/io/input_roles.hpp"
+#include "mrd/firmware/io/modbus/modbus_device.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "mrd/protocol/modbus_frame.hpp"
 

@@ -17,7 +17,7 @@
 #include <array>
 #include <cstddef>
 
-#include "mrd/firmware/bus_device.hpp"
+#include "mrd/firmware/io/bus_device.hpp"
 #include "mrd/firmware/seqlock.hpp"
 
 namespace mrd::firmware {

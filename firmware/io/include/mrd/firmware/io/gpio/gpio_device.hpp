@@ -42,8 +42,8 @@
 #include <memory>
 #include <string>
 
-#include "mrd/firmware/bus_device.hpp"
-#include "mrd/firmware/io/gpio_chip.hpp"
+#include "mrd/firmware/io/bus_device.hpp"
+#include "mrd/firmware/io/gpio/gpio_chip.hpp"
 #include "mrd/firmware/seqlock.hpp"
 #include "mrd/protocol/quadrature.hpp"
 

@@ -1,4 +1,4 @@
-#include "mrd/firmware/fieldbus_io.hpp"
+#include "mrd/firmware/io/fieldbus_io.hpp"
 
 namespace mrd::firmware {
 namespace {

@@ -1,4 +1,4 @@
-#include "mrd/firmware/io/gpio_device.hpp"
+#include "mrd/firmware/io/gpio/gpio_device.hpp"
 
 #include <algorithm>
 #include <ctime>

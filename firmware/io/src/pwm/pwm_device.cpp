@@ -1,4 +1,4 @@
-#include "mrd/firmware/io/pwm_device.hpp"
+#include "mrd/firmware/io/pwm/pwm_device.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>

@@ -50,9 +50,9 @@
 #include <vector>
 
 #include "mrd/canbus/can_iface.hpp"
-#include "mrd/firmware/bus_device.hpp"
-#include "mrd/firmware/grant_clock.hpp"
+#include "mrd/firmware/io/bus_device.hpp"
 #include "mrd/firmware/io/fault_reset.hpp"
+#include "mrd/firmware/io/grant_clock.hpp"
 #include "mrd/firmware/seqlock.hpp"
 #include "mrd/profile/frame_codec.hpp"
 #include "mrd/protocol/can_codec.hpp"
