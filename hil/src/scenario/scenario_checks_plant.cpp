@@ -1,11 +1,10 @@
 // The plant's checks: [plant] files, structure, NARX model, quarter car (scenario_reader.hpp).
-#include "scenario_reader.hpp"
-
 #include <sys/stat.h>
 
 #include "mrd/common/file_path.hpp"
 #include "mrd/hil/plants/model_plant.hpp"
 #include "plant_params.hpp"
+#include "scenario_reader.hpp"
 
 namespace mrd::hil::scenario_reader {
 
@@ -32,8 +31,7 @@ bool ScenarioReader::CheckPlantFiles() {
 // model = "structure": its [structure] record; the structure-only [pass] keys.
 bool ScenarioReader::CheckStructure() {
   Ctx& c = c_;
-  if (model_ != "damper" && model_ != "quarter-car" && model_ != "narx" &&
-      model_ != "structure") {
+  if (model_ != "damper" && model_ != "quarter-car" && model_ != "narx" && model_ != "structure") {
     return c.Fail(at("plant.model"),
                   "plant model must be \"damper\", \"quarter-car\", "
                   "\"narx\" or \"structure\"");
@@ -63,8 +61,7 @@ bool ScenarioReader::CheckStructure() {
     const char* key = s.peak_drift_below_passive_on   ? "pass.peak_drift_below_passive_on"
                       : s.peak_accel_below_passive_on ? "pass.peak_accel_below_passive_on"
                                                       : "pass.max_peak_force_n";
-    return c.Fail(at(key),
-                  std::string("'") + (key + 5) + "' needs [plant] model = \"structure\"");
+    return c.Fail(at(key), std::string("'") + (key + 5) + "' needs [plant] model = \"structure\"");
   }
   if (max_peak_force_ >= 0.0) s.max_peak_force_n = max_peak_force_;
   return true;
@@ -114,8 +111,7 @@ bool ScenarioReader::CheckQuarterCar() {
     const char* why = nullptr;
     if (!road.IsValid(&why)) return c.Fail(at("road"), std::string("[road]: ") + why);
     car.max_volts = s.e_max;
-    if (!car.IsValid(&why))
-      return c.Fail(at("quarter_car"), std::string("[quarter_car]: ") + why);
+    if (!car.IsValid(&why)) return c.Fail(at("quarter_car"), std::string("[quarter_car]: ") + why);
     if (root_.contains("excitation")) {
       return c.Fail(at("excitation"), "a quarter car is excited by its [road], not [excitation]");
     }

@@ -1,6 +1,4 @@
 // The run's checks: [excitation], [control], [pass], the fault schedule (scenario_reader.hpp).
-#include "scenario_reader.hpp"
-
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -10,6 +8,7 @@
 #include "mrd/common/file_path.hpp"
 #include "mrd/sim/reference_profiles.hpp"
 #include "replay_scenario.hpp"
+#include "scenario_reader.hpp"
 
 namespace mrd::hil::scenario_reader {
 
@@ -27,8 +26,7 @@ bool ScenarioReader::CheckExcitation() {
     if (std::find(names.begin(), names.end(), s.profile) == names.end()) {
       std::string list;
       for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
-      return c.Fail(at("excitation.profile"),
-                    "unknown profile '" + s.profile + "' (" + list + ")");
+      return c.Fail(at("excitation.profile"), "unknown profile '" + s.profile + "' (" + list + ")");
     }
   } else if (excitation_ == "csv") {
     s.excitation = ExcitationKind::kCsv;
@@ -54,9 +52,8 @@ bool ScenarioReader::CheckControl() {
   Ctx& c = c_;
   const toml::table& root = root_;
   const bool chassis_law = IsChassisLaw(s.law);
-  if (s.law != "force" && s.law != "passive-off" && s.law != "passive-on" &&
-      s.law != "constant" && s.law != "skyhook" && s.law != "open-loop" && !chassis_law &&
-      s.law != "clipped-optimal") {
+  if (s.law != "force" && s.law != "passive-off" && s.law != "passive-on" && s.law != "constant" &&
+      s.law != "skyhook" && s.law != "open-loop" && !chassis_law && s.law != "clipped-optimal") {
     return c.Fail(*root.at_path("control.law").node(),
                   "law must be force | passive-off | passive-on | constant | skyhook | "
                   "open-loop | groundhook | groundhook-on-off | hybrid | add | sh-add | "
@@ -83,8 +80,7 @@ bool ScenarioReader::CheckControl() {
                   "law \"open-loop\" needs [excitation] kind = \"replay\" (the measured E)");
   }
   if (s.law == "constant" && s.constant_voltage > s.e_max) {
-    return c.Fail(*root.at_path("control.constant_voltage").node(),
-                  "constant_voltage above e_max");
+    return c.Fail(*root.at_path("control.constant_voltage").node(), "constant_voltage above e_max");
   }
   return true;
 }
@@ -132,10 +128,9 @@ bool ScenarioReader::CheckPass() {
     s.min_replay_fit = replay_fit_;
   }
   if (s.law == "open-loop" && (s.max_error_reachable || s.max_error_all)) {
-    return c.Fail(
-        root.contains("pass") ? *root.get("pass") : static_cast<const toml::node&>(root),
-        "law \"open-loop\" tracks no force: score it with min_replay_fit, not "
-        "max_error_*");
+    return c.Fail(root.contains("pass") ? *root.get("pass") : static_cast<const toml::node&>(root),
+                  "law \"open-loop\" tracks no force: score it with min_replay_fit, not "
+                  "max_error_*");
   }
   if (max_missed_ >= 0.0) s.max_missed_grants = static_cast<std::uint64_t>(max_missed_);
   if (expect_exit_ >= 0) s.expect_firmware_exit = expect_exit_;

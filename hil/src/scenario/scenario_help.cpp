@@ -92,7 +92,6 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 at_s (onset), duration_s (0: to the end), delay_periods (delay, 10)
 )";
 
-
 }  // namespace
 
 const char* ScenarioKeysHelp() { return kHelp; }

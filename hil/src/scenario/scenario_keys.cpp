@@ -1,8 +1,8 @@
 // Each [section]'s keys, their types and ranges (scenario_reader.hpp).
-#include "scenario_reader.hpp"
-
 #include <cmath>
 #include <limits>
+
+#include "scenario_reader.hpp"
 
 namespace mrd::hil::scenario_reader {
 
@@ -143,8 +143,7 @@ std::map<std::string, Setter> ScenarioReader::FirmwareKeys() {
 
 std::map<std::string, Setter> ScenarioReader::PassKeys() {
   return {
-      {"max_invariant_violations",
-       Int(&pass_max_viol_, 0, 1000000000, "max_invariant_violations")},
+      {"max_invariant_violations", Int(&pass_max_viol_, 0, 1000000000, "max_invariant_violations")},
       {"max_error_reachable", Num(&err_reach_, 0.0, 1e6, "max_error_reachable")},
       {"max_error_all", Num(&err_all_, 0.0, 1e6, "max_error_all")},
       {"min_reachable_share", Num(&s.min_reachable_share, 0.0, 1.0, "min_reachable_share")},
