@@ -11,7 +11,7 @@
 #include <string>
 
 #include "mrd/firmware/platform/config.hpp"
-#include "mrd/hil/passive_baseline.hpp"
+#include "mrd/hil/study/passive_baseline.hpp"
 
 namespace mrd::hil {
 

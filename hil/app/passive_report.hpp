@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "mrd/hil/passive_baseline.hpp"
+#include "mrd/hil/study/passive_baseline.hpp"
 
 namespace mrd::hil {
 

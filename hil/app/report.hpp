@@ -7,7 +7,7 @@
 #include <string>
 
 #include "mrd/common/time_window.hpp"
-#include "mrd/hil/run.hpp"
+#include "mrd/hil/run/run.hpp"
 
 namespace mrd::hil {
 

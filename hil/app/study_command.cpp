@@ -17,8 +17,8 @@
 
 #include "firmware_law.hpp"
 #include "mrd/common/write_atomically.hpp"
-#include "mrd/hil/passive_baseline.hpp"
-#include "mrd/hil/scenario.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
+#include "mrd/hil/study/passive_baseline.hpp"
 #include "passive_report.hpp"
 #include "report.hpp"
 #include "table_check.hpp"

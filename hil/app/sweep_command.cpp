@@ -12,7 +12,7 @@
 #include <sstream>
 
 #include "mrd/common/write_atomically.hpp"
-#include "mrd/hil/sweep.hpp"
+#include "mrd/hil/study/sweep.hpp"
 #include "report.hpp"
 #include "table_check.hpp"
 

@@ -9,7 +9,7 @@
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/platform/table_file.hpp"
-#include "mrd/hil/model_plant.hpp"
+#include "mrd/hil/plants/model_plant.hpp"
 
 namespace mrd::hil {
 

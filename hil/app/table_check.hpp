@@ -6,7 +6,7 @@
 #include <string>
 
 #include "mrd/common/table.hpp"
-#include "mrd/hil/scenario.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
 
 namespace mrd::hil {
 

@@ -17,9 +17,9 @@
 #include "bindings.hpp"
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/platform/table_file.hpp"
-#include "mrd/hil/passive_baseline.hpp"
-#include "mrd/hil/run.hpp"
-#include "mrd/hil/scenario.hpp"
+#include "mrd/hil/run/run.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
+#include "mrd/hil/study/passive_baseline.hpp"
 #include "report.hpp"
 #include "table_check.hpp"
 

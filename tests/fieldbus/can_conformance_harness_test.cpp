@@ -15,7 +15,7 @@
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/canbus/socket.hpp"
 #include "mrd/common/clock.hpp"
-#include "mrd/hil/plant_port.hpp"
+#include "mrd/hil/ports/plant_port.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
 namespace mrd::hil {

@@ -10,7 +10,7 @@
 #include "hil_can_port_peer.hpp"
 #include "mrd/canbus/can_iface.hpp"
 #include "mrd/canbus/socket.hpp"
-#include "mrd/hil/plant_port.hpp"
+#include "mrd/hil/ports/plant_port.hpp"
 #include "mrd/protocol/can_codec.hpp"
 
 namespace mrd::hil {

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "mrd/common/clock.hpp"
-#include "mrd/hil/gpio_port.hpp"
+#include "mrd/hil/ports/gpio_port.hpp"
 #include "mrd/protocol/quadrature.hpp"
 #include "mrd/sim_gpio/sim_chip.hpp"
 

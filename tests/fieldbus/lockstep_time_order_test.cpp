@@ -23,7 +23,7 @@
 #include "mrd/firmware/io/grant_clock.hpp"
 #include "mrd/firmware/io/modbus/modbus_device.hpp"
 #include "mrd/firmware/telemetry.hpp"
-#include "mrd/hil/plant_port.hpp"
+#include "mrd/hil/ports/plant_port.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "support/io_time.hpp"
 

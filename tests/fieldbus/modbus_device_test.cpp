@@ -13,7 +13,7 @@
 #include <thread>
 
 #include "modbus_test_peers.hpp"
-#include "mrd/hil/plant_port.hpp"
+#include "mrd/hil/ports/plant_port.hpp"
 #include "mrd/protocol/modbus_map.hpp"
 #include "support/io_time.hpp"
 

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "modbus_test_peers.hpp"
-#include "mrd/hil/plant_port.hpp"
+#include "mrd/hil/ports/plant_port.hpp"
 
 namespace mrd::hil {
 namespace {

@@ -22,7 +22,7 @@
 #include "mrd/firmware/io/fieldbus_io.hpp"
 #include "mrd/firmware/io/modbus/modbus_device.hpp"
 #include "mrd/firmware/loop.hpp"
-#include "mrd/hil/plant_port.hpp"
+#include "mrd/hil/ports/plant_port.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "support/alloc_counter.hpp"
 #include "support/demo_model.hpp"

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "modbus_test_peers.hpp"
-#include "mrd/hil/plant_port.hpp"
+#include "mrd/hil/ports/plant_port.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 
 namespace mrd::test {

@@ -13,9 +13,9 @@
 
 #include "mrd/firmware/io/gpio/gpio_device.hpp"
 #include "mrd/firmware/platform/config.hpp"
-#include "mrd/hil/run.hpp"
-#include "mrd/hil/scenario.hpp"
-#include "run_gpio.hpp"
+#include "mrd/hil/run/run.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
+#include "run/run_gpio.hpp"
 #include "support/process.hpp"
 
 namespace {

@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "mrd/hil/run.hpp"
-#include "mrd/hil/scenario.hpp"
-#include "mrd/hil/sweep.hpp"
-#include "run_internal.hpp"
+#include "mrd/hil/run/run.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
+#include "mrd/hil/study/sweep.hpp"
+#include "run/run_internal.hpp"
 
 namespace mrd::hil {
 namespace {

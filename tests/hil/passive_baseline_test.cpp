@@ -1,7 +1,7 @@
 // The best passive baseline (passive_baseline.hpp), labels hil, control: the grid, the best
 // setting per metric on a synthetic case with a known minimum, comfort at equal road holding,
 // and the quarter car's grid (deterministic, Wk scored).
-#include "mrd/hil/passive_baseline.hpp"
+#include "mrd/hil/study/passive_baseline.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "mrd/hil/scenario.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
 
 namespace mrd::hil {
 namespace {

@@ -14,9 +14,9 @@
 
 #include "host/test_util.hpp"
 #include "mrd/common/table.hpp"
-#include "mrd/hil/excitation_profile.hpp"
-#include "mrd/hil/model_plant.hpp"
-#include "mrd/hil/scenario.hpp"
+#include "mrd/hil/plants/excitation_profile.hpp"
+#include "mrd/hil/plants/model_plant.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
 #include "mrd/host/csv.hpp"
 #include "mrd/host/model_file.hpp"
 #include "mrd/host/profiles.hpp"

@@ -6,8 +6,8 @@
 #include <fstream>
 #include <string>
 
-#include "mrd/hil/replay.hpp"
-#include "mrd/hil/scenario.hpp"
+#include "mrd/hil/plants/replay.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
 #include "mrd/params/spencer_params_file.hpp"
 
 namespace mrd::hil {

@@ -1,6 +1,6 @@
 // Issue 10: scenario files (TOML, FILE:LINE errors), CSV traces, and the firmware
 // configuration mrd-hil run generates (accepted by the firmware's own parser).
-#include "mrd/hil/scenario.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -11,8 +11,8 @@
 #include <string>
 
 #include "mrd/firmware/platform/config.hpp"
-#include "mrd/hil/plant.hpp"
-#include "mrd/hil/run.hpp"
+#include "mrd/hil/plants/plant.hpp"
+#include "mrd/hil/run/run.hpp"
 
 namespace mrd::hil {
 namespace {

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "mrd/hil/scenario.hpp"
-#include "mrd/hil/sweep.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
+#include "mrd/hil/study/sweep.hpp"
 
 namespace {
 

@@ -11,9 +11,9 @@
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/platform/clipped_optimal_file.hpp"
-#include "mrd/hil/scenario.hpp"
-#include "mrd/hil/structure_plant.hpp"
-#include "mrd/hil/structure_scores.hpp"
+#include "mrd/hil/plants/structure_plant.hpp"
+#include "mrd/hil/plants/structure_scores.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
 #include "mrd/structure/study.hpp"
 
 namespace mrd {

@@ -13,10 +13,10 @@
 #include "hil/hil_run.hpp"
 #include "mrd/firmware/platform/clipped_optimal_file.hpp"
 #include "mrd/firmware/platform/config.hpp"
-#include "mrd/hil/run.hpp"
-#include "mrd/hil/scenario.hpp"
-#include "mrd/hil/structure_plant.hpp"
-#include "mrd/hil/structure_scores.hpp"
+#include "mrd/hil/plants/structure_plant.hpp"
+#include "mrd/hil/plants/structure_scores.hpp"
+#include "mrd/hil/run/run.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
 #include "mrd/structure/study.hpp"
 
 namespace mrd::hil {

@@ -5,7 +5,7 @@
 #include <sstream>
 
 #include "mrd/firmware/clipped_optimal.hpp"
-#include "mrd/hil/structure_scores.hpp"
+#include "mrd/hil/plants/structure_scores.hpp"
 
 namespace mrd::structure {
 
