@@ -158,8 +158,8 @@ TEST(FullCarTest, DamperForceSignsAndOutputsAreConsistent) {
     EXPECT_NEAR(c.tyre_load_n, p.tyre_n_per_m * c.tyre_deflection_m, 1e-9);
   }
   const FullCarSample& o = car.Sample();
-  EXPECT_NEAR(o.seat_accel,
-              o.heave_accel + p.seat_x_m * o.pitch_accel + p.seat_y_m * o.roll_accel, 1e-12);
+  EXPECT_NEAR(o.seat_accel, o.heave_accel + p.seat_x_m * o.pitch_accel + p.seat_y_m * o.roll_accel,
+              1e-12);
   EXPECT_NEAR(car.PointAccel(0.0, 0.0), o.heave_accel, 1e-15);
   EXPECT_NEAR(o.t_s, 0.3 + 1e-6, 1e-12);
 }
@@ -183,7 +183,8 @@ TEST(FullCarTest, SymmetricRoadExcitesHeaveAndPitchButNoRoll) {
     const int n = 10000;
     for (int k = 0; k < n; ++k) {
       road.Advance();
-      const FullCarSample& s = car.Step(kPeriod, road.heights_m(), rates(), Dashpot(car.Sample(), 19.0));
+      const FullCarSample& s =
+          car.Step(kPeriod, road.heights_m(), rates(), Dashpot(car.Sample(), 19.0));
       roll_peak = std::max(roll_peak, std::fabs(s.roll_rate));
       roll2 += s.roll_rate * s.roll_rate;
       pitch2 += s.pitch_rate * s.pitch_rate;
@@ -191,8 +192,9 @@ TEST(FullCarTest, SymmetricRoadExcitesHeaveAndPitchButNoRoll) {
     }
     const double pitch_rms = std::sqrt(pitch2 / n), heave_rms = std::sqrt(heave2 / n);
     const double roll_rms = std::sqrt(roll2 / n);
-    std::printf("rho %.0f: heave acc RMS %.3f m/s^2, pitch rate RMS %.4f rad/s, roll rate RMS %.4g\n",
-                rho, heave_rms, pitch_rms, roll_rms);
+    std::printf(
+        "rho %.0f: heave acc RMS %.3f m/s^2, pitch rate RMS %.4f rad/s, roll rate RMS %.4g\n", rho,
+        heave_rms, pitch_rms, roll_rms);
     EXPECT_GT(heave_rms, 0.3);
     EXPECT_GT(pitch_rms, 0.01);
     if (rho == 1.0) {
@@ -339,7 +341,8 @@ void Jacobi(double a[7][7], double v[7][7], double w[7]) {
       for (int q = p + 1; q < 7; ++q) {
         if (a[p][q] == 0.0) continue;
         const double theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-        const double t = (theta >= 0 ? 1.0 : -1.0) / (std::fabs(theta) + std::sqrt(theta * theta + 1));
+        const double t =
+            (theta >= 0 ? 1.0 : -1.0) / (std::fabs(theta) + std::sqrt(theta * theta + 1));
         const double c = 1.0 / std::sqrt(t * t + 1), s = t * c;
         for (int k = 0; k < 7; ++k) {  // columns p, q
           const double akp = a[k][p], akq = a[k][q];
@@ -452,7 +455,8 @@ TEST(FullCarTest, NaturalFrequenciesMatchTheAnalyticValues) {
   const double heave = std::sqrt(kz / p.body_mass_kg) / kTwoPi;
   const double pitch = std::sqrt(kth / p.pitch_inertia_kg_m2) / kTwoPi;
   const double roll = std::sqrt(kph / p.roll_inertia_kg_m2) / kTwoPi;
-  const double hop = std::sqrt((p.spring_front_n_per_m + p.tyre_n_per_m) / p.unsprung_front_kg) / kTwoPi;
+  const double hop =
+      std::sqrt((p.spring_front_n_per_m + p.tyre_n_per_m) / p.unsprung_front_kg) / kTwoPi;
   // Label the three body modes by their dominant body coordinate (energy share).
   double found[3] = {0.0, 0.0, 0.0};
   const double inertia[3] = {p.body_mass_kg, p.pitch_inertia_kg_m2, p.roll_inertia_kg_m2};

@@ -103,8 +103,8 @@ FullCar::Rates FullCar::Derivative(const State& s, const CornerValues& zr,
     const double d = s.z + x_[i] * s.th + y_[i] * s.ph - s.zu[i];
     const double dv = s.vz + x_[i] * s.wth + y_[i] * s.wph - s.vu[i];
     const double fs = -ks_[i] * d - cs_[i] * dv - p_.motion_ratio * f_[i];
-    const double ft = std::fmax(
-        -weight_[i], p_.tyre_n_per_m * (zr[i] - s.zu[i]) + p_.tyre_damping_n_s_per_m * (vr[i] - s.vu[i]));
+    const double ft = std::fmax(-weight_[i], p_.tyre_n_per_m * (zr[i] - s.zu[i]) +
+                                                 p_.tyre_damping_n_s_per_m * (vr[i] - s.vu[i]));
     r.fs[i] = fs;
     r.ft[i] = ft;
     fz += fs;

@@ -60,8 +60,8 @@ void TwoTrackRoad::Reset() {
 }
 
 void TwoTrackRoad::Advance() {
-  for (RoadTrack* t : {&shared_front_, &left_front_, &right_front_, &shared_rear_, &left_rear_,
-                       &right_rear_}) {
+  for (RoadTrack* t :
+       {&shared_front_, &left_front_, &right_front_, &shared_rear_, &left_rear_, &right_rear_}) {
     t->Advance();
   }
   Collect();

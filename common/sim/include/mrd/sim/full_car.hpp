@@ -48,25 +48,25 @@ enum Corner : int { kFrontLeft = 0, kFrontRight = 1, kRearLeft = 2, kRearRight =
 using CornerValues = std::array<double, 4>;  // indexed by Corner
 
 struct FullCarParams {
-  double body_mass_kg = 1200.0;             // M, sprung
-  double pitch_inertia_kg_m2 = 1800.0;      // about the y axis through the centre of gravity
-  double roll_inertia_kg_m2 = 450.0;        // about the x axis through the centre of gravity
-  double cg_to_front_m = 1.2;               // a, > 0
-  double cg_to_rear_m = 1.4;                // b, > 0
-  double track_front_m = 1.5;               // > 0
-  double track_rear_m = 1.5;                // > 0
-  double unsprung_front_kg = 40.0;          // per wheel
-  double unsprung_rear_kg = 40.0;           // per wheel
-  double spring_front_n_per_m = 20000.0;    // ks per corner (wheel rate), > 0
-  double spring_rear_n_per_m = 20000.0;     //
-  double damping_front_n_s_per_m = 0.0;     // cs per corner at the wheel, >= 0 (passive, inside)
-  double damping_rear_n_s_per_m = 0.0;      //
-  double tyre_n_per_m = 180000.0;           // kt, > 0
-  double tyre_damping_n_s_per_m = 0.0;      // ct, >= 0
-  double motion_ratio = 0.7;                // r, damper travel / wheel travel, (0, 1]
-  double seat_x_m = 0.3;                    // seat point ahead of the centre of gravity
-  double seat_y_m = 0.37;                   // seat point left of the centre of gravity
-  int substeps = 10;                        // RK4 steps per Step, 1..10000
+  double body_mass_kg = 1200.0;           // M, sprung
+  double pitch_inertia_kg_m2 = 1800.0;    // about the y axis through the centre of gravity
+  double roll_inertia_kg_m2 = 450.0;      // about the x axis through the centre of gravity
+  double cg_to_front_m = 1.2;             // a, > 0
+  double cg_to_rear_m = 1.4;              // b, > 0
+  double track_front_m = 1.5;             // > 0
+  double track_rear_m = 1.5;              // > 0
+  double unsprung_front_kg = 40.0;        // per wheel
+  double unsprung_rear_kg = 40.0;         // per wheel
+  double spring_front_n_per_m = 20000.0;  // ks per corner (wheel rate), > 0
+  double spring_rear_n_per_m = 20000.0;   //
+  double damping_front_n_s_per_m = 0.0;   // cs per corner at the wheel, >= 0 (passive, inside)
+  double damping_rear_n_s_per_m = 0.0;    //
+  double tyre_n_per_m = 180000.0;         // kt, > 0
+  double tyre_damping_n_s_per_m = 0.0;    // ct, >= 0
+  double motion_ratio = 0.7;              // r, damper travel / wheel travel, (0, 1]
+  double seat_x_m = 0.3;                  // seat point ahead of the centre of gravity
+  double seat_y_m = 0.37;                 // seat point left of the centre of gravity
+  int substeps = 10;                      // RK4 steps per Step, 1..10000
 
   // True when every value is finite and in range; on failure *reason names the field.
   bool IsValid(const char** reason) const;
@@ -77,16 +77,16 @@ struct FullCarParams {
 
 // One corner at an instant.
 struct FullCarCorner {
-  double travel_m = 0.0;          // d = zb - zu (+ extension)
-  double travel_rate_m_s = 0.0;   // d'
-  double damper_x_cm = 0.0;       // 100 r d: what the damper sees [cm]
-  double damper_v_cm_s = 0.0;     // 100 r d' [cm/s]
-  double body_velocity_m_s = 0.0; // zb'
-  double wheel_velocity_m_s = 0.0;// zu'
-  double tyre_deflection_m = 0.0; // zr - zu (+ compression beyond static)
-  double tyre_load_n = 0.0;       // Ft, load variation (-W: wheel off the ground)
-  double damper_force_n = 0.0;    // f held over the last step [N]
-  bool airborne = false;          // Ft at its floor
+  double travel_m = 0.0;            // d = zb - zu (+ extension)
+  double travel_rate_m_s = 0.0;     // d'
+  double damper_x_cm = 0.0;         // 100 r d: what the damper sees [cm]
+  double damper_v_cm_s = 0.0;       // 100 r d' [cm/s]
+  double body_velocity_m_s = 0.0;   // zb'
+  double wheel_velocity_m_s = 0.0;  // zu'
+  double tyre_deflection_m = 0.0;   // zr - zu (+ compression beyond static)
+  double tyre_load_n = 0.0;         // Ft, load variation (-W: wheel off the ground)
+  double damper_force_n = 0.0;      // f held over the last step [N]
+  bool airborne = false;            // Ft at its floor
 };
 
 struct FullCarSample {
