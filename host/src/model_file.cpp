@@ -270,6 +270,72 @@ void SaveModelFile(const ModelFile& m, const std::string& path) {
   WriteFileAtomic(path, ModelFileToJson(m));
 }
 
+namespace {
+
+// One entry of "iterations" (its terms checked against the spec; its number not one of earlier).
+SemIteration IterationFromJson(const json& ji, const SemSpec& spec,
+                               const std::vector<SemIteration>& earlier, const std::string& path) {
+  SemIteration it;
+  it.iteration = IntField(ji, "iteration", 0, 1000000, path, "iterations[]");
+  for (const auto& prev : earlier) {
+    if (prev.iteration == it.iteration) {
+      throw InputError(path, 0, fmt::format("iteration {} appears twice", it.iteration));
+    }
+  }
+  it.j = ji.at("J").is_null() ? std::numeric_limits<double>::infinity() : ji.at("J").get<double>();
+  for (const auto& v : ji.at("validation_J")) {
+    it.validation_j.push_back(v.is_null() ? std::numeric_limits<double>::infinity()
+                                          : v.get<double>());
+  }
+  it.elapsed_s = ji.value("elapsed_s", 0.0);
+  if (ji.contains("stress")) {
+    const json& js = ji.at("stress");
+    it.stress.checked = true;
+    it.stress.pass = js.at("pass").get<bool>();
+    it.stress.peak = js.at("peak").is_null() ? std::numeric_limits<double>::infinity()
+                                             : js.at("peak").get<double>();
+    it.stress.reason = js.value("reason", std::string());
+    it.stress_rejected = js.value("rejected_candidates", 0);
+  }
+  if (ji.contains("monotone")) {
+    const json& jm = ji.at("monotone");
+    it.monotone.checked = true;
+    it.monotone.pass = jm.at("pass").get<bool>();
+    it.monotone.states = jm.at("states").get<std::size_t>();
+    it.monotone.failing = jm.at("failing").get<std::size_t>();
+    it.monotone.share_percent =
+        FiniteField(jm.at("share_percent"), "monotone: share_percent", path);
+    it.monotone.worst = jm.value("worst", std::string());
+    it.monotone_rejected = jm.value("rejected_candidates", 0);
+  }
+  for (const auto& jt : ji.at("terms")) {
+    SemTerm term;
+    for (const auto& jf : jt.at("factors")) {
+      const std::string name = jf.at("regressor").get<std::string>();
+      const int r = spec.RegressorIndex(name);
+      if (r < 0) {
+        throw InputError(path, 0,
+                         fmt::format("iteration {}: unknown regressor '{}'", it.iteration, name));
+      }
+      const std::string where = fmt::format("iteration {}: factor {}", it.iteration, name);
+      const int delay = IntField(jf, "delay", 0, static_cast<long long>(kMaxDelay), path, where);
+      const auto& offered = spec.regressors[static_cast<std::size_t>(r)].delays;
+      if (std::find(offered.begin(), offered.end(), delay) == offered.end()) {
+        throw InputError(path, 0,
+                         fmt::format("'{}: delay' = {} is not offered by the spec", where, delay));
+      }
+      const int power = IntField(jf, "power", 1, kMaxPower, path, where);
+      term.factors.push_back({r, delay, power});
+    }
+    it.terms.push_back(std::move(term));
+    it.coefficients.push_back(FiniteField(
+        jt.at("coefficient"), fmt::format("iteration {}: coefficient", it.iteration), path));
+  }
+  return it;
+}
+
+}  // namespace
+
 ModelFile LoadModelFile(const std::string& path) {
   const std::string text = ReadInputText(path, kMaxModelFileBytes);
   // A key given twice in one object is refused (JSON leaves it open; the last would win).
@@ -338,65 +404,7 @@ ModelFile LoadModelFile(const std::string& path) {
     }
     m.num_candidates = j.value("num_candidates", std::size_t{0});
     for (const auto& ji : j.at("iterations")) {
-      SemIteration it;
-      it.iteration = IntField(ji, "iteration", 0, 1000000, path, "iterations[]");
-      for (const auto& prev : m.iterations) {
-        if (prev.iteration == it.iteration) {
-          throw InputError(path, 0, fmt::format("iteration {} appears twice", it.iteration));
-        }
-      }
-      it.j =
-          ji.at("J").is_null() ? std::numeric_limits<double>::infinity() : ji.at("J").get<double>();
-      for (const auto& v : ji.at("validation_J")) {
-        it.validation_j.push_back(v.is_null() ? std::numeric_limits<double>::infinity()
-                                              : v.get<double>());
-      }
-      it.elapsed_s = ji.value("elapsed_s", 0.0);
-      if (ji.contains("stress")) {
-        const json& js = ji.at("stress");
-        it.stress.checked = true;
-        it.stress.pass = js.at("pass").get<bool>();
-        it.stress.peak = js.at("peak").is_null() ? std::numeric_limits<double>::infinity()
-                                                 : js.at("peak").get<double>();
-        it.stress.reason = js.value("reason", std::string());
-        it.stress_rejected = js.value("rejected_candidates", 0);
-      }
-      if (ji.contains("monotone")) {
-        const json& jm = ji.at("monotone");
-        it.monotone.checked = true;
-        it.monotone.pass = jm.at("pass").get<bool>();
-        it.monotone.states = jm.at("states").get<std::size_t>();
-        it.monotone.failing = jm.at("failing").get<std::size_t>();
-        it.monotone.share_percent =
-            FiniteField(jm.at("share_percent"), "monotone: share_percent", path);
-        it.monotone.worst = jm.value("worst", std::string());
-        it.monotone_rejected = jm.value("rejected_candidates", 0);
-      }
-      for (const auto& jt : ji.at("terms")) {
-        SemTerm term;
-        for (const auto& jf : jt.at("factors")) {
-          const std::string name = jf.at("regressor").get<std::string>();
-          const int r = m.spec.RegressorIndex(name);
-          if (r < 0) {
-            throw InputError(
-                path, 0, fmt::format("iteration {}: unknown regressor '{}'", it.iteration, name));
-          }
-          const std::string where = fmt::format("iteration {}: factor {}", it.iteration, name);
-          const int delay =
-              IntField(jf, "delay", 0, static_cast<long long>(kMaxDelay), path, where);
-          const auto& offered = m.spec.regressors[static_cast<std::size_t>(r)].delays;
-          if (std::find(offered.begin(), offered.end(), delay) == offered.end()) {
-            throw InputError(
-                path, 0, fmt::format("'{}: delay' = {} is not offered by the spec", where, delay));
-          }
-          const int power = IntField(jf, "power", 1, kMaxPower, path, where);
-          term.factors.push_back({r, delay, power});
-        }
-        it.terms.push_back(std::move(term));
-        it.coefficients.push_back(FiniteField(
-            jt.at("coefficient"), fmt::format("iteration {}: coefficient", it.iteration), path));
-      }
-      m.iterations.push_back(std::move(it));
+      m.iterations.push_back(IterationFromJson(ji, m.spec, m.iterations, path));
     }
     m.selected = IntField(j, "selected", 0, 1000000, path, "");
     m.selection_rule = j.value("selection_rule", std::string());

@@ -29,6 +29,56 @@ void AtomicMin(std::atomic<double>& a, double v) {
   }
 }
 
+// Drops (cand = -1) the trials screen refuses, in parallel; counted as monotone refusals.
+void ScreenTrials(const Search::Screen& screen, int threads, std::vector<Trial>* trials,
+                  Search::Refusals* refusals) {
+  std::vector<Trial>& t = *trials;
+  std::atomic<int> n_screened{0};
+  ParallelFor((t.size() + kChunk - 1) / kChunk, threads, [&](std::size_t item, int) {
+    for (std::size_t c = item * kChunk; c < std::min(t.size(), (item + 1) * kChunk); ++c) {
+      if (t[c].cand >= 0 && !screen(t[c].cand, t[c].theta)) {
+        t[c].cand = -1;
+        ++n_screened;
+      }
+    }
+  });
+  if (refusals != nullptr) refusals->monotone += n_screened.load();
+}
+
+// Free runs of the trials ord[begin, end) under the early-stop bound best: each trial's J (kInf
+// when cut short or diverged), whether it was cut short; diverged runs counted in n_rejected.
+void SimulateChunk(Engine& e, const std::vector<int>& model, const std::vector<int>& ord,
+                   std::size_t begin, std::size_t end, std::atomic<double>& best,
+                   std::vector<double>& scratch, std::vector<Trial>* trials,
+                   std::atomic<int>& n_rejected) {
+  // Jobs by the candidate's y power and input factor columns: lanes side by side then read
+  // the same columns (cache lines shared). Each job's arithmetic is its own, so the order
+  // changes no result.
+  std::vector<std::size_t> idx(end - begin);
+  for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = begin + i;
+  std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) {
+    const Cand& ca = e.cand((*trials)[ord[a]].cand);
+    const Cand& cb = e.cand((*trials)[ord[b]].cand);
+    return ca.ypow != cb.ypow ? ca.ypow < cb.ypow : ca.in_cols < cb.in_cols;
+  });
+  std::vector<Engine::Job> jobs(end - begin);
+  for (std::size_t k = 0; k < idx.size(); ++k) {
+    Trial& tr = (*trials)[ord[idx[k]]];
+    jobs[k].theta.assign(tr.theta.begin(), tr.theta.end() - 1);
+    jobs[k].extra = tr.cand;
+    jobs[k].theta_extra = tr.theta.back();
+  }
+  e.Simulate(model, jobs, best, scratch);
+  for (std::size_t k = 0; k < idx.size(); ++k) {
+    const std::size_t i = idx[k];
+    const Engine::Job& job = jobs[k];
+    Trial& tr = (*trials)[ord[i]];
+    tr.j = job.dead ? kInf : job.cost;
+    tr.cut = job.dead && !job.diverged;
+    if (job.diverged) ++n_rejected;
+  }
+}
+
 }  // namespace
 
 double Search::Cost(const std::vector<int>& terms, std::vector<double>* theta) {
@@ -124,18 +174,7 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
     ~Report() { *out = n.load(); }
   } report{n_rejected, rejected};
   std::vector<Trial> trials = Bordered(model, w, n_rejected);
-  if (screen) {
-    std::atomic<int> n_screened{0};
-    ParallelFor((trials.size() + kChunk - 1) / kChunk, threads_, [&](std::size_t item, int) {
-      for (std::size_t c = item * kChunk; c < std::min(trials.size(), (item + 1) * kChunk); ++c) {
-        if (trials[c].cand >= 0 && !screen(trials[c].cand, trials[c].theta)) {
-          trials[c].cand = -1;
-          ++n_screened;
-        }
-      }
-    });
-    if (refusals != nullptr) refusals->monotone += n_screened.load();
-  }
+  if (screen) ScreenTrials(screen, threads_, &trials, refusals);
   const std::vector<int> order = RankOrder(trials, limit);
   Trial none;
   if (order.empty()) return none;
@@ -192,32 +231,7 @@ Trial Search::TryAdd(const std::vector<int>& model, const std::vector<double>& w
   };
   auto run_chunk = [&](const std::vector<int>& ord, std::size_t begin, std::size_t end,
                        std::vector<double>& scratch) {
-    // Jobs by the candidate's y power and input factor columns: lanes side by side then read
-    // the same columns (cache lines shared). Each job's arithmetic is its own, so the order
-    // changes no result.
-    std::vector<std::size_t> idx(end - begin);
-    for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = begin + i;
-    std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) {
-      const Cand& ca = e_.cand(trials[ord[a]].cand);
-      const Cand& cb = e_.cand(trials[ord[b]].cand);
-      return ca.ypow != cb.ypow ? ca.ypow < cb.ypow : ca.in_cols < cb.in_cols;
-    });
-    std::vector<Engine::Job> jobs(end - begin);
-    for (std::size_t k = 0; k < idx.size(); ++k) {
-      Trial& tr = trials[ord[idx[k]]];
-      jobs[k].theta.assign(tr.theta.begin(), tr.theta.end() - 1);
-      jobs[k].extra = tr.cand;
-      jobs[k].theta_extra = tr.theta.back();
-    }
-    e_.Simulate(model, jobs, best, scratch);
-    for (std::size_t k = 0; k < idx.size(); ++k) {
-      const std::size_t i = idx[k];
-      const Engine::Job& job = jobs[k];
-      Trial& tr = trials[ord[i]];
-      tr.j = job.dead ? kInf : job.cost;
-      tr.cut = job.dead && !job.diverged;
-      if (job.diverged) ++n_rejected;
-    }
+    SimulateChunk(e_, model, ord, begin, end, best, scratch, &trials, n_rejected);
   };
   if (!first) {
     std::vector<std::vector<double>> scratch(static_cast<std::size_t>(threads_));
