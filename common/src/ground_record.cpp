@@ -3,27 +3,19 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
-#include <sstream>
 
-#include "mrd/common/input_file.hpp"
+#include "mrd/common/input_lines.hpp"
 
 namespace mrd {
 
 bool LoadGroundRecord(const std::string& path, GroundRecord* record, std::string* error) {
-  std::string text;
-  if (!ReadInputFile(path, std::uint64_t{64} << 20, &text, error)) return false;
-  const std::string where = Printable(path);
-  std::istringstream in(text);
+  InputLines lines;
+  if (!lines.Read(path, std::uint64_t{64} << 20, error)) return false;
   std::vector<double> t, a;
   std::string line;
-  int number = 0;
   bool header = false;
-  const auto fail = [&](const std::string& why) {
-    *error = where + ":" + std::to_string(number) + ": " + why;
-    return false;
-  };
-  while (std::getline(in, line)) {
-    ++number;
+  const auto fail = [&](const std::string& why) { return lines.Fail(why, error); };
+  while (lines.Next(&line)) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty() || line[0] == '#') continue;
     if (!header) {
@@ -54,7 +46,7 @@ bool LoadGroundRecord(const std::string& path, GroundRecord* record, std::string
     a.push_back(av);
   }
   if (t.size() < 2) {
-    *error = where + ": fewer than 2 samples";
+    *error = lines.where() + ": fewer than 2 samples";
     return false;
   }
   record->path = path;

@@ -176,11 +176,6 @@ bool Message(const ProfileContext& c, const toml::table& t, const std::string& n
   return true;
 }
 
-// [command]: unit, calibration (a CSV relative to the profile), min, max, slew_per_s.
-bool Command(const ProfileContext& c, const toml::table& t, const std::string& dir, CanProfile* p) {
-  return ReadCommand(c, t, dir, &p->command_unit, &p->command);
-}
-
 // What the command signal can carry (its field through factor and offset, within the DBC's
 // [min|max] when it gives one) against [command], and the safe state proved (command_section).
 bool CheckSetpointSignal(const ProfileContext& c, const toml::table& root, const CanProfile& p) {
@@ -203,15 +198,7 @@ bool CheckSetpointSignal(const ProfileContext& c, const toml::table& root, const
     carrier.hi = std::min(carrier.hi, l.max);
   }
   carrier.step = std::fabs(l.factor);
-  const char* key = nullptr;
-  const std::string why = CheckCommandCarrier(p.command, p.command_unit, carrier, &key);
-  if (why.empty()) return true;
-  const toml::node* at = root.get("command");
-  if (at != nullptr && key != nullptr && at->is_table() && at->as_table()->get(key) != nullptr) {
-    at = at->as_table()->get(key);
-  }
-  const toml::node* role = root.at_path("outputs.command").node();
-  return c.Fail(at != nullptr ? at : role, why);
+  return CheckCommandCarrierAt(c, root, p.command, p.command_unit, carrier, "outputs.command");
 }
 
 // fault_reset: a bit (unsigned, 1 bit, factor 1, offset 0) of a message the firmware sends
@@ -370,9 +357,9 @@ bool ParseCanProfile(const std::string& text, const std::string& path, const std
       } else if (key == "command") {
         const toml::table* t = v.as_table();
         if (t == nullptr) return c.Fail(&v, "command: expected a table");
-        if (!Command(c, *t, dbc_text != nullptr ? std::string(".") : ProfileDirectory(path), out)) {
-          return false;
-        }
+        // [command]: unit, calibration (a CSV relative to the profile), min, max, slew_per_s.
+        const std::string dir = dbc_text != nullptr ? std::string(".") : ProfileDirectory(path);
+        if (!ReadCommand(c, *t, dir, &out->command_unit, &out->command)) return false;
       } else if (key == "canopen") {
         const toml::table* t = v.as_table();
         if (t == nullptr) return c.Fail(&v, "canopen: expected a table");

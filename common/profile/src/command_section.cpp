@@ -106,6 +106,19 @@ std::string CheckCommandCarrier(const CommandMap& map, const std::string& unit,
   return "";
 }
 
+bool CheckCommandCarrierAt(const ProfileContext& c, const toml::table& root, const CommandMap& map,
+                           const std::string& unit, const SetpointCarrier& carrier,
+                           const char* output_path) {
+  const char* key = nullptr;
+  const std::string why = CheckCommandCarrier(map, unit, carrier, &key);
+  if (why.empty()) return true;
+  const toml::node* at = root.get("command");
+  if (at != nullptr && key != nullptr && at->is_table() && at->as_table()->get(key) != nullptr) {
+    at = at->as_table()->get(key);
+  }
+  return c.Fail(at != nullptr ? at : root.at_path(output_path).node(), why);
+}
+
 bool ReadCommand(const ProfileContext& c, const toml::table& t, const std::string& dir,
                  std::string* unit, CommandMap* map) {
   CommandSection cmd{*unit, -1e300, 1e300, 0.0};

@@ -42,6 +42,12 @@ struct SetpointCarrier {
 // (CommandMap::Off: a decreasing calibration, or one that does not start at the off value).
 std::string CheckCommandCarrier(const CommandMap& map, const std::string& unit,
                                 const SetpointCarrier& carrier, const char** key);
+// CheckCommandCarrier for a profile whose root table is `root`: true when it passes, else c's
+// error at the [command] key it names, or without one at the node `output_path` (the command
+// output's role, "outputs.command").
+bool CheckCommandCarrierAt(const ProfileContext& c, const toml::table& root, const CommandMap& map,
+                           const std::string& unit, const SetpointCarrier& carrier,
+                           const char* output_path);
 // A number as the errors show it (up to 6 significant digits).
 std::string ShowNumber(double v);
 

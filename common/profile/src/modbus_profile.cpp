@@ -151,12 +151,6 @@ bool Point(const ProfileContext& c, const toml::node& n, const std::string& full
   return true;
 }
 
-// [command]: unit, calibration (a CSV relative to the profile), min, max, slew_per_s.
-bool Command(const ProfileContext& c, const toml::table& t, const std::string& dir,
-             ModbusProfile* p) {
-  return ReadCommand(c, t, dir, &p->command_unit, &p->command);
-}
-
 // Greedy left-to-right grouping (optimal for intervals on a line under a length cap): sorted
 // points of one unit and table join the open request while the gap to its end is at most
 // max_gap and the request stays within cap.
@@ -232,7 +226,10 @@ bool ReadTopLevel(const ProfileContext& c, const toml::table& root, const std::s
     } else if (key == "command") {
       const toml::table* t = v.as_table();
       if (t == nullptr) return c.Fail(&v, "command: expected a table");
-      if (!Command(c, *t, ProfileDirectory(path), out)) return false;
+      // [command]: unit, calibration (a CSV relative to the profile), min, max, slew_per_s.
+      if (!ReadCommand(c, *t, ProfileDirectory(path), &out->command_unit, &out->command)) {
+        return false;
+      }
     } else if (key != "modbus") {
       return c.Fail(&v, key + ": unknown key (name, description, modbus, command)");
     }
@@ -483,14 +480,8 @@ bool CheckSetpointRegister(const ProfileContext& c, const toml::table& root,
   carrier.lo = std::min(a, b);
   carrier.hi = std::max(a, b);
   carrier.step = step;
-  const char* key = nullptr;
-  const std::string why = CheckCommandCarrier(p.command, p.command_unit, carrier, &key);
-  if (why.empty()) return true;
-  const toml::node* at = root.get("command");
-  if (at != nullptr && key != nullptr && at->is_table() && at->as_table()->get(key) != nullptr) {
-    at = at->as_table()->get(key);
-  }
-  return c.Fail(at != nullptr ? at : root.at_path("modbus.outputs.command").node(), why);
+  return CheckCommandCarrierAt(c, root, p.command, p.command_unit, carrier,
+                               "modbus.outputs.command");
 }
 
 }  // namespace

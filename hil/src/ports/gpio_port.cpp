@@ -64,11 +64,7 @@ class GpioPort final : public PlantPort {
     }
     const std::int64_t now = common::MonotonicNs();
     chip_.SetValue(Line(c_.fault_line), out.fault_line != c_.fault_active_low, now);
-    const double target_d = std::round(out.sample.x * c_.counts_per_cm);
-    if (!std::isfinite(target_d) || std::fabs(target_d) > 9e15) return;
-    const auto target = static_cast<std::int64_t>(target_d);
-    const std::int64_t steps =
-        std::clamp<std::int64_t>(target - count_, -kMaxStepsPerPublish, kMaxStepsPerPublish);
+    const std::int64_t steps = EncoderStepsToward(out.sample.x, c_.counts_per_cm, count_);
     const std::int64_t dir = steps > 0 ? 1 : -1;
     for (std::int64_t i = 0; i != steps; i += dir) {
       const protocol::QuadratureLevels from = protocol::LevelsForCount(count_);
@@ -114,6 +110,13 @@ class GpioPort final : public PlantPort {
 };
 
 }  // namespace
+
+std::int64_t EncoderStepsToward(double x_cm, double counts_per_cm, std::int64_t count) {
+  const double target_d = std::round(x_cm * counts_per_cm);
+  if (!std::isfinite(target_d) || std::fabs(target_d) > 9e15) return 0;
+  const auto target = static_cast<std::int64_t>(target_d);
+  return std::clamp<std::int64_t>(target - count, -kMaxStepsPerPublish, kMaxStepsPerPublish);
+}
 
 bool ParseGpioEndpoint(const std::string& endpoint, GpioPortConfig* out, std::string* error) {
   GpioPortConfig c;

@@ -78,11 +78,7 @@ class GpioSimPort final : public PlantPort {
     if (a_ < 0) return;
     const bool fault = out.fault_line != c_.fault_active_low;
     if (fault != fault_level_ && SetPull(fault_, fault)) fault_level_ = fault;
-    const double target_d = std::round(out.sample.x * c_.counts_per_cm);
-    if (!std::isfinite(target_d) || std::fabs(target_d) > 9e15) return;
-    const auto target = static_cast<std::int64_t>(target_d);
-    const std::int64_t steps =
-        std::clamp<std::int64_t>(target - count_, -kMaxStepsPerPublish, kMaxStepsPerPublish);
+    const std::int64_t steps = EncoderStepsToward(out.sample.x, c_.counts_per_cm, count_);
     const std::int64_t dir = steps > 0 ? 1 : -1;
     for (std::int64_t i = 0; i != steps; i += dir) {
       const protocol::QuadratureLevels from = protocol::LevelsForCount(count_);

@@ -27,7 +27,7 @@
 #include <thread>
 #include <vector>
 
-#include "modbus_server.hpp"
+#include "modbus_served_port.hpp"
 #include "mrd/common/clock.hpp"
 #include "mrd/hil/ports/plant_port.hpp"
 #include "mrd/protocol/modbus_map.hpp"
@@ -38,13 +38,10 @@ namespace {
 
 namespace map = mrd::protocol::modbus;
 
-class ModbusPort final : public PlantPort, private ModbusServer::Bank {
+class ModbusPort final : public ModbusServedPort {
  public:
-  ModbusPort(bool rtu, std::string endpoint)
-      : rtu_(rtu), endpoint_(std::move(endpoint)), server_(*this) {}
+  ModbusPort(bool rtu, std::string endpoint) : ModbusServedPort(rtu, std::move(endpoint)) {}
   ~ModbusPort() override { Close(); }
-
-  const char* name() const override { return rtu_ ? "modbus-rtu" : "modbus-tcp"; }
 
   bool Open(std::string* error) override {
     {
@@ -54,11 +51,7 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
       regs_[map::kCommandBase + map::kSetPoint] = map::kNoSetPoint;
       regs_[map::kCommandBase + map::kEnable] = map::kEnableNotDriven;
     }
-    if (!OpenModbusEndpoint(server_, rtu_, endpoint_, &master_fd_, &slave_fd_, error)) return false;
-    server_.Start();
-    std::lock_guard<std::mutex> lock(mu_);
-    open_ = true;
-    return true;
+    return ModbusServedPort::Open(error);
   }
 
   // Faults on a register transport: drop and stall leave the block as it was (the firmware
@@ -90,11 +83,6 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
     std::copy(regs, regs + map::kSensorCount, regs_ + map::kSensorBase);
   }
 
-  void SetLockstep(bool on) override {
-    std::lock_guard<std::mutex> lock(mu_);
-    lockstep_ = on;
-  }
-
   bool SendGrant(std::int64_t t_ns) override {
     std::uint16_t regs[3];
     map::PutU48(static_cast<std::uint64_t>(t_ns / 1000), regs);
@@ -106,12 +94,6 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
     }
     std::copy(regs, regs + 3, regs_ + map::kSensorBase + map::kGrant);
     return true;
-  }
-
-  void Wait(std::int64_t timeout_ns) override {
-    std::unique_lock<std::mutex> lock(mu_);
-    if (pending_) return;
-    written_.wait_for(lock, std::chrono::nanoseconds(timeout_ns), [this] { return pending_; });
   }
 
   void Poll(DriverInput* in) override {
@@ -138,21 +120,6 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
       in->has_safe = true;
       in->safe = last_.safe;
     }
-  }
-
-  void Close() override {
-    server_.Stop();
-    if (master_fd_ >= 0) close(master_fd_);
-    if (slave_fd_ >= 0) close(slave_fd_);
-    if (rtu_ && master_fd_ >= 0) unlink(endpoint_.c_str());
-    master_fd_ = slave_fd_ = -1;
-    std::lock_guard<std::mutex> lock(mu_);
-    open_ = false;
-  }
-
-  PortCounters counters() const override {
-    std::lock_guard<std::mutex> lock(mu_);
-    return counters_;
   }
 
  private:
@@ -196,34 +163,16 @@ class ModbusPort final : public PlantPort, private ModbusServer::Bank {
     std::lock_guard<std::mutex> lock(mu_);
     have_last_ = false;  // a new firmware counts its ticks from the start
   }
-  void CountRejected() override {
-    std::lock_guard<std::mutex> lock(mu_);
-    ++counters_.rejected;
-  }
-  void CountRefused() override {
-    std::lock_guard<std::mutex> lock(mu_);
-    ++counters_.refused;
-  }
 
-  const bool rtu_;
-  const std::string endpoint_;
-  int master_fd_ = -1, slave_fd_ = -1;
-  ModbusServer server_;
-
-  mutable std::mutex mu_;  // guards everything below
-  bool open_ = false;
+  // Guarded by mu_:
   std::uint16_t regs_[map::kMapSize] = {};  // holding registers 0..47
   map::CommandBlock last_;
   bool have_last_ = false;
-  bool pending_ = false;
   std::int64_t command_ns_ = 0;
   std::int64_t heartbeat_ns_ = 0;
-  std::uint64_t heartbeats_ = 0;  // heartbeat changes heard
-  bool lockstep_ = false;
+  std::uint64_t heartbeats_ = 0;                  // heartbeat changes heard
   std::uint16_t staged_[map::kSensorCount] = {};  // lockstep: the step's block, until its grant
   bool staged_valid_ = false;
-  std::condition_variable written_;  // a command block arrived (pending_)
-  PortCounters counters_;
 };
 
 }  // namespace

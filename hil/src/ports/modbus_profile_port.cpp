@@ -29,7 +29,7 @@
 #include <mutex>
 #include <vector>
 
-#include "modbus_server.hpp"
+#include "modbus_served_port.hpp"
 #include "mrd/common/clock.hpp"
 #include "mrd/hil/ports/plant_port.hpp"
 #include "mrd/profile/modbus_profile.hpp"
@@ -42,10 +42,10 @@ namespace mb = mrd::protocol::modbus;
 
 constexpr std::size_t kTableSize = 65536;
 
-class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
+class ModbusProfilePort final : public ModbusServedPort {
  public:
   ModbusProfilePort(bool rtu, std::string endpoint, std::shared_ptr<const pf::ModbusProfile> p)
-      : rtu_(rtu), endpoint_(std::move(endpoint)), profile_(std::move(p)), server_(*this) {
+      : ModbusServedPort(rtu, std::move(endpoint)), profile_(std::move(p)) {
     const auto add = [&](const pf::ModbusPoint& pt) {
       if (!pt.mapped || units_.count(pt.unit) != 0) return;
       Unit& u = units_[pt.unit];
@@ -68,18 +68,6 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     trigger_ = cmd.mapped ? &cmd : &profile_->Out(pf::ModbusOut::kEnable);
   }
   ~ModbusProfilePort() override { Close(); }
-
-  const char* name() const override { return rtu_ ? "modbus-rtu" : "modbus-tcp"; }
-
-  bool Open(std::string* error) override {
-    if (!OpenModbusEndpoint(server_, rtu_, endpoint_, &master_fd_, &slave_fd_, error)) {
-      return false;
-    }
-    server_.Start();
-    std::lock_guard<std::mutex> lock(mu_);
-    open_ = true;
-    return true;
-  }
 
   void Publish(const SensorOutput& out) override {
     {
@@ -117,11 +105,6 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     Store(s);
   }
 
-  void SetLockstep(bool on) override {
-    std::lock_guard<std::mutex> lock(mu_);
-    lockstep_ = on;
-  }
-
   bool SendGrant(std::int64_t t_ns) override {
     const pf::ModbusPoint& g = profile_->In(pf::CanIn::kGrant);
     std::lock_guard<std::mutex> lock(mu_);
@@ -141,12 +124,6 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
   }
 
   bool CarriesHeartbeat() const override { return profile_->Out(pf::ModbusOut::kHeartbeat).mapped; }
-
-  void Wait(std::int64_t timeout_ns) override {
-    std::unique_lock<std::mutex> lock(mu_);
-    if (pending_) return;
-    written_.wait_for(lock, std::chrono::nanoseconds(timeout_ns), [this] { return pending_; });
-  }
 
   void Poll(DriverInput* in) override {
     std::lock_guard<std::mutex> lock(mu_);
@@ -181,21 +158,6 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
       in->status_causes = causes_;
       in->status_safe = safe_;
     }
-  }
-
-  void Close() override {
-    server_.Stop();
-    if (master_fd_ >= 0) close(master_fd_);
-    if (slave_fd_ >= 0) close(slave_fd_);
-    if (rtu_ && master_fd_ >= 0) unlink(endpoint_.c_str());
-    master_fd_ = slave_fd_ = -1;
-    std::lock_guard<std::mutex> lock(mu_);
-    open_ = false;
-  }
-
-  PortCounters counters() const override {
-    std::lock_guard<std::mutex> lock(mu_);
-    return counters_;
   }
 
  private:
@@ -425,29 +387,13 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
     written_.notify_all();
   }
 
-  void CountRejected() override {
-    std::lock_guard<std::mutex> lock(mu_);
-    ++counters_.rejected;
-  }
-  void CountRefused() override {
-    std::lock_guard<std::mutex> lock(mu_);
-    ++counters_.refused;
-  }
-
-  const bool rtu_;
-  const std::string endpoint_;
   const std::shared_ptr<const pf::ModbusProfile> profile_;
   const pf::ModbusPoint* trigger_ = nullptr;
   pf::ModbusPoint enable_point_;
-  int master_fd_ = -1, slave_fd_ = -1;
   std::map<std::uint8_t, Unit> units_;  // fixed after construction (Serves reads it unlocked)
-  ModbusServer server_;
 
-  mutable std::mutex mu_;  // guards the tables and everything below
-  bool open_ = false;
-  bool lockstep_ = false;
+  // Guarded by mu_ (the tables too):
   Staged staged_;
-  bool pending_ = false;
   double volts_ = 0.0;
   std::uint32_t echo_ = 0;
   bool enable_ = false, safe_ = false;
@@ -459,8 +405,6 @@ class ModbusProfilePort final : public PlantPort, private ModbusServer::Bank {
   std::int64_t command_ns_ = 0, heartbeat_ns_ = 0;
   std::uint64_t heartbeats_ = 0;
   std::vector<std::int64_t> keepalive_ns_;  // per periodic write: its latest arrival (0: none)
-  std::condition_variable written_;
-  PortCounters counters_;
 };
 
 }  // namespace

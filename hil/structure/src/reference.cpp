@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "mrd/common/input_file.hpp"
+#include "mrd/common/input_lines.hpp"
 
 namespace mrd::structure {
 
@@ -82,21 +83,15 @@ int Sign(double change_percent) {
 }  // namespace
 
 bool LoadReference(const std::string& path, Reference* out, std::string* error) {
-  std::string text;
-  if (!ReadInputFile(path, kMaxReferenceBytes, &text, error)) return false;
-  const std::string where = Printable(path);
-  std::istringstream in(text);
+  InputLines lines;
+  if (!lines.Read(path, kMaxReferenceBytes, error)) return false;
+  const std::string& where = lines.where();
   Reference ref;
   ref.path = where;
   std::string line;
-  int number = 0;
   bool header = false;
-  const auto fail = [&](const std::string& why) {
-    *error = where + ":" + std::to_string(number) + ": " + why;
-    return false;
-  };
-  while (std::getline(in, line)) {
-    ++number;
+  const auto fail = [&](const std::string& why) { return lines.Fail(why, error); };
+  while (lines.Next(&line)) {
     if (Trim(line).empty()) continue;
     if (line[0] == '#') {
       if (ref.source.empty()) ref.source = Printable(Trim(line.substr(1)));

@@ -358,6 +358,35 @@ ModbusDevice::Outcome ModbusDevice::WriteLatest(Sample* s) {
   return Outcome::kFailed;
 }
 
+ModbusDevice::Outcome ModbusDevice::ReadOnce(const std::uint8_t* pdu, int len, std::uint8_t* reply,
+                                             int* reply_len, IoError* why, std::int64_t* stamp_ns) {
+  if (resync_) {
+    resync_ = false;
+    if (!link_->Quiet(wake_, waker_.get())) return Outcome::kAbandoned;
+  }
+  if (!running_.load(std::memory_order_relaxed)) return Outcome::kAbandoned;
+  // The reply's values are no older than this request: its stamp (however late the reply).
+  // RTU has no transaction id: while an earlier read may still be answered late, the
+  // stamp is that read's (the reply taken may be its).
+  const std::int64_t sent_ns = common::MonotonicNs();
+  const bool rtu = config_.mode == ModbusMode::kRtu;
+  *stamp_ns = rtu && unanswered_since_ns_ != 0 ? unanswered_since_ns_ : sent_ns;
+  const ModbusLink::Result r =
+      link_->Transact(pdu, len, reply, reply_len, why, wake_, waker_.get());
+  if (rtu && r != ModbusLink::Result::kOk && unanswered_since_ns_ == 0) {
+    unanswered_since_ns_ = sent_ns;
+  }
+  switch (r) {
+    case ModbusLink::Result::kOk:
+      return Outcome::kOk;
+    case ModbusLink::Result::kAbandoned:
+      return Outcome::kAbandoned;
+    case ModbusLink::Result::kFailed:
+      break;
+  }
+  return Outcome::kFailed;
+}
+
 ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
   if (profile_ != nullptr) return ReadProfile(out, new_grant);
   Sample& s = *out;
@@ -366,25 +395,11 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
   const int len = map::PutReadRequest(map::kSensorBase, count, pdu);
   IoError why = IoError::kNone;
   for (int attempt = 0; attempt <= config_.retries; ++attempt) {
-    if (resync_) {
-      resync_ = false;
-      if (!link_->Quiet(wake_, waker_.get())) return Outcome::kAbandoned;
-    }
-    if (!running_.load(std::memory_order_relaxed)) return Outcome::kAbandoned;
-    // The reply's values are no older than this request: its stamp (however late the reply).
-    // RTU has no transaction id: while an earlier read may still be answered late, the
-    // stamp is that read's (the reply taken may be its).
-    const std::int64_t sent_ns = common::MonotonicNs();
-    const bool rtu = config_.mode == ModbusMode::kRtu;
-    const std::int64_t stamp_ns = rtu && unanswered_since_ns_ != 0 ? unanswered_since_ns_ : sent_ns;
     int reply_len = 0;
-    const ModbusLink::Result r =
-        link_->Transact(pdu, len, reply, &reply_len, &why, wake_, waker_.get());
-    if (rtu && r != ModbusLink::Result::kOk && unanswered_since_ns_ == 0) {
-      unanswered_since_ns_ = sent_ns;
-    }
-    if (r == ModbusLink::Result::kAbandoned) return Outcome::kAbandoned;
-    if (r == ModbusLink::Result::kOk) {
+    std::int64_t stamp_ns = 0;
+    const Outcome r = ReadOnce(pdu, len, reply, &reply_len, &why, &stamp_ns);
+    if (r == Outcome::kAbandoned) return Outcome::kAbandoned;
+    if (r == Outcome::kOk) {
       std::uint16_t regs[map::kLockstepSensorCount] = {};
       std::uint8_t exception = 0;
       const map::Reply check = map::CheckReadReply(reply, reply_len, count, regs, &exception);

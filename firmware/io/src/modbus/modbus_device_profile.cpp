@@ -50,7 +50,6 @@ double CounterValue(const pf::ModbusPoint& pt, std::uint64_t n) {
 ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
   Sample& s = *out;
   const pf::ModbusProfile& p = *profile_;
-  const bool rtu = config_.mode == ModbusMode::kRtu;
   double values[pf::kNumCanIn] = {};
   std::int64_t stamp_ns = 0;
   IoError why = IoError::kNone;
@@ -60,24 +59,14 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
     const int len = pf::PutModbusRead(req, pdu);
     bool ok = false;
     for (int attempt = 0; attempt <= config_.retries; ++attempt) {
-      if (resync_) {
-        resync_ = false;
-        if (!link_->Quiet(wake_, waker_.get())) return Outcome::kAbandoned;
-      }
-      if (!running_.load(std::memory_order_relaxed)) return Outcome::kAbandoned;
-      // The sample is no older than the cycle's first request (RTU: than a read that may
-      // still be answered late).
-      const std::int64_t sent_ns = common::MonotonicNs();
-      if (q == 0) stamp_ns = rtu && unanswered_since_ns_ != 0 ? unanswered_since_ns_ : sent_ns;
       link_->set_unit(req.unit);
       int reply_len = 0;
-      const ModbusLink::Result r =
-          link_->Transact(pdu, len, reply, &reply_len, &why, wake_, waker_.get());
-      if (rtu && r != ModbusLink::Result::kOk && unanswered_since_ns_ == 0) {
-        unanswered_since_ns_ = sent_ns;
-      }
-      if (r == ModbusLink::Result::kAbandoned) return Outcome::kAbandoned;
-      if (r == ModbusLink::Result::kOk) {
+      std::int64_t sent_stamp_ns = 0;
+      const Outcome r = ReadOnce(pdu, len, reply, &reply_len, &why, &sent_stamp_ns);
+      if (r == Outcome::kAbandoned) return Outcome::kAbandoned;
+      // The sample is no older than the cycle's first request.
+      if (q == 0) stamp_ns = sent_stamp_ns;
+      if (r == Outcome::kOk) {
         std::uint8_t exception = 0;
         const pf::ModbusReply check = pf::CheckModbusRead(req, reply, reply_len, &exception);
         if (check == pf::ModbusReply::kOk) {

@@ -38,6 +38,11 @@ struct GpioPortConfig {
 
 inline constexpr int kMaxStepsPerPublish = 128;
 
+// The encoder's move this step (both GPIO ports): from `count` toward round(x_cm *
+// counts_per_cm), clamped to +-kMaxStepsPerPublish; 0 when the target is not finite or beyond
+// +-9e15 counts (the port keeps its count).
+std::int64_t EncoderStepsToward(double x_cm, double counts_per_cm, std::int64_t count);
+
 // Parses "PATH[,KEY=VALUE...]". false with *error ("gpio endpoint 'E': reason") on an unknown
 // key, a bad value, a line outside the chip or two functions on one line.
 bool ParseGpioEndpoint(const std::string& endpoint, GpioPortConfig* out, std::string* error);

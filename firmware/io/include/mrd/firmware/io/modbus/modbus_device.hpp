@@ -123,6 +123,11 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   Outcome ReadSensors(Sample* s, bool* new_grant);
   // One write of c (one attempt). why: set on failure.
   Outcome WriteOnce(const Command& c, IoError* why, bool interruptible);
+  // One read request (one attempt, the link's unit): the quiet-line wait a failed exchange
+  // asked for, the stop check, the exchange. *stamp_ns: what the reply's values are no older
+  // than. kOk: a reply of *reply_len bytes; kFailed: *why (not counted yet).
+  Outcome ReadOnce(const std::uint8_t* pdu, int len, std::uint8_t* reply, int* reply_len,
+                   IoError* why, std::int64_t* stamp_ns);
   // The profile's transactions (modbus_device_profile.cpp).
   Outcome ReadProfile(Sample* s, bool* new_grant);
   Outcome WriteProfileOnce(const Command& c, IoError* why, bool interruptible);
