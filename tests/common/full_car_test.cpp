@@ -20,6 +20,10 @@
 #include "mrd/sim/quarter_car.hpp"
 #include "mrd/sim/two_track_road.hpp"
 
+// GCC 12 takes the counting operator delete's free() for a mismatch with the counting new once
+// a std::string is inlined into a test body: a false positive (as in the other no-alloc tests).
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+
 namespace {
 std::atomic<std::uint64_t> g_allocations{0};
 }  // namespace
@@ -524,8 +528,10 @@ TEST(FullCarTest, SymmetricCarOnOneTrackIsFourQuarterCars) {
     quarter.Step(0.0);
     const FullCarSample& s =
         car.Step(kPeriod, all(track.height_m()), all(qp.speed_m_s * track.slope()), kZero);
-    EXPECT_EQ(s.pitch_rate, 0.0);
-    EXPECT_EQ(s.roll_rate, 0.0);
+    // No pitch or roll but round-off: the rates sum equal and opposite corner moments, exactly
+    // zero on x86-64, within 1e-17 rad/s where the compiler fuses a*b+c (aarch64).
+    EXPECT_LE(std::fabs(s.pitch_rate), 1e-12);
+    EXPECT_LE(std::fabs(s.roll_rate), 1e-12);
     err_body = std::max(err_body, std::fabs(car.state().z - quarter.state().zs));
     err_wheel = std::max(err_wheel, std::fabs(car.state().zu[kRearRight] - quarter.state().zu));
     travel_peak = std::max(travel_peak, std::fabs(s.corner[kFrontLeft].travel_m));
