@@ -54,6 +54,7 @@ std::uint32_t DeviceCauses(const SensorFrame& frame, IoStatus read_status, bool 
   }
   if (driver_fault) causes |= Watchdog::Bit(FaultCause::kDriverFault);
   if (frame.fault_line) causes |= Watchdog::Bit(FaultCause::kFaultLine);
+  if (frame.peer_fault) causes |= Watchdog::Bit(FaultCause::kOtherChannel);
   return causes;
 }
 

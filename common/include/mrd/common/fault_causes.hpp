@@ -18,7 +18,8 @@
   X(kImplausible, "implausible")  \
   X(kCanBus, "can_bus")           \
   X(kModbusBus, "modbus_bus")     \
-  X(kGpioBus, "gpio_bus")
+  X(kGpioBus, "gpio_bus")         \
+  X(kOtherChannel, "other_channel")
 
 namespace mrd {
 

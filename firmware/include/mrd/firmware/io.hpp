@@ -40,6 +40,9 @@ struct Stamped {
 struct SensorFrame {
   std::array<Stamped, kNumInputs> inputs{};
   bool fault_line = false;  // external fault input asserted
+  // Another damper channel of the loop faulted (FaultPolicy::kAll, loop.hpp): set by the loop
+  // before the update, never by a source.
+  bool peer_fault = false;
   // Watchdog::Bit(FaultCause::kCanBus / kModbusBus / kGpioBus) of each bus whose device
   // faulted this period (0 from sources that name no bus).
   std::uint32_t bus_faults = 0;

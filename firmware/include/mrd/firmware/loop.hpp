@@ -1,14 +1,26 @@
 #pragma once
-// The control loop: wires a SensorSource and a CurrentDriver to the Controller at a fixed
-// period with absolute deadlines. Per period, in order: read inputs, clamp dt, update, write,
-// count time (and publish telemetry). Overruns skip the missed deadlines and are counted (in
-// lockstep: a grant that jumps ahead, e.g. to a restarted firmware). A clock that halts (the
-// lockstep GrantClock whose harness is gone) ends the run.
-// The loop always leaves the driver in the safe state when it returns.
+// The control loop: runs one or more damper channels (channel.hpp: each a SensorSource, a
+// CurrentDriver and a Controller) on one clock at a fixed period with absolute deadlines. Per
+// period, in order: every channel's period boundary and read (channel order), the body law
+// (if any: inputs computed over all channels, e.g. modal skyhook's force demands), clamp dt,
+// every channel's update, write and count (channel order), count time. Overruns skip the
+// missed deadlines and are counted (in lockstep: a grant that jumps ahead, e.g. to a restarted
+// firmware). A clock that halts (the lockstep GrantClock whose harness is gone) ends the run.
+// The loop always leaves every driver in the safe state when it returns.
+//
+// Fault policy between channels (FaultPolicy):
+//   kAll      a channel with an active cause of its own in period k puts every other channel
+//             safe in period k+1 (their other_channel cause) until it clears: the faulted
+//             channel is safe in the period it faults, the others one period later
+//   kChannel  channels never affect each other
 
+#include <array>
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
+#include <optional>
 
+#include "mrd/firmware/channel.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/io.hpp"
 #include "mrd/firmware/period_hooks.hpp"
@@ -16,11 +28,30 @@
 
 namespace mrd::firmware {
 
+inline constexpr std::size_t kMaxChannels = 8;
+
+enum class FaultPolicy : std::uint8_t {
+  kAll = 0,  // any channel's fault puts every channel safe (the vehicle default)
+  kChannel,  // only the faulted channel goes safe
+};
+
+// Inputs computed over all channels after they read and before they update (e.g. modal
+// skyhook: each corner's force demand from every corner's body velocity). Real-time safe.
+class BodyLaw {
+ public:
+  virtual ~BodyLaw() = default;
+  // frames[i]: channel i's frame as read this period (n channels); sets inputs in them.
+  virtual void Apply(SensorFrame* const* frames, std::size_t n, std::int64_t now_ns) = 0;
+};
+
 class Loop {
  public:
-  // All references outlive the loop. period_ns > 0.
+  // One channel. All references outlive the loop. period_ns > 0.
   Loop(Clock& clock, SensorSource& source, CurrentDriver& driver, Controller& controller,
        Telemetry& telemetry, std::int64_t period_ns);
+  // channels[0..n): 1 <= n <= kMaxChannels (more are ignored), each outliving the loop.
+  Loop(Clock& clock, Channel* const* channels, std::size_t n, FaultPolicy policy,
+       std::int64_t period_ns);
   Loop(const Loop&) = delete;
   Loop& operator=(const Loop&) = delete;
 
@@ -37,34 +68,32 @@ class Loop {
   void Shutdown();
   void Shutdown(const IoTime& t);
 
-  const TelemetrySnapshot& stats() const { return stats_; }
-  // The controller running now (another one after a reload).
-  const Controller& controller() const { return *controller_; }
-  // Optional services (period_hooks.hpp); nullptr: none. Set before Run; they outlive the loop.
-  void SetHook(PeriodHook* hook) { hook_ = hook; }
-  void SetObserver(PeriodObserver* observer) { observer_ = observer; }
+  // Channel 0's counters (with the loop's timing) and controller.
+  const TelemetrySnapshot& stats() const { return channels_[0]->stats(); }
+  const Controller& controller() const { return channels_[0]->controller(); }
+  std::size_t channel_count() const { return count_; }
+  const Channel& channel(std::size_t i) const { return *channels_[i]; }
+  // Optional services of channel 0 (period_hooks.hpp); nullptr: none. Set before Run; they
+  // outlive the loop. (Channel::SetHook/SetObserver for the others.)
+  void SetHook(PeriodHook* hook) { channels_[0]->SetHook(hook); }
+  void SetObserver(PeriodObserver* observer) { channels_[0]->SetObserver(observer); }
+  // The body law (nullptr: none). Set before Run; it outlives the loop.
+  void SetBodyLaw(BodyLaw* law) { body_law_ = law; }
 
  private:
   Clock& clock_;
-  SensorSource& source_;
-  CurrentDriver& driver_;
-  Controller* controller_;  // a reload (PeriodHook) swaps it at a period boundary
-  // Counters of the controllers swapped out (a reload), so the totals run on.
-  std::uint64_t base_model_resets_ = 0;
-  std::uint64_t base_input_excursions_ = 0;
-  std::uint64_t base_force_excursions_ = 0;
-  WatchdogCounters base_watchdog_;
-  Telemetry& telemetry_;
+  std::optional<Channel> own_;  // the one-channel constructor's channel
+  std::array<Channel*, kMaxChannels> channels_{};
+  std::array<SensorFrame*, kMaxChannels> frames_{};
+  std::size_t count_ = 0;
+  FaultPolicy policy_ = FaultPolicy::kAll;
+  std::uint32_t faulted_ = 0;  // bit i: channel i had a cause of its own last period
+  BodyLaw* body_law_ = nullptr;
   std::int64_t period_ns_;
   std::int64_t last_tick_ns_ = 0;
   bool first_tick_ = true;
-  bool driver_fault_ = false;
-  SensorFrame frame_;
-  TelemetrySnapshot stats_;
-  PeriodHook* hook_ = nullptr;
-  PeriodObserver* observer_ = nullptr;
-  PeriodRecord record_;
-  bool in_run_ = false;  // Run publishes the record after timing the period; a bare Tick at once
+  LoopTiming timing_;
+  bool in_run_ = false;  // Run publishes the records after timing the period; a bare Tick at once
 };
 
 }  // namespace mrd::firmware

@@ -8,7 +8,8 @@
 // diverged the period before and was reset), a sensor-source fault that names no bus
 // (simulated sources), a driver fault (last write failed), the external fault line, an
 // implausible sensor value (velocity or displacement beyond its configured limit), and a
-// fault per bus (CAN, Modbus, GPIO: the device reported why in its counters). Counters per
+// fault per bus (CAN, Modbus, GPIO: the device reported why in its counters), and another
+// channel's fault under FaultPolicy::kAll (loop.hpp). Counters per
 // cause: periods in which it was active and trips (inactive -> active transitions).
 
 #include <array>
@@ -21,18 +22,19 @@ namespace mrd::firmware {
 
 // The causes and their names from one list (mrd/common/fault_causes.hpp), in bit order:
 // kStaleSensor = 0, kNonFinite, kBusFault, kDriverFault, kFaultLine, kImplausible, kCanBus,
-// kModbusBus, kGpioBus.
+// kModbusBus, kGpioBus, kOtherChannel (another damper channel faulted: loop.hpp FaultPolicy).
 enum class FaultCause : std::uint8_t {
 #define MRD_FAULT_CAUSE_ENUMERATOR(enumerator, name) enumerator,
   MRD_FAULT_CAUSES(MRD_FAULT_CAUSE_ENUMERATOR)
 #undef MRD_FAULT_CAUSE_ENUMERATOR
 };
 inline constexpr std::size_t kNumFaultCauses = std::size(kFaultCauseNames);
-static_assert(static_cast<std::size_t>(FaultCause::kGpioBus) + 1 == kNumFaultCauses,
+static_assert(static_cast<std::size_t>(FaultCause::kOtherChannel) + 1 == kNumFaultCauses,
               "one name per cause");
 
 // Static name ("stale_sensor", "non_finite", "bus_fault", "driver_fault", "fault_line",
-// "implausible", "can_bus", "modbus_bus", "gpio_bus"; "unknown" for a value past the list).
+// "implausible", "can_bus", "modbus_bus", "gpio_bus", "other_channel"; "unknown" for a value past
+// the list).
 const char* FaultCauseName(FaultCause cause);
 
 struct WatchdogConfig {
