@@ -49,13 +49,12 @@ Error ModalSkyhook::Configure(const BodyGeometry& g, const ModalGains& k, const 
     if (reason != nullptr) *reason = "the corners do not span heave, pitch and roll";
     return Error::kOutOfRange;
   }
-  const double inv[3][3] = {
-      {c00 / det, (n[0][2] * n[2][1] - n[0][1] * n[2][2]) / det,
-       (n[0][1] * n[1][2] - n[0][2] * n[1][1]) / det},
-      {c01 / det, (n[0][0] * n[2][2] - n[0][2] * n[2][0]) / det,
-       (n[0][2] * n[1][0] - n[0][0] * n[1][2]) / det},
-      {c02 / det, (n[0][1] * n[2][0] - n[0][0] * n[2][1]) / det,
-       (n[0][0] * n[1][1] - n[0][1] * n[1][0]) / det}};
+  const double inv[3][3] = {{c00 / det, (n[0][2] * n[2][1] - n[0][1] * n[2][2]) / det,
+                             (n[0][1] * n[1][2] - n[0][2] * n[1][1]) / det},
+                            {c01 / det, (n[0][0] * n[2][2] - n[0][2] * n[2][0]) / det,
+                             (n[0][2] * n[1][0] - n[0][0] * n[1][2]) / det},
+                            {c02 / det, (n[0][1] * n[2][0] - n[0][0] * n[2][1]) / det,
+                             (n[0][0] * n[1][1] - n[0][1] * n[1][0]) / det}};
   for (int m = 0; m < 3; ++m) {
     for (int i = 0; i < kModalCorners; ++i) {
       fit_[m][i] = static_cast<Real>(inv[m][0] + inv[m][1] * x[i] + inv[m][2] * y[i]);

@@ -80,8 +80,7 @@ bool RunFullCarLaw(const FullCarLawSpec& law, const CoefficientTable& table, Ful
   const double e_max = law.law.config.controller.e_max;
   FullCarLawRun run;
   run.ride = RunFullCarRide(
-      plant, duration_s, settle_s,
-      [&](const FullCarPlant& p, std::int64_t k, CornerValues* volts) {
+      plant, duration_s, settle_s, [&](const FullCarPlant& p, std::int64_t k, CornerValues* volts) {
         const std::int64_t now = k * period_ns;
         const FullCarSample& s = p.Sample();
         double vb[4], demand[4] = {};

@@ -59,8 +59,9 @@ struct Inputs {
 int ParseLaws(const StudyOptions& o, Inputs* in) {
   const Scenario& b = in->base;
   std::ostringstream safety;
-  safety << "\n[safety]\nmax_age_ms = " << b.max_age_ms << "\nrecover_periods = "
-         << b.recover_periods << "\nvelocity_limit = " << b.velocity_limit << "\n";
+  safety << "\n[safety]\nmax_age_ms = " << b.max_age_ms
+         << "\nrecover_periods = " << b.recover_periods << "\nvelocity_limit = " << b.velocity_limit
+         << "\n";
   const std::string laws = o.laws_given ? o.laws : kDefaultLaws;
   for (const std::string& spec : study::Split(laws)) {
     FullCarLawSpec law;
@@ -104,9 +105,8 @@ int ParseInputs(const StudyOptions& o, Inputs* in) {
   if (o.motion_ratios.empty()) {
     in->ratios.push_back(base.full.motion_ratio);
   } else if (const int rc = study::ParseNumbers(
-                 "--motion-ratios", o.motion_ratios,
-                 [](double x) { return x >= 0.01 && x <= 1.0; }, "a motion ratio in [0.01, 1]",
-                 &in->ratios);
+                 "--motion-ratios", o.motion_ratios, [](double x) { return x >= 0.01 && x <= 1.0; },
+                 "a motion ratio in [0.01, 1]", &in->ratios);
              rc != 0) {
     return rc;
   }
@@ -163,8 +163,9 @@ bool RunCase(const Inputs& in, std::size_t index, std::size_t n, Case* c, std::s
 }
 
 std::string Volts(const FullCarRidePoint& p) {
-  return p.volts_front == p.volts_rear ? Num(p.volts_front, 3) + " V"
-                                       : Num(p.volts_front, 3) + " / " + Num(p.volts_rear, 3) + " V";
+  return p.volts_front == p.volts_rear
+             ? Num(p.volts_front, 3) + " V"
+             : Num(p.volts_front, 3) + " / " + Num(p.volts_rear, 3) + " V";
 }
 
 // "Wk, pitch, roll, worst tyre (volts)" of one run.
@@ -294,10 +295,10 @@ std::string Csv(const Inputs& in, const std::vector<Case>& cases) {
     std::ostringstream head;
     head.precision(9);
     head << c.road_class << ',' << c.speed << ',' << c.motion_ratio << ',';
-    for (const FullCarRidePoint& p : c.uniform) o << head.str() << CsvRow("passive", p) << ",,"
-                                                  << tail;
-    for (const FullCarRidePoint& p : c.pairs) o << head.str() << CsvRow("passive-front-rear", p)
-                                                << ",," << tail;
+    for (const FullCarRidePoint& p : c.uniform)
+      o << head.str() << CsvRow("passive", p) << ",," << tail;
+    for (const FullCarRidePoint& p : c.pairs)
+      o << head.str() << CsvRow("passive-front-rear", p) << ",," << tail;
     for (std::size_t i = 0; i < c.laws.size(); ++i) {
       const LawResult& l = c.laws[i];
       o << head.str() << CsvRow(study::CsvCell(in.laws[i].law.spec), l.run.ride) << ','

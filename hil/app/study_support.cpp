@@ -62,8 +62,7 @@ int ParseClassesAndSpeeds(const StudyOptions& o, std::vector<char>* classes,
     classes->push_back(upper);
   }
   const auto speed = [](double x) { return x > 0.0 && x <= 100.0; };
-  if (const int rc =
-          ParseNumbers("--speeds", o.speeds, speed, "a speed in (0, 100] m/s", speeds);
+  if (const int rc = ParseNumbers("--speeds", o.speeds, speed, "a speed in (0, 100] m/s", speeds);
       rc != 0) {
     return rc;
   }

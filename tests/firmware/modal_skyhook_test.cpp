@@ -2,13 +2,14 @@
 // motions, their forces and moments on the body, the signs (full_car.hpp's axes, the damper
 // convention of control_law.hpp), the per-corner skyhook equivalence in heave, refusal of bad
 // geometry, and four Controllers on kForceTracking fed by it without an allocation.
+#include "mrd/firmware/modal_skyhook.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 
 #include "mrd/firmware/controller.hpp"
-#include "mrd/firmware/modal_skyhook.hpp"
 // GCC 12 takes the counting delete's free() for a mismatch with the counting new: a false
 // positive, silenced as in no_alloc_test.cpp.
 #pragma GCC diagnostic push

@@ -83,10 +83,9 @@ std::vector<FullCarRidePoint> RunFullCarGrid(
   out.reserve(front_rear_volts.size());
   for (const auto& [front, rear] : front_rear_volts) {
     const CornerValues held{front, front, rear, rear};
-    out.push_back(RunFullCarRide(plant, duration_s, settle_s,
-                                 [&held](const FullCarPlant&, std::int64_t, CornerValues* v) {
-                                   *v = held;
-                                 }));
+    out.push_back(
+        RunFullCarRide(plant, duration_s, settle_s,
+                       [&held](const FullCarPlant&, std::int64_t, CornerValues* v) { *v = held; }));
     out.back().volts_front = front;  // exact (the mean of the held command rounds)
     out.back().volts_rear = rear;
   }

@@ -48,7 +48,7 @@ struct BodyGeometry {
 struct ModalGains {
   double heave_n_s_per_m = 16800.0;      // c_heave >= 0, on z' [m/s]
   double pitch_n_m_s_per_rad = 28560.0;  // c_pitch >= 0, on theta' [rad/s]
-  double roll_n_m_s_per_rad = 9450.0;     // c_roll >= 0, on phi' [rad/s]
+  double roll_n_m_s_per_rad = 9450.0;    // c_roll >= 0, on phi' [rad/s]
 };
 
 // Heave [m/s], pitch and roll rates [rad/s] of the body.

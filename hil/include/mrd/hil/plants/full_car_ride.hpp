@@ -18,9 +18,9 @@
 namespace mrd::hil {
 
 struct FullCarRidePoint {
-  double volts_front = 0.0;  // the held voltage (passive) or the mean command of the front [V]
-  double volts_rear = 0.0;   // the same for the rear
-  double body_accel_rms = 0.0;     // at the centre of gravity [m/s^2]
+  double volts_front = 0.0;     // the held voltage (passive) or the mean command of the front [V]
+  double volts_rear = 0.0;      // the same for the rear
+  double body_accel_rms = 0.0;  // at the centre of gravity [m/s^2]
   double body_accel_wk_rms = 0.0;  // Wk weighted [m/s^2]
   double pitch_rate_rms = 0.0;     // [rad/s]
   double roll_rate_rms = 0.0;      // [rad/s]
