@@ -704,16 +704,17 @@ int SweepMain(SweepArgs& a) {
 CLI::App* AddStudy(CLI::App& app, mrd::hil::StudyOptions* study_o) {
   auto* study = app.add_subcommand(
       "study",
-      "Comfort / road-holding study of a quarter-car scenario, in process and "
+      "Comfort / road-holding study of a quarter-car or full-car scenario, in process and "
       "deterministic: per motion ratio x road class x speed the best passive constant voltage "
       "(grid "
-      "over 0 .. E_max) and each firmware law (its Controller at 1 kHz); one table "
+      "over 0 .. E_max; full car: all four at one voltage, and front / rear apart) and each "
+      "firmware law (its Controller at 1 kHz, one per corner); one table "
       "(text, CSV, JSON) and plots in --out (docs/study.md). Exit 0 done, 1 write "
       "error, 2 bad input.");
   study
       ->add_option("--scenario", study_o->scenario,
-                   "quarter-car scenario TOML "
-                   "(e.g. hil/scenarios/quarter-car-skyhook.toml)")
+                   "quarter-car or full-car scenario TOML "
+                   "(e.g. hil/scenarios/quarter-car-skyhook.toml, full-car-modal-skyhook.toml)")
       ->required();
   study->add_option("--classes", study_o->classes, "ISO 8608 road classes, comma-separated")
       ->capture_default_str();
@@ -727,7 +728,9 @@ CLI::App* AddStudy(CLI::App& app, mrd::hil::StudyOptions* study_o) {
       ->add_option("--laws", study_o->laws,
                    "firmware laws ([control] law names of the firmware's config), comma-"
                    "separated; NAME:KEY=VALUE[:KEY=VALUE] sets [control] keys of that law "
-                   "(e.g. skyhook:skyhook_gain=40; default gain: the scenario's)")
+                   "(e.g. skyhook:skyhook_gain=40; default gain: the scenario's); full car: "
+                   "also modal-skyhook[:heave=C:pitch=C:roll=C] (gains N s/m, N m s/rad), "
+                   "default skyhook,groundhook,sh-add,modal-skyhook")
       ->capture_default_str();
   study
       ->add_option("--duration", study_o->duration_s,
@@ -774,6 +777,9 @@ int main(int argc, char** argv) {
   }
   if (sweep.cmd->parsed()) return SweepMain(sweep);
   if (bench.cmd->parsed()) return BenchCommand(bench.seconds, bench.o, bench.json);
-  if (study->parsed()) return mrd::hil::StudyCommand(study_o);
+  if (study->parsed()) {
+    study_o.laws_given = study->get_option("--laws")->count() > 0;
+    return mrd::hil::StudyCommand(study_o);
+  }
   return ServeCommand(serve);
 }

@@ -16,17 +16,26 @@
 #include <sstream>
 
 #include "firmware_law.hpp"
+#include "full_car_study.hpp"
 #include "mrd/common/write_atomically.hpp"
 #include "mrd/hil/scenario/scenario.hpp"
 #include "mrd/hil/study/passive_baseline.hpp"
 #include "passive_report.hpp"
 #include "report.hpp"
+#include "study_support.hpp"
 #include "table_check.hpp"
 
 namespace mrd::hil {
 namespace {
 
-constexpr int kBadInput = 2;
+using study::Bad;
+using study::CsvCell;
+using study::GnuplotQuotable;
+using study::kBadInput;
+using study::Num;
+using study::ParseNumbers;
+using study::Signed;
+using study::Split;
 
 struct LawResult {
   LawRun run;
@@ -40,27 +49,6 @@ struct StudyCase {
   std::vector<RidePoint> grid;
   std::vector<LawResult> laws;
 };
-
-std::vector<std::string> Split(const std::string& s) {
-  std::vector<std::string> out;
-  std::string item;
-  std::stringstream ss(s);
-  while (std::getline(ss, item, ',')) out.push_back(item);
-  if (!s.empty() && s.back() == ',') out.push_back("");
-  return out;
-}
-
-std::string Num(double v, int digits = 4) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-  return buf;
-}
-
-std::string Signed(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%+.1f %%", v);
-  return buf;
-}
 
 // CLASS-SPEED, with -rRATIO when the study runs several motion ratios.
 std::string CaseName(const StudyCase& c, bool with_ratio) {
@@ -110,21 +98,6 @@ std::string Table(const std::vector<StudyCase>& cases, const std::vector<Firmwar
     o << " |\n";
   }
   return o.str();
-}
-
-// Text inside a gnuplot single-quoted string: a quote doubled.
-std::string GnuplotQuotable(const std::string& v) {
-  std::string out;
-  for (const char c : v) out += c == '\'' ? std::string("''") : std::string(1, c);
-  return out;
-}
-
-// CSV text of one cell: quoted when it holds a comma or a quote.
-std::string CsvCell(const std::string& v) {
-  if (v.find_first_of(",\"\n") == std::string::npos) return v;
-  std::string q = "\"";
-  for (const char c : v) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return q + "\"";
 }
 
 std::string Csv(const std::vector<StudyCase>& cases, const std::vector<FirmwareLaw>& laws,
@@ -291,53 +264,6 @@ struct StudyInputs {
   std::string plant_label;  // PlantLabel
 };
 
-int Bad(const std::string& what) {
-  std::fprintf(stderr, "error: %s\n", what.c_str());
-  return kBadInput;
-}
-
-// A comma-separated list of distinct numbers, each accepted by `in_range`; `what` names one in
-// the message ("a speed in (0, 100] m/s"). 0, or the exit code after the message naming flag.
-template <typename InRange>
-int ParseNumbers(const char* flag, const std::string& text, const InRange& in_range,
-                 const char* what, std::vector<double>* out) {
-  for (const std::string& v : Split(text)) {
-    char* end = nullptr;
-    const double x = std::strtod(v.c_str(), &end);
-    if (v.empty() || end != v.c_str() + v.size() || !in_range(x)) {
-      return Bad(std::string(flag) + " '" + text + "': '" + v + "' is not " + what);
-    }
-    for (const double k : *out) {
-      if (k == x) return Bad(std::string(flag) + " '" + text + "': names " + v + " twice");
-    }
-    out->push_back(x);
-  }
-  return 0;
-}
-
-int ParseClassesAndSpeeds(const StudyOptions& o, StudyInputs* in) {
-  for (const std::string& c : Split(o.classes)) {
-    RoadClass rc{};
-    if (c.size() != 1 || !RoadClassFromChar(c[0], &rc)) {
-      return Bad("--classes '" + o.classes + "': '" + c + "' is not a road class A .. H");
-    }
-    const char upper = static_cast<char>(c[0] & ~0x20);
-    for (const char k : in->classes) {
-      if (k == upper) return Bad("--classes '" + o.classes + "': names " + c + " twice");
-    }
-    in->classes.push_back(upper);
-  }
-  const auto speed = [](double x) { return x > 0.0 && x <= 100.0; };
-  if (const int rc =
-          ParseNumbers("--speeds", o.speeds, speed, "a speed in (0, 100] m/s", &in->speeds);
-      rc != 0) {
-    return rc;
-  }
-  if (in->classes.empty()) return Bad("--classes: no road class given");
-  if (in->speeds.empty()) return Bad("--speeds: no speed given");
-  return 0;
-}
-
 // --motion-ratios: each in [0.01, 1] (the scenario key's range), no repeats; "" the scenario's.
 int ParseMotionRatios(const StudyOptions& o, StudyInputs* in) {
   if (o.motion_ratios.empty()) {
@@ -355,7 +281,8 @@ int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
   if (!LoadScenario(o.scenario, &base, &error)) return Bad(error);
   if (!base.quarter_car) {
     return Bad("--scenario: " + o.scenario +
-               " is not a quarter car ([plant] model = \"quarter-car\")");
+               " is not a quarter car or full car ([plant] model = \"quarter-car\" or "
+               "\"full-car\")");
   }
   // What a study cannot run: it feeds the law the plant's signals in process, without faults
   // or the GPIO routing (mrd-hil run and sweep run those).
@@ -384,7 +311,9 @@ int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
   }
   if (in->volts.size() > 10000)
     return Bad("--passive-step " + Num(in->step) + ": more than 10000 points");
-  if (const int rc = ParseClassesAndSpeeds(o, in); rc != 0) return rc;
+  if (const int rc = study::ParseClassesAndSpeeds(o, &in->classes, &in->speeds); rc != 0) {
+    return rc;
+  }
   if (const int rc = ParseMotionRatios(o, in); rc != 0) return rc;
   // The scenario's [firmware] safety keys, as mrd-hil run writes them into the config.
   std::ostringstream safety;
@@ -444,6 +373,13 @@ bool RunStudyCase(const StudyInputs& in, std::size_t index, std::size_t n_cases,
 }  // namespace
 
 int StudyCommand(const StudyOptions& o) {
+  {
+    Scenario probe;
+    std::string why;
+    if (LoadScenario(o.scenario, &probe, &why) && probe.full_car) {
+      return FullCarStudyCommand(o, probe);
+    }
+  }
   StudyInputs in;
   if (const int rc = ParseStudyInputs(o, &in); rc != 0) return rc;
   const Scenario& base = in.base;

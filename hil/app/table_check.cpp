@@ -65,6 +65,7 @@ std::string PlantLabel(const Scenario& s) {
                                              : "Spencer damper, params " + Printable(s.params_file);
   if (s.plant_overrides) damper += " + [plant.spencer] overrides";
   if (s.quarter_car) return "quarter car, " + damper;
+  if (s.full_car) return "full car (four corners), " + damper;
   if (s.structure) return "three-story structure, " + damper;
   return damper;
 }

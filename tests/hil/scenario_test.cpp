@@ -122,6 +122,47 @@ TEST(ScenarioTest, BadInputNamesFileAndLine) {
   }
 }
 
+// model = "full-car": the documented defaults, the keys read, and each refusal at its line.
+TEST(ScenarioTest, FullCarReadsItsKeysAndRefusesBadOnes) {
+  Scenario s;
+  std::string error;
+  ASSERT_TRUE(LoadScenario(Write("fc.toml",
+                                 "duration_s = 10\n[plant]\nmodel = \"full-car\"\n[full_car]\n"
+                                 "coherence = 0.8\ncg_to_front_m = 1.1\npair_step_v = 0.5\n"
+                                 "[road]\nclass = \"D\"\n"),
+                           &s, &error))
+      << error;
+  EXPECT_TRUE(s.full_car);
+  EXPECT_FALSE(s.quarter_car);
+  EXPECT_EQ(s.road_coherence, 0.8);
+  EXPECT_EQ(s.full.cg_to_front_m, 1.1);
+  EXPECT_EQ(s.full.cg_to_rear_m, FullCarParams{}.cg_to_rear_m);
+  EXPECT_EQ(s.pair_step_v, 0.5);
+  EXPECT_EQ(s.road.road_class, RoadClass::kD);
+  const char* fc = "[plant]\nmodel = \"full-car\"\n";
+  struct Case {
+    std::string text;
+    const char* line_and_reason;
+  } cases[] = {
+      {"[full_car]\nspeed_m_s = 20\n", ":1: [full_car] needs [plant] model = \"full-car\""},
+      {std::string(fc) + "[full_car]\ncoherence = 1.5\n", ":4: 'coherence' must be"},
+      {std::string(fc) + "[full_car]\ntrack_rear_m = 0\n", ":4: 'track_rear_m' must be"},
+      {std::string(fc) + "[road]\nclass = \"Z\"\n", ":4: road class must be"},
+      {std::string(fc) + "[excitation]\namplitude_cm = 1\n",
+       ":3: a full car is excited by its [road]"},
+      {std::string(fc) + "[full_car]\npair_step_v = 0.01\n",
+       ":4: pair_step_v must be > 0 and give at most 100"},
+      {"duration_s = 1\n" + std::string(fc) + "[full_car]\nsettle_s = 2\n",
+       ":5: settle_s must be shorter"},
+      {std::string(fc) + "[quarter_car]\nspeed_m_s = 20\n", ":3: [quarter_car] and [road] need"},
+  };
+  for (const Case& c : cases) {
+    const auto path = Write("bad.toml", c.text);
+    EXPECT_FALSE(LoadScenario(path, &s, &error)) << c.text;
+    EXPECT_NE(error.find(path + c.line_and_reason), std::string::npos) << c.text << " -> " << error;
+  }
+}
+
 TEST(TraceTest, ReadsAGeneratedDataSetAndRefusesBadRows) {
   Trace t;
   std::string error;

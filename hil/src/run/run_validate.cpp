@@ -33,6 +33,10 @@ int ScenarioRun::ValidateOptions() {
   const Scenario& s = s_;
   r_->transport = o.transport;
   r_->clock = !o.clock.empty() ? o.clock : "lockstep";
+  if (s.full_car) {
+    *error_ = s.path + ": a full car ([plant] model = \"full-car\") runs in mrd-hil study only";
+    return 2;
+  }
   if (!ParseTransport(o.transport, &transport_)) {
     *error_ = "--transport '" + o.transport + "': expected can, modbus-tcp or modbus-rtu";
     return 2;

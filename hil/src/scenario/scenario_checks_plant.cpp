@@ -31,9 +31,10 @@ bool ScenarioReader::CheckPlantFiles() {
 // model = "structure": its [structure] record; the structure-only [pass] keys.
 bool ScenarioReader::CheckStructure() {
   Ctx& c = c_;
-  if (model_ != "damper" && model_ != "quarter-car" && model_ != "narx" && model_ != "structure") {
+  if (model_ != "damper" && model_ != "quarter-car" && model_ != "full-car" && model_ != "narx" &&
+      model_ != "structure") {
     return c.Fail(at("plant.model"),
-                  "plant model must be \"damper\", \"quarter-car\", "
+                  "plant model must be \"damper\", \"quarter-car\", \"full-car\", "
                   "\"narx\" or \"structure\"");
   }
   s.structure = model_ == "structure";
@@ -100,7 +101,8 @@ bool ScenarioReader::CheckQuarterCar() {
   QuarterCarParams& car = s.car;
   RoadParams& road = s.road;
   s.quarter_car = model_ == "quarter-car";
-  if (!s.quarter_car && (root_.contains("quarter_car") || root_.contains("road"))) {
+  if (!s.quarter_car &&
+      (root_.contains("quarter_car") || (root_.contains("road") && model_ != "full-car"))) {
     return c.Fail(root_.contains("road") ? at("road") : at("quarter_car"),
                   "[quarter_car] and [road] need [plant] model = \"quarter-car\"");
   }

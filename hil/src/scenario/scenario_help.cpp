@@ -23,7 +23,9 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 "structure" (the three-story frame of Dyke et al. 1996 with the damper
                 between ground and first floor, under [structure]'s ground motion; floor
                 displacements, drifts, accelerations and the damper force scored next to
-                passive-off and -on; docs/structure.md)
+                passive-off and -on; docs/structure.md) |
+                "full-car" (the 7-DOF car, the damper at each corner, on two [road] tracks;
+                run by `mrd-hil study` only; docs/study.md)
   [plant.spencer] c0a c0b k0 c1a c1b k1 x0 alpha_a alpha_b gamma beta A n eta: overrides
                 of single damper parameters on top of preset or params (damper and quarter car)
   [quarter_car] sprung_mass_kg (300), unsprung_mass_kg (40), spring_n_per_m (20000),
@@ -33,6 +35,14 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 constant voltage run on the same road in process; 0: no grid)
   [road]        class = "A" .. "H" ("C"), seed (1), n_min (0.011), n_max (2.83) [cycles/m],
                 components (256)
+  [full_car]    body_mass_kg (1200), pitch_inertia_kg_m2 (1800), roll_inertia_kg_m2 (450),
+                cg_to_front_m (1.2), cg_to_rear_m (1.4), track_front_m (1.5), track_rear_m
+                (1.5), unsprung_front_kg (40), unsprung_rear_kg (40), spring_front_n_per_m
+                (20000), spring_rear_n_per_m (20000), tyre_n_per_m (180000), motion_ratio
+                (0.7), seat_x_m (0.3), seat_y_m (0.37), substeps (10), speed_m_s (20),
+                coherence (0.5: left / right track correlation in [0, 1]; the rear wheels
+                on the front's tracks a wheelbase later), settle_s (2), passive_step_v (0.05:
+                all four at one voltage), pair_step_v (0.25: front / rear grid, <= 100 steps)
   [structure]   record (required: a `t_s,ag_g` CSV of ground acceleration [g], e.g.
                 ../data/el_centro_1940_ns.csv, relative to the scenario), time_scale (5: played
                 this many times faster), amplitude (1: factor on the record); after the

@@ -33,7 +33,7 @@ bool ScenarioReader::Read() {
   if (!ReadKeys()) return false;
   s.heartbeat_timeout_s = hb_ms_ * 1e-3;
   return CheckPlantFiles() && CheckStructure() && CheckNarx() && CheckQuarterCar() &&
-         CheckExcitation() && CheckControl() && CheckPass() && CheckFaults();
+         CheckFullCar() && CheckExcitation() && CheckControl() && CheckPass() && CheckFaults();
 }
 
 // The keys of a [section]; false: not a section.
@@ -50,6 +50,8 @@ bool ScenarioReader::SectionKeys(const std::string& key, std::map<std::string, S
     *keys = PassKeys();
   else if (key == "quarter_car")
     *keys = QuarterCarKeys();
+  else if (key == "full_car")
+    *keys = FullCarKeys();
   else if (key == "road")
     *keys = RoadKeys();
   else if (key == "gpio")

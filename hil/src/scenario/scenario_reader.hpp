@@ -79,6 +79,7 @@ class ScenarioReader {
   std::map<std::string, Setter> PlantKeys();
   std::map<std::string, Setter> StructureKeys();
   std::map<std::string, Setter> QuarterCarKeys();
+  std::map<std::string, Setter> FullCarKeys();
   std::map<std::string, Setter> RoadKeys();
   std::map<std::string, Setter> ExcitationKeys();
   std::map<std::string, Setter> ControlKeys();
@@ -107,6 +108,8 @@ class ScenarioReader {
   bool CheckNarx();
   // model = "quarter-car": [quarter_car] and [road]; the quarter-car-only [pass] keys.
   bool CheckQuarterCar();
+  // model = "full-car": [full_car] and [road]; no [excitation], no faults or [gpio].
+  bool CheckFullCar();
   // [excitation] kind and what each kind needs.
   bool CheckExcitation();
   // [control] law and what each law needs (clipped-optimal: its gains file).

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "mrd/sim/damper_plant.hpp"
+#include "mrd/sim/full_car.hpp"
 #include "mrd/sim/iso8608_road.hpp"
 #include "mrd/sim/quarter_car.hpp"
 
@@ -79,6 +80,13 @@ struct Scenario {
                              // damper alone on [excitation]
   QuarterCarParams car;
   RoadParams road;
+  // model = "full-car": the 7-DOF car (full_car.hpp) with the damper at each corner on two
+  // ISO 8608 tracks ([full_car], [road]); run by `mrd-hil study` only. Speed, settle time and
+  // passive step share the quarter car's fields (car.speed_m_s, ride_settle_s, passive_step_v).
+  bool full_car = false;
+  FullCarParams full;
+  double road_coherence = 0.5;   // left / right track correlation rho in [0, 1]
+  double pair_step_v = 0.25;     // front / rear passive grid step [V]
   double ride_settle_s = 2.0;    // quarter car: ride figures scored after this [s]
   double passive_step_v = 0.05;  // quarter car: passive grid step over [0, e_max] [V];
                                  // 0: no passive grid (passive_baseline.hpp)

@@ -1,0 +1,51 @@
+#pragma once
+// Helpers of `mrd-hil study` shared by the quarter-car and the full-car study: list parsing,
+// number formatting, CSV and gnuplot quoting, the bad-input exit.
+
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "study_command.hpp"
+
+namespace mrd::hil::study {
+
+inline constexpr int kBadInput = 2;
+
+// Comma-separated items (a trailing comma gives an empty last item).
+std::vector<std::string> Split(const std::string& s);
+// %.*g of v.
+std::string Num(double v, int digits = 4);
+// "+1.2 %".
+std::string Signed(double v);
+// Text inside a gnuplot single-quoted string: a quote doubled.
+std::string GnuplotQuotable(const std::string& v);
+// CSV text of one cell: quoted when it holds a comma or a quote.
+std::string CsvCell(const std::string& v);
+// "error: WHAT" on stderr; kBadInput.
+int Bad(const std::string& what);
+// --classes (upper case, distinct) and --speeds; 0, or the exit code after the message.
+int ParseClassesAndSpeeds(const StudyOptions& o, std::vector<char>* classes,
+                          std::vector<double>* speeds);
+
+// A comma-separated list of distinct numbers, each accepted by `in_range`; `what` names one in
+// the message ("a speed in (0, 100] m/s"). 0, or the exit code after the message naming flag.
+template <typename InRange>
+int ParseNumbers(const char* flag, const std::string& text, const InRange& in_range,
+                 const char* what, std::vector<double>* out) {
+  for (const std::string& v : Split(text)) {
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str(), &end);
+    if (v.empty() || end != v.c_str() + v.size() || !in_range(x)) {
+      return Bad(std::string(flag) + " '" + text + "': '" + v + "' is not " + what);
+    }
+    for (const double k : *out) {
+      if (k == x) return Bad(std::string(flag) + " '" + text + "': names " + v + " twice");
+    }
+    out->push_back(x);
+  }
+  return 0;
+}
+
+}  // namespace mrd::hil::study
