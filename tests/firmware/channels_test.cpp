@@ -11,6 +11,7 @@
 
 #include "fakes.hpp"
 #include "mrd/firmware/loop.hpp"
+#include "mrd/firmware/modal_body_law.hpp"
 #include "mrd/firmware/sim/simulated_damper.hpp"
 #include "support/demo_model.hpp"
 
@@ -200,6 +201,36 @@ TEST(ChannelsTest, TheBodyLawSetsInputsBetweenTheReadsAndTheUpdates) {
     EXPECT_EQ(a[k].frame[Input::kDemand].value, b[k].frame[Input::kDemand].value) << k;
   }
   EXPECT_NE(a[300].force_demand, plain.records(0)[300].force_demand);
+}
+
+// Modal skyhook over four corners: each channel's demand is the law's on the four body
+// velocities read that period, and one corner's stalled sensor makes every demand stale.
+TEST(ChannelsTest, ModalSkyhookSetsEachCornersDemandFromAllFourBodyVelocities) {
+  ModalSkyhook modal;
+  ASSERT_EQ(modal.Configure(BodyGeometry{}, ModalGains{}), Error::kOk);
+  ModalBodyLaw law(modal);
+  Vehicle car(4);
+  car.corners[3]->source.stall = {kFrom, kTo};
+  car.Run(FaultPolicy::kChannel, &law);
+  for (std::size_t k = 1; k < kFrom; k += 53) {
+    double body[kModalCorners], demand[kModalCorners];
+    for (int i = 0; i < kModalCorners; ++i) {
+      body[i] = car.records(i)[k].frame[Input::kBodyVelocity].value;
+    }
+    modal.Demands(body, demand);
+    for (int i = 0; i < kModalCorners; ++i) {
+      ASSERT_EQ(car.records(i)[k].frame[Input::kDemand].value, demand[i]) << k << " " << i;
+    }
+  }
+  EXPECT_NE(car.records(0)[300].frame[Input::kDemand].value,
+            car.records(1)[300].frame[Input::kDemand].value);
+  // The stall outlasts the sensors' age limit (5 ms): every corner's demand goes stale.
+  constexpr std::size_t kStale = static_cast<std::size_t>(FaultCause::kStaleSensor);
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_TRUE(car.records(i)[kTo - 1].safe) << i;
+    EXPECT_EQ(car.watchdog(i).trips[kStale], 1u) << i;
+    EXPECT_FALSE(car.records(i).back().safe) << i;
+  }
 }
 
 TEST(ChannelsTest, MoreThanEightChannelsAreCutToEight) {
