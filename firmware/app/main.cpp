@@ -25,6 +25,7 @@
 #include "ctl_client.hpp"
 #include "demo_table.hpp"
 #include "mrd/common/input_file.hpp"
+#include "mrd/common/lockstep_sched.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/builtin_table.hpp"
 #include "mrd/firmware/controller.hpp"
@@ -485,6 +486,9 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
                      "priority, expect jitter (needs CAP_SYS_NICE or an rtprio limit)\n",
                      cfg.priority, std::strerror(err));
       }
+    } else if (lockstep_clock != nullptr) {
+      // Lockstep with the harness: a period's frames read whole (lockstep_sched.hpp).
+      (void)mrd::common::UseLockstepScheduling();
     }
     PrefaultStack();
     loop.Run(g_stop, duration_ns);

@@ -17,11 +17,13 @@
 #include <string>
 #include <thread>
 
+#include "mrd/common/clock.hpp"
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/io/can/can_device.hpp"
 #include "mrd/firmware/io/fieldbus_io.hpp"
 #include "mrd/firmware/io/grant_clock.hpp"
 #include "mrd/firmware/loop.hpp"
+#include "mrd/firmware/telemetry.hpp"
 #include "mrd/protocol/can_codec.hpp"
 #include "support/alloc_counter.hpp"
 #include "support/demo_model.hpp"
@@ -155,6 +157,56 @@ TEST(CanLockstep, OneTickPerGrantALateGrantChangesNothingNoAllocation) {
   EXPECT_EQ(loop.stats().overruns, 0U);
   EXPECT_EQ(loop.stats().ticks, static_cast<std::uint64_t>(kSteps));
   rig.device.Deactivate();
+}
+
+// Lockstep: a period's frames (command, heartbeat, status and telemetry) reach the harness
+// together, at the end of PublishStatus, so it wakes once for them: nothing is on the socket
+// after Write, all of them in order after PublishStatus. A Write outside a period (the loop's
+// shut-down, after its last PublishStatus) goes out at once.
+TEST(CanLockstep, APeriodsFramesLeaveTogetherAfterItsStatus) {
+  HarnessSocket bus;
+  ASSERT_TRUE(bus.ok);
+  CanConfig config = bus.Config();
+  config.outputs |= Bit(Output::kStatus);
+  CanDevice device(config);
+  std::string error;
+  ASSERT_TRUE(device.Configure(&error)) << error;
+  ASSERT_TRUE(device.Activate(&error)) << error;
+  bus.peer = accept(bus.listener, nullptr, nullptr);
+  ASSERT_GE(bus.peer, 0);
+  // The ids waiting on the harness's socket, in order, "-" separated (no container: this
+  // executable counts allocations).
+  const auto take = [&]() {
+    std::string ids;
+    can_frame f{};
+    while (recv(bus.peer, &f, sizeof f, MSG_DONTWAIT) == static_cast<ssize_t>(sizeof f)) {
+      char id[8];
+      std::snprintf(id, sizeof id, "%s%03X", ids.empty() ? "" : "-", f.can_id);
+      ids += id;
+    }
+    return ids;
+  };
+  char expected[32];
+  const IoTime io{0, common::MonotonicNs()};
+  IoError why = IoError::kNone;
+  SensorFrame frame;
+  (void)device.Read(io, &frame, &why);  // the period begins (no samples yet)
+  ASSERT_EQ(device.Write(io, DriverCommand{1.0, true, false, 0}, &why), IoStatus::kOk);
+  EXPECT_EQ(take(), "");  // held
+  TelemetrySnapshot stats{};
+  device.PublishStatus(io, stats);
+  // FirmwareStatus, then FirmwareTelemetry (docs/mrd.dbc).
+  std::snprintf(expected, sizeof expected, "%03X-%03X-%03X-%03X", pc::kDriverCommandId,
+                pc::kHeartbeatId, pc::kFirmwareStatusId, pc::kFirmwareStatusId + 1);
+  EXPECT_EQ(take(), expected);
+  EXPECT_EQ(device.counters().tx_ok, 4U);
+  EXPECT_EQ(device.counters().tx_failed, 0U);
+  // The loop's shut-down: a Write after the last period's status, out at once.
+  ASSERT_EQ(device.Write(io, DriverCommand{0.0, false, true, 1}, &why), IoStatus::kOk);
+  std::snprintf(expected, sizeof expected, "%03X", pc::kDriverCommandId);
+  EXPECT_EQ(take(), expected);
+  device.Deactivate();
+  EXPECT_EQ(take(), expected);
 }
 
 // The harness goes away mid-run (no more grants): after the give-up time the clock halts, the

@@ -153,6 +153,99 @@ TEST(CanIface, ReceiveStampsFramesAndReportsWrongSizesEofAndBusOff) {
   EXPECT_EQ(iface.Send(sent, MonotonicNs() + 1'000'000, MonotonicNs()), CanResult::kDisconnected);
 }
 
+// Packets that wait together are read in one call and handed out one by one: in order, each
+// with its own result (a bad size, an error frame, the peer's EOF last), none lost or repeated.
+TEST(CanIface, PacketsReadAheadComeOutInOrderWithTheirOwnResults) {
+  int sv[2];
+  ASSERT_EQ(socketpair(AF_UNIX, SOCK_SEQPACKET, 0, sv), 0);
+  CanIface iface;
+  iface.Attach(sv[0]);
+  const std::int64_t before = MonotonicNs();
+  for (std::uint8_t i = 0; i < 3; ++i) {
+    const can_frame f = Frame(0x100 + i, i);
+    ASSERT_EQ(write(sv[1], &f, sizeof f), static_cast<ssize_t>(sizeof f));
+  }
+  const char short_packet[8] = {};
+  ASSERT_EQ(write(sv[1], short_packet, sizeof short_packet), 8);
+  can_frame err{};
+  err.can_id = CAN_ERR_FLAG | CAN_ERR_BUSOFF;
+  err.len = CAN_ERR_DLC;
+  ASSERT_EQ(write(sv[1], &err, sizeof err), static_cast<ssize_t>(sizeof err));
+  // More than one read-ahead batch.
+  for (std::uint8_t i = 0; i < CanIface::kRxBatch + 2; ++i) {
+    LocalBusPacket p{Frame(0x200, i), before - 1000 - i};  // a relay's earlier bus stamp
+    ASSERT_EQ(write(sv[1], &p, sizeof p), static_cast<ssize_t>(sizeof p));
+  }
+  close(sv[1]);
+
+  can_frame f{};
+  std::int64_t stamp = 0;
+  for (std::uint8_t i = 0; i < 3; ++i) {
+    ASSERT_EQ(iface.Receive(&f, &stamp), CanResult::kOk) << int{i};
+    EXPECT_EQ(f.can_id, 0x100U + i);
+    EXPECT_EQ(f.data[0], i);
+    EXPECT_GE(stamp, before);
+    EXPECT_LE(stamp, MonotonicNs());
+    EXPECT_TRUE(iface.Readable());
+  }
+  EXPECT_GT(iface.buffered(), 0U);
+  EXPECT_EQ(iface.Receive(&f, &stamp), CanResult::kBadFrame);
+  EXPECT_EQ(iface.Receive(&f, &stamp), CanResult::kBusOff);
+  for (std::uint8_t i = 0; i < CanIface::kRxBatch + 2; ++i) {
+    ASSERT_EQ(iface.Receive(&f, &stamp), CanResult::kOk) << int{i};
+    EXPECT_EQ(f.can_id, 0x200U);
+    EXPECT_EQ(f.data[0], i);
+    EXPECT_EQ(stamp, before - 1000 - i);
+  }
+  EXPECT_EQ(iface.Receive(&f, &stamp), CanResult::kDisconnected);
+  EXPECT_FALSE(iface.is_open());
+  EXPECT_EQ(iface.buffered(), 0U);
+  EXPECT_EQ(iface.stats().rx_frames, 3U + CanIface::kRxBatch + 2);
+  EXPECT_EQ(iface.stats().rx_bad, 1U);
+  EXPECT_EQ(iface.stats().bus_off, 1U);
+}
+
+// Between Hold and Release nothing is written; Release writes the held frames in order (a
+// frame already past its deadline when sent is dropped at once, as without holding).
+TEST(CanIface, HeldFramesLeaveTogetherOnRelease) {
+  int sv[2];
+  ASSERT_EQ(socketpair(AF_UNIX, SOCK_SEQPACKET, 0, sv), 0);
+  CanIface iface;
+  iface.Attach(sv[0]);
+  const std::int64_t now = MonotonicNs();
+  iface.Hold();
+  EXPECT_TRUE(iface.held());
+  for (std::uint8_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(iface.Send(Frame(0x80 + i, i), now + 1'000'000, now), CanResult::kOk);
+  }
+  EXPECT_EQ(iface.Send(Frame(0x90, 9), now - 1, now), CanResult::kTimedOut);
+  can_frame f{};
+  EXPECT_LT(recv(sv[1], &f, sizeof f, MSG_DONTWAIT), 0);  // held
+  EXPECT_EQ(iface.pending(), 3U);
+  EXPECT_EQ(iface.Release(now), CanResult::kOk);
+  EXPECT_FALSE(iface.held());
+  EXPECT_EQ(iface.pending(), 0U);
+  for (std::uint8_t i = 0; i < 3; ++i) {
+    ASSERT_EQ(recv(sv[1], &f, sizeof f, MSG_DONTWAIT), static_cast<ssize_t>(sizeof f));
+    EXPECT_EQ(f.can_id, 0x80U + i);
+  }
+  EXPECT_LT(recv(sv[1], &f, sizeof f, MSG_DONTWAIT), 0);
+  EXPECT_EQ(iface.stats().tx_frames, 3U);
+  EXPECT_EQ(iface.stats().tx_timedout, 1U);
+  // More than the queue holds: the full queue is written at once, nothing is lost.
+  iface.Hold();
+  for (std::size_t i = 0; i < CanIface::kTxQueue + 3; ++i) {
+    EXPECT_EQ(iface.Send(Frame(0x100, static_cast<std::uint8_t>(i)), now + 1'000'000, now),
+              CanResult::kOk);
+  }
+  EXPECT_EQ(iface.Release(now), CanResult::kOk);
+  for (std::size_t i = 0; i < CanIface::kTxQueue + 3; ++i) {
+    ASSERT_EQ(recv(sv[1], &f, sizeof f, MSG_DONTWAIT), static_cast<ssize_t>(sizeof f));
+    EXPECT_EQ(f.data[0], i);
+  }
+  close(sv[1]);
+}
+
 TEST(CanIface, FramesPastTheirDeadlineAreDroppedNeverSentLate) {
   int sv[2];
   ASSERT_EQ(socketpair(AF_UNIX, SOCK_SEQPACKET, 0, sv), 0);

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "mrd/firmware/io/can/can_device.hpp"
+#include "mrd/firmware/telemetry.hpp"
 #include "mrd/profile/can_profile.hpp"
 #include "mrd/profile/canopen_codec.hpp"
 #include "mrd/profile/frame_codec.hpp"
@@ -153,8 +154,9 @@ class CanopenDeviceTest : public ::testing::Test {
     }
   }
   // One lockstep period at t_ms: the drive's heartbeat (state; < 0: none), the sensors and the
-  // grant; the device's wait, read and write. The frame's fault_line; sent_: what the device
-  // sent in this period.
+  // grant; the device's wait, read, write and status, as Loop::Tick calls them (in lockstep the
+  // period's frames leave at the end of its status). The frame's fault_line; sent_: what the
+  // device sent in this period.
   bool Period(int t_ms, int drive_state) {
     if (drive_state >= 0) PeerSend(Frame(co::HeartbeatId(5), {drive_state}));
     const profile::SignalRef v =
@@ -176,6 +178,7 @@ class CanopenDeviceTest : public ::testing::Test {
     IoError why = IoError::kNone;
     (void)device_->Read(::mrd::test::NowIo(), &frame, &why);
     (void)device_->Write(::mrd::test::NowIo(), DriverCommand{1.0, true, false, 0}, &why);
+    device_->PublishStatus(::mrd::test::NowIo(), TelemetrySnapshot{});
     PeerDrain();
     for (const can_frame& s : sent_) {
       if (s.can_id == co::HeartbeatId(1) && own_heartbeats_.size() < own_heartbeats_.capacity()) {

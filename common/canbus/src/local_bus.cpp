@@ -208,8 +208,8 @@ void LocalBusRelay::Accept() {
   }
 }
 
-void LocalBusRelay::Step(int timeout_ms) {
-  if (listen_fd_ < 0) return;
+bool LocalBusRelay::Step(int timeout_ms) {
+  if (listen_fd_ < 0) return false;
   Flush();
   std::vector<pollfd>& fds = fds_;
   fds.clear();
@@ -222,35 +222,46 @@ void LocalBusRelay::Step(int timeout_ms) {
   }
   fds.push_back({listening ? listen_fd_ : -1, POLLIN, 0});
   for (int fd : nodes_) fds.push_back({fd, POLLIN, 0});
-  if (poll(fds.data(), fds.size(), timeout_ms) <= 0) return;
-  // Nodes first (indices match nodes_ as polled), newest last; removals go backwards.
+  if (poll(fds.data(), fds.size(), timeout_ms) <= 0) return false;
+  // Nodes first (indices match nodes_ as polled), newest last; removals go backwards. Each
+  // node's waiting packets are read a batch per system call (a lockstep period's frames in
+  // one).
   std::vector<char>& gone = gone_;
   gone.assign(nodes_.size(), 0);
   for (std::size_t i = 0; i < nodes_.size(); ++i) {
     if ((fds[i + 1].revents & (POLLIN | POLLHUP | POLLERR)) == 0) continue;
-    for (int k = 0; k < kMaxFramesPerNodeRound; ++k) {
-      alignas(can_frame) unsigned char buf[sizeof(canfd_frame)];
-      std::int64_t stamp = 0;
-      bool truncated = false;
-      const ssize_t n = ReceiveStamped(nodes_[i], buf, sizeof buf, &stamp, &truncated);
+    int taken = 0;
+    while (taken < kMaxFramesPerNodeRound && gone[i] == 0) {
+      const auto room = static_cast<std::size_t>(kMaxFramesPerNodeRound - taken);
+      const int n = ReceiveStampedBatch(nodes_[i], rx_, room < kRxBatch ? room : kRxBatch);
       if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) break;
       if (n <= 0) {
         gone[i] = 1;
         break;
       }
-      if (truncated || static_cast<std::size_t>(n) != sizeof(can_frame)) {
-        bad_.fetch_add(1, std::memory_order_relaxed);
-        continue;
+      taken += n;
+      for (int k = 0; k < n; ++k) {
+        const StampedPacket& p = rx_[k];
+        if (p.size == 0) {  // EOF: the node left
+          gone[i] = 1;
+          break;
+        }
+        if (p.truncated || p.size != sizeof(can_frame)) {
+          bad_.fetch_add(1, std::memory_order_relaxed);
+          continue;
+        }
+        in_.fetch_add(1, std::memory_order_relaxed);
+        Forward(i, p.data, p.stamp_ns);
+        if (tap_ != nullptr) tap_(tap_context_, p.data, p.stamp_ns);
       }
-      in_.fetch_add(1, std::memory_order_relaxed);
-      Forward(i, buf, stamp);
-      if (tap_ != nullptr) tap_(tap_context_, buf, stamp);
+      if (static_cast<std::size_t>(n) < kRxBatch) break;  // the node's socket is drained
     }
   }
   for (std::size_t i = gone.size(); i-- > 0;) {
     if (gone[i] != 0) Drop(i);
   }
   if ((fds[0].revents & POLLIN) != 0) Accept();
+  return true;
 }
 
 void LocalBusRelay::Run(const std::atomic<bool>& stop) {

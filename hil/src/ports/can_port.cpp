@@ -242,6 +242,7 @@ class CanPort final : public PlantPort {
       PlantPort::Wait(timeout_ns);
       return;
     }
+    if (iface_.buffered() > 0) return;  // read ahead: Poll has them now
     const timespec ts{static_cast<time_t>(timeout_ns / 1'000'000'000),
                       static_cast<long>(timeout_ns % 1'000'000'000)};
     pollfd p{iface_.fd(), POLLIN, 0};

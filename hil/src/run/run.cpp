@@ -2,6 +2,7 @@
 // step, teardown). Scores and fault figures: run_scores.cpp.
 #include "mrd/hil/run/run.hpp"
 
+#include "mrd/common/lockstep_sched.hpp"
 #include "run_session.hpp"
 
 namespace mrd::hil {
@@ -10,6 +11,9 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
                 std::string* error) {
   ScenarioRun run(scenario, options, r, error);
   if (const int rc = run.Validate(); rc != 0) return rc;
+  // Lockstep: this thread and the firmware's loop hand each period back and forth
+  // (lockstep_sched.hpp); the firmware sets its loop thread the same way.
+  const common::ScopedLockstepScheduling sched(run.lockstep());
   bool finished = false;  // a corrupt_table run ends in its bring-up
   if (const int rc = run.BringUp(&finished); rc != 0 || finished) return rc;
   for (std::int64_t k = 0; k < run.steps(); ++k) {

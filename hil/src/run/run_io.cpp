@@ -7,13 +7,11 @@
 namespace mrd::hil {
 
 // Waits up to timeout_ns for the firmware: on CAN by relaying the bus meanwhile (returns when
-// something moved), else on the port.
-void ScenarioRun::Pump(std::int64_t timeout_ns) {
-  if (relay_bus_) {
-    relay_.Step(static_cast<int>((timeout_ns + 999'999) / 1'000'000));
-  } else if (timeout_ns > 0) {
-    port_->Wait(timeout_ns);
-  }
+// something moved: true), else on the port (false: not known).
+bool ScenarioRun::Pump(std::int64_t timeout_ns) {
+  if (relay_bus_) return relay_.Step(static_cast<int>((timeout_ns + 999'999) / 1'000'000));
+  if (timeout_ns > 0) port_->Wait(timeout_ns);
+  return false;
 }
 
 void ScenarioRun::PumpFor(std::int64_t ns) {

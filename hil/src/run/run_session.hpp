@@ -91,6 +91,7 @@ class ScenarioRun {
   int BringUp(bool* finished);
   int Step(std::int64_t k);
   std::int64_t steps() const { return steps_; }
+  bool lockstep() const { return lockstep_; }
   // After the last step: the firmware stopped, the ports closed, the run scored.
   int Teardown();
 
@@ -124,7 +125,7 @@ class ScenarioRun {
   double DriverVolts(std::int64_t k);
   void StepPlants(double applied, double command_age_ms);
   // Helpers (the former lambdas)
-  void Pump(std::int64_t timeout_ns);
+  bool Pump(std::int64_t timeout_ns);  // true: frames moved on the harness's relay
   void PumpFor(std::int64_t ns);
   void Publish(SensorOutput out);
   bool Spawn(std::string* e);

@@ -35,7 +35,7 @@ int ScenarioRun::Step(std::int64_t k) {
   if (const int rc = ApplyFaultSchedule(k, &faults); rc != 0) return rc;
   FollowPlantNode(faults);
   const SensorOutput out = PublishSensors(k, faults);
-  Pump(0);  // on its way to the firmware
+  if (!lockstep_) Pump(0);  // on its way to the firmware (lockstep: HearLockstep relays)
 
   // Hear the firmware.
   DriverInput fresh = in_;
@@ -150,21 +150,31 @@ SensorOutput ScenarioRun::PublishSensors(std::int64_t k, const StepFaults& f) {
 int ScenarioRun::HearLockstep(std::int64_t k, const SensorOutput& out, bool plant_dead,
                               DriverInput* fresh) {
   const RunOptions& o = o_;
-  if (!FirmwareAlive()) return 0;
+  if (!FirmwareAlive()) {
+    Pump(0);  // the bus still relayed (a restarted firmware joins)
+    return 0;
+  }
   const double wait_s = awaiting_start_ ? o.startup_timeout_s : o.command_timeout_s;
   const std::int64_t until = common::MonotonicNs() + static_cast<std::int64_t>(wait_s * 1e9);
   std::int64_t resend = common::MonotonicNs() + 50'000'000;
+  // Whether to ask if the firmware still runs (a waitpid): not just after the check above, nor
+  // after a wait that relayed frames (it was alive then; an exit closes its socket, and the
+  // wait after that relays nothing), but at least every 2 ms (another node's frames).
+  bool check_alive = false;
+  std::int64_t next_check = common::MonotonicNs() + 2'000'000;
   while (true) {
     port_->Poll(fresh);
     // PWM: the tick's status frame says its duty is written (run_pwm.hpp).
     if (pwm_.active() && fresh->has_status) pwm_.Poll(fresh);
     if (fresh->has_command && (fresh->has_status || !port_->CarriesStatus())) break;
-    if (!FirmwareAlive() && awaiting_start_ && !o.attach) {
+    if (check_alive && !FirmwareAlive()) {
       // Exited before its first command: it refused to start (its stderr says why).
-      return EndRun(
-          "the firmware exited during start-up (exit " + std::to_string(fw_.status()) + ")", 0);
+      if (awaiting_start_ && !o.attach) {
+        return EndRun(
+            "the firmware exited during start-up (exit " + std::to_string(fw_.status()) + ")", 0);
+      }
+      break;  // exited mid-step: no command for this step
     }
-    if (!FirmwareAlive()) break;  // exited mid-step: no command for this step
     const std::int64_t now = common::MonotonicNs();
     if (const int sig = Interrupted()) return EndRun(InterruptText(sig), sig);
     if (now >= until) {
@@ -190,7 +200,9 @@ int ScenarioRun::HearLockstep(std::int64_t k, const SensorOutput& out, bool plan
       port_->SendGrant((k + 1) * kPeriodNs);
       resend = now + 50'000'000;
     }
-    Pump(std::min<std::int64_t>(until - now, 2'000'000));
+    const bool moved = Pump(std::min<std::int64_t>(until - now, 2'000'000));
+    check_alive = !moved || now >= next_check;
+    if (check_alive) next_check = now + 2'000'000;
   }
   if (!fresh->has_command)
     ++r_->command_timeouts;

@@ -159,11 +159,12 @@ void CanDevice::Deactivate() {
   if (iface_.is_open()) {
     // Last word on the bus: 0 V, enable low, safe. Not from a device that never started
     // (a refused CANopen start-up): it never drove, and a command would read as a sign of life.
-    if (active_ && (config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
-      const std::int64_t now = common::MonotonicNs();
-      (void)SendCommand(DriverCommand{0.0, false, true, 0}, now, false);
-      iface_.Flush(now);
-    }
+    const std::int64_t now = common::MonotonicNs();
+    const bool last_word =
+        active_ && (config_.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0;
+    if (last_word) (void)SendCommand(DriverCommand{0.0, false, true, 0}, now, false);
+    // After what a period's Write held (lockstep: a period that ended without its status).
+    if (last_word || iface_.held()) (void)iface_.Release(now);
     iface_.Close();
   }
   active_ = false;
@@ -274,6 +275,7 @@ IoStatus CanDevice::Read(const IoTime& t, SensorFrame* frame, IoError* why) {
     fault = IoError::kDisconnected;
   } else {
     iface_.Flush(now);
+    in_period_ = config_.lockstep;
     // Drains to the newest frame (each keeps its arrival stamp). In lockstep a grant ends the
     // drain: what follows it belongs to the next step (the grant stays pending for the next
     // WaitGrant). A flood ends it too: the period is a fault whatever the rest holds.
@@ -346,7 +348,10 @@ bool CanDevice::MotionTooOld(std::int64_t now) const {
 }
 
 bool CanDevice::Send(const can_frame& f, std::int64_t now) {
-  const canbus::CanResult r = iface_.Send(f, now + config_.tx_deadline_ns, now);
+  return Sent(iface_.Send(f, now + config_.tx_deadline_ns, now));
+}
+
+bool CanDevice::Sent(canbus::CanResult r) {
   counters_.tx_ok = iface_.stats().tx_frames;
   IoError e = IoError::kNone;
   switch (r) {
@@ -378,6 +383,10 @@ IoStatus CanDevice::Write(const IoTime& io, const DriverCommand& cmd, IoError* w
     *why = IoError::kDisconnected;
     return IoStatus::kFault;
   }
+  // Lockstep: the period's frames (command, heartbeat, status) leave together at the end of
+  // PublishStatus, so the harness, which waits for all of them, wakes once per period. They
+  // keep the period's wall time as `now`: a stop between here and there expires none.
+  if (in_period_) iface_.Hold();
   bool ok = true;
   const std::uint32_t out = config_.outputs;
   if ((out & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0) {
@@ -421,6 +430,16 @@ IoStatus CanDevice::Write(const IoTime& io, const DriverCommand& cmd, IoError* w
 
 void CanDevice::PublishStatus(const IoTime& io, const TelemetrySnapshot& stats) {
   active_causes_ = stats.active_causes;  // the next Write's fault_reset rule
+  SendStatus(io, stats);
+  in_period_ = false;
+  if (iface_.held()) {
+    // The period's frames held since Write (lockstep), in one write.
+    (void)Sent(iface_.Release(io.wall_ns));
+    Publish();
+  }
+}
+
+void CanDevice::SendStatus(const IoTime& io, const TelemetrySnapshot& stats) {
   if ((config_.outputs & Bit(Output::kStatus)) == 0 || !iface_.is_open()) return;
   const std::int64_t now = io.wall_ns;
   const std::int64_t t = Now(now);
@@ -488,6 +507,10 @@ bool CanDevice::SendCommand(const DriverCommand& cmd, std::int64_t now, bool res
 
 bool CanDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
   const std::int64_t until = common::MonotonicNs() + timeout_ns;
+  // Nothing read ahead: wait on the socket before reading it (the harness sends a period's
+  // frames after the previous period's command, so a read now would find none: one system
+  // call saved per period).
+  bool wait_first = !got_grant_ && iface_.is_open() && iface_.buffered() == 0;
   while (true) {
     if (got_grant_) {
       got_grant_ = false;
@@ -497,8 +520,10 @@ bool CanDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
     }
     const std::int64_t now = common::MonotonicNs();
     if (!iface_.is_open()) TryReconnect(now);
-    bool drained = false;
-    if (iface_.is_open()) {
+    const bool skipped_read = wait_first;
+    bool drained = wait_first;
+    wait_first = false;
+    if (iface_.is_open() && !drained) {
       can_frame f{};
       std::int64_t stamp = 0;
       const canbus::CanResult r = iface_.Receive(&f, &stamp);
@@ -516,10 +541,10 @@ bool CanDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {
       }
       drained = r == canbus::CanResult::kEmpty;
     }
-    if (now >= until) break;
+    if (now >= until && !skipped_read) break;
     // Nothing waiting: sleep on the fd (or, with the bus gone, until the next reconnect try or
     // the deadline).
-    std::int64_t wait_ns = until - now;
+    std::int64_t wait_ns = until > now ? until - now : 0;
     if (!drained && wait_ns > kReconnectInterval / 10) wait_ns = kReconnectInterval / 10;
     const timespec ts{static_cast<time_t>(wait_ns / 1'000'000'000),
                       static_cast<long>(wait_ns % 1'000'000'000)};

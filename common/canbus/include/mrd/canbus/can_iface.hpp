@@ -3,7 +3,14 @@
 // ArduPilot's AP_HAL::CANIface: opened on an fd at start-up, non-blocking receive with a
 // stamp, send with a deadline (a frame still queued when its deadline passes is dropped, never
 // sent late), bus statistics. Real-time safe: no allocation, no blocking, bounded work (one
-// frame per Receive; at most kTxQueue frames per Flush). Single-threaded.
+// recvmmsg of at most kRxBatch packets per Receive that finds none read ahead; at most kTxQueue
+// frames per Flush, written with sendmmsg). Single-threaded.
+//
+// System calls are the cost of a lockstep period (each is several microseconds on a virtual
+// machine), so both directions batch: Receive reads what is waiting in one call and hands it
+// out frame by frame (order, stamps and errors as one read per frame would give them), and
+// between Hold and Release Send only queues, so a period's frames leave in one call and wake
+// their reader once.
 //
 // Receive stamps are CLOCK_MONOTONIC [ns] of the frame's arrival, not of the read, so a frame
 // that waited in the socket (a stalled reader, a backlog behind a flood) shows its true age:
@@ -70,10 +77,24 @@ bool EnableReceiveStamps(int fd);
 // when the packet was longer than size.
 ssize_t ReceiveStamped(int fd, void* buf, std::size_t size, std::int64_t* stamp_ns,
                        bool* truncated);
+// One packet of ReceiveStampedBatch: its bytes (room for a CAN FD frame, so an oversized packet
+// shows as such), their count, its stamp (as ReceiveStamped's) and whether it was longer.
+struct StampedPacket {
+  alignas(LocalBusPacket) unsigned char data[sizeof(canfd_frame)];
+  std::size_t size;
+  std::int64_t stamp_ns;
+  bool truncated;
+};
+inline constexpr std::size_t kMaxStampedBatch = 16;
+// recvmmsg of up to count (at most kMaxStampedBatch) waiting packets, each stamped as by
+// ReceiveStamped: how many (a packet of size 0 is the peer's EOF), or -1 with errno when none
+// could be read (EAGAIN: none waiting). Never blocks.
+int ReceiveStampedBatch(int fd, StampedPacket* packets, std::size_t count);
 
 class CanIface {
  public:
   static constexpr std::size_t kTxQueue = 8;
+  static constexpr std::size_t kRxBatch = 8;  // packets read ahead by one Receive
 
   CanIface() = default;
   ~CanIface() { Close(); }
@@ -87,12 +108,24 @@ class CanIface {
   bool is_open() const { return fd_ >= 0; }
   int fd() const { return fd_; }
 
-  // One frame if one is waiting, with its arrival stamp.
+  // One frame if one is waiting (read ahead, or from the fd), with its arrival stamp.
   CanResult Receive(can_frame* frame, std::int64_t* stamp_ns);
-  // Whether something waits to be received (a zero-timeout poll).
+  // Whether something waits to be received (read ahead, or a zero-timeout poll).
   bool Readable() const;
-  // Queues frame until deadline_ns and sends what the fd takes now (Flush).
+  // Frames read ahead (Receive returns them without a system call; a wait on fd() would not
+  // see them).
+  std::size_t buffered() const { return rx_count_ - rx_head_; }
+  // Queues frame until deadline_ns and sends what the fd takes now (Flush); while held, only
+  // queues (a full queue is flushed at once).
   CanResult Send(const can_frame& frame, std::int64_t deadline_ns, std::int64_t now_ns);
+  // Holds Send's frames in the queue until Release, which flushes them in one system call
+  // (Flush's result). Close and Flush end nothing: Flush writes held frames too.
+  void Hold() { held_ = true; }
+  CanResult Release(std::int64_t now_ns) {
+    held_ = false;
+    return Flush(now_ns);
+  }
+  bool held() const { return held_; }
   // Writes queued frames in order until the fd would block; drops those past their deadline.
   // kOk, kTimedOut (something dropped), kDisconnected or kError.
   CanResult Flush(std::int64_t now_ns);
@@ -106,10 +139,14 @@ class CanIface {
     std::int64_t deadline_ns;
   };
   CanResult Lost();
+  CanResult Take(const StampedPacket& p, can_frame* frame, std::int64_t* stamp_ns);
 
   int fd_ = -1;
   std::array<Slot, kTxQueue> queue_{};
   std::size_t head_ = 0, count_ = 0;
+  bool held_ = false;
+  std::array<StampedPacket, kRxBatch> rx_{};  // read ahead: rx_[rx_head_, rx_count_)
+  std::size_t rx_head_ = 0, rx_count_ = 0;
   CanStats stats_;
 };
 

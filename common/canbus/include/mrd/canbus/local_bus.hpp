@@ -50,8 +50,9 @@ class LocalBusRelay {
   // Listens on path. A socket file left by a dead relay (nobody accepts) is replaced; a live
   // one is refused ("already served"). false with *error.
   bool Open(const std::string& path, std::string* error);
-  // One round: waits up to timeout_ms for activity, accepts nodes, forwards frames.
-  void Step(int timeout_ms);
+  // One round: waits up to timeout_ms for activity, accepts nodes, forwards frames. True when
+  // something happened (a frame, a node joining or leaving), false on a timeout.
+  bool Step(int timeout_ms);
   // Steps until stop is set.
   void Run(const std::atomic<bool>& stop);
   // Closes every node and the listener, removes the socket file. Idempotent.
@@ -111,6 +112,8 @@ class LocalBusRelay {
   // Step's scratch (kept: no allocation per round once the node count is steady).
   std::vector<pollfd> fds_;
   std::vector<char> gone_;
+  static constexpr std::size_t kRxBatch = 16;  // packets per recvmmsg
+  StampedPacket rx_[kRxBatch] = {};
   std::atomic<std::uint64_t> joined_{0}, left_{0}, in_{0}, out_{0}, dropped_{0}, bad_{0},
       refused_{0};
 };

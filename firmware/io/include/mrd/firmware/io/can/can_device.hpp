@@ -119,6 +119,8 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   std::int64_t Now(std::int64_t wall_ns) const;
   // Queues one frame; false (and counted) when it failed.
   bool Send(const can_frame& f, std::int64_t now);
+  bool Sent(canbus::CanResult r);  // a send's result counted: true when kOk
+  void SendStatus(const IoTime& io, const TelemetrySnapshot& stats);  // when due
   // Real time: the latest motion sample (routed here) is older than max_age at now.
   bool MotionTooOld(std::int64_t now) const;
   // Encodes and queues the command messages; false when a send failed or a value was refused.
@@ -168,6 +170,10 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   bool got_grant_ = false;
   std::uint16_t unstamped_ = 0;
   bool fresh_in_wait_ = false;
+  // Lockstep: a period (Read ... PublishStatus) is going on; its frames are held until its end
+  // (Write holds, PublishStatus releases). Not for a Write outside a period (the loop's
+  // shut-down): that goes out at once.
+  bool in_period_ = false;
   std::int64_t next_heartbeat_ns_ = 0, next_status_ns_ = 0, next_reconnect_ns_ = 0;
   // fault_reset: the firmware's active causes (the latest PublishStatus; all until the first:
   // no reset before the firmware says it is clean), the edges' rule.
