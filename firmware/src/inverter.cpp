@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include "table_model.hpp"
+
 namespace mrd::firmware {
 namespace {
 
@@ -171,11 +173,8 @@ BasicPolyRoots<T> RealRootsInInterval(const Coeffs<T>& a, int n, std::type_ident
 
 template <class T>
 Error BasicInverter<T>::Configure(const CoefficientTable& table) {
-  Error e = table.Validate();
-  if (e != Error::kOk) return e;
-  const BasicModel<T> m = ModelAs<T>(table.model);
-  e = m.Validate();  // a number beyond T's range
-  if (e != Error::kOk) return e;
+  BasicModel<T> m;
+  if (const Error e = TableModelAs(table, &m); e != Error::kOk) return e;
   if (CheckInversion(table).problem != InversionProblem::kNone) return Error::kNotInvertible;
   std::array<std::uint8_t, kMaxTerms> degree{};
   std::array<std::array<bool, kMaxFactors>, kMaxTerms> is_input{};

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "table_model.hpp"
+
 namespace mrd::firmware {
 namespace {
 
@@ -24,11 +26,8 @@ T Hold(T value, T lo, T hi, bool* held) {
 
 template <class T>
 Error BasicModelRuntime<T>::Configure(const CoefficientTable& table) {
-  Error e = table.Validate();
-  if (e != Error::kOk) return e;
-  const BasicModel<T> model = ModelAs<T>(table.model);
-  e = model.Validate();  // a number beyond T's range
-  if (e != Error::kOk) return e;
+  BasicModel<T> model;
+  if (const Error e = TableModelAs(table, &model); e != Error::kOk) return e;
   int v = -1;
   int x = -1;
   for (std::size_t c = 0; c < table.model.num_channels; ++c) {

@@ -10,8 +10,9 @@
 #include <cstdint>
 #include <string>
 
+#include "mrd/common/table.hpp"
 #include "mrd/firmware/platform/config.hpp"
-#include "mrd/hil/study/passive_baseline.hpp"
+#include "mrd/hil/plants/ride.hpp"
 
 namespace mrd::hil {
 

@@ -84,18 +84,11 @@ void RunIdentify(const IdentifyOptions& o) {
   // A spec with transform families runs once per combination (sem_family.hpp).
   auto member = [](std::size_t i, std::size_t n, const std::vector<std::string>& regs,
                    const FamilyCombination& c) {
-    fmt::print(stderr,
-               "family {}/{}: {}: selected iteration {} ({} terms, J {:.6g}), score {:.6g}\n",
-               i + 1, n, FamilyMembers(regs, c), c.selected, c.terms, c.j, c.score);
+    fmt::print(stderr, "{}\n", FamilyProgressLine(i, n, regs, c));
   };
   // Without --spec: a line as each built-in spec starts and ends.
   auto spec_line = [](std::size_t i, std::size_t n, const SpecCandidate& c, bool done) {
-    if (!done) {
-      fmt::print(stderr, "built-in spec {}/{}: {}\n", i + 1, n, c.name);
-    } else {
-      fmt::print(stderr, "built-in spec {}/{}: {}: selected iteration {} ({} terms), RMSE {:.6g}\n",
-                 i + 1, n, c.name, c.selected, c.terms, c.rmse);
-    }
+    fmt::print(stderr, "{}\n", SpecProgressLine(i, n, c, done));
     std::fflush(stderr);
   };
   DefaultIdentification di;

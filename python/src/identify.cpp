@@ -200,11 +200,7 @@ host::ModelFile Identify(const py::object& data, const py::object& spec, const p
   };
   const auto member = [&](std::size_t i, std::size_t n, const std::vector<std::string>& regs,
                           const host::FamilyCombination& c) {
-    if (!beside.Say(fmt::format(
-            "family {}/{}: {}: selected iteration {} ({} terms, J {:.6g}), score {:.6g}", i + 1, n,
-            host::FamilyMembers(regs, c), c.selected, c.terms, c.j, c.score))) {
-      throw Cancelled();
-    }
+    if (!beside.Say(host::FamilyProgressLine(i, n, regs, c))) throw Cancelled();
   };
   const auto on_line = [&](const std::string& line) {
     if (!progress.is_none()) progress(line);
@@ -212,11 +208,7 @@ host::ModelFile Identify(const py::object& data, const py::object& spec, const p
   // Without a spec, as mrd identify: a line as each built-in spec starts and ends.
   const auto spec_line = [&](std::size_t i, std::size_t n, const host::SpecCandidate& c,
                              bool done) {
-    const std::string line =
-        done ? fmt::format("built-in spec {}/{}: {}: selected iteration {} ({} terms), RMSE {:.6g}",
-                           i + 1, n, c.name, c.selected, c.terms, c.rmse)
-             : fmt::format("built-in spec {}/{}: {}", i + 1, n, c.name);
-    if (!beside.Say(line)) throw Cancelled();
+    if (!beside.Say(host::SpecProgressLine(i, n, c, done))) throw Cancelled();
   };
   host::DefaultIdentification di;
   Checked(paths, [&] {

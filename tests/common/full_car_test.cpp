@@ -3,41 +3,22 @@
 // delay, the tracks' correlation, energy (conserved without dampers, decaying with them), the
 // natural frequencies against an eigen analysis of the mass and stiffness matrices built here
 // from the parameters, a symmetric car against four quarter cars, no allocation.
-// This executable replaces operator new to count allocations.
+// The allocation counter (tests/support/alloc_counter.hpp) replaces the allocator of this
+// executable.
 #include "mrd/sim/full_car.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <new>
 #include <numbers>
 #include <vector>
 
 #include "mrd/sim/quarter_car.hpp"
 #include "mrd/sim/two_track_road.hpp"
-
-// GCC 12 takes the counting operator delete's free() for a mismatch with the counting new once
-// a std::string is inlined into a test body: a false positive (as in the other no-alloc tests).
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-
-namespace {
-std::atomic<std::uint64_t> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#include "support/alloc_counter.hpp"
 
 namespace mrd {
 namespace {
@@ -564,10 +545,13 @@ TEST(FullCarTest, RunsAreDeterministic) {
 TEST(FullCarTest, StepAndRoadAllocateNothing) {
   TwoTrackRoad road(TwoTrackRoadParams{}, 20.0 * kPeriod);
   FullCar car{FullCarParams{}};
-  const std::uint64_t before = g_allocations.load();
-  ::operator delete(::operator new(8));  // the counter counts (a call, not elidable)
-  ASSERT_EQ(g_allocations.load(), before + 1);
-  const std::uint64_t start = g_allocations.load();
+  {
+    test::ThreadAllocationGuard guard;
+    ::operator delete(::operator new(8));  // the counter counts (a call, not elidable)
+    guard.Stop();
+    ASSERT_GE(guard.CountOn(gettid()), 1U);
+  }
+  test::ThreadAllocationGuard guard;
   CornerValues rate;
   for (int k = 0; k < 2000; ++k) {
     road.Advance();
@@ -576,7 +560,8 @@ TEST(FullCarTest, StepAndRoadAllocateNothing) {
   }
   road.Reset();
   car.Reset(road.heights_m(), kZero);
-  EXPECT_EQ(g_allocations.load(), start);
+  guard.Stop();
+  EXPECT_EQ(guard.CountOn(gettid()), 0U) << "the car or the road allocated:\n" << guard.Report();
 }
 
 }  // namespace

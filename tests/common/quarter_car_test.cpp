@@ -1,31 +1,17 @@
 // Quarter car (common/sim/include/mrd/sim/quarter_car.hpp): equilibrium, outputs, voltage
 // handling, integration convergence, determinism, stroke on class C, lift-off, no allocation.
-// This executable replaces operator new to count allocations.
+// The allocation counter (tests/support/alloc_counter.hpp) replaces the allocator of this
+// executable.
 #include "mrd/sim/quarter_car.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
-#include <atomic>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <limits>
-#include <new>
 
-namespace {
-std::atomic<std::uint64_t> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#include "support/alloc_counter.hpp"
 
 namespace mrd {
 namespace {
@@ -194,16 +180,20 @@ TEST(QuarterCarTest, ParametersAreValidated) {
 TEST(QuarterCarTest, StepAllocatesNothing) {
   QuarterCarPlant plant(SpencerParams::Paper(), QuarterCarParams{}, RoadParams{}, kPeriod);
   RideMetrics m;
-  const std::uint64_t before = g_allocations.load();
-  ::operator delete(::operator new(8));  // the counter counts (a call, not elidable)
-  ASSERT_EQ(g_allocations.load(), before + 1);
-  const std::uint64_t start = g_allocations.load();
+  {
+    test::ThreadAllocationGuard guard;
+    ::operator delete(::operator new(8));  // the counter counts (a call, not elidable)
+    guard.Stop();
+    ASSERT_GE(guard.CountOn(gettid()), 1U);
+  }
+  test::ThreadAllocationGuard guard;
   for (int k = 0; k < 1000; ++k) {
     plant.Step(k % 3 == 0 ? 2.25 : 0.5);
     m.Add(plant.Detail());
   }
   plant.Reset();
-  EXPECT_EQ(g_allocations.load(), start);
+  guard.Stop();
+  EXPECT_EQ(guard.CountOn(gettid()), 0U) << "the plant allocated:\n" << guard.Report();
 }
 
 }  // namespace

@@ -3,6 +3,8 @@
 
 #include <cmath>
 
+#include "param_fields.hpp"
+
 namespace mrd {
 namespace {
 constexpr double kGravity = 9.81;  // [m/s^2]
@@ -34,39 +36,29 @@ double Det3(const double m[3][3]) {
 }  // namespace
 
 bool FullCarParams::IsValid(const char** reason) const {
-  struct Field {
-    const char* name;
-    double value;
-    bool ok;
-  };
-  const Field fields[] = {
-      {"body_mass_kg", body_mass_kg, body_mass_kg > 0.0},
-      {"pitch_inertia_kg_m2", pitch_inertia_kg_m2, pitch_inertia_kg_m2 > 0.0},
-      {"roll_inertia_kg_m2", roll_inertia_kg_m2, roll_inertia_kg_m2 > 0.0},
-      {"cg_to_front_m", cg_to_front_m, cg_to_front_m > 0.0},
-      {"cg_to_rear_m", cg_to_rear_m, cg_to_rear_m > 0.0},
-      {"track_front_m", track_front_m, track_front_m > 0.0},
-      {"track_rear_m", track_rear_m, track_rear_m > 0.0},
-      {"unsprung_front_kg", unsprung_front_kg, unsprung_front_kg > 0.0},
-      {"unsprung_rear_kg", unsprung_rear_kg, unsprung_rear_kg > 0.0},
-      {"spring_front_n_per_m", spring_front_n_per_m, spring_front_n_per_m > 0.0},
-      {"spring_rear_n_per_m", spring_rear_n_per_m, spring_rear_n_per_m > 0.0},
-      {"damping_front_n_s_per_m", damping_front_n_s_per_m, damping_front_n_s_per_m >= 0.0},
-      {"damping_rear_n_s_per_m", damping_rear_n_s_per_m, damping_rear_n_s_per_m >= 0.0},
-      {"tyre_n_per_m", tyre_n_per_m, tyre_n_per_m > 0.0},
-      {"tyre_damping_n_s_per_m", tyre_damping_n_s_per_m, tyre_damping_n_s_per_m >= 0.0},
-      {"motion_ratio", motion_ratio, motion_ratio > 0.0 && motion_ratio <= 1.0},
-      {"seat_x_m", seat_x_m, true},
-      {"seat_y_m", seat_y_m, true},
-      {"substeps", static_cast<double>(substeps), substeps >= 1 && substeps <= 10000},
-  };
-  for (const Field& f : fields) {
-    if (!std::isfinite(f.value) || !f.ok) {
-      if (reason != nullptr) *reason = f.name;
-      return false;
-    }
-  }
-  return true;
+  return sim_internal::FieldsValid(
+      {
+          {"body_mass_kg", body_mass_kg, body_mass_kg > 0.0},
+          {"pitch_inertia_kg_m2", pitch_inertia_kg_m2, pitch_inertia_kg_m2 > 0.0},
+          {"roll_inertia_kg_m2", roll_inertia_kg_m2, roll_inertia_kg_m2 > 0.0},
+          {"cg_to_front_m", cg_to_front_m, cg_to_front_m > 0.0},
+          {"cg_to_rear_m", cg_to_rear_m, cg_to_rear_m > 0.0},
+          {"track_front_m", track_front_m, track_front_m > 0.0},
+          {"track_rear_m", track_rear_m, track_rear_m > 0.0},
+          {"unsprung_front_kg", unsprung_front_kg, unsprung_front_kg > 0.0},
+          {"unsprung_rear_kg", unsprung_rear_kg, unsprung_rear_kg > 0.0},
+          {"spring_front_n_per_m", spring_front_n_per_m, spring_front_n_per_m > 0.0},
+          {"spring_rear_n_per_m", spring_rear_n_per_m, spring_rear_n_per_m > 0.0},
+          {"damping_front_n_s_per_m", damping_front_n_s_per_m, damping_front_n_s_per_m >= 0.0},
+          {"damping_rear_n_s_per_m", damping_rear_n_s_per_m, damping_rear_n_s_per_m >= 0.0},
+          {"tyre_n_per_m", tyre_n_per_m, tyre_n_per_m > 0.0},
+          {"tyre_damping_n_s_per_m", tyre_damping_n_s_per_m, tyre_damping_n_s_per_m >= 0.0},
+          {"motion_ratio", motion_ratio, motion_ratio > 0.0 && motion_ratio <= 1.0},
+          {"seat_x_m", seat_x_m, true},
+          {"seat_y_m", seat_y_m, true},
+          {"substeps", static_cast<double>(substeps), substeps >= 1 && substeps <= 10000},
+      },
+      reason);
 }
 
 double FullCarParams::corner_x_m(int corner) const {

@@ -15,34 +15,26 @@
 
 #include <cmath>
 
+#include "param_fields.hpp"
+
 namespace mrd {
 namespace {
 constexpr double kGravity = 9.81;  // [m/s^2]
 }  // namespace
 
 bool QuarterCarParams::IsValid(const char** reason) const {
-  struct Field {
-    const char* name;
-    double value;
-    bool ok;
-  };
-  const Field fields[] = {
-      {"sprung_mass_kg", sprung_mass_kg, sprung_mass_kg > 0.0},
-      {"unsprung_mass_kg", unsprung_mass_kg, unsprung_mass_kg > 0.0},
-      {"spring_n_per_m", spring_n_per_m, spring_n_per_m >= 0.0},
-      {"tyre_n_per_m", tyre_n_per_m, tyre_n_per_m > 0.0},
-      {"motion_ratio", motion_ratio, motion_ratio > 0.0 && motion_ratio <= 1.0},
-      {"speed_m_s", speed_m_s, speed_m_s >= 0.0},
-      {"max_volts", max_volts, max_volts >= 0.0},
-      {"substeps", static_cast<double>(substeps), substeps >= 1 && substeps <= 10000},
-  };
-  for (const Field& f : fields) {
-    if (!std::isfinite(f.value) || !f.ok) {
-      if (reason != nullptr) *reason = f.name;
-      return false;
-    }
-  }
-  return true;
+  return sim_internal::FieldsValid(
+      {
+          {"sprung_mass_kg", sprung_mass_kg, sprung_mass_kg > 0.0},
+          {"unsprung_mass_kg", unsprung_mass_kg, unsprung_mass_kg > 0.0},
+          {"spring_n_per_m", spring_n_per_m, spring_n_per_m >= 0.0},
+          {"tyre_n_per_m", tyre_n_per_m, tyre_n_per_m > 0.0},
+          {"motion_ratio", motion_ratio, motion_ratio > 0.0 && motion_ratio <= 1.0},
+          {"speed_m_s", speed_m_s, speed_m_s >= 0.0},
+          {"max_volts", max_volts, max_volts >= 0.0},
+          {"substeps", static_cast<double>(substeps), substeps >= 1 && substeps <= 10000},
+      },
+      reason);
 }
 
 QuarterCarPlant::QuarterCarPlant(const SpencerParams& damper, const QuarterCarParams& car,

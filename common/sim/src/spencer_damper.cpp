@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "param_fields.hpp"
+
 namespace mrd {
 
 SpencerParams SpencerParams::Spencer1997() {
@@ -36,25 +38,24 @@ bool SpencerParams::FromPreset(std::string_view name, SpencerParams* out) {
 }
 
 bool SpencerParams::IsValid(const char** reason) const {
-  struct Field {
-    const char* name;
-    double value;
-    bool positive;
-  };
-  const Field fields[] = {
-      {"c0a", c0a, true},      {"c0b", c0b, false},         {"k0", k0, true},
-      {"c1a", c1a, true},      {"c1b", c1b, false},         {"k1", k1, false},
-      {"x0", x0, false},       {"alpha_a", alpha_a, false}, {"alpha_b", alpha_b, false},
-      {"gamma", gamma, false}, {"beta", beta, false},       {"A", A, false},
-      {"n", n, true},          {"eta", eta, true},
-  };
-  for (const Field& f : fields) {
-    if (!std::isfinite(f.value) || (f.positive && !(f.value > 0.0))) {
-      if (reason != nullptr) *reason = f.name;
-      return false;
-    }
-  }
-  return true;
+  return sim_internal::FieldsValid(
+      {
+          {"c0a", c0a, c0a > 0.0},
+          {"c0b", c0b, true},
+          {"k0", k0, k0 > 0.0},
+          {"c1a", c1a, c1a > 0.0},
+          {"c1b", c1b, true},
+          {"k1", k1, true},
+          {"x0", x0, true},
+          {"alpha_a", alpha_a, true},
+          {"alpha_b", alpha_b, true},
+          {"gamma", gamma, true},
+          {"beta", beta, true},
+          {"A", A, true},
+          {"n", n, n > 0.0},
+          {"eta", eta, eta > 0.0},
+      },
+      reason);
 }
 
 SpencerDamper::SpencerDamper(const SpencerParams& params, int substeps)

@@ -44,6 +44,10 @@ struct DefaultIdentification {
 
 // Called when a built-in spec starts (index, count, name) and after it was scored.
 using SpecProgress = std::function<void(std::size_t, std::size_t, const SpecCandidate&, bool done)>;
+// The progress line of built-in spec i of n (no newline), as `mrd identify` and Python's identify
+// report it: as it starts "built-in spec 1/3: NAME", when done with its selected iteration,
+// terms and RMSE.
+std::string SpecProgressLine(std::size_t i, std::size_t n, const SpecCandidate& c, bool done);
 
 // The choice above. Throws what IdentifyFamilies throws (a data set without the specs'
 // columns: InputError naming the first spec).

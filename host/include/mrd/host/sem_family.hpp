@@ -74,6 +74,12 @@ FamilyIdentification IdentifyFamilies(const SemSpec& spec, std::span<const DataS
 std::string TransformLabel(const TransformChoice& c);
 // "u2 = abs_pow(exponent=0.2), w = sign": the members of a combination by regressor.
 std::string FamilyMembers(const std::vector<std::string>& regressors, const FamilyCombination& c);
+// The progress line of combination i of n after its identification (no newline), as
+// `mrd identify` and Python's identify report it: "family 2/4: u2 = sign: selected iteration 9
+// (7 terms, J 0.0123), score -812".
+std::string FamilyProgressLine(std::size_t i, std::size_t n,
+                               const std::vector<std::string>& regressors,
+                               const FamilyCombination& c);
 
 // Model file section "family" (model_file.hpp):
 //   {"regressors": ["u2"], "rule": "...", "chosen": 1,

@@ -101,6 +101,13 @@ std::string FamilyMembers(const std::vector<std::string>& regressors, const Fami
   return s;
 }
 
+std::string FamilyProgressLine(std::size_t i, std::size_t n,
+                               const std::vector<std::string>& regressors,
+                               const FamilyCombination& c) {
+  return fmt::format("family {}/{}: {}: selected iteration {} ({} terms, J {:.6g}), score {:.6g}",
+                     i + 1, n, FamilyMembers(regressors, c), c.selected, c.terms, c.j, c.score);
+}
+
 std::vector<std::vector<TransformChoice>> FamilyCombinations(const SemSpec& spec) {
   std::vector<std::vector<TransformChoice>> out{{}};
   for (const auto& r : spec.regressors) {

@@ -174,4 +174,11 @@ SpecChoice SpecChoiceFromJson(const json& j, const std::string& path) {
   return c;
 }
 
+std::string SpecProgressLine(std::size_t i, std::size_t n, const SpecCandidate& c, bool done) {
+  return done
+             ? fmt::format("built-in spec {}/{}: {}: selected iteration {} ({} terms), RMSE {:.6g}",
+                           i + 1, n, c.name, c.selected, c.terms, c.rmse)
+             : fmt::format("built-in spec {}/{}: {}", i + 1, n, c.name);
+}
+
 }  // namespace mrd::host

@@ -33,15 +33,20 @@ Eigen::VectorXd SolveNormal(const Eigen::MatrixXd& g, const Eigen::VectorXd& b) 
              : Eigen::VectorXd(g.completeOrthogonalDecomposition().solve(b));
 }
 
-void FoldTotals(const std::vector<Eigen::MatrixXd>& g, const std::vector<Eigen::VectorXd>& b,
-                Eigen::MatrixXd* gt, Eigen::VectorXd* bt) {
+std::vector<Eigen::VectorXd> FitsWithoutEachFold(const std::vector<Eigen::MatrixXd>& g,
+                                                 const std::vector<Eigen::VectorXd>& b) {
   const Eigen::Index m = g.empty() ? 0 : g.front().rows();
-  *gt = Eigen::MatrixXd::Zero(m, m);
-  *bt = Eigen::VectorXd::Zero(m);
+  Eigen::MatrixXd gt = Eigen::MatrixXd::Zero(m, m);
+  Eigen::VectorXd bt = Eigen::VectorXd::Zero(m);
   for (std::size_t f = 0; f < g.size(); ++f) {
-    *gt += g[f];
-    *bt += b[f];
+    gt += g[f];
+    bt += b[f];
   }
+  std::vector<Eigen::VectorXd> out(g.size());
+  for (std::size_t f = 0; f < g.size(); ++f) {
+    if (m > 0) out[f] = SolveNormal(gt - g[f], bt - b[f]);
+  }
+  return out;
 }
 
 std::vector<double> OneStepFoldCosts(const std::vector<Evaluator>& ev,
@@ -66,13 +71,11 @@ std::vector<double> OneStepFoldCosts(const std::vector<Evaluator>& ev,
       b[fi].noalias() += rows.transpose() * w.cwiseProduct(y);
     }
   }
-  Eigen::MatrixXd gt;
-  Eigen::VectorXd bt;
-  FoldTotals(g, b, &gt, &bt);
+  const std::vector<Eigen::VectorXd> fits = FitsWithoutEachFold(g, b);
   std::vector<double> out(nf, 0.0);
   for (int f = 0; f < folds; ++f) {
     const auto fi = static_cast<std::size_t>(f);
-    const Eigen::VectorXd theta = m > 0 ? SolveNormal(gt - g[fi], bt - b[fi]) : Eigen::VectorXd();
+    const Eigen::VectorXd& theta = fits[fi];
     double cost = 0.0;
     for (std::size_t d = 0; d < ev.size(); ++d) {
       const Record& r = ev[d].record();

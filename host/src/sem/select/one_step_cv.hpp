@@ -22,10 +22,11 @@ inline std::size_t FoldBound(const Record& r, int f, int folds) {
 // positive definite. Empty g: an empty theta.
 Eigen::VectorXd SolveNormal(const Eigen::MatrixXd& g, const Eigen::VectorXd& b);
 
-// Totals over all folds of the per-fold normal equations (Gram matrices g, right-hand sides b),
-// from which a fold's own rows are subtracted to fit on the other folds.
-void FoldTotals(const std::vector<Eigen::MatrixXd>& g, const std::vector<Eigen::VectorXd>& b,
-                Eigen::MatrixXd* gt, Eigen::VectorXd* bt);
+// Per fold f, the fit on every other fold: from the per-fold normal equations (Gram matrices g,
+// right-hand sides b) their totals over all folds less fold f's own, solved (SolveNormal).
+// No terms (0 x 0 matrices): empty solutions.
+std::vector<Eigen::VectorXd> FitsWithoutEachFold(const std::vector<Eigen::MatrixXd>& g,
+                                                 const std::vector<Eigen::VectorXd>& b);
 
 // Per fold f: the weighted least squares on every other fold of every record, and the weighted
 // one-step squared error sum_k w_k (y_k - phi_k theta)^2 over fold f (regressors from the

@@ -18,12 +18,11 @@ namespace mrd::host {
 namespace {
 
 using internal::Evaluator;
+using internal::FitsWithoutEachFold;
 using internal::FoldBound;
-using internal::FoldTotals;
 using internal::OneStepFoldCosts;
 using internal::OneStepResidual;
 using internal::Record;
-using internal::SolveNormal;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
@@ -99,14 +98,11 @@ std::vector<double> FoldCosts(const std::vector<Evaluator>& ev, const std::vecto
       b[fi].noalias() += phi.transpose() * y;
     }
   }
-  Eigen::MatrixXd gt;
-  Eigen::VectorXd bt;
-  FoldTotals(g, b, &gt, &bt);
+  const std::vector<Eigen::VectorXd> fits = FitsWithoutEachFold(g, b);
   std::vector<double> out(nf, 0.0);
   for (int f = 0; f < folds; ++f) {
     const auto fi = static_cast<std::size_t>(f);
-    const Eigen::VectorXd theta =
-        m > 0 ? SolveNormal(gt - g[fi], bt - b[fi]) : Eigen::VectorXd(Eigen::VectorXd::Zero(m));
+    const Eigen::VectorXd& theta = fits[fi];
     if (!theta.allFinite()) {
       out[fi] = kInf;
       continue;
