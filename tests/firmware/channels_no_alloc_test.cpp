@@ -44,8 +44,8 @@ std::uint64_t AllocationsWithFourChannels(FaultPolicy policy, ControlMode mode) 
   std::array<std::unique_ptr<Channel>, kCorners> channels;
   std::array<Channel*, kCorners> list{};
   for (std::size_t i = 0; i < kCorners; ++i) {
-    plants[i] =
-        std::make_unique<SimulatedDamper>(SpencerParams::Paper(), SimulationConfig{}, clock, kPeriod);
+    plants[i] = std::make_unique<SimulatedDamper>(SpencerParams::Paper(), SimulationConfig{}, clock,
+                                                  kPeriod);
     sources[i] = std::make_unique<test::FaultySource>(*plants[i]);
     drivers[i] = std::make_unique<test::FaultyDriver>(*plants[i]);
     EXPECT_EQ(controllers[i].Configure(test::DemoDamperTable(), config), Error::kOk);
