@@ -5,7 +5,8 @@
 #
 #   toolchain/mutate.sh [SELECTOR...]
 #   toolchain/mutate.sh --check      (the list only: every original text found exactly once in
-#                                     the tree, ids unique, groups known; no build; a CTest test)
+#                                     the tree, ids and group names unique, groups known; no build;
+#                                     a CTest test)
 #
 # SELECTOR: a mutant id (C01), an area (common, firmware, host) or a test group of the list
 # (see the `group` lines); none: every mutant. Takes minutes: run by hand, and before resolving
@@ -48,6 +49,8 @@ for n, line in enumerate(open(path, encoding="utf-8"), 1):
         continue
     f = line.split("\t")
     if f[0] == "group" and len(f) == 4:
+        if f[1] in groups:
+            sys.exit(f"error: {path}:{n}: duplicate group {f[1]}")
         groups[f[1]] = f[2:]
     elif f[0] == "mutant" and len(f) == 7:
         if f[1] in ids:

@@ -3,7 +3,6 @@
 
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -370,14 +369,8 @@ int FullCarStudyCommand(const StudyOptions& o, const Scenario& base) {
   Inputs in;
   in.base = base;
   if (const int rc = ParseInputs(o, &in); rc != 0) return rc;
-  const std::string dir =
-      o.out_dir.empty() ? "study-" + std::filesystem::path(o.scenario).stem().string() : o.out_dir;
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec || !std::filesystem::is_directory(dir)) {
-    std::fprintf(stderr, "error: --out %s: cannot create the directory\n", dir.c_str());
-    return 1;
-  }
+  std::string dir;
+  if (const int rc = study::MakeOutDir(o, &dir); rc != 0) return rc;
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Case> cases;
   const std::size_t n = in.ratios.size() * in.classes.size() * in.speeds.size();

@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <functional>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -385,14 +384,8 @@ int StudyCommand(const StudyOptions& o) {
   const Scenario& base = in.base;
   const std::vector<FirmwareLaw>& laws = in.laws;
   std::string error;
-  const std::string dir =
-      o.out_dir.empty() ? "study-" + std::filesystem::path(o.scenario).stem().string() : o.out_dir;
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec || !std::filesystem::is_directory(dir)) {
-    std::fprintf(stderr, "error: --out %s: cannot create the directory\n", dir.c_str());
-    return 1;
-  }
+  std::string dir;
+  if (const int rc = study::MakeOutDir(o, &dir); rc != 0) return rc;
 
   const auto t0 = std::chrono::steady_clock::now();
   const std::function<double()> wall = [&] {

@@ -1,6 +1,8 @@
 // Helpers of `mrd-hil study` (study_support.hpp).
 #include "study_support.hpp"
 
+#include <cstdio>
+#include <filesystem>
 #include <sstream>
 
 #include "mrd/sim/iso8608_road.hpp"
@@ -68,6 +70,18 @@ int ParseClassesAndSpeeds(const StudyOptions& o, std::vector<char>* classes,
   }
   if (classes->empty()) return Bad("--classes: no road class given");
   if (speeds->empty()) return Bad("--speeds: no speed given");
+  return 0;
+}
+
+int MakeOutDir(const StudyOptions& o, std::string* dir) {
+  *dir =
+      o.out_dir.empty() ? "study-" + std::filesystem::path(o.scenario).stem().string() : o.out_dir;
+  std::error_code ec;
+  std::filesystem::create_directories(*dir, ec);
+  if (ec || !std::filesystem::is_directory(*dir)) {
+    std::fprintf(stderr, "error: --out %s: cannot create the directory\n", dir->c_str());
+    return 1;
+  }
   return 0;
 }
 

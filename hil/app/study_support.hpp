@@ -1,6 +1,6 @@
 #pragma once
 // Helpers of `mrd-hil study` shared by the quarter-car and the full-car study: list parsing,
-// number formatting, CSV and gnuplot quoting, the bad-input exit.
+// number formatting, CSV and gnuplot quoting, the bad-input exit, the output directory.
 
 #include <cstdio>
 #include <cstdlib>
@@ -28,6 +28,9 @@ int Bad(const std::string& what);
 // --classes (upper case, distinct) and --speeds; 0, or the exit code after the message.
 int ParseClassesAndSpeeds(const StudyOptions& o, std::vector<char>* classes,
                           std::vector<double>* speeds);
+// The output directory (--out, default study-NAME after the scenario), created; 0, or 1 after
+// the message when it cannot be.
+int MakeOutDir(const StudyOptions& o, std::string* dir);
 
 // A comma-separated list of distinct numbers, each accepted by `in_range`; `what` names one in
 // the message ("a speed in (0, 100] m/s"). 0, or the exit code after the message naming flag.
