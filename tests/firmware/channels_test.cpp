@@ -121,7 +121,7 @@ TEST(ChannelsTest, EachOfFourChannelsEqualsALoopOfItsOwn) {
 }
 
 // Channel 2's velocity is NaN for reads [kFrom, kTo).
-constexpr std::uint64_t kFrom = 600, kTo = 620;
+constexpr std::size_t kFrom = 600, kTo = 620;
 
 TEST(ChannelsTest, PolicyAllPutsEveryChannelSafeWithinTwoPeriodsOfOneChannelsFault) {
   Vehicle car(4);
@@ -134,8 +134,8 @@ TEST(ChannelsTest, PolicyAllPutsEveryChannelSafeWithinTwoPeriodsOfOneChannelsFau
     EXPECT_FALSE(r[kFrom - 1].safe);
     // Safe within two periods of the fault (its period and the next), and while it lasts
     // (the others one period longer: they learn of its end a period later).
-    const std::uint64_t to = i == 2 ? kTo - 1 : kTo;
-    for (std::uint64_t k = kFrom + 1; k <= to; ++k) {
+    const std::size_t to = i == 2 ? kTo - 1 : kTo;
+    for (std::size_t k = kFrom + 1; k <= to; ++k) {
       ASSERT_TRUE(r[k].safe) << "period " << k;
       ASSERT_EQ(r[k].command_v, 0.0) << "period " << k;
     }
@@ -157,7 +157,7 @@ TEST(ChannelsTest, PolicyChannelKeepsTheOtherChannelsCommands) {
   faulted.corners[2]->source.nan_velocity = {kFrom, kTo};
   faulted.Run(FaultPolicy::kChannel);
   clean.Run(FaultPolicy::kChannel);
-  for (std::uint64_t k = kFrom; k < kTo; ++k) ASSERT_TRUE(faulted.records(2)[k].safe) << k;
+  for (std::size_t k = kFrom; k < kTo; ++k) ASSERT_TRUE(faulted.records(2)[k].safe) << k;
   for (const std::size_t i : {0, 1, 3}) {
     SCOPED_TRACE(i);
     ExpectSameCommands(faulted.records(i), clean.records(i));
