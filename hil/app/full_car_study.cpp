@@ -45,14 +45,11 @@ struct Case {
   }
 };
 
-struct Inputs {
-  Scenario base;
-  std::vector<double> volts, pair_volts;
+struct Inputs : study::BaseInputs {
+  std::vector<double> pair_volts;
   std::vector<char> classes;
   std::vector<double> speeds, ratios;
   std::vector<FullCarLawSpec> laws;
-  CoefficientTable table;
-  std::string table_label, plant_label;
 };
 
 int ParseLaws(const StudyOptions& o, Inputs* in) {
@@ -82,21 +79,7 @@ int ParseLaws(const StudyOptions& o, Inputs* in) {
 int ParseInputs(const StudyOptions& o, Inputs* in) {
   Scenario& base = in->base;
   std::string error;
-  if (!LoadRunTable(base.table_file, &in->table)) return study::kBadInput;
-  in->table_label = TableLabel(base.table_file, in->table);
-  in->plant_label = PlantLabel(base);
-  if (o.duration_s >= 0.0) {
-    if (!(o.duration_s > base.ride_settle_s) || o.duration_s > 1e5) {
-      return Bad("--duration " + Num(o.duration_s) + ": must be longer than the settle time " +
-                 Num(base.ride_settle_s) + " s (and at most 1e5 s)");
-    }
-    base.duration_s = o.duration_s;
-  }
-  const double step = o.passive_step_v >= 0.0 ? o.passive_step_v : base.passive_step_v;
-  if (!GridVoltages(0.0, base.e_max, step, &in->volts, &error) || in->volts.size() > 10000) {
-    return Bad("--passive-step " + Num(step) + ": " +
-               (error.empty() ? "more than 10000 points" : error));
-  }
+  if (const int rc = study::LoadBaseInputs(o, in); rc != 0) return rc;
   if (!GridVoltages(0.0, base.e_max, base.pair_step_v, &in->pair_volts, &error)) {
     return Bad(base.path + ": pair_step_v: " + error);
   }

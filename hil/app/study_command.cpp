@@ -250,17 +250,11 @@ bool WritePlots(const std::string& dir, const std::vector<StudyCase>& cases,
 // The study's inputs from its options: the base scenario (--duration applied), the passive
 // grid's step and voltages, the road classes, speeds and laws. 0, or the exit code after the
 // message.
-struct StudyInputs {
-  Scenario base;
-  double step = 0.0;
-  std::vector<double> volts;
+struct StudyInputs : study::BaseInputs {
   std::vector<char> classes;
   std::vector<double> speeds;
   std::vector<double> ratios;  // motion ratios
   std::vector<FirmwareLaw> laws;
-  CoefficientTable table;   // the scenario's [firmware] table, or the compiled-in one
-  std::string table_label;  // its path and CRC (TableLabel)
-  std::string plant_label;  // PlantLabel
 };
 
 // --motion-ratios: each in [0.01, 1] (the scenario key's range), no repeats; "" the scenario's.
@@ -294,22 +288,7 @@ int ParseStudyInputs(const StudyOptions& o, StudyInputs* in) {
                " routes signals over [gpio]: the study feeds the law in process without it "
                "(mrd-hil run or sweep do)");
   }
-  if (!LoadRunTable(base.table_file, &in->table)) return kBadInput;
-  in->table_label = TableLabel(base.table_file, in->table);
-  in->plant_label = PlantLabel(base);
-  if (o.duration_s >= 0.0) {
-    if (!(o.duration_s > base.ride_settle_s) || o.duration_s > 1e5) {
-      return Bad("--duration " + Num(o.duration_s) + ": must be longer than the settle time " +
-                 Num(base.ride_settle_s) + " s (and at most 1e5 s)");
-    }
-    base.duration_s = o.duration_s;
-  }
-  in->step = o.passive_step_v >= 0.0 ? o.passive_step_v : base.passive_step_v;
-  if (!GridVoltages(0.0, base.e_max, in->step, &in->volts, &error)) {
-    return Bad("--passive-step " + Num(in->step) + ": " + error);
-  }
-  if (in->volts.size() > 10000)
-    return Bad("--passive-step " + Num(in->step) + ": more than 10000 points");
+  if (const int rc = study::LoadBaseInputs(o, in); rc != 0) return rc;
   if (const int rc = study::ParseClassesAndSpeeds(o, &in->classes, &in->speeds); rc != 0) {
     return rc;
   }

@@ -5,7 +5,9 @@
 #include <filesystem>
 #include <sstream>
 
+#include "mrd/hil/plants/ride.hpp"
 #include "mrd/sim/iso8608_road.hpp"
+#include "table_check.hpp"
 
 namespace mrd::hil::study {
 
@@ -81,6 +83,29 @@ int MakeOutDir(const StudyOptions& o, std::string* dir) {
   if (ec || !std::filesystem::is_directory(*dir)) {
     std::fprintf(stderr, "error: --out %s: cannot create the directory\n", dir->c_str());
     return 1;
+  }
+  return 0;
+}
+
+int LoadBaseInputs(const StudyOptions& o, BaseInputs* in) {
+  Scenario& base = in->base;
+  if (!LoadRunTable(base.table_file, &in->table)) return kBadInput;
+  in->table_label = TableLabel(base.table_file, in->table);
+  in->plant_label = PlantLabel(base);
+  if (o.duration_s >= 0.0) {
+    if (!(o.duration_s > base.ride_settle_s) || o.duration_s > 1e5) {
+      return Bad("--duration " + Num(o.duration_s) + ": must be longer than the settle time " +
+                 Num(base.ride_settle_s) + " s (and at most 1e5 s)");
+    }
+    base.duration_s = o.duration_s;
+  }
+  in->step = o.passive_step_v >= 0.0 ? o.passive_step_v : base.passive_step_v;
+  std::string error;
+  if (!GridVoltages(0.0, base.e_max, in->step, &in->volts, &error)) {
+    return Bad("--passive-step " + Num(in->step) + ": " + error);
+  }
+  if (in->volts.size() > 10000) {
+    return Bad("--passive-step " + Num(in->step) + ": more than 10000 points");
   }
   return 0;
 }

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "mrd/common/table.hpp"
+#include "mrd/hil/scenario/scenario.hpp"
 #include "study_command.hpp"
 
 namespace mrd::hil::study {
@@ -31,6 +33,20 @@ int ParseClassesAndSpeeds(const StudyOptions& o, std::vector<char>* classes,
 // The output directory (--out, default study-NAME after the scenario), created; 0, or 1 after
 // the message when it cannot be.
 int MakeOutDir(const StudyOptions& o, std::string* dir);
+
+// What both studies take from the base scenario and the common flags.
+struct BaseInputs {
+  Scenario base;
+  CoefficientTable table;   // the scenario's [firmware] table, or the compiled-in one
+  std::string table_label;  // its path and CRC (TableLabel)
+  std::string plant_label;  // PlantLabel
+  double step = 0.0;        // the passive grid's step [V]
+  std::vector<double> volts;  // the passive grid, 0 to e_max [V]
+};
+// With in->base loaded: the table and the labels, --duration (longer than the settle time,
+// at most 1e5 s) into base.duration_s, the passive grid at --passive-step (default the
+// scenario's; at most 10000 points). 0, or the exit code after the message.
+int LoadBaseInputs(const StudyOptions& o, BaseInputs* in);
 
 // A comma-separated list of distinct numbers, each accepted by `in_range`; `what` names one in
 // the message ("a speed in (0, 100] m/s"). 0, or the exit code after the message naming flag.

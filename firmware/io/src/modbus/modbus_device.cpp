@@ -174,7 +174,8 @@ void ModbusDevice::Deactivate() {
   if (!configured_) return;
   // The worker (stopped now) may already have had the driver acknowledge the safe block the
   // loop posted last (its shutdown): that is the final safe state. Writing it again would only
-  // make the request count depend on whether the worker got there before it stopped.
+  // make the request count depend on whether the worker got there before it stopped. In
+  // lockstep the worker never writes that block (released_tick_): it is always written here.
   const Command last = command_.version() != 0 ? command_.Read() : Command{};
   const bool acknowledged = safe_acknowledged_ && last.safe && last.tick == safe_acknowledged_tick_;
   if (!acknowledged && link_->open() && !link_->broken() &&
@@ -326,6 +327,9 @@ ModbusDevice::Outcome ModbusDevice::WriteOnce(const Command& c, IoError* why, bo
 ModbusDevice::Outcome ModbusDevice::WriteLatest(Sample* s) {
   Command c;
   if (!LatestCommand(&c) || (any_written_ && c.tick == written_tick_)) return Outcome::kNothing;
+  if (config_.lockstep && c.tick >= released_tick_.load(std::memory_order_acquire)) {
+    return Outcome::kNothing;  // not published (yet): see released_tick_
+  }
   IoError why = IoError::kNone;
   for (int attempt = 0; attempt <= config_.retries;) {
     if (resync_) {
@@ -333,7 +337,9 @@ ModbusDevice::Outcome ModbusDevice::WriteLatest(Sample* s) {
       (void)link_->Quiet(wake_, waker_.get());  // gives way to a safe block
     }
     if (!running_.load(std::memory_order_relaxed)) return Outcome::kAbandoned;
-    (void)LatestCommand(&c);  // the newest block, at the moment it is written
+    // The newest block, at the moment it is written (lockstep: the released one, read above;
+    // a safe block never supersedes it there).
+    if (!config_.lockstep) (void)LatestCommand(&c);
     const Outcome o = WriteOnce(c, &why, /*interruptible=*/true);
     if (o != Outcome::kAbandoned) {
       handled_tick_.store(c.tick, std::memory_order_release);
@@ -628,6 +634,7 @@ void ModbusDevice::PublishStatus(const IoTime& t, const TelemetrySnapshot& stats
     if (command_.version() != 0) {
       published_tick_ = command_.Read().tick;
       published_ = true;
+      released_tick_.store(published_tick_ + 1, std::memory_order_release);
     }
     Signal(wake_);
   }

@@ -208,6 +208,10 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   bool published_ = false;
   std::atomic<std::uint64_t> handled_tick_{0};
   std::atomic<bool> handled_any_{false};
+  // Lockstep: the worker writes only ticks below this one (the published ones). The shutdown's
+  // safe block, posted after the last PublishStatus, is Deactivate's alone: whether the worker
+  // would have got to it before it stopped depends on wall time, the request count must not.
+  std::atomic<std::uint64_t> released_tick_{0};
   std::int64_t granted_ns_ = 0;  // the latest grant WaitGrant returned
   IoError last_why_ = IoError::kNone;
 
