@@ -170,10 +170,7 @@ class CanPort final : public PlantPort {
       can_frame f{};
       codec_.Begin(m, &f);
       bool ok = true;
-      const auto set = [&](CanIn role, double v) {
-        const pf::SignalRef r = profile_->inputs[static_cast<std::size_t>(role)];
-        if (r.message == m && codec_.Set(&f, r, v) != protocol::SignalError::kNone) ok = false;
-      };
+      const auto set = [&](CanIn role, double v) { ok = SetRole(role, v, m, &f) && ok; };
       const bool bad_v = out.fault == SensorFault::kOutOfRange || out.fault == SensorFault::kNan;
       set(CanIn::kVelocity, bad_v ? 0.0 : out.sample.v);
       set(CanIn::kDisplacement, out.sample.x);
@@ -328,10 +325,7 @@ class CanPort final : public PlantPort {
       can_frame f{};
       codec_.Begin(m, &f);
       bool ok = true;
-      const auto set = [&](CanIn role, double v) {
-        const pf::SignalRef r = profile_->inputs[static_cast<std::size_t>(role)];
-        if (r.message == m && codec_.Set(&f, r, v) != protocol::SignalError::kNone) ok = false;
-      };
+      const auto set = [&](CanIn role, double v) { ok = SetRole(role, v, m, &f) && ok; };
       set(CanIn::kDriverCurrent, amps);
       set(CanIn::kDriverFaults, faults);
       if (!ok) continue;
@@ -360,6 +354,13 @@ class CanPort final : public PlantPort {
   PortCounters counters() const override { return {published_, received_, rejected_}; }
 
  private:
+  // The role's signal into frame f of message m when the profile maps it there; false when the
+  // value does not fit the signal (true when the role is elsewhere or unmapped).
+  bool SetRole(CanIn role, double v, int m, can_frame* f) {
+    const pf::SignalRef r = profile_->inputs[static_cast<std::size_t>(role)];
+    return r.message != m || codec_.Set(f, r, v) == protocol::SignalError::kNone;
+  }
+
   bool IsOpen() const { return relay_ != nullptr ? relay_open_ : iface_.is_open(); }
 
   canbus::CanResult SendFrame(const can_frame& f, std::int64_t now) {
