@@ -37,10 +37,10 @@ int MakeOutDir(const StudyOptions& o, std::string* dir);
 // What both studies take from the base scenario and the common flags.
 struct BaseInputs {
   Scenario base;
-  CoefficientTable table;   // the scenario's [firmware] table, or the compiled-in one
-  std::string table_label;  // its path and CRC (TableLabel)
-  std::string plant_label;  // PlantLabel
-  double step = 0.0;        // the passive grid's step [V]
+  CoefficientTable table;     // the scenario's [firmware] table, or the compiled-in one
+  std::string table_label;    // its path and CRC (TableLabel)
+  std::string plant_label;    // PlantLabel
+  double step = 0.0;          // the passive grid's step [V]
   std::vector<double> volts;  // the passive grid, 0 to e_max [V]
 };
 // With in->base loaded: the table and the labels, --duration (longer than the settle time,
