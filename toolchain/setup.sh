@@ -72,31 +72,48 @@ linked=(libmodbus5 libgpiod2)
 
 die() { echo "setup: error: $*" >&2; exit 1; }
 
-installed_version() {  # installed version of a package; empty when not installed
-  dpkg-query -W -f='${Status} ${Version}' "$1" 2>/dev/null |
-    sed -n 's/^install ok installed //p' || true
+# Each query sets $version and starts one process (the package tool): a tier names about a
+# hundred packages, and this runs before every build.
+installed_version() {  # installed version of package $1; empty when not installed
+  local s
+  s="$(dpkg-query -W -f='${Status} ${Version}' "$1" 2>/dev/null)" || true
+  version=""
+  [[ $s == "install ok installed "* ]] && version="${s#install ok installed }"
+  return 0
 }
-candidate_version() {  # version apt would install; empty when no source offers the package
-  apt-cache policy "$1" 2>/dev/null | sed -n 's/^  Candidate: //p' | grep -v '^(none)$' || true
+candidate_version() {  # version apt would install of $1; empty when no source offers it
+  local s line
+  s="$(apt-cache policy "$1" 2>/dev/null)" || true
+  version=""
+  while IFS= read -r line; do
+    [[ $line == "  Candidate: "* ]] && { version="${line#  Candidate: }"; break; }
+  done <<<"$s"
+  [ "$version" != "(none)" ] || version=""
+}
+libraries() {  # the linked libraries' installed versions, for the closing line
+  local m g
+  installed_version libmodbus5; m="$version"
+  installed_version libgpiod2; g="$version"
+  echo "libmodbus5 $m, libgpiod2 $g"
 }
 
 missing=()
 for p in "${packages[@]}"; do
-  [ -n "$(installed_version "$p")" ] || missing+=("$p")
+  installed_version "$p"
+  [ -n "$version" ] || missing+=("$p")
 done
 # An installed linked library older than the indexes' candidate gets the update.
 outdated=()
 for p in "${linked[@]}"; do
-  have="$(installed_version "$p")"
-  want="$(candidate_version "$p")"
+  installed_version "$p"; have="$version"
+  candidate_version "$p"; want="$version"
   if [ -n "$have" ] && [ -n "$want" ] && dpkg --compare-versions "$want" gt "$have"; then
     outdated+=("$p")
   fi
 done
 
 if [ ${#missing[@]} -eq 0 ] && [ ${#outdated[@]} -eq 0 ]; then
-  echo "setup: all ${#packages[@]} packages for $tier present (libmodbus5 $(installed_version libmodbus5)," \
-       "libgpiod2 $(installed_version libgpiod2))"
+  echo "setup: all ${#packages[@]} packages for $tier present ($(libraries))"
   exit 0
 fi
 
@@ -123,7 +140,8 @@ if ! "${apt[@]}" update >"$update_log" 2>&1; then
   echo "setup: warning: apt-get update failed for some indexes ($update_failed); continuing with the indexes apt has" >&2
 fi
 for p in "${missing[@]}"; do
-  [ -n "$(candidate_version "$p")" ] ||
+  candidate_version "$p"
+  [ -n "$version" ] ||
     die "package $p is not offered by any apt source${update_failed:+ (apt-get update failed: $update_failed)}; check the network and /etc/apt/sources.list*, run 'apt-get update', then rerun"
 done
 
@@ -138,6 +156,7 @@ if [ ${#outdated[@]} -gt 0 ]; then
     die "apt-get could not update ${outdated[*]} (see the apt output above)"
 fi
 for p in "${packages[@]}"; do
-  [ -n "$(installed_version "$p")" ] || die "$p is still not installed after apt-get install; install it by hand and rerun"
+  installed_version "$p"
+  [ -n "$version" ] || die "$p is still not installed after apt-get install; install it by hand and rerun"
 done
-echo "setup: done (libmodbus5 $(installed_version libmodbus5), libgpiod2 $(installed_version libgpiod2))"
+echo "setup: done ($(libraries))"

@@ -30,12 +30,15 @@ mkdir -p "$fakes"
 # State: $FAKE/installed and $FAKE/offered hold "package version" lines; $FAKE/calls logs
 # every apt-get call ("sudo apt-get" when run through sudo); $FAKE/uid is the user id; $FAKE/update_fail, when present, is
 # what apt-get update prints before it fails; $FAKE/install_fail makes apt-get install fail.
+# The fakes read their state with bash alone: setup.sh asks about each of a hundred packages in
+# every case, and a process per lookup made this test cost minutes of CPU time.
 cat >"$fakes/dpkg-query" <<'F'
 #!/usr/bin/env bash
 p="${@: -1}"; p="${p%%:*}"
-v="$(awk -v p="$p" '$1 == p { print $2 }' "$FAKE/installed")"
-[ -n "$v" ] || { echo "dpkg-query: no packages found matching $p" >&2; exit 1; }
-printf 'install ok installed %s' "$v"
+while read -r n v; do
+  [ "$n" = "$p" ] && { printf 'install ok installed %s' "$v"; exit 0; }
+done <"$FAKE/installed"
+echo "dpkg-query: no packages found matching $p" >&2; exit 1
 F
 cat >"$fakes/dpkg" <<F
 #!/usr/bin/env bash
@@ -51,7 +54,8 @@ cat >"$fakes/apt-cache" <<'F'
 #!/usr/bin/env bash
 case "$1" in
   policy)
-    p="${2%%:*}"; v="$(awk -v p="$p" '$1 == p { print $2 }' "$FAKE/offered" | head -1)"
+    p="${2%%:*}"; v=""
+    while read -r n o; do [ "$n" = "$p" ] && { v="$o"; break; }; done <"$FAKE/offered"
     echo "$p:"; echo "  Installed: (none)"; echo "  Candidate: ${v:-(none)}" ;;
   madison)
     p="${2%%:*}"; awk -v p="$p" '$1 == p { print p " | " $2 " | http://deb.debian.org/debian bookworm/main" }' "$FAKE/offered" ;;
@@ -60,7 +64,8 @@ F
 cat >"$fakes/apt-get" <<'F'
 #!/usr/bin/env bash
 echo "${FAKE_SUDO:+sudo }apt-get $*" >>"$FAKE/calls"
-if [ "$(cat "$FAKE/uid")" != 0 ] && [ -z "${FAKE_SUDO:-}" ]; then
+read -r uid <"$FAKE/uid"
+if [ "$uid" != 0 ] && [ -z "${FAKE_SUDO:-}" ]; then
   echo "E: Could not open lock file /var/lib/dpkg/lock-frontend - open (13: Permission denied)" >&2
   echo "E: Unable to acquire the dpkg frontend lock, are you root?" >&2; exit 100
 fi
@@ -70,17 +75,18 @@ case "${args[0]}" in
   install)
     [ -f "$FAKE/install_fail" ] && { echo "E: Unable to locate package x" >&2; exit 100; }
     for p in "${args[@]:1}"; do
-      name="${p%%=*}"; name="${name%%:*}"
-      v="$(awk -v p="$name" '$1 == p { print $2 }' "$FAKE/offered" | head -1)"
+      name="${p%%=*}"; name="${name%%:*}"; v=""
+      while read -r n o; do [ "$n" = "$name" ] && { v="$o"; break; }; done <"$FAKE/offered"
       [ -n "$v" ] || { echo "E: Unable to locate package $name" >&2; exit 100; }
-      grep -v "^$name " "$FAKE/installed" >"$FAKE/installed.new" || true
-      echo "$name $v" >>"$FAKE/installed.new"; mv "$FAKE/installed.new" "$FAKE/installed"
+      kept=(); while IFS= read -r l; do [[ $l == "$name "* ]] || kept+=("$l"); done <"$FAKE/installed"
+      { [ ${#kept[@]} -eq 0 ] || printf '%s\n' "${kept[@]}"; echo "$name $v"; } >"$FAKE/installed"
     done ;;
 esac
 F
 cat >"$fakes/id" <<'F'
 #!/usr/bin/env bash
-case "$1" in -u) cat "$FAKE/uid" ;; -un) echo user ;; *) echo "uid=$(cat "$FAKE/uid")" ;; esac
+read -r uid <"$FAKE/uid"
+case "$1" in -u) echo "$uid" ;; -un) echo user ;; *) echo "uid=$uid" ;; esac
 F
 cat >"$fakes/sudo" <<'F'
 #!/usr/bin/env bash
@@ -128,9 +134,11 @@ check() {  # check DESCRIPTION CONDITION...
   if "$@"; then echo "ok: $what"; else echo "FAIL: $what"; echo "  exit status: $status"; echo "  output:"; indent <<<"$out"; echo "  calls:"; indent "$state/calls"; failures=$((failures + 1)); fi
 }
 calls() { cat "$state/calls"; }
-installed_all() { for p in "${all[@]}"; do grep -q "^$p " "$state/installed" || return 1; done; }
-installed_each() { for p in "$@"; do grep -q "^$p " "$state/installed" || return 1; done; }
-installed_none() { for p in "$@"; do grep -q "^$p " "$state/installed" && return 1; done; return 0; }
+# Whether each (none) of the named packages has a line in the state's installed list.
+installed_names() { local n _; declare -gA have=(); while read -r n _; do have[$n]=1; done <"$state/installed"; }
+installed_each() { installed_names; for p in "$@"; do [ -n "${have[$p]:-}" ] || return 1; done; }
+installed_all() { installed_each "${all[@]}"; }
+installed_none() { installed_names; for p in "$@"; do [ -z "${have[$p]:-}" ] || return 1; done; return 0; }
 # The packages named by the install calls (options and the apt-get words dropped).
 install_named() {
   grep 'apt-get .*install' "$state/calls" | tr ' ' '\n' | grep -v '^-' |
