@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -233,10 +234,45 @@ TEST(ChannelsTest, ModalSkyhookSetsEachCornersDemandFromAllFourBodyVelocities) {
   }
 }
 
-TEST(ChannelsTest, MoreThanEightChannelsAreCutToEight) {
-  Vehicle car(9);
-  Loop loop(car.clock, car.channels.data(), car.channels.size(), FaultPolicy::kAll, kPeriod);
-  EXPECT_EQ(loop.channel_count(), kMaxChannels);
+// A loop built on no channel, on more than kMaxChannels, on a null channel or on a period <= 0
+// is not ok: it holds no channel and runs nothing (no channel is read or commanded).
+void ExpectRefused(Loop& loop, Vehicle& car) {
+  EXPECT_FALSE(loop.ok());
+  EXPECT_EQ(loop.channel_count(), 0u);
+  for (int k = 0; k < 5; ++k) {
+    car.clock.Advance(kPeriod);
+    loop.Tick(car.clock.Now());
+  }
+  const std::atomic<bool> stop{false};
+  loop.Run(stop, 5 * kPeriod);
+  loop.Shutdown();
+  EXPECT_EQ(loop.stats().ticks, 0u);
+  for (std::size_t i = 0; i < car.corners.size(); ++i) {
+    EXPECT_TRUE(car.records(i).empty()) << i;
+    EXPECT_EQ(car.corners[i]->channel->stats().ticks, 0u) << i;
+  }
+}
+
+TEST(ChannelsTest, ALoopOnNoneOrMoreThanEightOrANullChannelIsNotOk) {
+  Vehicle nine(9);
+  Loop too_many(nine.clock, nine.channels.data(), nine.channels.size(), FaultPolicy::kAll, kPeriod);
+  ExpectRefused(too_many, nine);
+  Vehicle none(0);
+  Loop empty(none.clock, none.channels.data(), 0, FaultPolicy::kAll, kPeriod);
+  ExpectRefused(empty, none);
+  Vehicle two(2);
+  std::array<Channel*, 2> holed{two.channels[0], nullptr};
+  Loop with_null(two.clock, holed.data(), holed.size(), FaultPolicy::kAll, kPeriod);
+  ExpectRefused(with_null, two);
+  Loop no_period(two.clock, two.channels.data(), two.channels.size(), FaultPolicy::kAll, 0);
+  ExpectRefused(no_period, two);
+  Loop one_no_period(two.clock, two.corners[0]->source, two.corners[0]->driver,
+                     two.corners[0]->controller, two.corners[0]->telemetry, -1);
+  ExpectRefused(one_no_period, two);
+  Vehicle eight(kMaxChannels);
+  Loop full(eight.clock, eight.channels.data(), eight.channels.size(), FaultPolicy::kAll, kPeriod);
+  EXPECT_TRUE(full.ok());
+  EXPECT_EQ(full.channel_count(), kMaxChannels);
 }
 
 }  // namespace
