@@ -33,12 +33,16 @@ class Recorder final : public PeriodObserver {
 
 // One corner: its plant (excitation scaled by `scale`), a fault-injecting source and driver,
 // a controller on the demo table, its telemetry and recorder.
+// shared: the model of the corners' table, loaded once (nullptr: a copy of its own).
 struct Corner {
-  Corner(Clock& clock, double scale)
+  Corner(Clock& clock, double scale, std::shared_ptr<const SharedModel> shared = nullptr)
       : plant(SpencerParams::Paper(), Excitation(scale), clock, kPeriod),
         source(plant),
         driver(plant) {
-    EXPECT_EQ(controller.Configure(test::DemoDamperTable(), ControllerConfig{}), Error::kOk);
+    const ConfigureStatus status =
+        shared ? controller.Configure(shared, ControllerConfig{})
+               : controller.Configure(test::DemoDamperTable(), ControllerConfig{});
+    EXPECT_EQ(status, Error::kOk);
     channel = std::make_unique<Channel>(source, driver, controller, telemetry);
     channel->SetObserver(&recorder);
   }
@@ -59,9 +63,10 @@ struct Corner {
 };
 
 struct Vehicle {
-  explicit Vehicle(std::size_t n) {
+  explicit Vehicle(std::size_t n, std::shared_ptr<const SharedModel> shared = nullptr) {
     for (std::size_t i = 0; i < n; ++i) {
-      corners.push_back(std::make_unique<Corner>(clock, 1.0 - 0.15 * static_cast<double>(i)));
+      corners.push_back(
+          std::make_unique<Corner>(clock, 1.0 - 0.15 * static_cast<double>(i), shared));
       channels.push_back(corners.back()->channel.get());
     }
   }
@@ -117,6 +122,27 @@ TEST(ChannelsTest, EachOfFourChannelsEqualsALoopOfItsOwn) {
       ExpectSameCommands(car.records(i), Alone(i));
       EXPECT_FALSE(car.records(i).back().safe);
       EXPECT_EQ(car.watchdog(i).active_periods[kOther], 0u);
+    }
+  }
+}
+
+TEST(ChannelsTest, FourChannelsOnOneSharedModelEqualFourCopiesAndHoldOneModel) {
+  Error error = Error::kOk;
+  const auto shared = SharedModel::Load(test::DemoDamperTable(), &error);
+  ASSERT_EQ(error, Error::kOk);
+  for (const FaultPolicy policy : {FaultPolicy::kChannel, FaultPolicy::kAll}) {
+    Vehicle car(4, shared);
+    Vehicle copies(4);
+    // Channel 1's fault reaches the others under kAll: the shared model carries no state.
+    car.corners[1]->source.nan_velocity = {300, 310};
+    copies.corners[1]->source.nan_velocity = {300, 310};
+    car.Run(policy);
+    copies.Run(policy);
+    for (std::size_t i = 0; i < 4; ++i) {
+      SCOPED_TRACE(i);
+      ExpectSameCommands(car.records(i), copies.records(i));
+      EXPECT_EQ(&car.corners[i]->controller.runtime().model(), &shared->model());
+      EXPECT_NE(&copies.corners[i]->controller.runtime().model(), &shared->model());
     }
   }
 }
