@@ -1,8 +1,8 @@
 #include "mrd/firmware/controller.hpp"
 
 #include <cmath>
-#include <utility>
 #include <limits>
+#include <utility>
 
 namespace mrd::firmware {
 namespace {

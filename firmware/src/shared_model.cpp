@@ -5,8 +5,8 @@
 namespace mrd::firmware {
 
 template <class T>
-std::shared_ptr<const BasicSharedModel<T>> BasicSharedModel<T>::Load(
-    const CoefficientTable& table, Error* error) {
+std::shared_ptr<const BasicSharedModel<T>> BasicSharedModel<T>::Load(const CoefficientTable& table,
+                                                                     Error* error) {
   auto shared = std::make_shared<BasicSharedModel<T>>();
   *error = TableModelAs(table, &shared->model_);
   if (*error != Error::kOk) return nullptr;

@@ -14,6 +14,7 @@
 
 namespace mrd::firmware::platform {
 
+using config_detail::CheckChannels;
 using config_detail::CheckIo;
 using config_detail::Key;
 using config_detail::KeyTable;
@@ -61,6 +62,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
       }
     }
   }
+  if (!CheckChannels(root, source, c, error)) return false;  // several channels: no bus
   if (!CheckIo(root, source, *c, error)) return false;
   if (!c->clipped_gains_path.empty()) {  // relative to the config file
     const std::string path = ResolveBeside(source, c->clipped_gains_path);

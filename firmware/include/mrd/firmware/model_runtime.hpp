@@ -92,8 +92,8 @@ class BasicModelRuntime {
 
  private:
   std::shared_ptr<const BasicSharedModel<T>> shared_;  // never null (empty before Configure)
-  BasicModelRunner<T> runner_;  // on shared_->model()
-  std::size_t input_channel_ = 0;   // shared_->table()'s, at hand
+  BasicModelRunner<T> runner_;                         // on shared_->model()
+  std::size_t input_channel_ = 0;                      // shared_->table()'s, at hand
   std::size_t output_channel_ = 0;
   std::array<T, kMaxChannels> raw_{};
   int v_channel_ = -1;

@@ -20,8 +20,7 @@ class BasicSharedModel {
  public:
   // The table (a copy) and its model in T; nullptr with *error set (the table's Validate error,
   // or kNonFinite for a number of the model beyond T) on a refusal. Not real-time (start-up).
-  static std::shared_ptr<const BasicSharedModel> Load(const CoefficientTable& table,
-                                                      Error* error);
+  static std::shared_ptr<const BasicSharedModel> Load(const CoefficientTable& table, Error* error);
 
   const CoefficientTable& table() const { return table_; }
   const BasicModel<T>& model() const { return model_; }

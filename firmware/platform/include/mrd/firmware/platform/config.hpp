@@ -18,6 +18,7 @@
 
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/io/io_config.hpp"
+#include "mrd/firmware/platform/channels_config.hpp"
 #include "mrd/firmware/platform/log_config.hpp"
 #include "mrd/firmware/sim/simulated_damper.hpp"
 
@@ -43,6 +44,7 @@ struct FirmwareConfig {
   // [clipped_optimal] gains: the gains file as given (relative to the config file); loaded
   // into controller.clipped_gains by the parse (clipped_optimal_file.hpp).
   std::string clipped_gains_path;
+  ChannelsConfig channels;  // [channels]: several damper channels (channels_config.hpp)
 };
 
 // When a change of a key takes effect: at the next start only; on a reload (SIGHUP: a fresh
