@@ -39,8 +39,7 @@ void ExpectRefused(const std::string& text, int line, const std::string& why) {
   const Checked r = Check(text);
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("error: "), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("fw.toml:" + std::to_string(line) + ": "), std::string::npos)
-      << r.output;
+  EXPECT_NE(r.output.find("fw.toml:" + std::to_string(line) + ": "), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(why), std::string::npos) << r.output;
 }
 
@@ -64,12 +63,13 @@ TEST(ChannelsConfigCliTest, RefusesEveryBadValueNamingFileAndLine) {
   ExpectRefused("[channels]\nbody_law = \"pid\"\n", 2, "'body_law'");
   ExpectRefused("[channels]\ncount = 4\nbody_law = \"modal-skyhook\"\ncg_to_front_m = 1.2\n", 3,
                 "needs the body geometry");
-  ExpectRefused("[channels]\ncount = 2\nbody_law = \"modal-skyhook\"\n" + std::string(kGeometry),
-                3, "needs count = 4");
-  ExpectRefused("[control]\nlaw = \"skyhook\"\n[channels]\ncount = 4\nbody_law = "
-                "\"modal-skyhook\"\n" +
-                    std::string(kGeometry),
-                5, "needs [control] law = \"force\"");
+  ExpectRefused("[channels]\ncount = 2\nbody_law = \"modal-skyhook\"\n" + std::string(kGeometry), 3,
+                "needs count = 4");
+  ExpectRefused(
+      "[control]\nlaw = \"skyhook\"\n[channels]\ncount = 4\nbody_law = "
+      "\"modal-skyhook\"\n" +
+          std::string(kGeometry),
+      5, "needs [control] law = \"force\"");
   ExpectRefused("[channels]\ntrack_rear_m = 1.5\n", 1, "body_law is \"none\"");
   ExpectRefused("[channels]\nmotion_ratio = 1.5\n", 2, "'motion_ratio' must be in");
   ExpectRefused("[channels]\ncount = 2\ntables = [\"table.bin\", \"bad.bin\"]\n", 3,

@@ -14,8 +14,7 @@ Key TableList(const char* name, std::vector<std::string>* out, const char* descr
   Setter set = [out](const toml::node& n, std::string* why) {
     const toml::array* a = n.as_array();
     if (a == nullptr || a->empty() || a->size() > kMaxChannels) {
-      return *why = "must be a list of 1 to " + std::to_string(kMaxChannels) + " file names",
-             false;
+      return *why = "must be a list of 1 to " + std::to_string(kMaxChannels) + " file names", false;
     }
     std::vector<std::string> names;
     for (const toml::node& e : *a) {
@@ -123,8 +122,8 @@ bool LoadTables(const toml::table& root, const std::string& source, ChannelsConf
 bool CheckChannels(const toml::table& root, const std::string& source, FirmwareConfig* c,
                    std::string* error) {
   ChannelsConfig& ch = c->channels;
-  if (ch.count > 1 && (c->io.can.enabled || c->io.modbus.enabled || c->io.gpio.enabled ||
-                       c->io.pwm.enabled)) {
+  if (ch.count > 1 &&
+      (c->io.can.enabled || c->io.modbus.enabled || c->io.gpio.enabled || c->io.pwm.enabled)) {
     return Refuse(root, source, "count",
                   "count " + std::to_string(ch.count) +
                       ": several channels run on the simulated dampers of --dry-run only in "
@@ -134,8 +133,8 @@ bool CheckChannels(const toml::table& root, const std::string& source, FirmwareC
   }
   if (!ch.tables.empty() && ch.tables.size() != static_cast<std::size_t>(ch.count)) {
     return Refuse(root, source, "tables",
-                  "tables names " + std::to_string(ch.tables.size()) +
-                      " tables; count is " + std::to_string(ch.count) +
+                  "tables names " + std::to_string(ch.tables.size()) + " tables; count is " +
+                      std::to_string(ch.count) +
                       " (one per channel; a table may be named several times)",
                   error);
   }
