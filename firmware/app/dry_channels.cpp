@@ -85,6 +85,7 @@ void RunLoop(const DryChannelsRun& run, Clock& clock, std::vector<std::unique_pt
   for (auto& c : corners) list.push_back(c->channel.get());
   Loop loop(clock, list.data(), list.size(), run.cfg.channels.fault_policy, run.cfg.period_ns);
   if (!loop.ok()) return;  // the config allows 1 ... kMaxChannels and a period > 0
+  corners[0]->channel->SetObserver(run.observer);
   ModalSkyhook skyhook;
   ModalBodyLaw body_law(skyhook);
   if (run.cfg.channels.body_law == BodyLawKind::kModalSkyhook &&

@@ -4,17 +4,18 @@
 // the [simulation] excitation), its controller on
 // its table (one model per distinct table, shared), the config's fault policy and body law, on
 // one loop: lockstep (simulated time) or CLOCK_MONOTONIC in the calling thread (no SCHED_FIFO).
-// The per-period log and the runtime parameters serve one-channel runs only.
+// The per-period log records channel 0; the runtime parameters are not applied (the config
+// refuses [ctl] with several channels).
 
 #include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
 
-#include "mrd/sim/spencer_damper.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/platform/config.hpp"
 #include "mrd/firmware/telemetry.hpp"
+#include "mrd/sim/spencer_damper.hpp"
 #include "summary_json.hpp"
 
 namespace mrd::firmware {
@@ -26,6 +27,7 @@ struct DryChannelsRun {
   const mrd::SpencerParams& damper;
   std::int64_t duration_ns;
   bool lockstep;
+  PeriodObserver* observer;  // channel 0's per-period records; nullptr: none
 };
 
 // Runs the channels until duration or stop; channel 0's telemetry in *first, every channel's

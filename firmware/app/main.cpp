@@ -891,7 +891,9 @@ int RunDry(const Options& o, const FirmwareConfig& cfg, const mrd::SpencerParams
            RuntimeParams& params, RunLog& log, RunOutcome* out) {
   const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
   if (cfg.channels.count > 1) {
-    const DryChannelsRun run{cfg, table, table_name, damper, duration_ns, o.lockstep};
+    log.Start(o.lockstep ? "dry run, lockstep, several channels" : "dry run, several channels");
+    const DryChannelsRun run{cfg,         table,      table_name,    damper,
+                             duration_ns, o.lockstep, log.observer()};
     const std::string why = RunDryChannels(run, g_stop, &out->telemetry, &out->channels);
     if (why.empty()) return kContinue;
     std::fprintf(stderr, "error: %s\n", mrd::Printable(why).c_str());

@@ -85,6 +85,8 @@ TEST(ChannelsConfigCliTest, RefusesEveryBadValueNamingFileAndLine) {
 TEST(ChannelsConfigCliTest, SeveralChannelsWithABusSectionAreRefused) {
   ExpectRefused("[channels]\ncount = 2\n[can]\ninterface = \"vcan0\"\n", 2,
                 "several channels run on the simulated dampers of --dry-run only");
+  ExpectRefused("[channels]\ncount = 2\n[ctl]\nsocket = \"/tmp/x.sock\"\n", 2,
+                "serve one channel only");
   ExpectRefused("[channels]\ncount = 4\n[modbus]\ndevice = \"/dev/ttyUSB0\"\n", 2,
                 "--dry-run only");
 }

@@ -57,8 +57,10 @@ TEST(ChannelsDryRunTest, OneChannelsFaultPutsTheOthersSafeUnderAllAndNotUnderCha
   for (const std::string policy : {"all", "channel"}) {
     SCOPED_TRACE(policy);
     TempDir dir;
-    const CommandResult r = DryRun(dir, "[safety]\nvelocity_limit = 12\n[channels]\ncount = 4\n"
-                                        "fault_policy = \"" + policy + "\"\n");
+    const CommandResult r = DryRun(dir,
+                                   "[safety]\nvelocity_limit = 12\n[channels]\ncount = 4\n"
+                                   "fault_policy = \"" +
+                                       policy + "\"\n");
     ASSERT_EQ(r.status, 0) << r.output;
     const auto j = nlohmann::json::parse(r.output);
     ASSERT_EQ(j["channels"].size(), 4u);

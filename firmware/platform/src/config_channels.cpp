@@ -131,6 +131,13 @@ bool CheckChannels(const toml::table& root, const std::string& source, FirmwareC
                       "or set count = 1",
                   error);
   }
+  if (ch.count > 1 && root.contains("ctl")) {
+    return Refuse(root, source, "count",
+                  "count " + std::to_string(ch.count) +
+                      ": the runtime parameters ([ctl], mrd-firmware ctl) serve one channel "
+                      "only in this version; remove [ctl] or set count = 1",
+                  error);
+  }
   if (!ch.tables.empty() && ch.tables.size() != static_cast<std::size_t>(ch.count)) {
     return Refuse(root, source, "tables",
                   "tables names " + std::to_string(ch.tables.size()) + " tables; count is " +

@@ -1,8 +1,8 @@
 #pragma once
 // mrd-firmware configuration (TOML, read once at start-up). Sections [loop], [control],
-// [velocity], [safety], [simulation]; every key with its default, unit and range is in
-// docs/firmware_config.md, generated from the key table in firmware/platform/src/config.cpp
-// (ConfigReference). Example:
+// [velocity], [safety], [simulation], [channels] (several channels); every key with its default,
+// unit and range is in docs/firmware_config.md, generated from the key table in
+// firmware/platform/src/config.cpp (ConfigReference). Example:
 //
 //   [loop]
 //   period_us = 1000
