@@ -22,6 +22,7 @@ allowed+='|mem(cpy|set|move|cmp)|__mem(cpy|set|move)_chk'
 allowed+='|(exp|log|log10|log2|sqrt|pow|fabs|fmax|fmin|tanh|sinh|cosh|sin|cos|tan|atan|atan2|floor|ceil|round|lround|trunc|hypot|copysign|fmod|cbrt|expm1|log1p)f?'
 allowed+='|_Zdl.*|_Znw.*|_Zda.*|_Zna.*'        # operator delete/new (start-up allocation)
 allowed+='|__cxa_guard_(acquire|release|abort)|__cxa_atexit|__cxa_pure_virtual'
+allowed+='|__libc_single_threaded|_ZNSt19_Sp_make_shared_tag5_S_eqERKSt9type_info'  # std::shared_ptr (the shared model)
 allowed+='|__aeabi_.*|__aarch64_.*|__(add|sub|mul|div|neg|fix|float|extend|trunc|cmp|eq|ne|lt|le|gt|ge|unord)[a-z]*[0-9]+'
 allowed+='|__popcount[sd]i2|__clz[sd]i2|__ctz[sd]i2|__udivmod[dt]i4|__u?(div|mod)[dt]i3)$'
 

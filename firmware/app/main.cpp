@@ -24,6 +24,7 @@
 #include "check.hpp"
 #include "ctl_client.hpp"
 #include "demo_table.hpp"
+#include "dry_channels.hpp"
 #include "mrd/common/input_file.hpp"
 #include "mrd/common/lockstep_sched.hpp"
 #include "mrd/common/table.hpp"
@@ -300,6 +301,17 @@ struct ClockInfo {
   std::uint64_t missed = 0;  // 1: stopped because no grant came within grant_timeout_ms
 };
 
+// What a run leaves for the summary.
+struct RunOutcome {
+  Telemetry telemetry;
+  RealTime rt;
+  std::vector<std::unique_ptr<BusDevice>> devices;
+  std::vector<DeviceFaults> faults;  // per device (FieldbusIo), after the run
+  ClockInfo clock_info;
+  bool grant_lost = false;                     // lockstep: the harness stopped granting time
+  std::vector<SummaryInfo::Channel> channels;  // several channels: each one's (dry run)
+};
+
 // What both summaries report beyond the telemetry.
 struct RunSummary {
   const Options& o;
@@ -312,9 +324,10 @@ struct RunSummary {
   const RuntimeParams& params;
   const PeriodLogStats* log;  // nullptr: no log
   bool buses;
-  double seconds;       // run length [s]
-  double rms_model;     // [N]
-  double rms_tracking;  // [N]
+  double seconds;                                     // run length [s]
+  double rms_model;                                   // [N]
+  double rms_tracking;                                // [N]
+  const std::vector<SummaryInfo::Channel>& channels;  // several channels (dry run); else empty
 };
 
 // The dry run's damper as the summary names it.
@@ -347,7 +360,25 @@ void PrintSummaryJson(const TelemetrySnapshot& s, const RunSummary& r) {
   info.reloads = r.params.reloads();
   info.log = r.log;
   info.log_path = r.cfg.log.path.c_str();
+  info.channels = r.channels;
+  info.fault_policy = r.cfg.channels.fault_policy == FaultPolicy::kAll ? "all" : "channel";
   std::fputs(SummaryJson(s, info).c_str(), stdout);
+}
+
+// Several channels: a line per channel (the figures above are channel 0's).
+void PrintChannels(const std::vector<SummaryInfo::Channel>& channels) {
+  for (std::size_t i = 0; i < channels.size(); ++i) {
+    const TelemetrySnapshot& c = channels[i].stats;
+    std::printf(
+        "  channel %zu:        table %s, %llu ticks, safe %llu periods (%llu entries), "
+        "other_channel trips %llu, final %s\n",
+        i, mrd::Printable(channels[i].table).c_str(), static_cast<unsigned long long>(c.ticks),
+        static_cast<unsigned long long>(c.watchdog.safe_periods),
+        static_cast<unsigned long long>(c.watchdog.entries),
+        static_cast<unsigned long long>(
+            c.watchdog.trips[static_cast<std::size_t>(FaultCause::kOtherChannel)]),
+        c.safe ? "safe" : "NOT SAFE");
+  }
 }
 
 // The text summary: a line per figure.
@@ -422,15 +453,14 @@ void PrintSummaryText(const TelemetrySnapshot& s, const RunSummary& r) {
     }
     std::printf("\n");
   }
+  PrintChannels(r.channels);
   std::printf("  final state:      %s\n", s.safe ? "safe" : "NOT SAFE");
 }
 
 void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareConfig& cfg,
-                  const RealTime& rt, const char* table_name,
-                  const std::vector<std::unique_ptr<BusDevice>>& devices,
-                  const std::vector<DeviceFaults>& faults, const ClockInfo& ci,
-                  const RuntimeParams& params, const PeriodLogStats* log) {
-  const bool buses = !devices.empty();
+                  const char* table_name, const RunOutcome& out, const RuntimeParams& params,
+                  const PeriodLogStats* log) {
+  const bool buses = !out.devices.empty();
   const double seconds =
       buses ? static_cast<double>(s.ticks) * static_cast<double>(cfg.period_ns) * 1e-9
             : o.dry_run_s;
@@ -441,8 +471,8 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
       s.tracking_samples > 0
           ? std::sqrt(s.sum_sq_tracking_error / static_cast<double>(s.tracking_samples))
           : 0.0;
-  const RunSummary r{o,      cfg, rt,    table_name, devices,   faults,      ci,
-                     params, log, buses, seconds,    rms_model, rms_tracking};
+  const RunSummary r{o,      cfg, out.rt, table_name, out.devices, out.faults,   out.clock_info,
+                     params, log, buses,  seconds,    rms_model,   rms_tracking, out.channels};
   if (o.json) {
     PrintSummaryJson(s, r);
   } else {
@@ -796,14 +826,6 @@ class RunLog {
 };
 
 // What the loop leaves behind for the summary.
-struct RunOutcome {
-  Telemetry telemetry;
-  RealTime rt;
-  std::vector<std::unique_ptr<BusDevice>> devices;
-  std::vector<DeviceFaults> faults;  // per device (FieldbusIo), after the run
-  ClockInfo clock_info;
-  bool grant_lost = false;  // lockstep: the harness stopped granting time
-};
 
 // The loop on the buses of cfg until the duration, SIGINT/SIGTERM or (clock = "grant") the
 // harness stops granting time. kContinue (ran) or the exit status of a start-up failure.
@@ -862,10 +884,21 @@ int RunOnBuses(const Options& o, const FirmwareConfig& cfg, Controller& controll
 }
 
 // The loop on the simulated damper for --dry-run seconds: lockstep (simulated time, as fast
-// as it goes) or in real time.
-void RunDry(const Options& o, const FirmwareConfig& cfg, const mrd::SpencerParams& damper,
-            Controller& controller, RuntimeParams& params, RunLog& log, RunOutcome* out) {
+// as it goes) or in real time; several channels (dry_channels.hpp) with [channels] count > 1.
+// kContinue, or kExitBadInput when a channel's table is refused.
+int RunDry(const Options& o, const FirmwareConfig& cfg, const mrd::SpencerParams& damper,
+           const mrd::CoefficientTable& table, const char* table_name, Controller& controller,
+           RuntimeParams& params, RunLog& log, RunOutcome* out) {
   const auto duration_ns = static_cast<std::int64_t>(std::llround(o.dry_run_s * 1e9));
+  if (cfg.channels.count > 1) {
+    log.Start(o.lockstep ? "dry run, lockstep, several channels" : "dry run, several channels");
+    const DryChannelsRun run{cfg,         table,      table_name,    damper,
+                             duration_ns, o.lockstep, log.observer()};
+    const std::string why = RunDryChannels(run, g_stop, &out->telemetry, &out->channels);
+    if (why.empty()) return kContinue;
+    std::fprintf(stderr, "error: %s\n", mrd::Printable(why).c_str());
+    return kExitBadInput;
+  }
   if (o.lockstep) {
     LockstepClock clock;
     SimulatedDamper plant(damper, cfg.simulation, clock, cfg.period_ns);
@@ -881,6 +914,7 @@ void RunDry(const Options& o, const FirmwareConfig& cfg, const mrd::SpencerParam
     RunRealTime(cfg, plant, plant, controller, out->telemetry, duration_ns, &out->rt, &params,
                 log.observer());
   }
+  return kContinue;
 }
 
 int Run(const Options& o) {
@@ -934,16 +968,21 @@ int Run(const Options& o) {
       return rc;
     }
   } else {
-    RunDry(o, cfg, plant, controller, params, log, &out);
+    if (const int rc = RunDry(o, cfg, plant, table, table_name, controller, params, log, &out);
+        rc != kContinue) {
+      return rc;
+    }
   }
   params.LoopEnded();
   server.Stop();
   log.log().Stop();
   const PeriodLogStats log_stats = log.log().stats();
   const TelemetrySnapshot s = out.telemetry.Read();
-  PrintSummary(s, o, params.config(), out.rt, table_name, out.devices, out.faults, out.clock_info,
-               params, log.observer() != nullptr ? &log_stats : nullptr);
-  return s.safe && !out.grant_lost ? kExitOk : kExitFailure;
+  PrintSummary(s, o, params.config(), table_name, out, params,
+               log.observer() != nullptr ? &log_stats : nullptr);
+  bool all_safe = s.safe;
+  for (const SummaryInfo::Channel& c : out.channels) all_safe = all_safe && c.stats.safe;
+  return all_safe && !out.grant_lost ? kExitOk : kExitFailure;
 }
 
 }  // namespace

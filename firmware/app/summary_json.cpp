@@ -23,6 +23,41 @@ std::string Inline(const Json& v) {
   return out + "}";
 }
 
+// The active causes' names, "+"-joined ("" when none).
+std::string CauseNames(std::uint32_t causes) {
+  std::string out;
+  for (std::size_t i = 0; i < kNumFaultCauses; ++i) {
+    if ((causes & (1U << i)) == 0) continue;
+    if (!out.empty()) out.append("+");  // appends: GCC 12's false -Wrestrict on string sums
+    out.append(FaultCauseName(static_cast<FaultCause>(i)));
+  }
+  return out;
+}
+
+// One channel's counters, safe state and its reason at the end of the run.
+Json ChannelJson(std::size_t index, const SummaryInfo::Channel& c) {
+  const TelemetrySnapshot& s = c.stats;
+  Json trips = Json::object();
+  for (std::size_t i = 0; i < kNumFaultCauses; ++i) {
+    trips[FaultCauseName(static_cast<FaultCause>(i))] = s.watchdog.trips[i];
+  }
+  Json j = {{"channel", index},
+            {"table", c.table},
+            {"ticks", s.ticks},
+            {"read_faults", s.read_faults},
+            {"write_faults", s.write_faults},
+            {"unreachable_demands", s.unreachable},
+            {"passive_demands", s.passive_demands},
+            {"model_resets", s.model_resets},
+            {"safe_periods", s.watchdog.safe_periods},
+            {"safe_entries", s.watchdog.entries},
+            {"trips", trips},
+            {"last_command_v", s.last_command_v},
+            {"final_safe_state", s.safe},
+            {"last_causes", CauseNames(s.active_causes)}};
+  return j;
+}
+
 }  // namespace
 
 std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
@@ -103,6 +138,14 @@ std::string SummaryJson(const TelemetrySnapshot& s, const SummaryInfo& info) {
                   {"files", l.files},      {"stopped", l.failed},          {"error", l.error}};
     } else {
       j["log"] = nullptr;
+    }
+    if (!info.channels.empty()) {
+      j["fault_policy"] = info.fault_policy;
+      Json channels = Json::array();
+      for (std::size_t i = 0; i < info.channels.size(); ++i) {
+        channels.push_back(ChannelJson(i, info.channels[i]));
+      }
+      j["channels"] = channels;
     }
     // One key per line (the layout scripts and tests read), nested objects inline.
     std::string out = "{\n";

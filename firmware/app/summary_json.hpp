@@ -36,6 +36,14 @@ struct SummaryInfo {
   std::uint64_t reloads = 0;        // reloads applied (SIGHUP)
   const platform::PeriodLogStats* log = nullptr;  // the per-period log; nullptr: none ("log": null)
   const char* log_path = "";
+  // Several channels ([channels] count > 1): each one's table and counters, in channel order
+  // (the "channels" array); empty: one channel, no "channels" key (the layout unchanged).
+  struct Channel {
+    const char* table;
+    TelemetrySnapshot stats;
+  };
+  std::vector<Channel> channels;
+  const char* fault_policy = "all";
   std::uint64_t missed_grants = 0;  // lockstep: 1 when no grant came within grant_timeout_ms
                                     // (stopped)  // bus mode: per field device (empty in a dry run)
 };

@@ -1,8 +1,10 @@
 // Google Benchmark: one loop period with N damper channels (loop.hpp), 1, 2, 4 and 8: every
 // channel's read, update (force tracking on the compiled-in table), write and telemetry, the
-// fault policy (kAll) and, with /modal, a body law over all channels. The sources replay a
-// stored excitation and the drivers take the command: the figure is the firmware's work, no
-// plant. Goal: 4 channels within 4x one channel.
+// fault policy (kAll) and, with BodyLaw, a body law over all channels. The channels share one
+// model of the table (shared_model.hpp), as the firmware runs them; OwnModels gives each
+// channel a copy of its own (as before the model was shared). The sources replay a stored
+// excitation and the drivers take the command: the figure is the firmware's work, no plant.
+// Goal: 4 channels within 4x one channel.
 #include <benchmark/benchmark.h>
 
 #include <array>
@@ -65,8 +67,10 @@ class BodyDemands final : public BodyLaw {
   }
 };
 
-void LoopPeriod(benchmark::State& state, bool body_law) {
+void LoopPeriod(benchmark::State& state, bool body_law, bool own_models) {
   const auto n = static_cast<std::size_t>(state.range(0));
+  mrd::Error error = mrd::Error::kOk;
+  const auto shared = SharedModel::Load(kBuiltinTable, &error);
   std::vector<std::unique_ptr<ReplaySource>> sources;
   std::vector<SinkDriver> drivers(n);
   std::vector<Controller> controllers(n);
@@ -75,7 +79,10 @@ void LoopPeriod(benchmark::State& state, bool body_law) {
   std::vector<Channel*> list;
   for (std::size_t i = 0; i < n; ++i) {
     sources.push_back(std::make_unique<ReplaySource>(static_cast<int>(i) * 517));
-    if (controllers[i].Configure(kBuiltinTable, ControllerConfig{}) != mrd::Error::kOk) {
+    const ConfigureStatus status = own_models
+                                       ? controllers[i].Configure(kBuiltinTable, ControllerConfig{})
+                                       : controllers[i].Configure(shared, ControllerConfig{});
+    if (status != mrd::Error::kOk) {
       state.SkipWithError("table refused");
       return;
     }
@@ -94,9 +101,11 @@ void LoopPeriod(benchmark::State& state, bool body_law) {
   state.counters["channels"] = static_cast<double>(n);
 }
 
-void BM_LoopPeriod(benchmark::State& state) { LoopPeriod(state, false); }
+void BM_LoopPeriod(benchmark::State& state) { LoopPeriod(state, false, false); }
 BENCHMARK(BM_LoopPeriod)->Arg(1)->Arg(2)->Arg(4)->Arg(8);
-void BM_LoopPeriodBodyLaw(benchmark::State& state) { LoopPeriod(state, true); }
+void BM_LoopPeriodOwnModels(benchmark::State& state) { LoopPeriod(state, false, true); }
+BENCHMARK(BM_LoopPeriodOwnModels)->Arg(1)->Arg(2)->Arg(4)->Arg(8);
+void BM_LoopPeriodBodyLaw(benchmark::State& state) { LoopPeriod(state, true, false); }
 BENCHMARK(BM_LoopPeriodBodyLaw)->Arg(4);
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace mrd::firmware {
 namespace {
@@ -219,12 +220,21 @@ Command LawCommand(const ControlLaw& law, const ControlInputs& in, const Actuati
 
 ConfigureStatus Controller::Configure(const CoefficientTable& table,
                                       const ControllerConfig& config) {
+  Error e = Error::kOk;
+  auto model = SharedModel::Load(table, &e);
+  if (e != Error::kOk) return ConfigureStatus{ConfigureFault::kTable, e};
+  return Configure(std::move(model), config);
+}
+
+ConfigureStatus Controller::Configure(std::shared_ptr<const SharedModel> model,
+                                      const ControllerConfig& config) {
   const auto refuse = [](ConfigureFault fault, Error e = Error::kOutOfRange) {
     return ConfigureStatus{fault, e};
   };
-  Error e = runtime_.Configure(table);
+  const CoefficientTable& table = model->table();
+  Error e = runtime_.Configure(model);
   if (e != Error::kOk) return refuse(ConfigureFault::kTable, e);
-  e = inverter_.Configure(table);
+  e = inverter_.Configure(std::move(model));
   if (e != Error::kOk) return refuse(ConfigureFault::kTable, e);
   e = inverter_.SetRange(table.e_min, config.e_max);
   if (e != Error::kOk) return refuse(ConfigureFault::kEMax, e);

@@ -2,8 +2,7 @@
 
 #include <cmath>
 #include <limits>
-
-#include "table_model.hpp"
+#include <utility>
 
 namespace mrd::firmware {
 namespace {
@@ -173,8 +172,16 @@ BasicPolyRoots<T> RealRootsInInterval(const Coeffs<T>& a, int n, std::type_ident
 
 template <class T>
 Error BasicInverter<T>::Configure(const CoefficientTable& table) {
-  BasicModel<T> m;
-  if (const Error e = TableModelAs(table, &m); e != Error::kOk) return e;
+  Error e = Error::kOk;
+  auto shared = BasicSharedModel<T>::Load(table, &e);
+  if (e != Error::kOk) return e;
+  return Configure(std::move(shared));
+}
+
+template <class T>
+Error BasicInverter<T>::Configure(std::shared_ptr<const BasicSharedModel<T>> shared) {
+  const CoefficientTable& table = shared->table();
+  const BasicModel<T>& m = shared->model();
   if (CheckInversion(table).problem != InversionProblem::kNone) return Error::kNotInvertible;
   std::array<std::uint8_t, kMaxTerms> degree{};
   std::array<std::array<bool, kMaxFactors>, kMaxTerms> is_input{};
@@ -193,7 +200,8 @@ Error BasicInverter<T>::Configure(const CoefficientTable& table) {
     max_degree = d > max_degree ? d : max_degree;
   }
   if (max_degree == 0) return Error::kNotInvertible;  // E(k) does not enter the model
-  model_ = m;
+  shared_ = std::move(shared);
+  model_ = &shared_->model();
   term_degree_ = degree;
   has_low_pass_ = low_pass;
   is_input_ = is_input;
@@ -220,9 +228,10 @@ template <class T>
 std::array<T, kMaxInputDegree + 1> BasicInverter<T>::Polynomial(
     const BasicRegressorHistory<T>& h) const {
   Coeffs<T> a{};
-  for (std::size_t i = 0; i < model_.num_terms; ++i) {
-    const Term& term = model_.terms[i];
-    T v = model_.coefficients[i];  // theta_i * (the term's other factors)
+  if (model_ == nullptr) return a;  // not configured
+  for (std::size_t i = 0; i < model_->num_terms; ++i) {
+    const Term& term = model_->terms[i];
+    T v = model_->coefficients[i];  // theta_i * (the term's other factors)
     for (std::size_t f = 0; f < term.num_factors; ++f) {
       if (is_input_[i][f]) continue;
       const T base = h.value(term.factors[f].regressor, term.factors[f].delay);

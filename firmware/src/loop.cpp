@@ -8,6 +8,7 @@ Loop::Loop(Clock& clock, SensorSource& source, CurrentDriver& driver, Controller
            Telemetry& telemetry, std::int64_t period_ns)
     : clock_(clock), period_ns_(period_ns) {
   own_.emplace(source, driver, controller, telemetry);
+  if (period_ns <= 0) return;
   channels_[0] = &*own_;
   frames_[0] = &own_->frame();
   count_ = 1;
@@ -16,11 +17,46 @@ Loop::Loop(Clock& clock, SensorSource& source, CurrentDriver& driver, Controller
 Loop::Loop(Clock& clock, Channel* const* channels, std::size_t n, FaultPolicy policy,
            std::int64_t period_ns)
     : clock_(clock), policy_(policy), period_ns_(period_ns) {
-  count_ = n < kMaxChannels ? n : kMaxChannels;
+  if (n == 0 || n > kMaxChannels || channels == nullptr || period_ns <= 0) return;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (channels[i] == nullptr) return;
+  }
+  count_ = n;
   for (std::size_t i = 0; i < count_; ++i) {
     channels_[i] = channels[i];
     frames_[i] = &channels[i]->frame();
   }
+}
+
+namespace {
+
+// What a loop that is not ok reports: a channel that never ran.
+struct Idle {
+  TelemetrySnapshot stats;
+  Controller controller;
+};
+
+const Idle& IdleChannel() {
+  static const Idle idle;
+  return idle;
+}
+
+}  // namespace
+
+const TelemetrySnapshot& Loop::stats() const {
+  return ok() ? channels_[0]->stats() : IdleChannel().stats;
+}
+
+const Controller& Loop::controller() const {
+  return ok() ? channels_[0]->controller() : IdleChannel().controller;
+}
+
+void Loop::SetHook(PeriodHook* hook) {
+  if (ok()) channels_[0]->SetHook(hook);
+}
+
+void Loop::SetObserver(PeriodObserver* observer) {
+  if (ok()) channels_[0]->SetObserver(observer);
 }
 
 void Loop::Tick(std::int64_t now_ns) {
@@ -61,6 +97,7 @@ void Loop::Shutdown(const IoTime& t) {
 }
 
 void Loop::Run(const std::atomic<bool>& stop, std::int64_t duration_ns) {
+  if (!ok()) return;  // no channel, no driver to leave safe
   const std::int64_t start = clock_.Now();
   std::int64_t deadline = start + period_ns_;
   while (!stop.load(std::memory_order_relaxed) &&

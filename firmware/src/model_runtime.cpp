@@ -2,8 +2,7 @@
 
 #include <cmath>
 #include <cstring>
-
-#include "table_model.hpp"
+#include <utility>
 
 namespace mrd::firmware {
 namespace {
@@ -22,12 +21,29 @@ T Hold(T value, T lo, T hi, bool* held) {
   return value;
 }
 
+// The model of an unconfigured runtime: no terms, no channels.
+template <class T>
+const std::shared_ptr<const BasicSharedModel<T>>& Unbound() {
+  static const auto empty = std::make_shared<const BasicSharedModel<T>>();
+  return empty;
+}
+
 }  // namespace
 
 template <class T>
+BasicModelRuntime<T>::BasicModelRuntime() : shared_(Unbound<T>()), runner_(shared_->model()) {}
+
+template <class T>
 Error BasicModelRuntime<T>::Configure(const CoefficientTable& table) {
-  BasicModel<T> model;
-  if (const Error e = TableModelAs(table, &model); e != Error::kOk) return e;
+  Error e = Error::kOk;
+  auto shared = BasicSharedModel<T>::Load(table, &e);
+  if (e != Error::kOk) return e;
+  return Configure(std::move(shared));
+}
+
+template <class T>
+Error BasicModelRuntime<T>::Configure(std::shared_ptr<const BasicSharedModel<T>> shared) {
+  const CoefficientTable& table = shared->table();
   int v = -1;
   int x = -1;
   for (std::size_t c = 0; c < table.model.num_channels; ++c) {
@@ -41,8 +57,10 @@ Error BasicModelRuntime<T>::Configure(const CoefficientTable& table) {
       return Error::kInvalidArgument;
     }
   }
-  table_ = table;
-  model_ = model;
+  shared_ = std::move(shared);
+  runner_ = BasicModelRunner<T>(shared_->model());
+  input_channel_ = shared_->table().input_channel;
+  output_channel_ = shared_->table().model.output_channel;
   v_channel_ = v;
   x_channel_ = x;
   raw_.fill(T(0));
@@ -55,10 +73,11 @@ Error BasicModelRuntime<T>::Configure(const CoefficientTable& table) {
 template <class T>
 Error BasicModelRuntime<T>::SetEnvelope(bool use, double margin) {
   if (!std::isfinite(margin) || margin < 0.0) return Error::kOutOfRange;
-  envelope_ = use && table_.has_envelope;
+  const CoefficientTable& table = shared_->table();
+  envelope_ = use && table.has_envelope;
   if (!envelope_) return Error::kOk;
-  for (std::size_t c = 0; c < table_.model.num_channels; ++c) {
-    const ChannelRange& r = table_.envelope[c];
+  for (std::size_t c = 0; c < table.model.num_channels; ++c) {
+    const ChannelRange& r = table.envelope[c];
     const double m = margin * (r.max - r.min);
     lo_[c] = static_cast<T>(r.min - m);
     hi_[c] = static_cast<T>(r.max + m);
@@ -84,20 +103,20 @@ void BasicModelRuntime<T>::Begin(T v, T x) {
   held_x_ = x;
   if (v_channel_ >= 0) raw_[static_cast<std::size_t>(v_channel_)] = v;
   if (x_channel_ >= 0) raw_[static_cast<std::size_t>(x_channel_)] = x;
-  raw_[table_.input_channel] = T(0);
+  raw_[input_channel_] = T(0);
   runner_.Begin(raw_);
 }
 
 template <class T>
 void BasicModelRuntime<T>::Seed(T v, T x, T E, T f) {
   Begin(v, x);
-  runner_.SetInput(table_.input_channel, E);
+  runner_.SetInput(input_channel_, E);
   runner_.Finish(f);
 }
 
 template <class T>
 T BasicModelRuntime<T>::ForceAt(T E) {
-  runner_.SetInput(table_.input_channel, E);
+  runner_.SetInput(input_channel_, E);
   return runner_.Evaluate();
 }
 
@@ -106,7 +125,7 @@ T BasicModelRuntime<T>::Finish(T E) {
   T f = ForceAt(E);
   if (envelope_) {
     bool held = false;
-    const std::size_t c = table_.model.output_channel;
+    const std::size_t c = output_channel_;
     f = Hold(f, lo_[c], hi_[c], &held);
     if (held) ++force_excursions_;
   }

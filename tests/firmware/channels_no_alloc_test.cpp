@@ -43,12 +43,15 @@ std::uint64_t AllocationsWithFourChannels(FaultPolicy policy, ControlMode mode) 
   std::array<Telemetry, kCorners> telemetry;
   std::array<std::unique_ptr<Channel>, kCorners> channels;
   std::array<Channel*, kCorners> list{};
+  Error error = Error::kOk;
+  const auto shared = SharedModel::Load(test::DemoDamperTable(), &error);  // one table, 4 corners
+  EXPECT_EQ(error, Error::kOk);
   for (std::size_t i = 0; i < kCorners; ++i) {
     plants[i] = std::make_unique<SimulatedDamper>(SpencerParams::Paper(), SimulationConfig{}, clock,
                                                   kPeriod);
     sources[i] = std::make_unique<test::FaultySource>(*plants[i]);
     drivers[i] = std::make_unique<test::FaultyDriver>(*plants[i]);
-    EXPECT_EQ(controllers[i].Configure(test::DemoDamperTable(), config), Error::kOk);
+    EXPECT_EQ(controllers[i].Configure(shared, config), Error::kOk);
     channels[i] = std::make_unique<Channel>(*sources[i], *drivers[i], controllers[i], telemetry[i]);
     list[i] = channels[i].get();
   }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -32,12 +33,16 @@ class Recorder final : public PeriodObserver {
 
 // One corner: its plant (excitation scaled by `scale`), a fault-injecting source and driver,
 // a controller on the demo table, its telemetry and recorder.
+// shared: the model of the corners' table, loaded once (nullptr: a copy of its own).
 struct Corner {
-  Corner(Clock& clock, double scale)
+  Corner(Clock& clock, double scale, std::shared_ptr<const SharedModel> shared = nullptr)
       : plant(SpencerParams::Paper(), Excitation(scale), clock, kPeriod),
         source(plant),
         driver(plant) {
-    EXPECT_EQ(controller.Configure(test::DemoDamperTable(), ControllerConfig{}), Error::kOk);
+    const ConfigureStatus status =
+        shared ? controller.Configure(shared, ControllerConfig{})
+               : controller.Configure(test::DemoDamperTable(), ControllerConfig{});
+    EXPECT_EQ(status, Error::kOk);
     channel = std::make_unique<Channel>(source, driver, controller, telemetry);
     channel->SetObserver(&recorder);
   }
@@ -58,9 +63,10 @@ struct Corner {
 };
 
 struct Vehicle {
-  explicit Vehicle(std::size_t n) {
+  explicit Vehicle(std::size_t n, std::shared_ptr<const SharedModel> shared = nullptr) {
     for (std::size_t i = 0; i < n; ++i) {
-      corners.push_back(std::make_unique<Corner>(clock, 1.0 - 0.15 * static_cast<double>(i)));
+      corners.push_back(
+          std::make_unique<Corner>(clock, 1.0 - 0.15 * static_cast<double>(i), shared));
       channels.push_back(corners.back()->channel.get());
     }
   }
@@ -116,6 +122,27 @@ TEST(ChannelsTest, EachOfFourChannelsEqualsALoopOfItsOwn) {
       ExpectSameCommands(car.records(i), Alone(i));
       EXPECT_FALSE(car.records(i).back().safe);
       EXPECT_EQ(car.watchdog(i).active_periods[kOther], 0u);
+    }
+  }
+}
+
+TEST(ChannelsTest, FourChannelsOnOneSharedModelEqualFourCopiesAndHoldOneModel) {
+  Error error = Error::kOk;
+  const auto shared = SharedModel::Load(test::DemoDamperTable(), &error);
+  ASSERT_EQ(error, Error::kOk);
+  for (const FaultPolicy policy : {FaultPolicy::kChannel, FaultPolicy::kAll}) {
+    Vehicle car(4, shared);
+    Vehicle copies(4);
+    // Channel 1's fault reaches the others under kAll: the shared model carries no state.
+    car.corners[1]->source.nan_velocity = {300, 310};
+    copies.corners[1]->source.nan_velocity = {300, 310};
+    car.Run(policy);
+    copies.Run(policy);
+    for (std::size_t i = 0; i < 4; ++i) {
+      SCOPED_TRACE(i);
+      ExpectSameCommands(car.records(i), copies.records(i));
+      EXPECT_EQ(&car.corners[i]->controller.runtime().model(), &shared->model());
+      EXPECT_NE(&copies.corners[i]->controller.runtime().model(), &shared->model());
     }
   }
 }
@@ -233,10 +260,45 @@ TEST(ChannelsTest, ModalSkyhookSetsEachCornersDemandFromAllFourBodyVelocities) {
   }
 }
 
-TEST(ChannelsTest, MoreThanEightChannelsAreCutToEight) {
-  Vehicle car(9);
-  Loop loop(car.clock, car.channels.data(), car.channels.size(), FaultPolicy::kAll, kPeriod);
-  EXPECT_EQ(loop.channel_count(), kMaxChannels);
+// A loop built on no channel, on more than kMaxChannels, on a null channel or on a period <= 0
+// is not ok: it holds no channel and runs nothing (no channel is read or commanded).
+void ExpectRefused(Loop& loop, Vehicle& car) {
+  EXPECT_FALSE(loop.ok());
+  EXPECT_EQ(loop.channel_count(), 0u);
+  for (int k = 0; k < 5; ++k) {
+    car.clock.Advance(kPeriod);
+    loop.Tick(car.clock.Now());
+  }
+  const std::atomic<bool> stop{false};
+  loop.Run(stop, 5 * kPeriod);
+  loop.Shutdown();
+  EXPECT_EQ(loop.stats().ticks, 0u);
+  for (std::size_t i = 0; i < car.corners.size(); ++i) {
+    EXPECT_TRUE(car.records(i).empty()) << i;
+    EXPECT_EQ(car.corners[i]->channel->stats().ticks, 0u) << i;
+  }
+}
+
+TEST(ChannelsTest, ALoopOnNoneOrMoreThanEightOrANullChannelIsNotOk) {
+  Vehicle nine(9);
+  Loop too_many(nine.clock, nine.channels.data(), nine.channels.size(), FaultPolicy::kAll, kPeriod);
+  ExpectRefused(too_many, nine);
+  Vehicle none(0);
+  Loop empty(none.clock, none.channels.data(), 0, FaultPolicy::kAll, kPeriod);
+  ExpectRefused(empty, none);
+  Vehicle two(2);
+  std::array<Channel*, 2> holed{two.channels[0], nullptr};
+  Loop with_null(two.clock, holed.data(), holed.size(), FaultPolicy::kAll, kPeriod);
+  ExpectRefused(with_null, two);
+  Loop no_period(two.clock, two.channels.data(), two.channels.size(), FaultPolicy::kAll, 0);
+  ExpectRefused(no_period, two);
+  Loop one_no_period(two.clock, two.corners[0]->source, two.corners[0]->driver,
+                     two.corners[0]->controller, two.corners[0]->telemetry, -1);
+  ExpectRefused(one_no_period, two);
+  Vehicle eight(kMaxChannels);
+  Loop full(eight.clock, eight.channels.data(), eight.channels.size(), FaultPolicy::kAll, kPeriod);
+  EXPECT_TRUE(full.ok());
+  EXPECT_EQ(full.channel_count(), kMaxChannels);
 }
 
 }  // namespace

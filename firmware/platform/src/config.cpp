@@ -14,6 +14,7 @@
 
 namespace mrd::firmware::platform {
 
+using config_detail::CheckChannels;
 using config_detail::CheckIo;
 using config_detail::Key;
 using config_detail::KeyTable;
@@ -61,6 +62,7 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
       }
     }
   }
+  if (!CheckChannels(root, source, c, error)) return false;  // several channels: no bus
   if (!CheckIo(root, source, *c, error)) return false;
   if (!c->clipped_gains_path.empty()) {  // relative to the config file
     const std::string path = ResolveBeside(source, c->clipped_gains_path);
@@ -113,6 +115,39 @@ bool Apply(const toml::table& root, const std::string& source, FirmwareConfig* c
   return true;
 }
 
+// The words before a section's key table in the reference ("" for none).
+std::string SectionIntro(const std::string& section) {
+  if (section != "channels") return "";
+  return "Several damper channels on one loop (one controller board, four corners of a car):\n"
+         "each channel has its table, its watchdog and its counters; all run on the one period\n"
+         "in channel order. In this version they run with `--dry-run` only, each on a simulated\n"
+         "damper of its own (channel i: the [simulation] stroke 8 i % smaller and the body\n"
+         "velocity i/8 of a period later); `count > 1` with a bus section is refused. The\n"
+         "`--json` summary's top-level counters are channel 0's; `fault_policy` and a\n"
+         "`channels` array (each channel's table, counters, trips per cause, final safe state\n"
+         "and the causes of its last period) follow. The per-period log records channel 0; the\n"
+         "runtime parameters serve one channel only (`[ctl]` with `count > 1` is refused, a\n"
+         "reload (SIGHUP) is not applied). Example, four corners under modal skyhook\n"
+         "(front-left, front-right, rear-left, rear-right):\n\n"
+         "```toml\n"
+         "[control]\n"
+         "law = \"force\"              # the body law sets each corner's force demand\n"
+         "[channels]\n"
+         "count = 4\n"
+         "fault_policy = \"all\"       # a fault on one corner puts all four safe\n"
+         "tables = [\"front.bin\", \"front.bin\", \"rear.bin\", \"rear.bin\"]\n"
+         "body_law = \"modal-skyhook\"\n"
+         "cg_to_front_m = 1.2\n"
+         "cg_to_rear_m = 1.4\n"
+         "track_front_m = 1.5\n"
+         "track_rear_m = 1.5\n"
+         "motion_ratio = 0.7\n"
+         "heave_n_s_per_m = 16800\n"
+         "```\n\n"
+         "`mrd-firmware --config car.toml --dry-run 10 --lockstep --json` then reports each\n"
+         "corner. Default gains: per-corner skyhook of 60 N s/cm on the default geometry.\n\n";
+}
+
 }  // namespace
 
 std::string ConfigReference() {
@@ -137,7 +172,7 @@ std::string ConfigReference() {
         "`reload` keys on a reload only; `restart` keys need a restart (a reload that changes\n"
         "one is refused).\n";
     for (const auto& [section, keys] : KeyTable(&c, &x)) {
-      out += "\n## [" + section + "]\n\n";
+      out += "\n## [" + section + "]\n\n" + SectionIntro(section);
       out += "| key | default | unit | accepts | set | meaning |\n|---|---|---|---|---|---|\n";
       for (const Key& key : keys) {
         const std::string def = key.show();

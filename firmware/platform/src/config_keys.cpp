@@ -233,6 +233,52 @@ Key CtlSocket(std::string* out) {
 
 }  // namespace
 
+// [channels]: several damper channels (channels_config.hpp).
+std::vector<Key> ChannelKeys(ChannelsConfig* ch) {
+  BodyGeometry& g = ch->geometry;
+  std::uint32_t* given = &ch->geometry_given;
+  return {
+      Integer("count", &ch->count, 1, static_cast<std::int64_t>(kMaxChannels), "",
+              "Damper channels on the loop, each with its simulated damper (several channels "
+              "run with --dry-run only: no bus section with count > 1)."),
+      Choice("fault_policy", &ch->fault_policy,
+             {{"all", FaultPolicy::kAll}, {"channel", FaultPolicy::kChannel}},
+             "A channel's fault puts every channel in the safe state one period later "
+             "(\"all\", the vehicle default) or that channel only (\"channel\")."),
+      TableList("tables", &ch->tables,
+                "Each channel's coefficient table, relative to this file, one per channel; a "
+                "table may be named several times (its model is loaded once). Default: the "
+                "run's table (--table, else the compiled-in one) for every channel."),
+      Choice("body_law", &ch->body_law,
+             {{"none", BodyLawKind::kNone}, {"modal-skyhook", BodyLawKind::kModalSkyhook}},
+             "A law over the whole body: \"modal-skyhook\" (count = 4 in the order "
+             "front-left, front-right, rear-left, rear-right; [control] law = \"force\"; "
+             "the geometry below) sets each corner's force demand from the heave, pitch "
+             "and roll rates of the four body velocities."),
+      GeometryKey(Number("cg_to_front_m", &g.cg_to_front_m, 1e-3, 100.0, "m",
+                         "modal-skyhook: centre of gravity to the front axle."),
+                  given, 1U),
+      GeometryKey(Number("cg_to_rear_m", &g.cg_to_rear_m, 1e-3, 100.0, "m",
+                         "modal-skyhook: centre of gravity to the rear axle."),
+                  given, 2U),
+      GeometryKey(Number("track_front_m", &g.track_front_m, 1e-3, 100.0, "m",
+                         "modal-skyhook: front track (left to right wheel)."),
+                  given, 4U),
+      GeometryKey(
+          Number("track_rear_m", &g.track_rear_m, 1e-3, 100.0, "m", "modal-skyhook: rear track."),
+          given, 8U),
+      GeometryKey(Number("motion_ratio", &g.motion_ratio, 1e-3, 1.0, "",
+                         "modal-skyhook: damper travel / wheel travel."),
+                  given, 16U),
+      Number("heave_n_s_per_m", &ch->gains.heave_n_s_per_m, 0.0, 1e9, "N s/m",
+             "modal-skyhook: heave damping on the body's vertical velocity."),
+      Number("pitch_n_m_s_per_rad", &ch->gains.pitch_n_m_s_per_rad, 0.0, 1e9, "N m s/rad",
+             "modal-skyhook: pitch damping on the pitch rate."),
+      Number("roll_n_m_s_per_rad", &ch->gains.roll_n_m_s_per_rad, 0.0, 1e9, "N m s/rad",
+             "modal-skyhook: roll damping on the roll rate."),
+  };
+}
+
 Sections KeyTable(FirmwareConfig* c, Scratch* x) {
   ControllerConfig& k = c->controller;
   SimulationConfig& s = c->simulation;
@@ -480,6 +526,7 @@ Sections KeyTable(FirmwareConfig* c, Scratch* x) {
                  "A partial block is written after this long (bounds what a crash loses)."),
         Bool("sync", &lg.sync,
              "fdatasync after every block (survives a power cut; more writes to flash).")}},
+      {"channels", ChannelKeys(&c->channels)},
   };
 }
 

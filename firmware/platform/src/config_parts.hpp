@@ -55,6 +55,17 @@ std::string Show(double v);
 std::string Where(const toml::table& root, const std::string& source, const char* section,
                   const char* key);
 
+// [channels] tables: a list of 1 ... kMaxChannels table file names (config_channels.cpp).
+Key TableList(const char* name, std::vector<std::string>* out, const char* description);
+// [channels] geometry key bit (ChannelsConfig::geometry_given): Number that records it was given.
+Key GeometryKey(Key number, std::uint32_t* given, std::uint32_t bit);
+
+// The [channels] section against the rest: count and tables, the body law's needs, no bus
+// section with several channels; each table file loaded once to prove it loads
+// (config_channels.cpp). Fills c->channels.table_paths.
+bool CheckChannels(const toml::table& root, const std::string& source, FirmwareConfig* c,
+                   std::string* error);
+
 // Routing and connection checks across the bus sections (io_config.hpp), in this order (the
 // first failing one is the error): clipped-optimal gains given, the grant clock without
 // buses, routing, inputs the law reads, displacement limit, command output, connections,

@@ -22,6 +22,7 @@
 // Update, the outputs back to double.
 
 #include <cstdint>
+#include <memory>
 
 #include "mrd/common/result.hpp"
 #include "mrd/common/table.hpp"
@@ -31,6 +32,7 @@
 #include "mrd/firmware/inverter.hpp"
 #include "mrd/firmware/io.hpp"
 #include "mrd/firmware/model_runtime.hpp"
+#include "mrd/firmware/shared_model.hpp"
 #include "mrd/firmware/velocity.hpp"
 #include "mrd/firmware/watchdog.hpp"
 
@@ -91,6 +93,11 @@ class Controller {
   // the code: kTable with the table's error (Validate, kInvalidArgument for a channel the
   // firmware does not provide, kNotInvertible), every other reason kOutOfRange. Not real-time.
   ConfigureStatus Configure(const CoefficientTable& table, const ControllerConfig& config);
+  // The same on a loaded model shared with the other channels running its table
+  // (shared_model.hpp; non-null): one copy of the model for all of them, the history, filter
+  // and watchdog this controller's. Not real-time.
+  ConfigureStatus Configure(std::shared_ptr<const SharedModel> model,
+                            const ControllerConfig& config);
   // Retunes a configured controller to `config` (law, E_max, limits, recovery, cut-off,
   // envelope) keeping the model's history, the filter and the watchdog's state and counters.
   // The same checks as Configure against the bound table; kOutOfRange (a value Configure would

@@ -36,11 +36,13 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 
 #include "mrd/common/model.hpp"
 #include "mrd/common/result.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/real.hpp"
+#include "mrd/firmware/shared_model.hpp"
 
 namespace mrd::firmware {
 
@@ -82,6 +84,9 @@ class BasicInverter {
   // or low-pass (not affine in E(k)), with a total degree above 4 in one term, or not at all.
   // Not real-time (start-up).
   Error Configure(const CoefficientTable& table);
+  // The same on a loaded model shared with other channels (shared_model.hpp; non-null): the
+  // model is read from it, not copied. Not real-time (start-up).
+  Error Configure(std::shared_ptr<const BasicSharedModel<T>> shared);
   // Narrows the admissible range [V] (e.g. the configured E_max); must lie within the
   // table's range. Returns kOutOfRange otherwise (range unchanged). Not real-time.
   Error SetRange(double e_min, double e_max);
@@ -99,7 +104,8 @@ class BasicInverter {
   int degree() const { return degree_; }
 
  private:
-  BasicModel<T> model_;
+  std::shared_ptr<const BasicSharedModel<T>> shared_;  // null before Configure
+  const BasicModel<T>* model_ = nullptr;               // shared_'s, at hand
   std::array<std::uint8_t, kMaxTerms> term_degree_{};
   // Per term and factor: true when the factor is an input regressor at delay 0.
   std::array<std::array<bool, kMaxFactors>, kMaxTerms> is_input_{};

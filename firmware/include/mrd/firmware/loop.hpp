@@ -46,14 +46,19 @@ class BodyLaw {
 
 class Loop {
  public:
-  // One channel. All references outlive the loop. period_ns > 0.
+  // One channel. All references outlive the loop. ok() is false for period_ns <= 0.
   Loop(Clock& clock, SensorSource& source, CurrentDriver& driver, Controller& controller,
        Telemetry& telemetry, std::int64_t period_ns);
-  // channels[0..n): 1 <= n <= kMaxChannels (more are ignored), each outliving the loop.
+  // channels[0..n), each outliving the loop. ok() is false (and the loop holds no channel)
+  // for n == 0, n > kMaxChannels, a null channel or period_ns <= 0.
   Loop(Clock& clock, Channel* const* channels, std::size_t n, FaultPolicy policy,
        std::int64_t period_ns);
   Loop(const Loop&) = delete;
   Loop& operator=(const Loop&) = delete;
+
+  // The construction's arguments were valid. A loop that is not ok holds no channel: Run and
+  // Tick do nothing, stats() and controller() are an idle channel's; the caller must test it.
+  [[nodiscard]] bool ok() const { return count_ != 0; }
 
   // Runs periods until stop is set or duration_ns has elapsed (<= 0: until stop), then puts
   // the driver in the safe state. Real-time safe after entry (no allocation).
@@ -69,14 +74,14 @@ class Loop {
   void Shutdown(const IoTime& t);
 
   // Channel 0's counters (with the loop's timing) and controller.
-  const TelemetrySnapshot& stats() const { return channels_[0]->stats(); }
-  const Controller& controller() const { return channels_[0]->controller(); }
+  const TelemetrySnapshot& stats() const;
+  const Controller& controller() const;
   std::size_t channel_count() const { return count_; }
   const Channel& channel(std::size_t i) const { return *channels_[i]; }
   // Optional services of channel 0 (period_hooks.hpp); nullptr: none. Set before Run; they
   // outlive the loop. (Channel::SetHook/SetObserver for the others.)
-  void SetHook(PeriodHook* hook) { channels_[0]->SetHook(hook); }
-  void SetObserver(PeriodObserver* observer) { channels_[0]->SetObserver(observer); }
+  void SetHook(PeriodHook* hook);
+  void SetObserver(PeriodObserver* observer);
   // The body law (nullptr: none). Set before Run; it outlives the loop.
   void SetBodyLaw(BodyLaw* law) { body_law_ = law; }
 

@@ -20,25 +20,31 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 
 #include "mrd/common/model.hpp"
 #include "mrd/common/result.hpp"
 #include "mrd/common/table.hpp"
 #include "mrd/firmware/real.hpp"
+#include "mrd/firmware/shared_model.hpp"
 
 namespace mrd::firmware {
 
 template <class T>
 class BasicModelRuntime {
  public:
-  BasicModelRuntime() : runner_(model_) {}
-  BasicModelRuntime(const BasicModelRuntime&) = delete;  // runner_ points into model_
+  BasicModelRuntime();
+  BasicModelRuntime(const BasicModelRuntime&) = delete;
   BasicModelRuntime& operator=(const BasicModelRuntime&) = delete;
 
-  // Copies and binds a validated table. kInvalidArgument when the model reads a channel the
-  // firmware does not provide (not v, x, the input or the output); table.Validate() errors;
-  // kNonFinite when a number of the model overflows T. Not real-time (start-up).
+  // Copies and binds a validated table (a shared model of its own). kInvalidArgument when the
+  // model reads a channel the firmware does not provide (not v, x, the input or the output);
+  // table.Validate() errors; kNonFinite when a number of the model overflows T. Not real-time
+  // (start-up).
   Error Configure(const CoefficientTable& table);
+  // Binds a loaded model shared with other runtimes (shared_model.hpp; non-null): the history
+  // is this runtime's. kInvalidArgument as above. Not real-time (start-up).
+  Error Configure(std::shared_ptr<const BasicSharedModel<T>> shared);
   // Uses the table's envelope with margin (fraction of each channel's range, >= 0) when use is
   // true and the table has one; otherwise evaluates the inputs as they are. kOutOfRange for a
   // negative or non-finite margin. The excursion counters are kept (ClearExcursions). Real-time
@@ -66,8 +72,10 @@ class BasicModelRuntime {
   }
 
   const BasicRegressorHistory<T>& history() const { return runner_.history(); }
-  const CoefficientTable& table() const { return table_; }
-  const BasicModel<T>& model() const { return model_; }
+  const CoefficientTable& table() const { return shared_->table(); }
+  const BasicModel<T>& model() const { return shared_->model(); }
+  // The model data bound (shared with the channels on the same table).
+  const std::shared_ptr<const BasicSharedModel<T>>& shared() const { return shared_; }
   bool reads_displacement() const { return x_channel_ >= 0; }
   bool reads_velocity() const { return v_channel_ >= 0; }
   bool envelope_active() const { return envelope_; }
@@ -83,9 +91,10 @@ class BasicModelRuntime {
   }
 
  private:
-  CoefficientTable table_;
-  BasicModel<T> model_;  // table_.model in T
-  BasicModelRunner<T> runner_;
+  std::shared_ptr<const BasicSharedModel<T>> shared_;  // never null (empty before Configure)
+  BasicModelRunner<T> runner_;                         // on shared_->model()
+  std::size_t input_channel_ = 0;                      // shared_->table()'s, at hand
+  std::size_t output_channel_ = 0;
   std::array<T, kMaxChannels> raw_{};
   int v_channel_ = -1;
   int x_channel_ = -1;

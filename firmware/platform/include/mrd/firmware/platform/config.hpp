@@ -1,8 +1,8 @@
 #pragma once
 // mrd-firmware configuration (TOML, read once at start-up). Sections [loop], [control],
-// [velocity], [safety], [simulation]; every key with its default, unit and range is in
-// docs/firmware_config.md, generated from the key table in firmware/platform/src/config.cpp
-// (ConfigReference). Example:
+// [velocity], [safety], [simulation], [channels] (several channels); every key with its default,
+// unit and range is in docs/firmware_config.md, generated from the key table in
+// firmware/platform/src/config.cpp (ConfigReference). Example:
 //
 //   [loop]
 //   period_us = 1000
@@ -18,6 +18,7 @@
 
 #include "mrd/firmware/controller.hpp"
 #include "mrd/firmware/io/io_config.hpp"
+#include "mrd/firmware/platform/channels_config.hpp"
 #include "mrd/firmware/platform/log_config.hpp"
 #include "mrd/firmware/sim/simulated_damper.hpp"
 
@@ -43,6 +44,7 @@ struct FirmwareConfig {
   // [clipped_optimal] gains: the gains file as given (relative to the config file); loaded
   // into controller.clipped_gains by the parse (clipped_optimal_file.hpp).
   std::string clipped_gains_path;
+  ChannelsConfig channels;  // [channels]: several damper channels (channels_config.hpp)
 };
 
 // When a change of a key takes effect: at the next start only; on a reload (SIGHUP: a fresh

@@ -1,0 +1,152 @@
+// The [channels] section (channels_config.hpp): its list key and its checks against the rest
+// of the configuration. Compiled with exceptions (toml++); the callers catch everything.
+#include <string>
+#include <vector>
+
+#include "config_parts.hpp"
+#include "mrd/common/file_path.hpp"
+#include "mrd/common/input_file.hpp"
+#include "mrd/firmware/platform/table_file.hpp"
+
+namespace mrd::firmware::platform::config_detail {
+
+Key TableList(const char* name, std::vector<std::string>* out, const char* description) {
+  Setter set = [out](const toml::node& n, std::string* why) {
+    const toml::array* a = n.as_array();
+    if (a == nullptr || a->empty() || a->size() > kMaxChannels) {
+      return *why = "must be a list of 1 to " + std::to_string(kMaxChannels) + " file names", false;
+    }
+    std::vector<std::string> names;
+    for (const toml::node& e : *a) {
+      const auto v = e.value_exact<std::string>();
+      if (!v || v->empty() || v->size() > 4096) {
+        return *why = "must hold file names (non-empty strings of at most 4096 bytes)", false;
+      }
+      names.push_back(*v);
+    }
+    *out = names;
+    return true;
+  };
+  auto show = [out] {
+    if (out->empty()) return std::string("(the run's table)");
+    std::string list;
+    for (const std::string& t : *out) list += (list.empty() ? "\"" : ", \"") + t + "\"";
+    return "[" + list + "]";
+  };
+  return {name, set, show, "a list of file names, one per channel", "", description, "list"};
+}
+
+Key GeometryKey(Key number, std::uint32_t* given, std::uint32_t bit) {
+  number.set = [given, bit, inner = number.set](const toml::node& n, std::string* why) {
+    if (!inner(n, why)) return false;
+    *given |= bit;
+    return true;
+  };
+  number.show = [given, bit, shown = number.show] {
+    return (*given & bit) != 0 ? shown() : std::string("(required by modal-skyhook)");
+  };
+  return number;
+}
+
+namespace {
+
+// "SOURCE:LINE: [channels] " + why at key (or the section).
+bool Refuse(const toml::table& root, const std::string& source, const char* key,
+            const std::string& why, std::string* error) {
+  *error = Where(root, source, "channels", key) + "[channels] " + why;
+  return false;
+}
+
+bool CheckBodyLaw(const toml::table& root, const std::string& source, const FirmwareConfig& c,
+                  std::string* error) {
+  const ChannelsConfig& ch = c.channels;
+  if (ch.body_law == BodyLawKind::kNone) {
+    if (ch.geometry_given != 0) {
+      return Refuse(root, source, "body_law",
+                    "the body geometry is given but body_law is \"none\" (the geometry serves "
+                    "body_law = \"modal-skyhook\")",
+                    error);
+    }
+    return true;
+  }
+  if (ch.count != kModalCorners) {
+    return Refuse(root, source, "body_law",
+                  "body_law = \"modal-skyhook\" needs count = 4 (front-left, front-right, "
+                  "rear-left, rear-right); count is " +
+                      std::to_string(ch.count),
+                  error);
+  }
+  if (ch.geometry_given != ChannelsConfig::kAllGeometry) {
+    return Refuse(root, source, "body_law",
+                  "body_law = \"modal-skyhook\" needs the body geometry: cg_to_front_m, "
+                  "cg_to_rear_m, track_front_m, track_rear_m and motion_ratio",
+                  error);
+  }
+  if (c.controller.law.mode != ControlMode::kForceTracking) {
+    return Refuse(root, source, "body_law",
+                  "body_law = \"modal-skyhook\" sets force demands: it needs [control] law = "
+                  "\"force\"",
+                  error);
+  }
+  ModalSkyhook law;
+  const char* reason = "out of range";
+  if (law.Configure(ch.geometry, ch.gains, &reason) != Error::kOk) {
+    return Refuse(root, source, "body_law", std::string("modal skyhook: ") + reason, error);
+  }
+  return true;
+}
+
+// Each table file named loads (once per distinct name); its resolved path per channel.
+bool LoadTables(const toml::table& root, const std::string& source, ChannelsConfig* ch,
+                std::string* error) {
+  ch->table_paths.clear();
+  for (std::size_t i = 0; i < ch->tables.size(); ++i) {
+    const std::string path = ResolveBeside(source, ch->tables[i]);
+    bool seen = false;
+    for (const std::string& p : ch->table_paths) seen = seen || p == path;
+    ch->table_paths.push_back(path);
+    if (seen) continue;
+    std::string reason;
+    if (!LoadTableFile(path.c_str(), &reason).ok()) {
+      return Refuse(root, source, "tables",
+                    "tables: channel " + std::to_string(i) + "'s table '" +
+                        Printable(ch->tables[i]) + "': " + Printable(reason),
+                    error);
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+bool CheckChannels(const toml::table& root, const std::string& source, FirmwareConfig* c,
+                   std::string* error) {
+  ChannelsConfig& ch = c->channels;
+  if (ch.count > 1 &&
+      (c->io.can.enabled || c->io.modbus.enabled || c->io.gpio.enabled || c->io.pwm.enabled)) {
+    return Refuse(root, source, "count",
+                  "count " + std::to_string(ch.count) +
+                      ": several channels run on the simulated dampers of --dry-run only in "
+                      "this version; remove the bus sections ([can], [modbus], [gpio], [pwm]) "
+                      "or set count = 1",
+                  error);
+  }
+  if (ch.count > 1 && root.contains("ctl")) {
+    return Refuse(root, source, "count",
+                  "count " + std::to_string(ch.count) +
+                      ": the runtime parameters ([ctl], mrd-firmware ctl) serve one channel "
+                      "only in this version; remove [ctl] or set count = 1",
+                  error);
+  }
+  if (!ch.tables.empty() && ch.tables.size() != static_cast<std::size_t>(ch.count)) {
+    return Refuse(root, source, "tables",
+                  "tables names " + std::to_string(ch.tables.size()) + " tables; count is " +
+                      std::to_string(ch.count) +
+                      " (one per channel; a table may be named several times)",
+                  error);
+  }
+  if (!CheckBodyLaw(root, source, *c, error)) return false;
+  return LoadTables(root, source, &ch, error);
+}
+
+}  // namespace mrd::firmware::platform::config_detail
