@@ -44,8 +44,8 @@ TEST(ShearFrameDampersTest, TheStoriesAreValidatedAndTheDefaultIsOneAtStoryOne) 
   EXPECT_TRUE(p.IsValid(&reason));
   EXPECT_EQ(p.dampers, 1);
   EXPECT_EQ(p.story[0], 1);
-  for (auto stories : {std::vector<int>{0}, std::vector<int>{4}, std::vector<int>{2, 2},
-                       std::vector<int>{2, 1}}) {
+  for (auto stories :
+       {std::vector<int>{0}, std::vector<int>{4}, std::vector<int>{2, 2}, std::vector<int>{2, 1}}) {
     ShearFrameParams bad;
     bad.dampers = static_cast<int>(stories.size());
     for (std::size_t j = 0; j < stories.size(); ++j) bad.story[j] = stories[j];
@@ -69,13 +69,13 @@ TEST(ShearFrameDampersTest, EveryFloorBalancesWithTheDampersForcesAboveAndBelow)
   const double T = 1e-3;
   double worst = 0.0, largest_f2 = 0.0;
   for (int k = 0; k < 2000; ++k) {
-    const double ag1 = Ground((k + 1) * T);
     const double volts[3] = {0.0, 1.0, 0.0};
-    const ShearFrameSample& s = frame.Step(T, Ground(k * T), ag1, volts);
+    const ShearFrameSample& s = frame.Step(T, Ground(k * T), Ground((k + 1) * T), volts);
     const double gamma_f[3] = {-s.forces[0] + s.forces[1], -s.forces[1], 0.0};
     for (int i = 0; i < 3; ++i) {
-      double lhs = p.mass_kg[i] * (s.xa[i] - ag1);  // m x''
-      for (int j = 0; j < 3; ++j) lhs += p.stiffness[i * 3 + j] * s.x[j] + p.damping[i * 3 + j] * s.v[j];
+      double lhs = p.mass_kg[i] * s.xa[i];  // m (x'' + ag)
+      for (int j = 0; j < 3; ++j)
+        lhs += p.stiffness[i * 3 + j] * s.x[j] + p.damping[i * 3 + j] * s.v[j];
       worst = std::fmax(worst, std::fabs(lhs - gamma_f[i]));
     }
     largest_f2 = std::fmax(largest_f2, std::fabs(s.forces[1]));
@@ -104,9 +104,8 @@ TEST(ShearFrameDampersTest, ADamperAtStoryTwoStrokesWithTheDriftBetweenFloorsOne
     const double fd = drift.Step(T, 100 * (prev.x[1] - prev.x[0]), 100 * (prev.v[1] - prev.v[0]),
                                  100 * (s.x[1] - s.x[0]), 100 * (s.v[1] - s.v[0]), 0.5) -
                       f0;
-    const double ff = floor.Step(T, 100 * prev.x[1], 100 * prev.v[1], 100 * s.x[1], 100 * s.v[1],
-                                 0.5) -
-                      f0;
+    const double ff =
+        floor.Step(T, 100 * prev.x[1], 100 * prev.v[1], 100 * s.x[1], 100 * s.v[1], 0.5) - f0;
     err_drift = std::fmax(err_drift, std::fabs(s.force - fd));
     err_floor = std::fmax(err_floor, std::fabs(s.force - ff));
     peak = std::fmax(peak, std::fabs(s.force));
@@ -197,7 +196,8 @@ TEST(MultiInputDesignTest, TwoDampersGiveTwoGainRowsAStableLoopAndTheirOwnInputC
   EXPECT_NEAR(b.dy(0, 1), 1.0 / m1, 1e-12);
   EXPECT_NEAR(b.dy(1, 1), -1.0 / m1, 1e-12);
   EXPECT_EQ(b.dy(2, 1), 0.0);
-  EXPECT_EQ(b.bd.col(0), a.bd.col(0));  // the first column is the one-damper design's
+  // The first column is the one-damper design's (up to the larger matrix exponential).
+  EXPECT_TRUE(b.bd.col(0).isApprox(a.bd.col(0), 1e-9));
   const double open = a.ad.eigenvalues().cwiseAbs().maxCoeff();
   const double cl1 = (a.ad - a.bd * a.k).eigenvalues().cwiseAbs().maxCoeff();
   const double cl2 = (b.ad - b.bd * b.k).eigenvalues().cwiseAbs().maxCoeff();
@@ -258,8 +258,7 @@ TEST(MultiInputGainsFileTest, ATwoDamperFileRoundTripsAndMalformedOnesAreRefused
   std::string error;
   ASSERT_TRUE(DesignClippedOptimal(WithDampers({1, 2}), DesignOptions{}, &g, &error)) << error;
   const std::string text = GainsToml(g, DesignOptions{});
-  ASSERT_TRUE(firmware::platform::ParseClippedOptimalGains(text, "g.toml", &back, &error))
-      << error;
+  ASSERT_TRUE(firmware::platform::ParseClippedOptimalGains(text, "g.toml", &back, &error)) << error;
   EXPECT_EQ(back.dampers, 2);
   for (int i = 0; i < 12; ++i) {
     EXPECT_EQ(back.k[i], g.k[i]) << i;
@@ -280,8 +279,9 @@ TEST(MultiInputGainsFileTest, ATwoDamperFileRoundTripsAndMalformedOnesAreRefused
       {replace("dampers = 2", "dampers = 4"), "g.toml:3: 'dampers' must be an integer in [1, 3]"},
       {replace("dampers = 2", "dampers = 1.5"), "'dampers' must be an integer"},
       {replace("dampers = 2", "dampers = \"2\""), "'dampers' must be an integer"},
-      {replace("dampers = 2", "dampers = 3"), "'bd' must be a list of 18 numbers (has 12) for "
-                                              "dampers = 3"},
+      {replace("dampers = 2", "dampers = 3"),
+       "'bd' must be a list of 18 numbers (has 12) for "
+       "dampers = 3"},
       {replace("dampers = 2\n", ""), "'bd' must be a list of 6 numbers (has 12)"}};
   for (const Case& c : cases) {
     SCOPED_TRACE(c.text.substr(0, 160));
