@@ -36,6 +36,8 @@ bool ClippedOptimalGains::IsValid(const char** reason) const {
     bad = "l";
   else if (!AllFinite(k))
     bad = "k";
+  else if (dampers < 1 || dampers > kMaxDampers)
+    bad = "dampers";
   else if (!std::isfinite(v_max) || !std::isfinite(v_min) || v_min > v_max)
     bad = "v_max";
   if (bad != nullptr && reason != nullptr) *reason = bad;
@@ -47,6 +49,7 @@ Real ClippedRule(Real fc, Real f, Real v_max, Real v_min) {
 }
 
 void ClippedOptimal::Configure(const ClippedOptimalGains& gains) {
+  m_ = (gains.dampers >= 1 && gains.dampers <= kMaxDampers) ? gains.dampers : 1;
   ToReal(gains.ad, ad_);
   ToReal(gains.bd, bd_);
   ToReal(gains.cy, cy_);
@@ -60,28 +63,40 @@ void ClippedOptimal::Configure(const ClippedOptimalGains& gains) {
 
 void ClippedOptimal::Reset() {
   for (Real& x : xh_) x = Real(0);
-  fc_ = Real(0);
+  for (Real& f : fc_) f = Real(0);
 }
 
-Real ClippedOptimal::Update(const Real* accel, Real force) {
-  Real fc = Real(0);
-  for (int i = 0; i < kStates; ++i) fc -= k_[i] * xh_[i];
-  fc_ = fc;
+void ClippedOptimal::Update(const Real* accel, const Real* force, Real* volts) {
+  const int m = m_;
+  for (int j = 0; j < m; ++j) {
+    Real fc = Real(0);
+    for (int i = 0; i < kStates; ++i) fc -= k_[j * kStates + i] * xh_[i];
+    fc_[j] = fc;
+  }
   Real innovation[kOutputs];
   for (int r = 0; r < kOutputs; ++r) {
-    Real predicted = dy_[r] * force;
+    Real predicted = dy_[r * m] * force[0];
+    for (int j = 1; j < m; ++j) predicted += dy_[r * m + j] * force[j];
     for (int c = 0; c < kStates; ++c) predicted += cy_[r * kStates + c] * xh_[c];
     innovation[r] = accel[r] - predicted;
   }
   Real next[kStates];
   for (int r = 0; r < kStates; ++r) {
-    Real v = bd_[r] * force;
+    Real v = bd_[r * m] * force[0];
+    for (int j = 1; j < m; ++j) v += bd_[r * m + j] * force[j];
     for (int c = 0; c < kStates; ++c) v += ad_[r * kStates + c] * xh_[c];
     for (int c = 0; c < kOutputs; ++c) v += l_[r * kOutputs + c] * innovation[c];
     next[r] = v;
   }
   for (int i = 0; i < kStates; ++i) xh_[i] = next[i];
-  return ClippedRule(fc, force, v_max_, v_min_);
+  for (int j = 0; j < m; ++j) volts[j] = ClippedRule(fc_[j], force[j], v_max_, v_min_);
+}
+
+Real ClippedOptimal::Update(const Real* accel, Real force) {
+  Real forces[kMaxDampers] = {force};
+  Real volts[kMaxDampers] = {};
+  Update(accel, forces, volts);
+  return volts[0];
 }
 
 }  // namespace mrd::firmware

@@ -19,7 +19,7 @@ const char* ConfigureFaultName(ConfigureFault fault) {
     case ConfigureFault::kLaw:
       return "control law setting out of range";
     case ConfigureFault::kClippedGains:
-      return "clipped-optimal law without valid gains";
+      return "clipped-optimal law without valid one-damper gains";
     case ConfigureFault::kWatchdog:
       return "watchdog setting out of range";
     case ConfigureFault::kCutoff:

@@ -21,10 +21,12 @@ std::uint32_t Check(const Stamped& s, Real value, std::int64_t now_ns, std::int6
 // True once the signal has been sampled (a bus serves it).
 bool Measured(const Stamped& s) { return s.stamp_ns != std::numeric_limits<std::int64_t>::min(); }
 
-// Gains the clipped-optimal law can run on: loaded and valid, when the law is selected.
+// Gains the clipped-optimal law can run on: loaded and valid, when the law is selected, and of
+// a one-damper design (the controller drives one damper; a design for several needs them all).
 bool ClippedGainsOk(const ControllerConfig& c) {
   return c.law.mode != ControlMode::kClippedOptimal ||
-         (c.clipped_gains_loaded && c.clipped_gains.IsValid(nullptr));
+         (c.clipped_gains_loaded && c.clipped_gains.IsValid(nullptr) &&
+          c.clipped_gains.dampers == 1);
 }
 
 // The inversion's verdicts on the period's force demand.

@@ -314,6 +314,13 @@ TEST(ClippedControllerTest, ConfigureNeedsLoadedValidGains) {
   c.clipped_gains.k[2] = 0.0;
   c.clipped_gains.v_min = 3.0;  // above v_max
   EXPECT_EQ(controller.Configure(test::DemoDamperTable(), c), Error::kOutOfRange);
+  // A valid design for two dampers: the controller drives one and refuses it.
+  c = ClippedConfig(LastForceGains());
+  c.clipped_gains.dampers = 2;
+  EXPECT_TRUE(c.clipped_gains.IsValid(nullptr));
+  EXPECT_EQ(controller.Configure(test::DemoDamperTable(), c), Error::kOutOfRange);
+  c.clipped_gains.dampers = 4;  // beyond kMaxDampers
+  EXPECT_FALSE(c.clipped_gains.IsValid(nullptr));
   EXPECT_EQ(controller.Configure(test::DemoDamperTable(), ClippedConfig(LastForceGains())),
             Error::kOk);
 }

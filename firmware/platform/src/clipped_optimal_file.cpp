@@ -4,6 +4,7 @@
 #include <toml++/toml.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 
 #include "mrd/common/input_file.hpp"
@@ -93,14 +94,26 @@ bool ParseClippedOptimalGains(std::string_view text, const std::string& source_r
         return false;
       }
       ClippedOptimalGains g;
-      const ArrayKey arrays[] = {{"ad", g.ad, kN * kN}, {"bd", g.bd, kN},    {"cy", g.cy, kM * kN},
-                                 {"dy", g.dy, kM},      {"l", g.l, kN * kM}, {"k", g.k, kN}};
+      // dampers (optional, 1): the force inputs m; bd (kN x m), dy (kM x m) and k (m x kN)
+      // hold m numbers per row, row-major.
+      if (const toml::node* n = tbl->get("dampers")) {
+        const auto v = n->value_exact<std::int64_t>();
+        if (!v || *v < 1 || *v > ClippedOptimalGains::kMaxDampers) {
+          *error = At(source, *n) + "'dampers' must be an integer in [1, " +
+                   std::to_string(ClippedOptimalGains::kMaxDampers) + "] (the force inputs)";
+          return false;
+        }
+        g.dampers = static_cast<int>(*v);
+      }
+      const int m = g.dampers;
+      const ArrayKey arrays[] = {{"ad", g.ad, kN * kN}, {"bd", g.bd, kN * m}, {"cy", g.cy, kM * kN},
+                                 {"dy", g.dy, kM * m},  {"l", g.l, kN * kM},  {"k", g.k, m * kN}};
       for (const auto& [name, node] : *tbl) {
-        bool known = name.str() == "v_max" || name.str() == "v_min";
+        bool known = name.str() == "v_max" || name.str() == "v_min" || name.str() == "dampers";
         for (const ArrayKey& a : arrays) known = known || name.str() == a.name;
         if (!known) {
           *error = At(source, node) + "unknown key '" + Printable(name.str()) + "' in " + kWhere +
-                   " (ad, bd, cy, dy, l, k, v_max, v_min)";
+                   " (dampers, ad, bd, cy, dy, l, k, v_max, v_min)";
           return false;
         }
       }
@@ -115,7 +128,8 @@ bool ParseClippedOptimalGains(std::string_view text, const std::string& source_r
         if (arr == nullptr || static_cast<int>(arr->size()) != a.count) {
           *error = At(source, *n) + "'" + a.name + "' must be a list of " +
                    std::to_string(a.count) + " numbers" +
-                   (arr != nullptr ? " (has " + std::to_string(arr->size()) + ")" : "");
+                   (arr != nullptr ? " (has " + std::to_string(arr->size()) + ")" : "") +
+                   (m > 1 ? " for dampers = " + std::to_string(m) : "");
           return false;
         }
         for (int i = 0; i < a.count; ++i) {

@@ -1,6 +1,7 @@
-// mrd-structure — the three-story structure of Dyke, Spencer, Sain & Carlson (1996) with an MR
-// damper between the ground and the first floor: modal check, off-line LQG design of the
-// clipped-optimal law, and the in-process El Centro study (docs/structure.md).
+// mrd-structure — the three-story structure of Dyke, Spencer, Sain & Carlson (1996) with MR
+// dampers at the stories --dampers names (by default one, ground to first floor): modal check,
+// off-line LQG design of the clipped-optimal law, and the in-process El Centro study
+// (docs/structure.md).
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -49,8 +50,8 @@ void AddDesignOptions(CLI::App* cmd, mrd::structure::DesignOptions* d) {
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "mrd-structure: three-story structure with an MR damper (Dyke et al. 1996): "
-      "modes, clipped-optimal design, El Centro study"};
+      "mrd-structure: three-story structure with MR dampers (Dyke et al. 1996; one at the "
+      "first story by default): modes, clipped-optimal design, El Centro study"};
   app.require_subcommand(1);
   mrd::structure::DesignOptions design;
   mrd::structure::StudyOptions study;
@@ -59,7 +60,11 @@ int main(int argc, char** argv) {
   auto* design_cmd = app.add_subcommand(
       "design", "Discrete LQG design of the clipped-optimal law; prints the gains as TOML");
   std::string design_out;
+  std::string stories = "1";
+  const char* kDampersHelp =
+      "Stories with a damper, comma-separated (1 = ground to floor 1, ..., 3), e.g. 1,2";
   AddDesignOptions(design_cmd, &design);
+  design_cmd->add_option("--dampers", stories, kDampersHelp)->capture_default_str();
   design_cmd->add_option("--out", design_out, "Write the gains TOML here (atomically)");
 
   auto* study_cmd = app.add_subcommand(
@@ -70,6 +75,7 @@ int main(int argc, char** argv) {
   std::string preset = "spencer1997";
   std::string study_out;
   AddDesignOptions(study_cmd, &study.design);
+  study_cmd->add_option("--dampers", stories, kDampersHelp)->capture_default_str();
   study_cmd->add_option("--record", record_path, "Ground motion CSV (t_s,ag_g)")
       ->capture_default_str();
   study_cmd->add_option("--time-scale", study.time_scale, "Record played this many times faster")
@@ -103,8 +109,12 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
-  const mrd::ShearFrameParams frame;
+  mrd::ShearFrameParams frame;
   std::string error;
+  if (!mrd::structure::ParseDamperStories(stories, &frame, &error)) {
+    std::fprintf(stderr, "error: %s\n", error.c_str());
+    return 2;
+  }
 
   if (*modes) {
     const auto m = mrd::structure::FrameModes(frame);

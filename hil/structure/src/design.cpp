@@ -28,15 +28,21 @@ Continuous Model(const ShearFrameParams& p) {
     }
   }
   const Mat Minv = M.inverse();
-  Mat gamma = Mat::Zero(kN, 1);
-  gamma(0, 0) = -1.0;
+  // One column per damper: -1 on the floor above its story, +1 on the floor below.
+  const int dampers = p.with_damper ? p.dampers : 0;
+  Mat gamma = Mat::Zero(kN, dampers);
+  for (int j = 0; j < dampers; ++j) {
+    const int upper = p.story[j] - 1;
+    gamma(upper, j) = -1.0;
+    if (upper > 0) gamma(upper - 1, j) = 1.0;
+  }
   Continuous m;
   m.A = Mat::Zero(2 * kN, 2 * kN);
   m.A.block(0, kN, kN, kN) = Mat::Identity(kN, kN);
   m.A.block(kN, 0, kN, kN) = -Minv * K;
   m.A.block(kN, kN, kN, kN) = -Minv * C;
-  m.B = Mat::Zero(2 * kN, 1);
-  m.B.block(kN, 0, kN, 1) = Minv * gamma;
+  m.B = Mat::Zero(2 * kN, dampers);
+  m.B.block(kN, 0, kN, dampers) = Minv * gamma;
   m.G = Mat::Zero(2 * kN, 1);
   m.G.block(kN, 0, kN, 1) = -Mat::Ones(kN, 1);
   m.Cy = Mat(kN, 2 * kN);
@@ -104,17 +110,26 @@ bool DesignClippedOptimal(const ShearFrameParams& frame, const DesignOptions& o,
         "and not both 0";
     return false;
   }
+  const char* reason = nullptr;
+  if (!frame.with_damper || !frame.IsValid(&reason) ||
+      frame.dampers > firmware::ClippedOptimalGains::kMaxDampers) {
+    *error = std::string("design: the frame needs 1 to ") +
+             std::to_string(firmware::ClippedOptimalGains::kMaxDampers) +
+             " dampers at distinct stories (" + (reason != nullptr ? reason : "with_damper") + ")";
+    return false;
+  }
   const Continuous m = Model(frame);
   const int n = 2 * kN;
+  const int nd = frame.dampers;
   // Zero-order-hold discretisation of (A, [B G]) by the augmented matrix exponential.
-  Mat aug = Mat::Zero(n + 2, n + 2);
+  Mat aug = Mat::Zero(n + nd + 1, n + nd + 1);
   aug.block(0, 0, n, n) = m.A;
-  aug.block(0, n, n, 1) = m.B;
-  aug.block(0, n + 1, n, 1) = m.G;
+  aug.block(0, n, n, nd) = m.B;
+  aug.block(0, n + nd, n, 1) = m.G;
   const Mat e = (aug * o.period_s).exp();
   const Mat Ad = e.block(0, 0, n, n);
-  const Mat Bd = e.block(0, n, n, 1);
-  const Mat Gd = e.block(0, n + 1, n, 1);
+  const Mat Bd = e.block(0, n, n, nd);
+  const Mat Gd = e.block(0, n + nd, n, 1);
 
   // LQR: weights on floor displacements and drifts (x_i - x_{i-1}, x_0 = ground).
   Mat Q = Mat::Zero(n, n);
@@ -125,7 +140,7 @@ bool DesignClippedOptimal(const ShearFrameParams& frame, const DesignOptions& o,
   }
   Q.block(0, 0, kN, kN) = o.q_displacement * Mat::Identity(kN, kN);
   Q += o.q_drift * drift.transpose() * drift;
-  const Mat R = Mat::Constant(1, 1, o.r_force);
+  const Mat R = o.r_force * Mat::Identity(nd, nd);
   Mat P;
   if (!SolveDare(Ad, Bd, Q, R, &P)) {
     *error = "design: the LQR Riccati iteration did not converge";
@@ -144,6 +159,7 @@ bool DesignClippedOptimal(const ShearFrameParams& frame, const DesignOptions& o,
   }
   const Mat L = Ad * S * m.Cy.transpose() * (m.Cy * S * m.Cy.transpose() + V).inverse();
 
+  gains->dampers = nd;
   Store(Ad, gains->ad);
   Store(Bd, gains->bd);
   Store(m.Cy, gains->cy);
@@ -169,12 +185,14 @@ std::string GainsToml(const firmware::ClippedOptimalGains& g, const DesignOption
   };
   constexpr int ns = firmware::ClippedOptimalGains::kStates;
   constexpr int no = firmware::ClippedOptimalGains::kOutputs;
+  const int m = g.dampers;
+  if (m != 1) out << "dampers = " << m << "\n";  // one damper: the key's default, left out
   array("ad", g.ad, ns * ns);
-  array("bd", g.bd, ns);
+  array("bd", g.bd, ns * m);
   array("cy", g.cy, no * ns);
-  array("dy", g.dy, no);
+  array("dy", g.dy, no * m);
   array("l", g.l, ns * no);
-  array("k", g.k, ns);
+  array("k", g.k, m * ns);
   out << "v_max = " << g.v_max << "\nv_min = " << g.v_min << "\n";
   return out.str();
 }

@@ -28,12 +28,16 @@ struct Modes {
 };
 Modes FrameModes(const ShearFrameParams& frame);
 
-// Returns false with *error set when a Riccati iteration does not converge or an option is out
-// of range (period, weights > 0 where required).
+// The design for the frame's dampers (frame.dampers at frame.story: B has one column per
+// damper, K one row, the Kalman predictor takes every damper's measured force as a known
+// input; r_force weighs each force alike). Returns false with *error set when a Riccati
+// iteration does not converge, the damper set is invalid or an option is out of range
+// (period, weights > 0 where required).
 bool DesignClippedOptimal(const ShearFrameParams& frame, const DesignOptions& options,
                           firmware::ClippedOptimalGains* gains, std::string* error);
 
-// The gains as TOML ([control.clipped_optimal] table: ad, bd, cy, dy, l, k, v_max, v_min).
+// The gains as TOML ([control.clipped_optimal] table: ad, bd, cy, dy, l, k, v_max, v_min; and
+// dampers = m when m > 1, the one-damper file staying as it was).
 std::string GainsToml(const firmware::ClippedOptimalGains& gains, const DesignOptions& options);
 
 }  // namespace mrd::structure

@@ -5,8 +5,10 @@
 //   [control.clipped_optimal]
 //   ad = [36 numbers]   bd = [6]   cy = [18]   dy = [3]   l = [18]   k = [6]   (row-major)
 //   v_max = 2.25        v_min = 0.0                                               [V]
+//   dampers = m         (optional, default 1; up to kMaxDampers force inputs: bd = [6 m],
+//                        dy = [3 m] with m numbers per row, k = [6 m] one row per damper)
 //
-// Every key is required, no other key or table is allowed, every number must be finite,
+// Every key but dampers is required, no other key or table is allowed, every number must be finite,
 // v_min <= v_max, and the observer's error dynamics (ad - l cy) must be stable (a wrong or
 // mixed-up file would make the estimate diverge). Start-up only (allocates; toml++ throws
 // inside and is caught).
