@@ -68,7 +68,8 @@ void RunAndShutDown(hil::PlantPort& port, ModbusDevice& device, bool shutdown_co
       SensorFrame f;
       IoError why = IoError::kNone;
       return device.Read(test::NowIo(), &f, &why) == IoStatus::kOk;
-    })) << "step " << k;
+    })) << "step "
+        << k;
     IoError why = IoError::kNone;
     (void)device.Write(test::NowIo(), {0.5, true, false, tick++}, &why);
     TelemetrySnapshot status;
@@ -85,7 +86,8 @@ void RunAndShutDown(hil::PlantPort& port, ModbusDevice& device, bool shutdown_co
   EXPECT_EQ(port.counters().received, static_cast<std::uint64_t>(kSteps))
       << "the worker wrote the shutdown's block";
   device.Deactivate();
-  EXPECT_EQ(port.counters().received, static_cast<std::uint64_t>(kSteps) + (shutdown_counted ? 1 : 0))
+  EXPECT_EQ(port.counters().received,
+            static_cast<std::uint64_t>(kSteps) + (shutdown_counted ? 1 : 0))
       << "Deactivate writes the safe block once";
 }
 
