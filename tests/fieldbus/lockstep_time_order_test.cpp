@@ -17,6 +17,7 @@
 
 #include "can_device_peer.hpp"
 #include "gpio_test_peer.hpp"
+#include "modbus_lockstep_setup.hpp"
 #include "modbus_test_peers.hpp"
 #include "mrd/firmware/io.hpp"
 #include "mrd/firmware/io/gpio/gpio_device.hpp"
@@ -218,40 +219,23 @@ void OlderGrantChangesNothing(hil::PlantPort& port, ModbusDevice& device) {
   device.Deactivate();
 }
 
-ModbusConfig LockstepTcp(int port) {
-  ModbusConfig c;
-  c.enabled = true;
-  c.mode = ModbusMode::kTcp;
-  c.host = "127.0.0.1";
-  c.port = port;
-  c.lockstep = true;
-  c.inputs = Bit(Input::kVelocity) | Bit(Input::kDisplacement) | Bit(Input::kDemand);
-  c.outputs =
-      Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) | Bit(Output::kStatus);
-  c.response_timeout_ns = 200 * kMs;  // a loaded machine is no fault here
-  return c;
-}
-
 TEST(ModbusGrantOrder, AGrantOlderThanTheCurrentOneMovesNeitherTimeNorStamps) {
   const int p = test::FreeTcpPort();
   auto port = hil::MakeModbusTcpPort("127.0.0.1:" + std::to_string(p));
   std::string error;
   ASSERT_TRUE(port->Open(&error)) << error;
-  ModbusDevice device(LockstepTcp(p));
+  ModbusDevice device(LockstepTcp(p, 200 * kMs));  // a loaded machine is no fault here
   OlderGrantChangesNothing(*port, device);
   port->Close();
 }
 
 TEST(ModbusGrantOrder, OnADeviceProfileAnOlderGrantMovesNeitherTimeNorStamps) {
-  auto mp = std::make_shared<profile::ModbusProfile>();
+  const auto mp = Float32Profile();
   std::string error;
-  ASSERT_TRUE(profile::LoadModbusProfile(MRD_SOURCE_DIR "/firmware/profiles/modbus-float32.toml",
-                                         mp.get(), &error))
-      << error;
   const int p = test::FreeTcpPort();
   auto port = hil::MakeModbusProfilePort(false, "127.0.0.1:" + std::to_string(p), mp);
   ASSERT_TRUE(port->Open(&error)) << error;
-  ModbusConfig c = LockstepTcp(p);
+  ModbusConfig c = LockstepTcp(p, 200 * kMs);
   c.modbus_profile = mp;
   ModbusDevice device(c);
   OlderGrantChangesNothing(*port, device);

@@ -13,6 +13,7 @@
 #include <string>
 #include <thread>
 
+#include "modbus_lockstep_setup.hpp"
 #include "modbus_test_peers.hpp"
 #include "mrd/firmware/io/modbus/modbus_device.hpp"
 #include "mrd/firmware/telemetry.hpp"
@@ -25,20 +26,7 @@ namespace {
 
 constexpr std::int64_t kMs = 1'000'000;  // [ns]
 constexpr int kSteps = 3;
-
-ModbusConfig LockstepTcp(int port) {
-  ModbusConfig c;
-  c.enabled = true;
-  c.mode = ModbusMode::kTcp;
-  c.host = "127.0.0.1";
-  c.port = port;
-  c.lockstep = true;
-  c.inputs = Bit(Input::kVelocity) | Bit(Input::kDisplacement) | Bit(Input::kDemand);
-  c.outputs =
-      Bit(Output::kCommand) | Bit(Output::kEnable) | Bit(Output::kHeartbeat) | Bit(Output::kStatus);
-  c.response_timeout_ns = 2000 * kMs;  // as mrd-hil writes it for lockstep
-  return c;
-}
+constexpr std::int64_t kTimeoutNs = 2000 * kMs;  // as mrd-hil writes it for lockstep
 
 // Time for the worker (it polls every 20 us in lockstep) to do what it should not.
 void GiveTheWorkerTime() { std::this_thread::sleep_for(std::chrono::milliseconds(300)); }
@@ -96,21 +84,18 @@ TEST(ModbusLockstepCounts, RegisterMapCountsOnlyTheSteps) {
   auto port = hil::MakeModbusTcpPort("127.0.0.1:" + std::to_string(p));
   std::string error;
   ASSERT_TRUE(port->Open(&error)) << error;
-  ModbusDevice device(LockstepTcp(p));
+  ModbusDevice device(LockstepTcp(p, kTimeoutNs));
   RunAndShutDown(*port, device, false);
   port->Close();
 }
 
 TEST(ModbusLockstepCounts, DeviceProfileCountsOnlyTheSteps) {
-  auto mp = std::make_shared<profile::ModbusProfile>();
+  const auto mp = Float32Profile();
   std::string error;
-  ASSERT_TRUE(profile::LoadModbusProfile(MRD_SOURCE_DIR "/firmware/profiles/modbus-float32.toml",
-                                         mp.get(), &error))
-      << error;
   const int p = test::FreeTcpPort();
   auto port = hil::MakeModbusProfilePort(false, "127.0.0.1:" + std::to_string(p), mp);
   ASSERT_TRUE(port->Open(&error)) << error;
-  ModbusConfig c = LockstepTcp(p);
+  ModbusConfig c = LockstepTcp(p, kTimeoutNs);
   c.modbus_profile = mp;
   ModbusDevice device(c);
   RunAndShutDown(*port, device, true);

@@ -72,11 +72,10 @@ TEST(FirmwareHardeningTest, JsonSummaryWritesNonFiniteFiguresAsNull) {
   EXPECT_EQ(text.find("inf"), std::string::npos);
 }
 
-// Runs mrd-firmware --dry-run 30 --json, sends sig after 300 ms; returns the wait status.
-int RunAndSignal(int sig, const std::string& out) {
+// Starts mrd-firmware --dry-run 30 --json --ctl-socket SOCK with stdout into out; its pid, or
+// -1 when it cannot be started. The socket appears once the signal handlers are installed.
+pid_t SpawnDryRun(const std::string& out, const std::string& sock) {
   const std::string bin = Firmware();
-  // Appears once the signal handlers are installed (one per run: a fresh path to wait for).
-  const std::string sock = out + "." + std::to_string(sig) + ".sock";
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -88,8 +87,17 @@ int RunAndSignal(int sig, const std::string& out) {
                   const_cast<char*>(sock.c_str()),
                   nullptr};
   pid_t pid = 0;
-  if (posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv, environ) != 0) return -1;
+  const int rc = posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv, environ);
   posix_spawn_file_actions_destroy(&fa);
+  return rc == 0 ? pid : -1;
+}
+
+// Runs the dry run, sends sig once its handlers are installed; returns the wait status.
+int RunAndSignal(int sig, const std::string& out) {
+  // One per run: a fresh path to wait for.
+  const std::string sock = out + "." + std::to_string(sig) + ".sock";
+  const pid_t pid = SpawnDryRun(out, sock);
+  if (pid < 0) return -1;
   test::WaitForPath(sock, 20.0);  // on a timeout the signal still goes (the test then fails)
   kill(pid, sig);
   int status = 0;
@@ -120,20 +128,8 @@ TEST(FirmwareHardeningTest, EveryTerminatingSignalEndsInTheSafeState) {
 TEST(FirmwareHardeningTest, SigxfszIsIgnoredAndTheLoopRunsOn) {
   TempDir dir;
   const std::string out = dir.File("out.json"), sock = dir.File("ctl.sock");
-  const std::string bin = Firmware();
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  char* argv[] = {const_cast<char*>(bin.c_str()),
-                  const_cast<char*>("--dry-run"),
-                  const_cast<char*>("30"),
-                  const_cast<char*>("--json"),
-                  const_cast<char*>("--ctl-socket"),
-                  const_cast<char*>(sock.c_str()),
-                  nullptr};
-  pid_t pid = 0;
-  ASSERT_EQ(posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv, environ), 0);
-  posix_spawn_file_actions_destroy(&fa);
+  const pid_t pid = SpawnDryRun(out, sock);
+  ASSERT_GT(pid, 0);
   if (!test::WaitForPath(sock, 20.0)) {  // the handlers are installed once the socket is there
     kill(pid, SIGKILL);
     waitpid(pid, nullptr, 0);
