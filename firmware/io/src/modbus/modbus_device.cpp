@@ -393,6 +393,12 @@ ModbusDevice::Outcome ModbusDevice::ReadOnce(const std::uint8_t* pdu, int len, s
   return Outcome::kFailed;
 }
 
+bool ModbusDevice::BeforeFirstGrant(Sample* s) const {
+  if (!config_.lockstep || s->grant_ns != 0) return false;
+  s->read_failed = false;
+  return true;
+}
+
 ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
   if (profile_ != nullptr) return ReadProfile(out, new_grant);
   Sample& s = *out;
@@ -420,12 +426,7 @@ ModbusDevice::Outcome ModbusDevice::ReadSensors(Sample* out, bool* new_grant) {
           if (*new_grant) s.grant_ns = grant;
           stamp = s.grant_ns;
         }
-        // Lockstep: a block from before the first grant belongs to no step (whether the worker
-        // reads one depends on when it connected): not data.
-        if (config_.lockstep && s.grant_ns == 0) {
-          s.read_failed = false;
-          return Outcome::kOk;
-        }
+        if (BeforeFirstGrant(&s)) return Outcome::kOk;
         map::SensorBlock b;
         if (map::DecodeSensors(regs, &b) != map::MapError::kOk) {
           why = IoError::kBadValue;  // a well-formed reply with undefined bits: not retried
@@ -581,12 +582,13 @@ IoStatus ModbusDevice::Write(const IoTime& t, const DriverCommand& cmd, IoError*
   // one-slot mailbox (only the shutdown's safe block follows a tick without a grant between;
   // otherwise the harness's next grant already came after that command). Bounded wait; in
   // simulated time only.
-  if (config_.lockstep && published_) {
+  const std::uint64_t released = released_tick_.load(std::memory_order_relaxed);  // own write
+  if (config_.lockstep && released != 0) {
     // A polling wait: it reads the clock itself (t.wall_ns is the period's start).
     const std::int64_t until = t.wall_ns + kLockstepHandOverNs;
     while (running_.load(std::memory_order_relaxed) &&
            !(handled_any_.load(std::memory_order_acquire) &&
-             handled_tick_.load(std::memory_order_acquire) >= published_tick_) &&
+             handled_tick_.load(std::memory_order_acquire) >= released - 1) &&
            common::MonotonicNs() < until) {
       SleepUntil(common::MonotonicNs() + kLockstepIdleNs);
     }
@@ -632,9 +634,7 @@ void ModbusDevice::PublishStatus(const IoTime& t, const TelemetrySnapshot& stats
   // Lockstep: the tick's command and status are posted; the worker writes them now.
   if (config_.lockstep) {
     if (command_.version() != 0) {
-      published_tick_ = command_.Read().tick;
-      published_ = true;
-      released_tick_.store(published_tick_ + 1, std::memory_order_release);
+      released_tick_.store(command_.Read().tick + 1, std::memory_order_release);
     }
     Signal(wake_);
   }

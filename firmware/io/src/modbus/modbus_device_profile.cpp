@@ -111,12 +111,7 @@ ModbusDevice::Outcome ModbusDevice::ReadProfile(Sample* out, bool* new_grant) {
     *new_grant = grant > s.grant_ns;
     if (*new_grant) s.grant_ns = grant;
     stamp = s.grant_ns;
-    // A block from before the first grant belongs to no step (whether the worker reads one
-    // depends on when it connected): not data.
-    if (s.grant_ns == 0) {
-      s.read_failed = false;
-      return Outcome::kOk;
-    }
+    if (BeforeFirstGrant(&s)) return Outcome::kOk;
   }
   s.read_failed = false;
   const bool has_seq = p.In(pf::CanIn::kSensorSeq).mapped;

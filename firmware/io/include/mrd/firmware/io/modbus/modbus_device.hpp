@@ -121,6 +121,10 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   // The worker's transactions (with retries); on failure s->why and the counters say why.
   Outcome WriteLatest(Sample* s);
   Outcome ReadSensors(Sample* s, bool* new_grant);
+  // Lockstep: a block read before the first grant belongs to no step (whether the worker reads
+  // one depends on when it connected): true, and the read counts as good but not as data.
+  // Both reads (the register map's and a profile's) apply it once the grant is decoded.
+  bool BeforeFirstGrant(Sample* s) const;
   // One write of c (one attempt). why: set on failure.
   Outcome WriteOnce(const Command& c, IoError* why, bool interruptible);
   // One read request (one attempt, the link's unit): the quiet-line wait a failed exchange
@@ -202,15 +206,14 @@ class ModbusDevice final : public BusDevice, public TimeGrantSource {
   std::uint32_t last_seq_ = 0;
   bool last_write_failed_ = false;
   bool posted_safe_ = true;  // the latest command posted was a safe one
-  // Lockstep: the tick of the last command followed by PublishStatus (loop side), and the tick
-  // of the last command the worker wrote or failed to write (worker side).
-  std::uint64_t published_tick_ = 0;
-  bool published_ = false;
+  // Lockstep: the tick of the last command the worker wrote or failed to write (worker side).
   std::atomic<std::uint64_t> handled_tick_{0};
   std::atomic<bool> handled_any_{false};
-  // Lockstep: the worker writes only ticks below this one (the published ones). The shutdown's
-  // safe block, posted after the last PublishStatus, is Deactivate's alone: whether the worker
-  // would have got to it before it stopped depends on wall time, the request count must not.
+  // Lockstep: one past the tick of the last command followed by PublishStatus (0: none yet;
+  // written by the loop, read by the worker). The worker writes only ticks below it (the
+  // published ones). The shutdown's safe block, posted after the last PublishStatus, is
+  // Deactivate's alone: whether the worker would have got to it before it stopped depends on
+  // wall time, the request count must not.
   std::atomic<std::uint64_t> released_tick_{0};
   std::int64_t granted_ns_ = 0;  // the latest grant WaitGrant returned
   IoError last_why_ = IoError::kNone;
