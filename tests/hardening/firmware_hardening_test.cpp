@@ -74,11 +74,14 @@ TEST(FirmwareHardeningTest, JsonSummaryWritesNonFiniteFiguresAsNull) {
 
 // Starts mrd-firmware --dry-run 30 --json --ctl-socket SOCK with stdout into out; its pid, or
 // -1 when it cannot be started. The socket appears once the signal handlers are installed.
-pid_t SpawnDryRun(const std::string& out, const std::string& sock) {
+pid_t SpawnDryRun(const std::string& out, const std::string& sock, const std::string& err = "") {
   const std::string bin = Firmware();
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (!err.empty()) {
+    posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  }
   char* argv[] = {const_cast<char*>(bin.c_str()),
                   const_cast<char*>("--dry-run"),
                   const_cast<char*>("30"),
@@ -90,6 +93,23 @@ pid_t SpawnDryRun(const std::string& out, const std::string& sock) {
   const int rc = posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv, environ);
   posix_spawn_file_actions_destroy(&fa);
   return rc == 0 ? pid : -1;
+}
+
+// The still-running dry run pid stopped with SIGTERM: it exits 0 in the safe state, before the
+// end of its 30 s; its JSON summary (in out).
+nlohmann::json StopAndCheck(pid_t pid, const std::string& out) {
+  int status = 0;
+  EXPECT_EQ(waitpid(pid, &status, WNOHANG), 0)
+      << "the signal stopped the firmware (" << status << ")";
+  kill(pid, SIGTERM);
+  EXPECT_EQ(waitpid(pid, &status, 0), pid);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+  const nlohmann::json j = nlohmann::json::parse(Slurp(out), nullptr, false);
+  EXPECT_FALSE(j.is_discarded()) << Slurp(out);
+  if (j.is_discarded()) return j;
+  EXPECT_EQ(j["final_safe_state"], true);
+  EXPECT_LT(j["ticks"].get<long long>(), 30000) << "SIGTERM did not stop it";
+  return j;
 }
 
 // Runs the dry run, sends sig once its handlers are installed; returns the wait status.
@@ -137,16 +157,7 @@ TEST(FirmwareHardeningTest, SigxfszIsIgnoredAndTheLoopRunsOn) {
   }
   kill(pid, SIGXFSZ);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  int status = 0;
-  EXPECT_EQ(waitpid(pid, &status, WNOHANG), 0)
-      << "SIGXFSZ stopped the firmware (status " << status << ")";
-  kill(pid, SIGTERM);
-  ASSERT_EQ(waitpid(pid, &status, 0), pid);
-  ASSERT_TRUE(WIFEXITED(status)) << status;
-  EXPECT_EQ(WEXITSTATUS(status), 0);
-  const nlohmann::json j = nlohmann::json::parse(Slurp(out));
-  EXPECT_EQ(j["final_safe_state"], true);
-  EXPECT_LT(j["ticks"].get<long long>(), 30000) << "SIGTERM after SIGXFSZ did not stop it";
+  StopAndCheck(pid, out);
 }
 
 // SIGHUP reloads (config and table) and does not stop the loop; a later SIGTERM stops it in
@@ -154,24 +165,11 @@ TEST(FirmwareHardeningTest, SigxfszIsIgnoredAndTheLoopRunsOn) {
 TEST(FirmwareHardeningTest, SighupReloadsAndKeepsRunning) {
   TempDir dir;
   const std::string out = dir.File("out.json"), err = dir.File("err.txt");
-  const std::string bin = Firmware();
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   // The control socket appears after the signal handlers are installed: it marks "ready for
   // SIGHUP" (a fixed sleep raced a slow start: SIGHUP's default action killed the process).
   const std::string sock = dir.File("ctl.sock");
-  char* argv[] = {const_cast<char*>(bin.c_str()),
-                  const_cast<char*>("--dry-run"),
-                  const_cast<char*>("30"),
-                  const_cast<char*>("--json"),
-                  const_cast<char*>("--ctl-socket"),
-                  const_cast<char*>(sock.c_str()),
-                  nullptr};
-  pid_t pid = 0;
-  ASSERT_EQ(posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv, environ), 0);
-  posix_spawn_file_actions_destroy(&fa);
+  const pid_t pid = SpawnDryRun(out, sock, err);
+  ASSERT_GT(pid, 0);
   if (!test::WaitForPath(sock, 20.0)) {
     kill(pid, SIGKILL);
     waitpid(pid, nullptr, 0);
@@ -185,16 +183,10 @@ TEST(FirmwareHardeningTest, SighupReloadsAndKeepsRunning) {
   EXPECT_NE(Slurp(err).find("mrd-firmware: reloaded config (none) and table compiled-in"),
             std::string::npos)
       << Slurp(err);
-  int status = 0;
-  EXPECT_EQ(waitpid(pid, &status, WNOHANG), 0) << "SIGHUP stopped the firmware";
-  kill(pid, SIGTERM);
-  ASSERT_EQ(waitpid(pid, &status, 0), pid);
-  ASSERT_TRUE(WIFEXITED(status)) << status;
-  EXPECT_EQ(WEXITSTATUS(status), 0);
-  const nlohmann::json j = nlohmann::json::parse(Slurp(out));
-  EXPECT_EQ(j["final_safe_state"], true);
-  EXPECT_EQ(j["parameters"]["reloads"], 1);
-  EXPECT_LT(j["ticks"].get<long long>(), 30000);
+  const nlohmann::json j = StopAndCheck(pid, out);
+  if (!j.is_discarded()) {
+    EXPECT_EQ(j["parameters"]["reloads"], 1);
+  }
 }
 
 // Defect 11: a result that cannot be written is an error.
