@@ -81,9 +81,8 @@ void BM_LoopPeriodCan(benchmark::State& state) {
       can_frame f{};
       pc::Encode(pc::SensorMotion{v, 0.0, seq, counter}, &f);
       (void)write(corners[i]->peer, &f, sizeof f);
-      pc::Encode(pc::SensorForce{60.0 * v * (1.0 + 0.1 * static_cast<double>(i)), 0.0, 0.0,
-                                 counter},
-                 &f);
+      pc::Encode(
+          pc::SensorForce{60.0 * v * (1.0 + 0.1 * static_cast<double>(i)), 0.0, 0.0, counter}, &f);
       (void)write(corners[i]->peer, &f, sizeof f);
     }
     counter = static_cast<std::uint8_t>((counter + 1) & 15);
