@@ -3,9 +3,9 @@
 #include <memory>
 #include <numbers>
 
+#include "channel_models.hpp"
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/modal_body_law.hpp"
-#include "mrd/firmware/platform/table_file.hpp"
 #include "mrd/firmware/shared_model.hpp"
 #include "mrd/firmware/sim/simulated_damper.hpp"
 
@@ -25,33 +25,6 @@ struct Corner {
   std::unique_ptr<Channel> channel;
 };
 
-// The model of each channel's table: the run's, or the file's (loaded once per path).
-std::string LoadModels(const DryChannelsRun& run,
-                       std::vector<std::shared_ptr<const SharedModel>>* models) {
-  const platform::ChannelsConfig& ch = run.cfg.channels;
-  Error e = Error::kOk;
-  const auto run_model = SharedModel::Load(run.run_table, &e);
-  if (e != Error::kOk) return std::string("table ") + run.run_table_name + " refused";
-  for (std::size_t i = 0; i < static_cast<std::size_t>(ch.count); ++i) {
-    if (ch.table_paths.empty()) {
-      models->push_back(run_model);
-      continue;
-    }
-    std::shared_ptr<const SharedModel> same;
-    for (std::size_t j = 0; j < i; ++j) {
-      if (ch.table_paths[j] == ch.table_paths[i]) same = (*models)[j];
-    }
-    if (!same) {
-      std::string why;
-      const auto table = platform::LoadTableFile(ch.table_paths[i].c_str(), &why);
-      if (table.ok()) same = SharedModel::Load(table.value(), &e);
-      if (!table.ok() || e != Error::kOk) return "table " + ch.table_paths[i] + " refused: " + why;
-    }
-    models->push_back(same);
-  }
-  return "";
-}
-
 // Channel i's excitation: the config's with the stroke 8 % smaller and the body an eighth of
 // a period later per channel (channel 0: the config's), so that no two corners move alike.
 SimulationConfig CornerExcitation(const SimulationConfig& base, std::size_t i) {
@@ -64,8 +37,12 @@ SimulationConfig CornerExcitation(const SimulationConfig& base, std::size_t i) {
 // The corners on clock, each configured on its model; "" or the refusal.
 std::string MakeCorners(const DryChannelsRun& run, Clock& clock, Telemetry* first,
                         std::vector<Telemetry>* rest, std::vector<std::unique_ptr<Corner>>* out) {
-  std::vector<std::shared_ptr<const SharedModel>> models;
-  if (std::string why = LoadModels(run, &models); !why.empty()) return why;
+  ChannelModels loaded;
+  if (std::string why = LoadChannelModels(run.cfg, run.run_table, run.run_table_name, &loaded);
+      !why.empty()) {
+    return why;
+  }
+  const auto& models = loaded.models;
   for (std::size_t i = 0; i < models.size(); ++i) {
     Telemetry& t = i == 0 ? *first : (*rest)[i - 1];
     auto c = std::make_unique<Corner>(run.damper, CornerExcitation(run.cfg.simulation, i), clock,
@@ -106,10 +83,9 @@ std::string RunDryChannels(const DryChannelsRun& run, const std::atomic<bool>& s
   std::vector<std::unique_ptr<Corner>> corners;
   if (std::string why = MakeCorners(run, clock, first, &rest, &corners); !why.empty()) return why;
   RunLoop(run, clock, corners, stop);
-  const auto& paths = run.cfg.channels.table_paths;
   for (std::size_t i = 0; i < corners.size(); ++i) {
-    channels->push_back({paths.empty() ? run.run_table_name : run.cfg.channels.tables[i].c_str(),
-                         corners[i]->telemetry.Read()});
+    channels->push_back(
+        {ChannelTableName(run.cfg, run.run_table_name, i), corners[i]->telemetry.Read()});
   }
   return "";
 }

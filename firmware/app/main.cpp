@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "bus_channels.hpp"
 #include "check.hpp"
 #include "ctl_client.hpp"
 #include "demo_table.hpp"
@@ -483,10 +484,8 @@ void PrintSummary(const TelemetrySnapshot& s, const Options& o, const FirmwareCo
 // Runs the loop on CLOCK_MONOTONIC in a thread of its own (SCHED_FIFO and locked memory when
 // the config asks and the system allows; warnings otherwise) until g_stop or duration_ns
 // (<= 0: until g_stop). The calling thread reads the telemetry meanwhile.
-void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver& driver,
-                 Controller& controller, Telemetry& telemetry, std::int64_t duration_ns,
-                 RealTime* rt, PeriodHook* hook, PeriodObserver* observer,
-                 Clock* lockstep_clock = nullptr) {
+void RunRealTime(const FirmwareConfig& cfg, Loop& loop, Telemetry& telemetry,
+                 std::int64_t duration_ns, RealTime* rt, bool lockstep) {
   if (cfg.lock_memory) {
     if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
       rt->memory_locked = true;
@@ -497,11 +496,6 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
                    std::strerror(errno));
     }
   }
-  MonotonicClock monotonic;
-  Clock& clock = lockstep_clock != nullptr ? *lockstep_clock : monotonic;
-  Loop loop(clock, source, driver, controller, telemetry, cfg.period_ns);
-  loop.SetHook(hook);
-  loop.SetObserver(observer);
   std::atomic<bool> done{false};
   std::thread worker([&] {
     if (cfg.priority > 0) {
@@ -516,7 +510,7 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
                      "priority, expect jitter (needs CAP_SYS_NICE or an rtprio limit)\n",
                      cfg.priority, std::strerror(err));
       }
-    } else if (lockstep_clock != nullptr) {
+    } else if (lockstep) {
       // Lockstep with the harness: a period's frames read whole (lockstep_sched.hpp).
       (void)mrd::common::UseLockstepScheduling();
     }
@@ -537,6 +531,19 @@ void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver&
   }
   notifier.Send("STOPPING=1");
   worker.join();
+}
+
+// One channel: the loop on source and driver (clock: CLOCK_MONOTONIC, or lockstep's).
+void RunRealTime(const FirmwareConfig& cfg, SensorSource& source, CurrentDriver& driver,
+                 Controller& controller, Telemetry& telemetry, std::int64_t duration_ns,
+                 RealTime* rt, PeriodHook* hook, PeriodObserver* observer,
+                 Clock* lockstep_clock = nullptr) {
+  MonotonicClock monotonic;
+  Clock& clock = lockstep_clock != nullptr ? *lockstep_clock : monotonic;
+  Loop loop(clock, source, driver, controller, telemetry, cfg.period_ns);
+  loop.SetHook(hook);
+  loop.SetObserver(observer);
+  RunRealTime(cfg, loop, telemetry, duration_ns, rt, lockstep_clock != nullptr);
 }
 
 // The command line's settings over the config's, at start-up and on every reload alike (they
@@ -758,8 +765,10 @@ int CheckRunMode(const Options& o, const FirmwareConfig& cfg, const mrd::Coeffic
                  "[modbus], [gpio], [pwm]) or --dry-run SECONDS (see --help)\n");
     return kExitBadInput;
   }
+  // Several channels on the bus: each channel's table is checked at its start (bus_channels).
+  const bool per_channel = buses && cfg.channels.count > 1;
   if (const std::string device = buses ? RealDeviceOf(cfg.io) : std::string();
-      !device.empty() && !o.allow_demo_table && IsDemoTable(table)) {
+      !per_channel && !device.empty() && !o.allow_demo_table && IsDemoTable(table)) {
     std::fprintf(
         stderr,
         "error: table %s is the demo table, a model of the reference damper, not of "
@@ -773,7 +782,7 @@ int CheckRunMode(const Options& o, const FirmwareConfig& cfg, const mrd::Coeffic
     std::fprintf(stderr, "error: --lockstep is for --dry-run\n");
     return kExitBadInput;
   }
-  if (buses && controller.runtime().reads_displacement() &&
+  if (buses && !per_channel && controller.runtime().reads_displacement() &&
       (ServedInputs(cfg) & Bit(Input::kDisplacement)) == 0) {
     std::fprintf(stderr,
                  "error: %s: the model of table %s reads the displacement, but no bus "
@@ -827,10 +836,42 @@ class RunLog {
 
 // What the loop leaves behind for the summary.
 
+// Says that no grant came for grant_timeout (clock = "grant"); marks the run.
+void GrantLost(const FirmwareConfig& cfg, RunOutcome* out) {
+  std::fprintf(stderr,
+               "error: no time grant for %.6g s (clock = \"grant\"): the harness "
+               "is gone; stopped in the safe state\n",
+               static_cast<double>(cfg.grant_timeout_ns) * 1e-9);
+  out->grant_lost = true;
+}
+
+// Several channels over [can] (bus_channels.hpp) until the duration, a stop or (clock =
+// "grant") the harness stops granting time. kContinue (ran) or the exit status.
+int RunBusChannels(const Options& o, const FirmwareConfig& cfg, const mrd::CoefficientTable& table,
+                   const char* table_name, RunLog& log, RunOutcome* out) {
+  const std::int64_t duration_ns =
+      o.duration_s > 0.0 ? static_cast<std::int64_t>(std::llround(o.duration_s * 1e9)) : 0;
+  BusChannels bus({cfg, o.config, table, table_name, o.allow_demo_table, &g_stop}, &out->telemetry);
+  if (const int rc = bus.Start(); rc != kContinue) return rc;
+  const GrantClock* grants = bus.grant_clock();
+  log.Start(grants != nullptr ? "bus run, clock grant, several channels"
+                              : "bus run, clock monotonic, several channels");
+  bus.loop().SetObserver(log.observer());
+  RunRealTime(cfg, bus.loop(), out->telemetry, duration_ns, &out->rt, grants != nullptr);
+  if (grants != nullptr) {
+    out->clock_info = {"grant", grants->grants(), grants->gave_up() ? 1U : 0U};
+    if (grants->gave_up()) GrantLost(cfg, out);
+  }
+  bus.Finish(&out->devices, &out->faults, &out->channels);
+  return kContinue;
+}
+
 // The loop on the buses of cfg until the duration, SIGINT/SIGTERM or (clock = "grant") the
 // harness stops granting time. kContinue (ran) or the exit status of a start-up failure.
-int RunOnBuses(const Options& o, const FirmwareConfig& cfg, Controller& controller,
-               RuntimeParams& params, RunLog& log, RunOutcome* out) {
+int RunOnBuses(const Options& o, const FirmwareConfig& cfg, const mrd::CoefficientTable& table,
+               const char* table_name, Controller& controller, RuntimeParams& params, RunLog& log,
+               RunOutcome* out) {
+  if (cfg.channels.count > 1) return RunBusChannels(o, cfg, table, table_name, log, out);
   std::string error;
   if (!MakeDevices(cfg.io, &out->devices, &error)) {
     std::fprintf(stderr, "error: %s: %s\n", o.config, error.c_str());
@@ -866,13 +907,7 @@ int RunOnBuses(const Options& o, const FirmwareConfig& cfg, Controller& controll
     RunRealTime(cfg, io, io, controller, out->telemetry, duration_ns, &out->rt, &params,
                 log.observer(), &clock);
     out->clock_info = {"grant", clock.grants(), clock.gave_up() ? 1U : 0U};
-    if (clock.gave_up()) {
-      std::fprintf(stderr,
-                   "error: no time grant for %.6g s (clock = \"grant\"): the harness "
-                   "is gone; stopped in the safe state\n",
-                   static_cast<double>(cfg.grant_timeout_ns) * 1e-9);
-      out->grant_lost = true;
-    }
+    if (clock.gave_up()) GrantLost(cfg, out);
   } else {
     log.Start("bus run, clock monotonic");
     RunRealTime(cfg, io, io, controller, out->telemetry, duration_ns, &out->rt, &params,
@@ -964,7 +999,8 @@ int Run(const Options& o) {
 
   RunOutcome out;
   if (buses) {
-    if (const int rc = RunOnBuses(o, cfg, controller, params, log, &out); rc != kContinue) {
+    if (const int rc = RunOnBuses(o, cfg, table, table_name, controller, params, log, &out);
+        rc != kContinue) {
       return rc;
     }
   } else {

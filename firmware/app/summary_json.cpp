@@ -55,6 +55,17 @@ Json ChannelJson(std::size_t index, const SummaryInfo::Channel& c) {
             {"last_command_v", s.last_command_v},
             {"final_safe_state", s.safe},
             {"last_causes", CauseNames(s.active_causes)}};
+  if (c.has_device) {  // the channel's own bus device (several channels on [can])
+    const DeviceCounters& d = c.device.counters;
+    j["device"] = {{"name", c.device.name},
+                   {"rx_ok", d.rx_ok},
+                   {"rx_rejected", d.rx_rejected},
+                   {"tx_ok", d.tx_ok},
+                   {"tx_failed", d.tx_failed},
+                   {"last_error", IoErrorName(d.last_error)},
+                   {"read_fault_periods", c.device.faults.read_periods()},
+                   {"write_fault_periods", c.device.faults.write_periods()}};
+  }
   return j;
 }
 

@@ -41,6 +41,8 @@ struct SummaryInfo {
   struct Channel {
     const char* table;
     TelemetrySnapshot stats;
+    bool has_device = false;  // a bus run: the channel's own field device (its "device")
+    Device device{};
   };
   std::vector<Channel> channels;
   const char* fault_policy = "all";

@@ -10,7 +10,8 @@
 
 namespace mrd::firmware::platform::config_detail {
 
-Key TableList(const char* name, std::vector<std::string>* out, const char* description) {
+Key FileList(const char* name, std::vector<std::string>* out, const char* none_shown,
+             const char* description) {
   Setter set = [out](const toml::node& n, std::string* why) {
     const toml::array* a = n.as_array();
     if (a == nullptr || a->empty() || a->size() > kMaxChannels) {
@@ -27,8 +28,12 @@ Key TableList(const char* name, std::vector<std::string>* out, const char* descr
     *out = names;
     return true;
   };
-  auto show = [out] {
-    if (out->empty()) return std::string("(the run's table)");
+  auto show = [out, none_shown] {
+    if (out->empty()) {
+      std::string none = "(";
+      none.append(none_shown).push_back(')');
+      return none;
+    }
     std::string list;
     for (const std::string& t : *out) list += (list.empty() ? "\"" : ", \"") + t + "\"";
     return "[" + list + "]";
@@ -122,13 +127,40 @@ bool LoadTables(const toml::table& root, const std::string& source, ChannelsConf
 bool CheckChannels(const toml::table& root, const std::string& source, FirmwareConfig* c,
                    std::string* error) {
   ChannelsConfig& ch = c->channels;
-  if (ch.count > 1 &&
-      (c->io.can.enabled || c->io.modbus.enabled || c->io.gpio.enabled || c->io.pwm.enabled)) {
+  const std::string count = "count " + std::to_string(ch.count);
+  if (ch.count > 1 && (c->io.modbus.enabled || c->io.gpio.enabled || c->io.pwm.enabled)) {
     return Refuse(root, source, "count",
-                  "count " + std::to_string(ch.count) +
-                      ": several channels run on the simulated dampers of --dry-run only in "
-                      "this version; remove the bus sections ([can], [modbus], [gpio], [pwm]) "
-                      "or set count = 1",
+                  count +
+                      ": several channels run over [can] (one device profile per channel, "
+                      "can_profiles) or on the simulated dampers of --dry-run in this version; "
+                      "[modbus], [gpio] and [pwm] serve one channel only: remove them or set "
+                      "count = 1",
+                  error);
+  }
+  if (!ch.can_profiles.empty()) {
+    if (ch.can_profiles.size() != static_cast<std::size_t>(ch.count)) {
+      return Refuse(root, source, "can_profiles",
+                    "can_profiles names " + std::to_string(ch.can_profiles.size()) +
+                        " device profiles; count is " + std::to_string(ch.count) +
+                        " (one per channel)",
+                    error);
+    }
+    if (!c->io.can.enabled) {
+      return Refuse(root, source, "can_profiles",
+                    "can_profiles needs a [can] section (the bus the channels share)", error);
+    }
+    if (!c->io.can.profile.empty()) {
+      *error = Where(root, source, "can", "profile") +
+               "[can] profile and [channels] can_profiles are both given: with can_profiles "
+               "each channel has its own device profile; remove [can] profile";
+      return false;
+    }
+  } else if (ch.count > 1 && c->io.can.enabled) {
+    return Refuse(root, source, "count",
+                  count +
+                      " with [can]: several channels need one device profile each; give "
+                      "[channels] can_profiles = [\"corner-0.toml\", ...] (" +
+                      std::to_string(ch.count) + " entries) or set count = 1",
                   error);
   }
   if (ch.count > 1 && root.contains("ctl")) {

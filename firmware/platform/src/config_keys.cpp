@@ -239,16 +239,23 @@ std::vector<Key> ChannelKeys(ChannelsConfig* ch) {
   std::uint32_t* given = &ch->geometry_given;
   return {
       Integer("count", &ch->count, 1, static_cast<std::int64_t>(kMaxChannels), "",
-              "Damper channels on the loop, each with its simulated damper (several channels "
-              "run with --dry-run only: no bus section with count > 1)."),
+              "Damper channels on the loop: with --dry-run each on a simulated damper of its "
+              "own; with [can] each on its own device of the one bus (can_profiles). "
+              "[modbus], [gpio], [pwm] and [ctl] serve one channel only (refused with "
+              "count > 1)."),
       Choice("fault_policy", &ch->fault_policy,
              {{"all", FaultPolicy::kAll}, {"channel", FaultPolicy::kChannel}},
              "A channel's fault puts every channel in the safe state one period later "
              "(\"all\", the vehicle default) or that channel only (\"channel\")."),
-      TableList("tables", &ch->tables,
-                "Each channel's coefficient table, relative to this file, one per channel; a "
-                "table may be named several times (its model is loaded once). Default: the "
-                "run's table (--table, else the compiled-in one) for every channel."),
+      FileList("tables", &ch->tables, "the run's table",
+               "Each channel's coefficient table, relative to this file, one per channel; a "
+               "table may be named several times (its model is loaded once). Default: the "
+               "run's table (--table, else the compiled-in one) for every channel."),
+      FileList("can_profiles", &ch->can_profiles, "none: [can] profile, one channel",
+               "Each channel's CAN device profile, relative to this file, one per channel "
+               "(exactly count entries), e.g. a CANopen drive per corner on one bus; the "
+               "[can] section (bus, inputs, outputs, timing) serves every channel and must "
+               "not name a profile. Needed for count > 1 with [can]."),
       Choice("body_law", &ch->body_law,
              {{"none", BodyLawKind::kNone}, {"modal-skyhook", BodyLawKind::kModalSkyhook}},
              "A law over the whole body: \"modal-skyhook\" (count = 4 in the order "

@@ -55,14 +55,16 @@ std::string Show(double v);
 std::string Where(const toml::table& root, const std::string& source, const char* section,
                   const char* key);
 
-// [channels] tables: a list of 1 ... kMaxChannels table file names (config_channels.cpp).
-Key TableList(const char* name, std::vector<std::string>* out, const char* description);
+// [channels] tables and can_profiles: a list of 1 ... kMaxChannels file names
+// (config_channels.cpp); none_shown: the reference's default when the key is absent.
+Key FileList(const char* name, std::vector<std::string>* out, const char* none_shown,
+             const char* description);
 // [channels] geometry key bit (ChannelsConfig::geometry_given): Number that records it was given.
 Key GeometryKey(Key number, std::uint32_t* given, std::uint32_t bit);
 
-// The [channels] section against the rest: count and tables, the body law's needs, no bus
-// section with several channels; each table file loaded once to prove it loads
-// (config_channels.cpp). Fills c->channels.table_paths.
+// The [channels] section against the rest: count, tables and can_profiles, the body law's
+// needs, no bus section but [can] (with can_profiles) with several channels; each table file
+// loaded once to prove it loads (config_channels.cpp). Fills c->channels.table_paths.
 bool CheckChannels(const toml::table& root, const std::string& source, FirmwareConfig* c,
                    std::string* error);
 
@@ -74,7 +76,9 @@ bool CheckIo(const toml::table& root, const std::string& source, const FirmwareC
              std::string* error);
 
 // The device profile of each enabled bus section, loaded relative to the configuration file
-// and checked against that section's routing (config_profiles.cpp).
+// and checked against that section's routing (config_profiles.cpp). [can] with [channels]
+// can_profiles: each channel's (c->channels.can_device_profiles; channel 0's also in
+// c->io.can, the one the single-device paths read).
 bool LoadCanProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,
                       std::string* error);
 bool LoadModbusProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,

@@ -15,24 +15,12 @@ namespace mrd::firmware::platform::config_detail {
 // [can] profile: loaded (relative to the configuration file) and checked against the routing:
 // every input and output the [can] section names, and the grant in lockstep, must be a role
 // the profile maps. Without the key: the built-in mrd-native profile (checked the same way).
-bool LoadCanProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,
-                      std::string* error) {
-  CanConfig& can = c->io.can;
-  const profile::CanProfile* p = &profile::NativeCanProfile();
-  std::string where = Where(root, source, "can", "profile");
-  if (!can.profile.empty()) {
-    const std::string path = ResolveBeside(source, can.profile);
-    auto loaded = std::make_shared<profile::CanProfile>();
-    std::string why;
-    if (!profile::LoadCanProfile(path, loaded.get(), &why)) {
-      *error = where + "device profile: " + Printable(why);
-      return false;
-    }
-    can.can_profile = loaded;
-    p = loaded.get();
-  } else {
-    where = Where(root, source, "can", "inputs");
-  }
+namespace {
+
+// Profile p against the [can] routing of c; where: "SOURCE:LINE: " to blame.
+bool CheckCanRouting(const profile::CanProfile* p, const std::string& where,
+                     const FirmwareConfig* c, std::string* error) {
+  const CanConfig& can = c->io.can;
   const auto mapped_in = [&](profile::CanIn r) {
     return p->inputs[static_cast<std::size_t>(r)].mapped();
   };
@@ -81,6 +69,51 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
              " has none)";
     return false;
   }
+  return true;
+}
+
+// The profile file (relative to the configuration file), loaded; where: "SOURCE:LINE: ".
+std::shared_ptr<const profile::CanProfile> LoadCanFile(const std::string& source,
+                                                       const std::string& file,
+                                                       const std::string& where,
+                                                       std::string* error) {
+  auto loaded = std::make_shared<profile::CanProfile>();
+  std::string why;
+  if (!profile::LoadCanProfile(ResolveBeside(source, file), loaded.get(), &why)) {
+    *error = where + "device profile: " + Printable(why);
+    return nullptr;
+  }
+  return loaded;
+}
+
+}  // namespace
+
+bool LoadCanProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,
+                      std::string* error) {
+  CanConfig& can = c->io.can;
+  ChannelsConfig& ch = c->channels;
+  ch.can_device_profiles.clear();
+  // Several channels: each one's profile (CheckChannels: count entries, no [can] profile).
+  for (std::size_t i = 0; i < ch.can_profiles.size(); ++i) {
+    const std::string where = Where(root, source, "channels", "can_profiles") +
+                              "[channels] can_profiles: channel " + std::to_string(i) + " (" +
+                              Printable(ch.can_profiles[i]) + "): ";
+    auto p = LoadCanFile(source, ch.can_profiles[i], where, error);
+    if (p == nullptr || !CheckCanRouting(p.get(), where, c, error)) return false;
+    ch.can_device_profiles.push_back(p);
+  }
+  if (!ch.can_device_profiles.empty()) {
+    can.can_profile = ch.can_device_profiles[0];  // the single-device paths' view
+    return true;
+  }
+  if (can.profile.empty()) {
+    return CheckCanRouting(&profile::NativeCanProfile(), Where(root, source, "can", "inputs"), c,
+                           error);
+  }
+  const std::string where = Where(root, source, "can", "profile");
+  auto p = LoadCanFile(source, can.profile, where, error);
+  if (p == nullptr || !CheckCanRouting(p.get(), where, c, error)) return false;
+  can.can_profile = p;
   return true;
 }
 

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <sstream>
 
 #include "mrd/profile/can_profile.hpp"
@@ -36,11 +37,12 @@ void Refuse(SafeStateProof* p, const std::string& why, double safe_v, const char
   p->key = safe_v != 0.0 ? "safe_voltage" : "profile";
 }
 
-// CAN: the command message as SendCommand fills it for a safe command of e [V].
-void ProveCan(const FirmwareConfig& c, double e_max, SafeStateProof* proof) {
+// CAN: the command message as SendCommand fills it for a safe command of e [V], on the device
+// profile p (the [can] one, or a channel's of [channels] can_profiles).
+void ProveCan(const FirmwareConfig& c, const pf::CanProfile& p, double e_max,
+              SafeStateProof* proof) {
   const CanConfig& can = c.io.can;
   if ((can.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) == 0) return;
-  const pf::CanProfile& p = can.can_profile ? *can.can_profile : pf::NativeCanProfile();
   const pf::SignalRef cmd = p.outputs[static_cast<std::size_t>(pf::CanOut::kCommand)];
   const pf::SignalRef en = p.outputs[static_cast<std::size_t>(pf::CanOut::kEnable)];
   const bool command_here = (can.outputs & Bit(Output::kCommand)) != 0 && cmd.mapped();
@@ -216,7 +218,24 @@ void ProvePwm(const FirmwareConfig& c, SafeStateProof* proof) {
 
 SafeStateProof ProveSafeState(const FirmwareConfig& c, double e_max) {
   SafeStateProof proof;
-  if (c.io.can.enabled) ProveCan(c, e_max, &proof);
+  if (c.io.can.enabled && c.channels.can_device_profiles.empty()) {
+    ProveCan(c, c.io.can.can_profile ? *c.io.can.can_profile : pf::NativeCanProfile(), e_max,
+             &proof);
+  }
+  // Several channels on [can]: each channel's profile ([channels] can_profiles).
+  for (std::size_t i = 0; c.io.can.enabled && i < c.channels.can_device_profiles.size(); ++i) {
+    const std::size_t lines = proof.lines.size();
+    ProveCan(c, *c.channels.can_device_profiles[i], e_max, &proof);
+    if (!proof.error.empty()) {
+      proof.error = "channel " + std::to_string(i) + ": " + proof.error;
+      if (std::strcmp(proof.section, "can") == 0) {
+        proof.section = "channels";
+        proof.key = "can_profiles";
+      }
+      break;
+    }
+    if (proof.lines.size() > lines) proof.lines.back().insert(3, " channel " + std::to_string(i));
+  }
   if (proof.error.empty() && c.io.modbus.enabled) ProveModbus(c, e_max, &proof);
   if (proof.error.empty()) ProvePwm(c, &proof);
   if (proof.error.empty() && c.io.gpio.enabled && c.io.gpio.enable_line >= 0 &&

@@ -276,6 +276,13 @@ IoStatus CanDevice::Read(const IoTime& t, SensorFrame* frame, IoError* why) {
   } else {
     iface_.Flush(now);
     in_period_ = config_.lockstep;
+    // A follower in lockstep: the frames up to the grant of this tick, as they come; the
+    // drain below then reads nothing (that grant ends it).
+    if (follower() && !FollowGrant(t.loop_ns, &fresh) && fault == IoError::kNone &&
+        rejects_since_read_ <= kMaxRejectsPerRead) {
+      fault = iface_.is_open() ? IoError::kTimeout : IoError::kDisconnected;
+      Count(fault);
+    }
     // Drains to the newest frame (each keeps its arrival stamp). In lockstep a grant ends the
     // drain: what follows it belongs to the next step (the grant stays pending for the next
     // WaitGrant). A flood ends it too: the period is a fault whatever the rest holds.
@@ -503,6 +510,45 @@ bool CanDevice::SendCommand(const DriverCommand& cmd, std::int64_t now, bool res
     ok = Send(f, now) && ok;
   }
   return ok;
+}
+
+bool CanDevice::FollowGrant(std::int64_t loop_ns, bool* fresh) {
+  got_grant_ = false;  // the previous tick's grant (it ended that tick's drain)
+  if (granted_ns_ >= loop_ns) {
+    got_grant_ = true;  // this tick's grant is in already: what follows is the next step's
+    return true;
+  }
+  const std::int64_t until = common::MonotonicNs() + config_.follower_wait_ns;
+  while (iface_.is_open() && rejects_since_read_ <= kMaxRejectsPerRead) {
+    can_frame f{};
+    std::int64_t stamp = 0;
+    const std::int64_t now = common::MonotonicNs();
+    const canbus::CanResult r = iface_.Receive(&f, &stamp);
+    if (r == canbus::CanResult::kOk) {
+      *fresh = Handle(f, stamp, now) || *fresh;
+      if (!got_grant_) continue;
+      if (granted_ns_ >= loop_ns) return true;  // this tick's: its samples are all in
+      got_grant_ = false;                       // an earlier step's: read on
+      continue;
+    }
+    if (r == canbus::CanResult::kBadFrame) {
+      Reject(pc::Reject::kWrongDlc);
+      continue;
+    }
+    if (r == canbus::CanResult::kDisconnected) {
+      next_reconnect_ns_ = common::MonotonicNs() + kReconnectInterval;
+      return false;
+    }
+    // The socket is empty: the deadline is checked only now, so a process stopped (SIGSTOP)
+    // past it still reads what came meanwhile before it gives up.
+    if (now >= until) return false;
+    const std::int64_t wait_ns = until - now;
+    const timespec ts{static_cast<time_t>(wait_ns / 1'000'000'000),
+                      static_cast<long>(wait_ns % 1'000'000'000)};
+    pollfd p{iface_.fd(), POLLIN, 0};
+    (void)ppoll(&p, 1, &ts, nullptr);
+  }
+  return false;
 }
 
 bool CanDevice::WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) {

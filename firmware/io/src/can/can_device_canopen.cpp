@@ -209,6 +209,7 @@ bool CanDevice::DriveFault(std::int64_t wall_ns) {
 }
 
 bool CanDevice::ProduceCanopen(std::int64_t now, std::int64_t t) {
+  if (!config_.node_frames) return true;  // another channel's device speaks for the node
   bool ok = true;
   const std::int64_t hb = canopen_->heartbeat_ns;
   if (hb > 0 && t >= next_own_heartbeat_ns_) {

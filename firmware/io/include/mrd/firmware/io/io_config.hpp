@@ -56,6 +56,16 @@ struct CanConfig {
   // [safety] max_age_ms: no driving command leaves on a sensor sample older than this [ns].
   // Not a [can] key: set from [safety].
   std::int64_t max_age_ns = 5'000'000;
+  // Several channels on one bus ([channels] can_profiles), not [can] keys: set per channel's
+  // device by the start-up. node_frames: this device produces the firmware node's CANopen
+  // heartbeat and SYNC (channel 0's only: one node, one heartbeat). grant_follower (lockstep):
+  // not the loop's grant source; Read first waits, at most follower_wait_ns of wall time
+  // ([loop] grant_timeout_ms), until this device's own socket has delivered the grant of the
+  // loop's tick (can_device.hpp).
+  const char* name = "can";  // the device's name in the summary (channel i > 0: "can<i>")
+  bool node_frames = true;
+  bool grant_follower = false;
+  std::int64_t follower_wait_ns = 5'000'000'000;
 };
 
 enum class ModbusMode : std::uint8_t { kTcp = 0, kRtu };

@@ -1,16 +1,22 @@
 #pragma once
 // The [channels] section of the firmware configuration: several damper channels on one loop
 // (loop.hpp), each with its table, under one fault policy and an optional law over the whole
-// body (modal skyhook over four corners, modal_skyhook.hpp). In this version several channels
-// run on the simulated dampers of a dry run only; the parse refuses count > 1 with a bus
-// section.
+// body (modal skyhook over four corners, modal_skyhook.hpp). Several channels run on the
+// simulated dampers of a dry run, or over one CAN bus with a device profile per channel
+// (can_profiles: e.g. four CANopen drives); the parse refuses count > 1 with [modbus], [gpio],
+// [pwm] or [ctl], and with [can] but without can_profiles.
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "mrd/firmware/loop.hpp"
 #include "mrd/firmware/modal_skyhook.hpp"
+
+namespace mrd::profile {
+struct CanProfile;
+}  // namespace mrd::profile
 
 namespace mrd::firmware::platform {
 
@@ -23,6 +29,11 @@ struct ChannelsConfig {
   // channel. table_paths: the same resolved beside the config file (filled by the parse).
   std::vector<std::string> tables;
   std::vector<std::string> table_paths;
+  // Per channel, the [can] device profile file as given (relative to the config file); empty:
+  // one channel on the [can] section's profile. can_device_profiles: the same loaded and
+  // checked against the [can] routing (filled by the parse).
+  std::vector<std::string> can_profiles;
+  std::vector<std::shared_ptr<const profile::CanProfile>> can_device_profiles;
   BodyLawKind body_law = BodyLawKind::kNone;
   BodyGeometry geometry;
   ModalGains gains;

@@ -42,6 +42,21 @@
 // values are stamped with the grant that follows them (the harness sends a step's sensor
 // frames, then its grant), heartbeat and status are scheduled in granted time. A wait that
 // ends without a grant is no fault: the clock keeps waiting (grant_clock.hpp).
+//
+// Several channels on one bus ([channels] can_profiles): one device per channel, each with its
+// own profile and its own socket (SocketCAN: a CAN_RAW socket each; the local bus: a node
+// each). Channel 0's device produces the firmware node's CANopen heartbeat and SYNC
+// (config.node_frames; the others' do not), each device starts and watches its own drive. In
+// lockstep channel 0's device is the grant source; the others are followers
+// (config.grant_follower): the harness sends each node a step's sensor frames then the grant,
+// but hands them to one node after another, so when channel 0 wakes on its grant a follower's
+// socket may not have its frames yet. A follower's Read therefore first handles its frames as
+// they come (non-blocking reads, one ppoll on the fd while it is empty; no polling sleeps)
+// until its own socket has delivered a grant >= the tick's time (t.loop_ns), at most
+// config.follower_wait_ns of wall time (then the read faults: timeout); the grant ends the
+// drain, so every channel reads exactly the tick's samples, however the process or the relay
+// is scheduled (a stop of the firmware only delays it). The deadline is checked only with the
+// socket empty, so a stopped process (SIGSTOP) that resumes past it reads what came meanwhile.
 
 #include <array>
 #include <cstdint>
@@ -84,7 +99,7 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   CanDevice(const CanConfig& config, int fd);
   ~CanDevice() override { Deactivate(); }
 
-  const char* name() const override { return "can"; }
+  const char* name() const override { return config_.name; }
   FaultCause fault_cause() const override { return FaultCause::kCanBus; }
   bool Configure(std::string* error) override;
   bool Activate(std::string* error) override;
@@ -95,7 +110,9 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   DeviceCounters counters() const override { return published_.Read(); }
   // Lockstep only (config.lockstep); bounded wait, no allocation.
   bool WaitGrant(std::int64_t timeout_ns, std::int64_t* t_ns) override;
-  TimeGrantSource* grant_source() override { return config_.lockstep ? this : nullptr; }
+  TimeGrantSource* grant_source() override {
+    return config_.lockstep && !follower() ? this : nullptr;
+  }
 
   std::uint32_t driver_faults() const { return driver_faults_; }
   double driver_current() const { return driver_current_; }  // [driver unit], latest status
@@ -114,6 +131,13 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   void Reject(protocol::can::Reject reason);
   void Count(IoError error);
   bool Handle(const can_frame& f, std::int64_t stamp, std::int64_t wall_ns);
+  // Several channels in lockstep: this device is not the loop's grant source.
+  bool follower() const { return config_.lockstep && config_.grant_follower; }
+  // A follower's Read: handles frames as they come (ppoll between them) until its socket has
+  // delivered a grant >= loop_ns (true; that grant then ends the Read's drain), at most
+  // config.follower_wait_ns of wall time, the bus gone or a flood (false). *fresh: a routed
+  // input came.
+  bool FollowGrant(std::int64_t loop_ns, bool* fresh);
   void Grant(double time_us);
   // The device's time: CLOCK_MONOTONIC, or the latest granted time in lockstep.
   std::int64_t Now(std::int64_t wall_ns) const;
