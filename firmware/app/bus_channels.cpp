@@ -70,8 +70,8 @@ std::string BusChannels::MakeCorners() {
     can.can_profile = cfg.channels.can_device_profiles[i];
     can.profile = cfg.channels.can_profiles[i];
     can.name = kDeviceNames[i];
-    can.node_frames = i == 0;                 // one node, one heartbeat (and SYNC)
-    can.grant_follower = grant && i != 0;     // channel 0's device is the loop's clock
+    can.node_frames = i == 0;              // one node, one heartbeat (and SYNC)
+    can.grant_follower = grant && i != 0;  // channel 0's device is the loop's clock
     can.follower_wait_ns = cfg.grant_timeout_ns;
     c->device = MakeCanDevice(can);
     if (c->device == nullptr) return "can: bus driver not available in this build";

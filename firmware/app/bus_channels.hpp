@@ -32,11 +32,11 @@ namespace mrd::firmware {
 
 struct BusChannelsRun {
   const platform::FirmwareConfig& cfg;
-  const char* config_path;                  // for the error messages
-  const mrd::CoefficientTable& run_table;   // channels without a table of their own
+  const char* config_path;                 // for the error messages
+  const mrd::CoefficientTable& run_table;  // channels without a table of their own
   const char* run_table_name;
-  bool allow_demo_table;                    // --allow-demo-table
-  const std::atomic<bool>* stop;            // ends the grant clock's wait (lockstep)
+  bool allow_demo_table;          // --allow-demo-table
+  const std::atomic<bool>* stop;  // ends the grant clock's wait (lockstep)
 };
 
 class BusChannels {

@@ -124,8 +124,7 @@ TEST_F(CornersPortTest, EachCornersPortHearsOnlyItsCommandAndStatusAndEveryOneTh
       EXPECT_EQ(d.has_status, i == corner) << "corner " << corner << ", port " << i;
       EXPECT_EQ(d.heartbeats, 1U) << "every drive watches the firmware's heartbeat";
       if (i == corner) {
-        EXPECT_NEAR(d.volts, profiles_[static_cast<std::size_t>(i)]->command.Invert(1000.0),
-                    1e-12);
+        EXPECT_NEAR(d.volts, profiles_[static_cast<std::size_t>(i)]->command.Invert(1000.0), 1e-12);
         EXPECT_EQ(d.status_causes, 3U);
       }
     }

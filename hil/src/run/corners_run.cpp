@@ -116,9 +116,10 @@ int CornersRun::BringUp() {
     CornerFaultResult fr;
     fr.fault = f;
     fr.onset_step = static_cast<std::int64_t>(std::llround(f.at_s / 1e-3));
-    fr.clear_step = f.duration_s > 0.0 ? fr.onset_step + static_cast<std::int64_t>(
-                                                             std::llround(f.duration_s / 1e-3))
-                                       : steps_;
+    fr.clear_step =
+        f.duration_s > 0.0
+            ? fr.onset_step + static_cast<std::int64_t>(std::llround(f.duration_s / 1e-3))
+            : steps_;
     fr.clear_step = std::min(fr.clear_step, steps_);
     c_.faults.push_back(fr);
   }
@@ -193,8 +194,7 @@ static void JudgeFault(const Scenario& s, std::int64_t steps, CornerFaultResult*
     if (HitsCorner(fr->fault, i) || all) {
       if (!pc.safe) {
         fail(name + " never commanded its safe value");
-      } else if (fr->detection &&
-                 *pc.safe - *fr->detection > s.max_detection_to_safe_periods) {
+      } else if (fr->detection && *pc.safe - *fr->detection > s.max_detection_to_safe_periods) {
         fail(name + " safe " + std::to_string(*pc.safe - *fr->detection) +
              " periods after the detection (limit " +
              std::to_string(s.max_detection_to_safe_periods) + ")");

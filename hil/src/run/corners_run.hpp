@@ -42,8 +42,7 @@ inline bool HitsCorner(const Fault& f, int corner) { return f.corner < 0 || f.co
 
 class CornersRun {
  public:
-  CornersRun(const Scenario& scenario, const RunOptions& options, RunResult* r,
-             std::string* error);
+  CornersRun(const Scenario& scenario, const RunOptions& options, RunResult* r, std::string* error);
   CornersRun(const CornersRun&) = delete;
   CornersRun& operator=(const CornersRun&) = delete;
 
@@ -67,6 +66,7 @@ class CornersRun {
     double command_sum = 0.0;
     CornerFigures fig;
   };
+  int AwaitNodes();
   int Hear(std::int64_t k, const std::vector<SensorOutput>& outs);
   void Take(std::int64_t k, int i, const DriverInput& fresh);
   double DriveVolts(std::int64_t k, int i);

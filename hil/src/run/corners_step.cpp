@@ -51,6 +51,9 @@ int CornersRun::Step(std::int64_t k) {
       if (fr.fault.kind == FaultKind::kDriverFault) o.driver_fault = true;
     }
   }
+  if (k == 0) {
+    if (const int rc = AwaitNodes(); rc != 0) return rc;
+  }
   if (awaiting_start_) offered_joined_ = ports_.front()->Joined();
   PublishTick(port_ptrs_, outs, (k + 1) * kPeriodNs);
   ++c_.grants;
@@ -79,6 +82,32 @@ int CornersRun::Step(std::int64_t k) {
     row.causes[i] = c.causes;
   }
   if (o_.keep_trace) c_.trace.push_back(row);
+  return 0;
+}
+
+// Before the first offer: the firmware's bus nodes, one per channel, all on the bus (the
+// drives answer its NMT and SDO meanwhile), so the first tick reaches every channel once and
+// no offer is repeated (a repeated one would show in the firmware's frame counters, whose
+// number would depend on when its nodes joined). Wall clock, within the start-up timeout.
+int CornersRun::AwaitNodes() {
+  const auto nodes = static_cast<std::int64_t>(ports_.size());
+  const std::int64_t until =
+      common::MonotonicNs() + static_cast<std::int64_t>(o_.startup_timeout_s * 1e9);
+  while (ports_.front()->Joined() < nodes) {
+    for (std::size_t i = 0; i < ports_.size(); ++i) ports_[i]->Poll(&corners_[i].in);
+    if (const int sig = Interrupted()) return EndRun(InterruptText(sig), sig);
+    if (!fw_.Alive()) {
+      return EndRun(
+          "the firmware exited during start-up (exit " + std::to_string(fw_.status()) + ")", 0);
+    }
+    if (common::MonotonicNs() >= until) {
+      return EndRun("the firmware did not open a bus node per channel (" + std::to_string(nodes) +
+                        ") within the start-up timeout (" + FormatSeconds(o_.startup_timeout_s) +
+                        "); it was stopped",
+                    0);
+    }
+    Pump(2'000'000);
+  }
   return 0;
 }
 
@@ -114,22 +143,20 @@ int CornersRun::Hear(std::int64_t k, const std::vector<SensorOutput>& outs) {
     const std::int64_t t = common::MonotonicNs();
     if (const int sig = Interrupted()) return EndRun(InterruptText(sig), sig);
     if (t >= until) {
-      return EndRun(std::string(awaiting_start_
-                                    ? "no firmware answered for every corner within the "
-                                      "start-up timeout ("
-                                    : "the firmware stopped answering: not every corner's "
-                                      "command within the command timeout (") +
-                        FormatSeconds(wait_s) + ") at step " + std::to_string(k) +
-                        "; it was stopped",
-                    0);
+      return EndRun(
+          std::string(awaiting_start_ ? "no firmware answered for every corner within the "
+                                        "start-up timeout ("
+                                      : "the firmware stopped answering: not every corner's "
+                                        "command within the command timeout (") +
+              FormatSeconds(wait_s) + ") at step " + std::to_string(k) + "; it was stopped",
+          0);
     }
     // The firmware joined the bus after the offer: offer the tick again, once per join.
     const std::int64_t joined = ports_.front()->Joined();
     if (awaiting_start_ && joined > offered_joined_) {
       offered_joined_ = joined;
       PublishTick(port_ptrs_, outs, (k + 1) * kPeriodNs);
-      ++reoffers_;
-      ++c_.grants;
+      ++reoffers_;  // not counted in c_.grants (their number depends on wall time)
     }
     const bool moved = Pump(std::min<std::int64_t>(until - t, 2'000'000));
     check_alive = !moved || t >= next_check;

@@ -247,14 +247,16 @@ std::string CornersConfigText(const Scenario& s, const std::string& endpoint,
   c << "\n[safety]\nmax_age_ms = " << s.max_age_ms << "\nrecover_periods = " << s.recover_periods
     << "\nvelocity_limit = " << s.velocity_limit << "\n";
   WriteChannels(c, s);
-  // One bus section: the inputs and outputs every corner's profile maps as the first does (the
-  // demand is the body law's, or unused by per-corner laws: not routed).
+  // One bus section: the inputs and outputs every corner's profile maps as the first does. The
+  // demand for law "force" only (the body law overwrites the bus's each period; per-corner
+  // laws read none).
   const auto in = [&](profile::CanIn r) {
     return first.inputs[static_cast<std::size_t>(r)].mapped();
   };
   std::string inputs = "[";
   if (in(profile::CanIn::kVelocity)) Add(&inputs, "velocity");
   if (in(profile::CanIn::kDisplacement)) Add(&inputs, "displacement");
+  if (s.law == "force" && in(profile::CanIn::kDemand)) Add(&inputs, "demand");
   if (in(profile::CanIn::kBodyVelocity)) Add(&inputs, "body_velocity");
   if (in(profile::CanIn::kForce)) Add(&inputs, "force");
   inputs += "]";

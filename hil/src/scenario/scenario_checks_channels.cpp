@@ -69,7 +69,8 @@ bool ScenarioReader::CheckChannels() {
   if (roll_ >= 0.0) ch.roll_n_m_s_per_rad = roll_;
   const bool modal = ch.body_law == "modal-skyhook";
   if ((heave_ >= 0.0 || pitch_ >= 0.0 || roll_ >= 0.0) && !modal) {
-    return c.Fail(at("channels"), "the heave, pitch and roll gains need body_law = \"modal-skyhook\"");
+    return c.Fail(at("channels"),
+                  "the heave, pitch and roll gains need body_law = \"modal-skyhook\"");
   }
   if (modal ? s.law != "force"
             : s.law != "skyhook" && s.law != "passive-off" && s.law != "passive-on" &&
@@ -86,8 +87,7 @@ bool ScenarioReader::CheckChannels() {
                     f.kind == FaultKind::kNan || f.kind == FaultKind::kDriveHeartbeatLoss ||
                     f.kind == FaultKind::kDriverFault;
     if (!ok) {
-      *error_ = path_ + ":" + std::to_string(f.line) + ": fault kind '" +
-                FaultKindName(f.kind) +
+      *error_ = path_ + ":" + std::to_string(f.line) + ": fault kind '" + FaultKindName(f.kind) +
                 "' is not played on four corners (drop, corrupt, stall, out_of_range, nan, "
                 "drive_heartbeat_loss, driver_fault are)";
       return false;

@@ -161,7 +161,7 @@ struct CornersResult {
   std::string commands_fnv1a;  // FNV-1a 64 of every period's four commands and applied volts
   std::array<CornerFigures, 4> corners;
   std::vector<CornerFaultResult> faults;
-  std::uint64_t grants = 0;  // TimeGrant frames sent (one per period, start-up offers apart)
+  std::uint64_t grants = 0;  // TimeGrant frames of the periods (start-up repeats apart)
   std::vector<CornerStep> trace;
 };
 
