@@ -13,6 +13,7 @@
 #include "mrd/firmware/platform/config.hpp"
 #include "mrd/hil/plants/plant.hpp"
 #include "mrd/hil/run/run.hpp"
+#include "mrd/profile/can_profile.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -297,6 +298,44 @@ TEST(FirmwareConfigTest, GeneratedConfigsParse) {
       EXPECT_EQ(cfg.io.can.lockstep, c.lockstep);
       EXPECT_EQ(cfg.io.can.enabled, std::string(c.transport) == "can");
       EXPECT_EQ(cfg.io.modbus.enabled, std::string(c.transport) != "can");
+    }
+  }
+}
+
+// A four-corner run's configuration: four channels on one lockstep [can] bus, each with its
+// corner's profile, the policy and the modal skyhook on the car's geometry; per-corner
+// skyhook without a body law.
+TEST(FirmwareConfigTest, CornersConfigGivesFourChannelsOnOneBus) {
+  Scenario s;
+  std::string error;
+  ASSERT_TRUE(LoadScenario(MRD_SOURCE_DIR "/hil/scenarios/full-car-can-corners.toml", &s, &error))
+      << error;
+  profile::CanProfile first;
+  ASSERT_TRUE(profile::LoadCanProfile(s.channels.can_profiles[0], &first, &error)) << error;
+  for (const bool modal : {true, false}) {
+    if (!modal) {
+      s.channels.body_law = "none";
+      s.channels.fault_policy = "channel";
+      s.law = "skyhook";
+    }
+    const std::string text = CornersConfigText(s, "/tmp/bus.sock", first);
+    firmware::platform::FirmwareConfig cfg;
+    ASSERT_TRUE(firmware::platform::ParseConfig(text, "gen.toml", &cfg, &error)) << error << "\n"
+                                                                                 << text;
+    EXPECT_EQ(cfg.clock, firmware::platform::LoopClock::kGrant);
+    EXPECT_TRUE(cfg.io.can.enabled);
+    EXPECT_TRUE(cfg.io.can.lockstep);
+    const firmware::platform::ChannelsConfig& ch = cfg.channels;
+    EXPECT_EQ(ch.count, 4);
+    EXPECT_EQ(ch.can_profiles, s.channels.can_profiles);
+    EXPECT_EQ(ch.fault_policy,
+              modal ? firmware::FaultPolicy::kAll : firmware::FaultPolicy::kChannel);
+    EXPECT_EQ(ch.body_law, modal ? firmware::platform::BodyLawKind::kModalSkyhook
+                                 : firmware::platform::BodyLawKind::kNone);
+    if (modal) {
+      EXPECT_EQ(ch.geometry.cg_to_front_m, s.full.cg_to_front_m);
+      EXPECT_EQ(ch.geometry.cg_to_rear_m, s.full.cg_to_rear_m);
+      EXPECT_EQ(ch.geometry.motion_ratio, s.full.motion_ratio);
     }
   }
 }
