@@ -26,7 +26,7 @@ deb_arch="$preset"; [ "$preset" = aarch64 ] && deb_arch=arm64
 sysroot="$(bash toolchain/sysroot.sh "$deb_arch" | tail -n 1)"
 cmake --preset "$preset" "${launcher[@]}" -DMRD_SYSROOT="$sysroot" >/dev/null
 cmake --build --preset "$preset" -j2
-realtime='^(TelemetryTest\.ReaderSeesConsistentSnapshotsWhileWriterRuns|FirmwareCliTest\.RealTimeDryRunRunsAndCountsTime|FirmwareCliTest\.SigtermStopsTheLoopInTheSafeState|FirmwareHardeningTest\.(EveryTerminatingSignalEndsInTheSafeState|SigxfszIsIgnoredAndTheLoopRunsOn|SighupReloadsAndKeepsRunning)|CtlCliTest\..*|SimChipTruncationDeathTest\..*)$'
+realtime='^(TelemetryTest\.ReaderSeesConsistentSnapshotsWhileWriterRuns|FirmwareCliTest\.RealTimeDryRunRunsAndCountsTime|FirmwareCliTest\.SigtermStopsTheLoopInTheSafeState|FirmwareHardeningTest\.(EveryTerminatingSignalEndsInTheSafeState|SigxfszIsIgnoredAndTheLoopRunsOn|SighupReloadsAndKeepsRunning)|CtlCliTest\..*|SimChipTruncationDeathTest\..*|CanChannelsFirmware\..*)$'
 ctest --preset "$preset" -E "$realtime" -LE 'fieldbus|hil' --timeout 300
 ctest --preset "$preset" -R '^(CanCodec|DbcTest|ModbusMap|IoConfigTest|FieldbusIoTest|GrantClockTest)\.' \
   --timeout 300

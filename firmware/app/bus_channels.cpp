@@ -73,6 +73,7 @@ std::string BusChannels::MakeCorners() {
     can.node_frames = i == 0;              // one node, one heartbeat (and SYNC)
     can.grant_follower = grant && i != 0;  // channel 0's device is the loop's clock
     can.follower_wait_ns = cfg.grant_timeout_ns;
+    can.stop = run_.stop;
     c->device = MakeCanDevice(can);
     if (c->device == nullptr) return "can: bus driver not available in this build";
     c->telemetry = i == 0 ? first_ : &rest_[i - 1];

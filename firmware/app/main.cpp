@@ -993,8 +993,15 @@ int Run(const Options& o) {
                                               const mrd::CoefficientTable& t, const Controller& c) {
         return ReloadCheck(o, served, buses, next, t, c);
       };
-  server.Start([&] {
-    if (g_reload.exchange(false)) ReloadNow(o, params, reload_check);
+  server.Start([&, several = cfg.channels.count > 1] {
+    if (!g_reload.exchange(false)) return;
+    if (several) {  // each channel's controller runs on the config it started with
+      std::fprintf(stderr,
+                   "mrd-firmware: reload not applied: several channels ([channels] count > 1) "
+                   "run on the config and tables they started with; restart to apply a change\n");
+      return;
+    }
+    ReloadNow(o, params, reload_check);
   });
 
   RunOutcome out;

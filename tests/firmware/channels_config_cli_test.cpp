@@ -83,12 +83,67 @@ TEST(ChannelsConfigCliTest, RefusesEveryBadValueNamingFileAndLine) {
 }
 
 TEST(ChannelsConfigCliTest, SeveralChannelsWithABusSectionAreRefused) {
-  ExpectRefused("[channels]\ncount = 2\n[can]\ninterface = \"vcan0\"\n", 2,
-                "several channels run on the simulated dampers of --dry-run only");
   ExpectRefused("[channels]\ncount = 2\n[ctl]\nsocket = \"/tmp/x.sock\"\n", 2,
                 "serve one channel only");
-  ExpectRefused("[channels]\ncount = 4\n[modbus]\ndevice = \"/dev/ttyUSB0\"\n", 2,
-                "--dry-run only");
+  for (const char* bus : {"[modbus]\ndevice = \"/dev/ttyUSB0\"\n",
+                          "[gpio]\nsim_chip = \"/tmp/chip\"\noutputs = [\"enable\"]\n",
+                          "[pwm]\noutputs = [\"command\"]\n"}) {
+    ExpectRefused("[channels]\ncount = 4\n" + std::string(bus), 2,
+                  "[modbus], [gpio] and [pwm] serve one channel only");
+  }
+  // [can] with several channels needs a device profile per channel.
+  ExpectRefused("[channels]\ncount = 2\n[can]\ninterface = \"vcan0\"\n", 2,
+                "several channels need one device profile each; give [channels] can_profiles");
+}
+
+// The four shipped corner profiles, as a TOML list (absolute paths).
+std::string CornerProfiles(int n) {
+  std::string list;
+  for (const char* c : {"fl", "fr", "rl", "rr"}) {
+    if (n-- <= 0) break;
+    list += std::string(list.empty() ? "" : ", ") + "\"" + MRD_SOURCE_DIR +
+            "/firmware/profiles/canopen-corner-" + c + ".toml\"";
+  }
+  return "[" + list + "]";
+}
+
+constexpr const char* kCanBus =
+    "[can]\ninterface = \"vcan0\"\ninputs = [\"velocity\", \"displacement\", \"demand\"]\n"
+    "outputs = [\"command\", \"enable\", \"heartbeat\", \"status\"]\n";
+
+TEST(ChannelsConfigCliTest, CanProfilesOnePerChannelOnTheOneCanBus) {
+  TempDir dir;
+  const std::string cfg = dir.File("fw.toml");
+  std::ofstream(cfg) << "[loop]\nclock = \"grant\"\n[control]\nlaw = \"force\"\n"
+                        "[channels]\ncount = 4\ncan_profiles = "
+                     << CornerProfiles(4) << "\n"
+                     << kCanBus;
+  const CommandResult r = test::Run(Firmware() + " --check-config " + cfg);
+  EXPECT_EQ(r.status, 0) << r.output;
+  for (const char* line : {"can channel 0 (canopen-corner-fl): DriveRpdo1FL.TargetCurrent",
+                           "can channel 3 (canopen-corner-rr): DriveRpdo1RR.TargetCurrent"}) {
+    EXPECT_NE(r.output.find(line), std::string::npos) << r.output;
+  }
+}
+
+TEST(ChannelsConfigCliTest, CanProfilesRefusals) {
+  // Not one per channel.
+  ExpectRefused("[channels]\ncount = 3\ncan_profiles = " + CornerProfiles(4) + "\n" + kCanBus, 3,
+                "[channels] can_profiles names 4 device profiles; count is 3 (one per channel)");
+  // Both the section's profile and the channels'.
+  ExpectRefused("[channels]\ncount = 2\ncan_profiles = " + CornerProfiles(2) + "\n" + kCanBus +
+                    "profile = \"x.toml\"\n",
+                8, "[can] profile and [channels] can_profiles are both given");
+  // No bus to share.
+  ExpectRefused("[channels]\ncount = 2\ncan_profiles = " + CornerProfiles(2) + "\n", 3,
+                "can_profiles needs a [can] section");
+  // A channel's profile that does not load, or lacks a role the [can] routing names.
+  ExpectRefused("[channels]\ncount = 2\ncan_profiles = [\"" + std::string(MRD_SOURCE_DIR) +
+                    "/firmware/profiles/canopen-corner-fl.toml\", \"missing.toml\"]\n" + kCanBus,
+                3, "[channels] can_profiles: channel 1 (missing.toml): device profile: ");
+  ExpectRefused("[channels]\ncount = 2\ncan_profiles = " + CornerProfiles(2) + "\n" + kCanBus +
+                    "[loop]\nclock = \"grant\"\n[safety]\nsafe_voltage = 0.5\n",
+                11, "channel 0: the safe state (safe_voltage 0.5 V)");
 }
 
 }  // namespace

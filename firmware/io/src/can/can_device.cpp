@@ -542,7 +542,9 @@ bool CanDevice::FollowGrant(std::int64_t loop_ns, bool* fresh) {
     // The socket is empty: the deadline is checked only now, so a process stopped (SIGSTOP)
     // past it still reads what came meanwhile before it gives up.
     if (now >= until) return false;
-    const std::int64_t wait_ns = until - now;
+    if (config_.stop != nullptr && config_.stop->load(std::memory_order_relaxed)) return false;
+    // In slices, so a stop request ends the wait promptly (as the grant clock's).
+    const std::int64_t wait_ns = std::min(until - now, GrantClock::kSliceNs);
     const timespec ts{static_cast<time_t>(wait_ns / 1'000'000'000),
                       static_cast<long>(wait_ns % 1'000'000'000)};
     pollfd p{iface_.fd(), POLLIN, 0};

@@ -19,6 +19,7 @@
 // may go out on several), a required input that no bus serves, or no command output: refused.
 // With no bus section the loop runs the built-in simulated damper (dry run).
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -66,6 +67,8 @@ struct CanConfig {
   bool node_frames = true;
   bool grant_follower = false;
   std::int64_t follower_wait_ns = 5'000'000'000;
+  // Ends a follower's wait early when set (the firmware's stop request); nullptr: none.
+  const std::atomic<bool>* stop = nullptr;
 };
 
 enum class ModbusMode : std::uint8_t { kTcp = 0, kRtu };

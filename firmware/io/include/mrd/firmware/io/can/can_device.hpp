@@ -53,7 +53,8 @@
 // socket may not have its frames yet. A follower's Read therefore first handles its frames as
 // they come (non-blocking reads, one ppoll on the fd while it is empty; no polling sleeps)
 // until its own socket has delivered a grant >= the tick's time (t.loop_ns), at most
-// config.follower_wait_ns of wall time (then the read faults: timeout); the grant ends the
+// config.follower_wait_ns of wall time or until config.stop is set (then the read faults:
+// timeout); the grant ends the
 // drain, so every channel reads exactly the tick's samples, however the process or the relay
 // is scheduled (a stop of the firmware only delays it). The deadline is checked only with the
 // socket empty, so a stopped process (SIGSTOP) that resumes past it reads what came meanwhile.
@@ -135,8 +136,8 @@ class CanDevice final : public BusDevice, public TimeGrantSource {
   bool follower() const { return config_.lockstep && config_.grant_follower; }
   // A follower's Read: handles frames as they come (ppoll between them) until its socket has
   // delivered a grant >= loop_ns (true; that grant then ends the Read's drain), at most
-  // config.follower_wait_ns of wall time, the bus gone or a flood (false). *fresh: a routed
-  // input came.
+  // config.follower_wait_ns of wall time; false on a timeout, a stop request (config.stop), the
+  // bus gone or a flood. *fresh: a routed input came.
   bool FollowGrant(std::int64_t loop_ns, bool* fresh);
   void Grant(double time_us);
   // The device's time: CLOCK_MONOTONIC, or the latest granted time in lockstep.
