@@ -120,7 +120,7 @@ int CornersRun::Hear(std::int64_t k, const std::vector<SensorOutput>& outs) {
     fresh[i] = corners_[i].in;
     fresh[i].has_command = fresh[i].has_echo = fresh[i].has_status = fresh[i].has_safe = false;
   }
-  bool alive = fw_.Alive();
+  const bool alive = fw_.Alive();
   const double wait_s = awaiting_start_ ? o_.startup_timeout_s : o_.command_timeout_s;
   const std::int64_t until = common::MonotonicNs() + static_cast<std::int64_t>(wait_s * 1e9);
   std::int64_t next_check = common::MonotonicNs() + 2'000'000;
