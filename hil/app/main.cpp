@@ -285,7 +285,10 @@ int ReportRun(const mrd::hil::Scenario& s, const mrd::hil::RunResult& r, const s
   } else {
     std::cout << mrd::hil::SummaryText(s, r) << "  ran on: table " << table << ", plant "
               << mrd::hil::PlantLabel(s) << "\n";
-    if (!out.empty())
+    if (!out.empty() && r.corners) {
+      std::cout << "  files: " << out
+                << "/summary.json, corners.csv, firmware.toml, firmware.mrdlog (channel 0)\n";
+    } else if (!out.empty())
       std::cout
           << "  files: " << out
           << "/summary.json, trace.csv, firmware.toml, firmware.mrdlog, tracking.png, command.png"

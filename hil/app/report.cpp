@@ -45,6 +45,68 @@ std::string GnuplotWarning(int rc, const std::string& dir) {
                 : "gnuplot failed (see " + dir + "/gnuplot.log): plots incomplete";
 }
 
+// A four-corner run (corners_run.hpp): the full car's ride, each corner, each fault per corner.
+nlohmann::json CornersJson(const CornersResult& c) {
+  const FullCarRidePoint& p = c.ride;
+  nlohmann::json j = {{"fault_policy", c.fault_policy},
+                      {"body_law", c.body_law},
+                      {"commands_fnv1a", c.commands_fnv1a},
+                      {"grants", c.grants},
+                      {"ride",
+                       {{"settle_s", c.settle_s},
+                        {"samples", p.samples},
+                        {"body_accel_rms", p.body_accel_rms},
+                        {"body_accel_wk_rms", p.body_accel_wk_rms},
+                        {"pitch_rate_rms", p.pitch_rate_rms},
+                        {"roll_rate_rms", p.roll_rate_rms},
+                        {"tyre_load_rms_n", p.tyre_load_rms_n},
+                        {"worst_tyre_load_rms_n", p.worst_tyre_load_rms_n()},
+                        {"lift_off", p.lift_off},
+                        {"mean_volts_front", p.volts_front},
+                        {"mean_volts_rear", p.volts_rear}}}};
+  nlohmann::json corners = nlohmann::json::array();
+  for (const CornerFigures& f : c.corners) {
+    corners.push_back({{"name", f.name},
+                       {"profile", f.profile},
+                       {"commands", f.commands},
+                       {"safe_commands", f.safe_commands},
+                       {"driven_steps", f.driven_steps},
+                       {"invariant_violations", f.invariant_violations},
+                       {"command_timeouts", f.command_timeouts},
+                       {"heartbeat_timeouts", f.heartbeat_timeouts},
+                       {"mean_command_v", f.mean_command_v},
+                       {"published", f.port.published},
+                       {"received", f.port.received},
+                       {"rejected", f.port.rejected}});
+  }
+  j["per_corner"] = corners;
+  nlohmann::json faults = nlohmann::json::array();
+  for (const CornerFaultResult& f : c.faults) {
+    nlohmann::json per = nlohmann::json::array();
+    for (const CornerFaultResult::PerCorner& pc : f.corners) {
+      per.push_back({{"periods_to_safe_state", Opt(pc.safe)},
+                     {"detection_to_safe_periods", f.detection && pc.safe
+                                                       ? nlohmann::json(*pc.safe - *f.detection)
+                                                       : nlohmann::json(nullptr)},
+                     {"safe_steps", pc.safe_steps},
+                     {"commanding_steps", pc.commanding_steps},
+                     {"periods_to_recovery", Opt(pc.recovery)}});
+    }
+    faults.push_back({{"kind", FaultKindName(f.fault.kind)},
+                      {"corner", f.fault.corner},
+                      {"at_s", f.fault.at_s},
+                      {"duration_s", f.fault.duration_s},
+                      {"onset_step", f.onset_step},
+                      {"clear_step", f.clear_step},
+                      {"periods_to_detection", Opt(f.detection)},
+                      {"per_corner", per},
+                      {"ok", f.ok},
+                      {"why", f.why}});
+  }
+  j["faults"] = faults;
+  return j;
+}
+
 nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
   nlohmann::json j;
   j["scenario"] = s.name.empty() ? s.path : s.name;
@@ -110,6 +172,7 @@ nlohmann::json SummaryJson(const Scenario& s, const RunResult& r) {
                       {"passive_on", fig(r.structure->passive_on)}};
   }
   if (r.passive) j["passive"] = PassiveJson(*r.passive, s.e_max);
+  if (r.corners) j["corners"] = CornersJson(*r.corners);
   if (s.plant_model != nullptr) {
     const PlantModel& pm = *s.plant_model;
     j["plant_model"] = {{"file", pm.file},
@@ -168,7 +231,24 @@ std::string SummaryText(const Scenario& s, const RunResult& r) {
     o << "  replay: plant force vs measured f over " << r.replay->samples << " steps: fit "
       << r.replay->fit_percent << " %, RMSE " << r.replay->rmse_n << " N\n";
   }
-  if ((!r.ride || s.law == "force") && s.law != "open-loop" && !r.structure) {
+  if (r.corners) {
+    const CornersResult& c = *r.corners;
+    const FullCarRidePoint& p = c.ride;
+    o << "  four corners (" << c.body_law << ", fault policy " << c.fault_policy
+      << "): body accel RMS " << p.body_accel_rms << " m/s^2 (Wk " << p.body_accel_wk_rms
+      << "), pitch " << p.pitch_rate_rms << " rad/s, roll " << p.roll_rate_rms
+      << " rad/s, worst tyre load " << p.worst_tyre_load_rms_n() << " N; commands "
+      << c.commands_fnv1a << "\n";
+    for (const CornerFigures& f : c.corners) {
+      o << "    " << f.name << ": " << f.commands << " commands (" << f.safe_commands
+        << " safe), mean " << f.mean_command_v << " V\n";
+    }
+    for (const CornerFaultResult& f : c.faults) {
+      o << "    fault " << FaultKindName(f.fault.kind) << " on "
+        << (f.fault.corner < 0 ? std::string("every corner") : c.corners[f.fault.corner].name)
+        << ": " << (f.ok ? "ok" : "FAILED: " + f.why) << "\n";
+    }
+  } else if ((!r.ride || s.law == "force") && s.law != "open-loop" && !r.structure) {
     // n/a: nothing to normalise by (no step, or a zero demand).
     const auto all = [&](double v) { return t.all_scored ? Num(v) : std::string("n/a"); };
     const auto reach = [&](double v) { return t.reachable_scored ? Num(v) : std::string("n/a"); };
@@ -306,6 +386,26 @@ bool WriteOutputs(const std::string& dir, const nlohmann::json& summary, const R
     }
     if (!f) {
       *error = dir + "/trace.csv: cannot write";
+      return false;
+    }
+  }
+  if (r.corners) {  // a four-corner run: its periods (trace.csv has the header only)
+    std::ofstream f(dir + "/corners.csv");
+    f << "t,heave_accel,pitch_rate,roll_rate";
+    for (const char* c : {"fl", "fr", "rl", "rr"}) {
+      f << ",command_" << c << ",applied_" << c << ",safe_" << c << ",causes_" << c;
+    }
+    f << '\n';
+    f.precision(9);
+    for (const CornerStep& k : r.corners->trace) {
+      f << k.t << ',' << k.heave_accel << ',' << k.pitch_rate << ',' << k.roll_rate;
+      for (std::size_t i = 0; i < 4; ++i) {
+        f << ',' << k.command[i] << ',' << k.applied[i] << ',' << k.safe[i] << ',' << k.causes[i];
+      }
+      f << '\n';
+    }
+    if (!f) {
+      *error = dir + "/corners.csv: cannot write";
       return false;
     }
   }

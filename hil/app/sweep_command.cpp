@@ -103,6 +103,13 @@ int SweepCommand(const std::string& scenario_path, const std::vector<std::string
       std::fprintf(stderr, "error: %s\n", error.c_str());
       return 2;
     }
+    if (scenarios[i].channels.any()) {  // its figures are the full car's, not the sweep's
+      std::fprintf(stderr,
+                   "error: %s: four corners ([channels]) run in mrd-hil run only (the full "
+                   "car's study: mrd-hil study)\n",
+                   scenario_path.c_str());
+      return 2;
+    }
   }
   if (access(o.firmware.c_str(), X_OK) != 0) {
     std::fprintf(stderr, "error: %s: not an executable (give --firmware PATH)\n",

@@ -13,6 +13,7 @@
 #include "mrd/firmware/platform/config.hpp"
 #include "mrd/hil/plants/plant.hpp"
 #include "mrd/hil/run/run.hpp"
+#include "mrd/profile/can_profile.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -163,6 +164,62 @@ TEST(ScenarioTest, FullCarReadsItsKeysAndRefusesBadOnes) {
   }
 }
 
+// [channels]: the shipped four-corner scenario, and each refusal naming its file.
+TEST(ScenarioTest, ChannelsReadFourCornersAndRefuseBadOnes) {
+  Scenario s;
+  std::string error;
+  ASSERT_TRUE(LoadScenario(MRD_SOURCE_DIR "/hil/scenarios/full-car-can-corners.toml", &s, &error))
+      << error;
+  ASSERT_TRUE(s.full_car);
+  ASSERT_EQ(s.channels.can_profiles.size(), 4U);
+  const char* corners[4] = {"fl", "fr", "rl", "rr"};
+  for (int i = 0; i < 4; ++i) {
+    const std::string& p = s.channels.can_profiles[static_cast<std::size_t>(i)];
+    EXPECT_EQ(p.front(), '/') << "absolute: " << p;
+    EXPECT_NE(p.find(std::string("canopen-corner-") + corners[i] + ".toml"), std::string::npos);
+  }
+  EXPECT_EQ(s.channels.fault_policy, "all");
+  EXPECT_EQ(s.channels.body_law, "modal-skyhook");
+  ASSERT_EQ(s.faults.size(), 1U);
+  EXPECT_EQ(s.faults[0].corner, 2);
+
+  const std::string prof = MRD_SOURCE_DIR "/firmware/profiles/canopen-corner-";
+  const std::string four = "can_profiles = [\"" + prof + "fl.toml\", \"" + prof + "fr.toml\", \"" +
+                           prof + "rl.toml\", \"" + prof + "rr.toml\"]\n";
+  const std::string fc = "[plant]\nmodel = \"full-car\"\n";
+  const std::string skyhook = "[control]\nlaw = \"skyhook\"\n";
+  struct Case {
+    std::string text;
+    const char* reason;
+  } cases[] = {
+      {"[channels]\n" + four, "[channels] needs [plant] model = \"full-car\""},
+      {fc + skyhook + "[channels]\ncan_profiles = [\"" + prof + "fl.toml\"]\n",
+       "can_profiles must name 4"},
+      {fc + skyhook + "[channels]\ncan_profiles = [\"a\", \"b\", \"c\", \"d\"]\n", "not a file"},
+      {fc + skyhook + "[channels]\n" + four + "fault_policy = \"some\"\n",
+       "fault_policy must be \"all\" or \"channel\""},
+      {fc + skyhook + "[channels]\n" + four + "body_law = \"x\"\n",
+       "body_law must be \"none\" or \"modal-skyhook\""},
+      {fc + skyhook + "[channels]\n" + four + "body_law = \"modal-skyhook\"\n",
+       "needs [control] law = \"force\""},
+      {fc + "[channels]\n" + four, "four corners run law skyhook"},
+      {fc + skyhook + "[channels]\n" + four + "heave_n_s_per_m = 1\n",
+       "gains need body_law = \"modal-skyhook\""},
+      {fc + skyhook + "[channels]\n" + four + "[[fault]]\nkind = \"kill_firmware\"\nat_s = 1\n",
+       "fault kind 'kill_firmware' is not played on four corners"},
+      {fc + skyhook + "[channels]\n" + four + "[[fault]]\nkind = \"drop\"\ncorner = 4\n",
+       "'corner' must be an integer in [0, 3]"},
+      {fc + "[[fault]]\nkind = \"drop\"\nat_s = 1\n", "takes faults only over CAN with [channels]"},
+      {"[[fault]]\nkind = \"drop\"\ncorner = 1\nat_s = 1\n", "a fault's 'corner' needs [channels]"},
+  };
+  for (const Case& c : cases) {
+    const auto path = Write("bad.toml", c.text);
+    EXPECT_FALSE(LoadScenario(path, &s, &error)) << c.text;
+    EXPECT_EQ(error.rfind(path + ":", 0), 0U) << c.text << " -> " << error;
+    EXPECT_NE(error.find(c.reason), std::string::npos) << c.text << " -> " << error;
+  }
+}
+
 TEST(TraceTest, ReadsAGeneratedDataSetAndRefusesBadRows) {
   Trace t;
   std::string error;
@@ -241,6 +298,44 @@ TEST(FirmwareConfigTest, GeneratedConfigsParse) {
       EXPECT_EQ(cfg.io.can.lockstep, c.lockstep);
       EXPECT_EQ(cfg.io.can.enabled, std::string(c.transport) == "can");
       EXPECT_EQ(cfg.io.modbus.enabled, std::string(c.transport) != "can");
+    }
+  }
+}
+
+// A four-corner run's configuration: four channels on one lockstep [can] bus, each with its
+// corner's profile, the policy and the modal skyhook on the car's geometry; per-corner
+// skyhook without a body law.
+TEST(FirmwareConfigTest, CornersConfigGivesFourChannelsOnOneBus) {
+  Scenario s;
+  std::string error;
+  ASSERT_TRUE(LoadScenario(MRD_SOURCE_DIR "/hil/scenarios/full-car-can-corners.toml", &s, &error))
+      << error;
+  profile::CanProfile first;
+  ASSERT_TRUE(profile::LoadCanProfile(s.channels.can_profiles[0], &first, &error)) << error;
+  for (const bool modal : {true, false}) {
+    if (!modal) {
+      s.channels.body_law = "none";
+      s.channels.fault_policy = "channel";
+      s.law = "skyhook";
+    }
+    const std::string text = CornersConfigText(s, "/tmp/bus.sock", first);
+    firmware::platform::FirmwareConfig cfg;
+    ASSERT_TRUE(firmware::platform::ParseConfig(text, "gen.toml", &cfg, &error)) << error << "\n"
+                                                                                 << text;
+    EXPECT_EQ(cfg.clock, firmware::platform::LoopClock::kGrant);
+    EXPECT_TRUE(cfg.io.can.enabled);
+    EXPECT_TRUE(cfg.io.can.lockstep);
+    const firmware::platform::ChannelsConfig& ch = cfg.channels;
+    EXPECT_EQ(ch.count, 4);
+    EXPECT_EQ(ch.can_profiles, s.channels.can_profiles);
+    EXPECT_EQ(ch.fault_policy,
+              modal ? firmware::FaultPolicy::kAll : firmware::FaultPolicy::kChannel);
+    EXPECT_EQ(ch.body_law, modal ? firmware::platform::BodyLawKind::kModalSkyhook
+                                 : firmware::platform::BodyLawKind::kNone);
+    if (modal) {
+      EXPECT_EQ(ch.geometry.cg_to_front_m, s.full.cg_to_front_m);
+      EXPECT_EQ(ch.geometry.cg_to_rear_m, s.full.cg_to_rear_m);
+      EXPECT_EQ(ch.geometry.motion_ratio, s.full.motion_ratio);
     }
   }
 }

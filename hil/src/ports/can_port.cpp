@@ -85,6 +85,14 @@ std::int64_t MinRaw(const protocol::SignalLayout& l) {
   return l.is_signed ? -(std::int64_t{1} << (l.length - 1)) : 0;
 }
 
+class CanPort;
+// The relay's one tap handed to several ports on it, in the order they were made (each keeps
+// the frames its profile listens to).
+struct TapFanOut {
+  std::vector<CanPort*> ports;
+  static void Tap(void* context, const void* frame, std::int64_t stamp_ns);
+};
+
 class CanPort final : public PlantPort {
  public:
   CanPort(std::string endpoint, std::shared_ptr<const pf::CanProfile> profile)
@@ -93,15 +101,48 @@ class CanPort final : public PlantPort {
         codec_(*profile_) {
     Index();
   }
-  // An in-process node of a relay this process runs (the harness owns the bus).
-  CanPort(canbus::LocalBusRelay& relay, std::shared_ptr<const pf::CanProfile> profile)
-      : relay_(&relay), profile_(ProfileOrNative(std::move(profile))), codec_(*profile_) {
+  // An in-process node of a relay this process runs (the harness owns the bus). fan: several
+  // ports on the relay (one per corner), its tap handed to each (nullptr: this port's alone).
+  CanPort(canbus::LocalBusRelay& relay, std::shared_ptr<const pf::CanProfile> profile,
+          std::shared_ptr<TapFanOut> fan = nullptr)
+      : relay_(&relay),
+        fan_(std::move(fan)),
+        profile_(ProfileOrNative(std::move(profile))),
+        codec_(*profile_) {
     Index();
-    relay.SetTap(&CanPort::Tap, this);
+    if (fan_ != nullptr) {
+      fan_->ports.push_back(this);
+      relay.SetTap(&TapFanOut::Tap, fan_.get());
+    } else {
+      relay.SetTap(&CanPort::Tap, this);
+    }
   }
   ~CanPort() override {
-    if (relay_ != nullptr) relay_->SetTap(nullptr, nullptr);
+    if (fan_ != nullptr) {
+      fan_->ports.erase(std::find(fan_->ports.begin(), fan_->ports.end(), this));
+      if (fan_->ports.empty()) relay_->SetTap(nullptr, nullptr);
+    } else if (relay_ != nullptr) {
+      relay_->SetTap(nullptr, nullptr);
+    }
     Close();
+  }
+
+  // Frames the relay's socket nodes sent, with their bus stamps (called from
+  // LocalBusRelay::Step; the fan-out calls every port's).
+  static void Tap(void* context, const void* frame, std::int64_t stamp_ns) {
+    auto* self = static_cast<CanPort*>(context);
+    if (!self->relay_open_) return;
+    can_frame f;
+    std::memcpy(&f, frame, sizeof f);
+    if (!self->Wanted(f)) return;
+    if (self->rx_count_ == self->rx_.size()) {
+      ++self->rejected_;  // overflow: as a full controller FIFO
+      return;
+    }
+    const std::size_t slot = (self->rx_head_ + self->rx_count_) % self->rx_.size();
+    self->rx_[slot].frame = f;
+    self->rx_[slot].stamp = stamp_ns;
+    ++self->rx_count_;
   }
 
   const char* name() const override { return "can"; }
@@ -381,24 +422,6 @@ class CanPort final : public PlantPort {
     return canbus::CanResult::kOk;
   }
 
-  // Frames the relay's socket nodes sent, with their bus stamps (called from
-  // LocalBusRelay::Step).
-  static void Tap(void* context, const void* frame, std::int64_t stamp_ns) {
-    auto* self = static_cast<CanPort*>(context);
-    if (!self->relay_open_) return;
-    can_frame f;
-    std::memcpy(&f, frame, sizeof f);
-    if (!self->Wanted(f)) return;
-    if (self->rx_count_ == self->rx_.size()) {
-      ++self->rejected_;  // overflow: as a full controller FIFO
-      return;
-    }
-    const std::size_t slot = (self->rx_head_ + self->rx_count_) % self->rx_.size();
-    self->rx_[slot].frame = f;
-    self->rx_[slot].stamp = stamp_ns;
-    ++self->rx_count_;
-  }
-
   void Reconnect(std::int64_t now) {
     if (relay_ != nullptr) return;
     if (relay_thread_.joinable() || !canbus::IsLocalBusPath(endpoint_) || now < next_reconnect_) {
@@ -623,6 +646,7 @@ class CanPort final : public PlantPort {
 
   std::string endpoint_;
   canbus::LocalBusRelay* relay_ = nullptr;  // in-process node of this relay (else a socket)
+  std::shared_ptr<TapFanOut> fan_;          // the relay's tap shared with other ports
   bool relay_open_ = false;
   bool lockstep_ = false;
   struct Rx {
@@ -665,7 +689,26 @@ class CanPort final : public PlantPort {
   std::uint64_t published_ = 0, received_ = 0, rejected_ = 0;
 };
 
+void TapFanOut::Tap(void* context, const void* frame, std::int64_t stamp_ns) {
+  for (CanPort* p : static_cast<TapFanOut*>(context)->ports) CanPort::Tap(p, frame, stamp_ns);
+}
+
 }  // namespace
+
+std::vector<std::unique_ptr<PlantPort>> MakeCanPortsOnRelay(
+    canbus::LocalBusRelay& relay,
+    const std::vector<std::shared_ptr<const profile::CanProfile>>& profiles) {
+  auto fan = std::make_shared<TapFanOut>();
+  std::vector<std::unique_ptr<PlantPort>> ports;
+  for (const auto& p : profiles) ports.push_back(std::make_unique<CanPort>(relay, p, fan));
+  return ports;
+}
+
+void PublishTick(const std::vector<PlantPort*>& ports, const std::vector<SensorOutput>& outs,
+                 std::int64_t grant_ns) {
+  for (std::size_t i = 0; i < ports.size() && i < outs.size(); ++i) ports[i]->Publish(outs[i]);
+  if (!ports.empty()) ports.front()->SendGrant(grant_ns);
+}
 
 std::unique_ptr<PlantPort> MakeCanPort(const std::string& endpoint,
                                        std::shared_ptr<const profile::CanProfile> profile) {

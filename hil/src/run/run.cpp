@@ -2,6 +2,7 @@
 // step, teardown). Scores and fault figures: run_scores.cpp.
 #include "mrd/hil/run/run.hpp"
 
+#include "corners_run.hpp"
 #include "mrd/common/lockstep_sched.hpp"
 #include "run_session.hpp"
 
@@ -9,6 +10,10 @@ namespace mrd::hil {
 
 int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* r,
                 std::string* error) {
+  // A full car with [channels]: four corners of one firmware over CAN (corners_run.hpp).
+  if (scenario.full_car && scenario.channels.any()) {
+    return RunCorners(scenario, options, r, error);
+  }
   ScenarioRun run(scenario, options, r, error);
   if (const int rc = run.Validate(); rc != 0) return rc;
   // Lockstep: this thread and the firmware's loop hand each period back and forth

@@ -34,7 +34,9 @@ int ScenarioRun::ValidateOptions() {
   r_->transport = o.transport;
   r_->clock = !o.clock.empty() ? o.clock : "lockstep";
   if (s.full_car) {
-    *error_ = s.path + ": a full car ([plant] model = \"full-car\") runs in mrd-hil study only";
+    *error_ = s.path +
+              ": a full car ([plant] model = \"full-car\") runs in mrd-hil study, or in mrd-hil "
+              "run with [channels] (its four corners over CAN)";
     return 2;
   }
   if (!ParseTransport(o.transport, &transport_)) {

@@ -30,7 +30,7 @@ std::map<std::string, Setter> ScenarioReader::FullCarKeys() {
 }
 
 // model = "full-car": [full_car] and [road] (the road's class as the quarter car's); what the
-// study cannot run ([excitation], faults, [gpio]) refused here.
+// study cannot run ([excitation], [gpio], faults without [channels]) refused here.
 bool ScenarioReader::CheckFullCar() {
   Ctx& c = c_;
   s.full_car = model_ == "full-car";
@@ -55,9 +55,11 @@ bool ScenarioReader::CheckFullCar() {
   if (root_.contains("excitation")) {
     return c.Fail(at("excitation"), "a full car is excited by its [road], not [excitation]");
   }
-  if (root_.contains("fault") || root_.contains("gpio")) {
-    return c.Fail(at(root_.contains("fault") ? "fault" : "gpio"),
-                  "a full car runs in `mrd-hil study` only, without faults or [gpio]");
+  if (root_.contains("gpio")) return c.Fail(at("gpio"), "a full car has no [gpio] lines");
+  if (root_.contains("fault") && !root_.contains("channels")) {
+    return c.Fail(at("fault"),
+                  "a full car takes faults only over CAN with [channels] (`mrd-hil study` runs "
+                  "none)");
   }
   if (s.ride_settle_s >= s.duration_s) {
     return c.Fail(at("full_car.settle_s"), "settle_s must be shorter than duration_s");

@@ -25,7 +25,7 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 displacements, drifts, accelerations and the damper force scored next to
                 passive-off and -on; docs/structure.md) |
                 "full-car" (the 7-DOF car, the damper at each corner, on two [road] tracks;
-                run by `mrd-hil study` only; docs/study.md)
+                run by `mrd-hil study`, and by `mrd-hil run` with [channels]; docs/study.md)
   [plant.spencer] c0a c0b k0 c1a c1b k1 x0 alpha_a alpha_b gamma beta A n eta: overrides
                 of single damper parameters on top of preset or params (damper and quarter car)
   [quarter_car] sprung_mass_kg (300), unsprung_mass_kg (40), spring_n_per_m (20000),
@@ -43,6 +43,13 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 coherence (0.5: left / right track correlation in [0, 1]; the rear wheels
                 on the front's tracks a wheelbase later), settle_s (2), passive_step_v (0.05:
                 all four at one voltage), pair_step_v (0.25: front / rear grid, <= 100 steps)
+  [channels]    full car in `mrd-hil run`: one firmware drives the four corners over one CAN
+                bus in lockstep; can_profiles (required: 4 CAN device profiles, front-left,
+                front-right, rear-left, rear-right, relative to the scenario), fault_policy
+                ("all" | "channel"), body_law ("none" | "modal-skyhook": [control] law =
+                "force"; else law skyhook, passive-off, passive-on or constant per corner),
+                heave_n_s_per_m, pitch_n_m_s_per_rad, roll_n_m_s_per_rad (modal gains;
+                default: the firmware's)
   [structure]   record (required: a `t_s,ag_g` CSV of ground acceleration [g], e.g.
                 ../data/el_centro_1940_ns.csv, relative to the scenario), time_scale (5: played
                 this many times faster), amplitude (1: factor on the record); after the
@@ -99,7 +106,9 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 driver_fault (the driver reports a fault: driver_faults, the Modbus
                 driver-fault bit) | enable_refused (Modbus profiles: the driver answers
                 writes of its enable with exception 0x04);
-                at_s (onset), duration_s (0: to the end), delay_periods (delay, 10)
+                at_s (onset), duration_s (0: to the end), delay_periods (delay, 10),
+                corner ([channels]: 0 front-left .. 3 rear-right; default every corner;
+                drop, corrupt, stall, out_of_range, nan, drive_heartbeat_loss, driver_fault)
 )";
 
 }  // namespace

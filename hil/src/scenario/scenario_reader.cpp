@@ -33,7 +33,8 @@ bool ScenarioReader::Read() {
   if (!ReadKeys()) return false;
   s.heartbeat_timeout_s = hb_ms_ * 1e-3;
   return CheckPlantFiles() && CheckStructure() && CheckNarx() && CheckQuarterCar() &&
-         CheckFullCar() && CheckExcitation() && CheckControl() && CheckPass() && CheckFaults();
+         CheckFullCar() && CheckChannels() && CheckExcitation() && CheckControl() && CheckPass() &&
+         CheckFaults();
 }
 
 // The keys of a [section]; false: not a section.
@@ -56,6 +57,8 @@ bool ScenarioReader::SectionKeys(const std::string& key, std::map<std::string, S
     *keys = RoadKeys();
   else if (key == "gpio")
     *keys = GpioKeys();
+  else if (key == "channels")
+    *keys = ChannelsKeys();
   else if (key == "structure")
     *keys = StructureKeys();
   else
@@ -111,7 +114,8 @@ bool ScenarioReader::ReadFaults(const toml::node& v) {
         {"kind", Str(&kind, "kind")},
         {"at_s", Num(&f.at_s, 0.0, 1e6, "at_s")},
         {"duration_s", Num(&f.duration_s, 0.0, 1e6, "duration_s")},
-        {"delay_periods", Int(&f.delay_periods, 1, 100000, "delay_periods")}};
+        {"delay_periods", Int(&f.delay_periods, 1, 100000, "delay_periods")},
+        {"corner", Int(&f.corner, 0, 3, "corner")}};
     if (!ApplyTable(*t, fk, " in [[fault]]", c)) return false;
     if (kind.empty()) return c.Fail(e, "[[fault]] needs 'kind'");
     if (!ParseFaultKind(kind, &f.kind)) {

@@ -80,6 +80,7 @@ class ScenarioReader {
   std::map<std::string, Setter> StructureKeys();
   std::map<std::string, Setter> QuarterCarKeys();
   std::map<std::string, Setter> FullCarKeys();
+  std::map<std::string, Setter> ChannelsKeys();
   std::map<std::string, Setter> RoadKeys();
   std::map<std::string, Setter> ExcitationKeys();
   std::map<std::string, Setter> ControlKeys();
@@ -108,8 +109,12 @@ class ScenarioReader {
   bool CheckNarx();
   // model = "quarter-car": [quarter_car] and [road]; the quarter-car-only [pass] keys.
   bool CheckQuarterCar();
-  // model = "full-car": [full_car] and [road]; no [excitation], no faults or [gpio].
+  // model = "full-car": [full_car] and [road]; no [excitation], no faults or [gpio] (but
+  // per-corner faults with [channels]).
   bool CheckFullCar();
+  // [channels]: a full car, four CAN profiles (made absolute), the policy, the body law, the
+  // law the corners run and the faults they take (scenario_checks_channels.cpp).
+  bool CheckChannels();
   // [excitation] kind and what each kind needs.
   bool CheckExcitation();
   // [control] law and what each law needs (clipped-optimal: its gains file).
@@ -138,6 +143,9 @@ class ScenarioReader {
   std::shared_ptr<StructureSetup> structure_ = std::make_shared<StructureSetup>();
   std::string record_file_;
   double max_peak_force_ = -1.0;
+  // [channels] keys read before their checks.
+  std::vector<std::string> channel_profiles_;
+  double heave_ = -1.0, pitch_ = -1.0, roll_ = -1.0;
 };
 
 }  // namespace mrd::hil::scenario_reader

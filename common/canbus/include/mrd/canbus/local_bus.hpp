@@ -70,7 +70,9 @@ class LocalBusRelay {
   // in one sendmmsg, so a node asleep on its socket wakes once for a step's frames instead of
   // once per frame. A full queue (kHeldFrames) and Step hand the queue on at once. What each
   // node receives, in what order and with what stamps, is the same as without batching.
-  static constexpr std::size_t kHeldFrames = 16;
+  // 32: a tick of four vehicle corners (two sensor frames, a drive heartbeat and a drive
+  // status each) and the grant fit one batch.
+  static constexpr std::size_t kHeldFrames = 32;
   void Hold() { held_ = true; }
   void Release() {
     Flush();

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "mrd/sim/damper_plant.hpp"
 
@@ -141,5 +142,17 @@ std::unique_ptr<PlantPort> MakeGpioPort(const std::string& endpoint);
 // relay. The relay outlives the port.
 std::unique_ptr<PlantPort> MakeCanPortOnRelay(
     canbus::LocalBusRelay& relay, std::shared_ptr<const profile::CanProfile> profile = nullptr);
+// Several such ports on one relay, one per profile (the corners of a vehicle, each playing its
+// corner's drive and sensors): the relay's one tap is handed to every port, each keeping the
+// frames its profile listens to (its command, status, the firmware's heartbeat, its drive's
+// NMT and SDO). Do not make another port on the relay while these live.
+std::vector<std::unique_ptr<PlantPort>> MakeCanPortsOnRelay(
+    canbus::LocalBusRelay& relay,
+    const std::vector<std::shared_ptr<const profile::CanProfile>>& profiles);
+// Lockstep, one tick of several ports on one relay: each port's sensors (outs[i] on ports[i];
+// the relay holds them), then ONE grant of grant_ns through the first port (releasing the
+// tick's frames in one batch).
+void PublishTick(const std::vector<PlantPort*>& ports, const std::vector<SensorOutput>& outs,
+                 std::int64_t grant_ns);
 
 }  // namespace mrd::hil

@@ -27,12 +27,14 @@
 // coil dropped by the driver) and to recovery after the fault clears (first non-safe, driven
 // command).
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "mrd/hil/plants/full_car_ride.hpp"
 #include "mrd/hil/plants/model_plant.hpp"
 #include "mrd/hil/plants/replay.hpp"
 #include "mrd/hil/plants/ride.hpp"
@@ -121,6 +123,48 @@ struct StepRecord {
   double command_age_ms = -1.0;
 };
 
+// A full car's four corners closed over CAN (a scenario with [channels]; corners_run.hpp).
+struct CornerFigures {
+  std::string name;     // front-left, front-right, rear-left, rear-right
+  std::string profile;  // its CAN device profile
+  std::uint64_t commands = 0, safe_commands = 0, driven_steps = 0;
+  std::uint64_t invariant_violations = 0, command_timeouts = 0, heartbeat_timeouts = 0;
+  double mean_command_v = 0.0;  // over the commands heard [V]
+  PortCounters port;
+};
+// One fault of the schedule as each corner lived it (periods counted from its onset; recovery
+// from its clearing).
+struct CornerFaultResult {
+  Fault fault;
+  std::int64_t onset_step = 0, clear_step = 0;
+  std::optional<std::int64_t> detection;  // the first status of a hit corner naming a cause
+  struct PerCorner {
+    std::optional<std::int64_t> safe;      // the first safe command
+    std::optional<std::int64_t> recovery;  // the first driven, non-safe command after clearing
+    std::uint64_t safe_steps = 0;          // safe commands from onset to clearing
+    std::uint64_t commanding_steps = 0;    // driven, non-safe commands from onset to clearing
+  };
+  std::array<PerCorner, 4> corners;
+  bool ok = true;
+  std::string why;
+};
+struct CornerStep {  // one period of corners.csv
+  double t = 0.0, heave_accel = 0.0, pitch_rate = 0.0, roll_rate = 0.0;
+  std::array<double, 4> command{}, applied{};
+  std::array<bool, 4> safe{};
+  std::array<std::uint16_t, 4> causes{};
+};
+struct CornersResult {
+  std::string fault_policy, body_law;
+  FullCarRidePoint ride;  // after the settle time; volts_*: the mean applied voltages
+  double settle_s = 0.0;
+  std::string commands_fnv1a;  // FNV-1a 64 of every period's four commands and applied volts
+  std::array<CornerFigures, 4> corners;
+  std::vector<CornerFaultResult> faults;
+  std::uint64_t grants = 0;  // TimeGrant frames of the periods (start-up repeats apart)
+  std::vector<CornerStep> trace;
+};
+
 struct RunResult {
   std::string clock;  // lockstep | realtime
   std::string transport;
@@ -139,6 +183,7 @@ struct RunResult {
                                              // ComputePassiveBaseline, not by RunScenario)
   std::optional<ReplayScores> replay;        // replay scenarios: plant force vs measured f
   std::optional<PlantHolds> plant_holds;     // [plant] model = "narx": envelope holds
+  std::optional<CornersResult> corners;      // a full car with [channels]: its four corners
   std::vector<FaultResult> faults;
   int firmware_exit = -1;     // -1: still running / not started by us
   int interrupted = 0;        // the signal that stopped the run (RunOptions::interrupt)
@@ -176,6 +221,11 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
 // modbus_profile: the same for Modbus ([modbus] profile; nullptr: the built-in map).
 // pwm_sysfs: non-empty for a profile with a [pwm] section: the command leaves CAN for a
 // [pwm] section on that sysfs-ABI tree (chip 0, channel 0; the profile is [can]'s).
+// A full car with [channels]: one firmware, four channels, one CAN section on the local bus
+// at endpoint, each channel's profile from s.channels, lockstep.
+std::string CornersConfigText(const Scenario& s, const std::string& endpoint,
+                              const profile::CanProfile& first);
+
 std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
                                const std::string& endpoint, const std::string& gpio_chip = "",
                                const profile::CanProfile* can_profile = nullptr,

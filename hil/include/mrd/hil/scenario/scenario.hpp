@@ -40,6 +40,8 @@ struct Fault {
   double at_s = 0.0;        // onset (plant time)
   double duration_s = 0.0;  // 0: until the end (kill_firmware: no restart)
   int delay_periods = 10;   // kDelay
+  int corner = -1;          // [channels] runs: the corner it hits (0 front-left .. 3 rear-right;
+                            // -1: every corner)
   int line = 0;             // in the scenario file
 };
 
@@ -59,6 +61,19 @@ struct ScenarioGpio {
 // kProfile: a reference profile of `mrd generate` (mrd/sim/reference_profiles.hpp), generated
 // by the harness: motion x, v and the demand (the preset damper's force on it).
 enum class ExcitationKind : std::uint8_t { kPeriodic, kCsv, kProfile, kReplay };
+
+// [channels] of a full car: one damper channel per corner of one firmware over one CAN bus
+// (`mrd-hil run` then closes the four corners in lockstep: corners_run.hpp).
+struct ScenarioChannels {
+  // One CAN device profile per corner (front-left, front-right, rear-left, rear-right),
+  // absolute; empty: no [channels] (the full car runs in `mrd-hil study` only).
+  std::vector<std::string> can_profiles;
+  std::string fault_policy = "all";  // all | channel (the firmware's [channels] fault_policy)
+  std::string body_law = "none";     // none | modal-skyhook (the firmware's [channels] body_law)
+  // modal-skyhook gains; unset: the firmware's defaults.
+  std::optional<double> heave_n_s_per_m, pitch_n_m_s_per_rad, roll_n_m_s_per_rad;
+  bool any() const { return !can_profiles.empty(); }
+};
 
 struct PlantModel;      // model_plant.hpp: an identified NARX model playing the damper
 struct StructureSetup;  // structure_plant.hpp: the three-story frame and its ground motion
@@ -81,10 +96,12 @@ struct Scenario {
   QuarterCarParams car;
   RoadParams road;
   // model = "full-car": the 7-DOF car (full_car.hpp) with the damper at each corner on two
-  // ISO 8608 tracks ([full_car], [road]); run by `mrd-hil study` only. Speed, settle time and
+  // ISO 8608 tracks ([full_car], [road]); run by `mrd-hil study`, and by `mrd-hil run` with
+  // [channels] (four corners of one firmware over CAN). Speed, settle time and
   // passive step share the quarter car's fields (car.speed_m_s, ride_settle_s, passive_step_v).
   bool full_car = false;
   FullCarParams full;
+  ScenarioChannels channels;
   double road_coherence = 0.5;   // left / right track correlation rho in [0, 1]
   double pair_step_v = 0.25;     // front / rear passive grid step [V]
   double ride_settle_s = 2.0;    // quarter car: ride figures scored after this [s]

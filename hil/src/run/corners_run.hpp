@@ -1,0 +1,105 @@
+#pragma once
+// `mrd-hil run` on a full car with [channels]: one firmware drives the four corners' dampers
+// over one CAN bus in lockstep (RunScenario dispatches here; ScenarioRun keeps the one-damper
+// runs). The harness owns the local bus (its relay inline, as ScenarioRun's) and plays on it,
+// per corner, the corner's CANopen drive and sensor node in the messages of the corner's
+// profile (MakeCanPortsOnRelay: one port per corner, the relay's tap fanned out to them).
+// Per 1 ms period k:
+//   faults   the schedule's faults active at k, on their corner (or every corner)
+//   out      each corner's sensors from the full car (damper motion, body velocity over the
+//            corner, the damper force), then ONE TimeGrant of (k+1)·T, in one relay batch
+//            (PublishTick)
+//   in       waits, however long it takes, until every corner's command and status of the
+//            tick came; liveness as ScenarioRun (exit seen at once, silence ends the run)
+//   plant    each corner's simulated drive applies its set-point while enabled and the
+//            firmware's heartbeat is fresh; the full car steps with the four voltages
+// Scores: the full car's ride after the settle time (full_car_ride.hpp), per-corner counters,
+// per-fault and per-corner detection, safe state, recovery against the fault policy, and a
+// hash of every period's commands (determinism). Start-up: corners_run.cpp; the period:
+// corners_step.cpp.
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mrd/canbus/local_bus.hpp"
+#include "mrd/hil/plants/full_car_plant.hpp"
+#include "mrd/hil/run/child.hpp"
+#include "mrd/hil/run/run.hpp"
+#include "mrd/profile/can_profile.hpp"
+#include "run_session.hpp"
+
+namespace mrd::hil {
+
+// 0, 2 (bad input) or 1 (could not run), as RunScenario.
+int RunCorners(const Scenario& scenario, const RunOptions& options, RunResult* r,
+               std::string* error);
+
+// The fault hits this corner (0 .. 3): its own, or every corner's (corner -1).
+inline bool HitsCorner(const Fault& f, int corner) { return f.corner < 0 || f.corner == corner; }
+
+class CornersRun {
+ public:
+  CornersRun(const Scenario& scenario, const RunOptions& options, RunResult* r, std::string* error);
+  CornersRun(const CornersRun&) = delete;
+  CornersRun& operator=(const CornersRun&) = delete;
+
+  int Validate();  // options and profiles
+  int BringUp();   // plant, bus, ports, configuration, firmware
+  int Step(std::int64_t k);
+  std::int64_t steps() const { return steps_; }
+  int Teardown();
+
+ private:
+  // The simulated drive of one corner and what the harness counts of it.
+  struct Corner {
+    DriverInput in;
+    double set_point = 0.0;
+    bool safe = true, enable = false, carries_enable = false, driven = false;
+    bool heard = false;  // a command this period
+    std::uint16_t causes = 0;
+    std::uint64_t hb_count = 0;
+    std::int64_t hb_step = 0;
+    bool hb_fresh_prev = false;
+    double command_sum = 0.0;
+    CornerFigures fig;
+  };
+  int AwaitNodes();
+  int Hear(std::int64_t k, const std::vector<SensorOutput>& outs);
+  void Take(std::int64_t k, int i, const DriverInput& fresh);
+  double DriveVolts(std::int64_t k, int i);
+  void FollowFaults(std::int64_t k);
+  bool Pump(std::int64_t timeout_ns);
+  bool Spawn();
+  int Interrupted() const;
+  int EndRun(const std::string& why, int sig);
+  void StopFirmware();
+  void Hash(double v);
+
+  RunOptions o_;
+  Scenario s_;
+  RunResult* r_;
+  std::string* error_;
+  std::vector<std::shared_ptr<const profile::CanProfile>> profiles_;
+  std::unique_ptr<FullCarPlant> plant_;
+  std::unique_ptr<FullCarScorer> scorer_;
+  std::unique_ptr<CanLog> can_log_;  // --can-log
+  std::string endpoint_;
+  canbus::LocalBusRelay relay_;
+  std::vector<std::unique_ptr<PlantPort>> ports_;
+  std::vector<PlantPort*> port_ptrs_;
+  std::array<Corner, 4> corners_{};
+  Child fw_;
+  std::int64_t steps_ = 0;
+  std::int64_t hb_timeout_steps_ = 0;
+  bool awaiting_start_ = true;
+  std::int64_t offered_joined_ = -1;
+  std::uint64_t reoffers_ = 0;
+  std::uint64_t hash_ = 14695981039346656037ULL;  // FNV-1a 64 offset basis
+  std::int64_t wall0_ = 0;
+  CornersResult c_;
+};
+
+}  // namespace mrd::hil
