@@ -68,7 +68,7 @@ bool PlanModbusChannels(const std::vector<const ModbusProfile*>& channels, Modbu
   const ModbusProfile& first = *channels[0];
   for (std::size_t k = 1; k < channels.size(); ++k) {
     const ModbusProfile& p = *channels[k];
-    const char* key = p.swapped != first.swapped               ? "word_order"
+    const char* key = p.swapped != first.swapped                 ? "word_order"
                       : p.write_function != first.write_function ? "write_function"
                       : p.align32 != first.align32               ? "align32"
                       : p.max_read != first.max_read             ? "max_read"

@@ -20,9 +20,9 @@ namespace {
 namespace pf = mrd::profile;
 namespace mb = mrd::protocol::modbus;
 
-constexpr int kReadAttempts = 4;                               // seqlock attempts per Read
-constexpr std::int64_t kLockstepIdleNs = 20'000;               // the hand-over wait's poll
-constexpr std::int64_t kLockstepHandOverNs = 100'000'000;      // the worker writing a tick
+constexpr int kReadAttempts = 4;                           // seqlock attempts per Read
+constexpr std::int64_t kLockstepIdleNs = 20'000;           // the hand-over wait's poll
+constexpr std::int64_t kLockstepHandOverNs = 100'000'000;  // the worker writing a tick
 bool Retriable(IoError e) { return e == IoError::kTimeout || e == IoError::kCrc; }
 
 double WrapCounter(const pf::ModbusPoint& pt, std::uint64_t n) {
@@ -79,9 +79,8 @@ ModbusChannels::Outcome ModbusChannels::WriteChannel(std::size_t k, const Comman
     set(pf::ModbusOut::kEnable, routed(Output::kEnable) && enable && !safe ? 1.0 : 0.0);
     set(pf::ModbusOut::kSafe, safe ? 1.0 : 0.0);
     set(pf::ModbusOut::kEcho, CounterValue(p.Out(pf::ModbusOut::kEcho), c.echo));
-    set(pf::ModbusOut::kHeartbeat, routed(Output::kHeartbeat)
-                                       ? CounterValue(p.Out(pf::ModbusOut::kHeartbeat), c.tick)
-                                       : 0.0);
+    set(pf::ModbusOut::kHeartbeat,
+        routed(Output::kHeartbeat) ? CounterValue(p.Out(pf::ModbusOut::kHeartbeat), c.tick) : 0.0);
     const bool status = routed(Output::kStatus);
     set(pf::ModbusOut::kStatusSafe, status && safe ? 1.0 : 0.0);
     set(pf::ModbusOut::kStatusCauses,

@@ -450,8 +450,8 @@ ModbusChannels::Outcome ModbusChannels::ReadAll(Sample* s, bool* new_grant) {
   if (config_.lockstep) {
     if ((failed & 1U) != 0) return Outcome::kFailed;  // no grant this cycle
     const pf::ModbusPoint& gp = plan_.inputs[0][static_cast<std::size_t>(pf::CanIn::kGrant)];
-    const double g = pf::ModbusPointValue(*ch_[0].profile, gp,
-                                          replies_.get() + gp.request * mb::kMaxPdu);
+    const double g =
+        pf::ModbusPointValue(*ch_[0].profile, gp, replies_.get() + gp.request * mb::kMaxPdu);
     const auto grant = g > 0.0 && g < 9e12 ? static_cast<std::int64_t>(std::llround(g * 1e3)) : 0;
     *new_grant = grant > s->grant_ns;
     if (*new_grant) s->grant_ns = grant;
@@ -465,12 +465,16 @@ ModbusChannels::Outcome ModbusChannels::ReadAll(Sample* s, bool* new_grant) {
   }
   for (std::size_t k = 0; k < n_; ++k) {
     if ((failed & (1U << k)) != 0) continue;
+    // Lockstep: the reads between grants re-read the step's values (the harness stores a
+    // step with its grant): decoded (and a bad value counted) once per step and channel.
+    if (config_.lockstep && decoded_grant_[k] == s->grant_ns) continue;
+    decoded_grant_[k] = s->grant_ns;
     double values[pf::kNumCanIn] = {};
     for (std::size_t i = 0; i < pf::kNumCanIn; ++i) {
       const pf::ModbusPoint& pt = plan_.inputs[k][i];
       if (pt.mapped) {
-        values[i] = pf::ModbusPointValue(*ch_[k].profile, pt,
-                                         replies_.get() + pt.request * mb::kMaxPdu);
+        values[i] =
+            pf::ModbusPointValue(*ch_[k].profile, pt, replies_.get() + pt.request * mb::kMaxPdu);
       }
     }
     Decode(k, values, stamp, s);

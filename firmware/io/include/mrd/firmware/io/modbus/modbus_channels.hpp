@@ -169,9 +169,9 @@ class ModbusChannels final : public TimeGrantSource {
   std::string error_;  // why the maps cannot share the link (empty: they can)
   std::array<Channel, kMaxChannels> ch_;
   std::vector<std::unique_ptr<View>> views_;
-  std::unique_ptr<std::uint16_t[]> words_;         // worker: one write request's words
-  std::unique_ptr<std::uint8_t[]> replies_;        // worker: every read's reply (kMaxPdu each)
-  std::unique_ptr<std::int64_t[]> periodic_due_;   // worker: next time of each periodic write
+  std::unique_ptr<std::uint16_t[]> words_;        // worker: one write request's words
+  std::unique_ptr<std::uint8_t[]> replies_;       // worker: every read's reply (kMaxPdu each)
+  std::unique_ptr<std::int64_t[]> periodic_due_;  // worker: next time of each periodic write
   std::vector<const profile::ModbusFixedWrite*> startup_, periodic_;  // every channel's
   std::vector<std::uint32_t> startup_mask_, periodic_mask_;           // whose they are
   std::unique_ptr<ModbusLink> link_;
@@ -189,6 +189,7 @@ class ModbusChannels final : public TimeGrantSource {
 
   // Worker side.
   bool started_ = false;
+  std::array<std::int64_t, kMaxChannels> decoded_grant_{};  // lockstep: the step each decoded
   bool resync_ = false;
   std::int64_t unanswered_since_ns_ = 0;
   bool timed_out_ = false;
