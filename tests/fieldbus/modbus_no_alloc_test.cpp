@@ -13,10 +13,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <chrono>
-#include <cmath>
 #include <algorithm>
 #include <array>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <set>
 #include <thread>
@@ -183,8 +183,7 @@ void FourChannelViewsAllocateNothing(bool rtu) {
   ModbusChannels device(cfg, maps);
   ASSERT_TRUE(device.ok(&error)) << error;
   for (std::size_t k = 0; k < kN; ++k) {
-    ASSERT_TRUE(device.channel(k).Configure(&error) && device.channel(k).Activate(&error))
-        << error;
+    ASSERT_TRUE(device.channel(k).Configure(&error) && device.channel(k).Activate(&error)) << error;
   }
   std::set<pid_t> device_threads;
   for (const pid_t t : test::ProcessThreads()) {
