@@ -312,6 +312,17 @@ TEST(ModbusChannelsPlan, MapsWritingOneRegisterOrDifferingInLinkKeysAreRefused) 
   EXPECT_EQ(plan.reads[1].count, 4);  // the four fault words
   ModbusChannels device(LockstepTcp(1, kMs), {maps[0], maps[0]});
   EXPECT_FALSE(device.ok(&error));
+  // Nor does the harness serve them.
+  error.clear();
+  EXPECT_TRUE(
+      hil::MakeModbusProfilePorts(false, "127.0.0.1:1", {maps[0], maps[0]}, &error).empty());
+  EXPECT_NE(error.find("is written by channel 0"), std::string::npos) << error;
+  // Lockstep needs channel 0's grant.
+  auto no_grant = std::make_shared<profile::ModbusProfile>(*maps[0]);
+  no_grant->inputs[static_cast<std::size_t>(profile::CanIn::kGrant)].mapped = false;
+  ModbusChannels without(LockstepTcp(1, kMs), {no_grant, maps[1]});
+  EXPECT_FALSE(without.ok(&error));
+  EXPECT_NE(error.find("grant"), std::string::npos) << error;
 }
 
 }  // namespace
