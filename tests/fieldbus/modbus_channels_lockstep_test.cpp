@@ -6,8 +6,8 @@
 // its own sample (its echo is its own step's seq), the link must read all four corners in the
 // plan's two requests, and the commands of every step must be bit-identical on repeat and with
 // the firmware stopped 150 ms mid-run. A NaN in one corner's sensor block faults that channel's
-// read alone (FaultPolicy::kChannel: the other three keep driving). Over Modbus TCP and RTU (a
-// pseudo-terminal). Nothing is asserted on time.
+// read alone, a fault its driver reports that channel alone (FaultPolicy::kChannel: the other
+// three keep driving). Over Modbus TCP and RTU (a pseudo-terminal). Nothing is asserted on time.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -72,6 +72,8 @@ struct Options {
   int pause_at = -1;    // the loop's thread stops 150 ms after this step
   int nan_corner = -1;  // this corner's velocity register holds a NaN at step nan_step
   int nan_step = -1;
+  int fault_corner = -1;  // this corner's driver reports a fault at step fault_step
+  int fault_step = -1;
 };
 
 // The firmware stopped (as a SIGSTOP would) after one period.
@@ -160,6 +162,7 @@ void RunFourCorners(const Options& opt, RunResult* out) {
       if (static_cast<int>(k) == opt.nan_corner && n == opt.nan_step) {
         o.fault = hil::SensorFault::kNan;
       }
+      o.driver_fault = static_cast<int>(k) == opt.fault_corner && n == opt.fault_step;
       ports[k]->Publish(o);
     }
     ASSERT_TRUE(ports[0]->SendGrant(n * kPeriod));
@@ -266,12 +269,15 @@ TEST(ModbusChannelsLockstep, FourCornersOverRtuClosedAndBitIdentical) {
 
 // A NaN in the rear-left corner's velocity register: that channel's read alone fails
 // (bad_value, counted for it), its command of that step is the safe one, the other three
-// corners drive on.
-TEST(ModbusChannelsLockstep, ANanInOneCornersBlockFaultsThatChannelAlone) {
-  constexpr int kCorner = 2, kAt = 10;
+// corners drive on. Later the front-right corner's driver reports a fault (its own fault word):
+// that channel alone goes safe.
+TEST(ModbusChannelsLockstep, AFaultInOneCornersRegistersFaultsThatChannelAlone) {
+  constexpr int kCorner = 2, kAt = 10, kDriverCorner = 1, kDriverAt = 20;
   Options o;
   o.nan_corner = kCorner;
   o.nan_step = kAt;
+  o.fault_corner = kDriverCorner;
+  o.fault_step = kDriverAt;
   RunResult r;
   RunFourCorners(o, &r);
   if (testing::Test::HasFatalFailure()) return;
@@ -280,9 +286,11 @@ TEST(ModbusChannelsLockstep, ANanInOneCornersBlockFaultsThatChannelAlone) {
     EXPECT_EQ(r.counters[k].errors[bad], k == kCorner ? 1U : 0U) << kNames[k];
     EXPECT_EQ(r.counters[k].rx_ok, static_cast<std::uint64_t>(kSteps) - (k == kCorner ? 1 : 0))
         << kNames[k];
-    const Seen& s = r.steps[kAt - 1][k];
-    EXPECT_EQ(s.safe, k == kCorner) << kNames[k] << " at the NaN step";
+    EXPECT_EQ(r.steps[kAt - 1][k].safe, k == kCorner) << kNames[k] << " at the NaN step";
     EXPECT_FALSE(r.steps[kAt - 2][k].safe) << kNames[k] << " before it";
+    EXPECT_EQ(r.steps[kDriverAt - 1][k].safe, k == kDriverCorner)
+        << kNames[k] << " at the driver's fault";
+    EXPECT_FALSE(r.steps[kDriverAt - 2][k].safe) << kNames[k] << " before it";
   }
 }
 
