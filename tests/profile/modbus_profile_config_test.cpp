@@ -46,6 +46,19 @@ TEST(ModbusProfileConfigTest, AProfileRelativeToTheConfigurationIsLoaded) {
   EXPECT_EQ(plain.io.modbus.modbus_profile, nullptr);
 }
 
+// Each four-corner map is a valid one-channel profile on its own (as --check-config takes it).
+TEST(ModbusProfileConfigTest, EachCornerMapIsAOneChannelProfile) {
+  for (const char* c : {"fl", "fr", "rl", "rr"}) {
+    platform::FirmwareConfig cfg;
+    std::string error;
+    ASSERT_TRUE(Parse(std::string("profile = \"modbus-corner-") + c + ".toml\"\n" + kRouting, &cfg,
+                      &error, "clock = \"grant\"\n"))
+        << c << ": " << error;
+    ASSERT_NE(cfg.io.modbus.modbus_profile, nullptr);
+    EXPECT_EQ(cfg.io.modbus.modbus_profile->name, std::string("modbus-corner-") + c);
+  }
+}
+
 class TempProfile {
  public:
   explicit TempProfile(const std::string& text) {

@@ -31,6 +31,35 @@ void ExpectRefused(const std::string& text, int line, const std::string& why) {
 
 const std::string kHead = "name = \"t\"\n[modbus]\n";  // lines 1-2
 
+// The four-corner maps (several channels on one link, docs/devices.md): each loads as a
+// one-channel profile of its own; corner k's sensor block at unit 1 input 16 k, its set-point
+// block at unit 2 holding 16 k, its enable coil k, the one grant register all four name.
+TEST(ModbusProfile, ShippedCornerProfiles) {
+  const char* corners[] = {"fl", "fr", "rl", "rr"};
+  for (int k = 0; k < 4; ++k) {
+    ModbusProfile p;
+    std::string error;
+    const std::string name = std::string("modbus-corner-") + corners[k];
+    ASSERT_TRUE(LoadModbusProfile(kSource + "/firmware/profiles/" + name + ".toml", &p, &error))
+        << error;
+    EXPECT_EQ(p.name, name);
+    EXPECT_TRUE(p.swapped);
+    EXPECT_EQ(p.write_function, 16);
+    EXPECT_EQ(p.max_read, 125);
+    EXPECT_EQ(p.In(CanIn::kSensorSeq).address, 16 * k);
+    EXPECT_EQ(p.In(CanIn::kVelocity).address, 16 * k + 2);
+    EXPECT_EQ(p.In(CanIn::kDriverFaults).address, k);
+    EXPECT_EQ(p.In(CanIn::kGrant).address, 64);
+    EXPECT_EQ(p.Out(ModbusOut::kCommand).unit, 2);
+    EXPECT_EQ(p.Out(ModbusOut::kCommand).address, 16 * k);
+    EXPECT_EQ(p.Out(ModbusOut::kEnable).address, k);
+    // The enable coil, the live telemetry block, then the command's holding block last.
+    ASSERT_EQ(p.writes.size(), 3u);
+    EXPECT_EQ(p.writes[0].function, 0x0F);
+    EXPECT_EQ(p.writes[2].address, 16 * k);
+  }
+}
+
 TEST(ModbusProfile, ShippedFloat32Profile) {
   ModbusProfile p;
   std::string error;

@@ -9,9 +9,12 @@
 #include <cmath>
 #include <map>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "command_section.hpp"
 #include "file_text.hpp"
+#include "mrd/profile/modbus_channels.hpp"
 #include "profile_context.hpp"
 
 namespace mrd::profile {
@@ -154,13 +157,8 @@ bool Point(const ProfileContext& c, const toml::node& n, const std::string& full
 // Greedy left-to-right grouping (optimal for intervals on a line under a length cap): sorted
 // points of one unit and table join the open request while the gap to its end is at most
 // max_gap and the request stays within cap.
-template <std::size_t N>
-void Group(std::array<ModbusPoint, N>& points, int max_gap, int cap_registers, int cap_bits,
-           bool single, bool writes, std::vector<ModbusRequest>* out) {
-  std::vector<ModbusPoint*> sorted;
-  for (auto& pt : points) {
-    if (pt.mapped) sorted.push_back(&pt);
-  }
+void GroupPoints(std::vector<ModbusPoint*> sorted, int max_gap, int cap_registers, int cap_bits,
+                 bool single, bool writes, std::vector<ModbusRequest>* out) {
   std::sort(sorted.begin(), sorted.end(), [](const ModbusPoint* a, const ModbusPoint* b) {
     return std::tie(a->unit, a->table, a->address) < std::tie(b->unit, b->table, b->address);
   });
@@ -189,6 +187,16 @@ void Group(std::array<ModbusPoint, N>& points, int max_gap, int cap_registers, i
     pt->index = 0;
     out->push_back(r);
   }
+}
+
+template <std::size_t N>
+void Group(std::array<ModbusPoint, N>& points, int max_gap, int cap_registers, int cap_bits,
+           bool single, bool writes, std::vector<ModbusRequest>* out) {
+  std::vector<ModbusPoint*> sorted;
+  for (auto& pt : points) {
+    if (pt.mapped) sorted.push_back(&pt);
+  }
+  GroupPoints(std::move(sorted), max_gap, cap_registers, cap_bits, single, writes, out);
 }
 
 }  // namespace
@@ -530,6 +538,11 @@ bool ParseModbusProfile(const std::string& text, const std::string& path, Modbus
     return false;
   }
   return true;
+}
+
+void GroupModbusReads(const std::vector<ModbusPoint*>& points, int max_read,
+                      std::vector<ModbusRequest>* out) {
+  GroupPoints(points, ModbusProfile::kMaxGap, max_read, kMaxReadBits, false, false, out);
 }
 
 }  // namespace mrd::profile

@@ -136,6 +136,16 @@ std::unique_ptr<PlantPort> MakeModbusRtuPort(const std::string& endpoint);
 // (modbus_profile_port.cpp).
 std::unique_ptr<PlantPort> MakeModbusProfilePort(
     bool rtu, const std::string& endpoint, std::shared_ptr<const profile::ModbusProfile> profile);
+// Several damper channels' maps (profiles[k]: channel k's) served by one server on one
+// endpoint, as one sensor module and one driver with a block per channel: one port per
+// channel (its Publish, Poll and Wait are that channel's; Open and Close share the server: the
+// first opens it, the last closes it). Lockstep: publish every channel's step, then send the
+// grant through channel 0's port (its grant role; every channel's staged step goes into the
+// tables with it); the other ports' SendGrant does nothing. Empty with *error when the maps
+// cannot share one link (profile::PlanModbusChannels).
+std::vector<std::unique_ptr<PlantPort>> MakeModbusProfilePorts(
+    bool rtu, const std::string& endpoint,
+    std::vector<std::shared_ptr<const profile::ModbusProfile>> profiles, std::string* error);
 std::unique_ptr<PlantPort> MakeGpioPort(const std::string& endpoint);
 // CAN as an in-process node of a local-bus relay this process runs (mrd-hil run owns the bus):
 // frames go straight to the relay's socket nodes and come back through its tap; Wait steps the
