@@ -6,28 +6,9 @@
 #include <cstring>
 
 #include "corners_run.hpp"
+#include "run_internal.hpp"
 
 namespace mrd::hil {
-namespace {
-
-SensorFault SensorFaultOf(FaultKind k) {
-  switch (k) {
-    case FaultKind::kDrop:
-      return SensorFault::kDrop;
-    case FaultKind::kCorrupt:
-      return SensorFault::kCorrupt;
-    case FaultKind::kStall:
-      return SensorFault::kStall;
-    case FaultKind::kOutOfRange:
-      return SensorFault::kOutOfRange;
-    case FaultKind::kNan:
-      return SensorFault::kNan;
-    default:
-      return SensorFault::kNone;
-  }
-}
-
-}  // namespace
 
 int CornersRun::Step(std::int64_t k) {
   if (can_log_ != nullptr) can_log_->t_ns = k * kPeriodNs;

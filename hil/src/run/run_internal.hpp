@@ -1,11 +1,15 @@
 #pragma once
-// Between the scenario loop (run.cpp) and its scoring (run_scores.cpp).
+// Between the scenario loops (run.cpp, the four-corner run) and their shared parts (scoring in
+// run_scores.cpp, helpers in run_support.cpp).
 
 #include <vector>
 
 #include "mrd/hil/run/run.hpp"
 
 namespace mrd::hil {
+
+// The port's sensor fault for a scheduled fault of the scenario (kNone: not a sensor fault).
+SensorFault SensorFaultOf(FaultKind k);
 
 // Tracking scores and per-fault figures from r->trace.
 void ScoreRun(const Scenario& s, RunResult* r);

@@ -4,29 +4,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "run_internal.hpp"
 #include "run_session.hpp"
 
 namespace mrd::hil {
-namespace {
-
-SensorFault SensorFaultOf(FaultKind k) {
-  switch (k) {
-    case FaultKind::kDrop:
-      return SensorFault::kDrop;
-    case FaultKind::kCorrupt:
-      return SensorFault::kCorrupt;
-    case FaultKind::kStall:
-      return SensorFault::kStall;
-    case FaultKind::kOutOfRange:
-      return SensorFault::kOutOfRange;
-    case FaultKind::kNan:
-      return SensorFault::kNan;
-    default:
-      return SensorFault::kNone;
-  }
-}
-
-}  // namespace
 
 int ScenarioRun::Step(std::int64_t k) {
   can_log_.t_ns = lockstep_ ? k * kPeriodNs : -1;  // -1: stamp with CLOCK_MONOTONIC

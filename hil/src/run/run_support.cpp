@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "run_internal.hpp"
 #include "run_session.hpp"
 
 namespace mrd::hil {
@@ -155,6 +156,23 @@ std::vector<std::string> FirmwareArgv(const RunOptions& o, const std::string& co
     argv.push_back(d.str());
   }
   return argv;
+}
+
+SensorFault SensorFaultOf(FaultKind k) {
+  switch (k) {
+    case FaultKind::kDrop:
+      return SensorFault::kDrop;
+    case FaultKind::kCorrupt:
+      return SensorFault::kCorrupt;
+    case FaultKind::kStall:
+      return SensorFault::kStall;
+    case FaultKind::kOutOfRange:
+      return SensorFault::kOutOfRange;
+    case FaultKind::kNan:
+      return SensorFault::kNan;
+    default:
+      return SensorFault::kNone;
+  }
 }
 
 }  // namespace mrd::hil
