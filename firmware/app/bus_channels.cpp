@@ -2,10 +2,10 @@
 
 #include <cstdio>
 
+#include "channel_devices.hpp"
 #include "channel_models.hpp"
 #include "demo_table.hpp"
 #include "mrd/common/input_file.hpp"
-#include "mrd/firmware/io/devices.hpp"
 
 namespace mrd::firmware {
 namespace {
@@ -13,10 +13,6 @@ namespace {
 constexpr int kReady = -1;
 constexpr int kExitFailure = 1;
 constexpr int kExitBadInput = 2;
-
-// The devices' names in the summary: channel 0's is the one-channel name.
-constexpr const char* kDeviceNames[kMaxChannels] = {"can",  "can1", "can2", "can3",
-                                                    "can4", "can5", "can6", "can7"};
 
 }  // namespace
 
@@ -53,7 +49,10 @@ std::string BusChannels::MakeCorners() {
            " with it. Identify your dampers (docs/guide/identify.md) and give their tables in "
            "[channels] tables, or pass --allow-demo-table";
   }
-  const bool grant = cfg.clock == platform::LoopClock::kGrant;
+  std::vector<std::unique_ptr<BusDevice>> devices;
+  if (std::string why = MakeChannelDevices(cfg, run_.stop, &devices); !why.empty()) return why;
+  if (devices.size() != loaded.models.size()) return "[channels]: not one device per channel";
+  const ChannelBus bus = ChannelBusOf(cfg);
   for (std::size_t i = 0; i < loaded.models.size(); ++i) {
     auto c = std::make_unique<Corner>();
     if (!c->controller.Configure(loaded.models[i], cfg.controller).ok()) {
@@ -61,21 +60,12 @@ std::string BusChannels::MakeCorners() {
              ChannelTableName(cfg, run_.run_table_name, i);
     }
     if (c->controller.runtime().reads_displacement() &&
-        (cfg.io.can.inputs & Bit(Input::kDisplacement)) == 0) {
+        (bus.inputs & Bit(Input::kDisplacement)) == 0) {
       return "channel " + std::to_string(i) + ": the model of table " +
-             ChannelTableName(cfg, run_.run_table_name, i) +
-             " reads the displacement, but [can] does not serve input 'displacement'";
+             ChannelTableName(cfg, run_.run_table_name, i) + " reads the displacement, but [" +
+             bus.section + "] does not serve input 'displacement'";
     }
-    CanConfig can = cfg.io.can;
-    can.can_profile = cfg.channels.can_device_profiles[i];
-    can.profile = cfg.channels.can_profiles[i];
-    can.name = kDeviceNames[i];
-    can.node_frames = i == 0;              // one node, one heartbeat (and SYNC)
-    can.grant_follower = grant && i != 0;  // channel 0's device is the loop's clock
-    can.follower_wait_ns = cfg.grant_timeout_ns;
-    can.stop = run_.stop;
-    c->device = MakeCanDevice(can);
-    if (c->device == nullptr) return "can: bus driver not available in this build";
+    c->device = std::move(devices[i]);
     c->telemetry = i == 0 ? first_ : &rest_[i - 1];
     c->channel = std::make_unique<Channel>(c->io, c->io, c->controller, *c->telemetry);
     (void)c->io.Add(c->device.get());  // one device: within FieldbusIo::kMaxDevices
@@ -95,7 +85,7 @@ int BusChannels::Start() {
     BusDevice& d = *corners_[i]->device;
     if (!d.Configure(&error) || !d.Activate(&error)) {
       std::fprintf(stderr, "error: channel %zu (%s): %s\n", i,
-                   Printable(cfg.channels.can_profiles[i]).c_str(), error.c_str());
+                   Printable((*ChannelBusOf(cfg).profiles)[i]).c_str(), error.c_str());
       return kExitFailure;
     }
   }

@@ -1,14 +1,15 @@
 #pragma once
-// Several damper channels over one CAN bus ([channels] count > 1 with [can] and can_profiles):
-// each channel has its own CAN device (its profile of can_profiles, its own socket on the one
-// bus: a CAN_RAW socket on the interface, or a node of the local frame bus), its FieldbusIo,
-// controller (its table of [channels] tables, one model per distinct table: channel_models.hpp),
-// watchdog, counters and telemetry; all on one loop under the config's fault policy and body
-// law. Channel 0's device produces the firmware node's CANopen heartbeat and SYNC and, in
-// lockstep ([loop] clock = "grant"), is the loop's grant source; the others' devices follow:
-// each Read waits for its own socket to deliver the tick's grant (can_device.hpp). The caller
-// runs the loop (main.cpp's real-time thread); the per-period log records channel 0; runtime
-// parameters and reloads are not applied (the config refuses [ctl] with several channels).
+// Several damper channels over one bus ([channels] count > 1 with [can] and can_profiles, or
+// with [modbus] and modbus_profiles): each channel has its own device (channel_devices.hpp: a
+// CAN device with its profile on its own socket of the one bus, or its view of the one Modbus
+// link with its register map), its FieldbusIo, controller (its table of [channels] tables, one
+// model per distinct table: channel_models.hpp), watchdog, counters and telemetry; all on one
+// loop under the config's fault policy and body law. Channel 0's device is, in lockstep
+// ([loop] clock = "grant"), the loop's grant source (CAN: the others' devices follow, each
+// Read waiting for its own socket to deliver the tick's grant; Modbus: one grant register read
+// once per cycle for all). The caller runs the loop (main.cpp's real-time thread); the
+// per-period log records channel 0; runtime parameters and reloads are not applied (the config
+// refuses [ctl] with several channels).
 
 #include <atomic>
 #include <memory>
@@ -48,7 +49,8 @@ class BusChannels {
   BusChannels& operator=(const BusChannels&) = delete;
 
   // Start-up (allocates): the models and controllers, a device per channel configured and
-  // activated in channel order (CANopen: each its drive's SDO list and NMT start), the clock
+  // activated in channel order (CANopen: each its drive's SDO list and NMT start; Modbus: the
+  // first starts the link), the clock
   // and the loop. -1 (ready), or the exit status with the reason on stderr: 2 a refused table
   // or configuration, 1 a device that does not start.
   int Start();

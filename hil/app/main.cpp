@@ -301,7 +301,7 @@ int ReportRun(const mrd::hil::Scenario& s, const mrd::hil::RunResult& r, const s
 
 int RunCommand(const std::string& scenario_path, const std::vector<std::string>& sets,
                mrd::hil::RunOptions o, const std::string& out, bool json, double passive_step,
-               const std::string& window_text) {
+               const std::string& window_text, bool transport_given) {
   mrd::TimeWindow window;
   std::string why;
   if (!window_text.empty() && !mrd::ParseTimeWindow(window_text, &window, &why)) {
@@ -313,6 +313,9 @@ int RunCommand(const std::string& scenario_path, const std::vector<std::string>&
   if (const int rc = PrepareRun(scenario_path, sets, out, passive_step, &s, &o, &temp); rc != 0) {
     return rc;
   }
+  // Four corners on Modbus maps ([channels] modbus_profiles) go over Modbus TCP unless
+  // --transport says otherwise.
+  if (!transport_given && s.channels.modbus()) o.transport = "modbus-tcp";
   mrd::hil::RunResult r;
   // SIGTERM, SIGINT, SIGHUP: the run stops, the firmware child gets the same signal and is
   // reaped, the temporary directory goes; exit 128 + the signal, as a shell reports it.
@@ -580,7 +583,8 @@ void AddRun(CLI::App& app, RunArgs* a) {
       ->allow_extra_args(false);
   a->transport_opt = run->add_option("--transport", ro.transport,
                                      "can | modbus-tcp | modbus-rtu (default: can; "
-                                     "modbus-tcp with a Modbus --profile)")
+                                     "modbus-tcp with a Modbus --profile or a scenario's "
+                                     "[channels] modbus_profiles)")
                          ->capture_default_str();
   ro.clock = "lockstep";
   run->add_option("--clock", ro.clock,
@@ -776,7 +780,7 @@ int main(int argc, char** argv) {
   if (run.cmd->parsed()) {
     DefaultTransport(run.transport_opt, &run.ro);
     return RunCommand(run.scenario_path, run.sets, run.ro, run.out_dir, run.json, run.passive_step,
-                      run.window);
+                      run.window, run.transport_opt->count() > 0);
   }
   if (sweep.cmd->parsed()) return SweepMain(sweep);
   if (bench.cmd->parsed()) return BenchCommand(bench.seconds, bench.o, bench.json);

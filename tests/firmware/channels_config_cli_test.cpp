@@ -85,15 +85,22 @@ TEST(ChannelsConfigCliTest, RefusesEveryBadValueNamingFileAndLine) {
 TEST(ChannelsConfigCliTest, SeveralChannelsWithABusSectionAreRefused) {
   ExpectRefused("[channels]\ncount = 2\n[ctl]\nsocket = \"/tmp/x.sock\"\n", 2,
                 "serve one channel only");
-  for (const char* bus : {"[modbus]\ndevice = \"/dev/ttyUSB0\"\n",
-                          "[gpio]\nsim_chip = \"/tmp/chip\"\noutputs = [\"enable\"]\n",
+  for (const char* bus : {"[gpio]\nsim_chip = \"/tmp/chip\"\noutputs = [\"enable\"]\n",
                           "[pwm]\noutputs = [\"command\"]\n"}) {
     ExpectRefused("[channels]\ncount = 4\n" + std::string(bus), 2,
-                  "[modbus], [gpio] and [pwm] serve one channel only");
+                  "[gpio] and [pwm] serve one channel only");
   }
-  // [can] with several channels needs a device profile per channel.
+  // [can] or [modbus] with several channels needs a device profile per channel.
   ExpectRefused("[channels]\ncount = 2\n[can]\ninterface = \"vcan0\"\n", 2,
                 "several channels need one device profile each; give [channels] can_profiles");
+  ExpectRefused("[channels]\ncount = 4\n[modbus]\ndevice = \"/dev/ttyUSB0\"\n", 2,
+                "count 4 with [modbus]: several channels need one device profile each; give "
+                "[channels] modbus_profiles");
+  // Both bus sections: one bus for several channels.
+  ExpectRefused(
+      "[channels]\ncount = 2\n[can]\ninterface = \"vcan0\"\n[modbus]\n"
+      "device = \"/dev/ttyUSB0\"\n",
+      2, "[can] and [modbus] are both given; several channels share one bus");
 }
 
 // The four shipped corner profiles, as a TOML list (absolute paths).
@@ -144,6 +151,72 @@ TEST(ChannelsConfigCliTest, CanProfilesRefusals) {
   ExpectRefused("[channels]\ncount = 2\ncan_profiles = " + CornerProfiles(2) + "\n" + kCanBus +
                     "[loop]\nclock = \"grant\"\n[safety]\nsafe_voltage = 0.5\n",
                 11, "channel 0: the safe state (safe_voltage 0.5 V)");
+}
+
+// The four shipped Modbus corner maps, as a TOML list (absolute paths).
+std::string ModbusCorners(int n) {
+  std::string list;
+  for (const char* c : {"fl", "fr", "rl", "rr"}) {
+    if (n-- <= 0) break;
+    list += std::string(list.empty() ? "" : ", ") + "\"" + MRD_SOURCE_DIR +
+            "/firmware/profiles/modbus-corner-" + c + ".toml\"";
+  }
+  return "[" + list + "]";
+}
+
+constexpr const char* kModbusLink =
+    "[modbus]\nmode = \"tcp\"\nhost = \"127.0.0.1\"\nport = 15020\n"
+    "inputs = [\"velocity\", \"displacement\", \"demand\"]\n"
+    "outputs = [\"command\", \"enable\", \"heartbeat\", \"status\"]\n";
+
+TEST(ChannelsConfigCliTest, ModbusProfilesOnePerChannelOnTheOneLink) {
+  TempDir dir;
+  const std::string cfg = dir.File("fw.toml");
+  std::ofstream(cfg) << "[loop]\nclock = \"grant\"\n[control]\nlaw = \"force\"\n"
+                        "[channels]\ncount = 4\nmodbus_profiles = "
+                     << ModbusCorners(4) << "\n"
+                     << kModbusLink;
+  const CommandResult r = test::Run(Firmware() + " --check-config " + cfg);
+  EXPECT_EQ(r.status, 0) << r.output;
+  for (const char* line : {"modbus channel 0 (modbus-corner-fl): command = 0 V, enable = 0",
+                           "modbus channel 3 (modbus-corner-rr): command = 0 V, enable = 0"}) {
+    EXPECT_NE(r.output.find(line), std::string::npos) << r.output;
+  }
+}
+
+TEST(ChannelsConfigCliTest, ModbusProfilesRefusals) {
+  const std::string four = "[channels]\ncount = 4\nmodbus_profiles = " + ModbusCorners(4) + "\n";
+  // Not one per channel.
+  ExpectRefused("[channels]\ncount = 3\nmodbus_profiles = " + ModbusCorners(4) + "\n" + kModbusLink,
+                3, "[channels] modbus_profiles names 4 device profiles; count is 3");
+  // Both the section's profile and the channels'.
+  ExpectRefused(four + kModbusLink + "profile = \"x.toml\"\n", 10,
+                "[modbus] profile and [channels] modbus_profiles are both given");
+  // No link to share.
+  ExpectRefused(four, 3, "modbus_profiles needs a [modbus] section");
+  // Both lists: one bus for several channels.
+  ExpectRefused(four + "can_profiles = " + CornerProfiles(4) + "\n" + kModbusLink, 3,
+                "can_profiles and modbus_profiles are both given");
+  // A channel's map that does not load, that lacks a role the routing names, or two maps that
+  // cannot share the link (the same set-point block twice).
+  ExpectRefused("[channels]\ncount = 2\nmodbus_profiles = [\"" + std::string(MRD_SOURCE_DIR) +
+                    "/firmware/profiles/modbus-corner-fl.toml\", \"missing.toml\"]\n" + kModbusLink,
+                3, "[channels] modbus_profiles: channel 1 (missing.toml): device profile: ");
+  ExpectRefused(
+      "[channels]\ncount = 2\nmodbus_profiles = " + ModbusCorners(2) +
+          "\n[modbus]\nmode = \"tcp\"\nhost = \"127.0.0.1\"\nport = 15020\n"
+          "inputs = [\"velocity\", \"demand\", \"wheel_velocity\"]\noutputs = [\"command\"]\n",
+      3,
+      "[channels] modbus_profiles: channel 0 (" + std::string(MRD_SOURCE_DIR) +
+          "/firmware/profiles/modbus-corner-fl.toml): profile modbus-corner-fl maps no "
+          "register to input 'wheel_velocity'");
+  const std::string fl =
+      "\"" + std::string(MRD_SOURCE_DIR) + "/firmware/profiles/modbus-corner-fl.toml\"";
+  ExpectRefused("[channels]\ncount = 2\nmodbus_profiles = [" + fl + ", " + fl + "]\n" + kModbusLink,
+                3, "[channels] modbus_profiles: the maps cannot share one link: ");
+  // A channel whose safe state is not the driver's off.
+  ExpectRefused(four + kModbusLink + "[safety]\nsafe_voltage = 0.5\n", 11,
+                "channel 0: the safe state (safe_voltage 0.5 V)");
 }
 
 }  // namespace

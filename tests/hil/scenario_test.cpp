@@ -14,6 +14,7 @@
 #include "mrd/hil/plants/plant.hpp"
 #include "mrd/hil/run/run.hpp"
 #include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/modbus_profile.hpp"
 
 namespace mrd::hil {
 namespace {
@@ -186,6 +187,9 @@ TEST(ScenarioTest, ChannelsReadFourCornersAndRefuseBadOnes) {
   const std::string prof = MRD_SOURCE_DIR "/firmware/profiles/canopen-corner-";
   const std::string four = "can_profiles = [\"" + prof + "fl.toml\", \"" + prof + "fr.toml\", \"" +
                            prof + "rl.toml\", \"" + prof + "rr.toml\"]\n";
+  const std::string maps = MRD_SOURCE_DIR "/firmware/profiles/modbus-corner-";
+  const std::string four_maps = "modbus_profiles = [\"" + maps + "fl.toml\", \"" + maps +
+                                "fr.toml\", \"" + maps + "rl.toml\", \"" + maps + "rr.toml\"]\n";
   const std::string fc = "[plant]\nmodel = \"full-car\"\n";
   const std::string skyhook = "[control]\nlaw = \"skyhook\"\n";
   struct Case {
@@ -209,7 +213,22 @@ TEST(ScenarioTest, ChannelsReadFourCornersAndRefuseBadOnes) {
        "fault kind 'kill_firmware' is not played on four corners"},
       {fc + skyhook + "[channels]\n" + four + "[[fault]]\nkind = \"drop\"\ncorner = 4\n",
        "'corner' must be an integer in [0, 3]"},
-      {fc + "[[fault]]\nkind = \"drop\"\nat_s = 1\n", "takes faults only over CAN with [channels]"},
+      {fc + "[[fault]]\nkind = \"drop\"\nat_s = 1\n",
+       "takes faults only over CAN or Modbus with [channels]"},
+      // The profile's kind is the list's (the transport's), one list at most, and CAN's own
+      // faults not on Modbus maps.
+      {fc + skyhook + "[channels]\ncan_profiles = [\"" + maps + "fl.toml\", \"" + maps +
+           "fr.toml\", \"" + maps + "rl.toml\", \"" + maps + "rr.toml\"]\n",
+       "a Modbus device profile; Modbus maps go in modbus_profiles"},
+      {fc + skyhook + "[channels]\nmodbus_profiles = [\"" + prof + "fl.toml\", \"" + prof +
+           "fr.toml\", \"" + prof + "rl.toml\", \"" + prof + "rr.toml\"]\n",
+       "not a Modbus device profile (no [modbus] section)"},
+      {fc + skyhook + "[channels]\n" + four + four_maps,
+       "[channels] takes can_profiles (four corners over CAN) or modbus_profiles"},
+      {fc + skyhook + "[channels]\nmodbus_profiles = [\"" + maps + "fl.toml\"]\n",
+       "modbus_profiles must name 4 Modbus register maps"},
+      {fc + skyhook + "[channels]\n" + four_maps + "[[fault]]\nkind = \"corrupt\"\nat_s = 1\n",
+       "fault kind 'corrupt' is played on CAN only"},
       {"[[fault]]\nkind = \"drop\"\ncorner = 1\nat_s = 1\n", "a fault's 'corner' needs [channels]"},
   };
   for (const Case& c : cases) {
@@ -337,6 +356,40 @@ TEST(FirmwareConfigTest, CornersConfigGivesFourChannelsOnOneBus) {
       EXPECT_EQ(ch.geometry.cg_to_rear_m, s.full.cg_to_rear_m);
       EXPECT_EQ(ch.geometry.motion_ratio, s.full.motion_ratio);
     }
+  }
+}
+
+// The Modbus four-corner scenario and its configuration: four channels on one lockstep
+// [modbus] link (TCP or RTU), each with its corner's map, the [modbus] section naming none.
+TEST(FirmwareConfigTest, CornersModbusConfigGivesFourChannelsOnOneLink) {
+  Scenario s;
+  std::string error;
+  ASSERT_TRUE(
+      LoadScenario(MRD_SOURCE_DIR "/hil/scenarios/full-car-modbus-corners.toml", &s, &error))
+      << error;
+  ASSERT_TRUE(s.channels.modbus());
+  ASSERT_EQ(s.channels.modbus_profiles.size(), 4U);
+  EXPECT_TRUE(s.channels.can_profiles.empty());
+  EXPECT_NE(s.channels.modbus_profiles[3].find("modbus-corner-rr.toml"), std::string::npos);
+  profile::ModbusProfile first;
+  ASSERT_TRUE(profile::LoadModbusProfile(s.channels.modbus_profiles[0], &first, &error)) << error;
+  for (const char* transport : {"modbus-tcp", "modbus-rtu"}) {
+    const bool tcp = std::string(transport) == "modbus-tcp";
+    const std::string text =
+        CornersModbusConfigText(s, transport, tcp ? "127.0.0.1:1502" : "/tmp/pty", first);
+    firmware::platform::FirmwareConfig cfg;
+    ASSERT_TRUE(firmware::platform::ParseConfig(text, "gen.toml", &cfg, &error)) << error << "\n"
+                                                                                 << text;
+    EXPECT_EQ(cfg.clock, firmware::platform::LoopClock::kGrant);
+    EXPECT_FALSE(cfg.io.can.enabled);
+    EXPECT_TRUE(cfg.io.modbus.enabled);
+    EXPECT_TRUE(cfg.io.modbus.lockstep);
+    EXPECT_EQ(cfg.io.modbus.mode, tcp ? firmware::ModbusMode::kTcp : firmware::ModbusMode::kRtu);
+    EXPECT_TRUE(cfg.io.modbus.profile.empty());
+    EXPECT_EQ(cfg.channels.count, 4);
+    EXPECT_EQ(cfg.channels.modbus_profiles, s.channels.modbus_profiles);
+    EXPECT_EQ(cfg.channels.modbus_device_profiles.size(), 4U);
+    EXPECT_EQ(cfg.channels.body_law, firmware::platform::BodyLawKind::kModalSkyhook);
   }
 }
 

@@ -122,46 +122,91 @@ bool LoadTables(const toml::table& root, const std::string& source, ChannelsConf
   return true;
 }
 
+// One bus's per-channel profile list ([channels] can_profiles or modbus_profiles).
+struct ProfileList {
+  const char* key;      // "can_profiles"
+  const char* section;  // "can"
+  const char* bus;      // "CAN bus"
+  const std::vector<std::string>* files;
+  bool section_given;       // [section] is in the file
+  bool no_section_profile;  // [section] names no profile of its own
+};
+
+// The list against count and its bus section; count > 1 with the section needs the list.
+bool CheckProfileList(const toml::table& root, const std::string& source, const FirmwareConfig* c,
+                      const ProfileList& l, std::string* error) {
+  const ChannelsConfig& ch = c->channels;
+  const std::string key = l.key, section = l.section;
+  if (l.files->empty()) {
+    if (ch.count > 1 && l.section_given) {
+      return Refuse(root, source, "count",
+                    "count " + std::to_string(ch.count) + " with [" + section +
+                        "]: several channels need one device profile each; give [channels] " + key +
+                        " = [\"corner-0.toml\", ...] (" + std::to_string(ch.count) +
+                        " entries) or set count = 1",
+                    error);
+    }
+    return true;
+  }
+  if (l.files->size() != static_cast<std::size_t>(ch.count)) {
+    return Refuse(root, source, l.key,
+                  key + " names " + std::to_string(l.files->size()) +
+                      " device profiles; count is " + std::to_string(ch.count) +
+                      " (one per channel)",
+                  error);
+  }
+  if (!l.section_given) {
+    return Refuse(root, source, l.key,
+                  key + " needs a [" + section + "] section (the " + l.bus + " the channels share)",
+                  error);
+  }
+  if (!l.no_section_profile) {
+    *error = Where(root, source, l.section, "profile") + "[" + section +
+             "] profile and [channels] " + key + " are both given: with " + key +
+             " each channel has its own device profile; remove [" + section + "] profile";
+    return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 bool CheckChannels(const toml::table& root, const std::string& source, FirmwareConfig* c,
                    std::string* error) {
   ChannelsConfig& ch = c->channels;
   const std::string count = "count " + std::to_string(ch.count);
-  if (ch.count > 1 && (c->io.modbus.enabled || c->io.gpio.enabled || c->io.pwm.enabled)) {
+  if (ch.count > 1 && (c->io.gpio.enabled || c->io.pwm.enabled)) {
     return Refuse(root, source, "count",
                   count +
-                      ": several channels run over [can] (one device profile per channel, "
-                      "can_profiles) or on the simulated dampers of --dry-run in this version; "
-                      "[modbus], [gpio] and [pwm] serve one channel only: remove them or set "
+                      ": several channels run over [can] (can_profiles), over [modbus] "
+                      "(modbus_profiles) or on the simulated dampers of --dry-run in this "
+                      "version; [gpio] and [pwm] serve one channel only: remove them or set "
                       "count = 1",
                   error);
   }
-  if (!ch.can_profiles.empty()) {
-    if (ch.can_profiles.size() != static_cast<std::size_t>(ch.count)) {
-      return Refuse(root, source, "can_profiles",
-                    "can_profiles names " + std::to_string(ch.can_profiles.size()) +
-                        " device profiles; count is " + std::to_string(ch.count) +
-                        " (one per channel)",
-                    error);
-    }
-    if (!c->io.can.enabled) {
-      return Refuse(root, source, "can_profiles",
-                    "can_profiles needs a [can] section (the bus the channels share)", error);
-    }
-    if (!c->io.can.profile.empty()) {
-      *error = Where(root, source, "can", "profile") +
-               "[can] profile and [channels] can_profiles are both given: with can_profiles "
-               "each channel has its own device profile; remove [can] profile";
-      return false;
-    }
-  } else if (ch.count > 1 && c->io.can.enabled) {
+  if (!ch.can_profiles.empty() && !ch.modbus_profiles.empty()) {
+    return Refuse(root, source, "modbus_profiles",
+                  "can_profiles and modbus_profiles are both given: the channels share one bus "
+                  "in this version ([can] with can_profiles, or [modbus] with modbus_profiles)",
+                  error);
+  }
+  // One bus for several channels: the other bus section would serve channel 0 alone.
+  if (ch.count > 1 && c->io.can.enabled && c->io.modbus.enabled) {
     return Refuse(root, source, "count",
                   count +
-                      " with [can]: several channels need one device profile each; give "
-                      "[channels] can_profiles = [\"corner-0.toml\", ...] (" +
-                      std::to_string(ch.count) + " entries) or set count = 1",
+                      ": [can] and [modbus] are both given; several channels share one bus in "
+                      "this version: remove one of them or set count = 1",
                   error);
+  }
+  if (!CheckProfileList(root, source, c,
+                        {"can_profiles", "can", "CAN bus", &ch.can_profiles, c->io.can.enabled,
+                         c->io.can.profile.empty()},
+                        error) ||
+      !CheckProfileList(root, source, c,
+                        {"modbus_profiles", "modbus", "Modbus link", &ch.modbus_profiles,
+                         c->io.modbus.enabled, c->io.modbus.profile.empty()},
+                        error)) {
+    return false;
   }
   if (ch.count > 1 && root.contains("ctl")) {
     return Refuse(root, source, "count",

@@ -240,9 +240,9 @@ std::vector<Key> ChannelKeys(ChannelsConfig* ch) {
   return {
       Integer("count", &ch->count, 1, static_cast<std::int64_t>(kMaxChannels), "",
               "Damper channels on the loop: with --dry-run each on a simulated damper of its "
-              "own; with [can] each on its own device of the one bus (can_profiles). "
-              "[modbus], [gpio], [pwm] and [ctl] serve one channel only (refused with "
-              "count > 1)."),
+              "own; with [can] each on its own device of the one bus (can_profiles); with "
+              "[modbus] each on its own register map of the one link (modbus_profiles). "
+              "[gpio], [pwm] and [ctl] serve one channel only (refused with count > 1)."),
       Choice("fault_policy", &ch->fault_policy,
              {{"all", FaultPolicy::kAll}, {"channel", FaultPolicy::kChannel}},
              "A channel's fault puts every channel in the safe state one period later "
@@ -256,6 +256,12 @@ std::vector<Key> ChannelKeys(ChannelsConfig* ch) {
                "(exactly count entries), e.g. a CANopen drive per corner on one bus; the "
                "[can] section (bus, inputs, outputs, timing) serves every channel and must "
                "not name a profile. Needed for count > 1 with [can]."),
+      FileList("modbus_profiles", &ch->modbus_profiles, "none: [modbus] profile, one channel",
+               "Each channel's Modbus device profile (its register map), relative to this "
+               "file, one per channel (exactly count entries), e.g. one driver with a set-point "
+               "block per corner; the [modbus] section (link, inputs, outputs, timing) serves "
+               "every channel over one link and must not name a profile. Needed for count > 1 "
+               "with [modbus]; not with can_profiles (one bus for several channels)."),
       Choice("body_law", &ch->body_law,
              {{"none", BodyLawKind::kNone}, {"modal-skyhook", BodyLawKind::kModalSkyhook}},
              "A law over the whole body: \"modal-skyhook\" (count = 4 in the order "

@@ -7,6 +7,7 @@
 #include "mrd/common/input_file.hpp"
 #include "mrd/firmware/io/input_roles.hpp"
 #include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/modbus_channels.hpp"
 #include "mrd/profile/modbus_profile.hpp"
 #include "mrd/profile/pwm_profile.hpp"
 
@@ -121,9 +122,92 @@ bool LoadCanProfileOf(const toml::table& root, const std::string& source, Firmwa
 // routing: every input and output the [modbus] section names, and the grant in lockstep
 // (grants on Modbus: no [can] bus), must be a role the profile maps. fault_line is served by
 // the profile's fault_line or driver_faults role.
+namespace {
+
+// Profile p against the [modbus] routing of c; where: "SOURCE:LINE: " to blame; grant: the
+// lockstep grant must be mapped (the one profile, or channel 0's).
+bool CheckModbusRouting(const profile::ModbusProfile& p, const std::string& where,
+                        const FirmwareConfig* c, bool grant, std::string* error) {
+  const ModbusConfig& mb = c->io.modbus;
+  const auto in = [&](profile::CanIn r) { return p.In(r).mapped; };
+  const auto out = [&](profile::ModbusOut r) { return p.Out(r).mapped; };
+  for (const InputRole& m : kInputRoles) {
+    const bool mapped =
+        in(m.role) || (m.role == profile::CanIn::kFaultLine && in(profile::CanIn::kDriverFaults));
+    if ((mb.inputs & Bit(m.input)) != 0 && !mapped) {
+      *error = where + "profile " + p.name + " maps no register to input '" + InputName(m.input) +
+               "' ([modbus.inputs] of the profile)";
+      return false;
+    }
+  }
+  const std::pair<Output, bool> needs[] = {
+      {Output::kCommand, out(profile::ModbusOut::kCommand)},
+      {Output::kEnable, out(profile::ModbusOut::kEnable)},
+      {Output::kHeartbeat, out(profile::ModbusOut::kHeartbeat)},
+      {Output::kStatus, out(profile::ModbusOut::kStatusSafe) ||
+                            out(profile::ModbusOut::kStatusCauses) ||
+                            out(profile::ModbusOut::kStatusOverruns) ||
+                            out(profile::ModbusOut::kStatusSafeEntries)}};
+  for (const auto& [output, mapped] : needs) {
+    if ((mb.outputs & Bit(output)) != 0 && !mapped) {
+      *error = where + "profile " + p.name + " maps no register to output '" + OutputName(output) +
+               "' ([modbus.outputs] of the profile)";
+      return false;
+    }
+  }
+  if (grant && c->clock == LoopClock::kGrant && !c->io.can.enabled && !in(profile::CanIn::kGrant)) {
+    *error = where + "clock = \"grant\" needs the profile's 'grant' input (profile " + p.name +
+             " has none)";
+    return false;
+  }
+  return true;
+}
+
+// The map file (relative to the configuration file), loaded; where: "SOURCE:LINE: ".
+std::shared_ptr<const profile::ModbusProfile> LoadModbusFile(const std::string& source,
+                                                             const std::string& file,
+                                                             const std::string& where,
+                                                             std::string* error) {
+  auto p = std::make_shared<profile::ModbusProfile>();
+  std::string why;
+  if (!profile::LoadModbusProfile(ResolveBeside(source, file), p.get(), &why)) {
+    *error = where + "device profile: " + Printable(why);
+    return nullptr;
+  }
+  return p;
+}
+
+// Several channels: each one's map ([channels] modbus_profiles; CheckChannels: count entries,
+// no [modbus] profile), checked against the routing and planned on the one link.
+bool LoadModbusChannelMaps(const toml::table& root, const std::string& source, FirmwareConfig* c,
+                           std::string* error) {
+  ChannelsConfig& ch = c->channels;
+  const std::string at = Where(root, source, "channels", "modbus_profiles");
+  std::vector<const profile::ModbusProfile*> maps;
+  for (std::size_t i = 0; i < ch.modbus_profiles.size(); ++i) {
+    const std::string where = at + "[channels] modbus_profiles: channel " + std::to_string(i) +
+                              " (" + Printable(ch.modbus_profiles[i]) + "): ";
+    auto p = LoadModbusFile(source, ch.modbus_profiles[i], where, error);
+    if (p == nullptr || !CheckModbusRouting(*p, where, c, i == 0, error)) return false;
+    ch.modbus_device_profiles.push_back(p);
+    maps.push_back(p.get());
+  }
+  profile::ModbusChannelPlan plan;
+  std::string why;
+  if (!profile::PlanModbusChannels(maps, &plan, &why)) {
+    *error = at + "[channels] modbus_profiles: the maps cannot share one link: " + Printable(why);
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 bool LoadModbusProfileOf(const toml::table& root, const std::string& source, FirmwareConfig* c,
                          std::string* error) {
   ModbusConfig& mb = c->io.modbus;
+  c->channels.modbus_device_profiles.clear();
+  if (!c->channels.modbus_profiles.empty()) return LoadModbusChannelMaps(root, source, c, error);
   if (mb.profile.empty()) {
     // The built-in register map (docs/modbus_registers.md) has no chassis or structure
     // registers.
@@ -139,44 +223,8 @@ bool LoadModbusProfileOf(const toml::table& root, const std::string& source, Fir
     return true;
   }
   const std::string where = Where(root, source, "modbus", "profile");
-  const std::string path = ResolveBeside(source, mb.profile);
-  auto p = std::make_shared<profile::ModbusProfile>();
-  std::string why;
-  if (!profile::LoadModbusProfile(path, p.get(), &why)) {
-    *error = where + "device profile: " + Printable(why);
-    return false;
-  }
-  const auto in = [&](profile::CanIn r) { return p->In(r).mapped; };
-  const auto out = [&](profile::ModbusOut r) { return p->Out(r).mapped; };
-  for (const InputRole& m : kInputRoles) {
-    const bool mapped =
-        in(m.role) || (m.role == profile::CanIn::kFaultLine && in(profile::CanIn::kDriverFaults));
-    if ((mb.inputs & Bit(m.input)) != 0 && !mapped) {
-      *error = where + "profile " + p->name + " maps no register to input '" + InputName(m.input) +
-               "' ([modbus.inputs] of the profile)";
-      return false;
-    }
-  }
-  const std::pair<Output, bool> needs[] = {
-      {Output::kCommand, out(profile::ModbusOut::kCommand)},
-      {Output::kEnable, out(profile::ModbusOut::kEnable)},
-      {Output::kHeartbeat, out(profile::ModbusOut::kHeartbeat)},
-      {Output::kStatus, out(profile::ModbusOut::kStatusSafe) ||
-                            out(profile::ModbusOut::kStatusCauses) ||
-                            out(profile::ModbusOut::kStatusOverruns) ||
-                            out(profile::ModbusOut::kStatusSafeEntries)}};
-  for (const auto& [output, mapped] : needs) {
-    if ((mb.outputs & Bit(output)) != 0 && !mapped) {
-      *error = where + "profile " + p->name + " maps no register to output '" + OutputName(output) +
-               "' ([modbus.outputs] of the profile)";
-      return false;
-    }
-  }
-  if (c->clock == LoopClock::kGrant && !c->io.can.enabled && !in(profile::CanIn::kGrant)) {
-    *error = where + "clock = \"grant\" needs the profile's 'grant' input (profile " + p->name +
-             " has none)";
-    return false;
-  }
+  auto p = LoadModbusFile(source, mb.profile, where, error);
+  if (p == nullptr || !CheckModbusRouting(*p, where, c, true, error)) return false;
   mb.modbus_profile = p;
   return true;
 }

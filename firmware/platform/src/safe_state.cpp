@@ -110,10 +110,11 @@ void ProveCan(const FirmwareConfig& c, const pf::CanProfile& p, double e_max,
   proof->lines.push_back(line + " (safe state and shutdown)");
 }
 
-// Modbus on a profile: the values WriteProfileOnce writes for a safe command.
-void ProveModbusProfile(const FirmwareConfig& c, double e_max, SafeStateProof* proof) {
+// Modbus on a profile (the [modbus] one, or a channel's of [channels] modbus_profiles): the
+// values WriteProfileOnce writes for a safe command.
+void ProveModbusProfile(const FirmwareConfig& c, const pf::ModbusProfile& p, double e_max,
+                        SafeStateProof* proof) {
   const ModbusConfig& mb = c.io.modbus;
-  const pf::ModbusProfile& p = *mb.modbus_profile;
   const pf::ModbusPoint& cmd = p.Out(pf::ModbusOut::kCommand);
   const pf::ModbusPoint& en = p.Out(pf::ModbusOut::kEnable);
   const double safe_v = c.controller.safe_voltage;
@@ -169,7 +170,7 @@ void ProveModbusProfile(const FirmwareConfig& c, double e_max, SafeStateProof* p
 void ProveModbus(const FirmwareConfig& c, double e_max, SafeStateProof* proof) {
   const ModbusConfig& mb = c.io.modbus;
   if ((mb.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) == 0) return;
-  if (mb.modbus_profile) return ProveModbusProfile(c, e_max, proof);
+  if (mb.modbus_profile) return ProveModbusProfile(c, *mb.modbus_profile, e_max, proof);
   const double safe_v = c.controller.safe_voltage;
   if ((mb.outputs & Bit(Output::kCommand)) != 0) {
     if (std::lround(safe_v * 1000.0) != 0) {
@@ -214,6 +215,24 @@ void ProvePwm(const FirmwareConfig& c, SafeStateProof* proof) {
                          std::to_string(p.period_ns) + " ns (safe state; 0 at shutdown)");
 }
 
+// Channel i's proof on bus ("can": its line "can (..." becomes "can channel i (..."); a
+// refusal names the channel and, when it blames the bus section, [channels] key. false: refused.
+bool ChannelProved(std::size_t i, const char* bus, const char* key, std::size_t lines,
+                   SafeStateProof* proof) {
+  if (!proof->error.empty()) {
+    proof->error = "channel " + std::to_string(i) + ": " + proof->error;
+    if (std::strcmp(proof->section, bus) == 0) {
+      proof->section = "channels";
+      proof->key = key;
+    }
+    return false;
+  }
+  if (proof->lines.size() > lines) {
+    proof->lines.back().insert(std::strlen(bus), " channel " + std::to_string(i));
+  }
+  return true;
+}
+
 }  // namespace
 
 SafeStateProof ProveSafeState(const FirmwareConfig& c, double e_max) {
@@ -226,17 +245,19 @@ SafeStateProof ProveSafeState(const FirmwareConfig& c, double e_max) {
   for (std::size_t i = 0; c.io.can.enabled && i < c.channels.can_device_profiles.size(); ++i) {
     const std::size_t lines = proof.lines.size();
     ProveCan(c, *c.channels.can_device_profiles[i], e_max, &proof);
-    if (!proof.error.empty()) {
-      proof.error = "channel " + std::to_string(i) + ": " + proof.error;
-      if (std::strcmp(proof.section, "can") == 0) {
-        proof.section = "channels";
-        proof.key = "can_profiles";
-      }
-      break;
-    }
-    if (proof.lines.size() > lines) proof.lines.back().insert(3, " channel " + std::to_string(i));
+    if (!ChannelProved(i, "can", "can_profiles", lines, &proof)) break;
   }
-  if (proof.error.empty() && c.io.modbus.enabled) ProveModbus(c, e_max, &proof);
+  // Several channels on [modbus]: each channel's map ([channels] modbus_profiles).
+  const auto& maps = c.channels.modbus_device_profiles;
+  const bool mb_outputs =
+      (c.io.modbus.outputs & (Bit(Output::kCommand) | Bit(Output::kEnable))) != 0;
+  for (std::size_t i = 0;
+       proof.error.empty() && c.io.modbus.enabled && mb_outputs && i < maps.size(); ++i) {
+    const std::size_t lines = proof.lines.size();
+    ProveModbusProfile(c, *maps[i], e_max, &proof);
+    if (!ChannelProved(i, "modbus", "modbus_profiles", lines, &proof)) break;
+  }
+  if (proof.error.empty() && c.io.modbus.enabled && maps.empty()) ProveModbus(c, e_max, &proof);
   if (proof.error.empty()) ProvePwm(c, &proof);
   if (proof.error.empty() && c.io.gpio.enabled && c.io.gpio.enable_line >= 0 &&
       (c.io.gpio.outputs & Bit(Output::kEnable)) != 0) {

@@ -2,6 +2,8 @@
 // the judgement of the fault schedule against the fault policy. The period: corners_step.cpp.
 #include "corners_run.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <climits>
@@ -40,14 +42,23 @@ CornersRun::CornersRun(const Scenario& scenario, const RunOptions& options, RunR
   if (o_.table.empty()) o_.table = s_.table_file;
 }
 
-// Lockstep on the harness's own CAN bus only; the corners' profiles are the scenario's.
+// Lockstep on the harness's own CAN bus (can_profiles) or its own Modbus server
+// (modbus_profiles); the corners' profiles are the scenario's.
 int CornersRun::Validate() {
   const RunOptions& o = o_;
   const auto refuse = [&](const std::string& why) {
     *error_ = s_.path + ": four corners ([channels]) " + why;
     return 2;
   };
-  if (o.transport != "can") return refuse("run over --transport can only");
+  modbus_ = s_.channels.modbus();
+  if (!modbus_ && o.transport != "can") {
+    return refuse("on can_profiles run over --transport can only (Modbus takes modbus_profiles)");
+  }
+  if (modbus_ && o.transport != "modbus-tcp" && o.transport != "modbus-rtu") {
+    return refuse(
+        "on modbus_profiles run over --transport modbus-tcp or modbus-rtu (CAN takes "
+        "can_profiles)");
+  }
   if (!o.clock.empty() && o.clock != "lockstep") return refuse("run in --clock lockstep only");
   if (!o.profile.empty()) return refuse("take their profiles from [channels], not --profile");
   if (!o.can_interface.empty()) return refuse("run on the harness's local bus, not SocketCAN");
@@ -55,6 +66,7 @@ int CornersRun::Validate() {
   if (!o.sdo_refuse.empty() || o.attach || !o.gpio_sim.empty()) {
     return refuse("take no --sdo-refuse, --attach or --gpio-sim");
   }
+  if (modbus_ && !o.can_log.empty()) return refuse("over Modbus take no --can-log");
   for (const std::string& path : s_.channels.can_profiles) {
     auto p = std::make_shared<profile::CanProfile>();
     std::string why;
@@ -68,8 +80,21 @@ int CornersRun::Validate() {
     }
     profiles_.push_back(std::move(p));
   }
+  for (const std::string& path : s_.channels.modbus_profiles) {
+    auto p = std::make_shared<profile::ModbusProfile>();
+    std::string why;
+    if (!profile::LoadModbusProfile(path, p.get(), &why)) {
+      *error_ = "[channels] modbus_profiles: " + why;
+      return 2;
+    }
+    if (maps_.empty() && !p->In(profile::CanIn::kGrant).mapped) {
+      *error_ = "[channels] modbus_profiles: " + path + ": lockstep needs a 'grant' input";
+      return 2;
+    }
+    maps_.push_back(std::move(p));
+  }
   r_->clock = "lockstep";
-  r_->transport = "can";
+  r_->transport = o.transport;
   return 0;
 }
 
@@ -89,24 +114,18 @@ int CornersRun::BringUp() {
     *error_ = o_.work_dir + ": cannot create (" + std::strerror(errno) + ")";
     return 1;
   }
-  endpoint_ = o_.work_dir + "/canbus.sock";
-  if (!relay_.Open(endpoint_, error_)) return 1;
-  if (!o_.can_log.empty()) {
-    can_log_ = std::make_unique<CanLog>();
-    if (!can_log_->Open(o_.can_log, error_)) return 1;
-    relay_.SetLog(&CanLog::Write, can_log_.get());
-  }
-  ports_ = MakeCanPortsOnRelay(relay_, profiles_);
+  if (const int rc = modbus_ ? OpenModbus() : OpenCan(); rc != 0) return rc;
   for (std::size_t i = 0; i < ports_.size(); ++i) {
-    if (!ports_[i]->Open(error_)) return 1;
     ports_[i]->SetLockstep(true);
     port_ptrs_.push_back(ports_[i].get());
     corners_[i].fig.name = kCornerNames[i];
-    corners_[i].fig.profile = profiles_[i]->path;
+    corners_[i].fig.profile = modbus_ ? maps_[i]->path : profiles_[i]->path;
     corners_[i].hb_step = std::numeric_limits<std::int64_t>::min() / 2;
   }
   r_->config_path = o_.work_dir + "/firmware.toml";
-  std::ofstream(r_->config_path) << CornersConfigText(s, endpoint_, *profiles_.front())
+  std::ofstream(r_->config_path) << (modbus_ ? CornersModbusConfigText(s, o_.transport, endpoint_,
+                                                                       *maps_.front())
+                                             : CornersConfigText(s, endpoint_, *profiles_.front()))
                                  << (o_.firmware_log.empty()
                                          ? std::string()
                                          : "\n[log]\npath = \"" + o_.firmware_log + "\"\n");
@@ -132,6 +151,42 @@ int CornersRun::BringUp() {
   return 0;
 }
 
+// The harness's local CAN bus and a port per corner on it.
+int CornersRun::OpenCan() {
+  endpoint_ = o_.work_dir + "/canbus.sock";
+  if (!relay_.Open(endpoint_, error_)) return 1;
+  if (!o_.can_log.empty()) {
+    can_log_ = std::make_unique<CanLog>();
+    if (!can_log_->Open(o_.can_log, error_)) return 1;
+    relay_.SetLog(&CanLog::Write, can_log_.get());
+  }
+  ports_ = MakeCanPortsOnRelay(relay_, profiles_);
+  for (auto& p : ports_) {
+    if (!p->Open(error_)) return 1;
+  }
+  return 0;
+}
+
+// One Modbus server for the four maps (TCP: on a free port near a per-process base; RTU: a
+// pseudo-terminal in the run's folder) and a port per corner on it.
+int CornersRun::OpenModbus() {
+  const bool rtu = o_.transport == "modbus-rtu";
+  const int base = 20000 + static_cast<int>(getpid() % 20000);
+  for (int i = 0; i < (rtu ? 1 : 50) && ports_.empty(); ++i) {
+    endpoint_ = rtu ? o_.work_dir + "/modbus-pty" : "127.0.0.1:" + std::to_string(base + i * 7);
+    auto ports = MakeModbusProfilePorts(rtu, endpoint_, maps_, error_);
+    if (ports.empty()) return 2;  // the maps cannot share one link
+    bool open = true;
+    for (auto& p : ports) open = open && p->Open(error_);
+    if (open) ports_ = std::move(ports);
+  }
+  if (ports_.empty()) {
+    if (!rtu) *error_ = "modbus-tcp: no free port to listen on";
+    return 1;
+  }
+  return 0;
+}
+
 bool CornersRun::Spawn() {
   // One period more than the run: the final grant (StopFirmware) lets it end by itself.
   const double duration = static_cast<double>(steps_ + 1) * 1e-3;
@@ -143,7 +198,13 @@ bool CornersRun::Spawn() {
   return true;
 }
 
-bool CornersRun::Pump(std::int64_t timeout_ns) {
+// CAN: the relay forwards for up to timeout_ns (true: it moved frames). Modbus: the server
+// answers on its own threads; waits up to timeout_ns for corner's command.
+bool CornersRun::Pump(std::int64_t timeout_ns, std::size_t corner) {
+  if (modbus_) {
+    ports_[corner]->Wait(timeout_ns);
+    return true;
+  }
   return relay_.Step(static_cast<int>((timeout_ns + 999'999) / 1'000'000));
 }
 
@@ -225,7 +286,7 @@ int CornersRun::Teardown() {
     c.fig.mean_command_v =
         c.fig.commands > 0 ? c.command_sum / static_cast<double>(c.fig.commands) : 0.0;
     c_.corners[i] = c.fig;
-    r_->ports.emplace_back("can-" + c.fig.name, counters);
+    r_->ports.emplace_back((modbus_ ? "modbus-" : "can-") + c.fig.name, counters);
     r_->commands += c.fig.commands;
     r_->safe_commands += c.fig.safe_commands;
     r_->driven_steps += c.fig.driven_steps;

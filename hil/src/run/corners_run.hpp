@@ -1,14 +1,19 @@
 #pragma once
 // `mrd-hil run` on a full car with [channels]: one firmware drives the four corners' dampers
-// over one CAN bus in lockstep (RunScenario dispatches here; ScenarioRun keeps the one-damper
-// runs). The harness owns the local bus (its relay inline, as ScenarioRun's) and plays on it,
-// per corner, the corner's CANopen drive and sensor node in the messages of the corner's
-// profile (MakeCanPortsOnRelay: one port per corner, the relay's tap fanned out to them).
+// over one CAN bus or one Modbus link in lockstep (RunScenario dispatches here; ScenarioRun
+// keeps the one-damper runs). CAN (can_profiles): the harness owns the local bus (its relay
+// inline, as ScenarioRun's) and plays on it, per corner, the corner's CANopen drive and sensor
+// node in the messages of the corner's profile (MakeCanPortsOnRelay: one port per corner, the
+// relay's tap fanned out to them). Modbus (modbus_profiles, --transport modbus-tcp or
+// modbus-rtu): the harness serves the four maps on one server, one sensor module and one
+// driver with a block per corner (MakeModbusProfilePorts: one port per corner); the firmware
+// is the link's one master.
 // Per 1 ms period k:
 //   faults   the schedule's faults active at k, on their corner (or every corner)
 //   out      each corner's sensors from the full car (damper motion, body velocity over the
-//            corner, the damper force), then ONE TimeGrant of (k+1)·T, in one relay batch
-//            (PublishTick)
+//            corner, the damper force), then ONE grant of (k+1)·T (PublishTick: CAN, one
+//            TimeGrant in one relay batch; Modbus, the grant register written with every
+//            corner's staged block under one lock)
 //   in       waits, however long it takes, until every corner's command and status of the
 //            tick came; liveness as ScenarioRun (exit seen at once, silence ends the run)
 //   plant    each corner's simulated drive applies its set-point while enabled and the
@@ -29,6 +34,7 @@
 #include "mrd/hil/run/child.hpp"
 #include "mrd/hil/run/run.hpp"
 #include "mrd/profile/can_profile.hpp"
+#include "mrd/profile/modbus_profile.hpp"
 #include "run_session.hpp"
 
 namespace mrd::hil {
@@ -66,12 +72,14 @@ class CornersRun {
     double command_sum = 0.0;
     CornerFigures fig;
   };
+  int OpenCan();
+  int OpenModbus();
   int AwaitNodes();
   int Hear(std::int64_t k, const std::vector<SensorOutput>& outs);
   void Take(std::int64_t k, int i, const DriverInput& fresh);
   double DriveVolts(std::int64_t k, int i);
   void FollowFaults(std::int64_t k);
-  bool Pump(std::int64_t timeout_ns);
+  bool Pump(std::int64_t timeout_ns, std::size_t corner = 0);
   bool Spawn();
   int Interrupted() const;
   int EndRun(const std::string& why, int sig);
@@ -82,7 +90,9 @@ class CornersRun {
   Scenario s_;
   RunResult* r_;
   std::string* error_;
+  bool modbus_ = false;  // over Modbus (modbus_profiles), else CAN
   std::vector<std::shared_ptr<const profile::CanProfile>> profiles_;
+  std::vector<std::shared_ptr<const profile::ModbusProfile>> maps_;
   std::unique_ptr<FullCarPlant> plant_;
   std::unique_ptr<FullCarScorer> scorer_;
   std::unique_ptr<CanLog> can_log_;  // --can-log

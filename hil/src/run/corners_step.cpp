@@ -32,7 +32,7 @@ int CornersRun::Step(std::int64_t k) {
       if (fr.fault.kind == FaultKind::kDriverFault) o.driver_fault = true;
     }
   }
-  if (k == 0) {
+  if (k == 0 && !modbus_) {  // Modbus: the tables hold the step until the firmware reads it
     if (const int rc = AwaitNodes(); rc != 0) return rc;
   }
   if (awaiting_start_) offered_joined_ = ports_.front()->Joined();
@@ -107,13 +107,13 @@ int CornersRun::Hear(std::int64_t k, const std::vector<SensorOutput>& outs) {
   std::int64_t next_check = common::MonotonicNs() + 2'000'000;
   bool check_alive = false;
   while (alive) {
-    bool all = true;
+    std::size_t missing = 4;  // the first corner still missing its command or status
     // Every port polled on every round: the drives answer their NMT and SDO requests here.
     for (std::size_t i = 0; i < 4; ++i) {
       ports_[i]->Poll(&fresh[i]);
-      all = all && fresh[i].has_command && fresh[i].has_status;
+      if (missing == 4 && !(fresh[i].has_command && fresh[i].has_status)) missing = i;
     }
-    if (all) break;
+    if (missing == 4) break;
     if (check_alive && !fw_.Alive()) {
       if (awaiting_start_) {
         return EndRun(
@@ -139,7 +139,7 @@ int CornersRun::Hear(std::int64_t k, const std::vector<SensorOutput>& outs) {
       PublishTick(port_ptrs_, outs, (k + 1) * kPeriodNs);
       ++reoffers_;  // not counted in c_.grants (their number depends on wall time)
     }
-    const bool moved = Pump(std::min<std::int64_t>(until - t, 2'000'000));
+    const bool moved = Pump(std::min<std::int64_t>(until - t, 2'000'000), missing);
     check_alive = !moved || t >= next_check;
     if (check_alive) next_check = t + 2'000'000;
   }

@@ -10,7 +10,7 @@ namespace mrd::hil {
 
 int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* r,
                 std::string* error) {
-  // A full car with [channels]: four corners of one firmware over CAN (corners_run.hpp).
+  // A full car with [channels]: four corners of one firmware over CAN or Modbus (corners_run.hpp).
   if (scenario.full_car && scenario.channels.any()) {
     return RunCorners(scenario, options, r, error);
   }

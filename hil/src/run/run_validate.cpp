@@ -36,7 +36,7 @@ int ScenarioRun::ValidateOptions() {
   if (s.full_car) {
     *error_ = s.path +
               ": a full car ([plant] model = \"full-car\") runs in mrd-hil study, or in mrd-hil "
-              "run with [channels] (its four corners over CAN)";
+              "run with [channels] (its four corners over CAN or Modbus)";
     return 2;
   }
   if (!ParseTransport(o.transport, &transport_)) {

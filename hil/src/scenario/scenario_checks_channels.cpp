@@ -1,26 +1,36 @@
-// [channels]: a full car's four corners on one firmware over CAN (scenario_reader.hpp).
+// [channels]: a full car's four corners on one firmware over CAN or Modbus
+// (scenario_reader.hpp).
 #include <cstdlib>
 #include <filesystem>
 
 #include "mrd/common/file_path.hpp"
+#include "mrd/profile/modbus_profile.hpp"
 #include "scenario_reader.hpp"
 
 namespace mrd::hil::scenario_reader {
+namespace {
+
+// A list of file names into *out, as given.
+Setter FileNames(const char* key, std::vector<std::string>* out) {
+  return [key, out](const toml::node& n, Ctx& c) {
+    const toml::array* a = n.as_array();
+    if (a == nullptr) return c.Fail(n, std::string("'") + key + "' must be a list of 4 file names");
+    out->clear();
+    for (const toml::node& e : *a) {
+      const auto v = e.value_exact<std::string>();
+      if (!v || v->empty()) return c.Fail(e, std::string("'") + key + "' takes file names");
+      out->push_back(*v);
+    }
+    return true;
+  };
+}
+
+}  // namespace
 
 std::map<std::string, Setter> ScenarioReader::ChannelsKeys() {
   ScenarioChannels& ch = s.channels;
-  return {{"can_profiles",
-           [this](const toml::node& n, Ctx& c) {
-             const toml::array* a = n.as_array();
-             if (a == nullptr) return c.Fail(n, "'can_profiles' must be a list of 4 file names");
-             channel_profiles_.clear();
-             for (const toml::node& e : *a) {
-               const auto v = e.value_exact<std::string>();
-               if (!v || v->empty()) return c.Fail(e, "'can_profiles' takes file names");
-               channel_profiles_.push_back(*v);
-             }
-             return true;
-           }},
+  return {{"can_profiles", FileNames("can_profiles", &channel_profiles_)},
+          {"modbus_profiles", FileNames("modbus_profiles", &channel_maps_)},
           {"fault_policy", Str(&ch.fault_policy, "fault_policy")},
           {"body_law", Str(&ch.body_law, "body_law")},
           {"heave_n_s_per_m", Num(&heave_, 0.0, 1e9, "heave_n_s_per_m")},
@@ -45,18 +55,37 @@ bool ScenarioReader::CheckChannels() {
     return true;
   }
   if (!s.full_car) return c.Fail(at("channels"), "[channels] needs [plant] model = \"full-car\"");
-  if (channel_profiles_.size() != 4) {
-    return c.Fail(at("channels"),
-                  "[channels] can_profiles must name 4 CAN device profiles (front-left, "
-                  "front-right, rear-left, rear-right)");
+  if (!channel_profiles_.empty() && !channel_maps_.empty()) {
+    return c.Fail(at("channels.modbus_profiles"),
+                  "[channels] takes can_profiles (four corners over CAN) or modbus_profiles "
+                  "(over one Modbus link), not both");
   }
-  for (const std::string& name : channel_profiles_) {
+  const bool modbus = !channel_maps_.empty();
+  const char* key = modbus ? "modbus_profiles" : "can_profiles";
+  const std::vector<std::string>& given = modbus ? channel_maps_ : channel_profiles_;
+  if (given.size() != 4) {
+    return c.Fail(at("channels"), std::string("[channels] ") + key + " must name 4 " +
+                                      (modbus ? "Modbus register maps" : "CAN device profiles") +
+                                      " (front-left, front-right, rear-left, rear-right)");
+  }
+  for (const std::string& name : given) {
     const std::string file = ResolveBeside(path_, name);
+    const std::string where = std::string("channels.") + key;
     std::error_code ec;
     if (!std::filesystem::is_regular_file(file, ec)) {
-      return c.Fail(at("channels.can_profiles"), "can_profiles: '" + file + "': not a file");
+      return c.Fail(at(where.c_str()), std::string(key) + ": '" + file + "': not a file");
     }
-    ch.can_profiles.push_back(std::filesystem::absolute(file, ec).lexically_normal().string());
+    // The profile's kind is the transport's: a [modbus] map over Modbus, a CAN profile on CAN.
+    if (profile::IsModbusProfileFile(file) != modbus) {
+      return c.Fail(at(where.c_str()),
+                    std::string(key) + ": '" + file + "': " +
+                        (modbus ? "not a Modbus device profile (no [modbus] section); "
+                                  "CAN profiles go in can_profiles"
+                                : "a Modbus device profile; Modbus maps go in "
+                                  "modbus_profiles"));
+    }
+    (modbus ? ch.modbus_profiles : ch.can_profiles)
+        .push_back(std::filesystem::absolute(file, ec).lexically_normal().string());
   }
   if (ch.fault_policy != "all" && ch.fault_policy != "channel") {
     return c.Fail(at("channels.fault_policy"), "fault_policy must be \"all\" or \"channel\"");
@@ -90,6 +119,14 @@ bool ScenarioReader::CheckChannels() {
       *error_ = path_ + ":" + std::to_string(f.line) + ": fault kind '" + FaultKindName(f.kind) +
                 "' is not played on four corners (drop, corrupt, stall, out_of_range, nan, "
                 "drive_heartbeat_loss, driver_fault are)";
+      return false;
+    }
+    // Corrupt frames and a CANopen drive's heartbeat are CAN's (the Modbus maps' registers
+    // take the others).
+    if (modbus && (f.kind == FaultKind::kCorrupt || f.kind == FaultKind::kDriveHeartbeatLoss)) {
+      *error_ = path_ + ":" + std::to_string(f.line) + ": fault kind '" + FaultKindName(f.kind) +
+                "' is played on CAN only (modbus_profiles: drop, stall, out_of_range, nan, "
+                "driver_fault are)";
       return false;
     }
   }

@@ -58,8 +58,8 @@ bool ScenarioReader::CheckFullCar() {
   if (root_.contains("gpio")) return c.Fail(at("gpio"), "a full car has no [gpio] lines");
   if (root_.contains("fault") && !root_.contains("channels")) {
     return c.Fail(at("fault"),
-                  "a full car takes faults only over CAN with [channels] (`mrd-hil study` runs "
-                  "none)");
+                  "a full car takes faults only over CAN or Modbus with [channels] (`mrd-hil "
+                  "study` runs none)");
   }
   if (s.ride_settle_s >= s.duration_s) {
     return c.Fail(at("full_car.settle_s"), "settle_s must be shorter than duration_s");

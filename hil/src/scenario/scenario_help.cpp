@@ -44,8 +44,10 @@ constexpr const char* kHelp = R"(Scenario keys (TOML; every key optional unless 
                 on the front's tracks a wheelbase later), settle_s (2), passive_step_v (0.05:
                 all four at one voltage), pair_step_v (0.25: front / rear grid, <= 100 steps)
   [channels]    full car in `mrd-hil run`: one firmware drives the four corners over one CAN
-                bus in lockstep; can_profiles (required: 4 CAN device profiles, front-left,
-                front-right, rear-left, rear-right, relative to the scenario), fault_policy
+                bus or one Modbus link in lockstep; can_profiles (4 CAN device profiles,
+                front-left, front-right, rear-left, rear-right, relative to the scenario) or
+                modbus_profiles (4 Modbus maps, the same order: over Modbus TCP, or
+                --transport modbus-rtu), one of them required, fault_policy
                 ("all" | "channel"), body_law ("none" | "modal-skyhook": [control] law =
                 "force"; else law skyhook, passive-off, passive-on or constant per corner),
                 heave_n_s_per_m, pitch_n_m_s_per_rad, roll_n_m_s_per_rad (modal gains;

@@ -144,7 +144,8 @@ class ScenarioReader {
   std::string record_file_;
   double max_peak_force_ = -1.0;
   // [channels] keys read before their checks.
-  std::vector<std::string> channel_profiles_;
+  std::vector<std::string> channel_profiles_;  // [channels] can_profiles as given
+  std::vector<std::string> channel_maps_;      // [channels] modbus_profiles as given
   double heave_ = -1.0, pitch_ = -1.0, roll_ = -1.0;
 };
 

@@ -225,6 +225,12 @@ int RunScenario(const Scenario& scenario, const RunOptions& options, RunResult* 
 // at endpoint, each channel's profile from s.channels, lockstep.
 std::string CornersConfigText(const Scenario& s, const std::string& endpoint,
                               const profile::CanProfile& first);
+// The same over one Modbus link (s.channels.modbus_profiles): transport modbus-tcp (endpoint
+// HOST:PORT) or modbus-rtu (endpoint: the pty); one [modbus] section, no profile of its own,
+// the inputs the first map holds.
+std::string CornersModbusConfigText(const Scenario& s, const std::string& transport,
+                                    const std::string& endpoint,
+                                    const profile::ModbusProfile& first);
 
 std::string FirmwareConfigText(const Scenario& s, const std::string& transport, bool lockstep,
                                const std::string& endpoint, const std::string& gpio_chip = "",

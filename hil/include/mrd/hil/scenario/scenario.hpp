@@ -62,17 +62,21 @@ struct ScenarioGpio {
 // by the harness: motion x, v and the demand (the preset damper's force on it).
 enum class ExcitationKind : std::uint8_t { kPeriodic, kCsv, kProfile, kReplay };
 
-// [channels] of a full car: one damper channel per corner of one firmware over one CAN bus
-// (`mrd-hil run` then closes the four corners in lockstep: corners_run.hpp).
+// [channels] of a full car: one damper channel per corner of one firmware over one CAN bus or
+// one Modbus link (`mrd-hil run` then closes the four corners in lockstep: corners_run.hpp).
 struct ScenarioChannels {
   // One CAN device profile per corner (front-left, front-right, rear-left, rear-right),
-  // absolute; empty: no [channels] (the full car runs in `mrd-hil study` only).
+  // absolute, or one Modbus register map per corner (the same order; the run then goes over
+  // Modbus TCP unless --transport modbus-rtu); both empty: no [channels] (the full car runs in
+  // `mrd-hil study` only). One of the two at most.
   std::vector<std::string> can_profiles;
+  std::vector<std::string> modbus_profiles;
   std::string fault_policy = "all";  // all | channel (the firmware's [channels] fault_policy)
   std::string body_law = "none";     // none | modal-skyhook (the firmware's [channels] body_law)
   // modal-skyhook gains; unset: the firmware's defaults.
   std::optional<double> heave_n_s_per_m, pitch_n_m_s_per_rad, roll_n_m_s_per_rad;
-  bool any() const { return !can_profiles.empty(); }
+  bool any() const { return !can_profiles.empty() || !modbus_profiles.empty(); }
+  bool modbus() const { return !modbus_profiles.empty(); }
 };
 
 struct PlantModel;      // model_plant.hpp: an identified NARX model playing the damper

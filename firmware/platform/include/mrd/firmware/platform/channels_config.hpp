@@ -2,9 +2,11 @@
 // The [channels] section of the firmware configuration: several damper channels on one loop
 // (loop.hpp), each with its table, under one fault policy and an optional law over the whole
 // body (modal skyhook over four corners, modal_skyhook.hpp). Several channels run on the
-// simulated dampers of a dry run, or over one CAN bus with a device profile per channel
-// (can_profiles: e.g. four CANopen drives); the parse refuses count > 1 with [modbus], [gpio],
-// [pwm] or [ctl], and with [can] but without can_profiles.
+// simulated dampers of a dry run, over one CAN bus with a device profile per channel
+// (can_profiles: e.g. four CANopen drives), or over one Modbus link with a register map per
+// channel (modbus_profiles: e.g. one driver with four set-points); the parse refuses count > 1
+// with [gpio], [pwm] or [ctl], with [can] but without can_profiles, with [modbus] but without
+// modbus_profiles, and both lists (one bus for several channels).
 
 #include <cstdint>
 #include <memory>
@@ -16,6 +18,7 @@
 
 namespace mrd::profile {
 struct CanProfile;
+struct ModbusProfile;
 }  // namespace mrd::profile
 
 namespace mrd::firmware::platform {
@@ -34,6 +37,11 @@ struct ChannelsConfig {
   // checked against the [can] routing (filled by the parse).
   std::vector<std::string> can_profiles;
   std::vector<std::shared_ptr<const profile::CanProfile>> can_device_profiles;
+  // Per channel, the [modbus] register map file as given (relative to the config file); empty:
+  // one channel on the [modbus] section's profile. modbus_device_profiles: the same loaded,
+  // checked against the [modbus] routing and planned on one link (filled by the parse).
+  std::vector<std::string> modbus_profiles;
+  std::vector<std::shared_ptr<const profile::ModbusProfile>> modbus_device_profiles;
   BodyLawKind body_law = BodyLawKind::kNone;
   BodyGeometry geometry;
   ModalGains gains;
