@@ -18,6 +18,7 @@
 
 #include "can_corners_peer.hpp"
 #include "host/test_util.hpp"
+#include "support/process.hpp"
 
 namespace mrd::test {
 namespace {
@@ -46,21 +47,6 @@ std::string Config(const std::string& bus) {
          bus +
          "\"\ninputs = [\"velocity\", \"displacement\", \"demand\"]\n"
          "outputs = [\"command\", \"enable\", \"heartbeat\", \"status\"]\n";
-}
-
-// Waits for pid at most timeout_s; its exit status, or -1 (killed).
-int Reap(pid_t pid, double timeout_s) {
-  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  int status = 0;
-  while (waitpid(pid, &status, WNOHANG) == 0) {
-    if (std::chrono::steady_clock::now() > until) {
-      kill(pid, SIGKILL);
-      waitpid(pid, &status, 0);
-      return -1;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 // steps steps against mrd-firmware; stop_at > 0: SIGSTOP right after that step's frames,
@@ -116,7 +102,7 @@ FirmwareRun RunFirmware(int steps, int stop_at) {
       got.clear();
       bus.Poll(5, &got);
     }
-    if (exited == -2) exited = Reap(pid, 1.0);
+    if (exited == -2) exited = ReapWithin(pid, 1.0);
   }
   r.status = exited;
   if (!started && r.error.empty()) r.error = "the drives were not all started";

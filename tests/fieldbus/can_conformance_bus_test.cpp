@@ -23,6 +23,7 @@
 #include "mrd/canbus/local_bus.hpp"
 #include "mrd/canbus/socket.hpp"
 #include "mrd/common/clock.hpp"
+#include "support/process.hpp"
 
 namespace mrd::canbus {
 namespace {
@@ -50,17 +51,7 @@ can_frame Frame(canid_t id, std::uint8_t b0) {
 int InChild(double timeout_s, const std::function<int()>& body) {
   const pid_t pid = fork();
   if (pid == 0) _exit(body());
-  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  int status = 0;
-  while (waitpid(pid, &status, WNOHANG) == 0) {
-    if (std::chrono::steady_clock::now() > until) {
-      kill(pid, SIGKILL);
-      waitpid(pid, &status, 0);
-      return -1;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return test::ReapWithin(pid, timeout_s);
 }
 
 // A listener that never accepts (a relay stopped by SIGSTOP) with its backlog full.

@@ -66,49 +66,9 @@ def main():
         cfg = f.read()
     check("modbus_profiles = [" in cfg and "\n[modbus]\nmode = \"tcp\"" in cfg and
           "[can]" not in cfg, "the firmware runs on [modbus] and [channels] modbus_profiles")
-    f = base.fault_of(s)
-    check(f is not None and f["ok"], f"fault on the rear-left corner, policy all: {f and f['why']}")
-    if f is not None and f["periods_to_detection"] is not None:
-        for name, pc in zip(base.CORNERS, f["per_corner"]):
-            d2s = pc["detection_to_safe_periods"]
-            check(d2s is not None and 0 <= d2s <= 2,
-                  f"policy all: {name} safe {d2s} periods after the detection")
-            check(pc["periods_to_recovery"] is not None, f"policy all: {name} recovers")
-
-    b = base.run(bin_dir, scenario, os.path.join(work, "b"), sets=SETS)
-    print(f"run b: summary {b['hash']} corners.csv {b['rows']}", flush=True)
-    check(b["hash"] == a["hash"] and b["rows"] == a["rows"], "bit-identical on repeat")
-
-    # stall
-    for attempt in range(4):
-        st = base.run(bin_dir, scenario, os.path.join(work, "stall"), sets=SETS,
-                      stall_wall=a["wall"] * 0.5 ** attempt)
-        if st["stops"] == len(base.MOMENTS):
-            break
-    print(f"run stall ({st['stops']} stops of {int(base.STALL_S * 1000)} ms): summary "
-          f"{st['hash']} corners.csv {st['rows']} wall {st['wall']:.2f} s", flush=True)
-    check(st["stops"] == len(base.MOMENTS), f"{len(base.MOMENTS)} stops landed inside the run")
-    check(st["hash"] == a["hash"] and st["rows"] == a["rows"],
-          "bit-identical with the firmware stopped 150 ms mid-run")
-
-    # channel
-    ch = base.run(bin_dir, scenario, os.path.join(work, "channel"),
-                  sets=SETS + ("channels.fault_policy=channel", "channels.body_law=none",
-                               "control.law=skyhook"))
-    f = base.fault_of(ch["summary"])
-    print(f"run channel: exit {ch['exit']} fault {json.dumps(f)}", flush=True)
-    check(ch["exit"] == 0 and ch["summary"]["pass"],
-          f"policy channel passes ({ch['summary'].get('failures')})")
-    window = f["clear_step"] - f["onset_step"]
-    for i, (name, pc) in enumerate(zip(base.CORNERS, f["per_corner"])):
-        if i == 2:
-            check(pc["safe_steps"] > 0 and pc["detection_to_safe_periods"] is not None and
-                  pc["detection_to_safe_periods"] <= 2,
-                  f"policy channel: the rear-left corner goes safe ({pc['safe_steps']} periods)")
-        else:
-            check(pc["safe_steps"] == 0 and pc["commanding_steps"] == window,
-                  f"policy channel: {name} keeps commanding ({pc['commanding_steps']} of "
-                  f"{window}, {pc['safe_steps']} safe)")
+    base.check_policy_all(s)
+    base.check_repeat_and_stall(bin_dir, scenario, work, a, sets=SETS)
+    base.check_policy_channel(bin_dir, scenario, work, sets=SETS)
 
     # rtu
     r = base.run(bin_dir, scenario, os.path.join(work, "rtu"), sets=SETS,

@@ -106,6 +106,60 @@ def fault_of(summary):
     return faults[0] if faults else None
 
 
+def check_policy_all(summary):
+    """The fault on the rear-left corner under policy "all": every corner safe within 2 periods
+    of the detection, and recovering after it."""
+    f = fault_of(summary)
+    check(f is not None and f["ok"], f"fault on the rear-left corner, policy all: {f and f['why']}")
+    if f is not None and f["periods_to_detection"] is not None:
+        for name, pc in zip(CORNERS, f["per_corner"]):
+            d2s = pc["detection_to_safe_periods"]
+            check(d2s is not None and 0 <= d2s <= 2,
+                  f"policy all: {name} safe {d2s} periods after the detection")
+            check(pc["periods_to_recovery"] is not None, f"policy all: {name} recovers")
+
+
+def check_repeat_and_stall(bin_dir, scenario, work, a, sets=()):
+    """Runs a's scenario again (work/b) and with the firmware stopped 150 ms at MOMENTS
+    (work/stall): both bit-identical to a. The stall's wall moments halve until all land inside
+    the run."""
+    b = run(bin_dir, scenario, os.path.join(work, "b"), sets=sets)
+    print(f"run b: summary {b['hash']} corners.csv {b['rows']}", flush=True)
+    check(b["hash"] == a["hash"] and b["rows"] == a["rows"], "bit-identical on repeat")
+    for attempt in range(4):
+        st = run(bin_dir, scenario, os.path.join(work, "stall"), sets=sets,
+                 stall_wall=a["wall"] * 0.5 ** attempt)
+        if st["stops"] == len(MOMENTS):
+            break
+    print(f"run stall ({st['stops']} stops of {int(STALL_S * 1000)} ms): summary {st['hash']} "
+          f"corners.csv {st['rows']} wall {st['wall']:.2f} s", flush=True)
+    check(st["stops"] == len(MOMENTS), f"{len(MOMENTS)} stops landed inside the run")
+    check(st["hash"] == a["hash"] and st["rows"] == a["rows"],
+          "bit-identical with the firmware stopped 150 ms mid-run")
+
+
+def check_policy_channel(bin_dir, scenario, work, sets=()):
+    """Per-corner skyhook under policy "channel" (work/channel): the rear-left corner goes safe,
+    the other three command through the fault window with no safe command."""
+    ch = run(bin_dir, scenario, os.path.join(work, "channel"),
+             sets=tuple(sets) + ("channels.fault_policy=channel", "channels.body_law=none",
+                                 "control.law=skyhook"))
+    f = fault_of(ch["summary"])
+    print(f"run channel: exit {ch['exit']} fault {json.dumps(f)}", flush=True)
+    check(ch["exit"] == 0 and ch["summary"]["pass"],
+          f"policy channel passes ({ch['summary'].get('failures')})")
+    window = f["clear_step"] - f["onset_step"]
+    for i, (name, pc) in enumerate(zip(CORNERS, f["per_corner"])):
+        if i == 2:
+            check(pc["safe_steps"] > 0 and pc["detection_to_safe_periods"] is not None and
+                  pc["detection_to_safe_periods"] <= 2,
+                  f"policy channel: the rear-left corner goes safe ({pc['safe_steps']} periods)")
+        else:
+            check(pc["safe_steps"] == 0 and pc["commanding_steps"] == window,
+                  f"policy channel: {name} keeps commanding ({pc['commanding_steps']} of "
+                  f"{window}, {pc['safe_steps']} safe)")
+
+
 def main():
     bin_dir, src, work = sys.argv[1:4]
     scenario = os.path.join(src, "hil/scenarios/full-car-can-corners.toml")
@@ -142,48 +196,9 @@ def main():
           "rear-left node is silent)")
     check(c["grants"] == steps and len(grants) == steps + 1,
           f"one offer of the first period: {len(grants)} grants on the bus, {c['grants']} counted")
-    f = fault_of(s)
-    check(f is not None and f["ok"], f"fault on the rear-left corner, policy all: {f and f['why']}")
-    if f is not None and f["periods_to_detection"] is not None:
-        for name, pc in zip(CORNERS, f["per_corner"]):
-            d2s = pc["detection_to_safe_periods"]
-            check(d2s is not None and 0 <= d2s <= 2,
-                  f"policy all: {name} safe {d2s} periods after the detection")
-            check(pc["periods_to_recovery"] is not None, f"policy all: {name} recovers")
-
-    b = run(bin_dir, scenario, os.path.join(work, "b"))
-    print(f"run b: summary {b['hash']} corners.csv {b['rows']}", flush=True)
-    check(b["hash"] == a["hash"] and b["rows"] == a["rows"], "bit-identical on repeat")
-
-    # stall
-    for attempt in range(4):
-        st = run(bin_dir, scenario, os.path.join(work, "stall"), stall_wall=a["wall"] * 0.5 ** attempt)
-        if st["stops"] == len(MOMENTS):
-            break
-    print(f"run stall ({st['stops']} stops of {int(STALL_S * 1000)} ms): summary {st['hash']} "
-          f"corners.csv {st['rows']} wall {st['wall']:.2f} s", flush=True)
-    check(st["stops"] == len(MOMENTS), f"{len(MOMENTS)} stops landed inside the run")
-    check(st["hash"] == a["hash"] and st["rows"] == a["rows"],
-          "bit-identical with the firmware stopped 150 ms mid-run")
-
-    # channel
-    ch = run(bin_dir, scenario, os.path.join(work, "channel"),
-             sets=("channels.fault_policy=channel", "channels.body_law=none",
-                   "control.law=skyhook"))
-    f = fault_of(ch["summary"])
-    print(f"run channel: exit {ch['exit']} fault {json.dumps(f)}", flush=True)
-    check(ch["exit"] == 0 and ch["summary"]["pass"],
-          f"policy channel passes ({ch['summary'].get('failures')})")
-    window = f["clear_step"] - f["onset_step"]
-    for i, (name, pc) in enumerate(zip(CORNERS, f["per_corner"])):
-        if i == 2:
-            check(pc["safe_steps"] > 0 and pc["detection_to_safe_periods"] is not None and
-                  pc["detection_to_safe_periods"] <= 2,
-                  f"policy channel: the rear-left corner goes safe ({pc['safe_steps']} periods)")
-        else:
-            check(pc["safe_steps"] == 0 and pc["commanding_steps"] == window,
-                  f"policy channel: {name} keeps commanding ({pc['commanding_steps']} of "
-                  f"{window}, {pc['safe_steps']} safe)")
+    check_policy_all(s)
+    check_repeat_and_stall(bin_dir, scenario, work, a)
+    check_policy_channel(bin_dir, scenario, work)
 
     print("corners_run_test: " + ("every check holds" if not failures else
                                   f"{len(failures)} FAILED"))

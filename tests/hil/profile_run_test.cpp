@@ -7,6 +7,7 @@
 // CAN) does the same through the harness's sysfs-ABI tree, deterministically in lockstep.
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -82,7 +83,14 @@ TEST(ProfileRunTest, TestDriverProfileRunsTenSecondsInRealTime) {
       EXPECT_EQ(w["trips"], 0) << cause;
     }
   }
-  EXPECT_GT(r.j["commands"].get<int>(), 9000);
+  // How many of the 10 000 periods carry a fresh command is a rate: it depends on how the host
+  // schedules the two processes (9 543 beside a CI run at load 2, 8 700 at load 4 to 9), so it
+  // is measured (docs/benchmarks.md), not asserted. What holds under any load: the firmware
+  // never went silent for the command timeout, and it sent no more commands than it ran ticks.
+  EXPECT_EQ(r.j["command_timeouts"], 0);
+  const auto commands = r.j["commands"].get<std::uint64_t>();
+  EXPECT_GT(commands, 0U);
+  EXPECT_LE(commands, fw["ticks"].get<std::uint64_t>()) << fw.dump();
 }
 
 TEST(ProfileRunTest, ABadProfileIsRefusedBeforeAnythingStarts) {

@@ -101,6 +101,22 @@ class ChildProcess {
   int status_ = -1;
 };
 
+// Waits for a child pid (fork) at most timeout_s: its exit code, or -1 when it was killed by a
+// signal or had not ended by then (it is then killed with SIGKILL and reaped).
+inline int ReapWithin(pid_t pid, double timeout_s) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  int status = 0;
+  while (waitpid(pid, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() > until) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
 // Waits until path exists (a socket, a pty link, a chip file); false after timeout_s.
 inline bool WaitForPath(const std::string& path, double timeout_s) {
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);

@@ -96,6 +96,8 @@ class CornersRun {
   std::unique_ptr<FullCarPlant> plant_;
   std::unique_ptr<FullCarScorer> scorer_;
   std::unique_ptr<CanLog> can_log_;  // --can-log
+  // The period's sensor outputs, one per corner (sized once: no allocation per period).
+  std::vector<SensorOutput> outs_ = std::vector<SensorOutput>(4);
   std::string endpoint_;
   canbus::LocalBusRelay relay_;
   std::vector<std::unique_ptr<PlantPort>> ports_;

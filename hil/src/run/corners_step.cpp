@@ -14,10 +14,11 @@ int CornersRun::Step(std::int64_t k) {
   if (can_log_ != nullptr) can_log_->t_ns = k * kPeriodNs;
   if (const int sig = Interrupted()) return EndRun(InterruptText(sig), sig);
   const FullCarSample& now = plant_->Sample();
-  std::vector<SensorOutput> outs(4);
+  std::vector<SensorOutput>& outs = outs_;
   for (int i = 0; i < 4; ++i) {
     const FullCarCorner& c = now.corner[static_cast<std::size_t>(i)];
     SensorOutput& o = outs[static_cast<std::size_t>(i)];
+    o = SensorOutput{};
     o.sample.t_s = now.t_s;
     o.sample.x = c.damper_x_cm;
     o.sample.v = c.damper_v_cm_s;
