@@ -75,7 +75,7 @@ class CornersRun {
   int OpenCan();
   int OpenModbus();
   int AwaitNodes();
-  int Hear(std::int64_t k, const std::vector<SensorOutput>& outs);
+  int Hear(std::int64_t k);  // re-offers outs_ while the start-up waits
   void Take(std::int64_t k, int i, const DriverInput& fresh);
   double DriveVolts(std::int64_t k, int i);
   void FollowFaults(std::int64_t k);

@@ -14,10 +14,9 @@ int CornersRun::Step(std::int64_t k) {
   if (can_log_ != nullptr) can_log_->t_ns = k * kPeriodNs;
   if (const int sig = Interrupted()) return EndRun(InterruptText(sig), sig);
   const FullCarSample& now = plant_->Sample();
-  std::vector<SensorOutput>& outs = outs_;
   for (int i = 0; i < 4; ++i) {
     const FullCarCorner& c = now.corner[static_cast<std::size_t>(i)];
-    SensorOutput& o = outs[static_cast<std::size_t>(i)];
+    SensorOutput& o = outs_[static_cast<std::size_t>(i)];
     o = SensorOutput{};
     o.sample.t_s = now.t_s;
     o.sample.x = c.damper_x_cm;
@@ -37,9 +36,9 @@ int CornersRun::Step(std::int64_t k) {
     if (const int rc = AwaitNodes(); rc != 0) return rc;
   }
   if (awaiting_start_) offered_joined_ = ports_.front()->Joined();
-  PublishTick(port_ptrs_, outs, (k + 1) * kPeriodNs);
+  PublishTick(port_ptrs_, outs_, (k + 1) * kPeriodNs);
   ++c_.grants;
-  if (const int rc = Hear(k, outs); rc != 0) return rc;
+  if (const int rc = Hear(k); rc != 0) return rc;
 
   CornerValues volts{};
   for (int i = 0; i < 4; ++i) volts[static_cast<std::size_t>(i)] = DriveVolts(k, i);
@@ -96,7 +95,7 @@ int CornersRun::AwaitNodes() {
 // The tick's command and status of every corner, however long they take (simulated time
 // never depends on wall time); a firmware that exits is seen at once, one silent for the
 // start-up or command timeout (wall clock) ends the run.
-int CornersRun::Hear(std::int64_t k, const std::vector<SensorOutput>& outs) {
+int CornersRun::Hear(std::int64_t k) {
   std::array<DriverInput, 4> fresh;
   for (std::size_t i = 0; i < 4; ++i) {
     fresh[i] = corners_[i].in;
@@ -137,7 +136,7 @@ int CornersRun::Hear(std::int64_t k, const std::vector<SensorOutput>& outs) {
     const std::int64_t joined = ports_.front()->Joined();
     if (awaiting_start_ && joined > offered_joined_) {
       offered_joined_ = joined;
-      PublishTick(port_ptrs_, outs, (k + 1) * kPeriodNs);
+      PublishTick(port_ptrs_, outs_, (k + 1) * kPeriodNs);
       ++reoffers_;  // not counted in c_.grants (their number depends on wall time)
     }
     const bool moved = Pump(std::min<std::int64_t>(until - t, 2'000'000), missing);
